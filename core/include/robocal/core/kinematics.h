@@ -1,0 +1,42 @@
+// Forward kinematics of a RobotModel with geometric error parameters, and the workspace it fills.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/random.h"
+#include "robocal/core/robot_model.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+/// Scratch space for kinematics on one model; reuse it across calls to avoid allocation.
+struct KinematicsWorkspace {
+  explicit KinematicsWorkspace(const RobotModel& model);
+  /// World frame of each error site just before its error transform: [base, joint 1..n, tool].
+  std::vector<Transform> T_world_site;
+  /// World frame of each joint just before its motion (0-based joint index); equals the frame after the
+  /// joint's error transform.
+  std::vector<Transform> T_world_joint;
+  /// Result of the last ForwardKinematics call.
+  Transform T_world_tool = Transform::Identity();
+};
+
+/// The small error transform of one site: Trans(dx, dy, dz) * Rx(rx) * Ry(ry) * Rz(rz).
+/// `delta` points at 6 values: dx, dy, dz (mm), rx, ry, rz (rad).
+Transform ErrorTransform(const double* delta);
+
+/// Tool pose T_world_tool for joints q (num_joints: rad or mm per joint) and error parameters eps
+/// (num_error_parameters, mm and rad; an empty vector means the nominal model). Fills `ws`.
+/// Throws std::invalid_argument on wrong sizes.
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                                   KinematicsWorkspace* ws);
+
+/// Nominal tool pose (no errors), convenience form that allocates its own workspace.
+Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q);
+
+/// Uniformly random joint values within the model's limits.
+Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng);
+
+}  // namespace robocal

@@ -1,0 +1,136 @@
+// RobotModel: the immutable description of a serial robot, and the spec it is built and validated from.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+enum class JointType { kRevolute, kPrismatic };
+
+/// How a joint's nominal fixed geometry is written in a RobotModelSpec.
+enum class GeometryConvention {
+  /// Standard (distal) Denavit-Hartenberg: T_{i-1,i} = Rz(theta_i + q) Tz(d_i) Tx(a_i) Rx(alpha_i)
+  /// (prismatic: d_i + q).
+  kStandardDh,
+  /// Modified (proximal, Craig) DH: T_{i-1,i} = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q) Tz(d_i)
+  /// (prismatic: d_i + q). Row i holds alpha_{i-1}, a_{i-1}, theta_i, d_i.
+  kModifiedDh,
+  /// A general fixed transform per joint, T_{i-1,i} = Trans(xyz) R(rpy) * motion(q), motion being a
+  /// rotation about / translation along the joint frame's z axis (as URDF does with axis = z).
+  kTransform,
+};
+
+const char* ToString(JointType type);
+const char* ToString(GeometryConvention convention);
+
+/// One joint of a spec. Lengths in mm, angles in rad; joint values q in rad (revolute) or mm (prismatic).
+struct JointSpec {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  // kStandardDh / kModifiedDh: the table row (theta is the joint-zero offset of a revolute joint, d that
+  // of a prismatic joint).
+  double a_mm = 0.0;
+  double alpha_rad = 0.0;
+  double d_mm = 0.0;
+  double theta_rad = 0.0;
+  // kTransform: the fixed transform from the previous joint frame (after its motion) to this joint frame.
+  Eigen::Vector3d xyz_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rpy_rad = Eigen::Vector3d::Zero();
+  // Joint limits, in the joint's unit (rad or mm).
+  double min = 0.0;
+  double max = 0.0;
+};
+
+/// Everything needed to build a RobotModel. Plain data: edit a preset's spec, then build.
+struct RobotModelSpec {
+  std::string name;
+  GeometryConvention convention = GeometryConvention::kStandardDh;
+  std::vector<JointSpec> joints;
+  /// World (tracker) frame -> robot base frame.
+  Transform T_world_base = Transform::Identity();
+  /// Flange (last joint frame, after the last link's fixed geometry) -> tool frame. The tool frame's origin
+  /// is the measured point (tracker reflector / tool centre point); its z axis is the tool axis.
+  Transform T_flange_tool = Transform::Identity();
+};
+
+/// One problem found in a spec: which field (e.g. "joints[2].max") and why.
+struct FieldError {
+  std::string field;
+  std::string reason;
+};
+
+/// Thrown by RobotModel::Build for an invalid spec; lists every problem found, not only the first.
+class InvalidModelError : public std::invalid_argument {
+ public:
+  explicit InvalidModelError(std::vector<FieldError> errors);
+  const std::vector<FieldError>& errors() const { return errors_; }
+
+ private:
+  std::vector<FieldError> errors_;
+};
+
+/// Limits on the size of a spec accepted by RobotModel::Build.
+inline constexpr int kMaxJoints = 12;
+
+/// Where a group of six error parameters sits in the chain.
+enum class ErrorSiteKind { kBase, kJoint, kTool };
+
+/// An immutable serial robot model.
+///
+/// Internally every joint i (1..n) is a fixed transform F_i followed by its motion M_i(q_i), a rotation
+/// about or translation along local z, whatever convention the spec used:
+///
+///   T_world_tool(q) = T_world_base * prod_i [F_i * M_i(q_i)] * F_flange * T_flange_tool
+///
+/// F_flange is the identity except for standard DH, where it holds the last row's fixed part.
+/// Geometric errors are small transforms inserted at n + 2 sites (see error_model.h).
+class RobotModel {
+ public:
+  /// Validates `spec` and builds the model. Throws InvalidModelError naming each bad field.
+  static RobotModel Build(const RobotModelSpec& spec);
+
+  const std::string& name() const { return spec_.name; }
+  const RobotModelSpec& spec() const { return spec_; }
+  int num_joints() const { return static_cast<int>(spec_.joints.size()); }
+  JointType joint_type(int i) const { return spec_.joints[i].type; }
+  const std::string& joint_name(int i) const { return spec_.joints[i].name; }
+  const Eigen::VectorXd& lower_limits() const { return lower_; }
+  const Eigen::VectorXd& upper_limits() const { return upper_; }
+  /// True if every q_i lies in [min_i, max_i] (and q has num_joints() entries).
+  bool WithinLimits(const Eigen::VectorXd& q) const;
+
+  /// F_i for joint i (0-based): previous joint frame (after motion) -> joint frame (before motion).
+  const Transform& fixed_transform(int i) const { return fixed_[i]; }
+  /// Last joint frame (after motion) -> flange.
+  const Transform& T_lastjoint_flange() const { return flange_; }
+  const Transform& T_world_base() const { return spec_.T_world_base; }
+  const Transform& T_flange_tool() const { return spec_.T_flange_tool; }
+
+  /// Error parameters: 6 per site, sites ordered base, joints 1..n, tool.
+  int num_error_sites() const { return num_joints() + 2; }
+  int num_error_parameters() const { return 6 * num_error_sites(); }
+  /// Name of error parameter k, e.g. "base.dx", "joint3.rz", "tool.dz".
+  const std::string& parameter_name(int k) const { return parameter_names_[k]; }
+  const std::vector<std::string>& parameter_names() const { return parameter_names_; }
+  /// Index of a parameter by name, or -1.
+  int ParameterIndex(const std::string& name) const;
+  /// True if parameter k is a translation (mm); false for a rotation (rad).
+  static bool IsTranslationParameter(int k) { return k % 6 < 3; }
+
+ private:
+  RobotModel() = default;
+
+  RobotModelSpec spec_;
+  std::vector<Transform> fixed_;
+  Transform flange_ = Transform::Identity();
+  Eigen::VectorXd lower_, upper_;
+  std::vector<std::string> parameter_names_;
+};
+
+}  // namespace robocal

@@ -1,0 +1,168 @@
+// Measurement residuals and the analytic identification and joint Jacobians (twist form).
+#include "robocal/core/error_model.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace robocal {
+namespace {
+
+// Writes the rows of one elementary screw motion into column `col`: a twist with angular part `omega`
+// (unit axis for a rotation, zero for a translation) through `point`, and linear part `v`.
+// Position row: dp = v + omega x (p_tool - point). Orientation: omega. Axis: t_k . (omega x u).
+struct RowWriter {
+  MeasurementType type;
+  Eigen::Vector3d p_tool;
+  Eigen::Vector3d u;
+  Eigen::Vector3d t1, t2;
+
+  void Write(const Eigen::Vector3d& omega, const Eigen::Vector3d& point, const Eigen::Vector3d& v,
+             Eigen::Ref<Eigen::MatrixXd> jacobian, int col) const {
+    jacobian.block<3, 1>(0, col) = v + omega.cross(p_tool - point);
+    switch (type) {
+      case MeasurementType::kPosition:
+        break;
+      case MeasurementType::kPositionAxis: {
+        const Eigen::Vector3d du = omega.cross(u);
+        jacobian(3, col) = t1.dot(du);
+        jacobian(4, col) = t2.dot(du);
+        break;
+      }
+      case MeasurementType::kPose:
+        jacobian.block<3, 1>(3, col) = omega;
+        break;
+    }
+  }
+};
+
+RowWriter MakeWriter(MeasurementType type, const Transform& T_world_tool) {
+  RowWriter w{type, T_world_tool.translation(), T_world_tool.linear().col(2), {}, {}};
+  if (type == MeasurementType::kPositionAxis) TangentBasis(w.u, &w.t1, &w.t2);
+  return w;
+}
+
+void CheckJacobianSize(const Eigen::Ref<Eigen::MatrixXd>& jacobian, int rows, int cols, const char* what) {
+  if (jacobian.rows() != rows || jacobian.cols() != cols) {
+    throw std::invalid_argument(std::string(what) + ": jacobian is " + std::to_string(jacobian.rows()) + "x" +
+                                std::to_string(jacobian.cols()) + ", expected " + std::to_string(rows) + "x" +
+                                std::to_string(cols));
+  }
+}
+
+}  // namespace
+
+const char* ToString(MeasurementType type) {
+  switch (type) {
+    case MeasurementType::kPosition:
+      return "position";
+    case MeasurementType::kPositionAxis:
+      return "position_axis";
+    case MeasurementType::kPose:
+      return "pose";
+  }
+  return "?";
+}
+
+bool ParseMeasurementType(const std::string& text, MeasurementType* type) {
+  for (MeasurementType t : {MeasurementType::kPosition, MeasurementType::kPositionAxis, MeasurementType::kPose}) {
+    if (text == ToString(t)) {
+      *type = t;
+      return true;
+    }
+  }
+  return false;
+}
+
+int MeasurementRows(MeasurementType type) {
+  switch (type) {
+    case MeasurementType::kPosition:
+      return 3;
+    case MeasurementType::kPositionAxis:
+      return 5;
+    case MeasurementType::kPose:
+      return 6;
+  }
+  return 0;
+}
+
+Eigen::VectorXd MeasurementNoise::RowWeights(MeasurementType type) const {
+  Eigen::VectorXd w(MeasurementRows(type));
+  w.head<3>().setConstant(1.0 / position_mm);
+  w.tail(w.size() - 3).setConstant(1.0 / orientation_rad);
+  return w;
+}
+
+void TangentBasis(const Eigen::Vector3d& u, Eigen::Vector3d* t1, Eigen::Vector3d* t2) {
+  // Cross with the world axis least aligned with u: always well conditioned (|u . e| <= 1/sqrt(3)).
+  Eigen::Index k = 0;
+  u.cwiseAbs().minCoeff(&k);
+  *t1 = u.cross(Eigen::Vector3d::Unit(k)).normalized();
+  *t2 = u.cross(*t1);
+}
+
+void MeasurementResidual(MeasurementType type, const Transform& measured, const Transform& model,
+                         Eigen::Ref<Eigen::VectorXd> residual) {
+  if (residual.size() != MeasurementRows(type)) throw std::invalid_argument("MeasurementResidual: wrong size");
+  residual.head<3>() = measured.translation() - model.translation();
+  switch (type) {
+    case MeasurementType::kPosition:
+      break;
+    case MeasurementType::kPositionAxis: {
+      const Eigen::Vector3d u_model = model.linear().col(2);
+      const Eigen::Vector3d du = measured.linear().col(2) - u_model;
+      Eigen::Vector3d t1, t2;
+      TangentBasis(u_model, &t1, &t2);
+      residual[3] = t1.dot(du);
+      residual[4] = t2.dot(du);
+      break;
+    }
+    case MeasurementType::kPose:
+      residual.tail<3>() = RotationVector(measured.linear() * model.linear().transpose());
+      break;
+  }
+}
+
+void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+  CheckJacobianSize(jacobian, MeasurementRows(type), model.num_error_parameters(), "IdentificationJacobian");
+  const Transform& tool = ForwardKinematics(model, q, eps, ws);
+  const RowWriter writer = MakeWriter(type, tool);
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  for (int s = 0; s < model.num_error_sites(); ++s) {
+    // Site s: Trans(d) Rx(rx) Ry(ry) Rz(rz) after frame A. Each parameter is a screw motion about/along an
+    // axis of the frame it acts in, so its column is that unit twist carried to the world frame.
+    const Transform& a = ws->T_world_site[s];
+    const double* delta = eps.size() != 0 ? eps.data() + 6 * s : nullptr;
+    const Eigen::Matrix3d r0 = a.linear();
+    for (int k = 0; k < 3; ++k) writer.Write(zero, zero, r0.col(k), jacobian, 6 * s + k);
+    Eigen::Vector3d point = a.translation();
+    Eigen::Matrix3d r1 = r0, r2 = r0;
+    if (delta != nullptr) {
+      point += r0 * Eigen::Vector3d(delta[0], delta[1], delta[2]);
+      r1 = r0 * RotX(delta[3]);
+      r2 = r1 * RotY(delta[4]);
+    }
+    writer.Write(r0.col(0), point, zero, jacobian, 6 * s + 3);
+    writer.Write(r1.col(1), point, zero, jacobian, 6 * s + 4);
+    writer.Write(r2.col(2), point, zero, jacobian, 6 * s + 5);
+  }
+}
+
+void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                   MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+  CheckJacobianSize(jacobian, MeasurementRows(type), model.num_joints(), "JointJacobian");
+  const Transform& tool = ForwardKinematics(model, q, eps, ws);
+  const RowWriter writer = MakeWriter(type, tool);
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const Transform& frame = ws->T_world_joint[i];
+    const Eigen::Vector3d axis = frame.linear().col(2);
+    if (model.joint_type(i) == JointType::kRevolute) {
+      writer.Write(axis, frame.translation(), zero, jacobian, i);
+    } else {
+      writer.Write(zero, zero, axis, jacobian, i);
+    }
+  }
+}
+
+}  // namespace robocal

@@ -1,0 +1,180 @@
+// Identifiable parameter subset by column-pivoted QR of the scaled identification Jacobian.
+#include "robocal/core/identifiability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include "robocal/core/kinematics.h"
+#include "robocal/core/random.h"
+
+namespace robocal {
+namespace {
+
+std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorXd& norms,
+                           const std::vector<int>& kept, const Eigen::MatrixXd& kept_scaled,
+                           const Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& kept_qr, int j, double max_norm,
+                           const RobotModel& model, MeasurementType type) {
+  if (norms[j] <= 1e-12 * max_norm) {
+    return std::string("no effect on ") + ToString(type) + " measurements";
+  }
+  // Column j (unit norm) as a combination of the kept unit columns; back to physical units the coefficient
+  // of kept parameter k is c_k * |a_j| / |a_k|, i.e. "a change of parameter j looks like c * parameter k".
+  const Eigen::VectorXd target = weighted.col(j) / norms[j];
+  const Eigen::VectorXd c = kept_qr.solve(target);
+  const double misfit = (kept_scaled * c - target).norm();
+  std::vector<int> order(kept.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(c[a]) > std::abs(c[b]); });
+  std::ostringstream out;
+  out << std::showpos << std::setprecision(4);
+  // Coefficients at round-off level are not part of the relation.
+  size_t significant = 0;
+  while (significant < order.size() && std::abs(c[order[significant]]) > 1e-6 * std::abs(c[order[0]])) {
+    ++significant;
+  }
+  const int shown = static_cast<int>(std::min<size_t>(3, significant));
+  const bool single = significant <= 1;
+  out << (single ? "indistinguishable from " : "a combination of ");
+  for (int i = 0; i < (single ? 1 : shown); ++i) {
+    const int k = kept[order[i]];
+    const double coeff = c[order[i]] * norms[j] / norms[k];
+    if (i > 0) out << ", ";
+    out << coeff << " " << model.parameter_name(k);
+  }
+  if (!single && static_cast<int>(significant) > shown) out << ", ...";
+  out << std::noshowpos << " (residual " << std::setprecision(2) << misfit << ")";
+  return out.str();
+}
+
+}  // namespace
+
+bool IdentifiabilityOptions::IsValid(std::string* error) const {
+  if (num_configurations < 1 || num_configurations > 100000) {
+    *error = "num_configurations must be in [1, 100000]";
+    return false;
+  }
+  if (!(noise.position_mm > 0.0) || !(noise.orientation_rad > 0.0) || !std::isfinite(noise.position_mm) ||
+      !std::isfinite(noise.orientation_rad)) {
+    *error = "noise.position_mm and noise.orientation_rad must be positive and finite";
+    return false;
+  }
+  if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0)) {
+    *error = "rank_tolerance must be in (0, 1)";
+    return false;
+  }
+  if (!(min_rank_gap >= 1.0) || !std::isfinite(min_rank_gap)) {
+    *error = "min_rank_gap must be >= 1 and finite";
+    return false;
+  }
+  return true;
+}
+
+IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, MeasurementType type,
+                                                  const IdentifiabilityOptions& options) {
+  IdentifiabilitySummary summary;
+  summary.measurement_type = type;
+  summary.num_parameters = model.num_error_parameters();
+  summary.num_configurations = options.num_configurations;
+  summary.scaling = "rows / noise (" + std::to_string(options.noise.position_mm) + " mm, " +
+                    std::to_string(options.noise.orientation_rad) + " rad), columns to unit norm";
+  std::string error;
+  if (!options.IsValid(&error)) {
+    summary.message = "invalid options: " + error;
+    return summary;
+  }
+  const int rows = MeasurementRows(type);
+  const int n = model.num_error_parameters();
+  if (rows * options.num_configurations < n) {
+    summary.message = "too few configurations: " + std::to_string(rows * options.num_configurations) +
+                      " rows for " + std::to_string(n) + " parameters";
+    return summary;
+  }
+
+  Eigen::MatrixXd weighted(rows * options.num_configurations, n);
+  const Eigen::VectorXd w = options.noise.RowWeights(type);
+  KinematicsWorkspace ws(model);
+  Rng rng(options.seed);
+  Eigen::MatrixXd block(rows, n);
+  for (int m = 0; m < options.num_configurations; ++m) {
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    IdentificationJacobian(model, q, Eigen::VectorXd(), type, &ws, block);
+    weighted.middleRows(m * rows, rows) = w.asDiagonal() * block;
+  }
+  const Eigen::VectorXd norms = weighted.colwise().norm();
+  const double max_norm = norms.maxCoeff();
+  Eigen::MatrixXd scaled = weighted;
+  for (int j = 0; j < n; ++j) {
+    // A column with no effect stays zero; the QR then pivots it last.
+    if (norms[j] > 1e-12 * max_norm) scaled.col(j) /= norms[j];
+    else scaled.col(j).setZero();
+  }
+
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
+  const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
+  const double r00 = diag[0];
+  int rank = 0;
+  while (rank < n && diag[rank] > options.rank_tolerance * r00) ++rank;
+  summary.smallest_kept_pivot = rank > 0 ? diag[rank - 1] / r00 : 0.0;
+  summary.largest_dropped_pivot = rank < n ? diag[rank] / r00 : 0.0;
+
+  const auto& perm = qr.colsPermutation().indices();
+  for (int k = 0; k < rank; ++k) summary.identifiable.push_back(perm[k]);
+  std::sort(summary.identifiable.begin(), summary.identifiable.end());
+  for (int k : summary.identifiable) summary.identifiable_names.push_back(model.parameter_name(k));
+
+  Eigen::MatrixXd kept_scaled(scaled.rows(), rank);
+  for (int k = 0; k < rank; ++k) kept_scaled.col(k) = scaled.col(summary.identifiable[k]);
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> kept_qr(kept_scaled);
+  std::vector<int> dropped_indices(perm.data() + rank, perm.data() + n);
+  std::sort(dropped_indices.begin(), dropped_indices.end());
+  for (int j : dropped_indices) {
+    summary.dropped.push_back({j, model.parameter_name(j),
+                               ExplainDropped(weighted, norms, summary.identifiable, kept_scaled, kept_qr, j,
+                                              max_norm, model, type)});
+  }
+
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept_scaled);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  summary.condition_number = rank > 0 ? sv[0] / sv[rank - 1] : 0.0;
+
+  std::ostringstream msg;
+  msg << rank << " of " << n << " parameters identifiable from " << ToString(type) << " measurements";
+  if (rank < n && summary.smallest_kept_pivot < options.min_rank_gap * summary.largest_dropped_pivot) {
+    summary.termination = Termination::kDegraded;
+    msg << "; rank decision unclear (kept pivot " << summary.smallest_kept_pivot << " vs dropped "
+        << summary.largest_dropped_pivot << ")";
+  } else {
+    summary.termination = Termination::kConvergence;
+  }
+  summary.message = msg.str();
+  return summary;
+}
+
+std::string IdentifiabilitySummary::BriefReport() const {
+  std::ostringstream out;
+  out << "Identifiability: " << ToString(termination) << ", " << message << ", cond " << std::setprecision(4)
+      << condition_number;
+  return out.str();
+}
+
+std::string IdentifiabilitySummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n";
+  out << "  scaling: " << scaling << "\n";
+  out << "  probe configurations: " << num_configurations << "\n";
+  out << "  pivots |R_kk|/|R_00|: last kept " << smallest_kept_pivot << ", first dropped " << largest_dropped_pivot
+      << "\n";
+  out << "  identifiable (" << identifiable_names.size() << "):";
+  for (const std::string& name : identifiable_names) out << " " << name;
+  out << "\n  dropped (" << dropped.size() << "):\n";
+  for (const DroppedParameter& d : dropped) out << "    " << d.name << ": " << d.reason << "\n";
+  return out.str();
+}
+
+}  // namespace robocal

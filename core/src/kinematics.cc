@@ -1,0 +1,76 @@
+// Forward kinematics through the chain of fixed transforms, error transforms and joint motions.
+#include "robocal/core/kinematics.h"
+
+#include <stdexcept>
+#include <string>
+
+#include "robocal/core/random.h"
+
+namespace robocal {
+namespace {
+
+Transform JointMotion(JointType type, double q) {
+  return type == JointType::kRevolute ? Rotation(RotZ(q)) : Translation(0, 0, q);
+}
+
+void CheckSizes(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps) {
+  if (q.size() != model.num_joints()) {
+    throw std::invalid_argument("ForwardKinematics: q has " + std::to_string(q.size()) + " values, robot '" +
+                                model.name() + "' has " + std::to_string(model.num_joints()) + " joints");
+  }
+  if (eps.size() != 0 && eps.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("ForwardKinematics: eps has " + std::to_string(eps.size()) + " values, expected " +
+                                std::to_string(model.num_error_parameters()) + " or 0");
+  }
+}
+
+}  // namespace
+
+KinematicsWorkspace::KinematicsWorkspace(const RobotModel& model)
+    : T_world_site(model.num_error_sites(), Transform::Identity()),
+      T_world_joint(model.num_joints(), Transform::Identity()) {}
+
+Transform ErrorTransform(const double* delta) {
+  Transform t = Transform::Identity();
+  t.translation() = Eigen::Vector3d(delta[0], delta[1], delta[2]);
+  t.linear() = RotX(delta[3]) * RotY(delta[4]) * RotZ(delta[5]);
+  return t;
+}
+
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                                   KinematicsWorkspace* ws) {
+  CheckSizes(model, q, eps);
+  const bool with_errors = eps.size() != 0;
+  const int n = model.num_joints();
+  auto apply_error = [&](int site, Transform* t) {
+    if (with_errors) *t = *t * ErrorTransform(eps.data() + 6 * site);
+  };
+  Transform t = model.T_world_base();
+  ws->T_world_site[0] = t;
+  apply_error(0, &t);
+  for (int i = 0; i < n; ++i) {
+    t = t * model.fixed_transform(i);
+    ws->T_world_site[i + 1] = t;
+    apply_error(i + 1, &t);
+    ws->T_world_joint[i] = t;
+    t = t * JointMotion(model.joint_type(i), q[i]);
+  }
+  t = t * model.T_lastjoint_flange() * model.T_flange_tool();
+  ws->T_world_site[n + 1] = t;
+  apply_error(n + 1, &t);
+  ws->T_world_tool = t;
+  return ws->T_world_tool;
+}
+
+Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q) {
+  KinematicsWorkspace ws(model);
+  return ForwardKinematics(model, q, Eigen::VectorXd(), &ws);
+}
+
+Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng) {
+  Eigen::VectorXd q(model.num_joints());
+  for (int i = 0; i < model.num_joints(); ++i) q[i] = rng->Uniform(model.lower_limits()[i], model.upper_limits()[i]);
+  return q;
+}
+
+}  // namespace robocal

@@ -1,0 +1,169 @@
+// RobotModel construction and validation.
+#include "robocal/core/robot_model.h"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace robocal {
+namespace {
+
+std::string JoinErrors(const std::vector<FieldError>& errors) {
+  std::ostringstream out;
+  out << "invalid robot model";
+  for (const FieldError& e : errors) out << "; " << e.field << ": " << e.reason;
+  return out.str();
+}
+
+std::string Num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+void CheckTransform(const Transform& t, const std::string& field, std::vector<FieldError>* errors) {
+  if (!t.matrix().allFinite()) {
+    errors->push_back({field, "must contain only finite numbers"});
+  } else if (!IsValidRigidTransform(t, 1e-6)) {
+    errors->push_back({field, "rotation must be orthonormal with determinant +1"});
+  } else if (t.matrix().row(3) != Eigen::RowVector4d(0, 0, 0, 1)) {
+    errors->push_back({field, "last row must be [0 0 0 1]"});
+  }
+}
+
+void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention, std::set<std::string>* names,
+                   std::vector<FieldError>* errors) {
+  const std::string prefix = "joints[" + std::to_string(i) + "]";
+  if (joint.name.empty()) {
+    errors->push_back({prefix + ".name", "must not be empty"});
+  } else if (joint.name == "base" || joint.name == "tool") {
+    errors->push_back({prefix + ".name", "'" + joint.name + "' is reserved for the base and tool error sites"});
+  } else if (joint.name.find_first_of(". \t\n") != std::string::npos) {
+    errors->push_back({prefix + ".name", "must not contain '.' or white space"});
+  } else if (!names->insert(joint.name).second) {
+    errors->push_back({prefix + ".name", "duplicate joint name '" + joint.name + "'"});
+  }
+  auto finite = [&](double v, const char* field) {
+    if (!std::isfinite(v)) errors->push_back({prefix + "." + field, "must be a finite number"});
+  };
+  if (convention == GeometryConvention::kTransform) {
+    for (int k = 0; k < 3; ++k) {
+      finite(joint.xyz_mm[k], "xyz_mm");
+      finite(joint.rpy_rad[k], "rpy_rad");
+    }
+  } else {
+    finite(joint.a_mm, "a_mm");
+    finite(joint.alpha_rad, "alpha_rad");
+    finite(joint.d_mm, "d_mm");
+    finite(joint.theta_rad, "theta_rad");
+  }
+  const bool min_ok = std::isfinite(joint.min);
+  const bool max_ok = std::isfinite(joint.max);
+  if (!min_ok) errors->push_back({prefix + ".min", "must be a finite number"});
+  if (!max_ok) errors->push_back({prefix + ".max", "must be a finite number"});
+  if (min_ok && max_ok && !(joint.min < joint.max)) {
+    errors->push_back({prefix + ".max", "must be greater than min (min " + Num(joint.min) + ", max " +
+                                            Num(joint.max) + ")"});
+  }
+  if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 4.0 * M_PI + 1e-9) {
+    errors->push_back({prefix + ".max", "revolute range max - min must not exceed 720 degrees"});
+  }
+}
+
+Transform Motionless(const JointSpec& j, GeometryConvention convention) {
+  switch (convention) {
+    case GeometryConvention::kStandardDh:
+      // Rz(theta) Tz(d) Tx(a) Rx(alpha): the part of the row that follows the joint's motion.
+      return Rotation(RotZ(j.theta_rad)) * Translation(0, 0, j.d_mm) * Translation(j.a_mm, 0, 0) *
+             Rotation(RotX(j.alpha_rad));
+    case GeometryConvention::kModifiedDh:
+      return Rotation(RotX(j.alpha_rad)) * Translation(j.a_mm, 0, 0) * Rotation(RotZ(j.theta_rad)) *
+             Translation(0, 0, j.d_mm);
+    case GeometryConvention::kTransform:
+      return TransformFromXyzRpy(j.xyz_mm, j.rpy_rad);
+  }
+  return Transform::Identity();
+}
+
+}  // namespace
+
+const char* ToString(JointType type) { return type == JointType::kRevolute ? "revolute" : "prismatic"; }
+
+const char* ToString(GeometryConvention convention) {
+  switch (convention) {
+    case GeometryConvention::kStandardDh:
+      return "dh";
+    case GeometryConvention::kModifiedDh:
+      return "mdh";
+    case GeometryConvention::kTransform:
+      return "transform";
+  }
+  return "?";
+}
+
+InvalidModelError::InvalidModelError(std::vector<FieldError> errors)
+    : std::invalid_argument(JoinErrors(errors)), errors_(std::move(errors)) {}
+
+RobotModel RobotModel::Build(const RobotModelSpec& spec) {
+  std::vector<FieldError> errors;
+  if (spec.name.empty()) errors.push_back({"name", "must not be empty"});
+  const int n = static_cast<int>(spec.joints.size());
+  if (n == 0) errors.push_back({"joints", "must contain at least one joint"});
+  if (n > kMaxJoints) {
+    errors.push_back({"joints", "at most " + std::to_string(kMaxJoints) + " joints, got " + std::to_string(n)});
+  }
+  std::set<std::string> names;
+  for (int i = 0; i < n; ++i) ValidateJoint(spec.joints[i], i, spec.convention, &names, &errors);
+  CheckTransform(spec.T_world_base, "base", &errors);
+  CheckTransform(spec.T_flange_tool, "tool", &errors);
+  if (!errors.empty()) throw InvalidModelError(std::move(errors));
+
+  RobotModel model;
+  model.spec_ = spec;
+  model.fixed_.resize(n, Transform::Identity());
+  model.lower_.resize(n);
+  model.upper_.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const JointSpec& j = spec.joints[i];
+    model.lower_[i] = j.min;
+    model.upper_[i] = j.max;
+    const Transform fixed = Motionless(j, spec.convention);
+    if (spec.convention == GeometryConvention::kStandardDh) {
+      // In standard DH the motion comes first in each row (Rz(q) and Tz(q) commute with Rz(theta) Tz(d)),
+      // so the row's fixed part belongs before the *next* joint's motion.
+      if (i + 1 < n) {
+        model.fixed_[i + 1] = fixed;
+      } else {
+        model.flange_ = fixed;
+      }
+    } else {
+      model.fixed_[i] = fixed;
+    }
+  }
+
+  static const char* const kSuffix[6] = {"dx", "dy", "dz", "rx", "ry", "rz"};
+  auto add_site = [&](const std::string& site) {
+    for (const char* s : kSuffix) model.parameter_names_.push_back(site + "." + s);
+  };
+  add_site("base");
+  for (const JointSpec& j : spec.joints) add_site(j.name);
+  add_site("tool");
+  return model;
+}
+
+bool RobotModel::WithinLimits(const Eigen::VectorXd& q) const {
+  if (q.size() != num_joints()) return false;
+  for (int i = 0; i < num_joints(); ++i) {
+    if (!(q[i] >= lower_[i] && q[i] <= upper_[i])) return false;
+  }
+  return true;
+}
+
+int RobotModel::ParameterIndex(const std::string& name) const {
+  for (int k = 0; k < num_error_parameters(); ++k) {
+    if (parameter_names_[k] == name) return k;
+  }
+  return -1;
+}
+
+}  // namespace robocal

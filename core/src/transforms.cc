@@ -1,0 +1,64 @@
+// Rigid transform helpers.
+#include "robocal/core/transforms.h"
+
+#include <cmath>
+
+namespace robocal {
+
+Eigen::Matrix3d RotX(double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitX()).toRotationMatrix();
+}
+Eigen::Matrix3d RotY(double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+Eigen::Matrix3d RotZ(double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad) {
+  return RotZ(rpy_rad.z()) * RotY(rpy_rad.y()) * RotX(rpy_rad.x());
+}
+
+Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& r) {
+  const double pitch = std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0)));
+  if (std::abs(std::cos(pitch)) < 1e-12) {
+    // Gimbal lock: only roll - yaw (or roll + yaw) is defined; put it all in yaw.
+    const double yaw = std::atan2(-r(0, 1), r(1, 1));
+    return {0.0, pitch, yaw};
+  }
+  return {std::atan2(r(2, 1), r(2, 2)), pitch, std::atan2(r(1, 0), r(0, 0))};
+}
+
+Transform TransformFromXyzRpy(const Eigen::Vector3d& xyz_mm, const Eigen::Vector3d& rpy_rad) {
+  Transform t = Transform::Identity();
+  t.linear() = RotationFromRpy(rpy_rad);
+  t.translation() = xyz_mm;
+  return t;
+}
+
+Transform Translation(double x_mm, double y_mm, double z_mm) {
+  Transform t = Transform::Identity();
+  t.translation() = Eigen::Vector3d(x_mm, y_mm, z_mm);
+  return t;
+}
+
+Transform Rotation(const Eigen::Matrix3d& rotation) {
+  Transform t = Transform::Identity();
+  t.linear() = rotation;
+  return t;
+}
+
+Eigen::Vector3d RotationVector(const Eigen::Matrix3d& rotation) {
+  // Eigen's AngleAxis handles the angle-near-pi case through the symmetric part of R.
+  const Eigen::AngleAxisd aa(rotation);
+  return aa.angle() * aa.axis();
+}
+
+bool IsValidRigidTransform(const Transform& transform, double tolerance) {
+  if (!transform.matrix().allFinite()) return false;
+  const Eigen::Matrix3d r = transform.linear();
+  if (!(r.transpose() * r - Eigen::Matrix3d::Identity()).isZero(tolerance)) return false;
+  return std::abs(r.determinant() - 1.0) < tolerance;
+}
+
+}  // namespace robocal
