@@ -1,0 +1,160 @@
+// Observability of a set of measurement configurations: the scaled, reduced identification matrix E*, its
+// singular values and the indices built from them, evaluated incrementally when one configuration changes.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/error_model.h"
+#include "robocal/core/robot_model.h"
+
+namespace robocal {
+
+/// How the columns of E* are scaled before its singular values are taken. Rows are always divided by the
+/// measurement noise (MeasurementNoise), so a row is in units of "noise sigmas".
+enum class ColumnScaling {
+  /// Each column divided by its norm over the configuration set (Hollerbach & Wampler's scaling): the index
+  /// then does not depend on the parameters' units.
+  kColumnNorm,
+  /// Each column multiplied by the parameter's expected deviation (expected_translation_mm,
+  /// expected_rotation_rad): E* then maps "typical error sizes" to noise sigmas.
+  kExpectedDeviation,
+  /// No column scaling: mixes mm and rad, reported for completeness.
+  kNone,
+};
+
+/// The observability indices (the first is the paper's objective).
+enum class ObservabilityIndex {
+  kConditionNumber,  ///< sigma_1 / sigma_L (paper eq. 9), minimised.
+  kO1,               ///< (prod sigma_i)^(1/L) / sqrt(M) (Borm & Menq), maximised.
+  kO2,               ///< sigma_L / sigma_1 (Driels & Pathre), maximised.
+  kO3,               ///< sigma_L (minimum singular value), maximised.
+  kO4,               ///< sigma_L^2 / sigma_1 (noise amplification, Nahvi & Hollerbach), maximised.
+  kO5,               ///< 1 / sum(1 / sigma_i) (Sun & Hollerbach), maximised.
+  kLogDet,           ///< log det(E*' E*) (D-optimality), maximised.
+};
+
+const char* ToString(ColumnScaling scaling);
+bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling);
+/// "condition_number", "o1" .. "o5", "log_det".
+const char* ToString(ObservabilityIndex index);
+bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index);
+
+struct ObservabilityOptions {
+  MeasurementType measurement_type = MeasurementType::kPose;
+  MeasurementNoise noise;
+  ColumnScaling scaling = ColumnScaling::kColumnNorm;
+  /// Expected size of the geometric errors, used by kExpectedDeviation (and nothing else).
+  double expected_translation_mm = 0.1;
+  double expected_rotation_rad = 1e-3;
+  /// The parameters kept in E* (indices into the model's error parameters), normally
+  /// FindIdentifiableParameters(...).identifiable. Must be non-empty, ascending, in range.
+  std::vector<int> parameters;
+
+  bool IsValid(const RobotModel& model, std::string* error) const;
+  /// E.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
+  std::string ScalingDescription() const;
+};
+
+/// All indices of one configuration set.
+struct ObservabilityIndices {
+  int num_configurations = 0;
+  int num_parameters = 0;
+  /// Singular values of the scaled E*, descending (size num_parameters).
+  Eigen::VectorXd singular_values;
+  double condition_number = 0.0;
+  double o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+  double log_det = 0.0;
+  /// Which scaling produced these numbers.
+  std::string scaling;
+
+  double Get(ObservabilityIndex index) const;
+};
+
+/// The value an optimiser minimises for `index`: the condition number itself, or minus a maximised index.
+double ObjectiveValue(const ObservabilityIndices& indices, ObservabilityIndex index);
+
+/// The indices from singular values (any order; sorted descending in the result) of a set of
+/// `num_configurations` configurations. A zero singular value gives cond = inf, O1 = O3 = O4 = O5 = 0 and
+/// log det = -inf.
+ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_values, int num_configurations,
+                                               const std::string& scaling);
+
+/// Indices from the stacked matrix by a full SVD of the scaled E* (the reference computation; O(M) memory).
+ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                                         const ObservabilityOptions& options);
+
+/// Keeps A = E*' W E* (unscaled, L x L) of a configuration set and each configuration's contribution, so that
+/// changing one configuration costs one Jacobian, a rank-r update of A and an L x L symmetric eigenproblem,
+/// whatever the number of configurations M.
+///
+/// Holds its own copy of the (immutable) model. Numerically it works on the normal matrix: the indices agree
+/// with the SVD of E* to ~1e-16 cond(E*)^2 relative, ample for the cond < 1e6 of any useful plan.
+class ObservabilityEvaluator {
+ public:
+  /// Throws std::invalid_argument if options are invalid for the model.
+  ObservabilityEvaluator(const RobotModel& model, ObservabilityOptions options);
+
+  /// Replaces the whole set (each q within sizes; limits are the caller's business). Recomputes A.
+  void SetConfigurations(const std::vector<Eigen::VectorXd>& configurations);
+  const std::vector<Eigen::VectorXd>& configurations() const { return configurations_; }
+  int size() const { return static_cast<int>(configurations_.size()); }
+
+  /// Indices of the current set.
+  const ObservabilityIndices& indices() const { return indices_; }
+
+  /// Indices if configuration m were replaced by q; the set is unchanged.
+  ObservabilityIndices EvaluateReplacement(int m, const Eigen::VectorXd& q);
+  /// Replaces configuration m by q.
+  void Replace(int m, const Eigen::VectorXd& q);
+  /// Appends q to the set.
+  void Add(const Eigen::VectorXd& q);
+  /// Removes configuration m (the last one takes its place).
+  void Remove(int m);
+
+  /// The weighted, reduced Jacobian block of one configuration (rows x L) and its contribution B'B.
+  Eigen::MatrixXd Block(const Eigen::VectorXd& q);
+  /// Indices of an arbitrary normal matrix standing for `num_configurations` configurations.
+  ObservabilityIndices IndicesOf(const Eigen::MatrixXd& normal, int num_configurations) const;
+
+  const Eigen::MatrixXd& normal() const { return normal_; }
+  const ObservabilityOptions& options() const { return options_; }
+  const RobotModel& model() const { return model_; }
+
+ private:
+  void Refresh();
+
+  RobotModel model_;
+  ObservabilityOptions options_;
+  KinematicsWorkspace ws_;
+  Eigen::MatrixXd full_jacobian_;
+  Eigen::VectorXd row_weights_;
+  std::vector<Eigen::VectorXd> configurations_;
+  std::vector<Eigen::MatrixXd> contributions_;  // B'B per configuration
+  Eigen::MatrixXd normal_;
+  ObservabilityIndices indices_;
+  int updates_since_refresh_ = 0;
+};
+
+/// What a plan buys before anything is measured: propagating the tracker noise through the identification,
+/// with parameter covariance C = (E*' W E*)^-1, to the pose error at validation configurations.
+struct PredictedAccuracy {
+  int num_validation = 0;
+  /// sqrt(mean over validation configurations of trace(J_pos C J_pos')), mm.
+  double rms_position_mm = 0.0;
+  /// Largest per-configuration RMS position error, mm.
+  double max_position_mm = 0.0;
+  /// Same for the tool orientation (rad); only when the measurement type observes orientation.
+  bool has_orientation = false;
+  double rms_orientation_rad = 0.0;
+};
+
+/// Predicted accuracy after calibrating from `plan` (noise-only: unmodelled errors are not included).
+/// Returns num_validation = 0 and zeros if E*'WE* is singular.
+PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOptions& options,
+                                  const std::vector<Eigen::VectorXd>& plan,
+                                  const std::vector<Eigen::VectorXd>& validation);
+
+}  // namespace robocal

@@ -1,0 +1,332 @@
+// Observability indices of configuration sets, by SVD (reference) and by incremental normal matrices.
+#include "robocal/core/observability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+namespace robocal {
+namespace {
+
+// A full refresh of A from the stored contributions every this many updates bounds the round-off drift of
+// repeated add/subtract updates.
+constexpr int kRefreshInterval = 64;
+
+Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::VectorXd& column_norms) {
+  const int l = static_cast<int>(options.parameters.size());
+  Eigen::VectorXd d(l);
+  for (int k = 0; k < l; ++k) {
+    switch (options.scaling) {
+      case ColumnScaling::kColumnNorm:
+        d[k] = column_norms[k] > 0.0 ? 1.0 / column_norms[k] : 1.0;
+        break;
+      case ColumnScaling::kExpectedDeviation:
+        d[k] = RobotModel::IsTranslationParameter(options.parameters[k]) ? options.expected_translation_mm
+                                                                         : options.expected_rotation_rad;
+        break;
+      case ColumnScaling::kNone:
+        d[k] = 1.0;
+        break;
+    }
+  }
+  return d;
+}
+
+}  // namespace
+
+ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_values, int num_configurations,
+                                               const std::string& scaling) {
+  Eigen::VectorXd sv = singular_values;
+  ObservabilityIndices out;
+  out.num_configurations = num_configurations;
+  out.num_parameters = static_cast<int>(sv.size());
+  out.scaling = scaling;
+  std::sort(sv.data(), sv.data() + sv.size(), std::greater<double>());
+  out.singular_values = sv;
+  const int l = static_cast<int>(sv.size());
+  const double s1 = sv[0];
+  const double sl = sv[l - 1];
+  const double inf = std::numeric_limits<double>::infinity();
+  out.condition_number = sl > 0.0 ? s1 / sl : inf;
+  double log_sum = 0.0, inv_sum = 0.0;
+  for (int i = 0; i < l; ++i) {
+    log_sum += sv[i] > 0.0 ? std::log(sv[i]) : -inf;
+    inv_sum += sv[i] > 0.0 ? 1.0 / sv[i] : inf;
+  }
+  out.o1 = std::exp(log_sum / l) / std::sqrt(static_cast<double>(num_configurations));
+  out.o2 = s1 > 0.0 ? sl / s1 : 0.0;
+  out.o3 = sl;
+  out.o4 = s1 > 0.0 ? sl * sl / s1 : 0.0;
+  out.o5 = 1.0 / inv_sum;
+  out.log_det = 2.0 * log_sum;
+  return out;
+}
+
+const char* ToString(ColumnScaling scaling) {
+  switch (scaling) {
+    case ColumnScaling::kColumnNorm:
+      return "column_norm";
+    case ColumnScaling::kExpectedDeviation:
+      return "expected_deviation";
+    case ColumnScaling::kNone:
+      return "none";
+  }
+  return "?";
+}
+
+bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling) {
+  for (ColumnScaling s : {ColumnScaling::kColumnNorm, ColumnScaling::kExpectedDeviation, ColumnScaling::kNone}) {
+    if (text == ToString(s)) {
+      *scaling = s;
+      return true;
+    }
+  }
+  return false;
+}
+
+const char* ToString(ObservabilityIndex index) {
+  switch (index) {
+    case ObservabilityIndex::kConditionNumber:
+      return "condition_number";
+    case ObservabilityIndex::kO1:
+      return "o1";
+    case ObservabilityIndex::kO2:
+      return "o2";
+    case ObservabilityIndex::kO3:
+      return "o3";
+    case ObservabilityIndex::kO4:
+      return "o4";
+    case ObservabilityIndex::kO5:
+      return "o5";
+    case ObservabilityIndex::kLogDet:
+      return "log_det";
+  }
+  return "?";
+}
+
+bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index) {
+  for (int i = 0; i <= static_cast<int>(ObservabilityIndex::kLogDet); ++i) {
+    const auto candidate = static_cast<ObservabilityIndex>(i);
+    if (text == ToString(candidate)) {
+      *index = candidate;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) const {
+  if (parameters.empty()) {
+    *error = "parameters must list at least one error parameter (normally the identifiable set)";
+    return false;
+  }
+  for (size_t k = 0; k < parameters.size(); ++k) {
+    if (parameters[k] < 0 || parameters[k] >= model.num_error_parameters()) {
+      *error = "parameters[" + std::to_string(k) + "] = " + std::to_string(parameters[k]) + " is out of range";
+      return false;
+    }
+    if (k > 0 && parameters[k] <= parameters[k - 1]) {
+      *error = "parameters must be strictly ascending";
+      return false;
+    }
+  }
+  if (!(noise.position_mm > 0.0) || !(noise.orientation_rad > 0.0) || !std::isfinite(noise.position_mm) ||
+      !std::isfinite(noise.orientation_rad)) {
+    *error = "noise.position_mm and noise.orientation_rad must be positive and finite";
+    return false;
+  }
+  if (!(expected_translation_mm > 0.0) || !(expected_rotation_rad > 0.0) ||
+      !std::isfinite(expected_translation_mm) || !std::isfinite(expected_rotation_rad)) {
+    *error = "expected_translation_mm and expected_rotation_rad must be positive and finite";
+    return false;
+  }
+  return true;
+}
+
+std::string ObservabilityOptions::ScalingDescription() const {
+  std::ostringstream out;
+  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad); columns: "
+      << ToString(scaling);
+  if (scaling == ColumnScaling::kExpectedDeviation) {
+    out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
+  }
+  return out.str();
+}
+
+double ObservabilityIndices::Get(ObservabilityIndex index) const {
+  switch (index) {
+    case ObservabilityIndex::kConditionNumber:
+      return condition_number;
+    case ObservabilityIndex::kO1:
+      return o1;
+    case ObservabilityIndex::kO2:
+      return o2;
+    case ObservabilityIndex::kO3:
+      return o3;
+    case ObservabilityIndex::kO4:
+      return o4;
+    case ObservabilityIndex::kO5:
+      return o5;
+    case ObservabilityIndex::kLogDet:
+      return log_det;
+  }
+  return 0.0;
+}
+
+double ObjectiveValue(const ObservabilityIndices& indices, ObservabilityIndex index) {
+  const double value = indices.Get(index);
+  return index == ObservabilityIndex::kConditionNumber ? value : -value;
+}
+
+ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                                         const ObservabilityOptions& options) {
+  std::string error;
+  if (!options.IsValid(model, &error)) throw std::invalid_argument("ObservabilityOptions: " + error);
+  if (configurations.empty()) throw std::invalid_argument("ComputeIndicesBySvd: no configurations");
+  const int rows = MeasurementRows(options.measurement_type);
+  const int l = static_cast<int>(options.parameters.size());
+  const Eigen::VectorXd w = options.noise.RowWeights(options.measurement_type);
+  KinematicsWorkspace ws(model);
+  Eigen::MatrixXd full(rows, model.num_error_parameters());
+  Eigen::MatrixXd stacked(rows * configurations.size(), l);
+  for (size_t m = 0; m < configurations.size(); ++m) {
+    IdentificationJacobian(model, configurations[m], Eigen::VectorXd(), options.measurement_type, &ws, full);
+    for (int k = 0; k < l; ++k) stacked.block(m * rows, k, rows, 1) = w.cwiseProduct(full.col(options.parameters[k]));
+  }
+  const Eigen::VectorXd d = ColumnScale(options, stacked.colwise().norm());
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked * d.asDiagonal());
+  return IndicesFromSingularValues(svd.singularValues(), static_cast<int>(configurations.size()),
+                            options.ScalingDescription());
+}
+
+ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, ObservabilityOptions options)
+    : model_(model), options_(std::move(options)), ws_(model_) {
+  std::string error;
+  if (!options_.IsValid(model_, &error)) throw std::invalid_argument("ObservabilityOptions: " + error);
+  full_jacobian_.resize(MeasurementRows(options_.measurement_type), model_.num_error_parameters());
+  row_weights_ = options_.noise.RowWeights(options_.measurement_type);
+  const int l = static_cast<int>(options_.parameters.size());
+  normal_ = Eigen::MatrixXd::Zero(l, l);
+}
+
+Eigen::MatrixXd ObservabilityEvaluator::Block(const Eigen::VectorXd& q) {
+  IdentificationJacobian(model_, q, Eigen::VectorXd(), options_.measurement_type, &ws_, full_jacobian_);
+  const int l = static_cast<int>(options_.parameters.size());
+  Eigen::MatrixXd block(full_jacobian_.rows(), l);
+  for (int k = 0; k < l; ++k) block.col(k) = row_weights_.cwiseProduct(full_jacobian_.col(options_.parameters[k]));
+  return block;
+}
+
+ObservabilityIndices ObservabilityEvaluator::IndicesOf(const Eigen::MatrixXd& normal, int num_configurations) const {
+  // Singular values of E* D are the square roots of the eigenvalues of D A D.
+  const Eigen::VectorXd d = ColumnScale(options_, normal.diagonal().cwiseMax(0.0).cwiseSqrt());
+  const Eigen::MatrixXd scaled = d.asDiagonal() * normal * d.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
+  return IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(), num_configurations,
+                            options_.ScalingDescription());
+}
+
+void ObservabilityEvaluator::Refresh() {
+  normal_.setZero();
+  for (const Eigen::MatrixXd& c : contributions_) normal_ += c;
+  updates_since_refresh_ = 0;
+  indices_ = configurations_.empty() ? ObservabilityIndices{} : IndicesOf(normal_, size());
+}
+
+void ObservabilityEvaluator::SetConfigurations(const std::vector<Eigen::VectorXd>& configurations) {
+  configurations_ = configurations;
+  contributions_.clear();
+  for (const Eigen::VectorXd& q : configurations_) {
+    const Eigen::MatrixXd b = Block(q);
+    contributions_.push_back(b.transpose() * b);
+  }
+  Refresh();
+}
+
+ObservabilityIndices ObservabilityEvaluator::EvaluateReplacement(int m, const Eigen::VectorXd& q) {
+  const Eigen::MatrixXd b = Block(q);
+  const Eigen::MatrixXd normal = normal_ - contributions_.at(m) + b.transpose() * b;
+  return IndicesOf(normal, size());
+}
+
+void ObservabilityEvaluator::Replace(int m, const Eigen::VectorXd& q) {
+  const Eigen::MatrixXd b = Block(q);
+  Eigen::MatrixXd c = b.transpose() * b;
+  normal_ += c - contributions_.at(m);
+  contributions_[m] = std::move(c);
+  configurations_[m] = q;
+  if (++updates_since_refresh_ >= kRefreshInterval) {
+    Refresh();
+  } else {
+    indices_ = IndicesOf(normal_, size());
+  }
+}
+
+void ObservabilityEvaluator::Add(const Eigen::VectorXd& q) {
+  const Eigen::MatrixXd b = Block(q);
+  contributions_.push_back(b.transpose() * b);
+  configurations_.push_back(q);
+  normal_ += contributions_.back();
+  if (++updates_since_refresh_ >= kRefreshInterval) {
+    Refresh();
+  } else {
+    indices_ = IndicesOf(normal_, size());
+  }
+}
+
+void ObservabilityEvaluator::Remove(int m) {
+  normal_ -= contributions_.at(m);
+  contributions_[m] = std::move(contributions_.back());
+  contributions_.pop_back();
+  configurations_[m] = std::move(configurations_.back());
+  configurations_.pop_back();
+  if (++updates_since_refresh_ >= kRefreshInterval || configurations_.empty()) {
+    Refresh();
+  } else {
+    indices_ = IndicesOf(normal_, size());
+  }
+}
+
+PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOptions& options,
+                                  const std::vector<Eigen::VectorXd>& plan,
+                                  const std::vector<Eigen::VectorXd>& validation) {
+  PredictedAccuracy out;
+  ObservabilityEvaluator evaluator(model, options);
+  evaluator.SetConfigurations(plan);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(evaluator.normal());
+  if (ldlt.info() != Eigen::Success || !(evaluator.indices().o3 > 0.0) ||
+      !std::isfinite(evaluator.indices().condition_number) || evaluator.indices().condition_number > 1e12) {
+    return out;
+  }
+  const int l = static_cast<int>(options.parameters.size());
+  const Eigen::MatrixXd covariance = ldlt.solve(Eigen::MatrixXd::Identity(l, l));
+  out.has_orientation = options.measurement_type != MeasurementType::kPosition;
+  KinematicsWorkspace ws(model);
+  Eigen::MatrixXd full(6, model.num_error_parameters());
+  Eigen::MatrixXd reduced(6, l);
+  double sum_position = 0.0, sum_orientation = 0.0;
+  for (const Eigen::VectorXd& q : validation) {
+    IdentificationJacobian(model, q, Eigen::VectorXd(), MeasurementType::kPose, &ws, full);
+    for (int k = 0; k < l; ++k) reduced.col(k) = full.col(options.parameters[k]);
+    const Eigen::MatrixXd pose_covariance = reduced * covariance * reduced.transpose();
+    const double position_var = pose_covariance.topLeftCorner<3, 3>().trace();
+    sum_position += position_var;
+    sum_orientation += pose_covariance.bottomRightCorner<3, 3>().trace();
+    out.max_position_mm = std::max(out.max_position_mm, std::sqrt(position_var));
+  }
+  out.num_validation = static_cast<int>(validation.size());
+  if (out.num_validation > 0) {
+    out.rms_position_mm = std::sqrt(sum_position / out.num_validation);
+    if (out.has_orientation) out.rms_orientation_rad = std::sqrt(sum_orientation / out.num_validation);
+  }
+  return out;
+}
+
+}  // namespace robocal

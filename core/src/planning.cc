@@ -1,0 +1,454 @@
+// Measurement configuration optimisers: Solis & Wets, random selection, exchange.
+#include "robocal/core/planning.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+
+#include "robocal/core/kinematics.h"
+#include "robocal/core/random.h"
+
+namespace robocal {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A non-finite objective (a singular set) ranks worst.
+double Finite(double value) {
+  return std::isfinite(value) ? value : std::numeric_limits<double>::infinity();
+}
+
+void CheckCommon(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
+                 bool options_valid, const std::string& options_error) {
+  if (num_configurations < 1) throw std::invalid_argument("num_configurations must be at least 1");
+  if (!options_valid) throw std::invalid_argument(options_error);
+  std::string error;
+  if (!observability.IsValid(model, &error)) throw std::invalid_argument("ObservabilityOptions: " + error);
+}
+
+// Maps between joint values and normalised coordinates z in [0, 1] per joint range.
+struct Normaliser {
+  const RobotModel& model;
+
+  Eigen::VectorXd ToZ(const std::vector<Eigen::VectorXd>& configurations) const {
+    const int n = model.num_joints();
+    Eigen::VectorXd z(n * configurations.size());
+    for (size_t m = 0; m < configurations.size(); ++m) {
+      z.segment(m * n, n) = (configurations[m] - model.lower_limits())
+                                .cwiseQuotient(model.upper_limits() - model.lower_limits());
+    }
+    return z;
+  }
+
+  std::vector<Eigen::VectorXd> FromZ(const Eigen::VectorXd& z) const {
+    const int n = model.num_joints();
+    std::vector<Eigen::VectorXd> configurations(z.size() / n);
+    for (size_t m = 0; m < configurations.size(); ++m) {
+      configurations[m] = model.lower_limits() +
+                          z.segment(m * n, n).cwiseProduct(model.upper_limits() - model.lower_limits());
+      // Round-off at the bounds must not leave the limits.
+      configurations[m] = configurations[m].cwiseMax(model.lower_limits()).cwiseMin(model.upper_limits());
+    }
+    return configurations;
+  }
+};
+
+Eigen::VectorXd Project(Eigen::VectorXd z, LimitHandling handling) {
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (handling == LimitHandling::kClamp) {
+      z[i] = std::clamp(z[i], 0.0, 1.0);
+    } else {
+      // Triangle wave: mirror at 0 and 1 as often as needed.
+      const double t = std::fmod(std::abs(z[i]), 2.0);
+      z[i] = t > 1.0 ? 2.0 - t : t;
+    }
+  }
+  return z;
+}
+
+std::string IndicesLine(const ObservabilityIndices& x) {
+  std::ostringstream out;
+  out << std::setprecision(5) << "cond " << x.condition_number << ", O1 " << x.o1 << ", O2 " << x.o2 << ", O3 "
+      << x.o3 << ", O4 " << x.o4 << ", O5 " << x.o5 << ", log det " << x.log_det;
+  return out.str();
+}
+
+}  // namespace
+
+const char* ToString(LimitHandling handling) { return handling == LimitHandling::kReflect ? "reflect" : "clamp"; }
+
+SolisWetsOptions SolisWetsOptions::Paper() { return SolisWetsOptions{}; }
+
+bool SolisWetsOptions::IsValid(std::string* error) const {
+  auto fail = [&](const char* message) {
+    *error = message;
+    return false;
+  };
+  if (k_max < 1 || k_max > 10000000) return fail("k_max must be in [1, 10000000]");
+  if (scent_threshold < 0 || fcent_threshold < 0) return fail("scent_threshold and fcent_threshold must be >= 0");
+  if (!(sigma_lb > 0.0) || !(sigma_ub > sigma_lb) || !std::isfinite(sigma_ub)) {
+    return fail("sigma bounds must satisfy 0 < sigma_lb < sigma_ub < inf");
+  }
+  if (!(sigma0 > 0.0) || !std::isfinite(sigma0)) return fail("sigma0 must be positive and finite");
+  if (!(expansion > 1.0) || !std::isfinite(expansion)) return fail("expansion must be > 1");
+  if (!(contraction > 0.0 && contraction < 1.0)) return fail("contraction must be in (0, 1)");
+  if (!(step_fraction > 0.0 && step_fraction <= 1.0)) return fail("step_fraction must be in (0, 1]");
+  if (restarts < 0 || restarts > 10000) return fail("restarts must be in [0, 10000]");
+  if (max_evaluations < 0) return fail("max_evaluations must be >= 0");
+  return true;
+}
+
+bool RandomSelectionOptions::IsValid(std::string* error) const {
+  if (num_sets < 1 || num_sets > 10000000) {
+    *error = "num_sets must be in [1, 10000000]";
+    return false;
+  }
+  return true;
+}
+
+bool ExchangeOptions::IsValid(std::string* error) const {
+  if (num_candidates < 1 || num_candidates > 1000000) {
+    *error = "num_candidates must be in [1, 1000000]";
+    return false;
+  }
+  if (screen < 1) {
+    *error = "screen must be >= 1";
+    return false;
+  }
+  if (max_iterations < 0) {
+    *error = "max_iterations must be >= 0";
+    return false;
+  }
+  return true;
+}
+
+std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, Rng* rng) {
+  std::vector<Eigen::VectorXd> out;
+  out.reserve(count);
+  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, rng));
+  return out;
+}
+
+Plan PlanSolisWets(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
+                   const SolisWetsOptions& options, const std::vector<Eigen::VectorXd>& initial) {
+  std::string error;
+  const bool valid = options.IsValid(&error);
+  CheckCommon(model, num_configurations, observability, valid, "SolisWetsOptions: " + error);
+  if (!initial.empty()) {
+    if (static_cast<int>(initial.size()) != num_configurations) {
+      throw std::invalid_argument("initial set has " + std::to_string(initial.size()) + " configurations, expected " +
+                                  std::to_string(num_configurations));
+    }
+    for (size_t m = 0; m < initial.size(); ++m) {
+      if (!model.WithinLimits(initial[m])) {
+        throw std::invalid_argument("initial[" + std::to_string(m) + "] is outside the joint limits");
+      }
+    }
+  }
+  const auto start_time = Clock::now();
+  Plan plan;
+  PlanSummary& s = plan.summary;
+  s.method = "solis_wets";
+  s.objective = options.objective;
+  ObservabilityEvaluator evaluator(model, observability);
+  const Normaliser normaliser{model};
+  Rng rng(options.seed);
+  const int total_iterations = options.k_max * (options.restarts + 1);
+  bool stopped = false;
+
+  auto evaluate = [&](const Eigen::VectorXd& z) {
+    evaluator.SetConfigurations(normaliser.FromZ(z));
+    ++s.evaluations;
+    return Finite(ObjectiveValue(evaluator.indices(), options.objective));
+  };
+  auto budget_left = [&] { return options.max_evaluations == 0 || s.evaluations < options.max_evaluations; };
+
+  double best_f = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_z;
+  for (int run = 0; run <= options.restarts && !stopped; ++run) {
+    Eigen::VectorXd x = normaliser.ToZ(run == 0 && !initial.empty()
+                                           ? initial
+                                           : RandomConfigurations(model, num_configurations, &rng));
+    double fx = evaluate(x);
+    if (run == 0) s.initial = evaluator.indices();
+    if (fx < best_f || best_z.size() == 0) {
+      best_f = fx;
+      best_z = x;
+    }
+    Eigen::VectorXd mu = Eigen::VectorXd::Zero(x.size());
+    double sigma = options.sigma0;
+    int scent = 0, fcent = 0;
+    for (int k = 1; k <= options.k_max; ++k) {
+      if (!budget_left()) {
+        stopped = true;
+        break;
+      }
+      // (1) step size.
+      if (scent > options.scent_threshold) {
+        sigma *= options.expansion;
+        if (options.reset_counters) scent = 0;
+      } else if (fcent > options.fcent_threshold) {
+        sigma *= options.contraction;
+        if (options.reset_counters) fcent = 0;
+      } else if (sigma < options.sigma_lb) {
+        sigma = options.sigma_ub;
+      }
+      // (2) Gaussian step d ~ N(mu, sigma^2 I), in sigma units; one unit is step_fraction of a joint range.
+      Eigen::VectorXd d(x.size());
+      for (Eigen::Index i = 0; i < d.size(); ++i) d[i] = mu[i] + sigma * rng.Normal();
+      const Eigen::VectorXd xi = Project(x + options.step_fraction * d, options.limits);
+      const Eigen::VectorXd d_taken = (xi - x) / options.step_fraction;
+      // (3) forward step, then the reversed step.
+      const double f_xi = evaluate(xi);
+      if (f_xi < fx) {
+        x = xi;
+        fx = f_xi;
+        mu = 0.2 * mu + 0.4 * d_taken;
+        ++scent;
+        fcent = 0;
+      } else {
+        const Eigen::VectorXd reverse = Project(2.0 * x - xi, options.limits);
+        const double f_reverse = budget_left() ? evaluate(reverse) : std::numeric_limits<double>::infinity();
+        if (f_reverse < fx) {
+          mu = mu - 0.4 * d_taken;
+          x = reverse;
+          fx = f_reverse;
+          ++scent;
+          fcent = 0;
+        } else {
+          mu = 0.5 * mu;
+          ++fcent;
+          scent = 0;
+        }
+      }
+      if (fx < best_f) {
+        best_f = fx;
+        best_z = x;
+      }
+      ++s.iterations;
+      s.objective_trace.push_back(best_f);
+      if (options.progress && !options.progress(static_cast<double>(s.iterations) / total_iterations)) {
+        stopped = true;
+        s.message = "cancelled";
+        break;
+      }
+    }
+  }
+  plan.configurations = normaliser.FromZ(best_z);
+  evaluator.SetConfigurations(plan.configurations);
+  s.final = evaluator.indices();
+  s.seconds = Seconds(start_time);
+  if (stopped) {
+    s.termination = Termination::kNoConvergence;
+    if (s.message != "cancelled") s.message = "evaluation budget reached";
+  } else {
+    // Solis & Wets has no convergence test: finishing its k_max iterations is its normal end.
+    s.termination = Termination::kConvergence;
+    s.message = "completed " + std::to_string(s.iterations) + " iterations";
+  }
+  if (!std::isfinite(s.final.condition_number)) {
+    s.termination = Termination::kDegraded;
+    s.message += "; the best set is still rank deficient";
+  }
+  return plan;
+}
+
+Plan PlanRandom(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
+                const RandomSelectionOptions& options) {
+  std::string error;
+  const bool valid = options.IsValid(&error);
+  CheckCommon(model, num_configurations, observability, valid, "RandomSelectionOptions: " + error);
+  const auto start_time = Clock::now();
+  Plan plan;
+  PlanSummary& s = plan.summary;
+  s.method = "random";
+  s.objective = options.objective;
+  ObservabilityEvaluator evaluator(model, observability);
+  Rng rng(options.seed);
+  double best_f = std::numeric_limits<double>::infinity();
+  bool cancelled = false;
+  for (int set = 0; set < options.num_sets; ++set) {
+    auto configurations = RandomConfigurations(model, num_configurations, &rng);
+    evaluator.SetConfigurations(configurations);
+    ++s.evaluations;
+    if (set == 0) s.initial = evaluator.indices();
+    const double f = Finite(ObjectiveValue(evaluator.indices(), options.objective));
+    if (f < best_f || plan.configurations.empty()) {
+      best_f = f;
+      plan.configurations = std::move(configurations);
+      s.final = evaluator.indices();
+    }
+    ++s.iterations;
+    s.objective_trace.push_back(best_f);
+    if (options.progress && !options.progress(static_cast<double>(set + 1) / options.num_sets)) {
+      cancelled = true;
+      break;
+    }
+  }
+  s.seconds = Seconds(start_time);
+  s.termination = cancelled ? Termination::kNoConvergence : Termination::kConvergence;
+  s.message = cancelled ? "cancelled" : "best of " + std::to_string(s.evaluations) + " random sets";
+  if (!std::isfinite(s.final.condition_number)) {
+    s.termination = Termination::kDegraded;
+    s.message += "; the set is rank deficient";
+  }
+  return plan;
+}
+
+Plan PlanExchange(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
+                  const ExchangeOptions& options) {
+  std::string error;
+  const bool valid = options.IsValid(&error);
+  CheckCommon(model, num_configurations, observability, valid, "ExchangeOptions: " + error);
+  if (options.num_candidates < num_configurations) {
+    throw std::invalid_argument("ExchangeOptions: num_candidates (" + std::to_string(options.num_candidates) +
+                                ") must be at least the number of configurations (" +
+                                std::to_string(num_configurations) + ")");
+  }
+  const auto start_time = Clock::now();
+  Plan plan;
+  PlanSummary& s = plan.summary;
+  s.method = "exchange";
+  s.objective = options.objective;
+  ObservabilityEvaluator evaluator(model, observability);
+  Rng rng(options.seed);
+  const auto pool = RandomConfigurations(model, options.num_candidates, &rng);
+  // Every candidate's weighted, reduced block and its contribution to A, computed once.
+  std::vector<Eigen::MatrixXd> blocks, contributions;
+  blocks.reserve(pool.size());
+  contributions.reserve(pool.size());
+  for (const Eigen::VectorXd& q : pool) {
+    blocks.push_back(evaluator.Block(q));
+    contributions.push_back(blocks.back().transpose() * blocks.back());
+  }
+  // Random starting subset (partial Fisher-Yates).
+  std::vector<int> order(pool.size());
+  std::iota(order.begin(), order.end(), 0);
+  for (int i = 0; i < num_configurations; ++i) {
+    std::swap(order[i], order[i + rng.Index(order.size() - i)]);
+  }
+  std::vector<int> members(order.begin(), order.begin() + num_configurations);
+  std::vector<char> in_set(pool.size(), 0);
+  const int l = static_cast<int>(observability.parameters.size());
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(l, l);
+  for (int j : members) {
+    normal += contributions[j];
+    in_set[j] = 1;
+  }
+  auto objective = [&](const Eigen::MatrixXd& a, int count) {
+    ++s.evaluations;
+    return Finite(ObjectiveValue(evaluator.IndicesOf(a, count), options.objective));
+  };
+  double current = objective(normal, num_configurations);
+  s.initial = evaluator.IndicesOf(normal, num_configurations);
+  bool cancelled = false, converged = false;
+  const int rows = static_cast<int>(blocks[0].rows());
+  while (s.iterations < options.max_iterations) {
+    // Screen additions by the D-optimal gain log det(I + B A^-1 B') (a small ridge keeps A invertible while
+    // the set is still rank deficient), then evaluate the most promising exactly.
+    const double ridge = 1e-9 * std::max(normal.trace() / l, 1e-300);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal + ridge * Eigen::MatrixXd::Identity(l, l));
+    std::vector<std::pair<double, int>> gains;
+    gains.reserve(pool.size());
+    for (size_t c = 0; c < pool.size(); ++c) {
+      if (in_set[c]) continue;
+      const Eigen::MatrixXd m =
+          Eigen::MatrixXd::Identity(rows, rows) + blocks[c] * ldlt.solve(blocks[c].transpose());
+      gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).vectorD().array().log().sum(), static_cast<int>(c));
+    }
+    const size_t screened = std::min<size_t>(options.screen, gains.size());
+    std::partial_sort(gains.begin(), gains.begin() + screened, gains.end(), std::greater<>());
+    int best_add = -1;
+    double best_add_f = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < screened; ++i) {
+      const double f = objective(normal + contributions[gains[i].second], num_configurations + 1);
+      if (best_add < 0 || f < best_add_f) {
+        best_add_f = f;
+        best_add = gains[i].second;
+      }
+    }
+    if (best_add < 0) break;
+    // Remove whichever member (the new one included) leaves the best set of M.
+    const Eigen::MatrixXd enlarged = normal + contributions[best_add];
+    members.push_back(best_add);
+    int best_remove = static_cast<int>(members.size()) - 1;
+    double best_remove_f = current;
+    for (size_t i = 0; i + 1 < members.size(); ++i) {
+      const double f = objective(enlarged - contributions[members[i]], num_configurations);
+      if (f < best_remove_f) {
+        best_remove_f = f;
+        best_remove = static_cast<int>(i);
+      }
+    }
+    ++s.iterations;
+    if (best_remove == static_cast<int>(members.size()) - 1 ||
+        !(best_remove_f < current - 1e-12 * std::abs(current))) {
+      members.pop_back();
+      s.objective_trace.push_back(current);
+      converged = true;
+      break;
+    }
+    in_set[best_add] = 1;
+    in_set[members[best_remove]] = 0;
+    normal = enlarged - contributions[members[best_remove]];
+    members[best_remove] = members.back();
+    members.pop_back();
+    current = best_remove_f;
+    s.objective_trace.push_back(current);
+    if (options.progress &&
+        !options.progress(static_cast<double>(s.iterations) / std::max(1, options.max_iterations))) {
+      cancelled = true;
+      break;
+    }
+  }
+  for (int j : members) plan.configurations.push_back(pool[j]);
+  evaluator.SetConfigurations(plan.configurations);
+  s.final = evaluator.indices();
+  s.seconds = Seconds(start_time);
+  if (cancelled) {
+    s.termination = Termination::kNoConvergence;
+    s.message = "cancelled";
+  } else if (converged) {
+    s.termination = Termination::kConvergence;
+    s.message = "no exchange improves the objective after " + std::to_string(s.iterations) + " iterations";
+  } else {
+    s.termination = Termination::kNoConvergence;
+    s.message = "max_iterations reached";
+  }
+  if (!std::isfinite(s.final.condition_number)) {
+    s.termination = Termination::kDegraded;
+    s.message += "; the set is rank deficient";
+  }
+  return plan;
+}
+
+std::string PlanSummary::BriefReport() const {
+  std::ostringstream out;
+  out << "Plan (" << method << ", objective " << ToString(objective) << "): " << ToString(termination) << ", "
+      << message << "; " << ToString(objective) << " " << std::setprecision(5) << initial.Get(objective) << " -> "
+      << final.Get(objective) << ", " << evaluations << " evaluations, " << std::setprecision(3) << seconds << " s";
+  return out.str();
+}
+
+std::string PlanSummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n";
+  out << "  scaling: " << final.scaling << "\n";
+  out << "  initial: " << IndicesLine(initial) << "\n";
+  out << "  final:   " << IndicesLine(final) << "\n";
+  out << "  iterations: " << iterations << ", evaluations: " << evaluations << "\n";
+  return out.str();
+}
+
+}  // namespace robocal

@@ -1,0 +1,165 @@
+// Observability indices: hand-computed values, scaling, incremental evaluation against a full SVD, and the
+// predicted accuracy of a plan.
+#include <cmath>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "robocal/core/identifiability.h"
+#include "robocal/core/observability.h"
+#include "robocal/core/planning.h"
+#include "robocal/core/presets.h"
+
+namespace robocal {
+namespace {
+
+using ::testing::HasSubstr;
+
+ObservabilityOptions OptionsFor(const RobotModel& model, MeasurementType type) {
+  ObservabilityOptions o;
+  o.measurement_type = type;
+  o.parameters = FindIdentifiableParameters(model, type).identifiable;
+  return o;
+}
+
+// sigma = (4, 2, 1), M = 2, L = 3.
+TEST(ObservabilityIndicesTest, MatchHandComputedValues) {
+  const ObservabilityIndices x = IndicesFromSingularValues(Eigen::Vector3d(1, 4, 2), 2, "test");
+  EXPECT_EQ(x.singular_values, Eigen::Vector3d(4, 2, 1));
+  EXPECT_DOUBLE_EQ(x.condition_number, 4.0);
+  // O1 takes the L-th root of the product (8^(1/3) = 2), not the M-th (8^(1/2)), then divides by sqrt(M).
+  EXPECT_NEAR(x.o1, 2.0 / std::sqrt(2.0), 1e-15);
+  EXPECT_DOUBLE_EQ(x.o2, 0.25);
+  EXPECT_DOUBLE_EQ(x.o3, 1.0);
+  EXPECT_DOUBLE_EQ(x.o4, 0.25);
+  EXPECT_NEAR(x.o5, 1.0 / 1.75, 1e-15);
+  EXPECT_NEAR(x.log_det, std::log(64.0), 1e-14);
+  EXPECT_DOUBLE_EQ(ObjectiveValue(x, ObservabilityIndex::kConditionNumber), 4.0);
+  EXPECT_DOUBLE_EQ(ObjectiveValue(x, ObservabilityIndex::kO3), -1.0);
+}
+
+TEST(ObservabilityIndicesTest, RankDeficientSetIsInfinitelyBad) {
+  const ObservabilityIndices x = IndicesFromSingularValues(Eigen::Vector2d(3, 0), 1, "test");
+  EXPECT_TRUE(std::isinf(x.condition_number));
+  EXPECT_EQ(x.o1, 0.0);
+  EXPECT_EQ(x.o5, 0.0);
+  EXPECT_TRUE(std::isinf(x.log_det) && x.log_det < 0);
+}
+
+// A = diag(9, 1) standing for E* = diag(3, 1), two translation parameters.
+TEST(ObservabilityIndicesTest, ColumnScalingsOnASmallMatrix) {
+  const RobotModel model = Preset("grinder5");
+  ObservabilityOptions o;
+  o.parameters = {0, 1};
+  const Eigen::Matrix2d normal = Eigen::Vector2d(9, 1).asDiagonal();
+  o.scaling = ColumnScaling::kNone;
+  EXPECT_NEAR(ObservabilityEvaluator(model, o).IndicesOf(normal, 1).condition_number, 3.0, 1e-12);
+  o.scaling = ColumnScaling::kColumnNorm;
+  EXPECT_NEAR(ObservabilityEvaluator(model, o).IndicesOf(normal, 1).condition_number, 1.0, 1e-12);
+  o.scaling = ColumnScaling::kExpectedDeviation;
+  o.expected_translation_mm = 0.1;
+  const ObservabilityIndices x = ObservabilityEvaluator(model, o).IndicesOf(normal, 1);
+  EXPECT_NEAR(x.singular_values[0], 0.3, 1e-12);
+  EXPECT_NEAR(x.singular_values[1], 0.1, 1e-12);
+  EXPECT_THAT(x.scaling, HasSubstr("expected_deviation"));
+}
+
+class IncrementalTest : public ::testing::TestWithParam<std::tuple<std::string, int, ColumnScaling>> {};
+
+// After many single-configuration changes (several refresh intervals), the incrementally kept indices equal a
+// full SVD of the stacked, scaled E* to 1e-9 relative.
+TEST_P(IncrementalTest, EqualsFullRecomputation) {
+  const auto& [preset, m, scaling] = GetParam();
+  const RobotModel model = Preset(preset);
+  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  o.scaling = scaling;
+  ObservabilityEvaluator evaluator(model, o);
+  Rng rng(8);
+  evaluator.SetConfigurations(RandomConfigurations(model, m, &rng));
+  for (int step = 0; step < 150; ++step) {
+    const int k = static_cast<int>(rng.Index(m));
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    const ObservabilityIndices predicted = evaluator.EvaluateReplacement(k, q);
+    evaluator.Replace(k, q);
+    EXPECT_NEAR(predicted.condition_number, evaluator.indices().condition_number,
+                1e-12 * evaluator.indices().condition_number);
+  }
+  const ObservabilityIndices incremental = evaluator.indices();
+  const ObservabilityIndices full = ComputeIndicesBySvd(model, evaluator.configurations(), o);
+  auto rel = [](double a, double b) { return std::abs(a - b) / std::max(std::abs(b), 1e-300); };
+  EXPECT_LT(rel(incremental.condition_number, full.condition_number), 1e-9);
+  EXPECT_LT(rel(incremental.o1, full.o1), 1e-9);
+  EXPECT_LT(rel(incremental.o2, full.o2), 1e-9);
+  EXPECT_LT(rel(incremental.o3, full.o3), 1e-9);
+  EXPECT_LT(rel(incremental.o4, full.o4), 1e-9);
+  EXPECT_LT(rel(incremental.o5, full.o5), 1e-9);
+  EXPECT_LT(rel(incremental.log_det, full.log_det), 1e-9);
+  for (int i = 0; i < full.num_parameters; ++i) {
+    EXPECT_LT(rel(incremental.singular_values[i], full.singular_values[i]), 1e-9);
+  }
+  // Add and remove keep the same agreement.
+  evaluator.Add(RandomConfiguration(model, &rng));
+  evaluator.Remove(0);
+  EXPECT_LT(rel(evaluator.indices().condition_number,
+                ComputeIndicesBySvd(model, evaluator.configurations(), o).condition_number),
+            1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, IncrementalTest,
+                         ::testing::Combine(::testing::Values("grinder5", "ur5e"), ::testing::Values(10, 200),
+                                            ::testing::Values(ColumnScaling::kColumnNorm,
+                                                              ColumnScaling::kExpectedDeviation)));
+
+TEST(ObservabilityOptionsTest, RejectsBadParameterLists) {
+  const RobotModel model = Preset("grinder5");
+  ObservabilityOptions o;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(model, &error));
+  EXPECT_THAT(error, HasSubstr("at least one"));
+  o.parameters = {3, 2};
+  EXPECT_FALSE(o.IsValid(model, &error));
+  EXPECT_THAT(error, HasSubstr("ascending"));
+  o.parameters = {1, 42};
+  EXPECT_FALSE(o.IsValid(model, &error));
+  EXPECT_THAT(error, HasSubstr("parameters[1]"));
+  EXPECT_THROW(ObservabilityEvaluator(model, o), std::invalid_argument);
+}
+
+// Predicted accuracy is noise propagation: it scales linearly with the tracker noise, and measuring every
+// configuration twice divides it by sqrt(2), exactly.
+TEST(PredictedAccuracyTest, ScalesWithNoiseAndRepetition) {
+  const RobotModel model = Preset("ur5e");
+  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(4);
+  const auto plan = RandomConfigurations(model, 12, &rng);
+  const auto validation = RandomConfigurations(model, 36, &rng);
+  const PredictedAccuracy base = PredictAccuracy(model, o, plan, validation);
+  ASSERT_EQ(base.num_validation, 36);
+  EXPECT_GT(base.rms_position_mm, 0.0);
+  EXPECT_TRUE(base.has_orientation);
+  EXPECT_GE(base.max_position_mm, base.rms_position_mm * 0.999);
+
+  ObservabilityOptions noisier = o;
+  noisier.noise.position_mm *= 2;
+  noisier.noise.orientation_rad *= 2;
+  EXPECT_NEAR(PredictAccuracy(model, noisier, plan, validation).rms_position_mm, 2 * base.rms_position_mm,
+              1e-9 * base.rms_position_mm);
+
+  auto twice = plan;
+  twice.insert(twice.end(), plan.begin(), plan.end());
+  const PredictedAccuracy doubled = PredictAccuracy(model, o, twice, validation);
+  EXPECT_NEAR(doubled.rms_position_mm, base.rms_position_mm / std::sqrt(2.0), 1e-9 * base.rms_position_mm);
+  EXPECT_NEAR(doubled.rms_orientation_rad, base.rms_orientation_rad / std::sqrt(2.0),
+              1e-9 * base.rms_orientation_rad);
+}
+
+TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(4);
+  const auto plan = RandomConfigurations(model, 2, &rng);  // 12 rows for 30 parameters
+  EXPECT_EQ(PredictAccuracy(model, o, plan, RandomConfigurations(model, 5, &rng)).num_validation, 0);
+}
+
+}  // namespace
+}  // namespace robocal

@@ -1,0 +1,206 @@
+// Measurement configuration optimisers: the paper's Solis & Wets preset against random starting sets, longer
+// budgets, the exchange optimiser against random selection, limits, reproducibility, options, cancelling.
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "robocal/core/identifiability.h"
+#include "robocal/core/planning.h"
+#include "robocal/core/presets.h"
+
+namespace robocal {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr int kSeeds = 20;
+constexpr int kM = 10;
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return 0.5 * (v[v.size() / 2] + v[(v.size() - 1) / 2]);
+}
+
+ObservabilityOptions OptionsFor(const RobotModel& model, MeasurementType type) {
+  ObservabilityOptions o;
+  o.measurement_type = type;
+  o.parameters = FindIdentifiableParameters(model, type).identifiable;
+  return o;
+}
+
+void ExpectWithinLimits(const RobotModel& model, const Plan& plan, int m) {
+  ASSERT_EQ(static_cast<int>(plan.configurations.size()), m);
+  for (const Eigen::VectorXd& q : plan.configurations) EXPECT_TRUE(model.WithinLimits(q)) << q.transpose();
+}
+
+using Case = std::tuple<std::string, MeasurementType>;
+
+class PlannerTest : public ::testing::TestWithParam<Case> {};
+
+// Medians over 20 seeds. The paper's preset (k_max = 100) must at least halve the condition number of the
+// random starting sets where the random sets leave that much room; 6-axis arms measured in full pose start at
+// cond ~10 and the paper's 100 iterations reach 1.7-1.9x there (docs/planning.md), so the bar for them is
+// 1.5x. A ten times longer budget must improve further in every case.
+TEST_P(PlannerTest, PaperPresetImprovesOnRandomStartsAndLongerBudgetsImproveFurther) {
+  const auto& [preset, type] = GetParam();
+  const RobotModel model = Preset(preset);
+  const ObservabilityOptions o = OptionsFor(model, type);
+  std::vector<double> start, paper, longer;
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    SolisWetsOptions options = SolisWetsOptions::Paper();
+    options.seed = seed;
+    const Plan plan = PlanSolisWets(model, kM, o, options);
+    ExpectWithinLimits(model, plan, kM);
+    EXPECT_EQ(plan.summary.termination, Termination::kConvergence) << plan.summary.message;
+    EXPECT_EQ(plan.summary.iterations, 100);
+    EXPECT_EQ(static_cast<int>(plan.summary.objective_trace.size()), 100);
+    EXPECT_TRUE(std::is_sorted(plan.summary.objective_trace.rbegin(), plan.summary.objective_trace.rend()));
+    EXPECT_LE(plan.summary.final.condition_number, plan.summary.initial.condition_number);
+    start.push_back(plan.summary.initial.condition_number);
+    paper.push_back(plan.summary.final.condition_number);
+    options.k_max = 1000;
+    const Plan long_plan = PlanSolisWets(model, kM, o, options);
+    ExpectWithinLimits(model, long_plan, kM);
+    longer.push_back(long_plan.summary.final.condition_number);
+  }
+  const bool six_axis_pose = preset != "grinder5" && type == MeasurementType::kPose;
+  const double required = six_axis_pose ? 1.5 : 2.0;
+  EXPECT_GT(Median(start) / Median(paper), required)
+      << "median cond: random start " << Median(start) << ", paper preset " << Median(paper);
+  EXPECT_LT(Median(longer), Median(paper)) << "k_max 1000 " << Median(longer) << " vs 100 " << Median(paper);
+}
+
+TEST_P(PlannerTest, ExchangeBeatsRandomSelectionOnO1) {
+  const auto& [preset, type] = GetParam();
+  const RobotModel model = Preset(preset);
+  const ObservabilityOptions o = OptionsFor(model, type);
+  std::vector<double> random_o1, exchange_o1;
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    RandomSelectionOptions r;
+    r.seed = seed;
+    r.objective = ObservabilityIndex::kO1;
+    const Plan random = PlanRandom(model, kM, o, r);
+    ExpectWithinLimits(model, random, kM);
+    random_o1.push_back(random.summary.final.o1);
+    ExchangeOptions e;
+    e.seed = seed;
+    e.objective = ObservabilityIndex::kO1;
+    e.num_candidates = 500;
+    const Plan exchange = PlanExchange(model, kM, o, e);
+    ExpectWithinLimits(model, exchange, kM);
+    EXPECT_EQ(exchange.summary.termination, Termination::kConvergence) << exchange.summary.message;
+    EXPECT_GE(exchange.summary.final.o1, exchange.summary.initial.o1);
+    exchange_o1.push_back(exchange.summary.final.o1);
+  }
+  EXPECT_GT(Median(exchange_o1), Median(random_o1));
+}
+
+INSTANTIATE_TEST_SUITE_P(PresetsAndTypes, PlannerTest,
+                         ::testing::Combine(::testing::Values("grinder5", "puma560", "ur5e"),
+                                            ::testing::Values(MeasurementType::kPosition, MeasurementType::kPose)),
+                         [](const ::testing::TestParamInfo<Case>& info) {
+                           return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param));
+                         });
+
+TEST(PlanningTest, SameSeedSameResultOtherSeedOtherResult) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  SolisWetsOptions options = SolisWetsOptions::Paper();
+  options.seed = 5;
+  const Plan a = PlanSolisWets(model, kM, o, options);
+  const Plan b = PlanSolisWets(model, kM, o, options);
+  ASSERT_EQ(a.configurations.size(), b.configurations.size());
+  for (size_t i = 0; i < a.configurations.size(); ++i) EXPECT_EQ(a.configurations[i], b.configurations[i]);
+  EXPECT_EQ(a.summary.objective_trace, b.summary.objective_trace);
+  options.seed = 6;
+  EXPECT_NE(PlanSolisWets(model, kM, o, options).configurations[0], a.configurations[0]);
+
+  ExchangeOptions e;
+  e.num_candidates = 300;
+  EXPECT_EQ(PlanExchange(model, kM, o, e).configurations, PlanExchange(model, kM, o, e).configurations);
+}
+
+TEST(PlanningTest, ClampKeepsLimitsAndRestartsAndBudgetsAreHonoured) {
+  const RobotModel model = Preset("puma560");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPosition);
+  SolisWetsOptions options = SolisWetsOptions::Paper();
+  options.limits = LimitHandling::kClamp;
+  options.restarts = 2;
+  Plan plan = PlanSolisWets(model, kM, o, options);
+  ExpectWithinLimits(model, plan, kM);
+  EXPECT_EQ(plan.summary.iterations, 300);
+  options.max_evaluations = 50;
+  plan = PlanSolisWets(model, kM, o, options);
+  EXPECT_EQ(plan.summary.termination, Termination::kNoConvergence);
+  EXPECT_LE(plan.summary.evaluations, 50);
+  ExpectWithinLimits(model, plan, kM);
+}
+
+TEST(PlanningTest, StartsFromAGivenSetAndValidatesIt) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(3);
+  const auto initial = RandomConfigurations(model, kM, &rng);
+  const Plan plan = PlanSolisWets(model, kM, o, SolisWetsOptions::Paper(), initial);
+  EXPECT_DOUBLE_EQ(plan.summary.initial.condition_number,
+                   ComputeIndicesBySvd(model, initial, o).condition_number);
+  auto outside = initial;
+  outside[3][0] = model.upper_limits()[0] + 1.0;
+  EXPECT_THROW(PlanSolisWets(model, kM, o, SolisWetsOptions::Paper(), outside), std::invalid_argument);
+  EXPECT_THROW(PlanSolisWets(model, kM + 1, o, SolisWetsOptions::Paper(), initial), std::invalid_argument);
+}
+
+TEST(PlanningTest, InvalidOptionsAreRejectedByName) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  SolisWetsOptions s = SolisWetsOptions::Paper();
+  s.sigma_lb = 5;  // above sigma_ub
+  std::string error;
+  EXPECT_FALSE(s.IsValid(&error));
+  EXPECT_THAT(error, HasSubstr("sigma"));
+  try {
+    PlanSolisWets(model, kM, o, s);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("SolisWetsOptions"));
+  }
+  EXPECT_THROW(PlanSolisWets(model, 0, o, SolisWetsOptions::Paper()), std::invalid_argument);
+  ExchangeOptions e;
+  e.num_candidates = 5;
+  EXPECT_THROW(PlanExchange(model, kM, o, e), std::invalid_argument);
+  RandomSelectionOptions r;
+  r.num_sets = 0;
+  EXPECT_THROW(PlanRandom(model, kM, o, r), std::invalid_argument);
+}
+
+TEST(PlanningTest, ProgressCallbackCancels) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  SolisWetsOptions options = SolisWetsOptions::Paper();
+  double last = 0;
+  options.progress = [&](double fraction) {
+    last = fraction;
+    return fraction < 0.25;
+  };
+  const Plan plan = PlanSolisWets(model, kM, o, options);
+  EXPECT_EQ(plan.summary.termination, Termination::kNoConvergence);
+  EXPECT_EQ(plan.summary.message, "cancelled");
+  EXPECT_EQ(plan.summary.iterations, 25);
+  EXPECT_DOUBLE_EQ(last, 0.25);
+  ExpectWithinLimits(model, plan, kM);
+}
+
+TEST(PlanningTest, ReportsNameMethodObjectiveAndScaling) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const Plan plan = PlanSolisWets(model, kM, o, SolisWetsOptions::Paper());
+  EXPECT_THAT(plan.summary.BriefReport(), HasSubstr("solis_wets"));
+  EXPECT_THAT(plan.summary.BriefReport(), HasSubstr("condition_number"));
+  EXPECT_THAT(plan.summary.FullReport(), HasSubstr("column_norm"));
+}
+
+}  // namespace
+}  // namespace robocal
