@@ -21,6 +21,7 @@ test: build
 
 bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench
+	$(BUILD_DIR)/tests/bench/robocal_planning_bench
 
 format:
 	find core api server client tests -name '*.h' -o -name '*.cc' | xargs -r clang-format -i

@@ -4,6 +4,7 @@
 #include "robocal/core/error_model.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 
 int main() {
@@ -28,5 +29,15 @@ int main() {
   for (const DroppedParameter& d : s.dropped) {
     if (d.name == "Z.dz") std::cout << d.name << ": " << d.reason << "\n";
   }
-  return s.identifiable.size() == 20 ? 0 : 1;
+
+  // Plan 10 measurement configurations with the paper's Solis & Wets preset.
+  ObservabilityOptions observability;
+  observability.measurement_type = MeasurementType::kPose;
+  observability.parameters = s.identifiable;
+  SolisWetsOptions options = SolisWetsOptions::Paper();  // k_max 100, Scent 5, Fcent 3, sigma 1 in [0.1, 3]
+  options.seed = 7;
+  const Plan plan = PlanSolisWets(robot, 10, observability, options);
+  std::cout << plan.summary.BriefReport() << "\n";
+  const bool improved = plan.summary.final.condition_number < plan.summary.initial.condition_number;
+  return s.identifiable.size() == 20 && improved ? 0 : 1;
 }
