@@ -77,6 +77,24 @@ Eigen::VectorXd Project(Eigen::VectorXd z, LimitHandling handling) {
   return z;
 }
 
+// The common start of every planner: a summary naming method and objective.
+Plan StartPlan(const char* method, ObservabilityIndex objective) {
+  Plan plan;
+  plan.summary.method = method;
+  plan.summary.objective = objective;
+  return plan;
+}
+
+// The common end: elapsed time, and DEGRADED when the result is still rank deficient.
+void FinishPlan(Clock::time_point start_time, Plan* plan) {
+  PlanSummary& s = plan->summary;
+  s.seconds = Seconds(start_time);
+  if (!std::isfinite(s.final.condition_number)) {
+    s.termination = Termination::kDegraded;
+    s.message += "; the set is rank deficient";
+  }
+}
+
 std::string IndicesLine(const ObservabilityIndices& x) {
   std::ostringstream out;
   out << std::setprecision(5) << "cond " << x.condition_number << ", O1 " << x.o1 << ", O2 " << x.o2 << ", O3 "
@@ -157,10 +175,8 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     }
   }
   const auto start_time = Clock::now();
-  Plan plan;
+  Plan plan = StartPlan("solis_wets", options.objective);
   PlanSummary& s = plan.summary;
-  s.method = "solis_wets";
-  s.objective = options.objective;
   ObservabilityEvaluator evaluator(model, observability);
   const Normaliser normaliser{model};
   Rng rng(options.seed);
@@ -248,7 +264,6 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
   plan.configurations = normaliser.FromZ(best_z);
   evaluator.SetConfigurations(plan.configurations);
   s.final = evaluator.indices();
-  s.seconds = Seconds(start_time);
   if (stopped) {
     s.termination = Termination::kNoConvergence;
     if (s.message != "cancelled") s.message = "evaluation budget reached";
@@ -257,10 +272,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     s.termination = Termination::kConvergence;
     s.message = "completed " + std::to_string(s.iterations) + " iterations";
   }
-  if (!std::isfinite(s.final.condition_number)) {
-    s.termination = Termination::kDegraded;
-    s.message += "; the best set is still rank deficient";
-  }
+  FinishPlan(start_time, &plan);
   return plan;
 }
 
@@ -270,10 +282,8 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   const bool valid = options.IsValid(&error);
   CheckCommon(model, num_configurations, observability, valid, "RandomSelectionOptions: " + error);
   const auto start_time = Clock::now();
-  Plan plan;
+  Plan plan = StartPlan("random", options.objective);
   PlanSummary& s = plan.summary;
-  s.method = "random";
-  s.objective = options.objective;
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
   double best_f = std::numeric_limits<double>::infinity();
@@ -296,13 +306,9 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
       break;
     }
   }
-  s.seconds = Seconds(start_time);
   s.termination = cancelled ? Termination::kNoConvergence : Termination::kConvergence;
   s.message = cancelled ? "cancelled" : "best of " + std::to_string(s.evaluations) + " random sets";
-  if (!std::isfinite(s.final.condition_number)) {
-    s.termination = Termination::kDegraded;
-    s.message += "; the set is rank deficient";
-  }
+  FinishPlan(start_time, &plan);
   return plan;
 }
 
@@ -317,10 +323,8 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
                                 std::to_string(num_configurations) + ")");
   }
   const auto start_time = Clock::now();
-  Plan plan;
+  Plan plan = StartPlan("exchange", options.objective);
   PlanSummary& s = plan.summary;
-  s.method = "exchange";
-  s.objective = options.objective;
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
   const auto pool = RandomConfigurations(model, options.num_candidates, &rng);
@@ -415,7 +419,6 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   for (int j : members) plan.configurations.push_back(pool[j]);
   evaluator.SetConfigurations(plan.configurations);
   s.final = evaluator.indices();
-  s.seconds = Seconds(start_time);
   if (cancelled) {
     s.termination = Termination::kNoConvergence;
     s.message = "cancelled";
@@ -426,10 +429,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
     s.termination = Termination::kNoConvergence;
     s.message = "max_iterations reached";
   }
-  if (!std::isfinite(s.final.condition_number)) {
-    s.termination = Termination::kDegraded;
-    s.message += "; the set is rank deficient";
-  }
+  FinishPlan(start_time, &plan);
   return plan;
 }
 
