@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 
-.PHONY: all deps configure build test bench format clean
+.PHONY: all deps configure build test run bench format clean
 
 all: build
 
@@ -18,6 +18,10 @@ build: configure
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+run:
+	@echo 'make run: the calibration server is not built yet; it arrives with the HTTP service (see README).' >&2
+	@exit 2
 
 bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench
