@@ -187,23 +187,17 @@ double ObjectiveValue(const ObservabilityIndices& indices, ObservabilityIndex in
 
 ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
                                          const ObservabilityOptions& options) {
-  std::string error;
-  if (!options.IsValid(model, &error)) throw std::invalid_argument("ObservabilityOptions: " + error);
   if (configurations.empty()) throw std::invalid_argument("ComputeIndicesBySvd: no configurations");
+  // The evaluator validates the options and builds each configuration's weighted, reduced block; only the
+  // way the indices are taken from the blocks (SVD of the stack, not the normal matrix) differs.
+  ObservabilityEvaluator evaluator(model, options);
   const int rows = MeasurementRows(options.measurement_type);
-  const int l = static_cast<int>(options.parameters.size());
-  const Eigen::VectorXd w = options.noise.RowWeights(options.measurement_type);
-  KinematicsWorkspace ws(model);
-  Eigen::MatrixXd full(rows, model.num_error_parameters());
-  Eigen::MatrixXd stacked(rows * configurations.size(), l);
-  for (size_t m = 0; m < configurations.size(); ++m) {
-    IdentificationJacobian(model, configurations[m], Eigen::VectorXd(), options.measurement_type, &ws, full);
-    for (int k = 0; k < l; ++k) stacked.block(m * rows, k, rows, 1) = w.cwiseProduct(full.col(options.parameters[k]));
-  }
+  Eigen::MatrixXd stacked(rows * configurations.size(), options.parameters.size());
+  for (size_t m = 0; m < configurations.size(); ++m) stacked.middleRows(m * rows, rows) = evaluator.Block(configurations[m]);
   const Eigen::VectorXd d = ColumnScale(options, stacked.colwise().norm());
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked * d.asDiagonal());
   return IndicesFromSingularValues(svd.singularValues(), static_cast<int>(configurations.size()),
-                            options.ScalingDescription());
+                                   options.ScalingDescription());
 }
 
 ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, ObservabilityOptions options)
