@@ -1,0 +1,70 @@
+// Compensation: joint commands on the calibrated model that bring the real robot to its targets, by damped
+// least squares inverse kinematics within the joint limits.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/identification.h"
+#include "robocal/core/robot_model.h"
+#include "robocal/core/termination.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+/// The frame a pose target is given in.
+enum class TargetFrame {
+  /// The tracker (world) frame of the calibration.
+  kTracker,
+  /// The robot base frame: the calibrated T_world_base (registered frame with identified base errors).
+  kBase,
+};
+
+const char* ToString(TargetFrame frame);
+bool ParseTargetFrame(const std::string& text, TargetFrame* frame);
+
+struct CompensationOptions {
+  /// Damped least squares: dq = J' (J J' + lambda^2 I)^-1 e with lambda adapted between these bounds.
+  double initial_damping = 1e-3;
+  int max_iterations = 100;
+  /// Converged when the position error < position_tolerance_mm and the matched orientation error <
+  /// orientation_tolerance_rad.
+  double position_tolerance_mm = 1e-7;
+  double orientation_tolerance_rad = 1e-9;
+  /// How 1 rad of orientation error weighs against 1 mm of position error in the solver (mm / rad).
+  double orientation_weight_mm_per_rad = 100.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// Result for one target.
+struct CompensationResult {
+  /// Joints for the robot (within limits; rad / mm per joint).
+  Eigen::VectorXd joints;
+  /// Remaining error of the calibrated model at `joints` against the target.
+  double position_error_mm = 0.0;
+  /// Angle between the reached and target orientations over the matched rotations (rad): the full rotation
+  /// for 6+ joints, the tool axis for robots with fewer joints.
+  double orientation_error_rad = 0.0;
+  /// For robots with fewer than 6 joints: the rotation about the tool axis that was left free (rad).
+  double free_rotation_rad = 0.0;
+  bool converged = false;
+  int iterations = 0;
+  /// Empty when converged; otherwise why not (e.g. "joint 3 at its upper limit").
+  std::string message;
+};
+
+/// Joints on the calibrated robot that reach the tool pose `target` (given in `frame`), starting from
+/// `q_start` (nominal joints; size num_joints). A robot with fewer than 6 joints cannot match an arbitrary
+/// 6-D pose: it matches the position and the tool (z) axis, and the rotation about the tool axis is free.
+CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
+                                  const Eigen::VectorXd& q_start, const CompensationOptions& options = {});
+
+/// "Go where the nominal model says": the target is the nominal model's tool pose at `q_nominal`, in the base
+/// frame, and the answer is the joints that take the calibrated robot there.
+CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
+                                    const Eigen::VectorXd& q_nominal, const CompensationOptions& options = {});
+
+}  // namespace robocal

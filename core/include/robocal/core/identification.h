@@ -1,0 +1,125 @@
+// Identification: the robot's geometric error parameters from tracker measurements, by weighted nonlinear
+// least squares (Levenberg-Marquardt), after registering the unknown tracker -> base frame.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/error_model.h"
+#include "robocal/core/identifiability.h"
+#include "robocal/core/measurement.h"
+#include "robocal/core/robot_model.h"
+#include "robocal/core/termination.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+/// The rigid transform T (rotation + translation, no scale) minimising sum |T * from_i - to_i|^2
+/// (Kabsch / Umeyama). Needs at least 3 points not on one line; throws std::invalid_argument otherwise or on
+/// size mismatch.
+Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to);
+
+struct IdentificationOptions {
+  MeasurementType measurement_type = MeasurementType::kPose;
+  /// 1-sigma tracker noise; residual rows are divided by it (position mm, orientation rad).
+  MeasurementNoise noise;
+  /// Error parameters to estimate (indices into the model's parameters, ascending). Empty: the identifiable
+  /// set from FindIdentifiableParameters(model, measurement_type) with `identifiability` options.
+  std::vector<int> parameters;
+  IdentifiabilityOptions identifiability;
+  /// Estimate the tracker -> base transform by point-set registration of the measured positions onto the
+  /// nominal model's before the fit. False: start from the model's own T_world_base.
+  bool register_base = true;
+  /// Stop when an iteration changes the cost by less than `function_tolerance` relative.
+  double function_tolerance = 1e-12;
+  /// Stop when max |J' r| (weighted) < gradient_tolerance.
+  double gradient_tolerance = 1e-10;
+  /// Stop when the step is smaller than parameter_tolerance * (|x| + parameter_tolerance).
+  double parameter_tolerance = 1e-12;
+  int max_iterations = 100;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// One estimated parameter: value and 1-sigma standard deviation, in mm (translations) or rad (rotations).
+struct IdentifiedParameter {
+  int index = -1;
+  std::string name;
+  double value = 0.0;
+  double std = 0.0;
+};
+
+/// Residuals of a model against the measurements (measured - model).
+struct ResidualStatistics {
+  int num_measurements = 0;
+  double rms_position_mm = 0.0;
+  double max_position_mm = 0.0;
+  /// Orientation (pose) or tool-axis (position_axis) angle error; zero for position measurements.
+  double rms_orientation_rad = 0.0;
+  double max_orientation_rad = 0.0;
+  /// sqrt(sum of squared noise-weighted residuals / number of rows).
+  double rms_weighted = 0.0;
+};
+
+struct IdentificationSummary {
+  Termination termination = Termination::kFailure;
+  std::string message = "not run";
+  MeasurementType measurement_type = MeasurementType::kPose;
+  int num_measurements = 0;
+  /// Distinct joint configurations among the measurements (repeated shots count once).
+  int num_poses = 0;
+  int num_residuals = 0;
+  int num_parameters = 0;
+  int iterations = 0;
+  double initial_cost = 0.0;  // 0.5 * sum of squared weighted residuals, after base registration
+  double final_cost = 0.0;
+  /// Unit-weight standard deviation estimated from the residuals: sqrt(2 final_cost / (rows - parameters)).
+  double sigma_hat = 0.0;
+  /// Residuals of the nominal model (with the registered base) and of the calibrated model.
+  ResidualStatistics before;
+  ResidualStatistics after;
+  /// Condition number of the weighted, column-norm-scaled Jacobian at the solution, and its scaling.
+  double condition_number = 0.0;
+  std::string scaling;
+  /// Parameters not estimated (unidentifiable) and why.
+  std::vector<DroppedParameter> dropped;
+  double seconds = 0.0;
+
+  std::string BriefReport() const;
+  std::string FullReport() const;
+};
+
+/// A calibrated robot: the nominal geometry with the registered tracker -> base frame, plus the identified
+/// error parameters. Forward kinematics of the calibrated robot is ForwardKinematics(model, q, errors, &ws).
+struct Calibration {
+  /// The nominal model with T_world_base replaced by the registered tracker -> base transform.
+  RobotModel model;
+  /// All error parameters (num_error_parameters; mm, rad); zero where not estimated.
+  Eigen::VectorXd errors;
+  /// The estimated parameters with standard deviations (sigma_hat^2 (J'J)^-1, weighted J).
+  std::vector<IdentifiedParameter> parameters;
+  /// Covariance of the estimated parameters, in the order of `parameters`.
+  Eigen::MatrixXd covariance;
+  /// Effective tracker -> base and flange -> tool transforms including the identified base and tool errors.
+  Transform T_world_base = Transform::Identity();
+  Transform T_flange_tool = Transform::Identity();
+  IdentificationSummary summary;
+};
+
+/// Identifies `nominal`'s error parameters from `measurements` (tracker frame).
+///
+/// Programmer errors (wrong joint vector sizes, invalid options) throw std::invalid_argument. Problems of the
+/// data give summary.termination = FAILURE and a message saying what is wrong, never NaN: non-finite values
+/// (naming the measurement), too few poses for the parameters, degenerate (rank-deficient) configurations.
+/// On FAILURE `errors` is zero and `model` the nominal one.
+Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                     const IdentificationOptions& options = {});
+
+/// Residual statistics of (model, errors) against measurements of `type`.
+ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
+                                             const std::vector<Measurement>& measurements, MeasurementType type,
+                                             const MeasurementNoise& noise);
+
+}  // namespace robocal

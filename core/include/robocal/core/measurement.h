@@ -1,0 +1,23 @@
+// A tracker measurement of the tool at one commanded joint configuration, as the core consumes it.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+/// One tracker shot: the joints the robot was commanded to and the tool pose the tracker saw.
+///
+/// Which parts of `T_world_tool` count depends on the MeasurementType of the campaign: kPosition uses the
+/// translation only (mm, tracker frame); kPositionAxis the translation and the z column (the tool axis);
+/// kPose all of it. The world frame is the tracker's. Repeated shots of one pose are separate Measurements
+/// with equal `joints`.
+struct Measurement {
+  /// Commanded joint values (rad for revolute, mm for prismatic joints), size num_joints.
+  Eigen::VectorXd joints;
+  /// Measured tool pose in the tracker frame.
+  Transform T_world_tool = Transform::Identity();
+};
+
+}  // namespace robocal

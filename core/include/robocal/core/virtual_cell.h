@@ -1,0 +1,76 @@
+// The virtual cell: a simulated "true" robot with hidden geometric errors and a laser tracker measuring it.
+// Used by the tests, the experiment command and the mock-tracker client.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/error_model.h"
+#include "robocal/core/measurement.h"
+#include "robocal/core/random.h"
+#include "robocal/core/robot_model.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal {
+
+/// Magnitudes of the hidden errors and of the tracker's noise. Every draw comes from `seed`.
+/// Defaults are those of an industrial robot measured by a laser tracker.
+struct VirtualCellOptions {
+  std::uint64_t seed = 1;
+  /// 1-sigma of the joint sites' geometric errors (dx, dy, dz; rx, ry, rz): tenths of a mm, hundredths of a
+  /// degree.
+  double joint_translation_sigma_mm = 0.2;
+  double joint_rotation_sigma_rad = 3.5e-4;  // 0.02 deg
+  /// 1-sigma of the tool (reflector / TCP) offset errors.
+  double tool_translation_sigma_mm = 0.5;
+  double tool_rotation_sigma_rad = 1e-3;
+  /// Tracker placement: its origin this far from the robot base (mm), at a random bearing, with a random yaw
+  /// (full circle) and tilt (1-sigma `tracker_tilt_sigma_rad`). The fit does not know this transform.
+  double tracker_distance_mm = 3000.0;
+  double tracker_tilt_sigma_rad = 0.05;
+  /// Tracker noise per shot (1-sigma): position per axis (mm), orientation per axis of the rotation vector
+  /// (rad). Zero gives exact measurements.
+  MeasurementNoise noise{0.015, 1e-4};
+  /// Shots per pose (the paper measures each pose 10 times).
+  int shots_per_pose = 10;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// A simulated cell: the true robot is `nominal` with the tracker as its world frame (T_world_base = the
+/// hidden tracker placement) and hidden error parameters on every site.
+class VirtualCell {
+ public:
+  /// Draws the hidden errors and tracker placement from options.seed. Throws std::invalid_argument if the
+  /// options are invalid.
+  VirtualCell(const RobotModel& nominal, const VirtualCellOptions& options = {});
+
+  const RobotModel& nominal() const { return nominal_; }
+  /// The true robot's model (nominal geometry, T_world_base = true tracker -> base) and its error parameters
+  /// (num_error_parameters: mm, rad). Hidden from identification; exposed for tests and reports.
+  const RobotModel& true_model() const { return true_model_; }
+  const Eigen::VectorXd& true_errors() const { return true_errors_; }
+  const VirtualCellOptions& options() const { return options_; }
+
+  /// Noise-free tool pose of the true robot at joints q, tracker frame.
+  Transform TruePose(const Eigen::VectorXd& q) const;
+
+  /// `shots` noisy tracker shots of the tool at joints q (shots <= 0 means options.shots_per_pose).
+  /// Noise is drawn from the cell's own generator, so a sequence of calls is reproducible from the seed.
+  std::vector<Measurement> Measure(const Eigen::VectorXd& q, int shots = 0);
+
+  /// Measure() for every configuration, concatenated in order.
+  std::vector<Measurement> MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots = 0);
+
+ private:
+  RobotModel nominal_;
+  RobotModel true_model_;
+  Eigen::VectorXd true_errors_;
+  VirtualCellOptions options_;
+  Rng rng_;
+};
+
+}  // namespace robocal
