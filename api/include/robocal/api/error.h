@@ -1,0 +1,68 @@
+// The API's error model: a canonical status, a message and per-field violations. HTTP codes are chosen by the
+// server (one mapping there); this part knows only the statuses and the JSON shape of an error body.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace robocal::api {
+
+/// Canonical error statuses (the names of Google's API design guide).
+enum class Status {
+  kInvalidArgument,
+  kFailedPrecondition,
+  kNotFound,
+  kAlreadyExists,
+  kUnauthenticated,
+  kPermissionDenied,
+  kResourceExhausted,
+  kInternal,
+  kUnavailable,
+};
+
+/// "INVALID_ARGUMENT", "NOT_FOUND", ...
+const char* ToString(Status status);
+/// Inverse of ToString; false if unknown.
+bool ParseStatus(const std::string& text, Status* status);
+
+/// One problem with one field of a request, e.g. {"measurements[3].joints", "expected 6 values, got 5"}.
+struct FieldViolation {
+  std::string field;
+  std::string reason;
+};
+
+/// An error the server turns into an error body. Thrown by validation and by the services.
+class ApiError : public std::runtime_error {
+ public:
+  ApiError(Status status, const std::string& message, std::vector<FieldViolation> details = {});
+  Status status() const { return status_; }
+  const std::vector<FieldViolation>& details() const { return details_; }
+
+ private:
+  Status status_;
+  std::vector<FieldViolation> details_;
+};
+
+/// {"error":{"code":http_code,"status":"...","message":"...","details":[{"field":"...","reason":"..."}]}}
+nlohmann::json ErrorBody(Status status, int http_code, const std::string& message,
+                         const std::vector<FieldViolation>& details = {});
+
+/// Collects every violation found in a request before failing, so that a client sees all of them at once.
+class Problems {
+ public:
+  void Add(const std::string& field, const std::string& reason) { list_.push_back({field, reason}); }
+  bool empty() const { return list_.empty(); }
+  std::size_t size() const { return list_.size(); }
+  const std::vector<FieldViolation>& list() const { return list_; }
+  /// Throws ApiError(kInvalidArgument) listing every violation if there is any. `what` names the request,
+  /// e.g. "invalid measurement batch".
+  void ThrowIfAny(const std::string& what) const;
+
+ private:
+  std::vector<FieldViolation> list_;
+};
+
+}  // namespace robocal::api

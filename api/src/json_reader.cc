@@ -1,0 +1,245 @@
+// Reading request JSON with field paths.
+#include "robocal/api/json_reader.h"
+
+#include <cmath>
+
+namespace robocal::api {
+namespace {
+
+const char* TypeName(const nlohmann::json& v) { return v.type_name(); }
+
+std::string SizeReason(std::size_t min_size, std::size_t max_size, std::size_t got) {
+  if (min_size == max_size) {
+    return "expected " + std::to_string(min_size) + " values, got " + std::to_string(got);
+  }
+  if (got < min_size) {
+    return got == 0 ? "must not be empty" : "expected at least " + std::to_string(min_size) + " values, got " +
+                                                 std::to_string(got);
+  }
+  return "too many values: " + std::to_string(got) + " (limit " + std::to_string(max_size) + ")";
+}
+
+}  // namespace
+
+std::string JoinPath(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+std::string IndexPath(const std::string& path, std::size_t index) {
+  return path + "[" + std::to_string(index) + "]";
+}
+
+nlohmann::json ParseBody(const std::string& body) {
+  nlohmann::json value;
+  try {
+    value = nlohmann::json::parse(body);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw ApiError(Status::kInvalidArgument, "malformed JSON: " + std::string(e.what()),
+                   {{"body", "malformed JSON at byte " + std::to_string(e.byte)}});
+  } catch (const nlohmann::json::out_of_range& e) {
+    // A number literal beyond double range (1e999) would otherwise become inf.
+    throw ApiError(Status::kInvalidArgument, "number out of range: " + std::string(e.what()),
+                   {{"body", "a number is out of the range of a double (non-finite values are not accepted)"}});
+  }
+  if (!value.is_object()) {
+    throw ApiError(Status::kInvalidArgument, "the request body must be a JSON object",
+                   {{"body", std::string("expected an object, got ") + TypeName(value)}});
+  }
+  return value;
+}
+
+bool ReadFiniteNumber(const nlohmann::json& value, const std::string& path, Problems* problems, double* out) {
+  if (!value.is_number()) {
+    problems->Add(path, std::string("expected a number, got ") + TypeName(value));
+    return false;
+  }
+  const double v = value.get<double>();
+  // JSON has no NaN or Inf, but a literal such as 1e999 overflows to inf when parsed.
+  if (!std::isfinite(v)) {
+    problems->Add(path, "must be a finite number (out of double range)");
+    return false;
+  }
+  *out = v;
+  return true;
+}
+
+bool ReadNumberArray(const nlohmann::json& value, const std::string& path, Problems* problems,
+                     std::vector<double>* out, std::size_t min_size, std::size_t max_size) {
+  if (!value.is_array()) {
+    problems->Add(path, std::string("expected an array of numbers, got ") + TypeName(value));
+    return false;
+  }
+  if (value.size() < min_size || value.size() > max_size) {
+    problems->Add(path, SizeReason(min_size, max_size, value.size()));
+    return false;
+  }
+  std::vector<double> result(value.size());
+  bool ok = true;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    ok = ReadFiniteNumber(value[i], IndexPath(path, i), problems, &result[i]) && ok;
+  }
+  if (ok) *out = std::move(result);
+  return ok;
+}
+
+ObjectReader::ObjectReader(const nlohmann::json& value, std::string path, Problems* problems)
+    : path_(std::move(path)), problems_(problems) {
+  if (value.is_object()) {
+    object_ = &value;
+  } else {
+    problems_->Add(path_.empty() ? "body" : path_, std::string("expected an object, got ") + TypeName(value));
+  }
+}
+
+bool ObjectReader::Has(const std::string& key) const { return Get(key) != nullptr; }
+
+const nlohmann::json* ObjectReader::Get(const std::string& key) const {
+  if (object_ == nullptr) return nullptr;
+  auto it = object_->find(key);
+  if (it == object_->end() || it->is_null()) return nullptr;
+  return &*it;
+}
+
+const nlohmann::json* ObjectReader::Member(const std::string& key, bool required) {
+  if (object_ == nullptr) return nullptr;
+  const nlohmann::json* v = Get(key);
+  if (v == nullptr && required) problems_->Add(JoinPath(path_, key), "required");
+  return v;
+}
+
+bool ObjectReader::String(const std::string& key, bool required, std::string* out, std::size_t max_length) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return false;
+  if (!v->is_string()) {
+    problems_->Add(JoinPath(path_, key), std::string("expected a string, got ") + TypeName(*v));
+    return false;
+  }
+  const auto& s = v->get_ref<const std::string&>();
+  if (s.size() > max_length) {
+    problems_->Add(JoinPath(path_, key), "too long: " + std::to_string(s.size()) + " characters (limit " +
+                                             std::to_string(max_length) + ")");
+    return false;
+  }
+  *out = s;
+  return true;
+}
+
+bool ObjectReader::Bool(const std::string& key, bool required, bool* out) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return false;
+  if (!v->is_boolean()) {
+    problems_->Add(JoinPath(path_, key), std::string("expected a boolean, got ") + TypeName(*v));
+    return false;
+  }
+  *out = v->get<bool>();
+  return true;
+}
+
+bool ObjectReader::Number(const std::string& key, bool required, double* out, double min, double max) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return false;
+  double x = 0.0;
+  if (!ReadFiniteNumber(*v, JoinPath(path_, key), problems_, &x)) return false;
+  if (x < min || x > max) {
+    problems_->Add(JoinPath(path_, key), "must be in [" + nlohmann::json(min).dump() + ", " +
+                                             nlohmann::json(max).dump() + "], got " + nlohmann::json(x).dump());
+    return false;
+  }
+  *out = x;
+  return true;
+}
+
+bool ObjectReader::Int(const std::string& key, bool required, std::int64_t* out, std::int64_t min,
+                       std::int64_t max) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return false;
+  std::int64_t x = 0;
+  if (v->is_number_integer()) {
+    if (v->is_number_unsigned() && v->get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX)) {
+      problems_->Add(JoinPath(path_, key), "integer out of range");
+      return false;
+    }
+    x = v->get<std::int64_t>();
+  } else {
+    problems_->Add(JoinPath(path_, key), std::string("expected an integer, got ") +
+                                             (v->is_number_float() ? "a number with a fraction or exponent"
+                                                                   : TypeName(*v)));
+    return false;
+  }
+  if (x < min || x > max) {
+    problems_->Add(JoinPath(path_, key), "must be in [" + std::to_string(min) + ", " + std::to_string(max) +
+                                             "], got " + std::to_string(x));
+    return false;
+  }
+  *out = x;
+  return true;
+}
+
+bool ObjectReader::Int(const std::string& key, bool required, int* out, int min, int max) {
+  std::int64_t x = 0;
+  if (!Int(key, required, &x, min, max)) return false;
+  *out = static_cast<int>(x);
+  return true;
+}
+
+bool ObjectReader::Enum(const std::string& key, bool required, const std::vector<std::string>& allowed,
+                        std::string* out) {
+  std::string s;
+  if (!String(key, required, &s)) return false;
+  for (const std::string& a : allowed) {
+    if (a == s) {
+      *out = s;
+      return true;
+    }
+  }
+  std::string list;
+  for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  problems_->Add(JoinPath(path_, key), "unknown value \"" + s + "\" (expected one of " + list + ")");
+  return false;
+}
+
+bool ObjectReader::Numbers(const std::string& key, bool required, std::vector<double>* out, std::size_t min_size,
+                           std::size_t max_size) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return false;
+  return ReadNumberArray(*v, JoinPath(path_, key), problems_, out, min_size, max_size);
+}
+
+bool ObjectReader::FixedNumbers(const std::string& key, bool required, double* out, std::size_t size) {
+  std::vector<double> values;
+  if (!Numbers(key, required, &values, size, size)) return false;
+  for (std::size_t i = 0; i < size; ++i) out[i] = values[i];
+  return true;
+}
+
+const nlohmann::json* ObjectReader::Array(const std::string& key, bool required, std::size_t min_size,
+                                          std::size_t max_size) {
+  const nlohmann::json* v = Member(key, required);
+  if (v == nullptr) return nullptr;
+  if (!v->is_array()) {
+    problems_->Add(JoinPath(path_, key), std::string("expected an array, got ") + TypeName(*v));
+    return nullptr;
+  }
+  if (v->size() < min_size || v->size() > max_size) {
+    std::string reason = v->empty() && min_size > 0
+                             ? "must not be empty"
+                             : (v->size() > max_size ? "too many elements: " + std::to_string(v->size()) +
+                                                           " (limit " + std::to_string(max_size) + ")"
+                                                     : "expected at least " + std::to_string(min_size) +
+                                                           " elements, got " + std::to_string(v->size()));
+    problems_->Add(JoinPath(path_, key), reason);
+    return nullptr;
+  }
+  return v;
+}
+
+void ObjectReader::RejectUnknown(std::initializer_list<const char*> known) {
+  if (object_ == nullptr) return;
+  for (auto it = object_->begin(); it != object_->end(); ++it) {
+    bool found = false;
+    for (const char* k : known) found = found || it.key() == k;
+    if (!found) problems_->Add(JoinPath(path_, it.key()), "unknown field");
+  }
+}
+
+}  // namespace robocal::api

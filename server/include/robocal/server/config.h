@@ -1,0 +1,56 @@
+// The server's configuration: flags > environment (ROBOCAL_*) > config file (JSON, snake_case keys) > defaults.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace robocal::server {
+
+struct ServerConfig {
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  std::string db = "./var/robocal.db";
+  /// One bearer token per line, '#' starts a comment; empty: no authentication.
+  std::string tokens_file;
+  /// Allow binding a non-loopback address without tokens.
+  bool allow_insecure_bind = false;
+  std::string tls_cert;
+  std::string tls_key;
+  std::string log_level = "info";   // trace | debug | info | warn | error
+  std::string log_format = "text";  // text | json
+  std::int64_t max_body_bytes = 8388608;
+  std::int64_t max_measurements_per_campaign = 100000;
+  int max_plan_configurations = 1000;
+  int request_timeout_s = 60;
+  int threads = 8;
+  std::string config_file;
+};
+
+/// The outcome of reading the command line: run, or exit with `exit_code` after printing `message`
+/// (to stdout for --help / --version, to stderr for errors, exit code 2).
+struct ConfigResult {
+  bool run = false;
+  int exit_code = 0;
+  std::string message;
+  ServerConfig config;
+};
+
+/// Reads flags (args without argv[0]), the environment (name -> value) and the config file they point at.
+ConfigResult LoadConfig(const std::vector<std::string>& args, const std::map<std::string, std::string>& env);
+
+/// The environment of this process as a map (ROBOCAL_* variables only).
+std::map<std::string, std::string> RobocalEnvironment();
+
+/// --help text.
+std::string UsageText();
+
+/// True for 127.0.0.0/8, ::1 and "localhost".
+bool IsLoopbackHost(const std::string& host);
+
+/// Tokens from a tokens file (one per line, '#' comments, blank lines ignored). Throws std::runtime_error if
+/// the file cannot be read or holds no token.
+std::vector<std::string> ReadTokensFile(const std::string& path);
+
+}  // namespace robocal::server

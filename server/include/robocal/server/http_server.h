@@ -1,0 +1,55 @@
+// The HTTP server: one route table (method, pattern, OpenAPI path), a pre-routing auth check, one exception
+// handler that turns every error into the API's error body, per-request logging and Prometheus metrics.
+// cpp-httplib is included only by http_server.cc.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "robocal/api/error.h"
+#include "robocal/server/config.h"
+#include "robocal/server/service.h"
+
+namespace robocal::server {
+
+/// The one place where API statuses become HTTP codes.
+int HttpStatusOf(api::Status status);
+
+/// A route as registered with the HTTP library and as documented in the OpenAPI spec.
+struct RouteInfo {
+  std::string method;        // "GET", "POST", "DELETE"
+  std::string openapi_path;  // e.g. "/v1/campaigns/{campaign}:fit"
+};
+/// Every route the server registers (the tests check it against api/openapi.json both ways).
+std::vector<RouteInfo> Routes();
+
+/// The embedded OpenAPI document (api/openapi.json).
+const std::string& OpenApiSpec();
+
+/// Constant-time comparison of a presented token with each configured token.
+bool TokenMatches(const std::string& presented, const std::vector<std::string>& tokens);
+
+class HttpServer {
+ public:
+  /// Throws std::runtime_error if TLS files cannot be loaded.
+  HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens);
+  ~HttpServer();
+  HttpServer(const HttpServer&) = delete;
+  HttpServer& operator=(const HttpServer&) = delete;
+
+  /// Binds config.host:config.port (port 0: any free port). Returns the port, or -1 on failure.
+  int Bind();
+  /// Serves until Stop(); returns false if serving failed.
+  bool Listen();
+  void Stop();
+  bool is_running() const;
+  bool tls() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace robocal::server

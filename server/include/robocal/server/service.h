@@ -1,0 +1,98 @@
+// The calibration service: what every endpoint does, between parsed JSON and the storage. Knows nothing of
+// HTTP; errors are api::ApiError (or StorageError), mapped to HTTP statuses by the server in one place.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/types.h"
+#include "robocal/core/robot_model.h"
+#include "storage/storage.h"
+
+namespace robocal::server {
+
+struct ServiceOptions {
+  api::Limits limits;
+  /// Passed to Storage::AppendMeasurements.
+  std::int64_t max_measurements_per_campaign = 100000;
+  /// A synchronous plan stops at this deadline with its best set so far (NO_CONVERGENCE, says so); longer
+  /// searches belong in `async: true`.
+  std::chrono::milliseconds request_deadline{60000};
+  /// Operations (async plans) running at once; more is RESOURCE_EXHAUSTED.
+  int max_running_operations = 2;
+};
+
+class Service {
+ public:
+  Service(Storage* storage, ServiceOptions options);
+  /// Cancels running operations and waits for them (their documents end as CANCELLED).
+  ~Service();
+
+  /// Marks operations left RUNNING by a previous process as FAILED ("aborted: the server stopped").
+  /// Returns how many were marked.
+  int RecoverOperations();
+
+  nlohmann::json ListRobots();
+  nlohmann::json CreateRobot(const nlohmann::json& body);
+  nlohmann::json GetRobot(const std::string& id);
+  void DeleteRobot(const std::string& id);
+  nlohmann::json RobotForward(const std::string& id, const nlohmann::json& body);
+
+  /// A plan, or (async) an operation whose result names the plan.
+  nlohmann::json CreatePlan(const nlohmann::json& body);
+  nlohmann::json GetPlan(const std::string& id);
+
+  nlohmann::json CreateCampaign(const nlohmann::json& body);
+  nlohmann::json ListCampaigns();
+  nlohmann::json GetCampaign(const std::string& id);
+  nlohmann::json AppendMeasurements(const std::string& campaign, const nlohmann::json& body);
+  /// role: "" (all), calibration, validation; after: sequence to start after; limit: page size.
+  nlohmann::json ListMeasurements(const std::string& campaign, const std::string& role, const std::string& after,
+                                  const std::string& limit);
+  nlohmann::json Fit(const std::string& campaign, const nlohmann::json& body);
+  nlohmann::json GetCalibration(const std::string& campaign);
+  nlohmann::json Compensate(const std::string& campaign, const nlohmann::json& body);
+  nlohmann::json CampaignForward(const std::string& campaign, const nlohmann::json& body);
+  nlohmann::json Evaluate(const std::string& campaign, const nlohmann::json& body);
+
+  nlohmann::json GetOperation(const std::string& id);
+  nlohmann::json CancelOperation(const std::string& id);
+
+  int running_operations();
+  /// For /healthz and metrics.
+  Storage* storage() { return storage_; }
+
+ private:
+  struct RunningOperation {
+    std::atomic<double> progress{0.0};
+    std::atomic<bool> cancel{false};
+    std::thread thread;
+  };
+
+  /// The model of a preset or registered robot (NOT_FOUND otherwise) and its definition JSON.
+  RobotModel ResolveRobot(const std::string& id, nlohmann::json* definition);
+  nlohmann::json LoadCampaign(const std::string& id);
+  /// Computes a plan; `progress` may cancel it. Returns the stored plan document.
+  nlohmann::json RunPlan(const api::PlanRequest& request, const std::string& plan_id,
+                         const std::function<bool(double)>& progress, bool* cancelled);
+
+  Storage* storage_;
+  ServiceOptions options_;
+  std::mutex operations_mutex_;
+  std::map<std::string, std::unique_ptr<RunningOperation>> running_;
+};
+
+/// Milliseconds since the Unix epoch.
+std::int64_t NowUnixMs();
+/// A fresh identifier "<prefix>-<16 hex digits>".
+std::string NewId(const std::string& prefix);
+
+}  // namespace robocal::server

@@ -1,0 +1,255 @@
+// Server configuration: flags, environment, config file, defaults.
+#include "robocal/server/config.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+extern char** environ;
+
+namespace robocal::server {
+namespace {
+
+enum class Kind { kString, kInt, kBool };
+
+struct Option {
+  const char* key;  // snake_case: config file key; flag is --key-with-dashes; env ROBOCAL_KEY
+  Kind kind;
+  const char* help;
+  std::function<void(ServerConfig&, const std::string&)> set;
+};
+
+std::int64_t ToInt(const std::string& key, const std::string& text, std::int64_t min, std::int64_t max) {
+  std::size_t used = 0;
+  long long v = 0;
+  try {
+    v = std::stoll(text, &used);
+  } catch (const std::exception&) {
+    throw std::invalid_argument(key + ": expected an integer, got \"" + text + "\"");
+  }
+  if (used != text.size()) throw std::invalid_argument(key + ": expected an integer, got \"" + text + "\"");
+  if (v < min || v > max) {
+    throw std::invalid_argument(key + ": must be in [" + std::to_string(min) + ", " + std::to_string(max) +
+                                "], got " + text);
+  }
+  return v;
+}
+
+bool ToBool(const std::string& key, const std::string& text) {
+  if (text == "true" || text == "1" || text == "yes" || text.empty()) return true;
+  if (text == "false" || text == "0" || text == "no") return false;
+  throw std::invalid_argument(key + ": expected true or false, got \"" + text + "\"");
+}
+
+std::string OneOf(const std::string& key, const std::string& text, const std::vector<std::string>& allowed) {
+  for (const auto& a : allowed) {
+    if (a == text) return text;
+  }
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
+  throw std::invalid_argument(key + ": expected " + list + ", got \"" + text + "\"");
+}
+
+const std::vector<Option>& Options() {
+  static const std::vector<Option> options = {
+      {"host", Kind::kString, "address to bind (default 127.0.0.1)",
+       [](ServerConfig& c, const std::string& v) { c.host = v; }},
+      {"port", Kind::kInt, "port (default 8080; 0 picks a free one)",
+       [](ServerConfig& c, const std::string& v) { c.port = static_cast<int>(ToInt("port", v, 0, 65535)); }},
+      {"db", Kind::kString, "SQLite database path (default ./var/robocal.db)",
+       [](ServerConfig& c, const std::string& v) { c.db = v; }},
+      {"tokens_file", Kind::kString, "bearer tokens, one per line, '#' comments (default: no auth)",
+       [](ServerConfig& c, const std::string& v) { c.tokens_file = v; }},
+      {"allow_insecure_bind", Kind::kBool, "allow a non-loopback host without tokens",
+       [](ServerConfig& c, const std::string& v) { c.allow_insecure_bind = ToBool("allow_insecure_bind", v); }},
+      {"tls_cert", Kind::kString, "TLS certificate (PEM); with --tls-key serves HTTPS",
+       [](ServerConfig& c, const std::string& v) { c.tls_cert = v; }},
+      {"tls_key", Kind::kString, "TLS private key (PEM)",
+       [](ServerConfig& c, const std::string& v) { c.tls_key = v; }},
+      {"log_level", Kind::kString, "trace|debug|info|warn|error (default info)",
+       [](ServerConfig& c, const std::string& v) {
+         c.log_level = OneOf("log_level", v, {"trace", "debug", "info", "warn", "error"});
+       }},
+      {"log_format", Kind::kString, "text|json (default text)",
+       [](ServerConfig& c, const std::string& v) { c.log_format = OneOf("log_format", v, {"text", "json"}); }},
+      {"max_body_bytes", Kind::kInt, "largest request body (default 8388608)",
+       [](ServerConfig& c, const std::string& v) { c.max_body_bytes = ToInt("max_body_bytes", v, 1024, 1LL << 34); }},
+      {"max_measurements_per_campaign", Kind::kInt, "measurements one campaign may hold (default 100000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_measurements_per_campaign = ToInt("max_measurements_per_campaign", v, 1, 1LL << 40);
+       }},
+      {"max_plan_configurations", Kind::kInt, "largest plan M (default 1000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_plan_configurations = static_cast<int>(ToInt("max_plan_configurations", v, 1, 1000000));
+       }},
+      {"request_timeout_s", Kind::kInt, "deadline of a synchronous request in seconds (default 60)",
+       [](ServerConfig& c, const std::string& v) {
+         c.request_timeout_s = static_cast<int>(ToInt("request_timeout_s", v, 1, 86400));
+       }},
+      {"threads", Kind::kInt, "HTTP worker threads (default 8)",
+       [](ServerConfig& c, const std::string& v) { c.threads = static_cast<int>(ToInt("threads", v, 1, 1024)); }},
+  };
+  return options;
+}
+
+std::string FlagName(const std::string& key) {
+  std::string f = "--" + key;
+  for (char& ch : f) {
+    if (ch == '_') ch = '-';
+  }
+  return f;
+}
+
+std::string EnvName(const std::string& key) {
+  std::string e = "ROBOCAL_";
+  for (char ch : key) e += static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  return e;
+}
+
+void ApplyFile(const std::string& path, ServerConfig* config) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("config file " + path + ": cannot be read");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw std::invalid_argument("config file " + path + ": malformed JSON: " + e.what());
+  }
+  if (!j.is_object()) throw std::invalid_argument("config file " + path + ": expected a JSON object");
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const Option* option = nullptr;
+    for (const Option& o : Options()) {
+      if (it.key() == o.key) option = &o;
+    }
+    if (option == nullptr) throw std::invalid_argument("config file " + path + ": unknown key \"" + it.key() + "\"");
+    std::string text;
+    if (it->is_string()) {
+      text = it->get<std::string>();
+    } else if (it->is_boolean()) {
+      text = it->get<bool>() ? "true" : "false";
+    } else if (it->is_number_integer()) {
+      text = std::to_string(it->get<std::int64_t>());
+    } else {
+      throw std::invalid_argument("config file " + path + ": " + it.key() + ": unsupported value " + it->dump());
+    }
+    option->set(*config, text);
+  }
+}
+
+}  // namespace
+
+std::string UsageText() {
+  std::ostringstream out;
+  out << "usage: robocal-server [options]\n\nThe robocal calibration service (HTTP/JSON).\n\noptions:\n";
+  for (const Option& o : Options()) {
+    std::string flag = FlagName(o.key) + (o.kind == Kind::kBool ? "" : " VALUE");
+    out << "  " << flag << std::string(flag.size() < 36 ? 36 - flag.size() : 1, ' ') << o.help << "\n";
+  }
+  out << "  --config FILE                       JSON config file (snake_case keys of these options)\n"
+         "  --help                              this text\n"
+         "  --version                           the version\n\n"
+         "Precedence: flags > environment (ROBOCAL_HOST, ROBOCAL_PORT, ..., ROBOCAL_CONFIG) > config file >"
+         " defaults.\n";
+  return out.str();
+}
+
+ConfigResult LoadConfig(const std::vector<std::string>& args, const std::map<std::string, std::string>& env) {
+  ConfigResult result;
+  try {
+    // Flags are collected first, so that --config is known before the file is read.
+    std::vector<std::pair<const Option*, std::string>> flags;
+    std::string config_file;
+    if (auto it = env.find("ROBOCAL_CONFIG"); it != env.end()) config_file = it->second;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+      std::string arg = args[i], value;
+      bool has_value = false;
+      if (auto eq = arg.find('='); arg.rfind("--", 0) == 0 && eq != std::string::npos) {
+        value = arg.substr(eq + 1);
+        arg = arg.substr(0, eq);
+        has_value = true;
+      }
+      if (arg == "--help" || arg == "-h") {
+        result.message = UsageText();
+        return result;
+      }
+      if (arg == "--version") {
+        result.message = std::string("robocal-server ") + ROBOCAL_VERSION + "\n";
+        return result;
+      }
+      auto take_value = [&]() {
+        if (has_value) return value;
+        if (i + 1 >= args.size()) throw std::invalid_argument(arg + ": missing value");
+        return args[++i];
+      };
+      if (arg == "--config") {
+        config_file = take_value();
+        continue;
+      }
+      const Option* option = nullptr;
+      for (const Option& o : Options()) {
+        if (arg == FlagName(o.key)) option = &o;
+      }
+      if (option == nullptr) throw std::invalid_argument("unknown option \"" + args[i] + "\" (see --help)");
+      flags.emplace_back(option, option->kind == Kind::kBool ? (has_value ? value : "true") : take_value());
+    }
+    ServerConfig config;
+    config.config_file = config_file;
+    if (!config_file.empty()) ApplyFile(config_file, &config);
+    for (const Option& o : Options()) {
+      if (auto it = env.find(EnvName(o.key)); it != env.end()) {
+        try {
+          o.set(config, it->second);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(EnvName(o.key) + ": " + e.what());
+        }
+      }
+    }
+    for (const auto& [option, text] : flags) option->set(config, text);
+    if (config.tls_cert.empty() != config.tls_key.empty()) {
+      throw std::invalid_argument("--tls-cert and --tls-key must be given together");
+    }
+    result.run = true;
+    result.config = config;
+  } catch (const std::invalid_argument& e) {
+    result.exit_code = 2;
+    result.message = std::string("robocal-server: ") + e.what() + "\n";
+  }
+  return result;
+}
+
+std::map<std::string, std::string> RobocalEnvironment() {
+  std::map<std::string, std::string> env;
+  for (char** e = environ; e != nullptr && *e != nullptr; ++e) {
+    std::string entry(*e);
+    if (entry.rfind("ROBOCAL_", 0) != 0) continue;
+    auto eq = entry.find('=');
+    if (eq != std::string::npos) env[entry.substr(0, eq)] = entry.substr(eq + 1);
+  }
+  return env;
+}
+
+bool IsLoopbackHost(const std::string& host) {
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
+std::vector<std::string> ReadTokensFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("tokens file " + path + " cannot be read");
+  std::vector<std::string> tokens;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos) continue;
+    const auto last = line.find_last_not_of(" \t\r");
+    tokens.push_back(line.substr(first, last - first + 1));
+  }
+  if (tokens.empty()) throw std::runtime_error("tokens file " + path + " holds no token");
+  return tokens;
+}
+
+}  // namespace robocal::server

@@ -1,0 +1,98 @@
+// robocal-server: configuration, storage, the HTTP server, and graceful shutdown on SIGTERM / SIGINT.
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <pthread.h>
+#include <thread>
+
+#include "robocal/server/config.h"
+#include "robocal/server/http_server.h"
+#include "robocal/server/logging.h"
+#include "robocal/server/service.h"
+#include "storage/storage.h"
+
+int main(int argc, char** argv) {
+  using namespace robocal::server;
+  const ConfigResult loaded = LoadConfig(std::vector<std::string>(argv + 1, argv + argc), RobocalEnvironment());
+  if (!loaded.run) {
+    (loaded.exit_code == 0 ? std::cout : std::cerr) << loaded.message;
+    return loaded.exit_code;
+  }
+  const ServerConfig& config = loaded.config;
+  SetupLogging(config.log_level, config.log_format);
+
+  std::vector<std::string> tokens;
+  if (!config.tokens_file.empty()) {
+    try {
+      tokens = ReadTokensFile(config.tokens_file);
+    } catch (const std::exception& e) {
+      std::cerr << "robocal-server: " << e.what() << "\n";
+      return 2;
+    }
+  }
+  if (!IsLoopbackHost(config.host) && tokens.empty() && !config.allow_insecure_bind) {
+    std::cerr << "robocal-server: refusing to bind " << config.host
+              << " (not loopback) without --tokens-file; pass --allow-insecure-bind to do it anyway\n";
+    return 2;
+  }
+
+  // Signals go to one waiting thread, not to whichever thread the kernel picks, so shutdown is orderly.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  std::unique_ptr<Storage> storage;
+  try {
+    storage = OpenSqliteStorage(config.db);
+  } catch (const std::exception& e) {
+    LogEvent(spdlog::level::critical, "cannot open the database", {{"db", config.db}, {"error", e.what()}});
+    return 1;
+  }
+  ServiceOptions options;
+  options.limits.max_plan_configurations = config.max_plan_configurations;
+  options.max_measurements_per_campaign = config.max_measurements_per_campaign;
+  options.request_deadline = std::chrono::seconds(config.request_timeout_s);
+  auto service = std::make_unique<Service>(storage.get(), options);
+  if (const int aborted = service->RecoverOperations(); aborted > 0) {
+    LogEvent(spdlog::level::warn, "operations from a previous run marked FAILED", {{"count", aborted}});
+  }
+
+  std::unique_ptr<HttpServer> server;
+  try {
+    server = std::make_unique<HttpServer>(config, service.get(), tokens);
+  } catch (const std::exception& e) {
+    std::cerr << "robocal-server: " << e.what() << "\n";
+    return 2;
+  }
+  const int port = server->Bind();
+  if (port < 0) {
+    std::cerr << "robocal-server: cannot bind " << config.host << ":" << config.port << "\n";
+    return 1;
+  }
+  const std::string url = std::string(server->tls() ? "https" : "http") + "://" +
+                          (config.host.find(':') != std::string::npos ? "[" + config.host + "]" : config.host) +
+                          ":" + std::to_string(port);
+  std::printf("robocal-server listening on %s (db %s)\n", url.c_str(), config.db.c_str());
+  std::fflush(stdout);
+  LogEvent(spdlog::level::info, "listening",
+           {{"url", url}, {"db", config.db}, {"auth", tokens.empty() ? "off" : "bearer"}, {"version", ROBOCAL_VERSION}});
+
+  std::thread waiter([&] {
+    int signal = 0;
+    sigwait(&signals, &signal);
+    LogEvent(spdlog::level::info, "shutting down", {{"signal", signal == SIGTERM ? "SIGTERM" : "SIGINT"}});
+    server->Stop();
+  });
+  const bool ok = server->Listen();
+  if (!ok) {
+    // Listen failed without a signal: wake the waiter so it can be joined.
+    pthread_kill(waiter.native_handle(), SIGTERM);
+  }
+  waiter.join();
+  server.reset();
+  service.reset();  // cancels and joins running operations
+  LogEvent(spdlog::level::info, "stopped");
+  return ok ? 0 : 1;
+}

@@ -1,0 +1,170 @@
+// Wire types: validation names every bad field, conversions keep units straight.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "robocal/api/convert.h"
+#include "robocal/api/json_reader.h"
+#include "robocal/api/types.h"
+#include "robocal/core/presets.h"
+
+namespace robocal::api {
+namespace {
+
+using nlohmann::json;
+
+// The violations of a request that is expected to fail validation.
+std::vector<FieldViolation> Violations(const std::function<void()>& parse) {
+  try {
+    parse();
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.status(), Status::kInvalidArgument);
+    return e.details();
+  }
+  ADD_FAILURE() << "no error";
+  return {};
+}
+
+bool HasField(const std::vector<FieldViolation>& v, const std::string& field) {
+  for (const auto& f : v) {
+    if (f.field == field) return true;
+  }
+  return false;
+}
+
+TEST(ApiTest, MalformedJsonIsInvalidArgument) {
+  EXPECT_THROW(ParseBody("{\"a\":"), ApiError);
+  EXPECT_THROW(ParseBody("[1,2]"), ApiError);
+  EXPECT_NO_THROW(ParseBody("{}"));
+  // JSON has no Inf, but a literal beyond double range would become one.
+  try {
+    ParseBody(R"({"joints":[[0,0,0,0,0,1e999]]})");
+    ADD_FAILURE() << "accepted 1e999";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.details().at(0).field, "body");
+  }
+}
+
+TEST(ApiTest, MeasurementBatchCollectsEveryProblem) {
+  const RobotModel model = Preset("ur5e");
+  const json body = json::parse(R"({
+    "request_id": "r1", "role": "calibration",
+    "measurements": [
+      {"joints": [0,0,0,0,0,0], "pose": {"position_mm": [1,2,3], "quaternion": [1,0,0,0]}},
+      {"joints": [0,0,0,0,0], "pose": {"position_mm": [1,2,3], "quaternion": [1,0,0,0]}},
+      {"joints": [0,0,0,0,0,"9"], "pose": {"position_mm": [1,2,"x"], "rpy_deg": [0,0,0]}},
+      {"joints": [0,0,0,0,0,9000], "pose": {"position_mm": [1,2,3]}}
+    ]})");
+  auto v = Violations([&] { ParseMeasurementBatchRequest(body, model, MeasurementType::kPose, Limits{}); });
+  EXPECT_TRUE(HasField(v, "measurements[1].joints"));
+  EXPECT_TRUE(HasField(v, "measurements[2].joints[5]"));
+  EXPECT_TRUE(HasField(v, "measurements[2].pose.position_mm[2]"));
+  EXPECT_TRUE(HasField(v, "measurements[3].joints[5]"));
+  EXPECT_TRUE(HasField(v, "measurements[3].pose.quaternion"));
+  for (const auto& f : v) {
+    if (f.field == "measurements[1].joints") {
+      EXPECT_EQ(f.reason, "expected 6 values, got 5");
+    }
+  }
+}
+
+TEST(ApiTest, PositionMeasurementsNeedNoOrientation) {
+  const RobotModel model = Preset("grinder5");
+  const json body = json::parse(R"({"request_id": "r", "measurements": [
+      {"joints": [0,0,0,0,0], "pose": {"position_mm": [1,2,3]}}]})");
+  const auto req = ParseMeasurementBatchRequest(body, model, MeasurementType::kPosition, Limits{});
+  EXPECT_EQ(req.role, "calibration");
+  EXPECT_FALSE(req.measurements[0].pose.has_orientation);
+}
+
+TEST(ApiTest, ArraysAreLimited) {
+  const RobotModel model = Preset("ur5e");
+  Limits limits;
+  limits.max_array_length = 2;
+  const json body = {{"joints", json::array({json::array({0, 0, 0, 0, 0, 0}), json::array({0, 0, 0, 0, 0, 0}),
+                                             json::array({0, 0, 0, 0, 0, 0})})}};
+  auto v = Violations([&] { ParseForwardRequest(body, model, limits); });
+  ASSERT_TRUE(HasField(v, "joints"));
+  EXPECT_NE(v[0].reason.find("limit 2"), std::string::npos);
+  auto empty = Violations([&] { ParseForwardRequest(json{{"joints", json::array()}}, model, limits); });
+  EXPECT_TRUE(HasField(empty, "joints"));
+}
+
+TEST(ApiTest, PlanRequestRejectsUnknownEnumsAndFields) {
+  auto v = Violations([] {
+    ParsePlanRequest(json::parse(R"({"robot":"ur5e","optimiser":"magic","num_configurations":5000,
+                                     "measurment_type":"pose","options":{"k_max":1.5}})"),
+                     Limits{});
+  });
+  EXPECT_TRUE(HasField(v, "optimiser"));
+  EXPECT_TRUE(HasField(v, "num_configurations"));
+  EXPECT_TRUE(HasField(v, "measurment_type"));
+  EXPECT_TRUE(HasField(v, "options.k_max"));
+}
+
+TEST(ApiTest, RegisterRobotRoundTripsThroughTheCore) {
+  const json body = json::parse(R"({"id":"arm2","convention":"dh","joints":[
+      {"type":"revolute","a_mm":100,"alpha_deg":90,"d_mm":50,"min_deg":-170,"max_deg":170},
+      {"type":"prismatic","min_mm":0,"max_mm":500}],
+      "tool":{"position_mm":[0,0,100],"rpy_deg":[0,0,90]}})");
+  const RegisterRobotRequest req = ParseRegisterRobotRequest(body, Limits{});
+  const RobotModel model = RobotModel::Build(ToSpec(req));
+  EXPECT_EQ(model.num_joints(), 2);
+  EXPECT_NEAR(model.upper_limits()[0], 170.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(model.upper_limits()[1], 500.0, 1e-12);
+  const json again = ToJson(ParseRegisterRobotRequest(ToJson(req), Limits{}));
+  EXPECT_EQ(again, ToJson(req));
+}
+
+TEST(ApiTest, RegisterRobotNamesCoreProblems) {
+  auto v = Violations([] {
+    ParseRegisterRobotRequest(json::parse(R"({"id":"Bad/Id","convention":"dh","joints":[
+        {"type":"revolute","min_deg":10,"max_deg":-10}]})"),
+                              Limits{});
+  });
+  EXPECT_TRUE(HasField(v, "id"));
+  auto w = Violations([] {
+    ParseRegisterRobotRequest(json::parse(R"({"id":"ok","convention":"dh","joints":[
+        {"type":"revolute","min_deg":10,"max_deg":-10}]})"),
+                              Limits{});
+  });
+  ASSERT_FALSE(w.empty());
+  EXPECT_NE(w[0].field.find("joints[0]"), std::string::npos);
+}
+
+TEST(ApiTest, JointsConvertDegreesForRevoluteOnly) {
+  const RobotModel model = Preset("grinder5");
+  std::vector<double> wire = {100, 200, 300, 90, -45};
+  const Eigen::VectorXd q = JointsToCore(model, wire);
+  EXPECT_NEAR(q[3], std::numbers::pi / 2, 1e-15);
+  EXPECT_NEAR(q[0], 100, 1e-15);
+  const auto back = JointsToWire(model, q);
+  for (int i = 0; i < 5; ++i) EXPECT_NEAR(back[i], wire[i], 1e-12);
+}
+
+TEST(ApiTest, PoseAcceptsRpyAndRejectsNonUnitQuaternion) {
+  Problems p;
+  PoseWire pose;
+  ASSERT_TRUE(ParsePose(json::parse(R"({"position_mm":[1,2,3],"rpy_deg":[0,0,90]})"), "pose", true, &p, &pose));
+  EXPECT_NEAR(pose.quaternion[0], std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(pose.quaternion[3], std::sqrt(0.5), 1e-12);
+  EXPECT_FALSE(ParsePose(json::parse(R"({"position_mm":[1,2,3],"quaternion":[2,0,0,0]})"), "pose", true, &p,
+                         &pose));
+  EXPECT_TRUE(HasField(p.list(), "pose.quaternion"));
+}
+
+TEST(ApiTest, ErrorBodyShape) {
+  const json body = ErrorBody(Status::kNotFound, 404, "no robot", {{"robot", "unknown"}});
+  EXPECT_EQ(body["error"]["status"], "NOT_FOUND");
+  EXPECT_EQ(body["error"]["code"], 404);
+  EXPECT_EQ(body["error"]["details"][0]["field"], "robot");
+}
+
+TEST(ApiTest, NonFiniteNumbersBecomeNull) {
+  EXPECT_TRUE(Num(std::numeric_limits<double>::infinity()).is_null());
+  EXPECT_EQ(Num(2.5), json(2.5));
+}
+
+}  // namespace
+}  // namespace robocal::api
