@@ -207,6 +207,8 @@ TEST(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
   }
   // 1500 values; mean square of N(0, 1) has standard error ~0.04, so 0.5..2 fails only if the std is wrong.
   const double mean_z2 = sum_z2 / count;
+  RecordProperty("mean_z2", std::to_string(mean_z2));
+  RecordProperty("mean_sigma_hat", std::to_string(sum_sigma_hat / seeds));
   EXPECT_GT(mean_z2, 0.5);
   EXPECT_LT(mean_z2, 2.0);
   // The weights equal the simulated noise, so the unit-weight sigma is about 1.
