@@ -294,7 +294,8 @@ bool IdentificationOptions::IsValid(std::string* error) const {
     }
   }
   std::string sub;
-  if (parameters.empty() && !identifiability.IsValid(&sub)) {
+  // Checked even with explicit parameters: the rank test of the data uses identifiability.rank_tolerance.
+  if (!identifiability.IsValid(&sub)) {
     *error = "identifiability." + sub;
     return false;
   }
@@ -417,11 +418,13 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   Problem counter(nominal, measurements, options, parameters);
   s.num_poses = counter.num_poses();
   const int rows = MeasurementRows(type);
-  if (rows * s.num_poses < s.num_parameters || s.num_residuals <= s.num_parameters) {
+  // Rows from distinct poses must exceed the parameters: with equality the fit interpolates the pose means and
+  // only the scatter of repeated shots would be left to estimate sigma_hat from.
+  if (rows * s.num_poses <= s.num_parameters) {
     std::ostringstream msg;
     msg << "too few distinct poses: " << s.num_poses << " distinct joint configuration(s) among " << s.num_measurements
         << " measurements give " << rows * s.num_poses << " independent " << ToString(type) << " rows for "
-        << s.num_parameters << " parameters; need at least " << (s.num_parameters + rows - 1) / rows
+        << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1
         << " distinct poses";
     return fail(msg.str());
   }

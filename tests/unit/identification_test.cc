@@ -335,8 +335,11 @@ class IdentificationFailureTest : public ::testing::Test {
 };
 
 TEST_F(IdentificationFailureTest, TooFewPoses) {
-  ExpectFailure(Good(3), {"too few distinct poses", "3 distinct", "30 parameters", "at least 5"});
+  ExpectFailure(Good(3), {"too few distinct poses", "3 distinct", "30 parameters", "at least 6"});
   ExpectFailure({}, {"no measurements"});
+  // 5 pose shots give exactly 30 rows: an interpolation with no redundancy, refused; 6 are enough.
+  ExpectFailure(Good(5), {"too few distinct poses", "at least 6"});
+  EXPECT_NE(Identify(model_, Good(6)).summary.termination, Termination::kFailure);
 }
 
 TEST_F(IdentificationFailureTest, AllPosesIdentical) {
