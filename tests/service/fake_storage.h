@@ -5,7 +5,7 @@
 #include <map>
 #include <mutex>
 
-#include "storage/storage.h"
+#include "server/storage/storage.h"
 
 namespace robocal::server::testing {
 

@@ -302,7 +302,14 @@ TEST(ServerTest, MetricsCountRequests) {
   TestServer s;
   s.Get("/healthz");
   s.Get("/v1/robots/nope");
-  const Reply m = s.Get("/metrics");
+  // A request is counted by the logger hook, which runs after its response is sent: poll briefly.
+  const std::string line = "robocal_http_requests_total{method=\"GET\",route=\"/v1/robots/{robot}\",code=\"404\"} 1";
+  Reply m;
+  for (int i = 0; i < 200; ++i) {
+    m = s.Get("/metrics");
+    if (m.text.find(line) != std::string::npos) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   EXPECT_EQ(m.status, 200);
   EXPECT_NE(m.text.find("robocal_http_requests_total{method=\"GET\",route=\"/v1/robots/{robot}\",code=\"404\"} 1"),
             std::string::npos)

@@ -11,6 +11,7 @@
 
 #include "fake_storage.h"
 #include "robocal/server/http_server.h"
+#include "robocal/server/logging.h"
 #include "robocal/server/service.h"
 
 namespace robocal::server::testing {
@@ -26,6 +27,7 @@ class TestServer {
   explicit TestServer(ServerConfig config = {}, std::vector<std::string> tokens = {},
                       ServiceOptions options = {}, std::unique_ptr<Storage> storage = nullptr)
       : storage_(storage ? std::move(storage) : std::make_unique<FakeStorage>()) {
+    spdlog::set_level(spdlog::level::warn);  // request lines would drown the test output
     config.host = "127.0.0.1";
     config.port = 0;
     config.threads = 4;
