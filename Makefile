@@ -26,6 +26,7 @@ run:
 bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench
 	$(BUILD_DIR)/tests/bench/robocal_planning_bench
+	$(BUILD_DIR)/tests/bench/robocal_identification_bench
 	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
 
 format:
