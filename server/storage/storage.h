@@ -1,5 +1,5 @@
 // The storage interface of the calibration service: JSON documents by collection, and append-only
-// measurement batches that are atomic and idempotent by request id. SQLite implements it (sqlite_storage.h);
+// measurement batches that are atomic and idempotent by request id. SQLite implements it (sqlite_storage.cc);
 // the interface leaves room for another database.
 #pragma once
 
@@ -79,7 +79,7 @@ class Storage {
                           std::int64_t expected_version = 0) = 0;
   /// Create or replace.
   virtual Document Put(const std::string& collection, const std::string& id, const std::string& json) = 0;
-  /// Returns false if absent.
+  /// Returns false if absent. Deleting a "campaigns" document also deletes its measurements and batches.
   virtual bool Delete(const std::string& collection, const std::string& id) = 0;
   /// Documents in id order, starting after `after_id` (empty: from the start), at most `limit`.
   virtual std::vector<Document> List(const std::string& collection, const std::string& after_id = "",
@@ -89,7 +89,7 @@ class Storage {
   /// content: a second call with the same (campaign_id, request_id) and the same hash returns the first
   /// result with replayed = true; with another hash it throws kAlreadyExists. Throws kResourceExhausted if the
   /// campaign would hold more than `max_campaign_total` measurements (0 = no limit). The campaign must exist as
-  /// a document in "campaigns" (kNotFound otherwise).
+  /// a document in "campaigns" (kNotFound otherwise). An empty request_id disables replay detection.
   virtual BatchResult AppendMeasurements(const std::string& campaign_id, const std::string& request_id,
                                          const std::string& content_hash, const std::string& role,
                                          const std::vector<std::string>& measurements_json,
