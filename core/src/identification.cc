@@ -1,1 +1,581 @@
-// Placeholder: implemented with the identification issue.
+// Identification: point-set registration of the tracker -> base frame, then weighted Levenberg-Marquardt over
+// the identifiable error parameters, with covariance, residual statistics and reports.
+#include "robocal/core/identification.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include "robocal/core/kinematics.h"
+
+namespace robocal {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+bool AllFinite(const Eigen::MatrixXd& m) { return m.allFinite(); }
+
+// Shortest readable form (1e-12, not std::to_string's 0.000000).
+std::string Num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+std::string Scaling(const MeasurementNoise& noise) {
+  std::ostringstream out;
+  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad), columns to unit norm";
+  return out.str();
+}
+
+// Lexicographic order on joint vectors, to count distinct poses and share their kinematics.
+struct JointsLess {
+  bool operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
+    return std::lexicographical_compare(a.data(), a.data() + a.size(), b.data(), b.data() + b.size());
+  }
+};
+
+// Checks the parts of a measurement that `type` uses; an empty string if it is usable.
+std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
+  if (!m.joints.allFinite()) return "non-finite joint values";
+  if (!m.T_world_tool.translation().allFinite()) return "non-finite position";
+  const Eigen::Matrix3d r = m.T_world_tool.linear();
+  if (type == MeasurementType::kPositionAxis) {
+    if (!r.col(2).allFinite()) return "non-finite tool axis";
+    if (std::abs(r.col(2).norm() - 1.0) > 1e-6) return "tool axis is not a unit vector";
+  }
+  if (type == MeasurementType::kPose) {
+    if (!r.allFinite()) return "non-finite orientation";
+    if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6) ||
+        !(r.determinant() > 0.0)) {
+      return "orientation is not a rotation matrix";
+    }
+  }
+  return "";
+}
+
+// The least-squares problem over the chosen parameters. Shots of one pose share its kinematics and Jacobian,
+// so the cost of an evaluation grows with the distinct poses, not with the shots.
+class Problem {
+ public:
+  Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const IdentificationOptions& o,
+          const std::vector<int>& parameters)
+      : model_(model),
+        measurements_(measurements),
+        type_(o.measurement_type),
+        rows_(MeasurementRows(o.measurement_type)),
+        weights_(o.noise.RowWeights(o.measurement_type)),
+        parameters_(parameters),
+        ws_(model) {
+    std::map<Eigen::VectorXd, int, JointsLess> index;
+    pose_of_.reserve(measurements.size());
+    for (const Measurement& m : measurements) {
+      const auto [it, inserted] = index.emplace(m.joints, static_cast<int>(poses_.size()));
+      if (inserted) poses_.push_back(m.joints);
+      pose_of_.push_back(it->second);
+    }
+  }
+
+  int num_poses() const { return static_cast<int>(poses_.size()); }
+  int num_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
+  int num_parameters() const { return static_cast<int>(parameters_.size()); }
+
+  Eigen::VectorXd FullErrors(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd eps = Eigen::VectorXd::Zero(model_.num_error_parameters());
+    for (int k = 0; k < num_parameters(); ++k) eps[parameters_[k]] = x[k];
+    return eps;
+  }
+
+  // Weighted residuals r (num_rows) at reduced parameters x and, if `jacobian` is not null, the weighted
+  // Jacobian of the model prediction (num_rows x num_parameters), so that r(x + d) ~= r(x) - J d.
+  void Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
+    const Eigen::VectorXd eps = FullErrors(x);
+    residual->resize(num_rows());
+    if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
+    Eigen::MatrixXd full(rows_, model_.num_error_parameters());
+    Eigen::MatrixXd reduced(rows_, num_parameters());
+    std::vector<Transform> pose_model(poses_.size());
+    std::vector<Eigen::MatrixXd> pose_jacobian(jacobian != nullptr ? poses_.size() : 0);
+    for (size_t p = 0; p < poses_.size(); ++p) {
+      if (jacobian != nullptr) {
+        IdentificationJacobian(model_, poses_[p], eps, type_, &ws_, full);
+        for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = full.col(parameters_[k]);
+        pose_jacobian[p] = weights_.asDiagonal() * reduced;
+        pose_model[p] = ws_.T_world_tool;
+      } else {
+        pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_);
+      }
+    }
+    Eigen::VectorXd r(rows_);
+    for (size_t i = 0; i < measurements_.size(); ++i) {
+      const int p = pose_of_[i];
+      MeasurementResidual(type_, measurements_[i].T_world_tool, pose_model[p], r);
+      residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
+      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = pose_jacobian[p];
+    }
+  }
+
+ private:
+  const RobotModel& model_;
+  const std::vector<Measurement>& measurements_;
+  MeasurementType type_;
+  int rows_;
+  Eigen::VectorXd weights_;
+  std::vector<int> parameters_;
+  KinematicsWorkspace ws_;
+  std::vector<Eigen::VectorXd> poses_;
+  std::vector<int> pose_of_;
+};
+
+// Unit-norm columns: the scaling every reported condition number and rank decision uses.
+Eigen::VectorXd ColumnNorms(const Eigen::MatrixXd& j) {
+  Eigen::VectorXd norms = j.colwise().norm();
+  for (Eigen::Index k = 0; k < norms.size(); ++k) {
+    if (!(norms[k] > 0.0)) norms[k] = 1.0;
+  }
+  return norms;
+}
+
+struct LmResult {
+  Eigen::VectorXd x;
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian;
+  int iterations = 0;
+  Termination termination = Termination::kNoConvergence;
+  std::string reason;
+};
+
+// Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the
+// Summary promises the Ceres-style tests of IdentificationOptions (relative cost change, max |J'r|, step
+// relative to |x|), which MINPACK's ftol/xtol/gtol define differently (gtol there is a cosine), (b) shots of
+// one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
+// and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
+// they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
+  LmResult out;
+  const int n = problem->num_parameters();
+  out.x = Eigen::VectorXd::Zero(n);
+  problem->Evaluate(out.x, &out.residual, &out.jacobian);
+  double cost = 0.5 * out.residual.squaredNorm();
+  double lambda = 1e-4;
+  double nu = 2.0;
+  Eigen::VectorXd candidate_residual;
+  Eigen::MatrixXd candidate_jacobian;
+  while (true) {
+    const Eigen::VectorXd gradient = out.jacobian.transpose() * out.residual;
+    if (gradient.cwiseAbs().maxCoeff() <= o.gradient_tolerance) {
+      out.termination = Termination::kConvergence;
+      out.reason = "gradient tolerance reached (max |J'r| <= " + Num(o.gradient_tolerance) + ")";
+      return out;
+    }
+    if (cost == 0.0) {
+      out.termination = Termination::kConvergence;
+      out.reason = "zero residual";
+      return out;
+    }
+    if (out.iterations >= o.max_iterations) {
+      out.termination = Termination::kNoConvergence;
+      out.reason = "max_iterations (" + std::to_string(o.max_iterations) + ") reached";
+      return out;
+    }
+    ++out.iterations;
+    const Eigen::MatrixXd normal = out.jacobian.transpose() * out.jacobian;
+    const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-300);
+    Eigen::MatrixXd damped = normal;
+    damped.diagonal() += lambda * diag;
+    const Eigen::VectorXd step = damped.ldlt().solve(gradient);
+    if (!step.allFinite()) {
+      out.termination = Termination::kFailure;
+      out.reason = "non-finite step (singular normal equations)";
+      return out;
+    }
+    if (step.norm() <= o.parameter_tolerance * (out.x.norm() + o.parameter_tolerance)) {
+      out.termination = Termination::kConvergence;
+      out.reason = "parameter tolerance reached (|step| <= " + Num(o.parameter_tolerance) + " (|x| + tol))";
+      return out;
+    }
+    const Eigen::VectorXd x_new = out.x + step;
+    problem->Evaluate(x_new, &candidate_residual, &candidate_jacobian);
+    const double new_cost = 0.5 * candidate_residual.squaredNorm();
+    // Predicted decrease of the linear model: 0.5 step' (lambda D step + g), positive for any lambda > 0.
+    const double predicted = 0.5 * step.dot(lambda * diag.cwiseProduct(step) + gradient);
+    const double rho = std::isfinite(new_cost) && predicted > 0.0 ? (cost - new_cost) / predicted : -1.0;
+    if (rho > 0.0) {
+      const double change = cost - new_cost;
+      out.x = x_new;
+      out.residual.swap(candidate_residual);
+      out.jacobian.swap(candidate_jacobian);
+      const double old_cost = cost;
+      cost = new_cost;
+      lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      nu = 2.0;
+      if (change <= o.function_tolerance * old_cost) {
+        out.termination = Termination::kConvergence;
+        out.reason = "function tolerance reached (relative cost change <= " + Num(o.function_tolerance) + ")";
+        return out;
+      }
+    } else {
+      lambda *= nu;
+      nu *= 2.0;
+      if (lambda > 1e32) {
+        // Only reachable when round-off hides every descent direction: the point is as good as it gets.
+        out.termination = Termination::kConvergence;
+        out.reason = "no further decrease possible (damping exhausted)";
+        return out;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to) {
+  if (from.size() != to.size()) {
+    throw std::invalid_argument("RegisterPoints: " + std::to_string(from.size()) + " source and " +
+                                std::to_string(to.size()) + " target points");
+  }
+  if (from.size() < 3) {
+    throw std::invalid_argument("RegisterPoints: needs at least 3 points, got " + std::to_string(from.size()));
+  }
+  const Eigen::Index n = static_cast<Eigen::Index>(from.size());
+  Eigen::Matrix3Xd a(3, n), b(3, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    a.col(i) = from[i];
+    b.col(i) = to[i];
+  }
+  if (!a.allFinite() || !b.allFinite()) throw std::invalid_argument("RegisterPoints: non-finite point");
+  const Eigen::Vector3d ca = a.rowwise().mean();
+  const Eigen::Vector3d cb = b.rowwise().mean();
+  a.colwise() -= ca;
+  b.colwise() -= cb;
+  // The rotation is determined only if each point set spans a plane: collinear (or coincident) points leave a
+  // free rotation about their line.
+  const auto spread = [](const Eigen::Matrix3Xd& m) {
+    const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(m * m.transpose()).singularValues();
+    return s[0] > 0.0 && s[1] > 1e-18 * s[0];  // squared singular values of m: 1e-9 relative in length
+  };
+  if (!spread(a) || !spread(b)) {
+    throw std::invalid_argument("RegisterPoints: points are collinear or coincident; the rotation is undetermined");
+  }
+  const Eigen::Matrix3d h = a * b.transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  // Umeyama's correction: flip the weakest direction if the best orthogonal matrix is a reflection.
+  Eigen::Vector3d d(1.0, 1.0, 1.0);
+  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) d[2] = -1.0;
+  Transform t = Transform::Identity();
+  t.linear() = svd.matrixV() * d.asDiagonal() * svd.matrixU().transpose();
+  t.translation() = cb - t.linear() * ca;
+  return t;
+}
+
+bool IdentificationOptions::IsValid(std::string* error) const {
+  if (!(noise.position_mm > 0.0) || !std::isfinite(noise.position_mm)) {
+    *error = "noise.position_mm must be positive and finite";
+    return false;
+  }
+  if (!(noise.orientation_rad > 0.0) || !std::isfinite(noise.orientation_rad)) {
+    *error = "noise.orientation_rad must be positive and finite";
+    return false;
+  }
+  for (size_t k = 0; k < parameters.size(); ++k) {
+    if (parameters[k] < 0 || (k > 0 && parameters[k] <= parameters[k - 1])) {
+      *error = "parameters must be non-negative and strictly ascending (parameters[" + std::to_string(k) + "])";
+      return false;
+    }
+  }
+  std::string sub;
+  // Checked even with explicit parameters: the rank test of the data uses identifiability.rank_tolerance.
+  if (!identifiability.IsValid(&sub)) {
+    *error = "identifiability." + sub;
+    return false;
+  }
+  const struct {
+    const char* name;
+    double value;
+  } tolerances[] = {{"function_tolerance", function_tolerance},
+                    {"gradient_tolerance", gradient_tolerance},
+                    {"parameter_tolerance", parameter_tolerance}};
+  for (const auto& t : tolerances) {
+    if (!(t.value >= 0.0) || !std::isfinite(t.value)) {
+      *error = std::string(t.name) + " must be finite and >= 0";
+      return false;
+    }
+  }
+  if (max_iterations < 1 || max_iterations > 100000) {
+    *error = "max_iterations must be in [1, 100000]";
+    return false;
+  }
+  return true;
+}
+
+ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
+                                             const std::vector<Measurement>& measurements, MeasurementType type,
+                                             const MeasurementNoise& noise) {
+  ResidualStatistics s;
+  s.num_measurements = static_cast<int>(measurements.size());
+  if (measurements.empty()) return s;
+  const int rows = MeasurementRows(type);
+  const Eigen::VectorXd w = noise.RowWeights(type);
+  KinematicsWorkspace ws(model);
+  Eigen::VectorXd r(rows);
+  double sum_position = 0.0, sum_orientation = 0.0, sum_weighted = 0.0;
+  for (const Measurement& m : measurements) {
+    const Transform& predicted = ForwardKinematics(model, m.joints, errors, &ws);
+    MeasurementResidual(type, m.T_world_tool, predicted, r);
+    const double position = r.head<3>().norm();
+    sum_position += position * position;
+    s.max_position_mm = std::max(s.max_position_mm, position);
+    double angle = 0.0;
+    if (type == MeasurementType::kPose) {
+      angle = r.tail<3>().norm();
+    } else if (type == MeasurementType::kPositionAxis) {
+      // The exact angle between the axes; the residual's tangent rows are its first-order form.
+      const Eigen::Vector3d u = m.T_world_tool.linear().col(2), v = predicted.linear().col(2);
+      angle = std::atan2(u.cross(v).norm(), u.dot(v));
+    }
+    sum_orientation += angle * angle;
+    s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
+    sum_weighted += w.cwiseProduct(r).squaredNorm();
+  }
+  const double count = static_cast<double>(measurements.size());
+  s.rms_position_mm = std::sqrt(sum_position / count);
+  s.rms_orientation_rad = std::sqrt(sum_orientation / count);
+  s.rms_weighted = std::sqrt(sum_weighted / (count * rows));
+  return s;
+}
+
+Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                     const IdentificationOptions& options) {
+  const Clock::time_point start = Clock::now();
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
+  const int n_all = nominal.num_error_parameters();
+  if (!options.parameters.empty() && options.parameters.back() >= n_all) {
+    throw std::invalid_argument("IdentificationOptions: parameters[" + std::to_string(options.parameters.size() - 1) +
+                                "] = " + std::to_string(options.parameters.back()) + " but '" + nominal.name() +
+                                "' has " + std::to_string(n_all) + " error parameters");
+  }
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    if (measurements[i].joints.size() != nominal.num_joints()) {
+      throw std::invalid_argument("Identify: measurements[" + std::to_string(i) + "].joints has " +
+                                  std::to_string(measurements[i].joints.size()) + " values, robot '" + nominal.name() +
+                                  "' has " + std::to_string(nominal.num_joints()) + " joints");
+    }
+  }
+
+  const MeasurementType type = options.measurement_type;
+  Calibration cal{
+      nominal, Eigen::VectorXd::Zero(n_all), {}, Eigen::MatrixXd(), nominal.T_world_base(), nominal.T_flange_tool(),
+      {}};
+  IdentificationSummary& s = cal.summary;
+  s.measurement_type = type;
+  s.num_measurements = static_cast<int>(measurements.size());
+  s.num_residuals = MeasurementRows(type) * s.num_measurements;
+  s.scaling = Scaling(options.noise);
+  const auto fail = [&](const std::string& message) {
+    s.termination = Termination::kFailure;
+    s.message = message;
+    s.seconds = Seconds(start);
+    return cal;
+  };
+
+  if (measurements.empty()) return fail("no measurements");
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    const std::string problem = CheckMeasurement(measurements[i], type);
+    if (!problem.empty()) return fail("measurements[" + std::to_string(i) + "]: " + problem);
+  }
+
+  // Which parameters to estimate.
+  std::vector<int> parameters = options.parameters;
+  Termination identifiability_termination = Termination::kConvergence;
+  if (parameters.empty()) {
+    const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, type, options.identifiability);
+    if (id.termination == Termination::kFailure) return fail("identifiability: " + id.message);
+    identifiability_termination = id.termination;
+    parameters = id.identifiable;
+    s.dropped = id.dropped;
+  } else {
+    for (int k = 0, next = 0; k < n_all; ++k) {
+      if (next < static_cast<int>(parameters.size()) && parameters[next] == k)
+        ++next;
+      else
+        s.dropped.push_back({k, nominal.parameter_name(k), "not requested"});
+    }
+  }
+  s.num_parameters = static_cast<int>(parameters.size());
+
+  // Distinct poses bound the information; repeated shots only average the noise.
+  Problem counter(nominal, measurements, options, parameters);
+  s.num_poses = counter.num_poses();
+  const int rows = MeasurementRows(type);
+  // Rows from distinct poses must exceed the parameters: with equality the fit interpolates the pose means and
+  // only the scatter of repeated shots would be left to estimate sigma_hat from.
+  if (rows * s.num_poses <= s.num_parameters) {
+    std::ostringstream msg;
+    msg << "too few distinct poses: " << s.num_poses << " distinct joint configuration(s) among " << s.num_measurements
+        << " measurements give " << rows * s.num_poses << " independent " << ToString(type) << " rows for "
+        << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1
+        << " distinct poses";
+    return fail(msg.str());
+  }
+
+  // Tracker -> base registration: nominal tool positions (nominal world frame) onto the measured ones.
+  RobotModel model = nominal;
+  if (options.register_base) {
+    std::vector<Eigen::Vector3d> from, to;
+    from.reserve(measurements.size());
+    to.reserve(measurements.size());
+    KinematicsWorkspace ws(nominal);
+    for (const Measurement& m : measurements) {
+      from.push_back(ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws).translation());
+      to.push_back(m.T_world_tool.translation());
+    }
+    Transform T;
+    try {
+      T = RegisterPoints(from, to);
+    } catch (const std::invalid_argument&) {
+      return fail(
+          "degenerate configurations: the tool positions are collinear or coincident, so the tracker -> "
+          "base frame cannot be registered");
+    }
+    RobotModelSpec spec = nominal.spec();
+    spec.T_world_base = T * nominal.T_world_base();
+    model = RobotModel::Build(spec);
+  }
+
+  Problem problem(model, measurements, options, parameters);
+  s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise);
+
+  // Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters
+  // they cannot determine named, instead of producing a meaningless fit.
+  {
+    Eigen::VectorXd r;
+    Eigen::MatrixXd j;
+    problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
+    s.initial_cost = 0.5 * r.squaredNorm();
+    if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
+    const Eigen::VectorXd norms = j.colwise().norm();
+    Eigen::MatrixXd scaled = j;
+    for (int k = 0; k < s.num_parameters; ++k) {
+      if (norms[k] > 0.0)
+        scaled.col(k) /= norms[k];
+      else
+        scaled.col(k).setZero();
+    }
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
+    const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
+    int rank = 0;
+    while (rank < s.num_parameters && diag[rank] > options.identifiability.rank_tolerance * diag[0]) ++rank;
+    if (rank < s.num_parameters) {
+      std::ostringstream msg;
+      msg << "degenerate configurations: rank-deficient Jacobian, the " << s.num_poses << " poses determine only "
+          << rank << " of " << s.num_parameters << " parameters (undetermined:";
+      const auto& perm = qr.colsPermutation().indices();
+      for (int k = rank; k < std::min(s.num_parameters, rank + 4); ++k) {
+        msg << " " << nominal.parameter_name(parameters[perm[k]]);
+      }
+      msg << (s.num_parameters - rank > 4 ? " ...)" : ")");
+      return fail(msg.str());
+    }
+  }
+
+  LmResult lm = LevenbergMarquardt(&problem, options);
+  s.iterations = lm.iterations;
+  if (lm.termination == Termination::kFailure || !lm.x.allFinite()) return fail("optimisation failed: " + lm.reason);
+
+  const Eigen::VectorXd errors = problem.FullErrors(lm.x);
+  s.final_cost = 0.5 * lm.residual.squaredNorm();
+  const int dof = s.num_residuals - s.num_parameters;
+  s.sigma_hat = std::sqrt(2.0 * s.final_cost / dof);
+
+  // Covariance and condition number from the column-scaled Jacobian: (J'J)^-1 = D^-1 (Js'Js)^-1 D^-1.
+  const Eigen::VectorXd norms = ColumnNorms(lm.jacobian);
+  const Eigen::MatrixXd scaled = lm.jacobian * norms.cwiseInverse().asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  if (!(sv[sv.size() - 1] > 0.0)) return fail("degenerate configurations: singular Jacobian at the solution");
+  s.condition_number = sv[0] / sv[sv.size() - 1];
+  const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();
+  cal.covariance = s.sigma_hat * s.sigma_hat * norms.cwiseInverse().asDiagonal() * inverse_scaled *
+                   norms.cwiseInverse().asDiagonal();
+
+  for (int k = 0; k < s.num_parameters; ++k) {
+    cal.parameters.push_back(
+        {parameters[k], nominal.parameter_name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});
+  }
+  s.parameters = cal.parameters;
+  s.after = ComputeResidualStatistics(model, errors, measurements, type, options.noise);
+
+  cal.T_world_base = model.T_world_base() * ErrorTransform(errors.data());
+  cal.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
+  cal.errors = errors;
+  cal.model = std::move(model);
+
+  std::ostringstream msg;
+  msg << lm.reason;
+  s.termination = lm.termination;
+  if (lm.termination == Termination::kConvergence && identifiability_termination == Termination::kDegraded) {
+    s.termination = Termination::kDegraded;
+    msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";
+  }
+  s.message = msg.str();
+  s.seconds = Seconds(start);
+  return cal;
+}
+
+std::string IdentificationSummary::BriefReport() const {
+  std::ostringstream out;
+  out << "Identification (" << ToString(measurement_type) << "): " << ToString(termination) << ", " << message;
+  if (termination == Termination::kFailure) return out.str();
+  out << "; " << num_parameters << " parameters from " << num_poses << " poses (" << num_measurements
+      << " measurements), rms position " << std::setprecision(4) << before.rms_position_mm << " -> "
+      << after.rms_position_mm << " mm, sigma_hat " << sigma_hat << ", cond " << condition_number << ", " << iterations
+      << " iterations, " << std::setprecision(3) << seconds << " s";
+  return out.str();
+}
+
+std::string IdentificationSummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n";
+  out << "  measurements: " << num_measurements << " (" << num_poses << " distinct poses), residual rows "
+      << num_residuals << ", parameters " << num_parameters << "\n";
+  out << std::setprecision(4);
+  const auto stats = [&](const char* label, const ResidualStatistics& r) {
+    out << "  " << label << ": position rms " << r.rms_position_mm << " mm, max " << r.max_position_mm << " mm";
+    if (measurement_type != MeasurementType::kPosition) {
+      out << "; angle rms " << r.rms_orientation_rad << " rad, max " << r.max_orientation_rad << " rad";
+    }
+    out << "; weighted rms " << r.rms_weighted << "\n";
+  };
+  stats("before", before);
+  stats("after ", after);
+  out << "  cost " << initial_cost << " -> " << final_cost << ", sigma_hat " << sigma_hat << ", iterations "
+      << iterations << "\n";
+  out << "  condition number " << condition_number << " (" << scaling << ")\n";
+  if (!parameters.empty()) {
+    out << "  " << std::left << std::setw(12) << "parameter" << std::right << std::setw(14) << "value" << std::setw(14)
+        << "std"
+        << "  units\n";
+    for (const IdentifiedParameter& p : parameters) {
+      const bool mm = RobotModel::IsTranslationParameter(p.index);
+      out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
+          << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : "rad") << "\n";
+    }
+  }
+  out << "  dropped (" << dropped.size() << "):\n";
+  for (const DroppedParameter& d : dropped) out << "    " << d.name << ": " << d.reason << "\n";
+  return out.str();
+}
+
+}  // namespace robocal

@@ -1,1 +1,142 @@
-// Placeholder: implemented with the identification issue.
+// The virtual cell: hidden tracker placement and geometric errors drawn from a seed, and noisy tracker shots.
+#include "robocal/core/virtual_cell.h"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "robocal/core/kinematics.h"
+
+namespace robocal {
+namespace {
+
+bool NonNegativeFinite(double value) { return std::isfinite(value) && value >= 0.0; }
+
+// A rotation of angle |w| about w / |w|; the identity for w = 0.
+Eigen::Matrix3d RotationFromVector(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  if (angle == 0.0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+}
+
+// The tracker's pose in the robot's base frame. The tracker stands on its own tripod on the floor, so its
+// origin is `distance` away from the base at any bearing, a little above or below the base (elevation up to
+// +-0.2 rad), its vertical axis tilted by a fraction of a degree to a few degrees (levelling), and its yaw
+// arbitrary. The resulting T_tracker_base is far from the identity, which is what registration must handle.
+Transform DrawTrackerInBase(const VirtualCellOptions& o, Rng* rng) {
+  const double bearing = rng->Uniform(0.0, 2.0 * std::numbers::pi);
+  const double elevation = rng->Uniform(-0.2, 0.2);
+  const double yaw = rng->Uniform(-std::numbers::pi, std::numbers::pi);
+  const double tilt_x = o.tracker_tilt_sigma_rad * rng->Normal();
+  const double tilt_y = o.tracker_tilt_sigma_rad * rng->Normal();
+  Transform t = Transform::Identity();
+  t.translation() =
+      o.tracker_distance_mm * Eigen::Vector3d(std::cos(elevation) * std::cos(bearing),
+                                              std::cos(elevation) * std::sin(bearing), std::sin(elevation));
+  t.linear() = RotZ(yaw) * RotY(tilt_y) * RotX(tilt_x);
+  return t;
+}
+
+}  // namespace
+
+bool VirtualCellOptions::IsValid(std::string* error) const {
+  struct Named {
+    const char* name;
+    double value;
+  };
+  const Named non_negative[] = {
+      {"joint_translation_sigma_mm", joint_translation_sigma_mm},
+      {"joint_rotation_sigma_rad", joint_rotation_sigma_rad},
+      {"tool_translation_sigma_mm", tool_translation_sigma_mm},
+      {"tool_rotation_sigma_rad", tool_rotation_sigma_rad},
+      {"tracker_distance_mm", tracker_distance_mm},
+      {"tracker_tilt_sigma_rad", tracker_tilt_sigma_rad},
+      {"noise.position_mm", noise.position_mm},
+      {"noise.orientation_rad", noise.orientation_rad},
+  };
+  for (const Named& n : non_negative) {
+    if (!NonNegativeFinite(n.value)) {
+      *error = std::string(n.name) + " must be finite and >= 0 (got " + std::to_string(n.value) + ")";
+      return false;
+    }
+  }
+  // Geometric errors are meant to be small: beyond these the "error" is a different robot and the first-order
+  // language of the error model (and of its documentation) no longer applies.
+  const Named bounded[] = {
+      {"joint_rotation_sigma_rad", joint_rotation_sigma_rad},
+      {"tool_rotation_sigma_rad", tool_rotation_sigma_rad},
+      {"tracker_tilt_sigma_rad", tracker_tilt_sigma_rad},
+  };
+  for (const Named& n : bounded) {
+    if (n.value > 0.1) {
+      *error = std::string(n.name) + " must be <= 0.1 rad (got " + std::to_string(n.value) + ")";
+      return false;
+    }
+  }
+  if (shots_per_pose < 1 || shots_per_pose > 1000) {
+    *error = "shots_per_pose must be in [1, 1000] (got " + std::to_string(shots_per_pose) + ")";
+    return false;
+  }
+  return true;
+}
+
+VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& options)
+    : nominal_(nominal), true_model_(nominal), options_(options), rng_(options.seed) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("VirtualCellOptions: " + error);
+  // Draw order is fixed (placement, then errors site by site), so the hidden robot depends on the seed and
+  // the magnitudes only, not on the noise settings: a noise-free and a noisy cell with one seed share it.
+  const Transform T_base_tracker = DrawTrackerInBase(options, &rng_);
+  RobotModelSpec spec = nominal.spec();
+  // The nominal world frame is where the robot's program thinks the base stands; the tracker replaces it.
+  spec.T_world_base = T_base_tracker.inverse() * nominal.T_world_base();
+  true_model_ = RobotModel::Build(spec);
+
+  true_errors_ = Eigen::VectorXd::Zero(nominal.num_error_parameters());
+  const int tool_site = nominal.num_error_sites() - 1;
+  for (int site = 1; site <= tool_site; ++site) {
+    const bool tool = site == tool_site;
+    const double sigma_mm = tool ? options.tool_translation_sigma_mm : options.joint_translation_sigma_mm;
+    const double sigma_rad = tool ? options.tool_rotation_sigma_rad : options.joint_rotation_sigma_rad;
+    for (int k = 0; k < 3; ++k) true_errors_[6 * site + k] = sigma_mm * rng_.Normal();
+    for (int k = 3; k < 6; ++k) true_errors_[6 * site + k] = sigma_rad * rng_.Normal();
+  }
+  // The base site stays zero: any base error is one more rigid transform on top of the tracker placement,
+  // which is already the large unknown.
+}
+
+Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
+  KinematicsWorkspace ws(true_model_);
+  return ForwardKinematics(true_model_, q, true_errors_, &ws);
+}
+
+std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shots) {
+  const Transform truth = TruePose(q);
+  const int count = shots > 0 ? shots : options_.shots_per_pose;
+  std::vector<Measurement> out;
+  out.reserve(count);
+  for (int s = 0; s < count; ++s) {
+    Measurement m;
+    m.joints = q;
+    Eigen::Vector3d dp, dw;
+    for (int k = 0; k < 3; ++k) dp[k] = options_.noise.position_mm * rng_.Normal();
+    for (int k = 0; k < 3; ++k) dw[k] = options_.noise.orientation_rad * rng_.Normal();
+    m.T_world_tool = truth;
+    m.T_world_tool.translation() += dp;
+    // Applied on the left, in the tracker frame, as the pose residual's rotation vector is taken.
+    m.T_world_tool.linear() = RotationFromVector(dw) * truth.linear();
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::vector<Measurement> VirtualCell::MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots) {
+  std::vector<Measurement> out;
+  for (const Eigen::VectorXd& q : configurations) {
+    std::vector<Measurement> shots_at_q = Measure(q, shots);
+    out.insert(out.end(), std::make_move_iterator(shots_at_q.begin()), std::make_move_iterator(shots_at_q.end()));
+  }
+  return out;
+}
+
+}  // namespace robocal

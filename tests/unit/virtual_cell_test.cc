@@ -1,1 +1,188 @@
-// Placeholder: tests arrive with the implementation.
+// The virtual cell: reproducibility, the hidden placement and errors, and the statistics of its noise.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "robocal/core/presets.h"
+#include "robocal/core/virtual_cell.h"
+
+namespace robocal {
+namespace {
+
+using ::testing::HasSubstr;
+
+Eigen::VectorXd Config(const RobotModel& model, std::uint64_t seed) {
+  Rng rng(seed);
+  return RandomConfiguration(model, &rng);
+}
+
+TEST(VirtualCellTest, SameSeedGivesTheSameCellAndShots) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 42;
+  VirtualCell a(model, o), b(model, o);
+  EXPECT_EQ(a.true_errors(), b.true_errors());
+  EXPECT_TRUE(a.true_model().T_world_base().isApprox(b.true_model().T_world_base(), 0.0));
+  const Eigen::VectorXd q = Config(model, 1);
+  const auto shots_a = a.Measure(q, 3);
+  const auto shots_b = b.Measure(q, 3);
+  ASSERT_EQ(shots_a.size(), 3u);
+  for (size_t i = 0; i < shots_a.size(); ++i) {
+    EXPECT_EQ(shots_a[i].T_world_tool.matrix(), shots_b[i].T_world_tool.matrix());
+  }
+  o.seed = 43;
+  VirtualCell c(model, o);
+  EXPECT_NE(a.true_errors(), c.true_errors());
+}
+
+TEST(VirtualCellTest, NoiseSettingsDoNotChangeTheHiddenRobot) {
+  const RobotModel model = Preset("puma560");
+  VirtualCellOptions noisy, exact;
+  noisy.seed = exact.seed = 7;
+  exact.noise = {0.0, 0.0};
+  exact.shots_per_pose = 1;
+  VirtualCell a(model, noisy), b(model, exact);
+  EXPECT_EQ(a.true_errors(), b.true_errors());
+  EXPECT_EQ(a.true_model().T_world_base().matrix(), b.true_model().T_world_base().matrix());
+}
+
+TEST(VirtualCellTest, TrackerStandsAtTheConfiguredDistanceWithATiltedVerticalAxis) {
+  const RobotModel model = Preset("ur5e");  // nominal T_world_base is the identity
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    VirtualCellOptions o;
+    o.seed = seed;
+    const VirtualCell cell(model, o);
+    const Transform T_tracker_base = cell.true_model().T_world_base();
+    EXPECT_NEAR(T_tracker_base.translation().norm(), o.tracker_distance_mm, 1e-9);
+    // Tilt only: the base z axis seen from the tracker is near vertical (5 sigma of 0.05 rad per axis).
+    const double tilt = std::acos(std::clamp(T_tracker_base.linear()(2, 2), -1.0, 1.0));
+    EXPECT_LT(tilt, 0.35) << "seed " << seed;
+  }
+}
+
+TEST(VirtualCellTest, HiddenErrorsHaveTheConfiguredMagnitudes) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  double joint_mm = 0.0, joint_rad = 0.0, tool_mm = 0.0, tool_rad = 0.0;
+  int n_joint = 0, n_tool = 0;
+  const int tool_site = model.num_error_sites() - 1;
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    o.seed = seed;
+    const VirtualCell cell(model, o);
+    const Eigen::VectorXd& e = cell.true_errors();
+    EXPECT_TRUE(e.head<6>().isZero(0.0)) << "base errors are left to the tracker placement";
+    for (int site = 1; site <= tool_site; ++site) {
+      const double mm2 = e.segment<3>(6 * site).squaredNorm(), rad2 = e.segment<3>(6 * site + 3).squaredNorm();
+      if (site == tool_site) {
+        tool_mm += mm2, tool_rad += rad2, n_tool += 3;
+      } else {
+        joint_mm += mm2, joint_rad += rad2, n_joint += 3;
+      }
+    }
+  }
+  // 720 joint and 120 tool samples: sample sigmas within 10 % and 25 % (about 4 standard errors).
+  EXPECT_NEAR(std::sqrt(joint_mm / n_joint), o.joint_translation_sigma_mm, 0.1 * o.joint_translation_sigma_mm);
+  EXPECT_NEAR(std::sqrt(joint_rad / n_joint), o.joint_rotation_sigma_rad, 0.1 * o.joint_rotation_sigma_rad);
+  EXPECT_NEAR(std::sqrt(tool_mm / n_tool), o.tool_translation_sigma_mm, 0.25 * o.tool_translation_sigma_mm);
+  EXPECT_NEAR(std::sqrt(tool_rad / n_tool), o.tool_rotation_sigma_rad, 0.25 * o.tool_rotation_sigma_rad);
+}
+
+TEST(VirtualCellTest, NoiseFreeShotsAreTheTruePose) {
+  const RobotModel model = Preset("grinder5");
+  VirtualCellOptions o;
+  o.noise = {0.0, 0.0};
+  VirtualCell cell(model, o);
+  const Eigen::VectorXd q = Config(model, 3);
+  const auto shots = cell.Measure(q);
+  ASSERT_EQ(static_cast<int>(shots.size()), o.shots_per_pose);
+  for (const Measurement& m : shots) {
+    EXPECT_EQ(m.joints, q);
+    EXPECT_TRUE(m.T_world_tool.isApprox(cell.TruePose(q), 1e-15));
+  }
+  // The true pose differs from the nominal model's with the true placement by the hidden errors (> 0.1 mm).
+  KinematicsWorkspace ws(model);
+  const Transform without_errors = ForwardKinematics(cell.true_model(), q, Eigen::VectorXd(), &ws);
+  EXPECT_GT((without_errors.translation() - cell.TruePose(q).translation()).norm(), 0.1);
+}
+
+TEST(VirtualCellTest, ShotNoiseHasTheConfiguredSigmaPerAxis) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 11;
+  VirtualCell cell(model, o);
+  const Eigen::VectorXd q = Config(model, 5);
+  const Transform truth = cell.TruePose(q);
+  const int shots = 2000;
+  Eigen::Vector3d sum_p = Eigen::Vector3d::Zero(), sum_p2 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum_w2 = Eigen::Vector3d::Zero();
+  for (const Measurement& m : cell.Measure(q, shots)) {
+    const Eigen::Vector3d dp = m.T_world_tool.translation() - truth.translation();
+    const Eigen::Vector3d dw = RotationVector(m.T_world_tool.linear() * truth.linear().transpose());
+    sum_p += dp;
+    sum_p2 += dp.cwiseProduct(dp);
+    sum_w2 += dw.cwiseProduct(dw);
+  }
+  for (int k = 0; k < 3; ++k) {
+    // Standard error of a sample sigma from 2000 draws: 1.6 %; of the mean: sigma / 45.
+    EXPECT_NEAR(std::sqrt(sum_p2[k] / shots), o.noise.position_mm, 0.07 * o.noise.position_mm) << k;
+    EXPECT_NEAR(sum_p[k] / shots, 0.0, 0.1 * o.noise.position_mm) << k;
+    EXPECT_NEAR(std::sqrt(sum_w2[k] / shots), o.noise.orientation_rad, 0.07 * o.noise.orientation_rad) << k;
+  }
+}
+
+TEST(VirtualCellTest, MeasureAllConcatenatesShotsInOrder) {
+  const RobotModel model = Preset("puma560");
+  VirtualCellOptions o;
+  o.shots_per_pose = 2;
+  VirtualCell cell(model, o);
+  const std::vector<Eigen::VectorXd> configurations = {Config(model, 1), Config(model, 2), Config(model, 3)};
+  const auto all = cell.MeasureAll(configurations);
+  ASSERT_EQ(all.size(), 6u);
+  for (size_t i = 0; i < all.size(); ++i) EXPECT_EQ(all[i].joints, configurations[i / 2]);
+  EXPECT_EQ(cell.MeasureAll(configurations, 4).size(), 12u);
+  EXPECT_THROW(cell.Measure(Eigen::VectorXd::Zero(2)), std::invalid_argument);
+}
+
+TEST(VirtualCellTest, InvalidOptionsAreRejectedByName) {
+  const RobotModel model = Preset("ur5e");
+  const auto expect_rejected = [&](VirtualCellOptions o, const std::string& name) {
+    std::string error;
+    EXPECT_FALSE(o.IsValid(&error)) << name;
+    EXPECT_THAT(error, HasSubstr(name));
+    try {
+      VirtualCell cell(model, o);
+      ADD_FAILURE() << "no exception for " << name;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(), HasSubstr(name));
+    }
+  };
+  VirtualCellOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  o.joint_translation_sigma_mm = -1.0;
+  expect_rejected(o, "joint_translation_sigma_mm");
+  o = {};
+  o.tool_rotation_sigma_rad = NAN;
+  expect_rejected(o, "tool_rotation_sigma_rad");
+  o = {};
+  o.tracker_distance_mm = INFINITY;
+  expect_rejected(o, "tracker_distance_mm");
+  o = {};
+  o.noise.position_mm = -0.01;
+  expect_rejected(o, "noise.position_mm");
+  o = {};
+  o.noise.orientation_rad = NAN;
+  expect_rejected(o, "noise.orientation_rad");
+  o = {};
+  o.shots_per_pose = 0;
+  expect_rejected(o, "shots_per_pose");
+  o = {};
+  o.joint_rotation_sigma_rad = 0.5;
+  expect_rejected(o, "joint_rotation_sigma_rad");
+}
+
+}  // namespace
+}  // namespace robocal

@@ -85,6 +85,9 @@ struct IdentificationSummary {
   std::string scaling;
   /// Parameters not estimated (unidentifiable) and why.
   std::vector<DroppedParameter> dropped;
+  /// The estimated parameters with standard deviations (as Calibration::parameters), so that FullReport can
+  /// print the parameter table from the summary alone.
+  std::vector<IdentifiedParameter> parameters;
   double seconds = 0.0;
 
   std::string BriefReport() const;
