@@ -19,9 +19,10 @@ build: configure
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
 
-run:
-	@echo 'make run: the calibration server is not built yet; it arrives with the HTTP service (see README).' >&2
-	@exit 2
+# Starts the server on 127.0.0.1:8080 with its SQLite file under ./var (Ctrl-C stops it).
+run: build
+	mkdir -p var
+	$(BUILD_DIR)/server/robocal-server --host 127.0.0.1 --port 8080 --db ./var/robocal.db
 
 bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench

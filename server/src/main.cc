@@ -9,7 +9,7 @@
 #include "robocal/server/http_server.h"
 #include "robocal/server/logging.h"
 #include "robocal/server/service.h"
-#include "storage/storage.h"
+#include "server/storage/storage.h"
 
 int main(int argc, char** argv) {
   using namespace robocal::server;

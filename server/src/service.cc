@@ -659,6 +659,26 @@ CalibratedCampaign LoadCalibrated(Storage* storage, const std::string& campaign_
 
 }  // namespace
 
+json Service::CampaignForward(const std::string& campaign_id, const json& body) {
+  const CalibratedCampaign loaded = LoadCalibrated(storage_, campaign_id, options_.limits);
+  const RobotModel& model = loaded.model;
+  const Calibration& calibration = loaded.calibration;
+  const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  return {{"campaign", campaign_id}, {"frame", "tracker"},
+          {"poses", ForwardPoses(calibration.model, calibration.errors, req)}};
+}
+
+#ifdef ROBOCAL_CORE_WITHOUT_COMPENSATION
+// TEMPORARY (see server/CMakeLists.txt): this build's core has no compensation / accuracy statistics yet.
+json Service::Compensate(const std::string& campaign_id, const json&) {
+  (void)LoadCalibrated(storage_, campaign_id, options_.limits);
+  throw ApiError(Status::kUnavailable, "compensation is not available in this build");
+}
+json Service::Evaluate(const std::string& campaign_id, const json&) {
+  (void)LoadCalibrated(storage_, campaign_id, options_.limits);
+  throw ApiError(Status::kUnavailable, "accuracy evaluation is not available in this build");
+}
+#else
 json Service::Compensate(const std::string& campaign_id, const json& body) {
   const CalibratedCampaign loaded = LoadCalibrated(storage_, campaign_id, options_.limits);
   const RobotModel& model = loaded.model;
@@ -686,15 +706,6 @@ json Service::Compensate(const std::string& campaign_id, const json& body) {
     results.push_back(api::CompensationResultToJson(model, r));
   }
   return {{"campaign", campaign_id}, {"results", results}};
-}
-
-json Service::CampaignForward(const std::string& campaign_id, const json& body) {
-  const CalibratedCampaign loaded = LoadCalibrated(storage_, campaign_id, options_.limits);
-  const RobotModel& model = loaded.model;
-  const Calibration& calibration = loaded.calibration;
-  const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
-  return {{"campaign", campaign_id}, {"frame", "tracker"},
-          {"poses", ForwardPoses(calibration.model, calibration.errors, req)}};
 }
 
 json Service::Evaluate(const std::string& campaign_id, const json& body) {
@@ -733,5 +744,7 @@ json Service::Evaluate(const std::string& campaign_id, const json& body) {
   }
   return result;
 }
+
+#endif  // ROBOCAL_CORE_WITHOUT_COMPENSATION
 
 }  // namespace robocal::server

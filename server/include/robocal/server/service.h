@@ -15,7 +15,7 @@
 
 #include "robocal/api/types.h"
 #include "robocal/core/robot_model.h"
-#include "storage/storage.h"
+#include "server/storage/storage.h"
 
 namespace robocal::server {
 

@@ -1,0 +1,99 @@
+// The real HTTP server in-process on a free port, stopped on scope exit, and a small JSON client for it.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include "fake_storage.h"
+#include "robocal/server/http_server.h"
+#include "robocal/server/logging.h"
+#include "robocal/server/service.h"
+
+namespace robocal::server::testing {
+
+struct Reply {
+  int status = 0;
+  nlohmann::json body;
+  std::string text;
+};
+
+class TestServer {
+ public:
+  explicit TestServer(ServerConfig config = {}, std::vector<std::string> tokens = {},
+                      ServiceOptions options = {}, std::unique_ptr<Storage> storage = nullptr)
+      : storage_(storage ? std::move(storage) : std::make_unique<FakeStorage>()) {
+    spdlog::set_level(spdlog::level::warn);  // request lines would drown the test output
+    config.host = "127.0.0.1";
+    config.port = 0;
+    config.threads = 4;
+    service_ = std::make_unique<Service>(storage_.get(), options);
+    server_ = std::make_unique<HttpServer>(config, service_.get(), std::move(tokens));
+    port_ = server_->Bind();
+    EXPECT_GT(port_, 0);
+    thread_ = std::thread([this] { server_->Listen(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    client_->set_read_timeout(120, 0);
+  }
+  ~TestServer() {
+    server_->Stop();
+    thread_.join();
+  }
+
+  void set_token(const std::string& token) { token_ = token; }
+
+  Reply Request(const std::string& method, const std::string& path, const std::string& body = "") {
+    httplib::Headers headers;
+    if (!token_.empty()) headers.emplace("Authorization", "Bearer " + token_);
+    httplib::Result r = method == "GET"      ? client_->Get(path, headers)
+                        : method == "DELETE" ? client_->Delete(path, headers)
+                                             : client_->Post(path, headers, body, "application/json");
+    Reply reply;
+    if (!r) {
+      ADD_FAILURE() << method << " " << path << ": no response (" << httplib::to_string(r.error()) << ")";
+      return reply;
+    }
+    reply.status = r->status;
+    reply.text = r->body;
+    reply.body = nlohmann::json::parse(r->body, nullptr, false);
+    return reply;
+  }
+  Reply Get(const std::string& path) { return Request("GET", path); }
+  Reply Delete(const std::string& path) { return Request("DELETE", path); }
+  Reply Post(const std::string& path, const nlohmann::json& body) { return Request("POST", path, body.dump()); }
+  Reply PostText(const std::string& path, const std::string& body) { return Request("POST", path, body); }
+
+  Storage& storage() { return *storage_; }
+  int port() const { return port_; }
+
+ private:
+  std::unique_ptr<Storage> storage_;
+  std::unique_ptr<Service> service_;
+  std::unique_ptr<HttpServer> server_;
+  std::unique_ptr<httplib::Client> client_;
+  std::thread thread_;
+  std::string token_;
+  int port_ = -1;
+};
+
+/// The first violation's field of an error reply ("" if none).
+inline std::string FirstField(const Reply& r) {
+  if (!r.body.is_object() || !r.body.contains("error")) return "";
+  const auto& d = r.body["error"]["details"];
+  return d.empty() ? "" : d[0].value("field", "");
+}
+
+/// True if any violation names `field`.
+inline bool NamesField(const Reply& r, const std::string& field) {
+  if (!r.body.is_object() || !r.body.contains("error")) return false;
+  for (const auto& d : r.body["error"]["details"]) {
+    if (d.value("field", "") == field) return true;
+  }
+  return false;
+}
+
+}  // namespace robocal::server::testing
