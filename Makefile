@@ -28,6 +28,7 @@ bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench
 	$(BUILD_DIR)/tests/bench/robocal_planning_bench
 	$(BUILD_DIR)/tests/bench/robocal_identification_bench
+	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
 
 format:
 	find core api server client tests -name '*.h' -o -name '*.cc' | xargs -r clang-format -i

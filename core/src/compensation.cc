@@ -1,1 +1,303 @@
-// Placeholder: implemented with the identification issue.
+// Compensation: damped least squares inverse kinematics on the calibrated model, within the joint limits.
+#include "robocal/core/compensation.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "robocal/core/error_model.h"
+#include "robocal/core/kinematics.h"
+
+namespace robocal {
+namespace {
+
+// Damping never goes below this: a singular J'J (e.g. the 5-axis robot's C axis parallel to the tool axis) must
+// still give a finite step.
+constexpr double kMinDamping = 1e-9;
+
+// Rows matched: the full pose for 6 or more joints; position and tool axis for fewer, since a 5-joint robot
+// cannot reach an arbitrary 6-D pose (the rotation about the tool axis is then free).
+MeasurementType MatchedRows(const RobotModel& model) {
+  return model.num_joints() >= 6 ? MeasurementType::kPose : MeasurementType::kPositionAxis;
+}
+
+struct Errors {
+  double position_mm = 0.0;
+  double orientation_rad = 0.0;
+};
+
+// The position error and the angle over the matched rotations, computed exactly (not from the linearised rows).
+Errors MatchedErrors(MeasurementType type, const Transform& reached, const Transform& target) {
+  Errors e;
+  e.position_mm = (target.translation() - reached.translation()).norm();
+  if (type == MeasurementType::kPose) {
+    e.orientation_rad = RotationVector(target.linear() * reached.linear().transpose()).norm();
+  } else {
+    const Eigen::Vector3d u = reached.linear().col(2), u_target = target.linear().col(2);
+    e.orientation_rad = std::atan2(u.cross(u_target).norm(), u.dot(u_target));
+  }
+  return e;
+}
+
+// Angle about the tool axis from the target's x axis to the reached x axis, both projected on the plane
+// perpendicular to the reached tool axis (rad, in (-pi, pi]).
+double FreeRotation(const Transform& reached, const Transform& target) {
+  const Eigen::Matrix3d r = reached.linear();
+  const Eigen::Vector3d x_target = target.linear().col(0);
+  return -std::atan2(r.col(1).dot(x_target), r.col(0).dot(x_target));
+}
+
+// The solver's rows for one target: the position error (mm) and the weighted orientation error (mm per rad
+// times rad), with their exact derivatives. MeasurementResidual's rows are not used here: their Jacobian is
+// exact only at zero residual, and near a singularity that small mismatch, multiplied by a large inverse,
+// turns Gauss-Newton's quadratic convergence into a crawl.
+class Rows {
+ public:
+  Rows(MeasurementType type, const Transform& T_world_target, double orientation_weight)
+      : type_(type), target_(T_world_target), weight_(orientation_weight) {
+    // Axis rows use a tangent basis of the fixed target axis, so the residual -t_k . u has the exact
+    // derivative -t_k . (omega x u) and vanishes exactly when the axes coincide.
+    if (type_ == MeasurementType::kPositionAxis) TangentBasis(target_.linear().col(2), &t1_, &t2_);
+  }
+
+  int size() const { return MeasurementRows(type_); }
+
+  // r = target - reached, weighted.
+  void Residual(const Transform& reached, Eigen::VectorXd* r) const {
+    r->head<3>() = target_.translation() - reached.translation();
+    if (type_ == MeasurementType::kPose) {
+      r->tail<3>() = weight_ * RotationVector(target_.linear() * reached.linear().transpose());
+    } else {
+      const Eigen::Vector3d u = reached.linear().col(2);
+      (*r)[3] = -weight_ * t1_.dot(u);
+      (*r)[4] = -weight_ * t2_.dot(u);
+    }
+  }
+
+  // J with r(q + dq) ~= r(q) - J dq, from the joint twists (JointJacobian kPose: dp rows, omega rows) at the
+  // reached pose and the current residual r.
+  void Jacobian(const Transform& reached, const Eigen::VectorXd& r, const Eigen::MatrixXd& twists,
+                Eigen::MatrixXd* jacobian) const {
+    jacobian->topRows<3>() = twists.topRows<3>();
+    if (type_ == MeasurementType::kPose) {
+      // r = log(R_t R^T); turning R by omega changes it by -Jr^-1(r) omega (Jr: the right Jacobian of SO(3)).
+      jacobian->bottomRows<3>() = weight_ * InverseRightJacobian(r.tail<3>() / weight_) * twists.bottomRows<3>();
+    } else {
+      const Eigen::Vector3d u = reached.linear().col(2);
+      for (int j = 0; j < twists.cols(); ++j) {
+        const Eigen::Vector3d du = twists.col(j).tail<3>().cross(u);
+        (*jacobian)(3, j) = weight_ * t1_.dot(du);
+        (*jacobian)(4, j) = weight_ * t2_.dot(du);
+      }
+    }
+  }
+
+ private:
+  static Eigen::Matrix3d Hat(const Eigen::Vector3d& v) {
+    Eigen::Matrix3d m;
+    m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+    return m;
+  }
+
+  // Jr^-1(phi) = I + [phi]/2 + (1/theta^2 - (1 + cos theta) / (2 theta sin theta)) [phi]^2.
+  static Eigen::Matrix3d InverseRightJacobian(const Eigen::Vector3d& phi) {
+    const double theta = phi.norm();
+    const Eigen::Matrix3d hat = Hat(phi);
+    // Series below 1e-4 rad: the closed form loses all its digits there; the next term is theta^2 / 720.
+    const double c =
+        theta < 1e-4 ? 1.0 / 12.0 : 1.0 / (theta * theta) - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
+    return Eigen::Matrix3d::Identity() + 0.5 * hat + c * hat * hat;
+  }
+
+  MeasurementType type_;
+  Transform target_;
+  double weight_;
+  Eigen::Vector3d t1_ = Eigen::Vector3d::Zero(), t2_ = Eigen::Vector3d::Zero();
+};
+
+std::string Number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.6g", value);
+  return text;
+}
+
+}  // namespace
+
+const char* ToString(TargetFrame frame) { return frame == TargetFrame::kBase ? "base" : "tracker"; }
+
+bool ParseTargetFrame(const std::string& text, TargetFrame* frame) {
+  for (TargetFrame f : {TargetFrame::kTracker, TargetFrame::kBase}) {
+    if (text == ToString(f)) {
+      *frame = f;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool CompensationOptions::IsValid(std::string* error) const {
+  auto fail = [&](const char* message) {
+    *error = message;
+    return false;
+  };
+  if (!(initial_damping > 0.0) || !std::isfinite(initial_damping)) {
+    return fail("initial_damping must be positive and finite");
+  }
+  if (!(max_damping > initial_damping) || !std::isfinite(max_damping)) {
+    return fail("max_damping must be finite and greater than initial_damping");
+  }
+  if (max_iterations < 1 || max_iterations > 100000) return fail("max_iterations must be in [1, 100000]");
+  if (!(position_tolerance_mm > 0.0) || !std::isfinite(position_tolerance_mm)) {
+    return fail("position_tolerance_mm must be positive and finite");
+  }
+  if (!(orientation_tolerance_rad > 0.0) || !std::isfinite(orientation_tolerance_rad)) {
+    return fail("orientation_tolerance_rad must be positive and finite");
+  }
+  if (!(orientation_weight_mm_per_rad > 0.0) || !std::isfinite(orientation_weight_mm_per_rad)) {
+    return fail("orientation_weight_mm_per_rad must be positive and finite");
+  }
+  return true;
+}
+
+CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
+                                  const Eigen::VectorXd& q_start, const CompensationOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("CompensationOptions: " + error);
+  const RobotModel& model = calibration.model;
+  const int n = model.num_joints();
+  if (q_start.size() != n) {
+    throw std::invalid_argument("CompensatePose: q_start has " + std::to_string(q_start.size()) +
+                                " values, the robot " + std::to_string(n) + " joints");
+  }
+  if (!q_start.allFinite()) throw std::invalid_argument("CompensatePose: q_start is not finite");
+  if (calibration.errors.size() != 0 && calibration.errors.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("CompensatePose: calibration.errors has " + std::to_string(calibration.errors.size()) +
+                                " values, expected " + std::to_string(model.num_error_parameters()));
+  }
+  if (!IsValidRigidTransform(target, 1e-6)) throw std::invalid_argument("CompensatePose: target is not rigid");
+  if (frame == TargetFrame::kBase && !IsValidRigidTransform(calibration.T_world_base, 1e-6)) {
+    throw std::invalid_argument("CompensatePose: calibration.T_world_base is not rigid");
+  }
+
+  const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
+  const MeasurementType type = MatchedRows(model);
+  const Rows rows(type, T_world_target, options.orientation_weight_mm_per_rad);
+  const Eigen::VectorXd& lower = model.lower_limits();
+  const Eigen::VectorXd& upper = model.upper_limits();
+  KinematicsWorkspace ws(model);
+  Eigen::MatrixXd twist_jacobian(6, n);
+  Eigen::MatrixXd jacobian(rows.size(), n);
+  Eigen::VectorXd residual(rows.size()), trial_residual(rows.size());
+
+  CompensationResult result;
+  // A start outside the limits (e.g. a nominal command at a limit plus round-off) is projected inside.
+  Eigen::VectorXd q = q_start.cwiseMax(lower).cwiseMin(upper);
+  auto cost_at = [&](const Eigen::VectorXd& joints, Eigen::VectorXd* r) {
+    rows.Residual(ForwardKinematics(model, joints, calibration.errors, &ws), r);
+    return r->squaredNorm();
+  };
+
+  double cost = cost_at(q, &residual);
+  double damping = options.initial_damping;
+  bool stalled = false;
+  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(n);
+  int iteration = 0;
+  for (;; ++iteration) {
+    const Errors e = MatchedErrors(type, ws.T_world_tool, T_world_target);
+    if (e.position_mm < options.position_tolerance_mm && e.orientation_rad < options.orientation_tolerance_rad) {
+      result.converged = true;
+      break;
+    }
+    if (iteration == options.max_iterations) break;
+
+    // residual(q + dq) ~= residual(q) - J dq: solve min |r - J dq|^2 + lambda^2 |dq|^2 (rows weighted).
+    JointJacobian(model, q, calibration.errors, MeasurementType::kPose, &ws, twist_jacobian);
+    rows.Jacobian(ws.T_world_tool, residual, twist_jacobian, &jacobian);
+    gradient = jacobian.transpose() * residual;  // the descent direction of the cost, up to a factor
+    // Active set: a joint at a limit whose descent direction points out of the range is held there, so the
+    // other joints still make the progress they can (a plain clamp of the full step can stall).
+    std::vector<bool> held(n, false);
+    for (int i = 0; i < n; ++i) {
+      held[i] = (q[i] <= lower[i] && gradient[i] < 0.0) || (q[i] >= upper[i] && gradient[i] > 0.0);
+    }
+    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    bool accepted = false;
+    while (!accepted) {
+      Eigen::MatrixXd a = normal;
+      a.diagonal().array() += damping * damping;
+      Eigen::VectorXd b = gradient;
+      for (int i = 0; i < n; ++i) {
+        if (!held[i]) continue;
+        a.row(i).setZero();
+        a.col(i).setZero();
+        a(i, i) = 1.0;
+        b[i] = 0.0;
+      }
+      const Eigen::VectorXd dq = a.ldlt().solve(b);
+      const Eigen::VectorXd q_trial = (q + dq).cwiseMax(lower).cwiseMin(upper);
+      const double trial_cost = dq.allFinite() ? cost_at(q_trial, &trial_residual) : HUGE_VAL;
+      if (trial_cost < cost) {
+        q = q_trial;
+        cost = trial_cost;
+        residual = trial_residual;
+        damping = std::max(damping / 10.0, kMinDamping);
+        accepted = true;
+      } else {
+        damping *= 10.0;
+        if (damping > options.max_damping) break;
+      }
+    }
+    if (!accepted) {
+      // Leave the workspace at the best point for the final errors below.
+      cost_at(q, &residual);
+      stalled = true;
+      ++iteration;
+      break;
+    }
+  }
+
+  result.joints = q;
+  result.iterations = iteration;
+  const Transform& reached = ForwardKinematics(model, q, calibration.errors, &ws);
+  const Errors e = MatchedErrors(type, reached, T_world_target);
+  result.position_error_mm = e.position_mm;
+  result.orientation_error_rad = e.orientation_rad;
+  if (type == MeasurementType::kPositionAxis) result.free_rotation_rad = FreeRotation(reached, T_world_target);
+  if (result.converged) return result;
+
+  // Say why: joints held at a limit first, then whether the solver ran out of iterations or of descent.
+  JointJacobian(model, q, calibration.errors, MeasurementType::kPose, &ws, twist_jacobian);
+  rows.Jacobian(ws.T_world_tool, residual, twist_jacobian, &jacobian);
+  gradient = jacobian.transpose() * residual;
+  std::string limits;
+  for (int i = 0; i < n; ++i) {
+    const bool at_lower = q[i] <= lower[i] && gradient[i] < 0.0;
+    const bool at_upper = q[i] >= upper[i] && gradient[i] > 0.0;
+    if (!at_lower && !at_upper) continue;
+    limits += "joint " + std::to_string(i + 1) + " (" + model.joint_name(i) + ") at its " +
+              (at_lower ? "lower limit " + Number(lower[i]) : "upper limit " + Number(upper[i])) + "; ";
+  }
+  result.message = limits + (stalled ? "no step lowers the error (target out of reach, or a singularity)"
+                                     : "max_iterations (" + std::to_string(options.max_iterations) + ") reached");
+  result.message += "; remaining error " + Number(e.position_mm) + " mm, " + Number(e.orientation_rad) + " rad";
+  return result;
+}
+
+CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
+                                    const Eigen::VectorXd& q_nominal, const CompensationOptions& options) {
+  if (nominal.num_joints() != calibration.model.num_joints()) {
+    throw std::invalid_argument("CompensateJoints: the nominal model has " + std::to_string(nominal.num_joints()) +
+                                " joints, the calibrated one " + std::to_string(calibration.model.num_joints()));
+  }
+  if (q_nominal.size() != nominal.num_joints()) {
+    throw std::invalid_argument("CompensateJoints: q_nominal has " + std::to_string(q_nominal.size()) +
+                                " values, the robot " + std::to_string(nominal.num_joints()) + " joints");
+  }
+  // Where the program expects the tool, relative to the robot base: independent of where the tracker stands.
+  const Transform T_base_tool = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q_nominal);
+  return CompensatePose(calibration, T_base_tool, TargetFrame::kBase, q_nominal, options);
+}
+
+}  // namespace robocal

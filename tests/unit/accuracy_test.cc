@@ -1,1 +1,122 @@
-// Placeholder: tests arrive with the implementation.
+// Accuracy statistics: hand-computed statistics, E_xyz, E_cos and E_tot for known poses, the table's units, and
+// rejected input.
+#include "robocal/core/accuracy.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace robocal {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(ErrorStatisticsTest, MatchesHandComputedValues) {
+  const ErrorStatistics s = ComputeErrorStatistics({1.0, 2.0, 3.0, 4.0});
+  EXPECT_EQ(s.count, 4);
+  EXPECT_DOUBLE_EQ(s.mean, 2.5);
+  // Squared deviations 2.25 + 0.25 + 0.25 + 2.25 = 5, divided by N - 1 = 3.
+  EXPECT_DOUBLE_EQ(s.std, std::sqrt(5.0 / 3.0));
+  EXPECT_DOUBLE_EQ(s.max, 4.0);
+  EXPECT_DOUBLE_EQ(s.rp, 2.5 + 3.0 * std::sqrt(5.0 / 3.0));
+}
+
+TEST(ErrorStatisticsTest, SingleValueHasZeroStd) {
+  const ErrorStatistics s = ComputeErrorStatistics({0.054});
+  EXPECT_EQ(s.count, 1);
+  EXPECT_DOUBLE_EQ(s.mean, 0.054);
+  EXPECT_EQ(s.std, 0.0);
+  EXPECT_DOUBLE_EQ(s.max, 0.054);
+  EXPECT_DOUBLE_EQ(s.rp, 0.054);
+}
+
+TEST(ErrorStatisticsTest, SmallSpreadOnALargeOffsetIsNotLost) {
+  // A naive sum-of-squares formula loses these digits entirely.
+  const ErrorStatistics s = ComputeErrorStatistics({1e8 + 1.0, 1e8 + 2.0, 1e8 + 3.0});
+  EXPECT_NEAR(s.std, 1.0, 1e-9);
+}
+
+TEST(ErrorStatisticsTest, RejectsEmptyAndNonFiniteSamples) {
+  EXPECT_THROW(ComputeErrorStatistics({}), std::invalid_argument);
+  EXPECT_THROW(ComputeErrorStatistics({1.0, std::nan("")}), std::invalid_argument);
+  EXPECT_THROW(ComputeErrorStatistics({std::numeric_limits<double>::infinity()}), std::invalid_argument);
+}
+
+Transform PoseWithAxisTilt(const Eigen::Vector3d& position_mm, double tilt_rad) {
+  Transform t = Transform::Identity();
+  t.linear() = RotY(tilt_rad);
+  t.translation() = position_mm;
+  return t;
+}
+
+TEST(AccuracyTest, PositionAndAxisErrorsOfKnownPoses) {
+  const Transform target = Transform::Identity();
+  const std::vector<Transform> reached = {
+      PoseWithAxisTilt({3.0, 4.0, 0.0}, 0.0),      // 5 mm, axis exact
+      PoseWithAxisTilt({0.0, 0.0, 0.0}, 1e-3),     // axis tilted by 1 mrad
+      PoseWithAxisTilt({0.0, 0.0, 0.0}, M_PI / 2)  // axis perpendicular
+  };
+  const AccuracyReport r = ComputeAccuracy(reached, {target, target, target});
+  ASSERT_EQ(r.e_xyz_values_mm.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.e_xyz_values_mm[0], 5.0);
+  EXPECT_NEAR(r.e_cos_values_rad[0], 0.0, 1e-15);
+  EXPECT_NEAR(r.e_cos_values_rad[1], 1e-3, 1e-15);
+  EXPECT_NEAR(r.e_cos_values_rad[2], M_PI / 2, 1e-15);
+  EXPECT_DOUBLE_EQ(r.h_mm, 30.0);
+  EXPECT_NEAR(r.e_tot_values_mm[1], 30.0 * 1e-3, 1e-12);
+  EXPECT_DOUBLE_EQ(r.e_xyz_mm.mean, 5.0 / 3.0);
+  EXPECT_DOUBLE_EQ(r.e_xyz_mm.max, 5.0);
+}
+
+TEST(AccuracyTest, RotationAboutTheToolAxisIsNoAxisError) {
+  Transform reached = Transform::Identity();
+  reached.linear() = RotZ(0.7);
+  const AccuracyReport r = ComputeAccuracy({reached}, {Transform::Identity()});
+  EXPECT_NEAR(r.e_cos_values_rad[0], 0.0, 1e-15);
+}
+
+TEST(AccuracyTest, TinyAxisAnglesAreResolved) {
+  // arccos of the dot product could not tell 1e-9 rad from 0.
+  const AccuracyReport r = ComputeAccuracy({PoseWithAxisTilt(Eigen::Vector3d::Zero(), 1e-9)}, {Transform::Identity()});
+  EXPECT_NEAR(r.e_cos_values_rad[0], 1e-9, 1e-15);
+}
+
+TEST(AccuracyTest, TotalErrorUsesTheGivenLever) {
+  Transform target = Transform::Identity();
+  target.translation() = Eigen::Vector3d(100, 200, 300);
+  Transform reached = target;
+  reached.translation() += Eigen::Vector3d(0.0, 0.0, 0.02);
+  reached.linear() = RotX(2e-4);
+  const AccuracyReport r = ComputeAccuracy({reached}, {target}, 150.0);
+  EXPECT_DOUBLE_EQ(r.h_mm, 150.0);
+  EXPECT_NEAR(r.e_tot_values_mm[0], 0.02 + 150.0 * 2e-4, 1e-12);
+  EXPECT_NEAR(r.e_tot_mm.mean, 0.05, 1e-12);
+}
+
+TEST(AccuracyTest, RejectsMismatchedOrEmptyInputAndBadLever) {
+  const Transform t = Transform::Identity();
+  EXPECT_THROW(ComputeAccuracy({}, {}), std::invalid_argument);
+  EXPECT_THROW(ComputeAccuracy({t, t}, {t}), std::invalid_argument);
+  EXPECT_THROW(ComputeAccuracy({t}, {t}, 0.0), std::invalid_argument);
+  EXPECT_THROW(ComputeAccuracy({t}, {t}, std::nan("")), std::invalid_argument);
+}
+
+TEST(AccuracyTest, TableIsInMicrometresAndArcSeconds) {
+  Transform reached = Transform::Identity();
+  reached.translation() = Eigen::Vector3d(0.0547, 0.0, 0.0);
+  reached.linear() = RotX(M_PI / (180.0 * 3600.0));  // one arc-second
+  const AccuracyReport r = ComputeAccuracy({reached}, {Transform::Identity()});
+  const std::string table = FormatAccuracyTable(r, "Optimal configurations");
+  EXPECT_THAT(table, HasSubstr("Optimal configurations (N = 1, E_tot = E_xyz + 30 mm * E_cos)"));
+  EXPECT_THAT(table, HasSubstr("E_xyz um"));
+  EXPECT_THAT(table, HasSubstr("54.7"));
+  EXPECT_THAT(table, HasSubstr("E_cos arcsec"));
+  EXPECT_THAT(table, HasSubstr("1.0"));
+  EXPECT_THAT(table, HasSubstr("E_tot um"));
+  for (const char* column : {"mean", "std", "max", "RP"}) EXPECT_THAT(table, HasSubstr(column));
+}
+
+}  // namespace
+}  // namespace robocal

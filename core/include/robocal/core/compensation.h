@@ -2,10 +2,9 @@
 // least squares inverse kinematics within the joint limits.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "robocal/core/identification.h"
 #include "robocal/core/robot_model.h"
@@ -26,8 +25,12 @@ const char* ToString(TargetFrame frame);
 bool ParseTargetFrame(const std::string& text, TargetFrame* frame);
 
 struct CompensationOptions {
-  /// Damped least squares: dq = J' (J J' + lambda^2 I)^-1 e with lambda adapted between these bounds.
+  /// Damped least squares: dq = J' (J J' + lambda^2 I)^-1 e (rows weighted, see below), with lambda adapted
+  /// Levenberg-style: a step that lowers the weighted error is taken and lambda divided by 10; otherwise lambda
+  /// is multiplied by 10 and the step recomputed. lambda starts at `initial_damping`; when it would exceed
+  /// `max_damping` no step lowers the error any more and the solver stops (not converged).
   double initial_damping = 1e-3;
+  double max_damping = 1e6;
   int max_iterations = 100;
   /// Converged when the position error < position_tolerance_mm and the matched orientation error <
   /// orientation_tolerance_rad.
@@ -48,17 +51,23 @@ struct CompensationResult {
   /// Angle between the reached and target orientations over the matched rotations (rad): the full rotation
   /// for 6+ joints, the tool axis for robots with fewer joints.
   double orientation_error_rad = 0.0;
-  /// For robots with fewer than 6 joints: the rotation about the tool axis that was left free (rad).
+  /// For robots with fewer than 6 joints: the rotation about the tool axis that was left free (rad, in
+  /// (-pi, pi]): the angle about the reached tool axis from the target's x axis to the reached one. 0 otherwise.
   double free_rotation_rad = 0.0;
   bool converged = false;
+  /// Joint Jacobian evaluations.
   int iterations = 0;
-  /// Empty when converged; otherwise why not (e.g. "joint 3 at its upper limit").
+  /// Empty when converged; otherwise why not (e.g. "joint 3 (Z) at its upper limit 400; ...").
   std::string message;
 };
 
 /// Joints on the calibrated robot that reach the tool pose `target` (given in `frame`), starting from
-/// `q_start` (nominal joints; size num_joints). A robot with fewer than 6 joints cannot match an arbitrary
-/// 6-D pose: it matches the position and the tool (z) axis, and the rotation about the tool axis is free.
+/// `q_start` (nominal joints; size num_joints; projected into the limits first). A robot with fewer than 6
+/// joints cannot match an arbitrary 6-D pose: it matches the position and the tool (z) axis (the rows of
+/// MeasurementType::kPositionAxis), and the rotation about the tool axis is free (reported, not matched).
+/// kBase targets are placed in the world by calibration.T_world_base. Every step is kept within the joint
+/// limits; a joint at a limit that the error pulls outward is held there and named in the message.
+/// Throws std::invalid_argument for invalid options, wrong sizes, a non-finite start or a non-rigid target.
 CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
                                   const Eigen::VectorXd& q_start, const CompensationOptions& options = {});
 

@@ -1,0 +1,55 @@
+// Compensation: one target (CompensateJoints, nominal command -> calibrated joints) on grinder5 (position +
+// tool axis) and ur5e (full pose), with errors of an industrial robot and the tracker 3 m away.
+#include <benchmark/benchmark.h>
+
+#include "robocal/core/compensation.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
+#include "robocal/core/random.h"
+
+namespace robocal {
+namespace {
+
+Calibration MakeCalibration(const std::string& preset) {
+  RobotModelSpec spec = PresetSpec(preset);
+  spec.T_world_base = TransformFromXyzRpy({3000.0, -1200.0, 500.0}, {0.1, -0.05, 2.0});
+  const RobotModel model = RobotModel::Build(spec);
+  Rng rng(1);
+  Eigen::VectorXd errors(model.num_error_parameters());
+  for (int k = 0; k < errors.size(); ++k) {
+    errors[k] = RobotModel::IsTranslationParameter(k) ? 0.2 * rng.Normal() : 3.5e-4 * rng.Normal();
+  }
+  return Calibration{.model = model,
+                     .errors = errors,
+                     .parameters = {},
+                     .covariance = {},
+                     .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
+                     .T_flange_tool = model.T_flange_tool(),
+                     .summary = {}};
+}
+
+// Arg: preset (0 grinder5, 1 ur5e). Cycles over 64 random nominal commands.
+void BM_CompensateJoints(benchmark::State& state) {
+  const std::string preset = state.range(0) == 0 ? "grinder5" : "ur5e";
+  const RobotModel nominal = Preset(preset);
+  const Calibration calibration = MakeCalibration(preset);
+  Rng rng(2);
+  std::vector<Eigen::VectorXd> commands;
+  for (int i = 0; i < 64; ++i) commands.push_back(RandomConfiguration(nominal, &rng));
+  size_t i = 0;
+  long iterations = 0, converged = 0, targets = 0;
+  for (auto _ : state) {
+    const CompensationResult r = CompensateJoints(calibration, nominal, commands[i++ % commands.size()]);
+    benchmark::DoNotOptimize(r.joints.data());
+    iterations += r.iterations;
+    converged += r.converged ? 1 : 0;
+    ++targets;
+  }
+  state.counters["iterations"] = static_cast<double>(iterations) / static_cast<double>(targets);
+  state.counters["converged"] = static_cast<double>(converged) / static_cast<double>(targets);
+  state.SetLabel(preset);
+}
+BENCHMARK(BM_CompensateJoints)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace robocal
