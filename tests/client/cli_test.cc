@@ -72,7 +72,6 @@ TEST_F(CliTest, ExitCodes) {
   EXPECT_EQ(RunCli(server + " plan grinder5 --type sideways").exit_code, 1);
   EXPECT_EQ(RunCli("--server http://127.0.0.1:1 robots").exit_code, 3);
   EXPECT_EQ(RunCli("--server 127.0.0.1:1 robots").exit_code, 2);
-  EXPECT_EQ(RunCli("ROBOCAL_SERVER= robots").exit_code, 2);  // not an env assignment here: a bad command
 }
 
 TEST_F(CliTest, WholeFlow) {
