@@ -668,17 +668,6 @@ json Service::CampaignForward(const std::string& campaign_id, const json& body) 
           {"poses", ForwardPoses(calibration.model, calibration.errors, req)}};
 }
 
-#ifdef ROBOCAL_CORE_WITHOUT_COMPENSATION
-// TEMPORARY (see server/CMakeLists.txt): this build's core has no compensation / accuracy statistics yet.
-json Service::Compensate(const std::string& campaign_id, const json&) {
-  (void)LoadCalibrated(storage_, campaign_id, options_.limits);
-  throw ApiError(Status::kUnavailable, "compensation is not available in this build");
-}
-json Service::Evaluate(const std::string& campaign_id, const json&) {
-  (void)LoadCalibrated(storage_, campaign_id, options_.limits);
-  throw ApiError(Status::kUnavailable, "accuracy evaluation is not available in this build");
-}
-#else
 json Service::Compensate(const std::string& campaign_id, const json& body) {
   const CalibratedCampaign loaded = LoadCalibrated(storage_, campaign_id, options_.limits);
   const RobotModel& model = loaded.model;
@@ -744,7 +733,5 @@ json Service::Evaluate(const std::string& campaign_id, const json& body) {
   }
   return result;
 }
-
-#endif  // ROBOCAL_CORE_WITHOUT_COMPENSATION
 
 }  // namespace robocal::server

@@ -1,0 +1,126 @@
+// Durability: a separate robocal-server process is killed with SIGKILL right after acknowledging uploads; on
+// restart every acknowledged measurement is there, the database passes its integrity check, and an operation
+// that was running is reported FAILED.
+// Eigen first: glibc's resolver header (pulled in by httplib.h) defines a macro `_res` that breaks Eigen.
+#include "robocal/api/convert.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
+#include "server/storage/storage.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <regex>
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+namespace robocal::server::testing {
+namespace {
+
+using nlohmann::json;
+
+// A robocal-server child process on a free port.
+class ServerProcess {
+ public:
+  explicit ServerProcess(const std::string& db) {
+    int out[2];
+    EXPECT_EQ(pipe(out), 0);
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(out[1], STDOUT_FILENO);
+      close(out[0]);
+      execl(ROBOCAL_SERVER_BINARY, ROBOCAL_SERVER_BINARY, "--port", "0", "--db", db.c_str(), "--log-level", "error",
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(out[1]);
+    // The first line says where it listens.
+    FILE* f = fdopen(out[0], "r");
+    char line[512] = {0};
+    if (fgets(line, sizeof line, f) != nullptr) {
+      std::smatch m;
+      const std::string text(line);
+      if (std::regex_search(text, m, std::regex(R"(listening on http://127\.0\.0\.1:(\d+))"))) {
+        port_ = std::stoi(m[1].str());
+      }
+    }
+    fclose(f);
+    EXPECT_GT(port_, 0) << "server did not start: " << line;
+  }
+  ~ServerProcess() { Kill(); }
+  void Kill() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+    }
+  }
+  int port() const { return port_; }
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = -1;
+};
+
+json Batch(const RobotModel& model, const std::string& request_id, int count, std::uint64_t seed) {
+  Rng rng(seed);
+  json list = json::array();
+  for (int i = 0; i < count; ++i) {
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    list.push_back({{"joints", api::JointsToWire(model, q)},
+                    {"pose", api::ToJson(api::TransformToPose(ForwardKinematics(model, q)))}});
+  }
+  return {{"request_id", request_id}, {"measurements", list}};
+}
+
+TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("robocal_dur_" +
+                                                                                    std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  const std::string db = (dir / "robocal.db").string();
+  const RobotModel model = Preset("ur5e");
+  std::int64_t acknowledged = 0;
+  std::string operation;
+  {
+    ServerProcess server(db);
+    httplib::Client client("127.0.0.1", server.port());
+    auto created = client.Post("/v1/campaigns", R"({"id":"dur","robot":"ur5e"})", "application/json");
+    ASSERT_TRUE(created && created->status == 200);
+    auto op = client.Post("/v1/plans",
+                          R"({"robot":"ur5e","num_configurations":20,"async":true,"options":{"k_max":1000000}})",
+                          "application/json");
+    ASSERT_TRUE(op && op->status == 200);
+    operation = json::parse(op->body)["id"];
+    for (int b = 0; b < 20; ++b) {
+      auto r = client.Post("/v1/campaigns/dur/measurements",
+                           Batch(model, "batch-" + std::to_string(b), 5, static_cast<std::uint64_t>(b)).dump(),
+                           "application/json");
+      ASSERT_TRUE(r && r->status == 200);
+      acknowledged = json::parse(r->body)["campaign_total"];
+    }
+    server.Kill();  // right after the last acknowledgement
+  }
+  {
+    auto storage = OpenSqliteStorage(db);
+    EXPECT_EQ(storage->IntegrityCheck(), "ok");
+    EXPECT_EQ(storage->CountMeasurements("dur"), acknowledged);
+  }
+  ServerProcess restarted(db);
+  httplib::Client client("127.0.0.1", restarted.port());
+  auto campaign = client.Get("/v1/campaigns/dur");
+  ASSERT_TRUE(campaign && campaign->status == 200);
+  EXPECT_EQ(json::parse(campaign->body)["counts"]["calibration"], acknowledged);
+  auto op = client.Get(("/v1/operations/" + operation).c_str());
+  ASSERT_TRUE(op && op->status == 200);
+  EXPECT_EQ(json::parse(op->body)["state"], "FAILED");
+  restarted.Kill();
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace robocal::server::testing
