@@ -220,10 +220,11 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
     const AccuracyReport& a = report.planned.after;
     const AccuracyReport& r = report.random->after;
     out << std::fixed << std::setprecision(1) << "\n"
-        << options.optimiser << " vs random (after calibration): E_xyz mean "
+        << options.optimiser
+        << " over random, after calibration (percent lower error; negative: random did better): E_xyz mean "
         << Percent(r.e_xyz_mm.mean, a.e_xyz_mm.mean) << " %, E_xyz RP " << Percent(r.e_xyz_mm.rp, a.e_xyz_mm.rp)
         << " %, E_tot mean " << Percent(r.e_tot_mm.mean, a.e_tot_mm.mean) << " %, E_tot RP "
-        << Percent(r.e_tot_mm.rp, a.e_tot_mm.rp) << " % better\n";
+        << Percent(r.e_tot_mm.rp, a.e_tot_mm.rp) << " %\n";
   }
   out << (report.improved ? "\ncalibration improved accuracy\n" : "\ncalibration did NOT improve accuracy\n");
   return out.str();
