@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 
-.PHONY: all deps configure build test run bench format clean
+.PHONY: all deps configure build test run bench format clean demo
 
 all: build
 
@@ -23,6 +23,10 @@ test: build
 run: build
 	mkdir -p var
 	$(BUILD_DIR)/server/robocal-server --host 127.0.0.1 --port 8080 --db ./var/robocal.db
+
+# The whole calibration against a throw-away server: plan, measure (simulated), fit, validate, the table.
+demo: build
+	bash tests/curl/demo.sh $(BUILD_DIR)
 
 bench: build
 	$(BUILD_DIR)/tests/bench/robocal_core_bench

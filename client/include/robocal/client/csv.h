@@ -1,0 +1,37 @@
+// The CSV formats of the CLI and the mock tracker (see docs/client.md): joint vectors (plans, compensation)
+// and tracker measurements. Units are the wire's: revolute joints in degrees, prismatic joints and positions
+// in mm. A header line is required; lines starting with '#' and blank lines are skipped.
+#pragma once
+
+#include <istream>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "robocal/api/types.h"
+#include "robocal/client/results.h"
+
+namespace robocal::client {
+
+/// "x_mm", "b_deg": a joint's column name (its name and unit).
+std::string JointColumn(const JointInfo& joint);
+
+/// Joint vectors: header "<joint>_<unit>,..." then one row per configuration with num_joints values.
+/// Throws std::runtime_error ("line 4: expected 5 values, got 4") on malformed input.
+std::vector<std::vector<double>> ReadJointsCsv(std::istream& in, int num_joints);
+void WriteJointsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+                    const std::vector<std::vector<double>>& rows);
+
+/// Measurements: the joint columns, then x_mm,y_mm,z_mm (tool position, tracker frame) and optionally
+/// qw,qx,qy,qz (tool orientation, tracker frame; required unless the campaign measures position only). One
+/// row per tracker shot. Throws std::runtime_error on malformed input.
+std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_joints);
+void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+                          const std::vector<api::MeasurementWire>& measurements);
+
+/// Compensation results: the compensated joint columns, then position_error_mm, orientation_error_deg,
+/// converged (0/1).
+void WriteCompensationCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+                          const std::vector<Compensation>& results);
+
+}  // namespace robocal::client

@@ -1,0 +1,150 @@
+#!/usr/bin/env bash
+# The REST API as a shop-floor script calls it, with curl and jq, against the built robocal-server: every
+# endpoint, bad inputs (status code and the error's field), bearer tokens, and the whole calibration with
+# measurements from the mock tracker's simulated cell. The same calls are the examples of docs/rest.md.
+# Usage: tests/curl/rest_test.sh BUILD_DIR
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+build_dir=$(cd "${1:?usage: rest_test.sh BUILD_DIR}" && pwd)
+source "$here/server.sh"
+failures=0
+work=$(mktemp -d)
+cleanup() { stop_server; rm -rf "$work"; }
+
+# call METHOD PATH [JSON body]: prints the body; the HTTP status goes to $work/status.
+call() {
+  local method=$1 path=$2 body=${3:-}
+  local args=(-sS -X "$method" -o "$work/body" -w '%{http_code}' "$ROBOCAL_URL$path")
+  [ -n "${TOKEN:-}" ] && args+=(-H "Authorization: Bearer $TOKEN")
+  [ -n "$body" ] && args+=(-H 'Content-Type: application/json' --data-binary "$body")
+  curl "${args[@]}" >"$work/status"
+  cat "$work/body"
+}
+status() { cat "$work/status"; }
+
+# expect NAME ACTUAL EXPECTED
+expect() {
+  if [ "$2" == "$3" ]; then
+    echo "ok   $1"
+  else
+    echo "FAIL $1: got '$2', expected '$3'" >&2
+    failures=$((failures + 1))
+  fi
+}
+
+# ---- service -------------------------------------------------------------------------------------------
+start_server "$build_dir"
+trap cleanup EXIT
+expect "GET /healthz" "$(call GET /healthz | jq -r .status)" ok
+expect "GET /v1/openapi.json" "$(call GET /v1/openapi.json | jq -r .openapi)" 3.0.3
+call GET /metrics | grep -q robocal_http_requests_total && expect "GET /metrics" ok ok
+
+# ---- robots ---------------------------------------------------------------------------------------------
+expect "GET /v1/robots" "$(call GET /v1/robots | jq -r '[.robots[].id] | join(",")')" grinder5,puma560,ur5e
+expect "GET /v1/robots/grinder5" "$(call GET /v1/robots/grinder5 | jq '.joints | length')" 5
+call POST /v1/robots '{"id": "cell7", "from_preset": "ur5e", "tool": {"position_mm": [0, 0, 120], "rpy_deg": [0, 0, 0]}}' >/dev/null
+expect "POST /v1/robots" "$(status)" 200
+call POST /v1/robots '{"id": "cell7", "from_preset": "ur5e"}' >/dev/null
+expect "POST /v1/robots twice -> 409" "$(status)" 409
+expect "POST /v1/robots:forward" \
+  "$(call POST '/v1/robots/cell7:forward' '{"joints": [[0, -90, 90, 0, 90, 0]]}' | jq '.poses[0].position_mm | length')" 3
+expect "forward with 2 of 6 joints -> field" \
+  "$(call POST '/v1/robots/cell7:forward' '{"joints": [[0, 0]]}' | jq -r '.error.details[0].field')" "joints[0]"
+expect "... status 400" "$(status)" 400
+call DELETE /v1/robots/cell7 >/dev/null
+expect "DELETE /v1/robots/cell7" "$(status)" 200
+call GET /v1/robots/cell7 >/dev/null
+expect "GET deleted robot -> 404" "$(status)" 404
+expect "GET /v1/robots/nosuch -> NOT_FOUND" "$(call GET /v1/robots/nosuch | jq -r .error.status)" NOT_FOUND
+
+# ---- bad input ---------------------------------------------------------------------------------------------
+expect "malformed JSON -> 400" "$(call POST /v1/plans '{"robot": ' | jq -r .error.status)" INVALID_ARGUMENT
+expect "misspelt option -> field" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "cuont": 10}' | jq -r '.error.details[0].field')" cuont
+expect "count as a string -> field" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": "ten"}' | jq -r '.error.details[0].field')" \
+  num_configurations
+call POST /v1/plans '{"robot": "nosuch"}' >/dev/null
+expect "plan for an unknown robot -> 404" "$(status)" 404
+call GET /v1/nowhere >/dev/null
+expect "unknown endpoint -> 404" "$(status)" 404
+
+# ---- plans and operations ---------------------------------------------------------------------------------
+call POST /v1/plans '{"robot": "grinder5", "num_configurations": 10, "measurement_type": "pose", "seed": 1}' \
+  >"$work/plan.json"
+expect "POST /v1/plans" "$(status)" 200
+plan=$(jq -r .id "$work/plan.json")
+expect "plan has 10 configurations" "$(jq '.configurations | length' "$work/plan.json")" 10
+expect "GET /v1/plans/{plan}" "$(call GET "/v1/plans/$plan" | jq -r .id)" "$plan"
+op=$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": 10, "seed": 1, "async": true}' | jq -r .id)
+for _ in $(seq 1 100); do
+  [ "$(call GET "/v1/operations/$op" | jq -r .done)" == true ] && break
+  sleep 0.1
+done
+expect "GET /v1/operations/{op}" "$(call GET "/v1/operations/$op" | jq -r .state)" SUCCEEDED
+expect "POST /v1/operations/{op}:cancel after done" "$(call POST "/v1/operations/$op:cancel" '{}' | jq -r .done)" true
+
+# ---- campaign: measure, fit, compensate, evaluate ---------------------------------------------------------------
+campaign=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"pose\", \"plan\": \"$plan\"}" |
+  jq -r .id)
+expect "POST /v1/campaigns" "$(status)" 200
+expect "GET /v1/campaigns" "$(call GET /v1/campaigns | jq '.campaigns | length')" 1
+call POST "/v1/campaigns/$campaign:fit" '{}' >/dev/null
+expect "fit without measurements -> FAILED_PRECONDITION" "$(jq -r .error.status "$work/body")" FAILED_PRECONDITION
+
+# The simulated cell measures the planned configurations (10 shots each) and 36 random validation poses.
+mock="$build_dir/client/robocal-mock-tracker"
+"$mock" --dump-measurements "$work/calibration.json" --configurations "$work/plan.json" --seed 1
+"$mock" --dump-measurements "$work/validation.json" --random 36 --role validation --seed 1
+expect "upload calibration" \
+  "$(call POST "/v1/campaigns/$campaign/measurements" "@$work/calibration.json" | jq .count)" 100
+expect "upload again: replayed, stored once" \
+  "$(call POST "/v1/campaigns/$campaign/measurements" "@$work/calibration.json" | jq .replayed)" true
+expect "upload validation" \
+  "$(call POST "/v1/campaigns/$campaign/measurements" "@$work/validation.json" | jq .count)" 36
+bad=$(jq -c '.request_id = "bad-1" | .measurements[3].joints = [1, 2]' "$work/calibration.json")
+expect "a short joint vector -> its field" \
+  "$(call POST "/v1/campaigns/$campaign/measurements" "$bad" | jq -r '.error.details[0].field')" "measurements[3].joints"
+expect "... and nothing was stored" "$(call GET "/v1/campaigns/$campaign" | jq .counts.calibration)" 100
+expect "GET measurements (page of 5)" \
+  "$(call GET "/v1/campaigns/$campaign/measurements?role=calibration&limit=5" | jq '.measurements | length')" 5
+
+call POST "/v1/campaigns/$campaign:fit" '{}' >"$work/fit.json"
+expect "POST :fit" "$(status)" 200
+expect "fit improves the residuals" \
+  "$(jq '.residuals_after.rms_position_mm < .residuals_before.rms_position_mm' "$work/fit.json")" true
+expect "GET /calibration" "$(call GET "/v1/campaigns/$campaign/calibration" | jq '.parameters | length')" \
+  "$(jq '.parameters | length' "$work/fit.json")"
+targets=$(jq -c '{targets: [.configurations[:3][] | {joints: .}]}' "$work/plan.json")
+expect "POST :compensate" "$(call POST "/v1/campaigns/$campaign:compensate" "$targets" |
+  jq '[.results[].converged] | all')" true
+expect "POST :forward (calibrated)" \
+  "$(call POST "/v1/campaigns/$campaign:forward" '{"joints": [[400, 300, 200, 0, 0]]}' | jq '.poses | length')" 1
+call POST "/v1/campaigns/$campaign:evaluate" '{"h_mm": 30}' >"$work/evaluate.json"
+expect "POST :evaluate: calibrated better than nominal" \
+  "$(jq '.calibrated.e_xyz_mm.mean < .nominal.e_xyz_mm.mean' "$work/evaluate.json")" true
+
+# ---- the mock tracker drives the same server end to end ----------------------------------------------------------
+"$mock" --server "$ROBOCAL_URL" --seed 2 --shots 3 --json >"$work/mock.json" 2>/dev/null
+expect "robocal-mock-tracker improves accuracy" "$(jq .improved "$work/mock.json")" true
+
+# ---- bearer tokens -------------------------------------------------------------------------------------------
+stop_server
+printf '# tokens of the cell computers\ns3cret-cell7\n' >"$work/tokens"
+start_server "$build_dir" --tokens-file "$work/tokens"
+trap cleanup EXIT
+call GET /v1/robots >/dev/null
+expect "no token -> 401" "$(status)" 401
+expect "... UNAUTHENTICATED" "$(jq -r .error.status "$work/body")" UNAUTHENTICATED
+TOKEN=wrong call GET /v1/robots >/dev/null
+expect "wrong token -> 401" "$(status)" 401
+TOKEN=s3cret-cell7 call GET /v1/robots >/dev/null
+expect "right token -> 200" "$(status)" 200
+call GET /healthz >/dev/null
+expect "healthz without a token -> 200" "$(status)" 200
+
+if [ "$failures" -ne 0 ]; then
+  echo "$failures check(s) failed" >&2
+  exit 1
+fi
+echo "all REST checks passed"
