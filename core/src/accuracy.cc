@@ -25,7 +25,7 @@ ErrorStatistics ComputeErrorStatistics(const std::vector<double>& values) {
   if (values.empty()) throw std::invalid_argument("ComputeErrorStatistics: empty sample");
   for (size_t i = 0; i < values.size(); ++i) {
     if (!std::isfinite(values[i])) {
-      throw std::invalid_argument("ComputeErrorStatistics: value " + std::to_string(i) + " is not finite");
+      throw std::invalid_argument("ComputeErrorStatistics: values[" + std::to_string(i) + "] is not finite");
     }
   }
   ErrorStatistics s;
@@ -49,7 +49,18 @@ AccuracyReport ComputeAccuracy(const std::vector<Transform>& reached, const std:
     throw std::invalid_argument("ComputeAccuracy: need as many reached as target poses, at least one (got " +
                                 std::to_string(reached.size()) + " and " + std::to_string(target.size()) + ")");
   }
-  if (!(h_mm > 0.0) || !std::isfinite(h_mm)) throw std::invalid_argument("ComputeAccuracy: h_mm must be > 0");
+  if (!(h_mm > 0.0) || !std::isfinite(h_mm)) {
+    throw std::invalid_argument("ComputeAccuracy: h_mm must be positive and finite");
+  }
+  // Named here: a NaN pose would otherwise be reported by ComputeErrorStatistics as an anonymous bad value.
+  for (size_t i = 0; i < reached.size(); ++i) {
+    if (!reached[i].matrix().allFinite()) {
+      throw std::invalid_argument("ComputeAccuracy: reached[" + std::to_string(i) + "] is not finite");
+    }
+    if (!target[i].matrix().allFinite()) {
+      throw std::invalid_argument("ComputeAccuracy: target[" + std::to_string(i) + "] is not finite");
+    }
+  }
   AccuracyReport report;
   report.h_mm = h_mm;
   const size_t n = reached.size();

@@ -176,9 +176,13 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
     throw std::invalid_argument("CompensatePose: calibration.errors has " + std::to_string(calibration.errors.size()) +
                                 " values, expected " + std::to_string(model.num_error_parameters()));
   }
-  if (!IsValidRigidTransform(target, 1e-6)) throw std::invalid_argument("CompensatePose: target is not rigid");
+  // A NaN error parameter would otherwise surface as NaN joints, the one output compensation must never give.
+  if (!calibration.errors.allFinite()) throw std::invalid_argument("CompensatePose: calibration.errors is not finite");
+  if (!IsValidRigidTransform(target, 1e-6)) {
+    throw std::invalid_argument("CompensatePose: target is not a finite rigid transform");
+  }
   if (frame == TargetFrame::kBase && !IsValidRigidTransform(calibration.T_world_base, 1e-6)) {
-    throw std::invalid_argument("CompensatePose: calibration.T_world_base is not rigid");
+    throw std::invalid_argument("CompensatePose: calibration.T_world_base is not a finite rigid transform");
   }
 
   const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
@@ -295,6 +299,8 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
     throw std::invalid_argument("CompensateJoints: q_nominal has " + std::to_string(q_nominal.size()) +
                                 " values, the robot " + std::to_string(nominal.num_joints()) + " joints");
   }
+  // Checked here, not left to CompensatePose, whose complaint would be about the target made from it.
+  if (!q_nominal.allFinite()) throw std::invalid_argument("CompensateJoints: q_nominal is not finite");
   // Where the program expects the tool, relative to the robot base: independent of where the tracker stands.
   const Transform T_base_tool = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q_nominal);
   return CompensatePose(calibration, T_base_tool, TargetFrame::kBase, q_nominal, options);

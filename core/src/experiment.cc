@@ -44,10 +44,36 @@ struct Pool {
   int unconverged_targets = 0;
 };
 
+// Improvement of `after` over `before` in percent. A zero baseline (e.g. a noise-free cell whose random plan
+// already reaches round-off) has no relative improvement: "n/a" rather than inf or nan in the table.
 std::string Percent(double before, double after) {
+  if (!(before > 0.0)) return "n/a";
   char text[32];
   std::snprintf(text, sizeof(text), "%+.1f %%", 100.0 * (before - after) / before);
   return text;
+}
+
+// The improvement block of one planner over random selection: mean and RP of each error, and the plans'
+// median condition numbers.
+std::string Improvement(const MethodResult& planned, const MethodResult& random, const char* title) {
+  std::ostringstream out;
+  out << title << " against random selection (positive: " << title << " better)\n";
+  const struct {
+    const char* name;
+    const ErrorStatistics& planned;
+    const ErrorStatistics& random;
+  } rows[] = {{"E_xyz", planned.after.e_xyz_mm, random.after.e_xyz_mm},
+              {"E_cos", planned.after.e_cos_rad, random.after.e_cos_rad},
+              {"E_tot", planned.after.e_tot_mm, random.after.e_tot_mm}};
+  for (const auto& r : rows) {
+    out << "  " << r.name << ": mean " << Percent(r.random.mean, r.planned.mean) << ", RP "
+        << Percent(r.random.rp, r.planned.rp) << "\n";
+  }
+  char line[128];
+  std::snprintf(line, sizeof(line), "  median cond %.4g (%s) against %.4g (random)\n",
+                planned.median_condition_number, title, random.median_condition_number);
+  out << line;
+  return out.str();
 }
 
 }  // namespace
@@ -59,7 +85,9 @@ bool ExperimentOptions::IsValid(std::string* error) const {
   };
   const std::vector<std::string> presets = PresetNames();
   if (std::find(presets.begin(), presets.end(), robot) == presets.end()) {
-    return fail("robot must be one of grinder5, puma560, ur5e (got '" + robot + "')");
+    std::string names;
+    for (const std::string& name : presets) names += (names.empty() ? "" : ", ") + name;
+    return fail("robot must be one of " + names + " (got '" + robot + "')");
   }
   if (num_configurations < 1 || num_configurations > 1000) return fail("num_configurations must be in [1, 1000]");
   if (trials < 1 || trials > 10000) return fail("trials must be in [1, 10000]");
@@ -184,9 +212,11 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
   out << FormatAccuracyTable(result.before, "Before calibration, nominal commands") << "\n";
   const MethodResult* solis_wets = nullptr;
   const MethodResult* random = nullptr;
+  const MethodResult* exchange = nullptr;
   for (const MethodResult& m : result.methods) {
     if (m.method == "solis_wets") solis_wets = &m;
     if (m.method == "random") random = &m;
+    if (m.method == "exchange") exchange = &m;
     std::string title = "After calibration, " + m.method + " configurations";
     if (m.after.e_xyz_mm.count == 0) {
       out << title << ": every identification failed\n\n";
@@ -198,24 +228,11 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                   m.median_condition_number, m.failed_trials, o.trials, m.unconverged_targets, m.after.e_xyz_mm.count);
     out << line;
   }
-  if (solis_wets != nullptr && random != nullptr && solis_wets->after.e_xyz_mm.count > 0 &&
-      random->after.e_xyz_mm.count > 0) {
-    out << "Solis & Wets against random selection (positive: Solis & Wets better)\n";
-    const struct {
-      const char* name;
-      const ErrorStatistics& sw;
-      const ErrorStatistics& random;
-    } rows[] = {{"E_xyz", solis_wets->after.e_xyz_mm, random->after.e_xyz_mm},
-                {"E_cos", solis_wets->after.e_cos_rad, random->after.e_cos_rad},
-                {"E_tot", solis_wets->after.e_tot_mm, random->after.e_tot_mm}};
-    for (const auto& r : rows) {
-      out << "  " << r.name << ": mean " << Percent(r.random.mean, r.sw.mean) << ", RP "
-          << Percent(r.random.rp, r.sw.rp) << "\n";
-    }
-    std::snprintf(line, sizeof(line), "  median cond %.4g (Solis & Wets) against %.4g (random)\n",
-                  solis_wets->median_condition_number, random->median_condition_number);
-    out << line;
-  }
+  // The paper's comparison is Solis & Wets against random selection; exchange, the other planner, is compared
+  // the same way.
+  const auto usable = [](const MethodResult* m) { return m != nullptr && m->after.e_xyz_mm.count > 0; };
+  if (usable(random) && usable(solis_wets)) out << Improvement(*solis_wets, *random, "Solis & Wets");
+  if (usable(random) && usable(exchange)) out << "\n" << Improvement(*exchange, *random, "Exchange");
   return out.str();
 }
 

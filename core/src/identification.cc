@@ -382,6 +382,8 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   s.num_measurements = static_cast<int>(measurements.size());
   s.num_residuals = MeasurementRows(type) * s.num_measurements;
   s.scaling = Scaling(options.noise);
+  s.T_world_base = cal.T_world_base;
+  s.T_flange_tool = cal.T_flange_tool;
   const auto fail = [&](const std::string& message) {
     s.termination = Termination::kFailure;
     s.message = message;
@@ -519,6 +521,8 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
 
   cal.T_world_base = model.T_world_base() * ErrorTransform(errors.data());
   cal.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
+  s.T_world_base = cal.T_world_base;
+  s.T_flange_tool = cal.T_flange_tool;
   cal.errors = errors;
   cal.model = std::move(model);
 
@@ -563,6 +567,15 @@ std::string IdentificationSummary::FullReport() const {
   out << "  cost " << initial_cost << " -> " << final_cost << ", sigma_hat " << sigma_hat << ", iterations "
       << iterations << "\n";
   out << "  condition number " << condition_number << " (" << scaling << ")\n";
+  // Printed as position (mm) and roll, pitch, yaw (rad): what cell software that knows nothing of the error
+  // model takes over.
+  const auto frame = [&](const char* label, const Transform& t) {
+    const Eigen::Vector3d p = t.translation(), rpy = RpyFromRotation(t.linear());
+    out << "  " << label << ": xyz " << std::setprecision(10) << p.x() << " " << p.y() << " " << p.z()
+        << " mm, rpy " << std::setprecision(8) << rpy.x() << " " << rpy.y() << " " << rpy.z() << " rad\n";
+  };
+  frame("T_world_base ", T_world_base);
+  frame("T_flange_tool", T_flange_tool);
   if (!parameters.empty()) {
     out << "  " << std::left << std::setw(12) << "parameter" << std::right << std::setw(14) << "value" << std::setw(14)
         << "std"

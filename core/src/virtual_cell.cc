@@ -106,6 +106,10 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
 }
 
 Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
+  // Sizes are checked by ForwardKinematics; a NaN joint would pass it and come back as a NaN "measurement".
+  if (q.size() == true_model_.num_joints() && !q.allFinite()) {
+    throw std::invalid_argument("VirtualCell: q is not finite");
+  }
   KinematicsWorkspace ws(true_model_);
   return ForwardKinematics(true_model_, q, true_errors_, &ws);
 }

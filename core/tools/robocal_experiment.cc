@@ -18,7 +18,8 @@ constexpr const char* kUsage = R"(usage: robocal-experiment [options]
 Simulates the paper's experiment in a virtual cell: per trial, a robot with new hidden geometric errors; M
 measurement configurations planned by Solis & Wets, by random selection and by exchange; each plan measured
 by a simulated laser tracker and identified; then random validation poses compensated on each calibration.
-Prints E_xyz, E_cos and E_tot (mean, std, max, RP = mean + 3 std) before and after calibration.
+Prints E_xyz, E_cos and E_tot (mean, std, max, RP = mean + 3 std) before and after calibration, per
+method, and the improvement of the planned configurations over random ones in percent.
 
 options:
   --robot NAME           grinder5 (default), puma560 or ur5e
@@ -30,6 +31,7 @@ options:
   --seed S               seed of every random draw (default 1)
   --noise-mm SIGMA       tracker position noise per axis, 1-sigma, mm (default 0.015)
   --noise-deg SIGMA      tracker orientation noise per axis, 1-sigma, degrees (default 0.0057)
+  --shots N              tracker shots per pose (default 10, the paper's)
   --help                 this text
 )";
 
@@ -106,6 +108,8 @@ int main(int argc, char** argv) {
       options.cell.noise.position_mm = ParseDouble(flag, value, 0.0);
     } else if (flag == "--noise-deg") {
       options.cell.noise.orientation_rad = ParseDouble(flag, value, 0.0) * M_PI / 180.0;
+    } else if (flag == "--shots") {
+      options.cell.shots_per_pose = static_cast<int>(ParseInteger(flag, value, 1, 1000));
     } else {
       Usage("unknown option '" + flag + "'");
     }

@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace robocal {
 namespace {
@@ -95,12 +97,70 @@ TEST(AccuracyTest, TotalErrorUsesTheGivenLever) {
   EXPECT_NEAR(r.e_tot_mm.mean, 0.05, 1e-12);
 }
 
+// The statistics of all three errors against values worked out by hand: position errors 10, 20, 30 um and
+// axis tilts 1, 2, 3 mrad (about different axes, so only the angle counts), h = 30 mm.
+TEST(AccuracyTest, StatisticsOfAllThreeErrorsMatchHandComputedValues) {
+  const std::vector<Transform> target(3, Transform::Identity());
+  std::vector<Transform> reached(3, Transform::Identity());
+  reached[0].translation() = Eigen::Vector3d(0.010, 0.0, 0.0);
+  reached[0].linear() = RotX(1e-3);
+  reached[1].translation() = Eigen::Vector3d(0.0, 0.012, 0.016);  // |(0, 12, 16)| = 20 um
+  reached[1].linear() = RotY(-2e-3);
+  reached[2].translation() = Eigen::Vector3d(0.0, 0.0, -0.030);
+  // A tilt of 3 mrad about the diagonal (1, 1, 0) / sqrt(2).
+  reached[2].linear() = Eigen::AngleAxisd(3e-3, Eigen::Vector3d(1.0, 1.0, 0.0).normalized()).toRotationMatrix();
+  const AccuracyReport r = ComputeAccuracy(reached, target);
+
+  // E_xyz: 0.01, 0.02, 0.03 mm -> mean 0.02, std sqrt((1e-4 + 0 + 1e-4) / 2) = 0.01, max 0.03, RP 0.05.
+  EXPECT_NEAR(r.e_xyz_mm.mean, 0.02, 1e-15);
+  EXPECT_NEAR(r.e_xyz_mm.std, 0.01, 1e-15);
+  EXPECT_NEAR(r.e_xyz_mm.max, 0.03, 1e-15);
+  EXPECT_NEAR(r.e_xyz_mm.rp, 0.05, 1e-15);
+  // E_cos: 1, 2, 3 mrad -> mean 2e-3, std 1e-3, max 3e-3, RP 5e-3.
+  EXPECT_NEAR(r.e_cos_rad.mean, 2e-3, 1e-15);
+  EXPECT_NEAR(r.e_cos_rad.std, 1e-3, 1e-15);
+  EXPECT_NEAR(r.e_cos_rad.max, 3e-3, 1e-15);
+  EXPECT_NEAR(r.e_cos_rad.rp, 5e-3, 1e-15);
+  // E_tot = E_xyz + 30 E_cos: 0.04, 0.08, 0.12 mm -> mean 0.08, std 0.04, max 0.12, RP 0.2.
+  EXPECT_NEAR(r.e_tot_values_mm[1], 0.08, 1e-14);
+  EXPECT_NEAR(r.e_tot_mm.mean, 0.08, 1e-14);
+  EXPECT_NEAR(r.e_tot_mm.std, 0.04, 1e-14);
+  EXPECT_NEAR(r.e_tot_mm.max, 0.12, 1e-14);
+  EXPECT_NEAR(r.e_tot_mm.rp, 0.2, 1e-14);
+  EXPECT_EQ(r.e_tot_mm.count, 3);
+
+  // The table prints them in um and arc-seconds: E_tot RP 200.0 um, E_cos mean 2e-3 rad = 412.5 arcsec.
+  const std::string table = FormatAccuracyTable(r, "hand");
+  EXPECT_THAT(table, HasSubstr("200.0"));
+  EXPECT_THAT(table, HasSubstr("412.5"));
+}
+
 TEST(AccuracyTest, RejectsMismatchedOrEmptyInputAndBadLever) {
   const Transform t = Transform::Identity();
   EXPECT_THROW(ComputeAccuracy({}, {}), std::invalid_argument);
   EXPECT_THROW(ComputeAccuracy({t, t}, {t}), std::invalid_argument);
   EXPECT_THROW(ComputeAccuracy({t}, {t}, 0.0), std::invalid_argument);
   EXPECT_THROW(ComputeAccuracy({t}, {t}, std::nan("")), std::invalid_argument);
+}
+
+TEST(AccuracyTest, BadInputMessagesNameTheArgument) {
+  const auto message = [](auto&& call) -> std::string {
+    try {
+      call();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "no exception";
+  };
+  const Transform t = Transform::Identity();
+  Transform nan_pose = t;
+  nan_pose.translation().z() = std::nan("");
+  EXPECT_THAT(message([&] { ComputeAccuracy({t, nan_pose}, {t, t}); }), HasSubstr("reached[1] is not finite"));
+  EXPECT_THAT(message([&] { ComputeAccuracy({t, t}, {nan_pose, t}); }), HasSubstr("target[0] is not finite"));
+  EXPECT_THAT(message([&] { ComputeAccuracy({t, t}, {t}); }), HasSubstr("got 2 and 1"));
+  EXPECT_THAT(message([&] { ComputeAccuracy({t}, {t}, -1.0); }), HasSubstr("h_mm"));
+  EXPECT_THAT(message([&] { ComputeErrorStatistics({}); }), HasSubstr("empty sample"));
+  EXPECT_THAT(message([&] { ComputeErrorStatistics({1.0, 2.0, INFINITY}); }), HasSubstr("values[2] is not finite"));
 }
 
 TEST(AccuracyTest, TableIsInMicrometresAndArcSeconds) {

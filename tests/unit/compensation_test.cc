@@ -8,12 +8,16 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <tuple>
+#include <vector>
 
+#include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/virtual_cell.h"
 
 namespace robocal {
 namespace {
@@ -151,6 +155,105 @@ TEST_P(CompensationPresetTest, UnreachableTargetFailsCleanlyWithinLimits) {
 
 INSTANTIATE_TEST_SUITE_P(Presets, CompensationPresetTest, ::testing::Values("grinder5", "puma560", "ur5e"));
 
+// The whole chain without noise: a virtual cell measures the hidden robot, Identify calibrates it, and the
+// compensated joints bring the TRUE robot (not the calibrated model) onto its targets. Pose measurements for
+// both; the 5-axis grinder5 matches position and tool axis, the 6R ur5e the full pose. Position measurements
+// leave the tool's orientation errors unidentified, so there only the tool point is promised.
+using EndToEndCase = std::tuple<std::string, MeasurementType>;
+
+class NoiseFreeEndToEndTest : public ::testing::TestWithParam<EndToEndCase> {
+ protected:
+  void SetUp() override {
+    const auto& [preset, type] = GetParam();
+    nominal_ = Preset(preset);
+    type_ = type;
+    VirtualCellOptions o;
+    o.seed = 29;
+    o.noise = {0.0, 0.0};
+    o.shots_per_pose = 1;
+    cell_ = std::make_unique<VirtualCell>(nominal_, o);
+    Rng rng(31);
+    std::vector<Eigen::VectorXd> configurations;
+    for (int i = 0; i < 30; ++i) configurations.push_back(RandomConfiguration(nominal_, &rng));
+    IdentificationOptions io;
+    io.measurement_type = type;
+    calibration_ = std::make_unique<Calibration>(Identify(nominal_, cell_->MeasureAll(configurations), io));
+  }
+
+  // Where the true robot stands in the tracker frame (the cell draws no base errors, but compose them anyway).
+  Transform TrueBase() const {
+    return cell_->true_model().T_world_base() * ErrorTransform(cell_->true_errors().data());
+  }
+
+  // The true robot at `joints` against the world target: position always, then what the robot and the
+  // measurements make promisable.
+  void ExpectTrueRobotOnTarget(const Eigen::VectorXd& joints, const Transform& world_target, int trial) {
+    const Transform reached = cell_->TruePose(joints);
+    EXPECT_LT((reached.translation() - world_target.translation()).norm(), 1e-6) << "trial " << trial;
+    if (type_ != MeasurementType::kPose) return;
+    if (nominal_.num_joints() >= 6) {
+      EXPECT_LT(RotationVector(reached.linear() * world_target.linear().transpose()).norm(), 1e-9) << trial;
+    } else {
+      EXPECT_LT(AxisAngle(reached, world_target), 1e-9) << "trial " << trial;
+    }
+  }
+
+  RobotModel nominal_ = Preset("grinder5");
+  MeasurementType type_ = MeasurementType::kPose;
+  std::unique_ptr<VirtualCell> cell_;
+  std::unique_ptr<Calibration> calibration_;  // RobotModel has no default state: made in SetUp
+};
+
+TEST_P(NoiseFreeEndToEndTest, TrackerFrameTargetsAreReachedByTheTrueRobot) {
+  ASSERT_EQ(calibration_->summary.termination, Termination::kConvergence) << calibration_->summary.FullReport();
+  Rng rng(37);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Eigen::VectorXd q = WellConditionedConfiguration(nominal_, &rng);
+    // The program's pose relative to the robot's true base, as the experiment places its validation targets.
+    const Transform target = TrueBase() * nominal_.T_world_base().inverse() * ForwardKinematics(nominal_, q);
+    // Without compensation the hidden errors put the tool visibly off.
+    ASSERT_GT((cell_->TruePose(q).translation() - target.translation()).norm(), 0.05);
+    const CompensationResult r = CompensatePose(*calibration_, target, TargetFrame::kTracker, q);
+    ASSERT_TRUE(r.converged) << "trial " << trial << ": " << r.message;
+    EXPECT_TRUE(nominal_.WithinLimits(r.joints));
+    ExpectTrueRobotOnTarget(r.joints, target, trial);
+  }
+}
+
+// Base-frame targets (and CompensateJoints, their "go where the nominal model says" form) are placed by the
+// calibrated T_world_base. That frame is a convention where base errors cannot be told from joint offsets, so
+// what is promised is: the true robot lands on calibration.T_world_base * target exactly, and the calibrated
+// base differs from the true one by one fixed transform of the size of the robot's errors (not the
+// registration's metres), the same for every target.
+TEST_P(NoiseFreeEndToEndTest, BaseFrameTargetsAreReachedInTheCalibratedBaseFrame) {
+  ASSERT_EQ(calibration_->summary.termination, Termination::kConvergence) << calibration_->summary.FullReport();
+  const Transform convention = TrueBase().inverse() * calibration_->T_world_base;
+  EXPECT_LT(convention.translation().norm(), 2.0) << convention.matrix();
+  EXPECT_LT(RotationVector(convention.linear()).norm(), 5e-3) << convention.matrix();
+  Rng rng(41);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Eigen::VectorXd q = WellConditionedConfiguration(nominal_, &rng);
+    const Transform T_base_tool = nominal_.T_world_base().inverse() * ForwardKinematics(nominal_, q);
+    const CompensationResult joints = CompensateJoints(*calibration_, nominal_, q);
+    ASSERT_TRUE(joints.converged) << "trial " << trial << ": " << joints.message;
+    ExpectTrueRobotOnTarget(joints.joints, calibration_->T_world_base * T_base_tool, trial);
+    // The same target through CompensatePose in the base frame, and relative to the true base it is off by
+    // exactly the fixed convention transform.
+    const CompensationResult pose = CompensatePose(*calibration_, T_base_tool, TargetFrame::kBase, q);
+    ASSERT_TRUE(pose.converged) << pose.message;
+    ExpectTrueRobotOnTarget(pose.joints, TrueBase() * convention * T_base_tool, trial);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Presets, NoiseFreeEndToEndTest,
+                         ::testing::Values(EndToEndCase{"grinder5", MeasurementType::kPose},
+                                           EndToEndCase{"ur5e", MeasurementType::kPose},
+                                           EndToEndCase{"grinder5", MeasurementType::kPosition},
+                                           EndToEndCase{"ur5e", MeasurementType::kPosition}),
+                         [](const ::testing::TestParamInfo<EndToEndCase>& info) {
+                           return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param));
+                         });
+
 TEST(CompensationTest, FiveAxisRobotLeavesTheRotationAboutTheToolAxisFree) {
   const RobotModel nominal = Preset("grinder5");
   const Calibration calibration = MakeCalibration("grinder5", 21);
@@ -251,20 +354,68 @@ TEST(CompensationTest, RejectsInvalidOptionsByName) {
   }
 }
 
-TEST(CompensationTest, RejectsWrongSizesAndNonFiniteInput) {
+// Each bad input throws, and the message names the argument (and the function) so a caller can find it.
+template <typename F>
+void ExpectInvalidArgument(F&& call, const std::string& fragment) {
+  try {
+    call();
+    ADD_FAILURE() << "no exception; expected one naming '" << fragment << "'";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr(fragment));
+  }
+}
+
+TEST(CompensationTest, RejectsWrongSizesAndNonFiniteInputByName) {
   const Calibration calibration = MakeCalibration("ur5e", 1);
-  const RobotModel grinder = Preset("grinder5");
-  EXPECT_THROW(CompensatePose(calibration, Transform::Identity(), TargetFrame::kBase, Eigen::VectorXd::Zero(5)),
-               std::invalid_argument);
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+  const RobotModel ur5e = Preset("ur5e");
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
+  const Transform identity = Transform::Identity();
+  ExpectInvalidArgument([&] { CompensatePose(calibration, identity, TargetFrame::kBase, Eigen::VectorXd::Zero(5)); },
+                        "CompensatePose: q_start has 5 values");
+  Eigen::VectorXd q = zero;
   q[2] = std::nan("");
-  EXPECT_THROW(CompensatePose(calibration, Transform::Identity(), TargetFrame::kBase, q), std::invalid_argument);
-  Transform sheared = Transform::Identity();
+  ExpectInvalidArgument([&] { CompensatePose(calibration, identity, TargetFrame::kBase, q); }, "q_start is not finite");
+  Transform sheared = identity;
   sheared.linear()(0, 1) = 0.5;
-  EXPECT_THROW(CompensatePose(calibration, sheared, TargetFrame::kBase, Eigen::VectorXd::Zero(6)),
-               std::invalid_argument);
-  EXPECT_THROW(CompensateJoints(calibration, grinder, Eigen::VectorXd::Zero(5)), std::invalid_argument);
-  EXPECT_THROW(CompensateJoints(calibration, Preset("ur5e"), Eigen::VectorXd::Zero(5)), std::invalid_argument);
+  ExpectInvalidArgument([&] { CompensatePose(calibration, sheared, TargetFrame::kBase, zero); }, "target");
+  Transform nan_target = identity;
+  nan_target.translation().x() = std::nan("");
+  ExpectInvalidArgument([&] { CompensatePose(calibration, nan_target, TargetFrame::kTracker, zero); },
+                        "target is not a finite rigid transform");
+
+  Calibration bad = calibration;
+  bad.errors = Eigen::VectorXd::Zero(7);
+  ExpectInvalidArgument([&] { CompensatePose(bad, identity, TargetFrame::kTracker, zero); },
+                        "calibration.errors has 7 values");
+  bad = calibration;
+  bad.errors[4] = INFINITY;
+  ExpectInvalidArgument([&] { CompensatePose(bad, identity, TargetFrame::kTracker, zero); },
+                        "calibration.errors is not finite");
+  bad = calibration;
+  bad.T_world_base.translation().y() = std::nan("");
+  ExpectInvalidArgument([&] { CompensatePose(bad, identity, TargetFrame::kBase, zero); }, "calibration.T_world_base");
+  // A tracker-frame target does not use the base frame, so it does not care.
+  EXPECT_NO_THROW(CompensatePose(bad, ForwardKinematics(calibration.model, zero), TargetFrame::kTracker, zero));
+
+  ExpectInvalidArgument([&] { CompensateJoints(calibration, Preset("grinder5"), Eigen::VectorXd::Zero(5)); },
+                        "the nominal model has 5 joints, the calibrated one 6");
+  ExpectInvalidArgument([&] { CompensateJoints(calibration, ur5e, Eigen::VectorXd::Zero(5)); },
+                        "CompensateJoints: q_nominal has 5 values");
+  ExpectInvalidArgument([&] { CompensateJoints(calibration, ur5e, q); }, "CompensateJoints: q_nominal is not finite");
+}
+
+// A calibration whose identification failed is the nominal robot (errors zero): compensating on it is defined
+// and gives the nominal joints back for a nominal target, with no NaN.
+TEST(CompensationTest, FailedCalibrationCompensatesAsTheNominalRobot) {
+  const RobotModel nominal = Preset("grinder5");
+  const Calibration failed = Identify(nominal, {});
+  ASSERT_EQ(failed.summary.termination, Termination::kFailure);
+  Rng rng(47);
+  const Eigen::VectorXd q = WellConditionedConfiguration(nominal, &rng);
+  const CompensationResult r = CompensateJoints(failed, nominal, q);
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_LT((r.joints - q).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(r.iterations, 0);
 }
 
 TEST(CompensationTest, TargetFrameNamesRoundTrip) {

@@ -82,6 +82,65 @@ TEST(ExperimentTest, SameSeedSameReportOtherSeedOtherReport) {
   EXPECT_THAT(first, HasSubstr("median cond"));
 }
 
+TEST(ExperimentTest, DefaultsAreThePapersSetUp) {
+  const ExperimentOptions o;
+  EXPECT_EQ(o.robot, "grinder5");
+  EXPECT_EQ(o.measurement_type, MeasurementType::kPose);
+  EXPECT_EQ(o.num_configurations, 10);
+  EXPECT_EQ(o.num_validation, 36);
+  EXPECT_EQ(o.h_mm, 30.0);
+  EXPECT_EQ(o.cell.shots_per_pose, 10);
+}
+
+// Without tracker noise every plan identifies the hidden robot exactly, so after calibration the true robot
+// lands on every validation target (plans, cell, identification and compensation chained as in the paper).
+TEST(ExperimentTest, NoiseFreeCellCalibratesEveryMethodExactly) {
+  ExperimentOptions o = Small("grinder5", MeasurementType::kPose);
+  o.trials = 1;
+  o.cell.noise = {0.0, 0.0};
+  o.cell.shots_per_pose = 1;
+  const ExperimentResult r = RunExperiment(o);
+  EXPECT_GT(r.before.e_xyz_mm.mean, 0.3);
+  for (const MethodResult& m : r.methods) {
+    SCOPED_TRACE(m.method);
+    EXPECT_EQ(m.failed_trials, 0);
+    ASSERT_EQ(m.unconverged_targets, 0);
+    EXPECT_LT(m.after.e_xyz_mm.max, 1e-6);
+    EXPECT_LT(m.after.e_cos_rad.max, 1e-9);
+  }
+  const std::string report = FormatExperimentReport(r);
+  EXPECT_THAT(report, ::testing::Not(HasSubstr("nan")));
+  EXPECT_THAT(report, ::testing::Not(HasSubstr("inf")));
+}
+
+// The report's form: the paper's four columns for each error, a block before calibration and one per method,
+// and the improvement over random selection of both planners; a zero baseline gives "n/a", not inf or nan.
+TEST(ExperimentTest, ReportHasThePapersTableAndTheImprovementInPercent) {
+  ExperimentResult r;
+  const Transform target = Transform::Identity();
+  const auto report_with_error = [&](double e_xyz_mm) {
+    Transform reached = target;
+    reached.translation().x() = e_xyz_mm;
+    return ComputeAccuracy({reached, reached}, {target, target});
+  };
+  r.before = report_with_error(1.0);
+  r.methods = {{"solis_wets", 8.0, report_with_error(0.006), 0, 0},
+               {"random", 19.0, report_with_error(0.008), 0, 0},
+               {"exchange", 7.0, report_with_error(0.005), 0, 0}};
+  const std::string text = FormatExperimentReport(r);
+  EXPECT_THAT(text, HasSubstr("Before calibration, nominal commands (N = 2"));
+  EXPECT_THAT(text, HasSubstr("After calibration, solis_wets configurations"));
+  // The table itself is FormatAccuracyTable's (accuracy_test.cc); here: it carries this method's numbers.
+  EXPECT_THAT(text, HasSubstr("  E_xyz um            6.0        0.0        6.0        6.0"));
+  // (8 - 6) / 8 = 25 %, (8 - 5) / 8 = 37.5 %; E_cos is zero for every method: no relative improvement.
+  EXPECT_THAT(text, HasSubstr("Solis & Wets against random selection (positive: Solis & Wets better)\n"
+                              "  E_xyz: mean +25.0 %, RP +25.0 %\n  E_cos: mean n/a, RP n/a\n"));
+  EXPECT_THAT(text, HasSubstr("Exchange against random selection (positive: Exchange better)\n"
+                              "  E_xyz: mean +37.5 %, RP +37.5 %"));
+  EXPECT_THAT(text, HasSubstr("median cond 8 (Solis & Wets) against 19 (random)"));
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("nan")));
+}
+
 TEST(ExperimentTest, RejectsInvalidOptionsByName) {
   const auto expect_invalid = [](const ExperimentOptions& o, const std::string& name) {
     std::string error;

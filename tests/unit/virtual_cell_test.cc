@@ -146,6 +146,25 @@ TEST(VirtualCellTest, MeasureAllConcatenatesShotsInOrder) {
   EXPECT_THROW(cell.Measure(Eigen::VectorXd::Zero(2)), std::invalid_argument);
 }
 
+TEST(VirtualCellTest, NonFiniteJointsAreRejectedNotMeasuredAsNan) {
+  const RobotModel model = Preset("grinder5");
+  VirtualCell cell(model);
+  Eigen::VectorXd q = Config(model, 1);
+  q[3] = NAN;
+  for (int call = 0; call < 2; ++call) {
+    try {
+      if (call == 0) {
+        cell.Measure(q, 1);
+      } else {
+        cell.TruePose(q);
+      }
+      ADD_FAILURE() << "no exception";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(), HasSubstr("q is not finite"));
+    }
+  }
+}
+
 TEST(VirtualCellTest, InvalidOptionsAreRejectedByName) {
   const RobotModel model = Preset("ur5e");
   const auto expect_rejected = [&](VirtualCellOptions o, const std::string& name) {

@@ -66,8 +66,9 @@ struct ExperimentResult {
 /// Throws std::invalid_argument for invalid options.
 ExperimentResult RunExperiment(const ExperimentOptions& options);
 
-/// The paper's Table 1 form (um), one block per method plus "before", and the improvement of Solis & Wets over
-/// random selection in percent (mean and RP of E_xyz, E_cos, E_tot).
+/// The paper's Table 1 form (E_xyz, E_tot in um; E_cos in arc-seconds), one block per method plus "before", and
+/// the improvement of Solis & Wets, then of exchange, over random selection in percent (mean and RP of E_xyz,
+/// E_cos, E_tot; "n/a" where random selection's value is 0).
 std::string FormatExperimentReport(const ExperimentResult& result);
 
 }  // namespace robocal

@@ -83,6 +83,10 @@ struct IdentificationSummary {
   /// Condition number of the weighted, column-norm-scaled Jacobian at the solution, and its scaling.
   double condition_number = 0.0;
   std::string scaling;
+  /// The estimated tracker -> base and flange -> tool transforms (as Calibration::T_world_base and
+  /// T_flange_tool), so that FullReport shows them; the nominal ones on FAILURE.
+  Transform T_world_base = Transform::Identity();
+  Transform T_flange_tool = Transform::Identity();
   /// Parameters not estimated (unidentifiable) and why.
   std::vector<DroppedParameter> dropped;
   /// The estimated parameters with standard deviations (as Calibration::parameters), so that FullReport can

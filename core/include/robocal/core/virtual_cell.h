@@ -55,7 +55,8 @@ class VirtualCell {
   const Eigen::VectorXd& true_errors() const { return true_errors_; }
   const VirtualCellOptions& options() const { return options_; }
 
-  /// Noise-free tool pose of the true robot at joints q, tracker frame.
+  /// Noise-free tool pose of the true robot at joints q, tracker frame. Throws std::invalid_argument for a q of
+  /// the wrong size or with a non-finite value (Measure too).
   Transform TruePose(const Eigen::VectorXd& q) const;
 
   /// `shots` noisy tracker shots of the tool at joints q (shots <= 0 means options.shots_per_pose).
