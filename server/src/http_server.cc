@@ -326,10 +326,17 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   });
 
   // Errors produced by the HTTP library itself (unknown path, body too large) get the same body shape.
-  svr.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  svr.set_error_handler([impl](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
+    const bool form = req.get_header_value("Content-Type") == "application/x-www-form-urlencoded" &&
+                      req.get_header_value<std::uint64_t>("Content-Length") <=
+                          static_cast<std::uint64_t>(impl->config.max_body_bytes);
     if (res.status == 404) {
       WriteError(res, Status::kNotFound, "no such endpoint: " + req.method + " " + req.path);
+    } else if (res.status == 413 && form) {
+      // The HTTP library caps form bodies (curl -d's default type) far below max_body_bytes.
+      WriteError(res, Status::kResourceExhausted, "form-encoded request body too large; send JSON as application/json",
+                 {{"body", "Content-Type must be application/json"}});
     } else if (res.status == 413) {
       WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
                  {{"body", "exceeds the max_body_bytes limit"}});

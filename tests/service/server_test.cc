@@ -447,6 +447,20 @@ TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
   EXPECT_FALSE(small.body["summary"].contains("deadline_exceeded"));
 }
 
+TEST(ServerTest, LargeFormEncodedBodyGetsAContentTypeHint) {
+  // curl -d sends application/x-www-form-urlencoded, which the HTTP library caps at 8 KiB whatever
+  // max_body_bytes says: the reply must say what to change, not blame max_body_bytes.
+  TestServer s;
+  httplib::Client raw("127.0.0.1", s.port());
+  auto form = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(form);
+  EXPECT_EQ(form->status, 413);
+  EXPECT_NE(form->body.find("application/json"), std::string::npos) << form->body;
+  auto json_body = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/json");
+  ASSERT_TRUE(json_body);
+  EXPECT_EQ(json_body->status, 400);  // parsed: the id is missing
+}
+
 TEST(ServerTest, MeasurementsPerCampaignLimit) {
   ServiceOptions options;
   options.max_measurements_per_campaign = 10;
