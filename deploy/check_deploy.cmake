@@ -3,7 +3,8 @@
 # starts the binary where `cmake --install` puts it. Usage: cmake -DDEPLOY_DIR=<dir> -P check_deploy.cmake
 cmake_minimum_required(VERSION 3.25)
 set(known_keys host port db tokens_file allow_insecure_bind tls_cert tls_key log_level log_format max_body_bytes
-    max_measurements_per_campaign max_plan_configurations request_timeout_s threads)
+    max_measurements_per_campaign max_plan_configurations max_array_length max_plan_evaluations max_running_operations
+    request_timeout_s threads)
 
 file(READ "${DEPLOY_DIR}/robocal.example.json" config)
 string(JSON type ERROR_VARIABLE error TYPE "${config}")

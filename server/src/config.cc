@@ -86,6 +86,18 @@ const std::vector<Option>& Options() {
        [](ServerConfig& c, const std::string& v) {
          c.max_plan_configurations = static_cast<int>(ToInt("max_plan_configurations", v, 1, 1000000));
        }},
+      {"max_array_length", Kind::kInt, "elements of any array in a request (default 10000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_array_length = ToInt("max_array_length", v, 1, 100000000);
+       }},
+      {"max_plan_evaluations", Kind::kInt, "optimiser budget of one plan (default 1000000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_plan_evaluations = ToInt("max_plan_evaluations", v, 1, 1000000000);
+       }},
+      {"max_running_operations", Kind::kInt, "async operations running at once (default 2)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_running_operations = static_cast<int>(ToInt("max_running_operations", v, 1, 64));
+       }},
       {"request_timeout_s", Kind::kInt, "deadline of a synchronous request in seconds (default 60)",
        [](ServerConfig& c, const std::string& v) {
          c.request_timeout_s = static_cast<int>(ToInt("request_timeout_s", v, 1, 86400));

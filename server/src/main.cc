@@ -52,6 +52,9 @@ int main(int argc, char** argv) {
   }
   ServiceOptions options;
   options.limits.max_plan_configurations = config.max_plan_configurations;
+  options.limits.max_array_length = static_cast<std::size_t>(config.max_array_length);
+  options.limits.max_plan_evaluations = config.max_plan_evaluations;
+  options.max_running_operations = config.max_running_operations;
   options.max_measurements_per_campaign = config.max_measurements_per_campaign;
   options.request_deadline = std::chrono::seconds(config.request_timeout_s);
   auto service = std::make_unique<Service>(storage.get(), options);

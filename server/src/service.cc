@@ -15,6 +15,7 @@
 #include "robocal/core/observability.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
+#include "robocal/server/http_server.h"
 
 namespace robocal::server {
 namespace {
@@ -54,6 +55,39 @@ std::string ContentHash(const std::string& text) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
   return buf;
+}
+
+// One page of a list: page_size items after page_token (the last id of the previous page; opaque to clients).
+struct PageRequest {
+  std::size_t size = 100;
+  std::string token;
+};
+constexpr std::int64_t kMaxPageSize = 1000;
+
+PageRequest ParsePageRequest(const std::string& size_text, const std::string& token) {
+  api::Problems problems;
+  PageRequest page;
+  if (!size_text.empty()) {
+    std::size_t used = 0;
+    long long v = 0;
+    try {
+      v = std::stoll(size_text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != size_text.size() || v < 1 || v > kMaxPageSize) {
+      problems.Add("page_size", "expected an integer in [1, " + std::to_string(kMaxPageSize) + "], got \"" +
+                                    size_text.substr(0, 32) + "\"");
+    } else {
+      page.size = static_cast<std::size_t>(v);
+    }
+  }
+  if (!token.empty() && !api::IsValidId(token)) {
+    problems.Add("page_token", "not a next_page_token of a previous page");
+  }
+  page.token = token;
+  problems.ThrowIfAny("invalid query");
+  return page;
 }
 
 Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w) {
@@ -143,7 +177,8 @@ int Service::RecoverOperations() {
       if (op.value("state", "") == "RUNNING") {
         op["state"] = "FAILED";
         op["done"] = true;
-        op["error"] = api::ErrorBody(Status::kUnavailable, 503, "aborted: the server stopped while it ran")["error"];
+        op["error"] = api::ErrorBody(Status::kUnavailable, HttpStatusOf(Status::kUnavailable),
+                                    "aborted: the server stopped while it ran")["error"];
         op["updated_unix_ms"] = NowUnixMs();
         storage_->Put(kOperations, d.id, op.dump());
         ++marked;
@@ -169,17 +204,44 @@ RobotModel Service::ResolveRobot(const std::string& id, json* definition) {
   return RobotModel::Build(api::ToSpec(api::ParseRegisterRobotRequest(def, options_.limits)));
 }
 
-json Service::ListRobots() {
+json Service::ListRobots(const std::string& page_size, const std::string& page_token) {
+  const PageRequest page = ParsePageRequest(page_size, page_token);
+  // One ordering over presets then registered robots (whose ids never equal a preset's name), so a token is
+  // simply the last id returned.
+  const std::vector<std::string> presets = PresetNames();
+  auto preset = std::find(presets.begin(), presets.end(), page.token);
+  const bool in_presets = page.token.empty() || preset != presets.end();
   json robots = json::array();
-  for (const std::string& name : PresetNames()) {
-    robots.push_back(api::RobotToJson(name, Preset(name), true, PresetDescription(name)));
+  std::string last;
+  bool more = false;
+  if (in_presets) {
+    preset = page.token.empty() ? presets.begin() : std::next(preset);
+    for (; preset != presets.end(); ++preset) {
+      if (robots.size() == page.size) {
+        more = true;
+        break;
+      }
+      robots.push_back(api::RobotToJson(*preset, Preset(*preset), true, PresetDescription(*preset)));
+      last = *preset;
+    }
   }
-  for (const Document& d : storage_->List(kRobots, "", 1000)) {
-    const json def = json::parse(d.json);
-    const RobotModel model = RobotModel::Build(api::ToSpec(api::ParseRegisterRobotRequest(def, options_.limits)));
-    robots.push_back(api::RobotToJson(d.id, model, false, def.value("description", "")));
+  if (!more) {
+    const std::size_t room = page.size - robots.size();
+    auto docs = storage_->List(kRobots, in_presets ? "" : page.token, static_cast<int>(room + 1));
+    if (docs.size() > room) {
+      more = true;
+      docs.resize(room);
+    }
+    for (const Document& d : docs) {
+      const json def = json::parse(d.json);
+      const RobotModel model = RobotModel::Build(api::ToSpec(api::ParseRegisterRobotRequest(def, options_.limits)));
+      robots.push_back(api::RobotToJson(d.id, model, false, def.value("description", "")));
+      last = d.id;
+    }
   }
-  return {{"robots", robots}};
+  json result = {{"robots", robots}};
+  if (more) result["next_page_token"] = last;
+  return result;
 }
 
 json Service::CreateRobot(const json& body) {
@@ -333,10 +395,13 @@ json Service::CreatePlan(const json& body) {
     const std::string id = NewId("plan");
     json plan = RunPlan(req, id, progress, nullptr);
     if (deadline_hit) {
-      plan["summary"]["message"] = plan["summary"]["message"].get<std::string>() +
-                                   " (stopped at the request deadline of " +
-                                   std::to_string(options_.request_deadline.count() / 1000) +
-                                   " s; use async: true for longer searches)";
+      // The optimiser reports a stop by its callback as "cancelled"; here the caller should learn why.
+      json& summary = plan["summary"];
+      summary["termination"] = "NO_CONVERGENCE";
+      summary["deadline_exceeded"] = true;
+      summary["message"] = "stopped at the request deadline (" + std::to_string(options_.request_deadline.count()) +
+                           " ms, request_timeout_s) with the best set so far after " +
+                           summary["iterations"].dump() + " iterations; use async: true for longer searches";
     }
     storage_->Create(kPlans, id, plan.dump());
     return plan;
@@ -380,10 +445,10 @@ json Service::CreatePlan(const json& body) {
       op["progress"] = cancelled ? r->progress.load() : 1.0;
     } catch (const ApiError& e) {
       op["state"] = "FAILED";
-      op["error"] = api::ErrorBody(e.status(), 400, e.what(), e.details())["error"];
+      op["error"] = api::ErrorBody(e.status(), HttpStatusOf(e.status()), e.what(), e.details())["error"];
     } catch (const std::exception& e) {
       op["state"] = "FAILED";
-      op["error"] = api::ErrorBody(Status::kInternal, 500, e.what())["error"];
+      op["error"] = api::ErrorBody(Status::kInternal, HttpStatusOf(Status::kInternal), e.what())["error"];
     }
     op["done"] = true;
     op["updated_unix_ms"] = NowUnixMs();
@@ -499,14 +564,20 @@ json Service::GetCampaign(const std::string& id) {
   return c;
 }
 
-json Service::ListCampaigns() {
+json Service::ListCampaigns(const std::string& page_size, const std::string& page_token) {
+  const PageRequest page = ParsePageRequest(page_size, page_token);
+  auto docs = storage_->List(kCampaigns, page.token, static_cast<int>(page.size + 1));
+  const bool more = docs.size() > page.size;
+  if (more) docs.resize(page.size);
   json list = json::array();
-  for (const Document& d : storage_->List(kCampaigns, "", 1000)) {
+  for (const Document& d : docs) {
     json c = json::parse(d.json);
     c.erase("robot_definition");
     list.push_back(c);
   }
-  return {{"campaigns", list}};
+  json result = {{"campaigns", list}};
+  if (more) result["next_page_token"] = docs.back().id;
+  return result;
 }
 
 json Service::AppendMeasurements(const std::string& campaign_id, const json& body) {

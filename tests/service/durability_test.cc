@@ -7,65 +7,20 @@
 #include "robocal/core/presets.h"
 #include "server/storage/storage.h"
 
-#include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <filesystem>
-#include <regex>
 
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "server_process.h"
+
 namespace robocal::server::testing {
 namespace {
 
 using nlohmann::json;
-
-// A robocal-server child process on a free port.
-class ServerProcess {
- public:
-  explicit ServerProcess(const std::string& db) {
-    int out[2];
-    EXPECT_EQ(pipe(out), 0);
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(out[1], STDOUT_FILENO);
-      close(out[0]);
-      execl(ROBOCAL_SERVER_BINARY, ROBOCAL_SERVER_BINARY, "--port", "0", "--db", db.c_str(), "--log-level", "error",
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    close(out[1]);
-    // The first line says where it listens.
-    FILE* f = fdopen(out[0], "r");
-    char line[512] = {0};
-    if (fgets(line, sizeof line, f) != nullptr) {
-      std::smatch m;
-      const std::string text(line);
-      if (std::regex_search(text, m, std::regex(R"(listening on http://127\.0\.0\.1:(\d+))"))) {
-        port_ = std::stoi(m[1].str());
-      }
-    }
-    fclose(f);
-    EXPECT_GT(port_, 0) << "server did not start: " << line;
-  }
-  ~ServerProcess() { Kill(); }
-  void Kill() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-      pid_ = -1;
-    }
-  }
-  int port() const { return port_; }
-
- private:
-  pid_t pid_ = -1;
-  int port_ = -1;
-};
 
 json Batch(const RobotModel& model, const std::string& request_id, int count, std::uint64_t seed) {
   Rng rng(seed);
@@ -87,7 +42,7 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
   std::int64_t acknowledged = 0;
   std::string operation;
   {
-    ServerProcess server(db);
+    ServerProcess server({"--db", db, "--log-level", "error"});
     httplib::Client client("127.0.0.1", server.port());
     auto created = client.Post("/v1/campaigns", R"({"id":"dur","robot":"ur5e"})", "application/json");
     ASSERT_TRUE(created && created->status == 200);
@@ -110,7 +65,7 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
     EXPECT_EQ(storage->IntegrityCheck(), "ok");
     EXPECT_EQ(storage->CountMeasurements("dur"), acknowledged);
   }
-  ServerProcess restarted(db);
+  ServerProcess restarted({"--db", db, "--log-level", "error"});
   httplib::Client client("127.0.0.1", restarted.port());
   auto campaign = client.Get("/v1/campaigns/dur");
   ASSERT_TRUE(campaign && campaign->status == 200);

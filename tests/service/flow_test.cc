@@ -96,6 +96,7 @@ TEST(FlowTest, FitWithTooFewMeasurementsStoresNothing) {
   EXPECT_EQ(fit.status, 400) << fit.text;
   EXPECT_EQ(fit.body["error"]["status"], "FAILED_PRECONDITION");
   EXPECT_FALSE(fit.body["error"]["message"].get<std::string>().empty());
+  EXPECT_TRUE(NamesField(fit, "measurements")) << fit.text;
   EXPECT_EQ(s.Get("/v1/campaigns/few/calibration").status, 404);
   EXPECT_FALSE(s.storage().Get("calibrations", "few").has_value());
 }

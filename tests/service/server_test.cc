@@ -1,6 +1,10 @@
 // The HTTP server end to end in-process: every endpoint, bad input, idempotency, auth, limits, operations.
 #include <fstream>
+#include <cstring>
+#include <regex>
 #include <set>
+#include <sstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -259,6 +263,204 @@ TEST(ServerTest, MalformedAndOversizedInputKeepsTheServerServing) {
   EXPECT_EQ(s.Get("/healthz").status, 200);
 }
 
+// What the storage holds, to show that a rejected request wrote nothing.
+std::string StorageSnapshot(Storage& storage, const std::string& campaign) {
+  std::string snapshot;
+  for (const char* collection : {"robots", "plans", "campaigns", "calibrations", "operations"}) {
+    for (const Document& d : storage.List(collection)) snapshot += d.collection + "/" + d.id + "#" + d.json + "\n";
+  }
+  return snapshot + "measurements " + std::to_string(storage.CountMeasurements(campaign));
+}
+
+TEST(ServerTest, EveryEndpointRejectsBadInputNamingTheFieldAndStoresNothing) {
+  TestServer s;
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "c5"}, {"robot", "ur5e"}}).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/c5/measurements", NominalBatch("ur5e", "cal", 30, 1)).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/c5/measurements", NominalBatch("ur5e", "val", 5, 2, "validation")).status, 200);
+  const Reply fit = s.Post("/v1/campaigns/c5:fit", json::object());
+  ASSERT_EQ(fit.status, 200) << fit.text;
+  const std::string before = StorageSnapshot(s.storage(), "c5");
+
+  const json good = NominalBatch("ur5e", "bad", 2, 3);
+  auto batch_with = [&](const json::json_pointer& at, const json& value) {
+    json b = good;
+    b[at] = value;
+    return b.dump();
+  };
+  const std::string pose = R"({"position_mm":[100,200,300],"quaternion":[1,0,0,0]})";
+  struct Case {
+    const char* method;
+    std::string path;
+    std::string body;
+    int status;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {"POST", "/v1/robots", R"({"id":"Bad Id","from_preset":"ur5e"})", 400, "id"},
+      {"POST", "/v1/robots",
+       R"({"id":"r9","convention":"dh","joints":[{"type":"revolute","a_mm":1e308,"min_deg":0,"max_deg":10}]})", 400,
+       "joints[0].a_mm"},
+      {"POST", "/v1/robots", R"({"id":"r9","convention":"dh","joints":"six"})", 400, "joints"},
+      {"POST", "/v1/robots/ur5e:forward", R"({"joints":[]})", 400, "joints"},
+      {"POST", "/v1/robots/ur5e:forward", R"({"joints":[[0,0,0,0,0]]})", 400, "joints[0]"},
+      {"POST", "/v1/robots/ur5e:forward", R"({"joints":[[0,0,0,0,0,1e6]]})", 400, "joints[0][5]"},
+      {"POST", "/v1/robots/ur5e:forward", R"({"joints":[[0,0,0,0,0,0]],"speed":1})", 400, "speed"},
+      {"POST", "/v1/robots/ur5e:forward", R"({"joints":[[0,0,0,0,0,NaN]]})", 400, "body"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","num_configurations":"ten"})", 400, "num_configurations"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","num_configurations":1e20})", 400, "num_configurations"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","num_configurations":99999999999999999999})", 400,
+       "num_configurations"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","seed":-1})", 400, "seed"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","async":"yes"})", 400, "async"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","options":{"k_max":2000000000}})", 400, "options.k_max"},
+      {"POST", "/v1/plans", R"({"num_configurations":5})", 400, "robot"},
+      {"POST", "/v1/plans", R"({"robot":"ur5e","noise":{"position_mm":-1}})", 400, "noise.position_mm"},
+      {"POST", "/v1/campaigns", R"({"robot":"ur5e","measurement_type":"laser"})", 400, "measurement_type"},
+      {"POST", "/v1/campaigns", R"({"id":"C-1","robot":"ur5e"})", 400, "id"},
+      {"POST", "/v1/campaigns", R"({"robot":7})", 400, "robot"},
+      {"POST", "/v1/campaigns/c5/measurements", batch_with(json::json_pointer("/request_id"), nullptr), 400,
+       "request_id"},
+      {"POST", "/v1/campaigns/c5/measurements", batch_with(json::json_pointer("/role"), "test"), 400, "role"},
+      {"POST", "/v1/campaigns/c5/measurements", batch_with(json::json_pointer("/measurements/1/joints/0"), 1e6), 400,
+       "measurements[1].joints[0]"},
+      {"POST", "/v1/campaigns/c5/measurements",
+       batch_with(json::json_pointer("/measurements/0/pose/position_mm/2"), 1e300), 400,
+       "measurements[0].pose.position_mm[2]"},
+      {"POST", "/v1/campaigns/c5/measurements", batch_with(json::json_pointer("/measurements/0/pose"), "here"), 400,
+       "measurements[0].pose"},
+      {"POST", "/v1/campaigns/c5/measurements", batch_with(json::json_pointer("/measurements"), json::array()), 400,
+       "measurements"},
+      {"GET", "/v1/campaigns/c5/measurements?role=test", "", 400, "role"},
+      {"GET", "/v1/campaigns/c5/measurements?after=-1", "", 400, "after"},
+      {"GET", "/v1/robots?page_size=0", "", 400, "page_size"},
+      {"GET", "/v1/campaigns?page_size=1e3", "", 400, "page_size"},
+      {"GET", "/v1/campaigns?page_token=..%2Fx", "", 400, "page_token"},
+      {"POST", "/v1/campaigns/c5:fit", R"({"max_iterations":0})", 400, "max_iterations"},
+      {"POST", "/v1/campaigns/c5:fit", R"({"register_base":1})", 400, "register_base"},
+      {"POST", "/v1/campaigns/c5:fit", R"({"parameters":"all"})", 400, "parameters"},
+      {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"joints":[0,0,0,0,0,0],"pose":)" + pose + "}]}", 400,
+       "targets[0]"},
+      {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"pose":{"position_mm":[1,2]}}]})", 400,
+       "targets[0].pose.position_mm"},
+      {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"pose":)" + pose + R"(,"frame":"moon"}]})", 400,
+       "targets[0].frame"},
+      {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"joints":[0,0,0,0,0,720]}]})", 400,
+       "targets[0].joints[5]"},
+      {"POST", "/v1/campaigns/c5:forward", R"({"joints":[[0,0,0,0,0,"x"]]})", 400, "joints[0][5]"},
+      {"POST", "/v1/campaigns/c5:evaluate", R"({"h_mm":-1})", 400, "h_mm"},
+      {"POST", "/v1/campaigns/c5:evaluate", R"({"h_mm":"30"})", 400, "h_mm"},
+      // Unknown (or impossible) ids.
+      {"GET", "/v1/robots/no-such", "", 404, ""},
+      {"DELETE", "/v1/robots/no-such", "", 404, ""},
+      {"POST", "/v1/robots/no-such:forward", R"({"joints":[[0]]})", 404, ""},
+      {"GET", "/v1/plans/no-such", "", 404, ""},
+      {"GET", "/v1/campaigns/NO-SUCH", "", 404, ""},
+      {"POST", "/v1/campaigns/no-such/measurements", good.dump(), 404, ""},
+      {"GET", "/v1/campaigns/no-such/measurements", "", 404, ""},
+      {"POST", "/v1/campaigns/no-such:fit", "{}", 404, ""},
+      {"GET", "/v1/campaigns/no-such/calibration", "", 404, ""},
+      {"POST", "/v1/campaigns/no-such:compensate", R"({"targets":[{"joints":[0,0,0,0,0,0]}]})", 404, ""},
+      {"POST", "/v1/campaigns/no-such:forward", R"({"joints":[[0,0,0,0,0,0]]})", 404, ""},
+      {"POST", "/v1/campaigns/no-such:evaluate", "{}", 404, ""},
+      {"GET", "/v1/operations/no-such", "", 404, ""},
+      {"POST", "/v1/operations/no-such:cancel", "{}", 404, ""},
+  };
+  for (const Case& c : cases) {
+    const Reply r = s.Request(c.method, c.path, c.body);
+    EXPECT_EQ(r.status, c.status) << c.method << " " << c.path << " " << c.body << "\n" << r.text;
+    ASSERT_TRUE(r.body.is_object() && r.body.contains("error")) << c.path << ": " << r.text;
+    EXPECT_EQ(r.body["error"]["code"], c.status) << c.path;
+    if (!c.field.empty()) {
+      EXPECT_TRUE(NamesField(r, c.field)) << c.method << " " << c.path << " " << c.body << "\n" << r.text;
+    }
+  }
+  // Malformed JSON on every route that reads a body.
+  for (const RouteInfo& route : Routes()) {
+    if (route.method != "POST" || route.openapi_path.find(":cancel") != std::string::npos) continue;
+    std::string path = route.openapi_path;
+    for (const auto& [param, id] : {std::pair{"{robot}", "ur5e"}, std::pair{"{campaign}", "c5"}}) {
+      if (auto at = path.find(param); at != std::string::npos) path.replace(at, std::string(param).size(), id);
+    }
+    const Reply r = s.PostText(path, R"({"joints": [[0, 0,)");
+    EXPECT_EQ(r.status, 400) << path;
+    EXPECT_EQ(FirstField(r), "body") << path;
+  }
+  EXPECT_EQ(StorageSnapshot(s.storage(), "c5"), before);
+  EXPECT_EQ(s.Get("/healthz").status, 200);
+  EXPECT_EQ(s.Post("/v1/robots/ur5e:forward", {{"joints", {{0, 0, 0, 0, 0, 0}}}}).status, 200);
+}
+
+TEST(ServerTest, ListsArePagedWithANextPageToken) {
+  TestServer s;
+  for (const char* id : {"arm-c", "arm-a", "arm-b"}) {
+    ASSERT_EQ(s.Post("/v1/robots", {{"id", id}, {"from_preset", "ur5e"}}).status, 200);
+  }
+  for (const char* id : {"c-4", "c-2", "c-1", "c-5", "c-3"}) {
+    ASSERT_EQ(s.Post("/v1/campaigns", {{"id", id}, {"robot", "ur5e"}}).status, 200);
+  }
+  const std::vector<std::string> robots = {"grinder5", "puma560", "ur5e", "arm-a", "arm-b", "arm-c"};
+  const std::vector<std::string> campaigns = {"c-1", "c-2", "c-3", "c-4", "c-5"};
+  for (const auto& [path, key, expected] : {std::tuple{"/v1/robots", "robots", robots},
+                                             std::tuple{"/v1/campaigns", "campaigns", campaigns}}) {
+    const Reply all = s.Get(path);
+    ASSERT_EQ(all.status, 200);
+    EXPECT_EQ(all.body[key].size(), expected.size());
+    EXPECT_FALSE(all.body.contains("next_page_token"));
+    for (std::size_t size = 1; size <= expected.size() + 1; ++size) {
+      std::vector<std::string> seen;
+      std::string token;
+      std::size_t pages = 0;
+      do {
+        const Reply page = s.Get(std::string(path) + "?page_size=" + std::to_string(size) +
+                                 (token.empty() ? "" : "&page_token=" + token));
+        ASSERT_EQ(page.status, 200) << page.text;
+        EXPECT_LE(page.body[key].size(), size);
+        for (const json& item : page.body[key]) seen.push_back(item["id"]);
+        token = page.body.value("next_page_token", "");
+        ASSERT_LE(++pages, expected.size() + 1) << "paging does not end";
+      } while (!token.empty());
+      EXPECT_EQ(seen, expected) << path << " page_size " << size;
+      EXPECT_EQ(pages, (expected.size() + size - 1) / size) << path << " page_size " << size;
+    }
+  }
+}
+
+TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
+  ServiceOptions options;
+  options.request_deadline = std::chrono::milliseconds(200);
+  TestServer s({}, {}, options);
+  json p = SmallPlan("ur5e");
+  p["num_configurations"] = 20;
+  p["options"] = {{"k_max", 1000000}, {"max_evaluations", 1000000}};  // hours of search without the deadline
+  const Reply plan = s.Post("/v1/plans", p);
+  ASSERT_EQ(plan.status, 200) << plan.text;
+  EXPECT_EQ(plan.body["configurations"].size(), 20u);
+  const json& summary = plan.body["summary"];
+  EXPECT_TRUE(summary.value("deadline_exceeded", false)) << summary.dump();
+  EXPECT_EQ(summary["termination"], "NO_CONVERGENCE");
+  EXPECT_NE(summary["message"].get<std::string>().find("request deadline"), std::string::npos) << summary.dump();
+  EXPECT_LT(summary["iterations"].get<int>(), 1000000);
+  EXPECT_EQ(s.Get("/v1/plans/" + plan.body["id"].get<std::string>()).status, 200);
+  // A plan within its deadline does not claim otherwise.
+  const Reply small = s.Post("/v1/plans", SmallPlan());
+  ASSERT_EQ(small.status, 200);
+  EXPECT_FALSE(small.body["summary"].contains("deadline_exceeded"));
+}
+
+TEST(ServerTest, LargeFormEncodedBodyGetsAContentTypeHint) {
+  // curl -d sends application/x-www-form-urlencoded, which the HTTP library caps at 8 KiB whatever
+  // max_body_bytes says: the reply must say what to change, not blame max_body_bytes.
+  TestServer s;
+  httplib::Client raw("127.0.0.1", s.port());
+  auto form = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(form);
+  EXPECT_EQ(form->status, 413);
+  EXPECT_NE(form->body.find("application/json"), std::string::npos) << form->body;
+  auto json_body = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/json");
+  ASSERT_TRUE(json_body);
+  EXPECT_EQ(json_body->status, 400);  // parsed: the id is missing
+}
+
 TEST(ServerTest, MeasurementsPerCampaignLimit) {
   ServiceOptions options;
   options.max_measurements_per_campaign = 10;
@@ -315,6 +517,26 @@ TEST(ServerTest, MetricsCountRequests) {
             std::string::npos)
       << m.text;
   EXPECT_NE(m.text.find("robocal_operations_running"), std::string::npos);
+  // Prometheus text format 0.0.4: every sample is `name{label="value",...} number` of a family whose
+  // # HELP and # TYPE came first.
+  const std::regex sample(R"re(([a-zA-Z_:][a-zA-Z0-9_:]*)(\{([a-zA-Z_][a-zA-Z0-9_]*="[^"\\]*",?)*\})? -?[0-9.e+-]+)re");
+  const std::regex type(R"(# TYPE ([a-zA-Z_:][a-zA-Z0-9_:]*) (counter|gauge|summary|histogram|untyped))");
+  std::set<std::string> typed;
+  std::istringstream lines(m.text);
+  for (std::string line; std::getline(lines, line);) {
+    std::smatch match;
+    if (line.rfind("# HELP ", 0) == 0) continue;
+    if (std::regex_match(line, match, type)) {
+      typed.insert(match[1]);
+      continue;
+    }
+    ASSERT_TRUE(std::regex_match(line, match, sample)) << "not a Prometheus sample: " << line;
+    std::string family = match[1];
+    for (const char* suffix : {"_sum", "_count"}) {
+      if (!typed.count(family) && family.ends_with(suffix)) family.resize(family.size() - std::strlen(suffix));
+    }
+    EXPECT_TRUE(typed.count(family)) << "sample before its # TYPE: " << line;
+  }
 }
 
 TEST(ServerTest, OpenApiSpecMatchesTheRouteTable) {
@@ -347,6 +569,22 @@ TEST(ConfigTest, PrecedenceFlagsEnvFileDefaults) {
   EXPECT_EQ(r.config.max_body_bytes, 8388608);
   const ConfigResult env_file = LoadConfig({}, {{"ROBOCAL_CONFIG", file}});
   EXPECT_EQ(env_file.config.port, 9000);
+}
+
+TEST(ConfigTest, EveryLimitIsConfigurable) {
+  const ConfigResult r = LoadConfig({"--max-array-length", "50", "--max-plan-evaluations=5000",
+                                     "--max-running-operations", "4", "--request-timeout-s", "2"},
+                                    {{"ROBOCAL_MAX_BODY_BYTES", "4096"}});
+  ASSERT_TRUE(r.run) << r.message;
+  EXPECT_EQ(r.config.max_array_length, 50);
+  EXPECT_EQ(r.config.max_plan_evaluations, 5000);
+  EXPECT_EQ(r.config.max_running_operations, 4);
+  EXPECT_EQ(r.config.request_timeout_s, 2);
+  EXPECT_EQ(r.config.max_body_bytes, 4096);
+  EXPECT_EQ(LoadConfig({"--max-array-length", "0"}, {}).exit_code, 2);
+  // The shipped example configuration is accepted as it stands.
+  const ConfigResult example = LoadConfig({"--config", ROBOCAL_SOURCE_DIR "/deploy/robocal.example.json"}, {});
+  EXPECT_TRUE(example.run) << example.message;
 }
 
 TEST(ConfigTest, BadFlagsExitTwo) {

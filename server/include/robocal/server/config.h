@@ -23,6 +23,12 @@ struct ServerConfig {
   std::int64_t max_body_bytes = 8388608;
   std::int64_t max_measurements_per_campaign = 100000;
   int max_plan_configurations = 1000;
+  /// Elements of any one array in a request (joint vectors, measurements, targets).
+  std::int64_t max_array_length = 10000;
+  /// Optimiser budget of one plan (k_max, max_evaluations, num_sets, max_iterations).
+  std::int64_t max_plan_evaluations = 1000000;
+  /// Operations (async plans) running at once.
+  int max_running_operations = 2;
   int request_timeout_s = 60;
   int threads = 8;
   std::string config_file;

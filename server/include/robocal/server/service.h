@@ -40,7 +40,9 @@ class Service {
   /// Returns how many were marked.
   int RecoverOperations();
 
-  nlohmann::json ListRobots();
+  /// page_size: "" (default 100) or 1..1000; page_token: "" or the next_page_token of the previous page.
+  /// Presets come first, then registered robots in id order.
+  nlohmann::json ListRobots(const std::string& page_size = "", const std::string& page_token = "");
   nlohmann::json CreateRobot(const nlohmann::json& body);
   nlohmann::json GetRobot(const std::string& id);
   void DeleteRobot(const std::string& id);
@@ -51,7 +53,8 @@ class Service {
   nlohmann::json GetPlan(const std::string& id);
 
   nlohmann::json CreateCampaign(const nlohmann::json& body);
-  nlohmann::json ListCampaigns();
+  /// Campaigns in id order, paged like ListRobots.
+  nlohmann::json ListCampaigns(const std::string& page_size = "", const std::string& page_token = "");
   nlohmann::json GetCampaign(const std::string& id);
   nlohmann::json AppendMeasurements(const std::string& campaign, const nlohmann::json& body);
   /// role: "" (all), calibration, validation; after: sequence to start after; limit: page size.

@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# Load figures of robocal-server (docs/service.md, "Measured performance"), measured with wrk; run by hand,
+# never by ctest. Starts the given server binary (a Release build) on a free port with a temporary database,
+# runs each scenario with `wrk -t2 -c8 -d10s`, prints wrk's reports and stops the server.
+#
+#   cmake -S . -B build-release -DCMAKE_BUILD_TYPE=Release && cmake --build build-release --target robocal-server
+#   tests/bench/service_load.sh build-release/server/robocal-server
+#
+# Environment: WRK_ARGS (default "-t2 -c8 -d10s").
+set -euo pipefail
+
+server=${1:-build-release/server/robocal-server}
+wrk_args=${WRK_ARGS:--t2 -c8 -d10s}
+command -v wrk >/dev/null || { echo "service_load: wrk is not installed (Debian package wrk)" >&2; exit 2; }
+[ -x "$server" ] || { echo "service_load: no server binary at $server" >&2; exit 2; }
+
+work=$(mktemp -d)
+server_pid=
+cleanup() {
+  if [ -n "$server_pid" ]; then kill -TERM "$server_pid" 2>/dev/null || true; wait "$server_pid" 2>/dev/null || true; fi
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# Port 0: the server picks a free port and names it on its first line.
+"$server" --port 0 --db "$work/robocal.db" --log-level warn --threads 8 \
+  --max-measurements-per-campaign 100000000 >"$work/stdout" 2>"$work/stderr" &
+server_pid=$!
+for _ in $(seq 100); do
+  grep -q 'listening on' "$work/stdout" 2>/dev/null && break
+  sleep 0.1
+done
+url=$(sed -n 's/.*listening on \(http[^ ]*\).*/\1/p' "$work/stdout")
+[ -n "$url" ] || { echo "service_load: the server did not start" >&2; cat "$work/stderr" >&2; exit 1; }
+echo "server: $server at $url; wrk $wrk_args; $(nproc) cores"
+
+curl -sf -XPOST "$url/v1/campaigns" -H 'Content-Type: application/json' \
+  -d '{"id":"load","robot":"ur5e"}' >/dev/null
+
+# Scenario bodies.
+forward='{"joints":['
+for i in $(seq 10); do forward+="[$((i * 10)),-90,90,0,90,0]"; [ "$i" -lt 10 ] && forward+=','; done
+forward+=']}'
+echo "$forward" >"$work/forward.json"
+plan='{"robot":"grinder5","num_configurations":10,"measurement_type":"pose","seed":1}'
+echo "$plan" >"$work/plan.json"
+
+# A batch of 50 measurements; every request gets its own request_id, so each one is stored (no replays).
+cat >"$work/batch.lua" <<'LUA'
+-- thread_id is a global that setup() gives each thread (a local here would hide it).
+local counter = 0
+local next_thread = 0
+function setup(thread)
+  thread:set("thread_id", next_thread)
+  next_thread = next_thread + 1
+end
+local rows = {}
+for i = 1, 50 do
+  rows[i] = string.format('{"joints":[%d,-90,90,0,90,0],"pose":{"position_mm":[%d.5,-120.25,640.75],' ..
+                          '"quaternion":[1,0,0,0]}}', i, 300 + i)
+end
+local measurements = '"role":"calibration","measurements":[' .. table.concat(rows, ",") .. ']}'
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+function request()
+  counter = counter + 1
+  return wrk.format(nil, "/v1/campaigns/load/measurements", nil,
+                    '{"request_id":"t' .. (thread_id or 0) .. '-' .. counter .. '",' .. measurements)
+end
+LUA
+
+post_lua() {  # a wrk script that POSTs the JSON file $1
+  cat <<LUA
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+local f = io.open("$1")
+wrk.body = f:read("*a")
+f:close()
+LUA
+}
+post_lua "$work/forward.json" >"$work/forward.lua"
+post_lua "$work/plan.json" >"$work/plan.lua"
+
+run() {  # name, path, [script]
+  echo
+  echo "== $1: wrk $wrk_args ${3:+-s $(basename "$3")} $url$2"
+  # shellcheck disable=SC2086
+  wrk $wrk_args ${3:+-s "$3"} "$url$2"
+}
+run "GET /healthz" /healthz
+run "POST /v1/robots/ur5e:forward (10 joint vectors)" /v1/robots/ur5e:forward "$work/forward.lua"
+run "POST measurements, batches of 50, unique request_ids" /v1/campaigns/load/measurements "$work/batch.lua"
+run "POST /v1/plans (grinder5, M=10, pose, Solis & Wets paper preset, synchronous)" /v1/plans "$work/plan.lua"
+
+echo
+stored=$(curl -sf "$url/v1/campaigns/load" | sed -n 's/.*"calibration":\([0-9]*\).*/\1/p')
+echo "measurements stored in the campaign: $stored"
