@@ -124,22 +124,15 @@ class SqliteStorage final : public Storage {
   Document Create(const std::string& collection, const std::string& id, const std::string& json) override {
     std::lock_guard lock(mutex_);
     Transaction tx(*this);
-    const std::int64_t now = NowUnixMs();
+    Document doc;
     try {
-      Prepare(
-          "INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
-          "VALUES (?1, ?2, ?3, 1, ?4, ?4)")
-          .Bind(1, collection)
-          .Bind(2, id)
-          .Bind(3, json)
-          .Bind(4, now)
-          .Run();
+      doc = InsertLocked(collection, id, json);
     } catch (const StorageError& e) {
       if (e.kind() != Kind::kAlreadyExists) throw;
       throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " already exists");
     }
     tx.Commit();
-    return Document{collection, id, json, 1, now, now};
+    return doc;
   }
 
   std::optional<Document> Get(const std::string& collection, const std::string& id) override {
@@ -172,16 +165,7 @@ class SqliteStorage final : public Storage {
       WriteLocked(*doc, json);
       result = *doc;
     } else {
-      const std::int64_t now = NowUnixMs();
-      Prepare(
-          "INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
-          "VALUES (?1, ?2, ?3, 1, ?4, ?4)")
-          .Bind(1, collection)
-          .Bind(2, id)
-          .Bind(3, json)
-          .Bind(4, now)
-          .Run();
-      result = Document{collection, id, json, 1, now, now};
+      result = InsertLocked(collection, id, json);
     }
     tx.Commit();
     return result;
@@ -467,6 +451,21 @@ class SqliteStorage final : public Storage {
       it = statements_.emplace(sql, stmt).first;
     }
     return Statement(db_, it->second);
+  }
+
+  // The one INSERT of a new document (version 1), shared by Create and Put; caller holds the lock and a
+  // transaction.
+  Document InsertLocked(const std::string& collection, const std::string& id, const std::string& json) {
+    const std::int64_t now = NowUnixMs();
+    Prepare(
+        "INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
+        "VALUES (?1, ?2, ?3, 1, ?4, ?4)")
+        .Bind(1, collection)
+        .Bind(2, id)
+        .Bind(3, json)
+        .Bind(4, now)
+        .Run();
+    return Document{collection, id, json, 1, now, now};
   }
 
   std::optional<Document> GetLocked(const std::string& collection, const std::string& id) {
