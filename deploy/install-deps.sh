@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libcpp-httplib-dev libsqlite3-dev libssl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  curl jq sqlite3
+  curl jq sqlite3 openssl
 )
 
 missing=()
