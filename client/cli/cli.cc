@@ -10,9 +10,12 @@
 #include <set>
 #include <sstream>
 
+#include "experiment_flags.h"
+#include "robocal/api/convert.h"
 #include "robocal/client/client.h"
 #include "robocal/client/csv.h"
 #include "robocal/core/accuracy.h"
+#include "robocal/core/experiment.h"
 
 namespace robocal::cli {
 namespace {
@@ -29,18 +32,29 @@ Commands:
   robots                         list preset and registered robots
   robot register FILE.json       register a robot model (DH / MDH / transform table; see the API docs)
   robot get ROBOT | robot delete ROBOT
+  robot forward ROBOT IN.csv     nominal tool poses for joint vectors (CSV in, CSV out)
   plan ROBOT [options]           optimal measurement configurations (see robocal plan --help)
+  plan get PLAN                  a stored plan (configurations and indices; --out FILE.csv|FILE.json)
   campaign create ROBOT TYPE     create a calibration campaign (TYPE: pose, position_axis, position)
   campaign list | campaign get CAMPAIGN
+  campaign forward CAMPAIGN IN.csv
+                                 tool poses of the calibrated robot (tracker frame), CSV in, CSV out
   upload CAMPAIGN FILE           upload tracker measurements (CSV or JSON)
+  measurements CAMPAIGN          the stored measurements as CSV (the upload format) or JSON
   fit CAMPAIGN                   identify the parameters; prints the parameter table
   compensate CAMPAIGN IN.csv     compensated joints for nominal joint commands (CSV in, CSV out)
   evaluate CAMPAIGN              the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements
   operation wait|get|cancel ID   long-running operations (async plans); wait draws progress on stderr
+  experiment [options]           the paper's simulated experiment, run locally (no server; see --help)
 
 Global options (anywhere on the line):
   --server URL    service URL (default $ROBOCAL_SERVER, else http://127.0.0.1:8080)
   --token TOKEN   bearer token (default $ROBOCAL_TOKEN)
+  --ca-cert FILE  https: trust the certificate authorities in FILE (PEM; default $ROBOCAL_CA_CERT, else the
+                  system's), e.g. a lab server's self-signed certificate itself
+  --insecure      https: do NOT verify the server's certificate. Anyone on the network path can then pose as
+                  the server and read the token. Only for a first test against a self-signed lab server;
+                  use --ca-cert instead.
   --json          print the service's JSON response instead of tables (for scripts)
   --help          help for robocal or for a command (robocal plan --help)
 
@@ -48,7 +62,13 @@ Exit codes: 0 ok, 1 service error (HTTP 4xx/5xx; the error's status, message and
 2 usage error, 3 connection failure.
 )";
 
+constexpr const char* kRobotsHelp = R"(Usage: robocal robots
+
+Lists the preset and registered robots: id, number of joints, description. --json: GET /v1/robots as is.
+)";
+
 constexpr const char* kPlanHelp = R"(Usage: robocal plan ROBOT [options]
+       robocal plan get PLAN [--out FILE.csv|FILE.json]
 
 Asks the service for M measurement configurations that make the calibration well conditioned, and prints
 them (one row per configuration, in the joints' units) with their observability indices and predicted
@@ -62,22 +82,41 @@ Options:
   --seed N             seed of the search (default 1); the same seed gives the same plan
   --async              run as a long-running operation and wait for it with a progress bar on stderr
   --out FILE           also write the configurations: FILE.csv (joints CSV) or FILE.json (the plan)
+
+plan get: prints a stored plan as above (GET /v1/plans/{plan}); --out writes it like a new one.
 )";
 
 constexpr const char* kRobotHelp = R"(Usage: robocal robot register FILE.json | robot get ROBOT | robot delete ROBOT
+       robocal robot forward ROBOT IN.csv [--out OUT.csv]
 
 register: FILE.json is the body of POST /v1/robots, e.g.
   {"id": "cell7", "from_preset": "ur5e", "tool": {"position_mm": [0, 0, 120], "rpy_deg": [0, 0, 0]}}
 or a full table: {"id": ..., "convention": "dh"|"mdh"|"transform", "joints": [...], "base": ..., "tool": ...}.
+
+forward: IN.csv is a joints CSV (header, one row per configuration, degrees / mm); writes the nominal model's
+tool poses (world frame: the nominal base) as the joint columns, x_mm,y_mm,z_mm,qw,qx,qy,qz to OUT.csv or
+stdout.
 )";
 
 constexpr const char* kCampaignHelp =
     R"(Usage: robocal campaign create ROBOT TYPE [--plan PLAN] [--id ID] [--description TEXT]
        robocal campaign list
        robocal campaign get CAMPAIGN
+       robocal campaign forward CAMPAIGN IN.csv [--out OUT.csv]
 
 create: TYPE is pose, position_axis or position (what the tracker measures). --plan links a plan (same robot).
 Prints the campaign id.
+forward: IN.csv is a joints CSV; writes the calibrated robot's tool poses in the tracker frame (the joint
+columns, then x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit.
+)";
+
+constexpr const char* kMeasurementsHelp =
+    R"(Usage: robocal measurements CAMPAIGN [--role calibration|validation] [--after SEQ] [--limit N] [--out FILE.csv]
+
+The campaign's stored measurements in upload order, as the measurement CSV that `robocal upload` reads (the
+joint columns, x_mm,y_mm,z_mm, and qw,qx,qy,qz unless the campaign measures position only), to FILE.csv or
+stdout. --role: only one role (default both); --after: continue after that sequence number; --limit: at most
+N measurements (default all). --json: {"measurements": [...]} with sequence, batch and role of each.
 )";
 
 constexpr const char* kUploadHelp =
@@ -113,6 +152,17 @@ model: E_xyz (position, um), E_cos (tool axis angle, urad shown as um at 1 m), E
 mean, std, max and RP = mean + 3 std. H defaults to 30 mm.
 )";
 
+constexpr const char* kExperimentHelp = R"(Usage: robocal experiment [options]
+
+The paper's simulated experiment, run locally by the calibration core (no server involved): per trial, a
+robot with new hidden geometric errors; M configurations planned by Solis & Wets, by random selection and by
+exchange; each plan measured by a simulated laser tracker and identified; then random validation poses
+compensated on each calibration. Prints E_xyz, E_cos and E_tot (mean, std, max, RP = mean + 3 std) before and
+after calibration per method, and the improvement over random selection. Progress goes to stderr. --json
+prints the pooled results as JSON. The same flags as robocal-experiment:
+
+)";
+
 constexpr const char* kOperationHelp = R"(Usage: robocal operation wait ID | operation get ID | operation cancel ID
 
 wait: polls until the operation is done, drawing progress on stderr; exit 1 if it failed.
@@ -123,14 +173,16 @@ struct UsageError : std::runtime_error {
 };
 
 // Options that take a value; everything else starting with "--" is a flag.
-const std::set<std::string> kValueOptions = {"--server",     "--token",     "--count",       "--type",
-                                             "--objective",  "--optimiser", "--seed",        "--out",
-                                             "--plan",       "--id",        "--description", "--role",
-                                             "--request-id", "--h-mm",      "--parameters",  "--max-iterations"};
-const std::set<std::string> kFlags = {"--json", "--async", "--help", "--no-register-base"};
+const std::set<std::string> kValueOptions = {"--server",         "--token", "--count",      "--type",   "--objective",
+                                             "--optimiser",      "--seed",  "--out",        "--plan",   "--id",
+                                             "--description",    "--role",  "--request-id", "--h-mm",   "--parameters",
+                                             "--max-iterations", "--limit", "--after",      "--ca-cert"};
+const std::set<std::string> kFlags = {"--json", "--async", "--help", "--no-register-base", "--insecure"};
 
 struct Args {
   std::vector<std::string> positional;
+  /// `experiment`: its flags, left to the experiment's own parser.
+  std::vector<std::string> experiment_flags;
   std::map<std::string, std::string> options;
   std::set<std::string> flags;
 
@@ -167,7 +219,12 @@ Args ParseArgs(const std::vector<std::string>& raw) {
   Args args;
   for (std::size_t i = 0; i < raw.size(); ++i) {
     const std::string& a = raw[i];
-    if (a == "-h") {
+    const bool experiment = !args.positional.empty() && args.positional[0] == "experiment";
+    const std::string name = a.substr(0, a.find('='));
+    if (experiment && a != "-h" && !kFlags.count(name) && name != "--server" && name != "--token" &&
+        name != "--ca-cert") {
+      args.experiment_flags.push_back(a);  // the global options above stay global
+    } else if (a == "-h") {
       args.flags.insert("--help");
     } else if (a.rfind("--", 0) == 0 && a.size() > 2) {
       const auto eq = a.find('=');
@@ -277,6 +334,131 @@ AccuracyReport ToCore(const client::Accuracy& a) {
   return r;
 }
 
+// The joints CSV at `path` for a robot, as a usage error when malformed (the user's file, not the service).
+std::vector<std::vector<double>> ReadJointsFile(const std::string& path, const client::RobotInfo& robot) {
+  std::istringstream in(ReadFile(path));
+  std::vector<std::vector<double>> rows;
+  try {
+    rows = client::ReadJointsCsv(in, static_cast<int>(robot.joints.size()));
+  } catch (const std::runtime_error& e) {
+    throw UsageError(path + ": " + e.what());
+  }
+  if (rows.empty()) throw UsageError(path + ": no rows");
+  return rows;
+}
+
+// `out_file` opened for writing, or `out` when it is empty.
+class Output {
+ public:
+  Output(const std::string& out_file, std::ostream& out) : out_(out) {
+    if (out_file.empty()) return;
+    file_.open(out_file);
+    if (!file_) throw UsageError("cannot write " + out_file);
+  }
+  std::ostream& stream() { return file_.is_open() ? file_ : out_; }
+
+ private:
+  std::ostream& out_;
+  std::ofstream file_;
+};
+
+// robot forward / campaign forward: joints CSV in, poses CSV (the measurement format) or JSON out.
+int WriteForward(const Args& args, const client::RobotInfo& robot, const std::vector<std::vector<double>>& joints,
+                 const std::vector<api::PoseWire>& poses, std::ostream& out) {
+  Output target(args.Option("--out"), out);
+  if (args.Flag("--json")) {
+    json list = json::array();
+    for (const auto& p : poses) list.push_back(api::ToJson(p));
+    target.stream() << json{{"poses", list}}.dump(2) << "\n";
+    return kExitOk;
+  }
+  std::vector<api::MeasurementWire> rows;
+  for (std::size_t i = 0; i < joints.size() && i < poses.size(); ++i) rows.push_back({joints[i], poses[i]});
+  client::WriteMeasurementsCsv(target.stream(), robot.joints, rows);
+  return kExitOk;
+}
+
+int Measurements(Client& c, const Args& args, std::ostream& out, std::ostream& err) {
+  Expect(args, 2, "measurements CAMPAIGN [--role ROLE] [--after SEQ] [--limit N] [--out FILE.csv]");
+  const std::string& campaign_id = args.positional[1];
+  const std::string role = args.Option("--role");
+  if (!role.empty() && role != "calibration" && role != "validation") {
+    throw UsageError("--role is calibration or validation");
+  }
+  std::int64_t after = args.Int("--after", 0, 0, INT64_MAX);
+  const long long limit = args.Int("--limit", INT64_MAX, 1, INT64_MAX);
+  const std::string out_file = args.Option("--out");
+  if (!out_file.empty() && !EndsWith(out_file, ".csv")) throw UsageError("--out takes FILE.csv");
+  const client::Campaign campaign = c.GetCampaign(campaign_id);
+  json raw = json::array();
+  std::vector<api::MeasurementWire> measurements;
+  for (;;) {
+    const int page_size = static_cast<int>(std::min<long long>(1000, limit - static_cast<long long>(raw.size())));
+    const client::MeasurementPage page = c.ListMeasurements(campaign.id, role, after, page_size);
+    for (const auto& m : page.measurements) measurements.push_back(m.measurement);
+    for (const json& m : page.raw.at("measurements")) raw.push_back(m);
+    if (!page.next_after || static_cast<long long>(raw.size()) >= limit || page.measurements.empty()) break;
+    after = *page.next_after;
+  }
+  Output target(out_file, out);
+  if (args.Flag("--json")) {
+    target.stream() << json{{"measurements", raw}}.dump(2) << "\n";
+  } else {
+    client::WriteMeasurementsCsv(target.stream(), c.GetRobot(campaign.robot).joints, measurements);
+  }
+  err << measurements.size() << " measurements of campaign " << campaign.id << "\n";
+  return kExitOk;
+}
+
+json StatisticsJson(const ErrorStatistics& s, double scale) {
+  return {{"count", s.count},
+          {"mean", s.mean * scale},
+          {"std", s.std * scale},
+          {"max", s.max * scale},
+          {"rp", s.rp * scale}};
+}
+
+// Wire units (mm, degrees), as the service reports accuracy.
+json AccuracyJson(const AccuracyReport& r) {
+  return {{"h_mm", r.h_mm},
+          {"e_xyz_mm", StatisticsJson(r.e_xyz_mm, 1.0)},
+          {"e_cos_deg", StatisticsJson(r.e_cos_rad, 180.0 / std::numbers::pi)},
+          {"e_tot_mm", StatisticsJson(r.e_tot_mm, 1.0)}};
+}
+
+int Experiment(const Args& args, std::ostream& out, std::ostream& err) {
+  if (args.positional.size() != 1) throw UsageError("expected: experiment [options] (no other arguments)");
+  ExperimentOptions options;
+  const std::string error = tools::ParseExperimentFlags(args.experiment_flags, &options);
+  if (!error.empty()) throw UsageError(error);
+  options.progress = [&err](int done, int total) { err << "\rtrial " << done << " of " << total << std::flush; };
+  const ExperimentResult result = RunExperiment(options);
+  err << "\r" << Fixed(result.seconds, 1) << " s          \n";
+  if (!args.Flag("--json")) {
+    out << FormatExperimentReport(result);
+    return kExitOk;
+  }
+  json methods = json::array();
+  for (const MethodResult& m : result.methods) {
+    methods.push_back({{"method", m.method},
+                       {"median_condition_number", api::Num(m.median_condition_number)},
+                       {"after", AccuracyJson(m.after)},
+                       {"failed_trials", m.failed_trials},
+                       {"unconverged_targets", m.unconverged_targets}});
+  }
+  out << json{{"robot", options.robot},
+              {"measurement_type", ToString(options.measurement_type)},
+              {"num_configurations", options.num_configurations},
+              {"trials", options.trials},
+              {"num_validation", options.num_validation},
+              {"seed", options.seed},
+              {"before", AccuracyJson(result.before)},
+              {"methods", methods}}
+             .dump(2)
+      << "\n";
+  return kExitOk;
+}
+
 int Robots(Client& c, const Args& args, std::ostream& out) {
   const auto robots = c.ListRobots();
   if (args.Flag("--json")) {
@@ -293,8 +475,16 @@ int Robots(Client& c, const Args& args, std::ostream& out) {
 }
 
 int Robot(Client& c, const Args& args, std::ostream& out) {
-  if (args.positional.size() != 3) throw UsageError("expected: robot register FILE.json | robot get|delete ROBOT");
-  const std::string& sub = args.positional[1];
+  const std::string& sub = args.positional.size() > 1 ? args.positional[1] : "";
+  if (sub == "forward") {
+    Expect(args, 4, "robot forward ROBOT IN.csv [--out OUT.csv]");
+    const client::RobotInfo robot = c.GetRobot(args.positional[2]);
+    const auto joints = ReadJointsFile(args.positional[3], robot);
+    return WriteForward(args, robot, joints, c.RobotForward(robot.id, joints), out);
+  }
+  if (args.positional.size() != 3) {
+    throw UsageError("expected: robot register FILE.json | robot get|delete ROBOT | robot forward ROBOT IN.csv");
+  }
   client::RobotInfo robot;
   if (sub == "register") {
     json body;
@@ -329,8 +519,36 @@ int Robot(Client& c, const Args& args, std::ostream& out) {
   return kExitOk;
 }
 
+void WritePlanFile(Client& c, const client::PlanResult& plan, const std::string& out_file) {
+  if (EndsWith(out_file, ".csv")) {
+    const client::RobotInfo robot = c.GetRobot(plan.robot);
+    std::ofstream file(out_file);
+    client::WriteJointsCsv(file, robot.joints, plan.configurations);
+    if (!file) throw UsageError("cannot write " + out_file);
+  } else if (EndsWith(out_file, ".json")) {
+    std::ofstream file(out_file);
+    file << plan.raw.dump(2) << "\n";
+    if (!file) throw UsageError("cannot write " + out_file);
+  }
+}
+
 int PlanCommand(Client& c, const Args& args, std::ostream& out, std::ostream& err) {
-  Expect(args, 2, "plan ROBOT [options]");
+  const std::string out_file = args.Option("--out");
+  if (!out_file.empty() && !EndsWith(out_file, ".csv") && !EndsWith(out_file, ".json")) {
+    throw UsageError("--out takes FILE.csv or FILE.json");
+  }
+  // "plan get PLAN" (three words); "plan get" alone plans for a robot named "get".
+  if (args.positional.size() == 3 && args.positional[1] == "get") {
+    const client::PlanResult plan = c.GetPlan(args.positional[2]);
+    WritePlanFile(c, plan, out_file);
+    if (args.Flag("--json")) {
+      out << plan.raw.dump(2) << "\n";
+    } else {
+      PrintPlan(plan, out);
+    }
+    return kExitOk;
+  }
+  Expect(args, 2, "plan ROBOT [options] | plan get PLAN");
   api::PlanRequest request;
   request.robot = args.positional[1];
   request.num_configurations = static_cast<int>(args.Int("--count", 10, 1, 100000));
@@ -338,10 +556,6 @@ int PlanCommand(Client& c, const Args& args, std::ostream& out, std::ostream& er
   request.objective = args.Option("--objective", "condition_number");
   request.optimiser = args.Option("--optimiser", "solis_wets");
   request.seed = static_cast<std::uint64_t>(args.Int("--seed", 1, 0, INT64_MAX));
-  const std::string out_file = args.Option("--out");
-  if (!out_file.empty() && !EndsWith(out_file, ".csv") && !EndsWith(out_file, ".json")) {
-    throw UsageError("--out takes FILE.csv or FILE.json");
-  }
   client::PlanResult plan;
   if (args.Flag("--async")) {
     const client::Operation started = c.StartPlan(request);
@@ -360,16 +574,7 @@ int PlanCommand(Client& c, const Args& args, std::ostream& out, std::ostream& er
   } else {
     plan = c.CreatePlan(request);
   }
-  if (EndsWith(out_file, ".csv")) {
-    const client::RobotInfo robot = c.GetRobot(plan.robot);
-    std::ofstream file(out_file);
-    client::WriteJointsCsv(file, robot.joints, plan.configurations);
-    if (!file) throw UsageError("cannot write " + out_file);
-  } else if (EndsWith(out_file, ".json")) {
-    std::ofstream file(out_file);
-    file << plan.raw.dump(2) << "\n";
-    if (!file) throw UsageError("cannot write " + out_file);
-  }
+  WritePlanFile(c, plan, out_file);
   if (args.Flag("--json")) {
     out << plan.raw.dump(2) << "\n";
   } else {
@@ -392,6 +597,13 @@ int CampaignCommand(Client& c, const Args& args, std::ostream& out) {
       for (const auto& x : campaigns) out << x.id << "  " << x.robot << "  " << x.measurement_type << "\n";
     }
     return kExitOk;
+  }
+  if (sub == "forward") {
+    Expect(args, 4, "campaign forward CAMPAIGN IN.csv [--out OUT.csv]");
+    const client::Campaign campaign = c.GetCampaign(args.positional[2]);
+    const client::RobotInfo robot = c.GetRobot(campaign.robot);
+    const auto joints = ReadJointsFile(args.positional[3], robot);
+    return WriteForward(args, robot, joints, c.CampaignForward(campaign.id, joints), out);
   }
   client::Campaign campaign;
   if (sub == "create") {
@@ -484,22 +696,10 @@ int Compensate(Client& c, const Args& args, std::ostream& out) {
   Expect(args, 3, "compensate CAMPAIGN IN.csv [--out OUT.csv]");
   const client::Campaign campaign = c.GetCampaign(args.positional[1]);
   const client::RobotInfo robot = c.GetRobot(campaign.robot);
-  std::istringstream in(ReadFile(args.positional[2]));
-  std::vector<std::vector<double>> nominal;
-  try {
-    nominal = client::ReadJointsCsv(in, static_cast<int>(robot.joints.size()));
-  } catch (const std::runtime_error& e) {
-    throw UsageError(args.positional[2] + ": " + e.what());
-  }
-  if (nominal.empty()) throw UsageError(args.positional[2] + ": no rows");
+  const auto nominal = ReadJointsFile(args.positional[2], robot);
   const auto results = c.CompensateJoints(campaign.id, nominal);
-  const std::string out_file = args.Option("--out");
-  std::ofstream file;
-  if (!out_file.empty()) {
-    file.open(out_file);
-    if (!file) throw UsageError("cannot write " + out_file);
-  }
-  std::ostream& target = out_file.empty() ? out : file;
+  Output output(args.Option("--out"), out);
+  std::ostream& target = output.stream();
   if (args.Flag("--json")) {
     json list = json::array();
     for (const auto& r : results) {
@@ -562,7 +762,10 @@ int OperationCommand(Client& c, const Args& args, std::ostream& out, std::ostrea
   return sub == "wait" && op.state == "FAILED" ? kExitServiceError : kExitOk;
 }
 
-const char* HelpFor(const std::string& command) {
+std::string HelpFor(const std::string& command) {
+  if (command == "robots") return kRobotsHelp;
+  if (command == "measurements") return kMeasurementsHelp;
+  if (command == "experiment") return std::string(kExperimentHelp) + tools::kExperimentFlagsHelp;
   if (command == "plan") return kPlanHelp;
   if (command == "robot") return kRobotHelp;
   if (command == "campaign") return kCampaignHelp;
@@ -586,11 +789,19 @@ int Run(const std::vector<std::string>& raw, const std::map<std::string, std::st
       return kExitOk;
     }
     if (command.empty()) throw UsageError("no command");
+    if (command == "experiment") return Experiment(args, out, err);  // local: no server
     client::ClientOptions options;
     if (auto it = env.find("ROBOCAL_SERVER"); it != env.end() && !it->second.empty()) options.server_url = it->second;
     if (auto it = env.find("ROBOCAL_TOKEN"); it != env.end()) options.bearer_token = it->second;
+    if (auto it = env.find("ROBOCAL_CA_CERT"); it != env.end()) options.ca_cert_file = it->second;
     options.server_url = args.Option("--server", options.server_url);
     options.bearer_token = args.Option("--token", options.bearer_token);
+    options.ca_cert_file = args.Option("--ca-cert", options.ca_cert_file);
+    if (args.Flag("--insecure")) {
+      options.verify_tls = false;
+      err << "robocal: WARNING: --insecure: the server's TLS certificate is not verified; anyone on the network "
+             "path can pose as the server and read the token\n";
+    }
     std::string error;
     if (!options.IsValid(&error)) throw UsageError(error);
     Client c(options);
@@ -599,6 +810,7 @@ int Run(const std::vector<std::string>& raw, const std::map<std::string, std::st
     if (command == "plan") return PlanCommand(c, args, out, err);
     if (command == "campaign") return CampaignCommand(c, args, out);
     if (command == "upload") return Upload(c, args, out);
+    if (command == "measurements") return Measurements(c, args, out, err);
     if (command == "fit") return Fit(c, args, out);
     if (command == "compensate") return Compensate(c, args, out);
     if (command == "evaluate") return Evaluate(c, args, out);

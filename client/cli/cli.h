@@ -15,8 +15,8 @@ inline constexpr int kExitServiceError = 1;
 inline constexpr int kExitUsage = 2;
 inline constexpr int kExitConnection = 3;
 
-/// Runs one command line (args without argv[0]); env supplies ROBOCAL_SERVER and ROBOCAL_TOKEN. Results go to
-/// `out`, messages and progress to `err`. Returns the exit code.
+/// Runs one command line (args without argv[0]); env supplies ROBOCAL_SERVER, ROBOCAL_TOKEN and
+/// ROBOCAL_CA_CERT. Results go to `out`, messages and progress to `err`. Returns the exit code.
 int Run(const std::vector<std::string>& args, const std::map<std::string, std::string>& env, std::ostream& out,
         std::ostream& err);
 

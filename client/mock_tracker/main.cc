@@ -35,6 +35,9 @@ Options:
   --validation N        random validation poses within the joint limits (default 36)
   --h-mm H              E_tot = E_xyz + H * E_cos[rad] (default 30)
   --compare random      also calibrate from random configurations and print the improvement in percent
+  --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
+                        from seed + trial; validation errors pooled (default 1; one trial of 10
+                        configurations is a noisy comparison)
   --json                print the report as JSON instead of tables
   --dump-measurements FILE
                         offline: write the measurement batch the cell would upload (request body of
@@ -141,6 +144,8 @@ int main(int argc, char** argv) {
       options.seed = static_cast<std::uint64_t>(n);
     } else if (a == "--shots" && is_int) {
       options.shots_per_pose = static_cast<int>(n);
+    } else if (a == "--trials" && is_int) {
+      options.trials = static_cast<int>(n);
     } else if (a == "--validation" && is_int) {
       options.num_validation = static_cast<int>(n);
     } else if (a == "--h-mm") {

@@ -87,6 +87,9 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
   }
   out.before = ComputeAccuracy(reached_nominal, targets, options.h_mm);
   out.after = ComputeAccuracy(reached_compensated, targets, options.h_mm);
+  out.targets = std::move(targets);
+  out.reached_nominal = std::move(reached_nominal);
+  out.reached_compensated = std::move(reached_compensated);
 
   // The service's own view: validation shots at the nominal commands, evaluated on the server.
   const json validation_batch = MeasurementBatch(cell, validation_wire, "validation", options);
@@ -126,6 +129,21 @@ json OutcomeJson(const CampaignOutcome& o) {
           {"service_evaluation", o.evaluation.raw}};
 }
 
+json PooledJson(const PooledAccuracy& p) {
+  return {{"before", AccuracyJson(p.before)}, {"after", AccuracyJson(p.after)}};
+}
+
+// The validation errors of one method over all trials, as if one long validation run.
+PooledAccuracy Pool(const std::vector<const CampaignOutcome*>& outcomes, double h_mm) {
+  std::vector<Transform> targets, nominal, compensated;
+  for (const CampaignOutcome* o : outcomes) {
+    targets.insert(targets.end(), o->targets.begin(), o->targets.end());
+    nominal.insert(nominal.end(), o->reached_nominal.begin(), o->reached_nominal.end());
+    compensated.insert(compensated.end(), o->reached_compensated.begin(), o->reached_compensated.end());
+  }
+  return {ComputeAccuracy(nominal, targets, h_mm), ComputeAccuracy(compensated, targets, h_mm)};
+}
+
 }  // namespace
 
 bool MockTrackerOptions::IsValid(std::string* error) const {
@@ -144,6 +162,7 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
   if (shots_per_pose < 1 || shots_per_pose > 100) return fail("--shots must be in [1, 100]");
   if (num_validation < 2 || num_validation > 10000) return fail("--validation must be in [2, 10000]");
   if (!(h_mm > 0)) return fail("--h-mm must be positive");
+  if (trials < 1 || trials > 100) return fail("--trials must be in [1, 100]");
   return true;
 }
 
@@ -181,42 +200,66 @@ json MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>&
 MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOptions& options, std::ostream* log) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument(error);
-  VirtualCell cell = MakeCell(options);
-  const std::vector<Eigen::VectorXd> validation = ValidationConfigurations(cell.nominal(), options);
   MockTrackerReport report;
-  report.planned = RunCampaign(client, &cell, options, options.optimiser, options.seed, validation, log);
-  if (options.compare_random) {
-    // The same cell (same hidden errors), calibrated from random configurations: the paper's comparison.
-    MockTrackerOptions random_options = options;
-    random_options.seed = options.seed + kRandomPlanSeedOffset;  // distinct request ids for the second campaign
-    report.random =
-        RunCampaign(client, &cell, random_options, "random", options.seed + kRandomPlanSeedOffset, validation, log);
+  std::vector<const CampaignOutcome*> planned, random;
+  for (int t = 0; t < options.trials; ++t) {
+    // Trial t is the one-trial run of seed + t: a new cell, plan and validation poses.
+    MockTrackerOptions trial_options = options;
+    trial_options.seed = options.seed + static_cast<std::uint64_t>(t);
+    if (options.trials > 1) Log(log, "trial " + std::to_string(t + 1) + " of " + std::to_string(options.trials));
+    VirtualCell cell = MakeCell(trial_options);
+    const std::vector<Eigen::VectorXd> validation = ValidationConfigurations(cell.nominal(), trial_options);
+    TrialOutcome trial;
+    trial.seed = trial_options.seed;
+    trial.planned = RunCampaign(client, &cell, trial_options, options.optimiser, trial_options.seed, validation, log);
+    if (options.compare_random) {
+      // The same cell (same hidden errors), calibrated from random configurations: the paper's comparison.
+      MockTrackerOptions random_options = trial_options;
+      random_options.seed = trial_options.seed + kRandomPlanSeedOffset;  // distinct request ids for this campaign
+      trial.random = RunCampaign(client, &cell, random_options, "random", random_options.seed, validation, log);
+    }
+    report.trials.push_back(std::move(trial));
   }
-  const CampaignOutcome& p = report.planned;
+  for (const TrialOutcome& t : report.trials) {
+    planned.push_back(&t.planned);
+    if (t.random) random.push_back(&*t.random);
+  }
+  report.planned = Pool(planned, options.h_mm);
+  if (options.compare_random) report.random = Pool(random, options.h_mm);
+  const PooledAccuracy& p = report.planned;
   report.improved = p.after.e_tot_mm.mean < p.before.e_tot_mm.mean && p.after.e_xyz_mm.mean < p.before.e_xyz_mm.mean;
   return report;
 }
 
 std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptions& options) {
   std::ostringstream out;
-  auto tables = [&](const CampaignOutcome& o, const std::string& label) {
-    out << "\n"
-        << label << ": plan " << o.plan.id << " (condition number " << std::setprecision(4)
-        << o.plan.indices.condition_number << "), campaign " << o.campaign.id << "\n";
-    out << FormatAccuracyTable(o.before, "before calibration (nominal joints), " +
-                                             std::to_string(options.num_validation) + " validation poses");
-    out << FormatAccuracyTable(o.after, "after calibration (compensated joints)");
+  const int poses = options.num_validation * static_cast<int>(report.trials.size());
+  auto tables = [&](const PooledAccuracy& a, const std::string& label, bool random) {
+    out << "\n" << label << ":";
+    for (const TrialOutcome& t : report.trials) {
+      const CampaignOutcome& o = random ? *t.random : t.planned;
+      out << (report.trials.size() > 1 ? "\n  trial seed " + std::to_string(t.seed) + ":" : "") << " plan " << o.plan.id
+          << " (condition number " << std::setprecision(4) << o.plan.indices.condition_number << "), campaign "
+          << o.campaign.id;
+    }
+    out << "\n";
+    out << FormatAccuracyTable(
+        a.before,
+        "before calibration (nominal joints), " + std::to_string(poses) + " validation poses" +
+            (report.trials.size() > 1 ? " (" + std::to_string(report.trials.size()) + " trials pooled)" : ""));
+    out << FormatAccuracyTable(a.after, "after calibration (compensated joints)");
     out << std::fixed << std::setprecision(1) << "improvement: E_xyz mean "
-        << Percent(o.before.e_xyz_mm.mean, o.after.e_xyz_mm.mean) << " %, E_tot mean "
-        << Percent(o.before.e_tot_mm.mean, o.after.e_tot_mm.mean) << " %, E_tot RP "
-        << Percent(o.before.e_tot_mm.rp, o.after.e_tot_mm.rp) << " %\n"
+        << Percent(a.before.e_xyz_mm.mean, a.after.e_xyz_mm.mean) << " %, E_tot mean "
+        << Percent(a.before.e_tot_mm.mean, a.after.e_tot_mm.mean) << " %, E_tot RP "
+        << Percent(a.before.e_tot_mm.rp, a.after.e_tot_mm.rp) << " %\n"
         << std::defaultfloat;
   };
   out << "robot " << options.robot << ", " << options.count << " " << options.measurement_type
-      << " configurations, seed " << options.seed << ", h = " << options.h_mm << " mm\n";
-  tables(report.planned, options.optimiser);
+      << " configurations, seed " << options.seed << ", " << report.trials.size() << " trial"
+      << (report.trials.size() > 1 ? "s" : "") << ", h = " << options.h_mm << " mm\n";
+  tables(report.planned, options.optimiser, false);
   if (report.random) {
-    tables(*report.random, "random");
+    tables(*report.random, "random", true);
     const AccuracyReport& a = report.planned.after;
     const AccuracyReport& r = report.random->after;
     out << std::fixed << std::setprecision(1) << "\n"
@@ -225,15 +268,27 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
         << Percent(r.e_xyz_mm.mean, a.e_xyz_mm.mean) << " %, E_xyz RP " << Percent(r.e_xyz_mm.rp, a.e_xyz_mm.rp)
         << " %, E_tot mean " << Percent(r.e_tot_mm.mean, a.e_tot_mm.mean) << " %, E_tot RP "
         << Percent(r.e_tot_mm.rp, a.e_tot_mm.rp) << " %\n";
+    if (report.trials.size() == 1) {
+      out << "note: one trial compares one planned with one random set of " << options.count << " configurations on "
+          << options.num_validation
+          << " poses; tracker noise and the draw of the random set dominate that difference. Use --trials N "
+             "(e.g. 5) to pool N cells.\n";
+    }
   }
   out << (report.improved ? "\ncalibration improved accuracy\n" : "\ncalibration did NOT improve accuracy\n");
   return out.str();
 }
 
 json ReportToJson(const MockTrackerReport& report) {
-  json j = {{"planned", OutcomeJson(report.planned)}, {"improved", report.improved}};
+  json trials = json::array();
+  for (const TrialOutcome& t : report.trials) {
+    json trial = {{"seed", t.seed}, {"planned", OutcomeJson(t.planned)}};
+    if (t.random) trial["random"] = OutcomeJson(*t.random);
+    trials.push_back(std::move(trial));
+  }
+  json j = {{"trials", trials}, {"planned", PooledJson(report.planned)}, {"improved", report.improved}};
   if (report.random) {
-    j["random"] = OutcomeJson(*report.random);
+    j["random"] = PooledJson(*report.random);
     const AccuracyReport& a = report.planned.after;
     const AccuracyReport& r = report.random->after;
     j["improvement_over_random_percent"] = {{"e_xyz_mean", api::Num(Percent(r.e_xyz_mm.mean, a.e_xyz_mm.mean))},

@@ -12,6 +12,7 @@
 
 #include "robocal/client/client.h"
 #include "robocal/core/accuracy.h"
+#include "robocal/core/transforms.h"
 #include "robocal/core/virtual_cell.h"
 
 namespace robocal::mock {
@@ -31,6 +32,10 @@ struct MockTrackerOptions {
   double h_mm = 30.0;
   /// Also calibrate from random configurations (the paper's baseline) and compare.
   bool compare_random = false;
+  /// Independent trials: trial t (0-based) is a new cell (hidden errors, tracker placement, noise) and new
+  /// plan and validation seeds, all from seed + t; the validation errors are pooled over the trials. One trial
+  /// of 10 configurations and 36 validation poses is a noisy comparison of two selection methods.
+  int trials = 1;
 
   bool IsValid(std::string* error) const;
 };
@@ -46,16 +51,35 @@ struct CampaignOutcome {
   AccuracyReport after;
   /// The service's own evaluation on the uploaded validation measurements.
   client::Evaluation evaluation;
+  /// Per validation pose: the target, and where the true robot went with nominal and compensated joints
+  /// (tracker frame); kept for pooling over trials.
+  std::vector<Transform> targets, reached_nominal, reached_compensated;
+};
+
+/// One trial: a cell of its own, calibrated from the plan and (with compare_random) from random configurations.
+struct TrialOutcome {
+  /// The seed of this trial's cell, plan and validation poses (options.seed + trial).
+  std::uint64_t seed = 0;
+  CampaignOutcome planned;
+  std::optional<CampaignOutcome> random;
+};
+
+/// Validation errors of one selection method pooled over the trials (num_validation x trials poses).
+struct PooledAccuracy {
+  AccuracyReport before;
+  AccuracyReport after;
 };
 
 struct MockTrackerReport {
-  CampaignOutcome planned;
-  std::optional<CampaignOutcome> random;
-  /// after.E_tot mean < before.E_tot mean and after.E_xyz mean < before.E_xyz mean.
+  std::vector<TrialOutcome> trials;
+  PooledAccuracy planned;
+  std::optional<PooledAccuracy> random;
+  /// Pooled over trials: after.E_tot mean < before.E_tot mean and after.E_xyz mean < before.E_xyz mean.
   bool improved = false;
 };
 
-/// The simulated cell of these options (preset robot, seeded hidden errors and noise, shots per pose).
+/// The simulated cell of these options (preset robot, hidden errors and noise seeded from options.seed, shots
+/// per pose). Trial t of a run uses the cell of options.seed + t.
 VirtualCell MakeCell(const MockTrackerOptions& options);
 
 /// `count` validation configurations drawn uniformly within the limits, seeded from options.seed.
@@ -64,7 +88,8 @@ std::vector<Eigen::VectorXd> ValidationConfigurations(const RobotModel& model, c
 /// Runs the workflow; progress lines go to `log` (may be null). Throws what the client throws.
 MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOptions& options, std::ostream* log);
 
-/// The paper's tables of a report (and, with --compare random, the improvement of the plan over random).
+/// The paper's tables of a report, pooled over trials (and, with --compare random, the improvement of the plan
+/// over random, with a note when a single trial makes that comparison noisy).
 std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptions& options);
 nlohmann::json ReportToJson(const MockTrackerReport& report);
 

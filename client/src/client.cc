@@ -5,6 +5,7 @@
 #include <httplib.h>
 
 #include <cstdio>
+#include <fstream>
 #include <thread>
 
 namespace robocal::client {
@@ -85,6 +86,7 @@ bool ClientOptions::IsValid(std::string* error) const {
   if (max_retries < 0 || max_retries > 10) return fail("max_retries must be in [0, 10]");
   if (retry_backoff.count() < 0) return fail("retry_backoff must not be negative");
   if (bearer_token.find_first_of("\r\n") != std::string::npos) return fail("bearer_token has a line break");
+  if (!ca_cert_file.empty() && !https) return fail("ca_cert_file is for https:// servers only");
   return true;
 }
 
@@ -124,6 +126,13 @@ Client::Client(ClientOptions options) : options_(std::move(options)), impl_(std:
   impl_->http->set_keep_alive(true);
   if (!options_.bearer_token.empty()) impl_->http->set_bearer_token_auth(options_.bearer_token.c_str());
   impl_->http->enable_server_certificate_verification(options_.verify_tls);
+  if (!options_.ca_cert_file.empty()) {
+    // httplib reads the file only at the first handshake and then reports a bare SSL error: check it here.
+    if (!std::ifstream(options_.ca_cert_file)) {
+      throw std::invalid_argument("cannot read ca_cert_file " + options_.ca_cert_file);
+    }
+    impl_->http->set_ca_cert_path(options_.ca_cert_file.c_str());
+  }
 }
 
 Client::~Client() = default;
@@ -151,9 +160,13 @@ std::string Send(httplib::Client& http, const std::string& base_url, const Clien
     }
     const bool last = attempt + 1 >= attempts;
     if (!result) {
-      if (last) {
+      // A certificate the client does not trust stays untrusted: no point in retrying.
+      const bool tls_trust =
+          result.error() == httplib::Error::SSLServerVerification || result.error() == httplib::Error::SSLLoadingCerts;
+      if (last || tls_trust) {
         throw ConnectionError("cannot reach " + base_url + " (" + method + " " + path +
-                              "): " + httplib::to_string(result.error()));
+                              "): " + httplib::to_string(result.error()) +
+                              (tls_trust ? " (the server's certificate is not trusted: see ca_cert_file)" : ""));
       }
     } else if (!(Retryable(result->status) && !last)) {
       const httplib::Response& response = *result;

@@ -1,6 +1,7 @@
 // Reading and writing the CSV formats of the CLI and the mock tracker.
 #include "robocal/client/csv.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -124,8 +125,11 @@ std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_
 
 void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
                           const std::vector<api::MeasurementWire>& measurements) {
+  // Position-only measurements have no quaternion to write (a made-up identity would read back as measured).
+  const bool orientation = std::all_of(measurements.begin(), measurements.end(),
+                                       [](const api::MeasurementWire& m) { return m.pose.has_orientation; });
   for (const JointInfo& j : joints) out << JointColumn(j) << ",";
-  out << "x_mm,y_mm,z_mm,qw,qx,qy,qz\n";
+  out << (orientation ? "x_mm,y_mm,z_mm,qw,qx,qy,qz\n" : "x_mm,y_mm,z_mm\n");
   for (const auto& m : measurements) {
     for (double v : m.joints) {
       WriteValue(out, v);
@@ -133,9 +137,9 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joint
     }
     for (int i = 0; i < 3; ++i) {
       WriteValue(out, m.pose.position_mm[i]);
-      out << ",";
+      out << (i < 2 || orientation ? "," : "\n");
     }
-    for (int i = 0; i < 4; ++i) {
+    for (int i = 0; orientation && i < 4; ++i) {
       WriteValue(out, m.pose.quaternion[i]);
       out << (i < 3 ? "," : "\n");
     }

@@ -2,6 +2,7 @@
 // codes 0 / 1 / 2 / 3, and the CSV files it reads and writes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -53,13 +54,24 @@ class CliTest : public ::testing::Test {
 };
 
 TEST_F(CliTest, HelpOnEveryLevel) {
-  for (const char* command :
-       {"", "plan", "robot", "campaign", "upload", "fit", "compensate", "evaluate", "operation"}) {
+  for (const char* command : {"", "robots", "plan", "robot", "campaign", "upload", "measurements", "fit", "compensate",
+                              "evaluate", "operation", "experiment"}) {
     const Result r = RunCli(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;
-    EXPECT_NE(r.out.find("Usage: robocal"), std::string::npos) << command;
+    EXPECT_NE(r.out.find("Usage: robocal " + std::string(command)), std::string::npos) << command;
   }
-  EXPECT_NE(RunCli("--help").out.find("Exit codes"), std::string::npos);
+  const std::string main_help = RunCli("--help").out;
+  EXPECT_NE(main_help.find("Exit codes"), std::string::npos);
+  for (const char* mention :
+       {"plan get", "robot forward", "campaign forward", "measurements", "experiment", "--ca-cert", "--insecure"}) {
+    EXPECT_NE(main_help.find(mention), std::string::npos) << mention;
+  }
+  // robocal experiment takes robocal-experiment's flags, listed in its help.
+  const std::string experiment_help = RunCli("experiment --help").out;
+  for (const char* flag : {"--robot", "--type", "--configurations", "--trials", "--validation", "--h-mm", "--seed",
+                           "--noise-mm", "--noise-deg", "--shots"}) {
+    EXPECT_NE(experiment_help.find(flag), std::string::npos) << flag;
+  }
 }
 
 TEST_F(CliTest, ExitCodes) {
@@ -141,6 +153,114 @@ TEST_F(CliTest, WholeFlow) {
 
   EXPECT_EQ(RunCli(server + " campaign get " + campaign).exit_code, 0);
   EXPECT_EQ(RunCli(server + " operation get op-0000000000000000").exit_code, 1);
+}
+
+TEST_F(CliTest, PlanGetMeasurementsAndForward) {
+  const std::string server = "--server " + server_.url();
+  const Result created = RunCli(server + " plan grinder5 --count 8 --seed 4 --json");
+  ASSERT_EQ(created.exit_code, 0);
+  const nlohmann::json plan = nlohmann::json::parse(created.out);
+  const std::string plan_id = plan.at("id");
+  const auto configurations = plan.at("configurations").get<std::vector<std::vector<double>>>();
+
+  // plan get: the stored plan, printed, as JSON and as a joints CSV.
+  const Result shown = RunCli(server + " plan get " + plan_id + " --out " + Path("stored.csv"));
+  ASSERT_EQ(shown.exit_code, 0);
+  EXPECT_NE(shown.out.find("plan " + plan_id), std::string::npos);
+  EXPECT_NE(shown.out.find("random"), std::string::npos);  // the indices of the random baseline
+  EXPECT_EQ(nlohmann::json::parse(RunCli(server + " plan get " + plan_id + " --json").out).at("configurations"),
+            plan.at("configurations"));
+  std::ifstream stored(Path("stored.csv"));
+  EXPECT_EQ(client::ReadJointsCsv(stored, 5), configurations);
+  EXPECT_EQ(RunCli(server + " plan get plan-0000000000000000").exit_code, 1);
+
+  // robot forward: joints CSV in, poses CSV out, the rows in input order.
+  const Result forward = RunCli(server + " robot forward grinder5 " + Path("stored.csv"));
+  ASSERT_EQ(forward.exit_code, 0);
+  std::istringstream forward_csv(forward.out);
+  const auto poses = client::ReadMeasurementsCsv(forward_csv, 5);
+  ASSERT_EQ(poses.size(), configurations.size());
+  EXPECT_EQ(poses[3].joints, configurations[3]);
+  EXPECT_TRUE(poses[3].pose.has_orientation);
+  const auto forward_json =
+      nlohmann::json::parse(RunCli(server + " robot forward grinder5 " + Path("stored.csv") + " --json").out);
+  EXPECT_NEAR(forward_json.at("poses")[3].at("position_mm")[0].get<double>(), poses[3].pose.position_mm[0], 1e-6);
+  std::ofstream(Path("short.csv")) << "x_mm,y_mm\n1,2\n";
+  EXPECT_EQ(RunCli(server + " robot forward grinder5 " + Path("short.csv")).exit_code, 2);
+
+  // A campaign with the cell's shots; measurements reads them back in the upload format.
+  const std::string campaign = Trim(RunCli(server + " campaign create grinder5 pose --plan " + plan_id).out);
+  mock::MockTrackerOptions options;
+  options.shots_per_pose = 2;
+  VirtualCell cell = mock::MakeCell(options);
+  std::ofstream(Path("calibration.json")) << mock::MeasurementBatch(&cell, configurations, "calibration", options);
+  ASSERT_EQ(RunCli(server + " upload " + campaign + " " + Path("calibration.json")).exit_code, 0);
+  const Result listed = RunCli(server + " measurements " + campaign + " --out " + Path("listed.csv"));
+  ASSERT_EQ(listed.exit_code, 0);
+  std::ifstream listed_csv(Path("listed.csv"));
+  const auto shots = client::ReadMeasurementsCsv(listed_csv, 5);
+  ASSERT_EQ(shots.size(), 16u);
+  EXPECT_EQ(shots[15].joints, configurations[7]);
+  const auto all = nlohmann::json::parse(RunCli(server + " measurements " + campaign + " --json").out);
+  ASSERT_EQ(all.at("measurements").size(), 16u);
+  const std::string third = all.at("measurements")[2].at("sequence").dump();
+  const auto page = nlohmann::json::parse(
+      RunCli(server + " measurements " + campaign + " --role calibration --after " + third + " --limit 5 --json").out);
+  ASSERT_EQ(page.at("measurements").size(), 5u);
+  EXPECT_EQ(page.at("measurements")[0], all.at("measurements")[3]);
+  EXPECT_EQ(RunCli(server + " measurements " + campaign + " --role sideways").exit_code, 2);
+  // What measurements writes, upload reads: a second campaign gets the same shots.
+  const std::string copy = Trim(RunCli(server + " campaign create grinder5 pose").out);
+  ASSERT_EQ(RunCli(server + " upload " + copy + " " + Path("listed.csv")).exit_code, 0);
+  EXPECT_EQ(
+      nlohmann::json::parse(RunCli(server + " campaign get " + copy + " --json").out).at("counts").at("calibration"),
+      16);
+
+  // campaign forward: the calibrated robot in the tracker frame, close to what the tracker measured.
+  EXPECT_EQ(RunCli(server + " campaign forward " + campaign + " " + Path("stored.csv")).exit_code, 1);  // no fit
+  ASSERT_EQ(RunCli(server + " fit " + campaign).exit_code, 0);
+  const Result calibrated =
+      RunCli(server + " campaign forward " + campaign + " " + Path("stored.csv") + " --out " + Path("calibrated.csv"));
+  ASSERT_EQ(calibrated.exit_code, 0);
+  std::ifstream calibrated_csv(Path("calibrated.csv"));
+  const auto predicted = client::ReadMeasurementsCsv(calibrated_csv, 5);
+  ASSERT_EQ(predicted.size(), 8u);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(predicted[0].pose.position_mm[axis], shots[0].pose.position_mm[axis], 0.2) << axis;
+  }
+}
+
+TEST_F(CliTest, OperationWait) {
+  ClientOptions options;
+  options.server_url = server_.url();
+  Client c(options);
+  api::PlanRequest request;
+  request.robot = "grinder5";
+  request.num_configurations = 8;
+  request.k_max = 10;
+  const client::Operation started = c.StartPlan(request);
+  const std::string server = "--server " + server_.url();
+  const Result waited = RunCli(server + " operation wait " + started.id);
+  ASSERT_EQ(waited.exit_code, 0);
+  EXPECT_NE(waited.out.find(started.id + " SUCCEEDED 100% plan "), std::string::npos) << waited.out;
+  const auto done = nlohmann::json::parse(RunCli(server + " operation get " + started.id + " --json").out);
+  EXPECT_EQ(done.at("state"), "SUCCEEDED");
+  EXPECT_EQ(RunCli(server + " operation cancel " + started.id).exit_code, 0);  // already done: a no-op
+  EXPECT_EQ(RunCli(server + " operation wait").exit_code, 2);
+}
+
+TEST_F(CliTest, Experiment) {
+  const Result run = RunCli("experiment --trials 1 --validation 5 --seed 3 --json");
+  ASSERT_EQ(run.exit_code, 0);
+  const auto result = nlohmann::json::parse(run.out);
+  EXPECT_EQ(result.at("methods").size(), 3u);
+  EXPECT_EQ(result.at("before").at("e_xyz_mm").at("count"), 5);
+  const Result table = RunCli("experiment --trials=1 --validation 5 --seed 3 --server http://127.0.0.1:1");
+  ASSERT_EQ(table.exit_code, 0);  // local: the server is not asked
+  EXPECT_NE(table.out.find("Solis & Wets against random selection"), std::string::npos);
+  EXPECT_EQ(RunCli("experiment --trials 0").exit_code, 2);
+  EXPECT_EQ(RunCli("experiment --robot kuka").exit_code, 2);
+  EXPECT_EQ(RunCli("experiment --frobnicate 1").exit_code, 2);
 }
 
 TEST_F(CliTest, TokenFromFlag) {

@@ -17,21 +17,25 @@ TEST(MockTrackerTest, CalibrationImprovesAccuracy) {
   mock::MockTrackerOptions options;  // grinder5, 10 pose configurations, seed 1
   const mock::MockTrackerReport report = mock::RunMockTracker(client, options, nullptr);
   EXPECT_TRUE(report.improved);
+  ASSERT_EQ(report.trials.size(), 1u);
   const AccuracyReport& before = report.planned.before;
   const AccuracyReport& after = report.planned.after;
+  // One trial: the pooled numbers are that trial's.
+  EXPECT_DOUBLE_EQ(report.trials[0].planned.after.e_xyz_mm.mean, after.e_xyz_mm.mean);
   EXPECT_EQ(before.e_xyz_mm.count, 36);
   // Hidden errors of tenths of a mm leave the nominal robot off by about a mm; the calibrated one should be
   // within a few tenths.
   EXPECT_LT(after.e_xyz_mm.mean, 0.5 * before.e_xyz_mm.mean);
   EXPECT_LT(after.e_tot_mm.rp, before.e_tot_mm.rp);
   // The service's evaluation on the uploaded validation shots agrees in direction.
-  EXPECT_LT(report.planned.evaluation.calibrated.e_xyz_mm.mean, report.planned.evaluation.nominal.e_xyz_mm.mean);
+  const client::Evaluation& evaluation = report.trials[0].planned.evaluation;
+  EXPECT_LT(evaluation.calibrated.e_xyz_mm.mean, evaluation.nominal.e_xyz_mm.mean);
   const std::string table = mock::FormatReport(report, options);
   EXPECT_NE(table.find("E_xyz"), std::string::npos);
 
   // Same seed, same result (a second campaign on the same server).
   const mock::MockTrackerReport again = mock::RunMockTracker(client, options, nullptr);
-  EXPECT_EQ(again.planned.plan.configurations, report.planned.plan.configurations);
+  EXPECT_EQ(again.trials[0].planned.plan.configurations, report.trials[0].planned.plan.configurations);
   EXPECT_DOUBLE_EQ(again.planned.after.e_xyz_mm.mean, after.e_xyz_mm.mean);
 }
 
@@ -48,6 +52,46 @@ TEST(MockTrackerTest, CompareRandom) {
   EXPECT_TRUE(report.improved);
   EXPECT_LT(report.random->after.e_xyz_mm.mean, report.random->before.e_xyz_mm.mean);
   EXPECT_TRUE(mock::ReportToJson(report).contains("improvement_over_random_percent"));
+  EXPECT_NE(mock::FormatReport(report, options).find("note: one trial"), std::string::npos);
+}
+
+TEST(MockTrackerTest, TrialsArePooled) {
+  testing::TestServer server;
+  ClientOptions client_options;
+  client_options.server_url = server.url();
+  Client client(client_options);
+  mock::MockTrackerOptions options;
+  options.compare_random = true;
+  options.trials = 2;
+  options.shots_per_pose = 2;
+  options.num_validation = 12;
+  const mock::MockTrackerReport report = mock::RunMockTracker(client, options, nullptr);
+  ASSERT_EQ(report.trials.size(), 2u);
+  EXPECT_EQ(report.trials[1].seed, options.seed + 1);
+  // Each trial is a new cell with its own plans.
+  EXPECT_NE(report.trials[0].planned.plan.configurations, report.trials[1].planned.plan.configurations);
+  EXPECT_NE(report.trials[0].planned.before.e_xyz_mm.mean, report.trials[1].planned.before.e_xyz_mm.mean);
+  ASSERT_TRUE(report.random.has_value());
+  for (const mock::PooledAccuracy* pooled : {&report.planned, &*report.random}) {
+    EXPECT_EQ(pooled->before.e_xyz_mm.count, 24);
+    EXPECT_EQ(pooled->after.e_xyz_mm.count, 24);
+  }
+  // Trials of equal size: the pooled mean is the mean of the trials' means.
+  EXPECT_NEAR(report.planned.after.e_xyz_mm.mean,
+              0.5 * (report.trials[0].planned.after.e_xyz_mm.mean + report.trials[1].planned.after.e_xyz_mm.mean),
+              1e-9);
+  EXPECT_NEAR(report.random->before.e_tot_mm.mean,
+              0.5 * (report.trials[0].random->before.e_tot_mm.mean + report.trials[1].random->before.e_tot_mm.mean),
+              1e-9);
+  EXPECT_EQ(mock::FormatReport(report, options).find("note: one trial"), std::string::npos);
+  EXPECT_EQ(mock::ReportToJson(report).at("trials").size(), 2u);
+  // Trial 2 is the one-trial run of seed + 1.
+  mock::MockTrackerOptions second = options;
+  second.trials = 1;
+  second.seed = options.seed + 1;
+  const mock::MockTrackerReport alone = mock::RunMockTracker(client, second, nullptr);
+  EXPECT_EQ(alone.trials[0].planned.plan.configurations, report.trials[1].planned.plan.configurations);
+  EXPECT_DOUBLE_EQ(alone.planned.after.e_xyz_mm.mean, report.trials[1].planned.after.e_xyz_mm.mean);
 }
 
 }  // namespace

@@ -142,6 +142,33 @@ TOKEN=s3cret-cell7 call GET /v1/robots >/dev/null
 expect "right token -> 200" "$(status)" 200
 call GET /healthz >/dev/null
 expect "healthz without a token -> 200" "$(status)" 200
+call POST /v1/campaigns '{"robot": "grinder5"}' >/dev/null
+expect "a write without a token -> 401" "$(status)" 401
+expect "... nothing created" "$(TOKEN=s3cret-cell7 call GET /v1/campaigns | jq '.campaigns | length')" 0
+
+# ---- HTTPS: robocal-server --tls-cert/--tls-key with a self-signed certificate made here --------------------------
+if command -v openssl >/dev/null; then
+  stop_server
+  openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days 2 -subj /CN=127.0.0.1 \
+    -addext subjectAltName=IP:127.0.0.1,DNS:localhost -keyout "$work/key.pem" -out "$work/cert.pem" 2>/dev/null
+  start_server "$build_dir" --tls-cert "$work/cert.pem" --tls-key "$work/key.pem" --tokens-file "$work/tokens"
+  trap cleanup EXIT
+  expect "the server says https" "${ROBOCAL_URL%%://*}" https
+  expect "curl --cacert: healthz" "$(curl -sS --cacert "$work/cert.pem" "$ROBOCAL_URL/healthz" | jq -r .status)" ok
+  curl -sS "$ROBOCAL_URL/healthz" >/dev/null 2>&1 && untrusted=accepted || untrusted=refused
+  expect "curl without the certificate: refused" "$untrusted" refused
+  cli="$build_dir/client/robocal"
+  expect "robocal --ca-cert robots" \
+    "$("$cli" --server "$ROBOCAL_URL" --token s3cret-cell7 --ca-cert "$work/cert.pem" robots --json |
+      jq '.robots | length')" 3
+  "$cli" --server "$ROBOCAL_URL" --token s3cret-cell7 robots >/dev/null 2>&1 && code=0 || code=$?
+  expect "robocal without the certificate: exit 3" "$code" 3
+  expect "robocal --insecure (self-signed lab server)" \
+    "$("$cli" --server "$ROBOCAL_URL" --token s3cret-cell7 --insecure robots --json 2>/dev/null |
+      jq '.robots | length')" 3
+else
+  echo "skip HTTPS checks: no openssl command"
+fi
 
 if [ "$failures" -ne 0 ]; then
   echo "$failures check(s) failed" >&2

@@ -32,7 +32,12 @@ struct ClientOptions {
   /// the work twice.
   int max_retries = 3;
   std::chrono::milliseconds retry_backoff{200};
-  /// Verify the server's TLS certificate (https only).
+  /// https only: a PEM file of the certificate authorities to trust (e.g. the cell network's own CA, or a
+  /// server's self-signed certificate itself). Empty: the system's CA store.
+  std::string ca_cert_file;
+  /// https only: check the server's certificate chain and host name. Setting this to false accepts ANY
+  /// certificate, so anyone on the network path can impersonate the server and read the bearer token; it is
+  /// meant for a first test against a lab server with a self-signed certificate. Prefer ca_cert_file.
   bool verify_tls = true;
 
   bool IsValid(std::string* error) const;

@@ -26,6 +26,7 @@ void WriteJointsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
 /// qw,qx,qy,qz (tool orientation, tracker frame; required unless the campaign measures position only). One
 /// row per tracker shot. Throws std::runtime_error on malformed input.
 std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_joints);
+/// Writes the quaternion columns only if every measurement has an orientation.
 void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
                           const std::vector<api::MeasurementWire>& measurements);
 

@@ -1,0 +1,20 @@
+// The command line flags of the simulated experiment, shared by `robocal-experiment` and `robocal experiment`
+// so that both take the same flags with the same checks and messages.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "robocal/core/experiment.h"
+
+namespace robocal::tools {
+
+/// The flags' part of --help, one line per flag (without --help itself).
+extern const char* const kExperimentFlagsHelp;
+
+/// Parses "--flag value" and "--flag=value" pairs (args without the program or command name, --help already
+/// removed) into *options, then checks them with ExperimentOptions::IsValid. Returns "" when they are valid,
+/// else a message naming the first bad flag ("--trials: 0 is out of range [1, 10000]").
+std::string ParseExperimentFlags(const std::vector<std::string>& args, ExperimentOptions* options);
+
+}  // namespace robocal::tools
