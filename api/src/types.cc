@@ -471,14 +471,15 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
   }
   r.Bool("register_base", false, &req.register_base);
   r.Int("max_iterations", false, &req.max_iterations, 1, 1000);
-  r.RejectUnknown({"parameters", "register_base", "max_iterations"});
+  r.Bool("async", false, &req.async);
+  r.RejectUnknown({"parameters", "register_base", "max_iterations", "async"});
   problems.ThrowIfAny("invalid fit request");
   return req;
 }
 
 nlohmann::json ToJson(const FitRequest& req) {
   return {{"parameters", req.parameters}, {"register_base", req.register_base},
-          {"max_iterations", req.max_iterations}};
+          {"max_iterations", req.max_iterations}, {"async", req.async}};
 }
 
 CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model,

@@ -44,7 +44,7 @@ Commands:
   fit CAMPAIGN                   identify the parameters; prints the parameter table
   compensate CAMPAIGN IN.csv     compensated joints for nominal joint commands (CSV in, CSV out)
   evaluate CAMPAIGN              the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements
-  operation wait|get|cancel ID   long-running operations (async plans); wait draws progress on stderr
+  operation wait|get|cancel ID   long-running operations (async plans and fits); wait draws progress on stderr
   experiment [options]           the paper's simulated experiment, run locally (no server; see --help)
 
 Global options (anywhere on the line):
@@ -132,10 +132,15 @@ upload is safe. Without --request-id (and none in the JSON) it is derived from t
 )";
 
 constexpr const char* kFitHelp =
-    R"(Usage: robocal fit CAMPAIGN [--parameters a,b,...] [--no-register-base] [--max-iterations N]
+    R"(Usage: robocal fit CAMPAIGN [--parameters a,b,...] [--no-register-base] [--max-iterations N] [--async]
 
 Identifies the error parameters from the calibration measurements and prints them (value and standard
 deviation, mm or degrees), the parameters left out as unidentifiable and why, and the residuals before and after.
+The fit is stored as the campaign's calibration, unless it stopped at the service's request deadline or was
+cancelled: then it is printed with "NOT stored".
+
+  --async              run as a long-running operation and wait for it with a progress bar on stderr
+                       (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )";
 
 constexpr const char* kCompensateHelp = R"(Usage: robocal compensate CAMPAIGN IN.csv [--out OUT.csv]
@@ -319,6 +324,7 @@ void PrintCalibration(const client::CalibrationResult& c, std::ostream& out) {
       << Fixed(c.residuals_before.rms_orientation_deg, 5) << " deg -> "
       << Fixed(c.residuals_after.rms_orientation_deg, 5) << " deg\n";
   out << "condition number " << Fixed(c.condition_number, 2) << "; " << c.termination << ": " << c.brief << "\n";
+  if (!c.stored) out << "NOT stored as the campaign's calibration: " << c.message << "\n";
 }
 
 // The service reports E_cos in degrees; the core's table formatter takes radians.
@@ -674,7 +680,7 @@ int Upload(Client& c, const Args& args, std::ostream& out) {
   return kExitOk;
 }
 
-int Fit(Client& c, const Args& args, std::ostream& out) {
+int Fit(Client& c, const Args& args, std::ostream& out, std::ostream& err) {
   Expect(args, 2, "fit CAMPAIGN");
   api::FitRequest request;
   std::stringstream names(args.Option("--parameters"));
@@ -683,7 +689,24 @@ int Fit(Client& c, const Args& args, std::ostream& out) {
   }
   request.register_base = !args.Flag("--no-register-base");
   request.max_iterations = static_cast<int>(args.Int("--max-iterations", 100, 1, 1000));
-  const client::CalibrationResult result = c.Fit(args.positional[1], request);
+  client::CalibrationResult result;
+  if (args.Flag("--async")) {
+    const client::Operation started = c.StartFit(args.positional[1], request);
+    err << "operation " << started.id << "\n";
+    const client::Operation done = c.WaitOperation(started.id, [&err](const client::Operation& op) {
+      ProgressBar(err, op);
+      return true;
+    });
+    err << "\n";
+    if (done.state == "FAILED" || !done.fit) {
+      const std::string message = done.error ? done.error->status + ": " + done.error->message : done.state;
+      err << "robocal: operation " << done.id << " " << done.state << ": " << message << "\n";
+      return kExitServiceError;
+    }
+    result = *done.fit;
+  } else {
+    result = c.Fit(args.positional[1], request);
+  }
   if (args.Flag("--json")) {
     out << result.raw.dump(2) << "\n";
   } else {
@@ -756,6 +779,7 @@ int OperationCommand(Client& c, const Args& args, std::ostream& out, std::ostrea
   } else {
     out << op.id << " " << op.state << " " << std::lround(op.progress * 100) << "%";
     if (!op.plan.empty()) out << " plan " << op.plan;
+    if (op.fit) out << " fit " << (op.fit->stored ? "stored" : "not stored") << " (" << op.fit->termination << ")";
     if (op.error) out << " " << op.error->status << ": " << op.error->message;
     out << "\n";
   }
@@ -811,7 +835,7 @@ int Run(const std::vector<std::string>& raw, const std::map<std::string, std::st
     if (command == "campaign") return CampaignCommand(c, args, out);
     if (command == "upload") return Upload(c, args, out);
     if (command == "measurements") return Measurements(c, args, out, err);
-    if (command == "fit") return Fit(c, args, out);
+    if (command == "fit") return Fit(c, args, out, err);
     if (command == "compensate") return Compensate(c, args, out);
     if (command == "evaluate") return Evaluate(c, args, out);
     if (command == "operation") return OperationCommand(c, args, out, err);

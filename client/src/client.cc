@@ -304,9 +304,17 @@ MeasurementPage Client::ListMeasurements(const std::string& campaign, const std:
 }
 
 CalibrationResult Client::Fit(const std::string& campaign, const api::FitRequest& request) {
-  const json body = api::ToJson(request);
+  json body = api::ToJson(request);
+  body["async"] = false;
   return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false), "fit",
                ParseCalibrationResult);
+}
+
+Operation Client::StartFit(const std::string& campaign, const api::FitRequest& request) {
+  json body = api::ToJson(request);
+  body["async"] = true;
+  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false), "operation",
+               ParseOperation);
 }
 
 CalibrationResult Client::GetCalibration(const std::string& campaign) {

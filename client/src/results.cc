@@ -151,7 +151,10 @@ Operation ParseOperation(const json& j) {
   op.state = String(j, "state");
   op.done = j.value("done", false);
   op.progress = j.contains("progress") && j.at("progress").is_number() ? j.at("progress").get<double>() : 0.0;
-  if (j.contains("result") && j.at("result").is_object()) op.plan = String(j.at("result"), "plan");
+  if (j.contains("result") && j.at("result").is_object()) {
+    op.plan = String(j.at("result"), "plan");
+    if (op.kind == "fit") op.fit = ParseCalibrationResult(j.at("result"));
+  }
   if (j.contains("error") && j.at("error").is_object()) op.error = ParseErrorInfo(j.at("error"));
   op.raw = j;
   return op;
@@ -226,7 +229,9 @@ CalibrationResult ParseCalibrationResult(const json& j) {
     c.message = String(s, "message");
     c.iterations = s.value("iterations", 0);
     c.brief = String(s, "brief");
+    c.deadline_exceeded = s.value("deadline_exceeded", false);
   }
+  c.stored = j.value("stored", true);
   c.raw = j;
   return c;
 }

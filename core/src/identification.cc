@@ -234,6 +234,12 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
         return out;
       }
     }
+    // After the convergence tests, so that a fit which converged in this iteration reports that instead.
+    if (o.progress && !o.progress(static_cast<double>(out.iterations) / o.max_iterations)) {
+      out.termination = Termination::kNoConvergence;
+      out.reason = "cancelled";
+      return out;
+    }
   }
 }
 

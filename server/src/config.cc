@@ -102,6 +102,18 @@ const std::vector<Option>& Options() {
        [](ServerConfig& c, const std::string& v) {
          c.request_timeout_s = static_cast<int>(ToInt("request_timeout_s", v, 1, 86400));
        }},
+      {"keep_alive_timeout_s", Kind::kInt, "close an idle keep-alive connection after this many seconds (default 2)",
+       [](ServerConfig& c, const std::string& v) {
+         c.keep_alive_timeout_s = static_cast<int>(ToInt("keep_alive_timeout_s", v, 1, 3600));
+       }},
+      {"read_timeout_s", Kind::kInt, "wait for a request's bytes at most this many seconds (default 60)",
+       [](ServerConfig& c, const std::string& v) {
+         c.read_timeout_s = static_cast<int>(ToInt("read_timeout_s", v, 1, 86400));
+       }},
+      {"write_timeout_s", Kind::kInt, "wait for the client to take a reply's bytes at most this long (default 60)",
+       [](ServerConfig& c, const std::string& v) {
+         c.write_timeout_s = static_cast<int>(ToInt("write_timeout_s", v, 1, 86400));
+       }},
       {"threads", Kind::kInt, "HTTP worker threads (default 8)",
        [](ServerConfig& c, const std::string& v) { c.threads = static_cast<int>(ToInt("threads", v, 1, 1024)); }},
   };

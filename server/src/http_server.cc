@@ -243,8 +243,11 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   // delayed ACK (about 40 ms on Linux) on every request.
   svr.set_tcp_nodelay(true);
   svr.set_payload_max_length(static_cast<std::size_t>(config.max_body_bytes));
-  svr.set_read_timeout(config.request_timeout_s, 0);
-  svr.set_write_timeout(config.request_timeout_s, 0);
+  // Waiting clients hold worker threads: an idle keep-alive connection for keep_alive_timeout_s, a slow one
+  // for read / write_timeout_s per read or write.
+  svr.set_keep_alive_timeout(config.keep_alive_timeout_s);
+  svr.set_read_timeout(config.read_timeout_s, 0);
+  svr.set_write_timeout(config.write_timeout_s, 0);
 
   svr.set_pre_routing_handler([impl](const httplib::Request& req, httplib::Response& res) {
     request_start = std::chrono::steady_clock::now();

@@ -407,6 +407,16 @@ json Service::CreatePlan(const json& body) {
     return plan;
   }
 
+  const std::string plan_id = NewId("plan");
+  return StartOperation("plan", {{"request", api::ToJson(req)}},
+                        [this, req, plan_id](const std::function<bool(double)>& progress, bool* cancelled) {
+                          const json plan = RunPlan(req, plan_id, progress, cancelled);
+                          storage_->Create(kPlans, plan_id, plan.dump());
+                          return json{{"plan", plan_id}};
+                        });
+}
+
+json Service::StartOperation(const std::string& kind, const json& fields, OperationWork work) {
   std::lock_guard lock(operations_mutex_);
   // Finished threads are joined here, so that running_ holds only live work.
   for (auto it = running_.begin(); it != running_.end();) {
@@ -424,24 +434,22 @@ json Service::CreatePlan(const json& body) {
                    {{"async", "limit of running operations reached; retry later"}});
   }
   const std::string op_id = NewId("op");
-  const std::string plan_id = NewId("plan");
-  json op = {{"id", op_id},           {"kind", "plan"},      {"state", "RUNNING"},
-             {"done", false},         {"progress", 0.0},     {"request", api::ToJson(req)},
-             {"created_unix_ms", NowUnixMs()}, {"updated_unix_ms", NowUnixMs()}};
+  json op = {{"id", op_id},     {"kind", kind},     {"state", "RUNNING"},
+             {"done", false},   {"progress", 0.0},  {"created_unix_ms", NowUnixMs()},
+             {"updated_unix_ms", NowUnixMs()}};
+  op.update(fields);
   storage_->Create(kOperations, op_id, op.dump());
   auto running = std::make_unique<RunningOperation>();
   RunningOperation* r = running.get();
-  running->thread = std::thread([this, req, op_id, plan_id, op, r]() mutable {
+  running->thread = std::thread([this, work = std::move(work), op_id, op, r]() mutable {
     try {
       bool cancelled = false;
       auto progress = [r](double fraction) {
         r->progress = fraction;
         return !r->cancel.load();
       };
-      json plan = RunPlan(req, plan_id, progress, &cancelled);
-      storage_->Create(kPlans, plan_id, plan.dump());
+      op["result"] = work(progress, &cancelled);
       op["state"] = cancelled ? "CANCELLED" : "SUCCEEDED";
-      op["result"] = {{"plan", plan_id}};
       op["progress"] = cancelled ? r->progress.load() : 1.0;
     } catch (const ApiError& e) {
       op["state"] = "FAILED";
@@ -655,11 +663,11 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
   const RobotModel model = CampaignModel(campaign, options_.limits);
   const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits);
   const MeasurementType type = ParseType(campaign.at("measurement_type"));
-  std::vector<Measurement> measurements;
+  auto measurements = std::make_shared<std::vector<Measurement>>();
   for (const StoredMeasurement& s : storage_->ListMeasurements(campaign_id, "calibration")) {
-    measurements.push_back(ToCore(model, api::MeasurementFromJson(json::parse(s.json))));
+    measurements->push_back(ToCore(model, api::MeasurementFromJson(json::parse(s.json))));
   }
-  if (measurements.empty()) {
+  if (measurements->empty()) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
@@ -676,27 +684,68 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
                            options.parameters.end());
   options.register_base = req.register_base;
   options.max_iterations = req.max_iterations;
-  const Calibration calibration = Identify(model, measurements, options);
-  if (calibration.summary.termination == Termination::kFailure) {
-    throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
-                   {{"measurements", calibration.summary.message}});
+
+  // Identifies and returns the reply; stores the calibration only if `progress` never stopped the fit: a fit
+  // cut short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
+  auto fit = [this, campaign_id, campaign, model, measurements, options](
+                 const std::function<bool(double)>& progress, bool* stopped) {
+    IdentificationOptions o = options;
+    *stopped = false;
+    o.progress = [&](double fraction) {
+      if (options_.on_fit_progress) options_.on_fit_progress();
+      if (!progress(fraction)) *stopped = true;
+      return !*stopped;
+    };
+    const Calibration calibration = Identify(model, *measurements, o);
+    if (calibration.summary.termination == Termination::kFailure) {
+      throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
+                     {{"measurements", calibration.summary.message}});
+    }
+    json result = api::CalibrationToJson(calibration);
+    result["campaign"] = campaign_id;
+    result["robot"] = campaign.at("robot");
+    result["measurement_type"] = campaign.at("measurement_type");
+    result["created_unix_ms"] = NowUnixMs();
+    result["stored"] = !*stopped;
+    if (*stopped) return result;
+    const api::PoseWire registered = api::TransformToPose(calibration.model.T_world_base());
+    const api::PoseWire base = api::TransformToPose(calibration.T_world_base);
+    const api::PoseWire tool = api::TransformToPose(calibration.T_flange_tool);
+    json doc = {{"result", result},
+                {"state",
+                 {{"registered_base", api::ToJson(registered)},
+                  {"T_world_base", api::ToJson(base)},
+                  {"T_flange_tool", api::ToJson(tool)},
+                  {"errors", std::vector<double>(calibration.errors.data(),
+                                                 calibration.errors.data() + calibration.errors.size())}}}};
+    storage_->Put(kCalibrations, campaign_id, doc.dump());
+    return result;
+  };
+
+  if (req.async) {
+    return StartOperation("fit", {{"campaign", campaign_id}, {"request", api::ToJson(req)}},
+                          [fit](const std::function<bool(double)>& progress, bool* cancelled) {
+                            json result = fit(progress, cancelled);
+                            if (*cancelled) {
+                              result["summary"]["message"] =
+                                  "cancelled after " + result["summary"]["iterations"].dump() +
+                                  " iterations; the best parameters so far, not stored";
+                            }
+                            return result;
+                          });
   }
-  json result = api::CalibrationToJson(calibration);
-  result["campaign"] = campaign_id;
-  result["robot"] = campaign.at("robot");
-  result["measurement_type"] = campaign.at("measurement_type");
-  result["created_unix_ms"] = NowUnixMs();
-  const api::PoseWire registered = api::TransformToPose(calibration.model.T_world_base());
-  const api::PoseWire base = api::TransformToPose(calibration.T_world_base);
-  const api::PoseWire tool = api::TransformToPose(calibration.T_flange_tool);
-  json doc = {{"result", result},
-              {"state",
-               {{"registered_base", api::ToJson(registered)},
-                {"T_world_base", api::ToJson(base)},
-                {"T_flange_tool", api::ToJson(tool)},
-                {"errors", std::vector<double>(calibration.errors.data(),
-                                               calibration.errors.data() + calibration.errors.size())}}}};
-  storage_->Put(kCalibrations, campaign_id, doc.dump());
+  const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
+  bool deadline_hit = false;
+  json result = fit([&](double) { return std::chrono::steady_clock::now() <= deadline; }, &deadline_hit);
+  if (deadline_hit) {
+    json& summary = result["summary"];
+    summary["termination"] = "NO_CONVERGENCE";
+    summary["deadline_exceeded"] = true;
+    summary["message"] = "stopped at the request deadline (" + std::to_string(options_.request_deadline.count()) +
+                         " ms, request_timeout_s) after " + summary["iterations"].dump() +
+                         " iterations with the best parameters so far, not stored as the calibration; use async: "
+                         "true for longer fits";
+  }
   return result;
 }
 

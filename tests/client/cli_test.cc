@@ -137,6 +137,12 @@ TEST_F(CliTest, WholeFlow) {
   ASSERT_EQ(fit.exit_code, 0);
   EXPECT_NE(fit.out.find("parameter"), std::string::npos);
   EXPECT_NE(fit.out.find("residuals"), std::string::npos);
+  // The same fit as an operation: the fit comes back stored.
+  const Result fit_async = RunCli(server + " fit " + campaign + " --async --json");
+  ASSERT_EQ(fit_async.exit_code, 0);
+  const auto fitted = nlohmann::json::parse(fit_async.out);
+  EXPECT_TRUE(fitted.at("stored").get<bool>());
+  EXPECT_FALSE(fitted.at("parameters").empty());
 
   const Result compensated = RunCli(server + " compensate " + campaign + " " + Path("plan.csv"));
   ASSERT_EQ(compensated.exit_code, 0);

@@ -188,6 +188,30 @@ TEST(ClientTest, CampaignFlow) {
   EXPECT_LT(evaluation.calibrated.e_xyz_mm.mean, evaluation.nominal.e_xyz_mm.mean);
 }
 
+TEST(ClientTest, AsyncFitIsAnOperationWhoseResultIsTheStoredFit) {
+  testing::TestServer server;
+  Client c(Options(server.url()));
+  const Calibrated calibrated = MakeCalibratedCampaign(c);
+  const client::CalibrationResult sync = c.GetCalibration(calibrated.campaign.id);
+  EXPECT_TRUE(sync.stored);
+  EXPECT_FALSE(sync.deadline_exceeded);
+  const client::Operation started = c.StartFit(calibrated.campaign.id);
+  EXPECT_EQ(started.kind, "fit");
+  const client::Operation done = c.WaitOperation(started.id, nullptr, std::chrono::milliseconds(5));
+  ASSERT_EQ(done.state, "SUCCEEDED") << done.raw.dump();
+  ASSERT_TRUE(done.fit.has_value());
+  EXPECT_TRUE(done.fit->stored);
+  EXPECT_TRUE(done.plan.empty());
+  ASSERT_EQ(done.fit->parameters.size(), sync.parameters.size());
+  // The same data and request give the same fit, now stored again.
+  for (size_t k = 0; k < sync.parameters.size(); ++k) {
+    EXPECT_EQ(done.fit->parameters[k].name, sync.parameters[k].name);
+    EXPECT_DOUBLE_EQ(done.fit->parameters[k].value, sync.parameters[k].value);
+  }
+  EXPECT_EQ(c.GetCalibration(calibrated.campaign.id).raw.at("created_unix_ms"),
+            done.fit->raw.at("created_unix_ms"));
+}
+
 TEST(ClientTest, UploadIsIdempotentByRequestId) {
   testing::TestServer server;
   Client c(Options(server.url()));

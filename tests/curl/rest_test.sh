@@ -115,6 +115,18 @@ expect "fit improves the residuals" \
   "$(jq '.residuals_after.rms_position_mm < .residuals_before.rms_position_mm' "$work/fit.json")" true
 expect "GET /calibration" "$(call GET "/v1/campaigns/$campaign/calibration" | jq '.parameters | length')" \
   "$(jq '.parameters | length' "$work/fit.json")"
+expect "the fit says it was stored" "$(jq .stored "$work/fit.json")" true
+op=$(call POST "/v1/campaigns/$campaign:fit" '{"async": true}' | jq -r .id)
+expect "POST :fit async -> an operation of kind fit" "$(call GET "/v1/operations/$op" | jq -r .kind)" fit
+for _ in $(seq 1 100); do
+  [ "$(call GET "/v1/operations/$op" | jq -r .done)" == true ] && break
+  sleep 0.1
+done
+call GET "/v1/operations/$op" >"$work/fit_op.json"
+expect "async fit SUCCEEDED" "$(jq -r .state "$work/fit_op.json")" SUCCEEDED
+expect "... its result is the stored calibration" \
+  "$(jq -c '[.result.stored, .result.created_unix_ms]' "$work/fit_op.json")" \
+  "$(call GET "/v1/campaigns/$campaign/calibration" | jq -c '[.stored, .created_unix_ms]')"
 targets=$(jq -c '{targets: [.configurations[:3][] | {joints: .}]}' "$work/plan.json")
 expect "POST :compensate" "$(call POST "/v1/campaigns/$campaign:compensate" "$targets" |
   jq '[.results[].converged] | all')" true

@@ -1,16 +1,25 @@
 // The HTTP server end to end in-process: every endpoint, bad input, idempotency, auth, limits, operations.
-#include <fstream>
+#include <atomic>
 #include <cstring>
+#include <fstream>
+#include <future>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <tuple>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include "robocal/api/convert.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
+#include "robocal/core/virtual_cell.h"
 #include "robocal/server/config.h"
 #include "test_server.h"
 
@@ -41,6 +50,42 @@ json NominalBatch(const std::string& robot, const std::string& request_id, int c
     list.push_back({{"joints", api::JointsToWire(model, q)}, {"pose", api::ToJson(api::TransformToPose(pose))}});
   }
   return {{"request_id", request_id}, {"role", role}, {"measurements", list}};
+}
+
+// Simulated tracker shots of a robot with geometric errors: a fit of these takes several iterations.
+json CellBatch(const std::string& robot, const std::string& request_id, int count, std::uint64_t seed) {
+  const RobotModel model = Preset(robot);
+  VirtualCellOptions o;
+  o.seed = seed;
+  o.shots_per_pose = 1;
+  VirtualCell cell(model, o);
+  Rng rng(seed);
+  std::vector<Eigen::VectorXd> configurations;
+  for (int i = 0; i < count; ++i) configurations.push_back(RandomConfiguration(model, &rng));
+  json list = json::array();
+  for (const Measurement& m : cell.MeasureAll(configurations)) {
+    list.push_back({{"joints", api::JointsToWire(model, m.joints)},
+                    {"pose", api::ToJson(api::TransformToPose(m.T_world_tool))}});
+  }
+  return {{"request_id", request_id}, {"role", "calibration"}, {"measurements", list}};
+}
+
+// A campaign "cf" of ur5e with 30 simulated shots.
+void CreateFitCampaign(TestServer& s) {
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "cf"}, {"robot", "ur5e"}}).status, 200);
+  const Reply batch = s.Post("/v1/campaigns/cf/measurements", CellBatch("ur5e", "shots", 30, 5));
+  ASSERT_EQ(batch.status, 200) << batch.text;
+}
+
+Reply WaitDone(TestServer& s, const std::string& op) {
+  Reply state;
+  for (int i = 0; i < 6000; ++i) {
+    state = s.Get("/v1/operations/" + op);
+    if (state.body.value("done", false)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_TRUE(state.body.value("done", false)) << state.text;
+  return state;
 }
 
 TEST(ServerTest, HealthzAndSpecAndUnknownEndpoint) {
@@ -338,6 +383,7 @@ TEST(ServerTest, EveryEndpointRejectsBadInputNamingTheFieldAndStoresNothing) {
       {"POST", "/v1/campaigns/c5:fit", R"({"max_iterations":0})", 400, "max_iterations"},
       {"POST", "/v1/campaigns/c5:fit", R"({"register_base":1})", 400, "register_base"},
       {"POST", "/v1/campaigns/c5:fit", R"({"parameters":"all"})", 400, "parameters"},
+      {"POST", "/v1/campaigns/c5:fit", R"({"async":"yes"})", 400, "async"},
       {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"joints":[0,0,0,0,0,0],"pose":)" + pose + "}]}", 400,
        "targets[0]"},
       {"POST", "/v1/campaigns/c5:compensate", R"({"targets":[{"pose":{"position_mm":[1,2]}}]})", 400,
@@ -445,6 +491,107 @@ TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
   const Reply small = s.Post("/v1/plans", SmallPlan());
   ASSERT_EQ(small.status, 200);
   EXPECT_FALSE(small.body["summary"].contains("deadline_exceeded"));
+}
+
+TEST(ServerTest, SynchronousFitStopsAtTheRequestDeadlineAndIsNotStored) {
+  ServiceOptions options;
+  options.request_deadline = std::chrono::milliseconds(1);
+  // Each iteration outlasts the deadline, so the first progress check finds it passed.
+  options.on_fit_progress = [] { std::this_thread::sleep_for(std::chrono::milliseconds(5)); };
+  TestServer s({}, {}, options);
+  CreateFitCampaign(s);
+  const Reply fit = s.Post("/v1/campaigns/cf:fit", json::object());
+  ASSERT_EQ(fit.status, 200) << fit.text;
+  const json& summary = fit.body["summary"];
+  EXPECT_TRUE(summary.value("deadline_exceeded", false)) << summary.dump();
+  EXPECT_EQ(summary["termination"], "NO_CONVERGENCE");
+  EXPECT_EQ(summary["iterations"], 1);
+  EXPECT_NE(summary["message"].get<std::string>().find("request deadline"), std::string::npos) << summary.dump();
+  EXPECT_FALSE(fit.body.value("stored", true));
+  EXPECT_FALSE(fit.body["parameters"].empty());
+  EXPECT_EQ(s.Get("/v1/campaigns/cf/calibration").status, 404);
+
+  // Within its deadline the same fit converges, says nothing of a deadline and is stored.
+  TestServer plain;
+  CreateFitCampaign(plain);
+  const Reply full = plain.Post("/v1/campaigns/cf:fit", json::object());
+  ASSERT_EQ(full.status, 200) << full.text;
+  EXPECT_FALSE(full.body["summary"].contains("deadline_exceeded"));
+  EXPECT_GT(full.body["summary"]["iterations"].get<int>(), 1);
+  EXPECT_TRUE(full.body.value("stored", false));
+  EXPECT_EQ(plain.Get("/v1/campaigns/cf/calibration").body["parameters"], full.body["parameters"]);
+}
+
+TEST(ServerTest, AsyncFitRunsAsAnOperationAndStoresTheCalibration) {
+  TestServer s;
+  CreateFitCampaign(s);
+  const Reply op = s.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(op.status, 200) << op.text;
+  EXPECT_EQ(op.body["kind"], "fit");
+  EXPECT_EQ(op.body["campaign"], "cf");
+  EXPECT_TRUE(op.body["request"]["async"].get<bool>());
+  const Reply done = WaitDone(s, op.body["id"]);
+  EXPECT_EQ(done.body["state"], "SUCCEEDED") << done.text;
+  EXPECT_EQ(done.body["progress"], 1.0);
+  const json& result = done.body["result"];
+  EXPECT_TRUE(result.value("stored", false));
+  EXPECT_EQ(result["summary"]["termination"], "CONVERGENCE");
+  const Reply stored = s.Get("/v1/campaigns/cf/calibration");
+  ASSERT_EQ(stored.status, 200);
+  EXPECT_EQ(stored.body["parameters"], result["parameters"]);
+  // Errors of the fit itself come back as the operation's error, not as a stored calibration.
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "cg"}, {"robot", "ur5e"}}).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/cg/measurements", CellBatch("ur5e", "few", 2, 5)).status, 200);
+  const Reply failing = s.Post("/v1/campaigns/cg:fit", {{"async", true}});
+  ASSERT_EQ(failing.status, 200) << failing.text;
+  const Reply failed = WaitDone(s, failing.body["id"]);
+  EXPECT_EQ(failed.body["state"], "FAILED") << failed.text;
+  EXPECT_EQ(failed.body["error"]["status"], "FAILED_PRECONDITION");
+  EXPECT_EQ(s.Get("/v1/campaigns/cg/calibration").status, 404);
+}
+
+TEST(ServerTest, AsyncFitCanBeCancelledAndCountsAsARunningOperation) {
+  // The hook holds the fit after its first iteration until the test has asked to cancel: no race.
+  std::promise<void> reached, release;
+  std::shared_future<void> released = release.get_future().share();
+  std::atomic<int> calls{0};
+  ServiceOptions options;
+  options.max_running_operations = 1;
+  options.on_fit_progress = [&] {
+    if (calls++ == 0) {
+      reached.set_value();
+      released.wait();
+    }
+  };
+  TestServer s({}, {}, options);
+  CreateFitCampaign(s);
+  const Reply op = s.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(op.status, 200) << op.text;
+  const std::string id = op.body["id"];
+  if (reached.get_future().wait_for(std::chrono::seconds(120)) != std::future_status::ready) {
+    release.set_value();
+    FAIL() << "the fit never reached its first iteration";
+  }
+  const Reply busy = s.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  EXPECT_EQ(busy.status, 503) << busy.text;
+  EXPECT_TRUE(NamesField(busy, "async"));
+  const Reply cancel = s.Post("/v1/operations/" + id + ":cancel", json::object());
+  EXPECT_EQ(cancel.status, 200);
+  EXPECT_TRUE(cancel.body.value("cancel_requested", false)) << cancel.text;
+  release.set_value();
+  const Reply done = WaitDone(s, id);
+  EXPECT_EQ(done.body["state"], "CANCELLED") << done.text;
+  const json& result = done.body["result"];
+  EXPECT_FALSE(result.value("stored", true));
+  EXPECT_EQ(result["summary"]["termination"], "NO_CONVERGENCE");
+  EXPECT_EQ(result["summary"]["iterations"], 1);
+  EXPECT_NE(result["summary"]["message"].get<std::string>().find("cancelled"), std::string::npos);
+  EXPECT_EQ(s.Get("/v1/campaigns/cf/calibration").status, 404);
+  // The slot is free again once the operation is done.
+  const Reply again = s.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(again.status, 200) << again.text;
+  EXPECT_EQ(WaitDone(s, again.body["id"]).body["state"], "SUCCEEDED");
+  EXPECT_EQ(s.Get("/v1/campaigns/cf/calibration").status, 200);
 }
 
 TEST(ServerTest, LargeFormEncodedBodyGetsAContentTypeHint) {
@@ -585,6 +732,57 @@ TEST(ConfigTest, EveryLimitIsConfigurable) {
   // The shipped example configuration is accepted as it stands.
   const ConfigResult example = LoadConfig({"--config", ROBOCAL_SOURCE_DIR "/deploy/robocal.example.json"}, {});
   EXPECT_TRUE(example.run) << example.message;
+}
+
+TEST(ConfigTest, ConnectionTimeoutsFromFlagsEnvAndFile) {
+  const ServerConfig defaults = LoadConfig({}, {}).config;
+  EXPECT_EQ(defaults.keep_alive_timeout_s, 2);
+  EXPECT_EQ(defaults.read_timeout_s, 60);
+  EXPECT_EQ(defaults.write_timeout_s, 60);
+  const std::string file = ::testing::TempDir() + "robocal_timeouts_test.json";
+  std::ofstream(file) << R"({"keep_alive_timeout_s":7,"read_timeout_s":8,"write_timeout_s":9})";
+  const ConfigResult from_file = LoadConfig({"--config", file}, {});
+  ASSERT_TRUE(from_file.run) << from_file.message;
+  EXPECT_EQ(from_file.config.keep_alive_timeout_s, 7);
+  EXPECT_EQ(from_file.config.read_timeout_s, 8);
+  EXPECT_EQ(from_file.config.write_timeout_s, 9);
+  const ConfigResult r = LoadConfig({"--keep-alive-timeout-s", "3", "--config", file},
+                                    {{"ROBOCAL_KEEP_ALIVE_TIMEOUT_S", "4"}, {"ROBOCAL_READ_TIMEOUT_S", "5"}});
+  ASSERT_TRUE(r.run) << r.message;
+  EXPECT_EQ(r.config.keep_alive_timeout_s, 3);
+  EXPECT_EQ(r.config.read_timeout_s, 5);
+  EXPECT_EQ(r.config.write_timeout_s, 9);
+  const ConfigResult zero = LoadConfig({"--keep-alive-timeout-s", "0"}, {});
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_NE(zero.message.find("keep_alive_timeout_s"), std::string::npos) << zero.message;
+  EXPECT_NE(LoadConfig({"--help"}, {}).message.find("--keep-alive-timeout-s"), std::string::npos);
+}
+
+TEST(ServerTest, IdleKeepAliveConnectionIsClosedAfterTheTimeout) {
+  ServerConfig config;
+  config.keep_alive_timeout_s = 1;
+  TestServer s(config);
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(s.port()));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  // Three times the server's setting: generous for the setting, and shorter than the HTTP library's own
+  // default (5 s), so the test fails if the setting does not reach the server.
+  timeval bound{3, 0};
+  ASSERT_EQ(::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &bound, sizeof bound), 0);
+  const std::string request = "GET /healthz HTTP/1.1\r\nHost: localhost\r\nConnection: keep-alive\r\n\r\n";
+  ASSERT_EQ(::send(fd, request.data(), request.size(), 0), static_cast<ssize_t>(request.size()));
+  std::string received;
+  char buffer[4096];
+  ssize_t n = 0;
+  // Read the reply and then on: the server closes the idle connection (recv returns 0), or the bound hits (-1).
+  while ((n = ::recv(fd, buffer, sizeof buffer, 0)) > 0) received.append(buffer, static_cast<std::size_t>(n));
+  ::close(fd);
+  EXPECT_NE(received.find("200 OK"), std::string::npos) << received;
+  EXPECT_EQ(n, 0) << "the idle connection was not closed within 3 s";
 }
 
 TEST(ConfigTest, BadFlagsExitTwo) {

@@ -302,6 +302,63 @@ TEST(IdentificationTest, SameSeedGivesTheSameResult) {
   EXPECT_EQ(a.summary.final_cost, b.summary.final_cost);
 }
 
+TEST(IdentificationTest, ProgressReturningFalseCancelsWithTheBestParametersSoFar) {
+  const RobotModel model = Preset("puma560");
+  VirtualCellOptions co;
+  co.seed = 9;
+  co.shots_per_pose = 2;
+  VirtualCell cell(model, co);
+  const std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 15, 4));
+  const Calibration full = Identify(model, shots);
+  ASSERT_GT(full.summary.iterations, 1) << "the test needs a fit of more than one iteration";
+
+  IdentificationOptions o;
+  std::vector<double> fractions;
+  o.progress = [&](double fraction) {
+    fractions.push_back(fraction);
+    return false;
+  };
+  const Calibration cal = Identify(model, shots, o);
+  EXPECT_EQ(fractions, std::vector<double>{1.0 / o.max_iterations});
+  EXPECT_EQ(cal.summary.termination, Termination::kNoConvergence);
+  EXPECT_EQ(cal.summary.message, "cancelled");
+  EXPECT_EQ(cal.summary.iterations, 1);
+  EXPECT_TRUE(SummaryIsFinite(cal.summary)) << cal.summary.FullReport();
+  EXPECT_TRUE(cal.errors.allFinite());
+  ASSERT_EQ(cal.covariance.rows(), cal.summary.num_parameters);
+  EXPECT_TRUE(cal.covariance.allFinite());
+  EXPECT_LE(cal.summary.final_cost, cal.summary.initial_cost);
+  EXPECT_GE(cal.summary.final_cost, full.summary.final_cost);
+}
+
+TEST(IdentificationTest, ProgressThatContinuesChangesNothing) {
+  const RobotModel model = Preset("puma560");
+  VirtualCellOptions co;
+  co.seed = 9;
+  co.shots_per_pose = 2;
+  VirtualCell cell(model, co);
+  const std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 15, 4));
+  const Calibration plain = Identify(model, shots);
+  IdentificationOptions o;
+  std::vector<double> fractions;
+  o.progress = [&](double fraction) {
+    fractions.push_back(fraction);
+    return true;
+  };
+  const Calibration watched = Identify(model, shots, o);
+  EXPECT_EQ(watched.summary.termination, plain.summary.termination);
+  EXPECT_EQ(watched.summary.message, plain.summary.message);
+  EXPECT_EQ(watched.summary.iterations, plain.summary.iterations);
+  EXPECT_EQ(watched.errors, plain.errors);
+  EXPECT_EQ(watched.covariance, plain.covariance);
+  // Once per iteration that did not converge in its own step (the last one may have), increasing.
+  ASSERT_GE(static_cast<int>(fractions.size()), plain.summary.iterations - 1);
+  ASSERT_LE(static_cast<int>(fractions.size()), plain.summary.iterations);
+  for (size_t i = 0; i < fractions.size(); ++i) {
+    EXPECT_DOUBLE_EQ(fractions[i], static_cast<double>(i + 1) / o.max_iterations);
+  }
+}
+
 TEST(IdentificationTest, ReportsCarryTheParameterTableAndTheDroppedParameters) {
   const RobotModel model = Preset("grinder5");
   VirtualCell cell(model, ExactCell(1));

@@ -151,6 +151,8 @@ struct FitRequest {
   std::vector<std::string> parameters;
   bool register_base = true;
   int max_iterations = 100;
+  /// Run as a long-running operation.
+  bool async = false;
 };
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
 nlohmann::json ToJson(const FitRequest& request);

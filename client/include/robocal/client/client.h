@@ -121,7 +121,12 @@ class Client {
   /// One page; role "" (all), "calibration" or "validation"; after: the sequence to continue after.
   MeasurementPage ListMeasurements(const std::string& campaign, const std::string& role = "", std::int64_t after = 0,
                                    int limit = 1000);
+  /// A fit computed while the call waits (request.async is ignored and sent as false); stored as the
+  /// campaign's calibration unless it stopped at the server's request deadline (result.stored says).
   CalibrationResult Fit(const std::string& campaign, const api::FitRequest& request = {});
+  /// Starts the fit as a long-running operation (request.async is sent as true); see WaitOperation. The
+  /// calibration is stored when the operation SUCCEEDS; Operation::fit holds the result.
+  Operation StartFit(const std::string& campaign, const api::FitRequest& request = {});
   CalibrationResult GetCalibration(const std::string& campaign);
   std::vector<Compensation> Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).

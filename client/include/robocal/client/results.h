@@ -86,20 +86,6 @@ struct ErrorInfo {
   std::vector<api::FieldViolation> details;
 };
 
-/// GET /v1/operations/{op}: long-running work (async plans).
-struct Operation {
-  std::string id;
-  std::string kind;
-  /// RUNNING | SUCCEEDED | FAILED | CANCELLED.
-  std::string state;
-  bool done = false;
-  /// 0..1.
-  double progress = 0.0;
-  /// The plan id once SUCCEEDED (or CANCELLED with a best-so-far plan).
-  std::string plan;
-  std::optional<ErrorInfo> error;
-  nlohmann::json raw;
-};
 
 /// POST/GET /v1/campaigns.
 struct Campaign {
@@ -181,6 +167,27 @@ struct CalibrationResult {
   std::string message;
   int iterations = 0;
   std::string brief;
+  /// False if the fit stopped at the request deadline or was cancelled: returned, not stored.
+  bool stored = true;
+  /// The synchronous fit stopped at the server's request deadline (request_timeout_s).
+  bool deadline_exceeded = false;
+  nlohmann::json raw;
+};
+
+/// GET /v1/operations/{op}: long-running work (async plans and fits).
+struct Operation {
+  std::string id;
+  std::string kind;
+  /// RUNNING | SUCCEEDED | FAILED | CANCELLED.
+  std::string state;
+  bool done = false;
+  /// 0..1.
+  double progress = 0.0;
+  /// Plans: the plan id once SUCCEEDED (or CANCELLED with a best-so-far plan).
+  std::string plan;
+  /// Fits: the fit once SUCCEEDED (stored as the calibration) or CANCELLED (best so far, not stored).
+  std::optional<CalibrationResult> fit;
+  std::optional<ErrorInfo> error;
   nlohmann::json raw;
 };
 

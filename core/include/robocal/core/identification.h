@@ -2,6 +2,7 @@
 // least squares (Levenberg-Marquardt), after registering the unknown tracker -> base frame.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,10 @@ struct IdentificationOptions {
   /// Stop when the step is smaller than parameter_tolerance * (|x| + parameter_tolerance).
   double parameter_tolerance = 1e-12;
   int max_iterations = 100;
+  /// Called after every Levenberg-Marquardt iteration that did not converge, with iterations / max_iterations;
+  /// returning false cancels the fit: it stops with NO_CONVERGENCE, message "cancelled", and the best
+  /// parameters so far with their covariance (the accepted steps only ever lower the cost).
+  std::function<bool(double fraction_done)> progress;
 
   bool IsValid(std::string* error) const;
 };

@@ -30,6 +30,12 @@ struct ServerConfig {
   /// Operations (async plans) running at once.
   int max_running_operations = 2;
   int request_timeout_s = 60;
+  /// An idle keep-alive connection is closed after this many seconds: each one holds a worker thread while it
+  /// waits, so `threads` idle clients would otherwise stall the server.
+  int keep_alive_timeout_s = 2;
+  /// Seconds the server waits for the next bytes of a request, and for the client to take the reply's.
+  int read_timeout_s = 60;
+  int write_timeout_s = 60;
   int threads = 8;
   std::string config_file;
 };

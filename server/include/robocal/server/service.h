@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -26,8 +27,12 @@ struct ServiceOptions {
   /// A synchronous plan stops at this deadline with its best set so far (NO_CONVERGENCE, says so); longer
   /// searches belong in `async: true`.
   std::chrono::milliseconds request_deadline{60000};
-  /// Operations (async plans) running at once; more is RESOURCE_EXHAUSTED.
+  /// Operations (async plans and fits) running at once; more is UNAVAILABLE.
   int max_running_operations = 2;
+  /// For tests: called in every fit's progress callback (once per iteration) before the deadline and the
+  /// cancel flag are checked, so that a test can hold a fit at a known point instead of racing it. Empty in
+  /// the server.
+  std::function<void()> on_fit_progress;
 };
 
 class Service {
@@ -60,6 +65,9 @@ class Service {
   /// role: "" (all), calibration, validation; after: sequence to start after; limit: page size.
   nlohmann::json ListMeasurements(const std::string& campaign, const std::string& role, const std::string& after,
                                   const std::string& limit);
+  /// The fit, stored as the campaign's calibration unless it stopped at the request deadline (then returned
+  /// with summary.deadline_exceeded and stored: false); or (async) an operation whose result is the fit,
+  /// stored when the operation SUCCEEDS.
   nlohmann::json Fit(const std::string& campaign, const nlohmann::json& body);
   nlohmann::json GetCalibration(const std::string& campaign);
   nlohmann::json Compensate(const std::string& campaign, const nlohmann::json& body);
@@ -83,6 +91,12 @@ class Service {
   /// The model of a preset or registered robot (NOT_FOUND otherwise) and its definition JSON.
   RobotModel ResolveRobot(const std::string& id, nlohmann::json* definition);
   nlohmann::json LoadCampaign(const std::string& id);
+  /// The work of an operation: gets a progress callback (false: stop) and returns the operation's result,
+  /// setting *cancelled if the callback stopped it. ApiErrors it throws become the operation's error.
+  using OperationWork = std::function<nlohmann::json(const std::function<bool(double)>& progress, bool* cancelled)>;
+  /// Creates the operation document of `kind` (with `fields` merged in) and runs `work` on its own thread;
+  /// UNAVAILABLE when max_running_operations are running. Returns the operation.
+  nlohmann::json StartOperation(const std::string& kind, const nlohmann::json& fields, OperationWork work);
   /// Computes a plan; `progress` may cancel it. Returns the stored plan document.
   nlohmann::json RunPlan(const api::PlanRequest& request, const std::string& plan_id,
                          const std::function<bool(double)>& progress, bool* cancelled);
