@@ -210,13 +210,32 @@ std::string Client::GetMetrics() {
   return Send(*impl_->http, impl_->base_url, options_, "GET", "/metrics", nullptr, true);
 }
 
-std::vector<RobotInfo> Client::ListRobots() {
-  const json j = Call("GET", "/v1/robots", nullptr, true);
-  return Parse(j, "robot list", [](const json& b) {
-    std::vector<RobotInfo> robots;
-    for (const json& r : b.at("robots")) robots.push_back(ParseRobotInfo(r));
-    return robots;
-  });
+std::vector<json> Client::GetAllPages(const std::string& path, const std::string& key, int page_size) {
+  if (page_size < 1 || page_size > 1000) {
+    throw std::invalid_argument("page_size must be in 1..1000, got " + std::to_string(page_size));
+  }
+  std::vector<json> items;
+  std::string token;
+  do {
+    std::string query = path + "?page_size=" + std::to_string(page_size);
+    if (!token.empty()) query += "&page_token=" + Segment(token);
+    const json page = Call("GET", query, nullptr, true);
+    token = Parse(page, (key + " page").c_str(), [&](const json& b) {
+      for (const json& item : b.at(key)) items.push_back(item);
+      return b.contains("next_page_token") && b["next_page_token"].is_string()
+                 ? b["next_page_token"].get<std::string>()
+                 : std::string();
+    });
+  } while (!token.empty());
+  return items;
+}
+
+std::vector<RobotInfo> Client::ListRobots(int page_size) {
+  std::vector<RobotInfo> robots;
+  for (const json& r : GetAllPages("/v1/robots", "robots", page_size)) {
+    robots.push_back(Parse(r, "robot", ParseRobotInfo));
+  }
+  return robots;
 }
 
 RobotInfo Client::GetRobot(const std::string& robot) {
@@ -259,13 +278,12 @@ Campaign Client::CreateCampaign(const api::CreateCampaignRequest& request) {
   return Parse(Call("POST", "/v1/campaigns", &body, false), "campaign", ParseCampaign);
 }
 
-std::vector<Campaign> Client::ListCampaigns() {
-  const json j = Call("GET", "/v1/campaigns", nullptr, true);
-  return Parse(j, "campaign list", [](const json& b) {
-    std::vector<Campaign> campaigns;
-    for (const json& c : b.at("campaigns")) campaigns.push_back(ParseCampaign(c));
-    return campaigns;
-  });
+std::vector<Campaign> Client::ListCampaigns(int page_size) {
+  std::vector<Campaign> campaigns;
+  for (const json& c : GetAllPages("/v1/campaigns", "campaigns", page_size)) {
+    campaigns.push_back(Parse(c, "campaign", ParseCampaign));
+  }
+  return campaigns;
 }
 
 Campaign Client::GetCampaign(const std::string& campaign) {

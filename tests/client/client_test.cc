@@ -106,6 +106,31 @@ TEST(ClientTest, Robots) {
   }
 }
 
+// Lists follow the server's pages: every item once, in order, whatever the page size.
+TEST(ClientTest, ListsFollowEveryPage) {
+  testing::TestServer server;
+  Client c(Options(server.url()));
+  std::vector<std::string> created;
+  for (int i = 0; i < 5; ++i) {
+    api::CreateCampaignRequest request;
+    request.id = "page-" + std::to_string(i);
+    request.robot = "ur5e";
+    created.push_back(c.CreateCampaign(request).id);
+  }
+  for (int page_size : {1, 2, 5, 100}) {
+    std::vector<std::string> listed;
+    for (const client::Campaign& campaign : c.ListCampaigns(page_size)) listed.push_back(campaign.id);
+    EXPECT_EQ(listed, created) << "page_size " << page_size;
+  }
+  std::vector<std::string> robots_by_one, robots_at_once;
+  for (const client::RobotInfo& r : c.ListRobots(1)) robots_by_one.push_back(r.id);
+  for (const client::RobotInfo& r : c.ListRobots(1000)) robots_at_once.push_back(r.id);
+  EXPECT_EQ(robots_by_one, robots_at_once);
+  EXPECT_GE(robots_by_one.size(), 3u);
+  EXPECT_THROW(c.ListCampaigns(0), std::invalid_argument);
+  EXPECT_THROW(c.ListRobots(1001), std::invalid_argument);
+}
+
 TEST(ClientTest, InvalidArgumentCarriesFields) {
   testing::TestServer server;
   Client c(Options(server.url()));

@@ -95,7 +95,8 @@ class Client {
   std::string GetMetrics();
 
   // Robots.
-  std::vector<RobotInfo> ListRobots();
+  /// Every preset and registered robot, following the server's pages (`page_size` per request, 1..1000).
+  std::vector<RobotInfo> ListRobots(int page_size = 100);
   RobotInfo GetRobot(const std::string& robot);
   RobotInfo RegisterRobot(const api::RegisterRobotRequest& request);
   /// The body as read from a robot definition file (same fields as RegisterRobotRequest).
@@ -113,7 +114,8 @@ class Client {
 
   // Campaigns.
   Campaign CreateCampaign(const api::CreateCampaignRequest& request);
-  std::vector<Campaign> ListCampaigns();
+  /// Every campaign, following the server's pages (`page_size` per request, 1..1000).
+  std::vector<Campaign> ListCampaigns(int page_size = 100);
   Campaign GetCampaign(const std::string& campaign);
   /// Uploads one batch. An empty request_id is filled with one derived from the batch's content (role and
   /// measurements), so that a retried or repeated upload of the same batch is stored once.
@@ -148,6 +150,8 @@ class Client {
   /// A raw call for endpoints or fields the typed API does not cover: returns the response JSON.
   /// `idempotent` allows retries.
   nlohmann::json Call(const std::string& method, const std::string& path, const nlohmann::json* body, bool idempotent);
+  /// GETs `path` page by page (page_size, page_token) and returns the items of array `key` of every page.
+  std::vector<nlohmann::json> GetAllPages(const std::string& path, const std::string& key, int page_size);
 
  private:
   struct Impl;
