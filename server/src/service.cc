@@ -282,9 +282,8 @@ json Service::RobotForward(const std::string& id, const json& body) {
 
 // ---------------------------------------------------------------------------------------------- plans
 
-json Service::RunPlan(const api::PlanRequest& req, const std::string& plan_id,
+json Service::RunPlan(const RobotModel& model, const api::PlanRequest& req, const std::string& plan_id,
                       const std::function<bool(double)>& progress, bool* cancelled) {
-  const RobotModel model = ResolveRobot(req.robot, nullptr);
   const MeasurementType type = ParseType(req.measurement_type);
   IdentifiabilityOptions id_options;
   id_options.noise = api::ToCore(req.noise);
@@ -384,7 +383,7 @@ json Service::RunPlan(const api::PlanRequest& req, const std::string& plan_id,
 
 json Service::CreatePlan(const json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
-  (void)ResolveRobot(req.robot, nullptr);  // NOT_FOUND before any work or operation is created
+  const RobotModel model = ResolveRobot(req.robot, nullptr);  // NOT_FOUND before any work or operation is created
   if (!req.async) {
     const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
     bool deadline_hit = false;
@@ -393,7 +392,7 @@ json Service::CreatePlan(const json& body) {
       return !deadline_hit;
     };
     const std::string id = NewId("plan");
-    json plan = RunPlan(req, id, progress, nullptr);
+    json plan = RunPlan(model, req, id, progress, nullptr);
     if (deadline_hit) {
       // The optimiser reports a stop by its callback as "cancelled"; here the caller should learn why.
       json& summary = plan["summary"];
@@ -409,8 +408,8 @@ json Service::CreatePlan(const json& body) {
 
   const std::string plan_id = NewId("plan");
   return StartOperation("plan", {{"request", api::ToJson(req)}},
-                        [this, req, plan_id](const std::function<bool(double)>& progress, bool* cancelled) {
-                          const json plan = RunPlan(req, plan_id, progress, cancelled);
+                        [this, model, req, plan_id](const std::function<bool(double)>& progress, bool* cancelled) {
+                          const json plan = RunPlan(model, req, plan_id, progress, cancelled);
                           storage_->Create(kPlans, plan_id, plan.dump());
                           return json{{"plan", plan_id}};
                         });

@@ -97,8 +97,9 @@ class Service {
   /// Creates the operation document of `kind` (with `fields` merged in) and runs `work` on its own thread;
   /// UNAVAILABLE when max_running_operations are running. Returns the operation.
   nlohmann::json StartOperation(const std::string& kind, const nlohmann::json& fields, OperationWork work);
-  /// Computes a plan; `progress` may cancel it. Returns the stored plan document.
-  nlohmann::json RunPlan(const api::PlanRequest& request, const std::string& plan_id,
+  /// Computes a plan for `model` (the resolved request.robot); `progress` may cancel it. Returns the stored plan
+  /// document.
+  nlohmann::json RunPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
                          const std::function<bool(double)>& progress, bool* cancelled);
 
   Storage* storage_;
