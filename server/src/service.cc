@@ -106,14 +106,19 @@ json ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors, const 
   return poses;
 }
 
+// A pose the service stored itself (always with its quaternion).
+Transform StoredTransform(const json& pose) {
+  api::PoseWire p;
+  p.position_mm = pose.at("position_mm").get<std::array<double, 3>>();
+  p.quaternion = pose.at("quaternion").get<std::array<double, 4>>();
+  return api::PoseToTransform(p);
+}
+
 // The stored calibration, back as the core's Calibration (for compensation, forward and evaluation).
 Calibration RestoreCalibration(const RobotModel& nominal, const json& doc) {
   const json& state = doc.at("state");
   RobotModelSpec spec = nominal.spec();
-  api::PoseWire registered;
-  registered.position_mm = state.at("registered_base").at("position_mm").get<std::array<double, 3>>();
-  registered.quaternion = state.at("registered_base").at("quaternion").get<std::array<double, 4>>();
-  spec.T_world_base = api::PoseToTransform(registered);
+  spec.T_world_base = StoredTransform(state.at("registered_base"));
   const auto errors = state.at("errors").get<std::vector<double>>();
   Calibration c{RobotModel::Build(spec),
                 Eigen::Map<const Eigen::VectorXd>(errors.data(), static_cast<Eigen::Index>(errors.size())),
@@ -122,13 +127,8 @@ Calibration RestoreCalibration(const RobotModel& nominal, const json& doc) {
                 Transform::Identity(),
                 Transform::Identity(),
                 {}};
-  api::PoseWire p;
-  p.position_mm = state.at("T_world_base").at("position_mm").get<std::array<double, 3>>();
-  p.quaternion = state.at("T_world_base").at("quaternion").get<std::array<double, 4>>();
-  c.T_world_base = api::PoseToTransform(p);
-  p.position_mm = state.at("T_flange_tool").at("position_mm").get<std::array<double, 3>>();
-  p.quaternion = state.at("T_flange_tool").at("quaternion").get<std::array<double, 4>>();
-  c.T_flange_tool = api::PoseToTransform(p);
+  c.T_world_base = StoredTransform(state.at("T_world_base"));
+  c.T_flange_tool = StoredTransform(state.at("T_flange_tool"));
   c.summary.termination = Termination::kConvergence;
   return c;
 }
