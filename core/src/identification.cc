@@ -472,15 +472,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
     s.initial_cost = 0.5 * r.squaredNorm();
     if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
-    const Eigen::VectorXd norms = j.colwise().norm();
-    Eigen::MatrixXd scaled = j;
-    for (int k = 0; k < s.num_parameters; ++k) {
-      if (norms[k] > 0.0)
-        scaled.col(k) /= norms[k];
-      else
-        scaled.col(k).setZero();
-    }
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * ColumnNorms(j).cwiseInverse().asDiagonal());
     const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
     int rank = 0;
     while (rank < s.num_parameters && diag[rank] > options.identifiability.rank_tolerance * diag[0]) ++rank;
