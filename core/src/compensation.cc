@@ -264,7 +264,8 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
 
   result.joints = q;
   result.iterations = iteration;
-  const Transform& reached = ForwardKinematics(model, q, calibration.errors, &ws);
+  // Every exit from the loop leaves the workspace at q (the last cost_at call was at q).
+  const Transform& reached = ws.T_world_tool;
   const Errors e = MatchedErrors(type, reached, T_world_target);
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;
