@@ -36,7 +36,7 @@ Errors MatchedErrors(MeasurementType type, const Transform& reached, const Trans
     e.orientation_rad = RotationVector(target.linear() * reached.linear().transpose()).norm();
   } else {
     const Eigen::Vector3d u = reached.linear().col(2), u_target = target.linear().col(2);
-    e.orientation_rad = std::atan2(u.cross(u_target).norm(), u.dot(u_target));
+    e.orientation_rad = AngleBetween(u, u_target);
   }
   return e;
 }

@@ -346,8 +346,7 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
       angle = r.tail<3>().norm();
     } else if (type == MeasurementType::kPositionAxis) {
       // The exact angle between the axes; the residual's tangent rows are its first-order form.
-      const Eigen::Vector3d u = m.T_world_tool.linear().col(2), v = predicted.linear().col(2);
-      angle = std::atan2(u.cross(v).norm(), u.dot(v));
+      angle = AngleBetween(m.T_world_tool.linear().col(2), predicted.linear().col(2));
     }
     sum_orientation += angle * angle;
     s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
