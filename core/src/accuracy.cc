@@ -71,9 +71,8 @@ AccuracyReport ComputeAccuracy(const std::vector<Transform>& reached, const std:
     const double e_xyz = (reached[i].translation() - target[i].translation()).norm();
     const Eigen::Vector3d u = reached[i].linear().col(2);
     const Eigen::Vector3d u_target = target[i].linear().col(2);
-    // arccos(u . u') written as atan2(|u x u'|, u . u'): the same angle, but arccos near 1 resolves no better
-    // than ~2e-8 rad, too coarse for the calibrated robot's tool axis. No clamping is needed in this form.
-    const double e_cos = std::atan2(u.cross(u_target).norm(), u.dot(u_target));
+    // The paper's arccos(u . u'), in the form that stays accurate near 0.
+    const double e_cos = AngleBetween(u, u_target);
     report.e_xyz_values_mm.push_back(e_xyz);
     report.e_cos_values_rad.push_back(e_cos);
     report.e_tot_values_mm.push_back(e_xyz + h_mm * e_cos);

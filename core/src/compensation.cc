@@ -36,7 +36,7 @@ Errors MatchedErrors(MeasurementType type, const Transform& reached, const Trans
     e.orientation_rad = RotationVector(target.linear() * reached.linear().transpose()).norm();
   } else {
     const Eigen::Vector3d u = reached.linear().col(2), u_target = target.linear().col(2);
-    e.orientation_rad = std::atan2(u.cross(u_target).norm(), u.dot(u_target));
+    e.orientation_rad = AngleBetween(u, u_target);
   }
   return e;
 }
@@ -264,7 +264,8 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
 
   result.joints = q;
   result.iterations = iteration;
-  const Transform& reached = ForwardKinematics(model, q, calibration.errors, &ws);
+  // Every exit from the loop leaves the workspace at q (the last cost_at call was at q).
+  const Transform& reached = ws.T_world_tool;
   const Errors e = MatchedErrors(type, reached, T_world_target);
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;

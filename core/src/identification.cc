@@ -346,8 +346,7 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
       angle = r.tail<3>().norm();
     } else if (type == MeasurementType::kPositionAxis) {
       // The exact angle between the axes; the residual's tangent rows are its first-order form.
-      const Eigen::Vector3d u = m.T_world_tool.linear().col(2), v = predicted.linear().col(2);
-      angle = std::atan2(u.cross(v).norm(), u.dot(v));
+      angle = AngleBetween(m.T_world_tool.linear().col(2), predicted.linear().col(2));
     }
     sum_orientation += angle * angle;
     s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
@@ -472,15 +471,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
     s.initial_cost = 0.5 * r.squaredNorm();
     if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
-    const Eigen::VectorXd norms = j.colwise().norm();
-    Eigen::MatrixXd scaled = j;
-    for (int k = 0; k < s.num_parameters; ++k) {
-      if (norms[k] > 0.0)
-        scaled.col(k) /= norms[k];
-      else
-        scaled.col(k).setZero();
-    }
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * ColumnNorms(j).cwiseInverse().asDiagonal());
     const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
     int rank = 0;
     while (rank < s.num_parameters && diag[rank] > options.identifiability.rank_tolerance * diag[0]) ++rank;

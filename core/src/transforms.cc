@@ -54,6 +54,10 @@ Eigen::Vector3d RotationVector(const Eigen::Matrix3d& rotation) {
   return aa.angle() * aa.axis();
 }
 
+double AngleBetween(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+  return std::atan2(u.cross(v).norm(), u.dot(v));
+}
+
 bool IsValidRigidTransform(const Transform& transform, double tolerance) {
   if (!transform.matrix().allFinite()) return false;
   const Eigen::Matrix3d r = transform.linear();

@@ -31,6 +31,10 @@ Transform Rotation(const Eigen::Matrix3d& rotation);
 /// Rotation vector (axis * angle, rad, angle in [0, pi]) of a rotation matrix: the SO(3) log map.
 Eigen::Vector3d RotationVector(const Eigen::Matrix3d& rotation);
 
+/// Angle between two nonzero vectors (rad, in [0, pi]), as atan2(|u x v|, u . v): arccos(u . v) near 1
+/// resolves no better than ~2e-8 rad, too coarse for a calibrated tool axis. No clamping is needed in this form.
+double AngleBetween(const Eigen::Vector3d& u, const Eigen::Vector3d& v);
+
 /// True if every entry is finite and the rotation part is orthonormal with det +1 (to `tolerance`).
 bool IsValidRigidTransform(const Transform& transform, double tolerance = 1e-9);
 
