@@ -2,6 +2,7 @@
 #include "robocal/api/types.h"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "robocal/api/convert.h"
@@ -543,5 +544,19 @@ EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
 }
 
 nlohmann::json ToJson(const EvaluateRequest& req) { return {{"h_mm", req.h_mm}}; }
+
+// FNV-1a (64 bit) rather than std::hash: it must give the same digits on every platform and in every run,
+// because the server stores it and compares a retried batch's hash with it. Not a security property: a
+// request_id is the caller's own.
+std::string ContentHash(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ULL;  // FNV-1a 64-bit offset basis
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;  // FNV-1a 64-bit prime
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
 
 }  // namespace robocal::api

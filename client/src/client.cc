@@ -293,15 +293,7 @@ Campaign Client::GetCampaign(const std::string& campaign) {
 std::string ContentRequestId(const api::MeasurementBatchRequest& batch) {
   api::MeasurementBatchRequest content = batch;
   content.request_id.clear();
-  const std::string text = api::ToJson(content).dump();
-  std::uint64_t h = 1469598103934665603ULL;  // FNV-1a: stable across platforms and runs
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "auto-%016llx", static_cast<unsigned long long>(h));
-  return buf;
+  return "auto-" + api::ContentHash(api::ToJson(content).dump());
 }
 
 UploadResult Client::UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch) {

@@ -45,18 +45,6 @@ MeasurementType ParseType(const std::string& text) {
   return type;
 }
 
-// FNV-1a: a stable content hash for idempotency (not a security property: a request_id is the caller's).
-std::string ContentHash(const std::string& text) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 // One page of a list: page_size items after page_token (the last id of the previous page; opaque to clients).
 struct PageRequest {
   std::size_t size = 100;
@@ -601,7 +589,7 @@ json Service::AppendMeasurements(const std::string& campaign_id, const json& bod
   }
   BatchResult r;
   try {
-    r = storage_->AppendMeasurements(campaign_id, req.request_id, ContentHash(all), req.role, texts,
+    r = storage_->AppendMeasurements(campaign_id, req.request_id, api::ContentHash(all), req.role, texts,
                                      options_.max_measurements_per_campaign);
   } catch (const StorageError& e) {
     if (e.kind() == StorageError::Kind::kAlreadyExists) {

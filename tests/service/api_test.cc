@@ -33,6 +33,13 @@ bool HasField(const std::vector<FieldViolation>& v, const std::string& field) {
   return false;
 }
 
+// The published FNV-1a 64-bit test vectors: the hash client and server agree on for idempotent uploads.
+TEST(ContentHashTest, IsFnv1a64) {
+  EXPECT_EQ(ContentHash(""), "cbf29ce484222325");
+  EXPECT_EQ(ContentHash("a"), "af63dc4c8601ec8c");
+  EXPECT_EQ(ContentHash("foobar"), "85944171f73967e8");
+}
+
 TEST(ApiTest, MalformedJsonIsInvalidArgument) {
   EXPECT_THROW(ParseBody("{\"a\":"), ApiError);
   EXPECT_THROW(ParseBody("[1,2]"), ApiError);

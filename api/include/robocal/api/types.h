@@ -142,6 +142,10 @@ struct MeasurementBatchRequest {
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
                                                      MeasurementType type, const Limits& limits);
 nlohmann::json ToJson(const MeasurementBatchRequest& request);
+/// The content hash that makes measurement uploads idempotent: 16 hex digits of the 64-bit FNV-1a hash of
+/// `text`. Client (a request_id derived from a batch) and server (a batch's content) share it so that both
+/// agree on what "the same batch" means.
+std::string ContentHash(const std::string& text);
 /// Parses one stored measurement (as written by ToJson(MeasurementWire)).
 MeasurementWire MeasurementFromJson(const nlohmann::json& value);
 
