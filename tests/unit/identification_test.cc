@@ -302,13 +302,18 @@ TEST(IdentificationTest, SameSeedGivesTheSameResult) {
   EXPECT_EQ(a.summary.final_cost, b.summary.final_cost);
 }
 
-TEST(IdentificationTest, ProgressReturningFalseCancelsWithTheBestParametersSoFar) {
-  const RobotModel model = Preset("puma560");
+// Two shots at each of 15 puma560 poses: a fit that takes several iterations, for the progress tests.
+std::vector<Measurement> PumaShotsForProgress(const RobotModel& model) {
   VirtualCellOptions co;
   co.seed = 9;
   co.shots_per_pose = 2;
   VirtualCell cell(model, co);
-  const std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 15, 4));
+  return cell.MeasureAll(Configurations(model, 15, 4));
+}
+
+TEST(IdentificationTest, ProgressReturningFalseCancelsWithTheBestParametersSoFar) {
+  const RobotModel model = Preset("puma560");
+  const std::vector<Measurement> shots = PumaShotsForProgress(model);
   const Calibration full = Identify(model, shots);
   ASSERT_GT(full.summary.iterations, 1) << "the test needs a fit of more than one iteration";
 
@@ -333,11 +338,7 @@ TEST(IdentificationTest, ProgressReturningFalseCancelsWithTheBestParametersSoFar
 
 TEST(IdentificationTest, ProgressThatContinuesChangesNothing) {
   const RobotModel model = Preset("puma560");
-  VirtualCellOptions co;
-  co.seed = 9;
-  co.shots_per_pose = 2;
-  VirtualCell cell(model, co);
-  const std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 15, 4));
+  const std::vector<Measurement> shots = PumaShotsForProgress(model);
   const Calibration plain = Identify(model, shots);
   IdentificationOptions o;
   std::vector<double> fractions;
