@@ -46,6 +46,13 @@ call POST /v1/robots '{"id": "cell7", "from_preset": "ur5e", "tool": {"position_
 expect "POST /v1/robots" "$(status)" 200
 call POST /v1/robots '{"id": "cell7", "from_preset": "ur5e"}' >/dev/null
 expect "POST /v1/robots twice -> 409" "$(status)" 409
+# Lists are paged: follow next_page_token until it is absent.
+page1=$(call GET '/v1/robots?page_size=2')
+expect "GET /v1/robots?page_size=2: first page" "$(echo "$page1" | jq -r '[.robots[].id] | join(",")')" grinder5,puma560
+token=$(echo "$page1" | jq -r .next_page_token)
+expect "GET /v1/robots page 2" "$(call GET "/v1/robots?page_size=2&page_token=$token" | jq -r '[.robots[].id] | join(",")')" "ur5e,cell7"
+call GET '/v1/robots?page_size=0' >/dev/null
+expect "GET /v1/robots?page_size=0 -> 400" "$(status)" 400
 expect "POST /v1/robots:forward" \
   "$(call POST '/v1/robots/cell7:forward' '{"joints": [[0, -90, 90, 0, 90, 0]]}' | jq '.poses[0].position_mm | length')" 3
 expect "forward with 2 of 6 joints -> field" \
