@@ -21,6 +21,15 @@ std::string Row(const char* label, const ErrorStatistics& s, double scale) {
 
 }  // namespace
 
+double Median(std::vector<double> values) {
+  if (values.empty() || std::any_of(values.begin(), values.end(), [](double v) { return std::isnan(v); })) {
+    return std::nan("");
+  }
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return 0.5 * (values[n / 2] + values[(n - 1) / 2]);
+}
+
 ErrorStatistics ComputeErrorStatistics(const std::vector<double>& values) {
   if (values.empty()) throw std::invalid_argument("ComputeErrorStatistics: empty sample");
   for (size_t i = 0; i < values.size(); ++i) {

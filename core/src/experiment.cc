@@ -29,13 +29,6 @@ std::uint64_t DeriveSeed(std::uint64_t seed, int trial, int purpose) {
 
 enum Purpose { kCell = 0, kRandomPlan = 1, kSolisWets = 2, kExchange = 3, kValidation = 4 };
 
-double Median(std::vector<double> values) {
-  if (values.empty()) return std::nan("");
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return 0.5 * (values[n / 2] + values[(n - 1) / 2]);
-}
-
 // Per-method pools over all trials.
 struct Pool {
   std::vector<Transform> reached, target;

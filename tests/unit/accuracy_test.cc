@@ -53,6 +53,14 @@ Transform PoseWithAxisTilt(const Eigen::Vector3d& position_mm, double tilt_rad) 
   return t;
 }
 
+TEST(MedianTest, OddEvenEmptyAndNaN) {
+  EXPECT_DOUBLE_EQ(Median({3.0, 1.0, 2.0}), 2.0);
+  EXPECT_DOUBLE_EQ(Median({4.0, 1.0, 3.0, 2.0}), 2.5);
+  EXPECT_DOUBLE_EQ(Median({7.0}), 7.0);
+  EXPECT_TRUE(std::isnan(Median({})));
+  EXPECT_TRUE(std::isnan(Median({1.0, std::nan(""), 2.0})));
+}
+
 TEST(AccuracyTest, PositionAndAxisErrorsOfKnownPoses) {
   const Transform target = Transform::Identity();
   const std::vector<Transform> reached = {

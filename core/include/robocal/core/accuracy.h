@@ -23,6 +23,10 @@ struct ErrorStatistics {
 /// Statistics of `values`. Throws std::invalid_argument for an empty sample or a non-finite value.
 ErrorStatistics ComputeErrorStatistics(const std::vector<double>& values);
 
+/// Median of `values` (the mean of the two middle values for an even count); NaN for an empty sample or
+/// one holding a NaN.
+double Median(std::vector<double> values);
+
 /// The paper's three errors at N validation poses.
 struct AccuracyReport {
   /// E_xyz = |p - p'| (mm).
