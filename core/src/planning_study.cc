@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -91,10 +92,22 @@ bool PlanningStudyOptions::IsValid(std::string* error) const {
   const std::vector<std::string> names = PresetNames();
   for (size_t i = 0; i < robots.size(); ++i) {
     if (std::find(names.begin(), names.end(), robots[i]) == names.end()) {
-      return fail("robots[" + std::to_string(i) + "]: unknown robot '" + robots[i] + "'");
+      std::string known;
+      for (const std::string& name : names) known += (known.empty() ? "" : ", ") + name;
+      return fail("robots[" + std::to_string(i) + "]: unknown robot '" + robots[i] + "' (known: " + known + ")");
+    }
+    if (std::find(robots.begin(), robots.begin() + i, robots[i]) != robots.begin() + i) {
+      return fail("robots[" + std::to_string(i) + "]: '" + robots[i] + "' is listed twice");
     }
   }
   if (measurement_types.empty()) return fail("measurement_types: at least one type is needed");
+  for (size_t i = 0; i < measurement_types.size(); ++i) {
+    const auto end = measurement_types.begin() + static_cast<std::ptrdiff_t>(i);
+    if (std::find(measurement_types.begin(), end, measurement_types[i]) != end) {
+      return fail("measurement_types[" + std::to_string(i) + "]: '" + ToString(measurement_types[i]) +
+                  "' is listed twice");
+    }
+  }
   if (num_configurations < 1 || num_configurations > 1000) return fail("num_configurations must be in [1, 1000]");
   if (seeds < 1 || seeds > 100000) return fail("seeds must be in [1, 100000]");
   if (budgets.empty()) return fail("budgets: at least one k_max is needed");
@@ -107,8 +120,17 @@ bool PlanningStudyOptions::IsValid(std::string* error) const {
     }
   }
   if (num_validation < 1 || num_validation > 1000000) return fail("num_validation must be in [1, 1000000]");
+  if (!(noise.position_mm > 0.0) || !(noise.orientation_rad > 0.0) || !std::isfinite(noise.position_mm) ||
+      !std::isfinite(noise.orientation_rad)) {
+    return fail("noise: position_mm and orientation_rad must be positive and finite");
+  }
+  if (!(expected_translation_mm > 0.0) || !(expected_rotation_rad > 0.0) || !std::isfinite(expected_translation_mm) ||
+      !std::isfinite(expected_rotation_rad)) {
+    return fail("expected_translation_mm and expected_rotation_rad must be positive and finite");
+  }
   if (exchange && (exchange_candidates < num_configurations || exchange_candidates > 1000000)) {
-    return fail("exchange_candidates must be in [num_configurations, 1000000]");
+    return fail("exchange_candidates: " + std::to_string(exchange_candidates) + " must be in [num_configurations (" +
+                std::to_string(num_configurations) + "), 1000000]");
   }
   if (threads < 1 || threads > 256) return fail("threads must be in [1, 256]");
   return true;
@@ -116,7 +138,7 @@ bool PlanningStudyOptions::IsValid(std::string* error) const {
 
 double PlanningStudyRow::Ratio(int b) const { return start_condition_number / condition_number.at(b); }
 
-double PlanningStudyRow::HeadroomFraction(int b) const {
+double PlanningStudyRow::GainShare(int b) const {
   const double best = std::log(start_condition_number / condition_number.back());
   if (!(best > 0.0)) return std::nan("");
   return std::log(start_condition_number / condition_number.at(b)) / best;
@@ -132,8 +154,21 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
     for (MeasurementType type : options.measurement_types) {
       Case c{Preset(robot), type, {}, {}};
       c.observability.measurement_type = type;
+      c.observability.noise = options.noise;
       c.observability.scaling = options.scaling;
-      c.observability.parameters = FindIdentifiableParameters(c.model, type).identifiable;
+      c.observability.expected_translation_mm = options.expected_translation_mm;
+      c.observability.expected_rotation_rad = options.expected_rotation_rad;
+      IdentifiabilityOptions identifiability;
+      identifiability.noise = options.noise;
+      c.observability.parameters = FindIdentifiableParameters(c.model, type, identifiability).identifiable;
+      const int rows = options.num_configurations * MeasurementRows(type);
+      const int parameters = static_cast<int>(c.observability.parameters.size());
+      if (rows < parameters) {
+        throw std::invalid_argument("PlanningStudyOptions: num_configurations: " +
+                                    std::to_string(options.num_configurations) + " " + ToString(type) +
+                                    " measurements give " + std::to_string(rows) + " rows for the " +
+                                    std::to_string(parameters) + " identifiable parameters of " + robot);
+      }
       Rng rng(options.first_seed + kPlanningStudyValidationSeedOffset);
       c.validation = RandomConfigurations(c.model, options.num_validation, &rng);
       cases.push_back(std::move(c));
@@ -144,14 +179,21 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
   const int runs = static_cast<int>(cases.size()) * options.seeds;
   std::vector<SeedResult> results(runs);
   std::atomic<int> next{0};
-  std::mutex progress_mutex;
+  std::mutex mutex;  // guards done, failure and the progress callback
   int done = 0;
+  std::exception_ptr failure;
   auto work = [&] {
     for (int i = next++; i < runs; i = next++) {
-      results[i] = RunSeed(cases[i / options.seeds], options, options.first_seed + i % options.seeds);
-      if (options.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        options.progress(++done, runs);
+      try {
+        results[i] = RunSeed(cases[i / options.seeds], options, options.first_seed + i % options.seeds);
+        if (options.progress) {
+          std::lock_guard<std::mutex> lock(mutex);
+          options.progress(++done, runs);
+        }
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!failure) failure = std::current_exception();
+        next = runs;  // hand out no more runs; the others finish theirs
       }
     }
   };
@@ -159,6 +201,7 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
   for (int t = 1; t < std::min(options.threads, runs); ++t) workers.emplace_back(work);
   work();
   for (std::thread& w : workers) w.join();
+  if (failure) std::rethrow_exception(failure);
 
   PlanningStudyResult result;
   result.options = options;
@@ -193,26 +236,36 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
 std::string FormatPlanningStudy(const PlanningStudyResult& result) {
   const PlanningStudyOptions& o = result.options;
   const size_t nb = o.budgets.size();
+  ObservabilityOptions scaling;
+  scaling.noise = o.noise;
+  scaling.scaling = o.scaling;
+  scaling.expected_translation_mm = o.expected_translation_mm;
+  scaling.expected_rotation_rad = o.expected_rotation_rad;
   std::ostringstream out;
   out << "Planning study: M = " << o.num_configurations << ", medians over " << o.seeds << " seeds (from "
-      << o.first_seed << "), scaling " << ToString(o.scaling) << ", paper preset with k_max";
+      << o.first_seed << "), " << scaling.ScalingDescription() << "; paper preset with k_max";
   for (int k : o.budgets) out << " " << k;
   out << "\n\nCondition number of E* (random start -> k_max ...)";
   if (o.exchange) out << "; exchange with log det as objective";
   out << "\n" << Pad("robot", 10) << Pad("type", 15) << Pad("L", 4) << Pad("start", 10);
   for (int k : o.budgets) out << Pad("k=" + std::to_string(k), 10);
   if (o.exchange) out << Pad("exch", 10);
-  out << Pad("ratio", 8) << Pad("headroom", 10) << "\n";
+  out << Pad("ratio", 8) << Pad("gain share", 12) << "\n";
   for (const PlanningStudyRow& row : result.rows) {
     out << Pad(row.robot, 10) << Pad(ToString(row.measurement_type), 15) << Pad(std::to_string(row.num_parameters), 4)
         << Pad(Fixed(row.start_condition_number, 2), 10);
     for (size_t b = 0; b < nb; ++b) out << Pad(Fixed(row.condition_number[b], 2), 10);
     if (o.exchange) out << Pad(Fixed(row.exchange_condition_number, 2), 10);
-    out << Pad(Fixed(row.Ratio(0), 2) + "x", 8);
-    out << Pad(nb > 1 ? Fixed(100.0 * row.HeadroomFraction(0), 0) + " %" : "-", 10) << "\n";
+    const double ratio = row.Ratio(0), share = nb > 1 ? row.GainShare(0) : std::nan("");
+    out << Pad(std::isfinite(ratio) ? Fixed(ratio, 2) + "x" : "-", 8);
+    out << Pad(std::isfinite(share) ? Fixed(100.0 * share, 0) + " %" : "-", 12) << "\n";
   }
-  out << "ratio: random start / k_max " << o.budgets.front() << ". headroom: ln(start / k_max " << o.budgets.front()
-      << ") / ln(start / k_max " << o.budgets.back() << "), the share of the longest run's gain.\n";
+  out << "ratio: random start / k_max " << o.budgets.front() << ".";
+  if (nb > 1) {
+    out << " gain share: ln(start / k_max " << o.budgets.front() << ") / ln(start / k_max " << o.budgets.back()
+        << "), the share of the best gain found that k_max " << o.budgets.front() << " reaches.";
+  }
+  out << "\n";
 
   out << "\nPredicted RMS position error after calibration, um (tracker noise only, " << o.num_validation
       << " random validation configurations)\n";

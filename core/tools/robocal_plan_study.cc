@@ -1,7 +1,10 @@
 // robocal-plan-study: the planners' study of docs/planning.md as a command (RunPlanningStudy). Exit codes: 0 done,
-// 1 the run failed, 2 bad command line.
+// 1 the run failed, 2 bad command line (including options the study cannot run, e.g. too few configurations).
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <numbers>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -14,12 +17,12 @@ namespace {
 
 constexpr const char* kUsage = R"(usage: robocal-plan-study [options]
 
-For every robot and measurement type: M random starting sets (one per seed), each optimised by the paper's
-Solis & Wets preset with every k_max of --budgets, and (unless --no-exchange) a plan by the exchange
-optimiser with log det as objective. Prints the median condition numbers, the ratio random start / first
-budget, the headroom (the share of the longest run's gain in ln(cond) that the first budget reaches), and
-the predicted RMS position error after calibration of each plan (tracker noise only). Same flags, same
-figures.
+For every robot and measurement type: N random starting sets of M configurations (--seeds N, one set per
+seed; --configurations M), each optimised by the paper's Solis & Wets preset with every k_max of --budgets,
+and (unless --no-exchange) a plan by the exchange optimiser with log det as objective. Prints the median
+condition numbers, the ratio random start / first budget, the gain share (the share of the best gain found,
+by the last budget, in ln(cond) that the first budget reaches), and the predicted RMS position error after
+calibration of each plan (tracker noise only). Same flags, same figures.
 
 options:
   --robots LIST             comma-separated presets (default grinder5,puma560,ur5e)
@@ -29,11 +32,15 @@ options:
   --first-seed S            seeds S .. S+N-1 (default 1)
   --budgets LIST            k_max values, strictly ascending (default 100,1000,10000; 100 is the paper's)
   --scaling NAME            column_norm (default), expected_deviation or none
+  --noise-mm SIGMA          tracker position noise per axis, 1-sigma, mm (default 0.015); weights E*'s rows
+  --noise-deg SIGMA         tracker orientation noise per axis, 1-sigma, degrees (default 0.0057)
+  --expected-mm SIZE        expected size of length errors for expected_deviation, mm (default 0.1)
+  --expected-deg SIZE       expected size of angle errors for expected_deviation, degrees (default 0.0573)
   --validation N            validation configurations of the predicted accuracy (default 200)
   --exchange-candidates N   candidate pool of the exchange optimiser (default 2000)
   --no-exchange             skip the exchange optimiser
-  --threads N               worker threads (default: the machine's cores); results do not depend on it
-  --help                    this text
+  --threads N               worker threads, 1..256 (default: the machine's cores); results do not depend on it
+  --help, -h                this text
 )";
 
 void Apply(const std::string& flag, const std::string& value, robocal::PlanningStudyOptions* o) {
@@ -64,6 +71,14 @@ void Apply(const std::string& flag, const std::string& value, robocal::PlanningS
     if (!robocal::ParseColumnScaling(value, &o->scaling)) {
       throw BadFlag(flag + ": '" + value + "' is not column_norm, expected_deviation or none");
     }
+  } else if (flag == "--noise-mm") {
+    o->noise.position_mm = ParseDoubleFlag(flag, value, 1e-12);
+  } else if (flag == "--noise-deg") {
+    o->noise.orientation_rad = ParseDoubleFlag(flag, value, 1e-12) * std::numbers::pi / 180.0;
+  } else if (flag == "--expected-mm") {
+    o->expected_translation_mm = ParseDoubleFlag(flag, value, 1e-12);
+  } else if (flag == "--expected-deg") {
+    o->expected_rotation_rad = ParseDoubleFlag(flag, value, 1e-12) * std::numbers::pi / 180.0;
   } else if (flag == "--validation") {
     o->num_validation = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000000));
   } else if (flag == "--exchange-candidates") {
@@ -88,10 +103,15 @@ int main(int argc, char** argv) {
     }
   }
   robocal::PlanningStudyOptions options;
-  options.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 256u));
   std::string error;
   try {
     for (const auto& [flag, value] : robocal::tools::SplitFlags(args, {"--no-exchange"})) Apply(flag, value, &options);
+    if (options.exchange && options.exchange_candidates < options.num_configurations) {
+      throw robocal::tools::BadFlag("--exchange-candidates: " + std::to_string(options.exchange_candidates) +
+                                    " candidates cannot give " + std::to_string(options.num_configurations) +
+                                    " configurations (--configurations)");
+    }
     options.IsValid(&error);
   } catch (const robocal::tools::BadFlag& e) {
     error = e.what();
@@ -100,12 +120,16 @@ int main(int argc, char** argv) {
     std::cerr << "robocal-plan-study: " << error << "\n(see robocal-plan-study --help)\n";
     return 2;
   }
+  // The progress line is overwritten in place and cleared before the results.
   options.progress = [](int done, int total) { std::cerr << "\rrun " << done << " of " << total << std::flush; };
   try {
     const robocal::PlanningStudyResult result = robocal::RunPlanningStudy(options);
-    std::cerr << "\r";
+    std::cerr << "\r                              \r";
     std::cout << robocal::FormatPlanningStudy(result);
     std::fprintf(stderr, "%.1f s\n", result.seconds);
+  } catch (const std::invalid_argument& e) {  // options the study cannot run, e.g. too few configurations
+    std::cerr << "\nrobocal-plan-study: " << e.what() << "\n(see robocal-plan-study --help)\n";
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "\nrobocal-plan-study: " << e.what() << "\n";
     return 1;

@@ -1,6 +1,9 @@
 // The planning study: its medians against the planners run by hand, thread-independence, the ratio and
-// headroom arithmetic, option checks, progress.
+// gain-share arithmetic, option checks, progress and failures of a run.
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <stdexcept>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -15,13 +18,15 @@
 namespace robocal {
 namespace {
 
+using ::testing::ContainsRegex;
 using ::testing::HasSubstr;
 
+// Two robots x two types, so that rows map to the right robot and type.
 PlanningStudyOptions SmallStudy() {
   PlanningStudyOptions o;
   o.robots = {"grinder5", "ur5e"};
-  o.measurement_types = {MeasurementType::kPose};
-  o.num_configurations = 8;
+  o.measurement_types = {MeasurementType::kPosition, MeasurementType::kPose};
+  o.num_configurations = 10;
   o.seeds = 4;
   o.first_seed = 11;
   o.budgets = {10, 60};
@@ -30,38 +35,56 @@ PlanningStudyOptions SmallStudy() {
   return o;
 }
 
+std::string Fixed2(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f", value);
+  return text;
+}
+
 TEST(PlanningStudy, MediansAreThoseOfThePlannersRunByHand) {
   const PlanningStudyOptions o = SmallStudy();
   const PlanningStudyResult result = RunPlanningStudy(o);
-  ASSERT_EQ(result.rows.size(), 2u);
+  ASSERT_EQ(result.rows.size(), 4u);
+  const std::string text = FormatPlanningStudy(result);
   for (size_t r = 0; r < result.rows.size(); ++r) {
     const PlanningStudyRow& row = result.rows[r];
-    const RobotModel model = Preset(o.robots[r]);
-    EXPECT_EQ(row.robot, o.robots[r]);
+    const std::string& robot = o.robots[r / 2];
+    const MeasurementType type = o.measurement_types[r % 2];
+    SCOPED_TRACE(robot + " " + ToString(type));
+    EXPECT_EQ(row.robot, robot);
+    EXPECT_EQ(row.measurement_type, type);
+    const RobotModel model = Preset(robot);
     ObservabilityOptions obs;
-    obs.measurement_type = MeasurementType::kPose;
-    obs.parameters = FindIdentifiableParameters(model, obs.measurement_type).identifiable;
+    obs.measurement_type = type;
+    obs.parameters = FindIdentifiableParameters(model, type).identifiable;
     EXPECT_EQ(row.num_parameters, static_cast<int>(obs.parameters.size()));
     Rng validation_rng(o.first_seed + kPlanningStudyValidationSeedOffset);
     const auto validation = RandomConfigurations(model, o.num_validation, &validation_rng);
     auto rms = [&](const std::vector<Eigen::VectorXd>& plan) {
-      return PredictAccuracy(model, obs, plan, validation).rms_position_mm;
+      const PredictedAccuracy p = PredictAccuracy(model, obs, plan, validation);
+      return p.num_validation > 0 ? p.rms_position_mm : std::nan("");
     };
     std::vector<double> start, start_rms, exchange, exchange_rms;
     std::vector<std::vector<double>> cond(o.budgets.size()), cond_rms(o.budgets.size());
     for (int s = 0; s < o.seeds; ++s) {
       const std::uint64_t seed = o.first_seed + s;
+      // The study's premise: every budget of a seed starts from the same random set, this one.
+      Rng start_rng(seed);
+      const auto start_set = RandomConfigurations(model, o.num_configurations, &start_rng);
+      ObservabilityEvaluator evaluator(model, obs);
+      evaluator.SetConfigurations(start_set);
+      start_rms.push_back(rms(start_set));
       for (size_t b = 0; b < o.budgets.size(); ++b) {
         SolisWetsOptions sw = SolisWetsOptions::Paper();
         sw.k_max = o.budgets[b];
         sw.seed = seed;
         const Plan plan = PlanSolisWets(model, o.num_configurations, obs, sw);
+        EXPECT_NEAR(plan.summary.initial.condition_number, evaluator.indices().condition_number,
+                    1e-9 * evaluator.indices().condition_number);
         if (b == 0) start.push_back(plan.summary.initial.condition_number);
         cond[b].push_back(plan.summary.final.condition_number);
         cond_rms[b].push_back(rms(plan.configurations));
       }
-      Rng start_rng(seed);
-      start_rms.push_back(rms(RandomConfigurations(model, o.num_configurations, &start_rng)));
       ExchangeOptions ex;
       ex.objective = ObservabilityIndex::kLogDet;
       ex.num_candidates = o.exchange_candidates;
@@ -81,54 +104,104 @@ TEST(PlanningStudy, MediansAreThoseOfThePlannersRunByHand) {
     EXPECT_DOUBLE_EQ(row.exchange_rms_position_mm, Median(exchange_rms));
     // What the study is for: optimised plans are better conditioned than their random starts.
     EXPECT_LT(row.condition_number.back(), row.start_condition_number);
+    // The table prints this row's figures in order: L, start, budgets, exchange, ratio.
+    EXPECT_THAT(text, ContainsRegex(robot + " +" + ToString(type) + " +" + std::to_string(row.num_parameters) + " +" +
+                                    Fixed2(row.start_condition_number) + " +" + Fixed2(row.condition_number[0]) + " +" +
+                                    Fixed2(row.condition_number[1]) + " +" + Fixed2(row.exchange_condition_number) +
+                                    " +" + Fixed2(row.Ratio(0)) + "x"));
   }
-  const std::string text = FormatPlanningStudy(result);
-  EXPECT_THAT(text, HasSubstr("M = 8, medians over 4 seeds (from 11), scaling column_norm"));
-  EXPECT_THAT(text, HasSubstr("k=60"));
+  EXPECT_THAT(text, HasSubstr("M = 10, medians over 4 seeds (from 11), rows / noise (0.015 mm, 0.0001 rad); "
+                              "columns: column_norm; paper preset with k_max 10 60"));
   EXPECT_THAT(text, HasSubstr("Predicted RMS position error"));
 }
 
 TEST(PlanningStudy, ThreadsDoNotChangeTheResult) {
   PlanningStudyOptions o = SmallStudy();
-  o.robots = {"grinder5"};
   o.threads = 1;
   const PlanningStudyResult one = RunPlanningStudy(o);
   o.threads = 3;
   const PlanningStudyResult three = RunPlanningStudy(o);
   ASSERT_EQ(one.rows.size(), three.rows.size());
-  EXPECT_EQ(one.rows[0].condition_number, three.rows[0].condition_number);
-  EXPECT_EQ(one.rows[0].rms_position_mm, three.rows[0].rms_position_mm);
-  EXPECT_EQ(one.rows[0].exchange_condition_number, three.rows[0].exchange_condition_number);
+  for (size_t r = 0; r < one.rows.size(); ++r) {
+    const PlanningStudyRow &a = one.rows[r], &b = three.rows[r];
+    EXPECT_EQ(a.robot, b.robot);
+    EXPECT_EQ(a.measurement_type, b.measurement_type);
+    EXPECT_EQ(a.start_condition_number, b.start_condition_number);
+    EXPECT_EQ(a.condition_number, b.condition_number);
+    EXPECT_EQ(a.exchange_condition_number, b.exchange_condition_number);
+    EXPECT_EQ(a.start_rms_position_mm, b.start_rms_position_mm);
+    EXPECT_EQ(a.rms_position_mm, b.rms_position_mm);
+    EXPECT_EQ(a.exchange_rms_position_mm, b.exchange_rms_position_mm);
+  }
+  EXPECT_EQ(FormatPlanningStudy(one), FormatPlanningStudy(three));
 }
 
-TEST(PlanningStudy, RatioAndHeadroomByHand) {
+TEST(PlanningStudy, RatioAndGainShareByHand) {
   PlanningStudyRow row;
   row.start_condition_number = 16.0;
   row.condition_number = {8.0, 4.0, 2.0};
   EXPECT_DOUBLE_EQ(row.Ratio(0), 2.0);
   EXPECT_DOUBLE_EQ(row.Ratio(2), 8.0);
   // ln 2 / ln 8 = 1/3; ln 4 / ln 8 = 2/3.
-  EXPECT_NEAR(row.HeadroomFraction(0), 1.0 / 3.0, 1e-15);
-  EXPECT_NEAR(row.HeadroomFraction(1), 2.0 / 3.0, 1e-15);
-  EXPECT_DOUBLE_EQ(row.HeadroomFraction(2), 1.0);
-  row.condition_number = {16.0, 16.0};  // nothing gained by the longest run: no headroom to share
-  EXPECT_TRUE(std::isnan(row.HeadroomFraction(0)));
+  EXPECT_NEAR(row.GainShare(0), 1.0 / 3.0, 1e-15);
+  EXPECT_NEAR(row.GainShare(1), 2.0 / 3.0, 1e-15);
+  EXPECT_DOUBLE_EQ(row.GainShare(2), 1.0);
+  row.condition_number = {16.0, 16.0};  // the longest run gained nothing: no share to speak of
+  EXPECT_TRUE(std::isnan(row.GainShare(0)));
 }
 
-TEST(PlanningStudy, ProgressCountsEveryRun) {
+TEST(PlanningStudy, ProgressCountsEveryRunOneCallAtATime) {
+  PlanningStudyOptions o = SmallStudy();
+  o.exchange = false;
+  o.threads = 3;
+  std::vector<int> done_sequence;
+  std::atomic<bool> inside{false};
+  std::atomic<int> overlaps{0};
+  int last_total = 0;
+  o.progress = [&](int done, int total) {
+    if (inside.exchange(true)) ++overlaps;
+    done_sequence.push_back(done);
+    last_total = total;
+    inside = false;
+  };
+  RunPlanningStudy(o);
+  EXPECT_EQ(overlaps, 0);
+  std::vector<int> expected(16);
+  for (int i = 0; i < 16; ++i) expected[i] = i + 1;
+  EXPECT_EQ(done_sequence, expected);
+  EXPECT_EQ(last_total, 16);
+}
+
+TEST(PlanningStudy, AFailingRunStopsTheStudyAndIsRethrown) {
   PlanningStudyOptions o = SmallStudy();
   o.exchange = false;
   o.threads = 2;
-  int calls = 0, last_done = 0, last_total = 0;
-  o.progress = [&](int done, int total) {
-    ++calls;
-    last_done = done;
-    last_total = total;
+  std::atomic<int> calls{0};
+  o.progress = [&](int, int) {
+    if (++calls == 3) throw std::runtime_error("stop at the third run");
   };
-  RunPlanningStudy(o);
-  EXPECT_EQ(calls, 8);
-  EXPECT_EQ(last_done, 8);
-  EXPECT_EQ(last_total, 8);
+  try {
+    RunPlanningStudy(o);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "stop at the third run");
+  }
+  EXPECT_LT(calls, 16);  // the remaining runs were not handed out
+}
+
+TEST(PlanningStudy, TooFewConfigurationsForTheParametersAreRefused) {
+  PlanningStudyOptions o = SmallStudy();
+  o.robots = {"ur5e"};
+  o.measurement_types = {MeasurementType::kPose};
+  o.num_configurations = 4;  // 24 rows for 30 parameters
+  o.exchange_candidates = 60;
+  try {
+    RunPlanningStudy(o);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("num_configurations: 4 pose measurements give 24 rows for the 30 identifiable "
+                                    "parameters of ur5e"));
+  }
 }
 
 TEST(PlanningStudy, BadOptionsAreNamed) {
@@ -137,17 +210,24 @@ TEST(PlanningStudy, BadOptionsAreNamed) {
     const char* message;
   };
   const std::vector<Bad> bad = {
-      {[](PlanningStudyOptions* o) { o->robots = {"grinder5", "kuka"}; }, "robots[1]: unknown robot 'kuka'"},
+      {[](PlanningStudyOptions* o) { o->robots = {"grinder5", "kuka"}; },
+       "robots[1]: unknown robot 'kuka' (known: grinder5, puma560, ur5e)"},
+      {[](PlanningStudyOptions* o) { o->robots = {"ur5e", "ur5e"}; }, "robots[1]: 'ur5e' is listed twice"},
       {[](PlanningStudyOptions* o) { o->robots.clear(); }, "robots: at least one"},
-      {[](PlanningStudyOptions* o) { o->measurement_types.clear(); }, "measurement_types"},
-      {[](PlanningStudyOptions* o) { o->seeds = 0; }, "seeds"},
-      {[](PlanningStudyOptions* o) { o->num_configurations = 0; }, "num_configurations"},
+      {[](PlanningStudyOptions* o) { o->measurement_types.clear(); }, "measurement_types: at least one"},
+      {[](PlanningStudyOptions* o) { o->measurement_types = {MeasurementType::kPose, MeasurementType::kPose}; },
+       "measurement_types[1]: 'pose' is listed twice"},
+      {[](PlanningStudyOptions* o) { o->seeds = 0; }, "seeds must be in [1, 100000]"},
+      {[](PlanningStudyOptions* o) { o->num_configurations = 0; }, "num_configurations must be in [1, 1000]"},
       {[](PlanningStudyOptions* o) { o->budgets = {100, 100}; }, "budgets[1]: budgets must be strictly ascending"},
       {[](PlanningStudyOptions* o) { o->budgets = {0}; }, "budgets[0]: k_max must be in"},
       {[](PlanningStudyOptions* o) { o->budgets.clear(); }, "budgets: at least one"},
-      {[](PlanningStudyOptions* o) { o->num_validation = 0; }, "num_validation"},
-      {[](PlanningStudyOptions* o) { o->exchange_candidates = 5; }, "exchange_candidates"},
-      {[](PlanningStudyOptions* o) { o->threads = 0; }, "threads"},
+      {[](PlanningStudyOptions* o) { o->noise.orientation_rad = 0.0; }, "noise: position_mm and orientation_rad"},
+      {[](PlanningStudyOptions* o) { o->expected_translation_mm = -1.0; }, "expected_translation_mm and"},
+      {[](PlanningStudyOptions* o) { o->num_validation = 0; }, "num_validation must be in"},
+      {[](PlanningStudyOptions* o) { o->exchange_candidates = 5; },
+       "exchange_candidates: 5 must be in [num_configurations (10), 1000000]"},
+      {[](PlanningStudyOptions* o) { o->threads = 0; }, "threads must be in [1, 256]"},
   };
   for (const Bad& b : bad) {
     PlanningStudyOptions o = SmallStudy();

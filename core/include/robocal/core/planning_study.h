@@ -1,6 +1,6 @@
 // A reproducible study of the planners: how far the paper's Solis & Wets preset lowers the condition number
-// below random starting sets, how far longer budgets go (the headroom), and what each plan buys in predicted
-// accuracy. The figures of docs/planning.md come from it (`robocal-plan-study`).
+// below random starting sets, how much of the best gain found by longer budgets it reaches, and what each plan
+// buys in predicted accuracy. The planning figures of docs/planning.md come from it (`robocal-plan-study`).
 #pragma once
 
 #include <cstdint>
@@ -19,7 +19,8 @@ struct PlanningStudyOptions {
   /// Robot presets (presets.h) and measurement types; the study runs every pair.
   std::vector<std::string> robots = {"grinder5", "puma560", "ur5e"};
   std::vector<MeasurementType> measurement_types = {MeasurementType::kPosition, MeasurementType::kPose};
-  /// Configurations per plan (the paper's 10).
+  /// Configurations per plan (the paper's 10). M x MeasurementRows(type) must reach the number of identifiable
+  /// parameters of every case (checked by RunPlanningStudy).
   int num_configurations = 10;
   /// Seeds first_seed .. first_seed + seeds - 1; each seed is one random starting set, shared by every budget.
   int seeds = 20;
@@ -27,8 +28,13 @@ struct PlanningStudyOptions {
   /// k_max of the Solis & Wets runs, strictly ascending; otherwise the paper preset. The first is normally the
   /// paper's 100; the last is the best known result that the headroom is measured against.
   std::vector<int> budgets = {100, 1000, 10000};
-  /// Scaling of E* for the condition numbers (the optimisers' objective is the condition number).
+  /// Scaling of E* for the condition numbers (the optimisers' objective is the condition number), the tracker
+  /// noise that weights its rows (and the predicted accuracy), and the expected error sizes of
+  /// kExpectedDeviation.
   ColumnScaling scaling = ColumnScaling::kColumnNorm;
+  MeasurementNoise noise;
+  double expected_translation_mm = 0.1;
+  double expected_rotation_rad = 1e-3;
   /// Random validation configurations of the predicted accuracy: RandomConfigurations(model, num_validation)
   /// drawn from Rng(first_seed + kPlanningStudyValidationSeedOffset), apart from the plans' seeds.
   int num_validation = 200;
@@ -61,9 +67,9 @@ struct PlanningStudyRow {
 
   /// start / budget b (medians).
   double Ratio(int b) const;
-  /// ln(start / budget b) / ln(start / last budget): the share of the improvement that the longest run found
-  /// which budget b already reaches (1 for the last budget).
-  double HeadroomFraction(int b) const;
+  /// ln(start / budget b) / ln(start / last budget): the share of the best gain found (by the longest budget)
+  /// that budget b already reaches (1 for the last budget; NaN when the last budget gained nothing).
+  double GainShare(int b) const;
 };
 
 struct PlanningStudyResult {
@@ -72,7 +78,8 @@ struct PlanningStudyResult {
   double seconds = 0.0;
 };
 
-/// Runs the study. Throws std::invalid_argument for invalid options (naming the field) or an unknown robot.
+/// Runs the study. Throws std::invalid_argument for invalid options (naming the field) or too few
+/// configurations for a case's parameters; rethrows the first exception of a run (after stopping the others).
 PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options);
 
 /// The study as two tables (condition numbers with ratio and headroom; predicted accuracy), plain text.
