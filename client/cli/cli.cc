@@ -284,6 +284,23 @@ void ProgressBar(std::ostream& err, const client::Operation& op) {
       << std::lround(op.progress * 100) << "% " << op.state << std::flush;
 }
 
+// Waits for operation `id`, drawing its progress bar on err, and ends the bar's line.
+client::Operation WaitWithProgress(Client& c, const std::string& id, std::ostream& err) {
+  const client::Operation done = c.WaitOperation(id, [&err](const client::Operation& op) {
+    ProgressBar(err, op);
+    return true;
+  });
+  err << "\n";
+  return done;
+}
+
+// An async plan or fit that ended without its result: says why on err; the command's exit code.
+int ReportUnfinished(const client::Operation& done, std::ostream& err) {
+  const std::string message = done.error ? done.error->status + ": " + done.error->message : done.state;
+  err << "robocal: operation " << done.id << " " << done.state << ": " << message << "\n";
+  return kExitServiceError;
+}
+
 void PrintPlan(const client::PlanResult& plan, std::ostream& out) {
   out << "plan " << plan.id << "  robot " << plan.robot << "  " << plan.configurations.size() << " "
       << plan.measurement_type << " configurations  (" << plan.optimiser << ", objective " << plan.objective << ")\n";
@@ -566,16 +583,8 @@ int PlanCommand(Client& c, const Args& args, std::ostream& out, std::ostream& er
   if (args.Flag("--async")) {
     const client::Operation started = c.StartPlan(request);
     err << "operation " << started.id << "\n";
-    const client::Operation done = c.WaitOperation(started.id, [&err](const client::Operation& op) {
-      ProgressBar(err, op);
-      return true;
-    });
-    err << "\n";
-    if (done.state == "FAILED" || done.plan.empty()) {
-      const std::string message = done.error ? done.error->status + ": " + done.error->message : done.state;
-      err << "robocal: operation " << done.id << " " << done.state << ": " << message << "\n";
-      return kExitServiceError;
-    }
+    const client::Operation done = WaitWithProgress(c, started.id, err);
+    if (done.state == "FAILED" || done.plan.empty()) return ReportUnfinished(done, err);
     plan = c.GetPlan(done.plan);
   } else {
     plan = c.CreatePlan(request);
@@ -693,16 +702,8 @@ int Fit(Client& c, const Args& args, std::ostream& out, std::ostream& err) {
   if (args.Flag("--async")) {
     const client::Operation started = c.StartFit(args.positional[1], request);
     err << "operation " << started.id << "\n";
-    const client::Operation done = c.WaitOperation(started.id, [&err](const client::Operation& op) {
-      ProgressBar(err, op);
-      return true;
-    });
-    err << "\n";
-    if (done.state == "FAILED" || !done.fit) {
-      const std::string message = done.error ? done.error->status + ": " + done.error->message : done.state;
-      err << "robocal: operation " << done.id << " " << done.state << ": " << message << "\n";
-      return kExitServiceError;
-    }
+    const client::Operation done = WaitWithProgress(c, started.id, err);
+    if (done.state == "FAILED" || !done.fit) return ReportUnfinished(done, err);
     result = *done.fit;
   } else {
     result = c.Fit(args.positional[1], request);
@@ -762,11 +763,7 @@ int OperationCommand(Client& c, const Args& args, std::ostream& out, std::ostrea
   const std::string& sub = args.positional[1];
   client::Operation op;
   if (sub == "wait") {
-    op = c.WaitOperation(args.positional[2], [&err](const client::Operation& o) {
-      ProgressBar(err, o);
-      return true;
-    });
-    err << "\n";
+    op = WaitWithProgress(c, args.positional[2], err);
   } else if (sub == "get") {
     op = c.GetOperation(args.positional[2]);
   } else if (sub == "cancel") {

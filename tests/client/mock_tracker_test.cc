@@ -9,11 +9,19 @@
 namespace robocal {
 namespace {
 
-TEST(MockTrackerTest, CalibrationImprovesAccuracy) {
+// Each test runs against its own in-process server.
+class MockTrackerTest : public ::testing::Test {
+ protected:
+  static ClientOptions OptionsFor(const std::string& url) {
+    ClientOptions options;
+    options.server_url = url;
+    return options;
+  }
   testing::TestServer server;
-  ClientOptions client_options;
-  client_options.server_url = server.url();
-  Client client(client_options);
+  Client client{OptionsFor(server.url())};
+};
+
+TEST_F(MockTrackerTest, CalibrationImprovesAccuracy) {
   mock::MockTrackerOptions options;  // grinder5, 10 pose configurations, seed 1
   const mock::MockTrackerReport report = mock::RunMockTracker(client, options, nullptr);
   EXPECT_TRUE(report.improved);
@@ -39,11 +47,7 @@ TEST(MockTrackerTest, CalibrationImprovesAccuracy) {
   EXPECT_DOUBLE_EQ(again.planned.after.e_xyz_mm.mean, after.e_xyz_mm.mean);
 }
 
-TEST(MockTrackerTest, CompareRandom) {
-  testing::TestServer server;
-  ClientOptions client_options;
-  client_options.server_url = server.url();
-  Client client(client_options);
+TEST_F(MockTrackerTest, CompareRandom) {
   mock::MockTrackerOptions options;
   options.compare_random = true;
   options.shots_per_pose = 3;
@@ -55,11 +59,7 @@ TEST(MockTrackerTest, CompareRandom) {
   EXPECT_NE(mock::FormatReport(report, options).find("note: one trial"), std::string::npos);
 }
 
-TEST(MockTrackerTest, TrialsArePooled) {
-  testing::TestServer server;
-  ClientOptions client_options;
-  client_options.server_url = server.url();
-  Client client(client_options);
+TEST_F(MockTrackerTest, TrialsArePooled) {
   mock::MockTrackerOptions options;
   options.compare_random = true;
   options.trials = 2;
