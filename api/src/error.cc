@@ -4,10 +4,12 @@
 #include <array>
 #include <utility>
 
+#include "robocal/api/text.h"
+
 namespace robocal::api {
 namespace {
 
-constexpr std::array<std::pair<Status, const char*>, 9> kStatusNames = {{
+constexpr std::array<std::pair<Status, const char*>, 10> kStatusNames = {{
     {Status::kInvalidArgument, "INVALID_ARGUMENT"},
     {Status::kFailedPrecondition, "FAILED_PRECONDITION"},
     {Status::kNotFound, "NOT_FOUND"},
@@ -17,6 +19,7 @@ constexpr std::array<std::pair<Status, const char*>, 9> kStatusNames = {{
     {Status::kResourceExhausted, "RESOURCE_EXHAUSTED"},
     {Status::kInternal, "INTERNAL"},
     {Status::kUnavailable, "UNAVAILABLE"},
+    {Status::kDeadlineExceeded, "DEADLINE_EXCEEDED"},
 }};
 
 }  // namespace
@@ -38,15 +41,30 @@ bool ParseStatus(const std::string& text, Status* status) {
   return false;
 }
 
+namespace {
+std::vector<FieldViolation> SafeDetails(std::vector<FieldViolation> details) {
+  for (FieldViolation& d : details) {
+    d.field = SafeText(d.field, 256);
+    d.reason = SafeText(d.reason);
+  }
+  return details;
+}
+}  // namespace
+
 ApiError::ApiError(Status status, const std::string& message, std::vector<FieldViolation> details)
-    : std::runtime_error(message), status_(status), details_(std::move(details)) {}
+    : std::runtime_error(SafeText(message)), status_(status), details_(SafeDetails(std::move(details))) {}
 
 nlohmann::json ErrorBody(Status status, int http_code, const std::string& message,
                          const std::vector<FieldViolation>& details) {
   nlohmann::json detail_list = nlohmann::json::array();
-  for (const FieldViolation& d : details) detail_list.push_back({{"field", d.field}, {"reason", d.reason}});
+  for (const FieldViolation& d : details) {
+    detail_list.push_back({{"field", SafeText(d.field, 256)}, {"reason", SafeText(d.reason)}});
+  }
   return {{"error",
-           {{"code", http_code}, {"status", ToString(status)}, {"message", message}, {"details", detail_list}}}};
+           {{"code", http_code},
+            {"status", ToString(status)},
+            {"message", SafeText(message)},
+            {"details", detail_list}}}};
 }
 
 void Problems::ThrowIfAny(const std::string& what) const {

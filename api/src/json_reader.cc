@@ -2,6 +2,8 @@
 #include "robocal/api/json_reader.h"
 
 #include <cmath>
+#include <set>
+#include <vector>
 
 namespace robocal::api {
 namespace {
@@ -30,10 +32,57 @@ std::string IndexPath(const std::string& path, std::size_t index) {
 }
 
 nlohmann::json ParseBody(const std::string& body) {
+  // The parser keeps the last of repeated keys; a request that says two things must be refused instead. The
+  // callback follows the nesting to name each repeated key by its path.
+  struct Frame {
+    bool object;
+    std::string path;
+    std::size_t count = 0;  // elements completed (arrays)
+    std::string key;        // the member being read (objects)
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> stack;
+  Problems duplicates;
+  const auto child_path = [&stack]() -> std::string {
+    if (stack.empty()) return "";
+    const Frame& parent = stack.back();
+    return parent.object ? JoinPath(parent.path, parent.key) : IndexPath(parent.path, parent.count);
+  };
+  const auto completed = [&stack]() {
+    if (!stack.empty() && !stack.back().object) ++stack.back().count;
+  };
+  const nlohmann::json::parser_callback_t callback = [&](int, nlohmann::json::parse_event_t event,
+                                                         nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        stack.push_back(Frame{event == Event::object_start, child_path(), 0, {}, {}});
+        break;
+      case Event::key: {
+        Frame& top = stack.back();
+        top.key = parsed.get<std::string>();
+        if (!top.keys.insert(top.key).second && duplicates.size() < 16) {
+          duplicates.Add(JoinPath(top.path, top.key), "duplicate key (each member may appear once)");
+        }
+        break;
+      }
+      case Event::object_end:
+      case Event::array_end:
+        stack.pop_back();
+        completed();
+        break;
+      case Event::value:
+        completed();
+        break;
+    }
+    return true;
+  };
   nlohmann::json value;
   try {
-    value = nlohmann::json::parse(body);
+    value = nlohmann::json::parse(body, callback);
   } catch (const nlohmann::json::parse_error& e) {
+    // e.what() quotes the bytes last read, which may be any bytes of the request: ApiError makes them safe.
     throw ApiError(Status::kInvalidArgument, "malformed JSON: " + std::string(e.what()),
                    {{"body", "malformed JSON at byte " + std::to_string(e.byte)}});
   } catch (const nlohmann::json::out_of_range& e) {
@@ -41,6 +90,7 @@ nlohmann::json ParseBody(const std::string& body) {
     throw ApiError(Status::kInvalidArgument, "number out of range: " + std::string(e.what()),
                    {{"body", "a number is out of the range of a double (non-finite values are not accepted)"}});
   }
+  duplicates.ThrowIfAny("invalid request body");
   if (!value.is_object()) {
     throw ApiError(Status::kInvalidArgument, "the request body must be a JSON object",
                    {{"body", std::string("expected an object, got ") + TypeName(value)}});

@@ -1,6 +1,7 @@
 // Wire types: validating parsers and serialisers.
 #include "robocal/api/types.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -401,9 +402,14 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
   Problems problems;
   MeasurementBatchRequest req;
   ObjectReader r(body, "", &problems);
-  r.String("request_id", true, &req.request_id, 128);
-  if (!req.request_id.empty() && req.request_id.find_first_of("\r\n\t") != std::string::npos) {
-    problems.Add("request_id", "must not contain control characters");
+  // The idempotency key: an empty one would make every retry a new batch.
+  if (r.String("request_id", true, &req.request_id, 128)) {
+    if (req.request_id.empty()) {
+      problems.Add("request_id", "must not be empty (it makes retries of this batch safe)");
+    } else if (std::any_of(req.request_id.begin(), req.request_id.end(),
+                           [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7F; })) {
+      problems.Add("request_id", "must not contain control characters");
+    }
   }
   r.Enum("role", false, {"calibration", "validation"}, &req.role);
   if (const nlohmann::json* a = r.Array("measurements", true, 1, limits.max_array_length)) {

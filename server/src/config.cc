@@ -1,6 +1,9 @@
 // Server configuration: flags, environment, config file, defaults.
 #include "robocal/server/config.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <functional>
@@ -106,16 +109,27 @@ const std::vector<Option>& Options() {
        [](ServerConfig& c, const std::string& v) {
          c.keep_alive_timeout_s = static_cast<int>(ToInt("keep_alive_timeout_s", v, 1, 3600));
        }},
-      {"read_timeout_s", Kind::kInt, "wait for a request's bytes at most this many seconds (default 60)",
+      {"request_read_timeout_s", Kind::kInt,
+       "a request's line, headers and body must all arrive within this many seconds (default 10)",
        [](ServerConfig& c, const std::string& v) {
-         c.read_timeout_s = static_cast<int>(ToInt("read_timeout_s", v, 1, 86400));
+         c.request_read_timeout_s = static_cast<int>(ToInt("request_read_timeout_s", v, 1, 3600));
        }},
-      {"write_timeout_s", Kind::kInt, "wait for the client to take a reply's bytes at most this long (default 60)",
+      {"write_timeout_s", Kind::kInt, "the client must take a whole reply within this many seconds (default 60)",
        [](ServerConfig& c, const std::string& v) {
          c.write_timeout_s = static_cast<int>(ToInt("write_timeout_s", v, 1, 86400));
        }},
-      {"threads", Kind::kInt, "HTTP worker threads (default 8)",
+      {"max_head_bytes", Kind::kInt, "request line and headers, in bytes (default 65536)",
+       [](ServerConfig& c, const std::string& v) { c.max_head_bytes = ToInt("max_head_bytes", v, 1024, 1 << 24); }},
+      {"threads", Kind::kInt, "requests handled at once; more wait for a slot (default 8)",
        [](ServerConfig& c, const std::string& v) { c.threads = static_cast<int>(ToInt("threads", v, 1, 1024)); }},
+      {"max_connections", Kind::kInt, "connections served at once, one thread each (default 256)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_connections = static_cast<int>(ToInt("max_connections", v, 1, 4096));
+       }},
+      {"max_queued_connections", Kind::kInt, "accepted connections waiting for a thread; beyond: 503 (default 64)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_queued_connections = static_cast<int>(ToInt("max_queued_connections", v, 0, 4096));
+       }},
   };
   return options;
 }
@@ -257,7 +271,13 @@ std::map<std::string, std::string> RobocalEnvironment() {
 }
 
 bool IsLoopbackHost(const std::string& host) {
-  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+  // An address, not a name that starts like one ("127.evil.example" is a DNS name anywhere).
+  if (host == "localhost") return true;
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, host.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6);
+  return false;
 }
 
 std::vector<std::string> ReadTokensFile(const std::string& path) {

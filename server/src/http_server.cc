@@ -6,11 +6,14 @@
 #include <map>
 #include <mutex>
 #include <regex>
+#include <semaphore>
 #include <sstream>
 
 #include <httplib.h>
 
+#include "http_edge.h"
 #include "robocal/api/json_reader.h"
+#include "robocal/api/text.h"
 #include "robocal/server/logging.h"
 #include "robocal/server/openapi_spec.h"
 
@@ -31,7 +34,14 @@ struct Route {
   RouteHandler handler;
 };
 
-json Body(const httplib::Request& req) { return api::ParseBody(req.body.empty() ? "{}" : req.body); }
+// The pre-routing check has made sure a POST carries a body declared as JSON; an empty one is refused here.
+json Body(const httplib::Request& req) {
+  if (req.body.empty()) {
+    throw ApiError(Status::kInvalidArgument, "empty request body: send a JSON object ({} for the defaults)",
+                   {{"body", "must be a JSON object, got an empty body"}});
+  }
+  return api::ParseBody(req.body);
+}
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
   return req.has_param(key) ? req.get_param_value(key) : "";
@@ -112,11 +122,122 @@ std::string RouteLabel(const std::string& method, const std::string& path) {
 thread_local std::chrono::steady_clock::time_point request_start;
 thread_local std::string request_id;
 
+// A fixed body for when writing the real one fails: it cannot fail itself.
+constexpr const char* kInternalErrorBody =
+    R"({"error":{"code":500,"status":"INTERNAL","message":"internal error","details":[]}})";
+
+// `code` overrides the status's HTTP code where HTTP has a more precise one (414, 431).
 void WriteError(httplib::Response& res, Status status, const std::string& message,
-                const std::vector<api::FieldViolation>& details = {}) {
-  const int code = HttpStatusOf(status);
-  res.status = code;
-  res.set_content(api::ErrorBody(status, code, message, details).dump(), "application/json");
+                const std::vector<api::FieldViolation>& details = {}, int code = 0) {
+  if (code == 0) code = HttpStatusOf(status);
+  try {
+    res.status = code;
+    res.set_content(api::ErrorBody(status, code, message, details).dump(), "application/json");
+  } catch (...) {
+    res.status = 500;
+    res.set_content(kInternalErrorBody, "application/json");
+  }
+}
+
+// A client's X-Request-Id is kept if it is short and of safe characters (it goes into logs and replies);
+// otherwise the server makes its own.
+bool UsableRequestId(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  for (const char c : id) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':' ||
+                    c == '/' || c == '+' || c == '=' || c == '@';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+// The member of a header as received, all of it (the library's get_header_value stops at a NUL byte).
+const std::string* RawHeader(const httplib::Request& req, const char* name) {
+  const auto it = req.headers.find(name);
+  return it == req.headers.end() ? nullptr : &it->second;
+}
+
+bool HasControlBytes(const std::string& text) {
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    if ((b < 0x20 && b != '\t') || b == 0x7F) return true;
+  }
+  return false;
+}
+
+// "application/json" or "application/json; charset=utf-8" (any case).
+bool IsJsonMediaType(const std::string& content_type) {
+  std::string media = content_type.substr(0, content_type.find(';'));
+  while (!media.empty() && (media.back() == ' ' || media.back() == '\t')) media.pop_back();
+  for (char& c : media) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return media == "application/json";
+}
+
+// Checks of the request head that the library leaves to the application, made before it reads any body:
+// header bytes, body framing and size, and the media type. Returns false after writing the error reply.
+bool CheckHead(const httplib::Request& req, httplib::Response& res, std::int64_t max_body_bytes) {
+  for (const auto& [name, value] : req.headers) {
+    if (HasControlBytes(name) || HasControlBytes(value)) {
+      WriteError(res, Status::kInvalidArgument, "a request header holds control characters",
+                 {{"header " + name, "control characters (such as NUL) are not allowed in header values"}});
+      return false;
+    }
+  }
+  const bool may_carry_body = req.method == "POST" || req.method == "PUT" || req.method == "PATCH" ||
+                              req.method == "DELETE" || req.method == "PRI";
+  if (!may_carry_body) return true;
+  const std::string* length = RawHeader(req, "Content-Length");
+  const std::string* encoding = RawHeader(req, "Transfer-Encoding");
+  if (const std::string* coding = RawHeader(req, "Content-Encoding"); coding != nullptr && *coding != "identity") {
+    WriteError(res, Status::kInvalidArgument, "compressed request bodies are not accepted",
+               {{"Content-Encoding", "send the body uncompressed (got \"" + *coding + "\")"}});
+    edge::CloseAfterResponse();
+    return false;
+  }
+  if (encoding != nullptr && (length != nullptr || *encoding != "chunked")) {
+    WriteError(res, Status::kInvalidArgument, "unsupported body framing",
+               {{"Transfer-Encoding", length != nullptr ? "not allowed together with Content-Length"
+                                                        : "only chunked is accepted"}});
+    edge::CloseAfterResponse();
+    return false;
+  }
+  if (length != nullptr) {
+    const bool digits = !length->empty() && length->size() <= 18 &&
+                        length->find_first_not_of("0123456789") == std::string::npos;
+    if (!digits) {
+      WriteError(res, Status::kInvalidArgument, "malformed Content-Length",
+                 {{"Content-Length", "expected a decimal byte count"}});
+      edge::CloseAfterResponse();
+      return false;
+    }
+    if (std::stoll(*length) > max_body_bytes) {
+      WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
+                 {{"body", "Content-Length " + *length + " exceeds the max_body_bytes limit (" +
+                               std::to_string(max_body_bytes) + ")"}});
+      edge::CloseAfterResponse();
+      return false;
+    }
+  }
+  if (length == nullptr && encoding == nullptr) {
+    if (req.method == "POST") {
+      WriteError(res, Status::kInvalidArgument, "a POST needs a body",
+                 {{"body", "missing: send a JSON object ({} for the defaults) with Content-Length or chunked"}});
+      return false;
+    }
+    edge::NoBody();
+    return true;
+  }
+  if (req.method == "POST") {
+    const std::string* type = RawHeader(req, "Content-Type");
+    if (type == nullptr || !IsJsonMediaType(*type)) {
+      WriteError(res, Status::kInvalidArgument, "request bodies are JSON",
+                 {{"Content-Type", type == nullptr ? "missing: send Content-Type: application/json"
+                                                   : "expected application/json, got \"" + *type + "\""}});
+      edge::CloseAfterResponse();
+      return false;
+    }
+  }
+  return true;
 }
 
 class Metrics {
@@ -128,7 +249,7 @@ class Metrics {
     d.first += seconds;
     d.second += 1;
   }
-  std::string Render(int running_operations) {
+  std::string Render(int running_operations, const edge::Counters& connections) {
     std::ostringstream out;
     std::lock_guard lock(mutex_);
     out << "# HELP robocal_http_requests_total HTTP requests by method, route and status code.\n"
@@ -147,6 +268,21 @@ class Metrics {
     out << "# HELP robocal_operations_running Long-running operations in progress.\n"
            "# TYPE robocal_operations_running gauge\n"
         << "robocal_operations_running " << running_operations << "\n"
+        << "# HELP robocal_http_connections_active Connections being served.\n"
+           "# TYPE robocal_http_connections_active gauge\n"
+        << "robocal_http_connections_active " << connections.active << "\n"
+        << "# HELP robocal_http_connections_queued Accepted connections waiting for a connection thread.\n"
+           "# TYPE robocal_http_connections_queued gauge\n"
+        << "robocal_http_connections_queued " << connections.queued << "\n"
+        << "# HELP robocal_http_connections_refused_total Connections refused (503) because the queue was full.\n"
+           "# TYPE robocal_http_connections_refused_total counter\n"
+        << "robocal_http_connections_refused_total " << connections.refused << "\n"
+        << "# HELP robocal_http_requests_timed_out_total Requests not received within request_read_timeout_s.\n"
+           "# TYPE robocal_http_requests_timed_out_total counter\n"
+        << "robocal_http_requests_timed_out_total " << connections.timed_out << "\n"
+        << "# HELP robocal_http_requests_too_large_total Requests whose head or body exceeded its limit.\n"
+           "# TYPE robocal_http_requests_too_large_total counter\n"
+        << "robocal_http_requests_too_large_total " << connections.too_large << "\n"
         << "# HELP robocal_build_info Build version.\n# TYPE robocal_build_info gauge\n"
         << "robocal_build_info{version=\"" << ROBOCAL_VERSION << "\"} 1\n";
     return out.str();
@@ -180,6 +316,8 @@ int HttpStatusOf(Status status) {
       return 500;
     case Status::kUnavailable:
       return 503;
+    case Status::kDeadlineExceeded:
+      return 408;
   }
   return 500;
 }
@@ -214,57 +352,112 @@ struct HttpServer::Impl {
   ServerConfig config;
   Service* service;
   std::vector<std::string> tokens;
+  edge::Counters connections;
   std::unique_ptr<httplib::Server> server;
   Metrics metrics;
+  // Requests handled at once (`threads`); connection threads beyond wait here, not in the handlers.
+  std::unique_ptr<std::counting_semaphore<>> handler_slots;
   bool tls = false;
   int port = -1;
 };
+
+namespace {
+
+// The edge's own replies, in the API's error shape.
+std::string CannedReply(Status status, int code, const std::string& message, const std::string& field,
+                        const std::string& reason, const char* extra_headers = "") {
+  const std::string body = api::ErrorBody(status, code, message, {{field, reason}}).dump();
+  const char* phrase = code == 408   ? "Request Timeout"
+                       : code == 503 ? "Service Unavailable"
+                       : code == 431 ? "Request Header Fields Too Large"
+                                     : "Error";
+  return "HTTP/1.1 " + std::to_string(code) + " " + phrase +
+         "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) +
+         "\r\nConnection: close\r\n" + extra_headers + "\r\n" + body;
+}
+
+edge::Limits EdgeLimits(const ServerConfig& c) {
+  edge::Limits limits;
+  limits.max_head_bytes = static_cast<std::size_t>(c.max_head_bytes);
+  limits.max_body_bytes = static_cast<std::size_t>(c.max_body_bytes);
+  limits.request_read_timeout = std::chrono::seconds(c.request_read_timeout_s);
+  limits.keep_alive_timeout = std::chrono::seconds(c.keep_alive_timeout_s);
+  limits.write_timeout = std::chrono::seconds(c.write_timeout_s);
+  return limits;
+}
+
+edge::CannedReplies EdgeReplies(const ServerConfig& c) {
+  edge::CannedReplies canned;
+  canned.busy = CannedReply(Status::kUnavailable, HttpStatusOf(Status::kUnavailable), "server busy: every connection slot is taken", "connection",
+                            "max_connections and max_queued_connections are reached; retry later",
+                            "Retry-After: 1\r\n");
+  canned.timeout = CannedReply(Status::kDeadlineExceeded, HttpStatusOf(Status::kDeadlineExceeded), "request not received in time", "request",
+                               "the request line, headers and body must arrive within request_read_timeout_s (" +
+                                   std::to_string(c.request_read_timeout_s) + " s)");
+  canned.head_too_large = CannedReply(Status::kResourceExhausted, 431, "request head too large", "head",
+                                      "request line and headers exceed max_head_bytes (" +
+                                          std::to_string(c.max_head_bytes) + ")");
+  return canned;
+}
+
+}  // namespace
 
 HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens)
     : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
   impl_->service = service;
   impl_->tokens = std::move(tokens);
+  impl_->handler_slots = std::make_unique<std::counting_semaphore<>>(std::max(1, config.threads));
+  edge::Counters* counters = &impl_->connections;
   if (!config.tls_cert.empty()) {
-    auto ssl = std::make_unique<httplib::SSLServer>(config.tls_cert.c_str(), config.tls_key.c_str());
+    auto ssl = std::make_unique<edge::SslServer>(config.tls_cert.c_str(), config.tls_key.c_str(), EdgeLimits(config),
+                                                 EdgeReplies(config), counters);
     if (!ssl->is_valid()) {
       throw std::runtime_error("cannot load TLS certificate " + config.tls_cert + " / key " + config.tls_key);
     }
     impl_->server = std::move(ssl);
     impl_->tls = true;
   } else {
-    impl_->server = std::make_unique<httplib::Server>();
+    impl_->server = std::make_unique<edge::Server>(EdgeLimits(config), EdgeReplies(config), counters);
   }
   httplib::Server& svr = *impl_->server;
   Impl* impl = impl_.get();
-  const int threads = config.threads;
-  svr.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<std::size_t>(threads)); };
+  const auto max_connections = static_cast<std::size_t>(config.max_connections);
+  const auto max_queued = static_cast<std::size_t>(config.max_queued_connections);
+  svr.new_task_queue = [max_connections, max_queued, counters] {
+    return new edge::ConnectionPool(max_connections, max_queued, counters);
+  };
   // Headers and body leave in separate writes; with Nagle's algorithm the body would wait for the client's
   // delayed ACK (about 40 ms on Linux) on every request.
   svr.set_tcp_nodelay(true);
   svr.set_payload_max_length(static_cast<std::size_t>(config.max_body_bytes));
-  // Waiting clients hold worker threads: an idle keep-alive connection for keep_alive_timeout_s, a slow one
-  // for read / write_timeout_s per read or write.
+  // The edge applies its own deadlines (request_read_timeout_s for a whole request, write_timeout_s for a whole
+  // reply); the library's keep-alive figures only go into the Keep-Alive header it writes.
   svr.set_keep_alive_timeout(config.keep_alive_timeout_s);
-  svr.set_read_timeout(config.read_timeout_s, 0);
-  svr.set_write_timeout(config.write_timeout_s, 0);
+  svr.set_keep_alive_max_count(100);
 
   svr.set_pre_routing_handler([impl](const httplib::Request& req, httplib::Response& res) {
     request_start = std::chrono::steady_clock::now();
-    request_id = req.has_header("X-Request-Id") && req.get_header_value("X-Request-Id").size() <= 128
-                     ? req.get_header_value("X-Request-Id")
-                     : NewId("req");
+    const std::string* client_id = RawHeader(req, "X-Request-Id");
+    request_id = client_id != nullptr && UsableRequestId(*client_id) ? *client_id : NewId("req");
     res.set_header("X-Request-Id", request_id);
+    const auto handled = [&res] {
+      // Whatever body the request carries stays unread: the connection cannot be reused.
+      res.set_header("Connection", "close");
+      edge::CloseAfterResponse();
+      return httplib::Server::HandlerResponse::Handled;
+    };
+    if (!CheckHead(req, res, impl->config.max_body_bytes)) return handled();
     if (impl->tokens.empty() || req.path == "/healthz") return httplib::Server::HandlerResponse::Unhandled;
-    const std::string auth = req.get_header_value("Authorization");
+    const std::string* auth = RawHeader(req, "Authorization");
     const std::string prefix = "Bearer ";
-    if (auth.rfind(prefix, 0) == 0 && TokenMatches(auth.substr(prefix.size()), impl->tokens)) {
+    if (auth != nullptr && auth->rfind(prefix, 0) == 0 && TokenMatches(auth->substr(prefix.size()), impl->tokens)) {
       return httplib::Server::HandlerResponse::Unhandled;
     }
     res.set_header("WWW-Authenticate", "Bearer");
     WriteError(res, Status::kUnauthenticated,
-               auth.empty() ? "missing bearer token (Authorization: Bearer <token>)" : "invalid bearer token");
-    return httplib::Server::HandlerResponse::Handled;
+               auth == nullptr ? "missing bearer token (Authorization: Bearer <token>)" : "invalid bearer token");
+    return handled();
   });
 
   for (const Route& route : RouteTable()) {
@@ -276,7 +469,8 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       };
     } else if (path == "/metrics") {
       handler = [impl](const httplib::Request&, httplib::Response& res) {
-        res.set_content(impl->metrics.Render(impl->service->running_operations()), "text/plain; version=0.0.4");
+        res.set_content(impl->metrics.Render(impl->service->running_operations(), impl->connections),
+                        "text/plain; version=0.0.4");
       };
     } else if (path == "/v1/openapi.json") {
       handler = [](const httplib::Request&, httplib::Response& res) {
@@ -284,7 +478,21 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       };
     } else {
       handler = [impl, fn = route.handler](const httplib::Request& req, httplib::Response& res) {
-        res.set_content(fn(*impl->service, req).dump(), "application/json");
+        // Service work runs `threads` requests at a time; health, metrics and the spec never wait for it.
+        const auto wait = std::chrono::seconds(impl->config.request_timeout_s);
+        if (!impl->handler_slots->try_acquire_for(wait)) {
+          res.set_header("Retry-After", "1");
+          WriteError(res, Status::kUnavailable, "server busy: every request slot stayed taken",
+                     {{"request", "no slot among `threads` freed within request_timeout_s; retry later"}});
+          return;
+        }
+        struct Release {
+          std::counting_semaphore<>* slots;
+          ~Release() { slots->release(); }
+        } release{impl->handler_slots.get()};
+        // Dumping with `replace` cannot throw on a byte a stored document might hold; requests are validated.
+        res.set_content(fn(*impl->service, req).dump(-1, ' ', false, json::error_handler_t::replace),
+                        "application/json");
       };
     }
     const std::string method = route.method;
@@ -294,62 +502,100 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   }
 
   // One exception handler: every error a handler throws becomes the API's error body; the server keeps serving.
+  // WriteError cannot throw; the outer catch is for the rest (a log line that fails, say).
   svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
     try {
-      std::rethrow_exception(ep);
-    } catch (const ApiError& e) {
-      WriteError(res, e.status(), e.what(), e.details());
-    } catch (const StorageError& e) {
-      switch (e.kind()) {
-        case StorageError::Kind::kNotFound:
-          WriteError(res, Status::kNotFound, e.what());
-          break;
-        case StorageError::Kind::kAlreadyExists:
-          WriteError(res, Status::kAlreadyExists, e.what());
-          break;
-        case StorageError::Kind::kResourceExhausted:
-          WriteError(res, Status::kResourceExhausted, e.what());
-          break;
-        case StorageError::Kind::kUnavailable:
-          WriteError(res, Status::kUnavailable, std::string("storage unavailable: ") + e.what());
-          break;
-        case StorageError::Kind::kInternal:
-          WriteError(res, Status::kInternal, std::string("storage error: ") + e.what());
-          break;
+      try {
+        std::rethrow_exception(ep);
+      } catch (const ApiError& e) {
+        WriteError(res, e.status(), e.what(), e.details());
+      } catch (const StorageError& e) {
+        switch (e.kind()) {
+          case StorageError::Kind::kNotFound:
+            WriteError(res, Status::kNotFound, e.what());
+            break;
+          case StorageError::Kind::kAlreadyExists:
+            WriteError(res, Status::kAlreadyExists, e.what());
+            break;
+          case StorageError::Kind::kResourceExhausted:
+            WriteError(res, Status::kResourceExhausted, e.what());
+            break;
+          case StorageError::Kind::kUnavailable:
+            WriteError(res, Status::kUnavailable, std::string("storage unavailable: ") + e.what());
+            break;
+          case StorageError::Kind::kInternal:
+            WriteError(res, Status::kInternal, std::string("storage error: ") + e.what());
+            break;
+        }
+      } catch (const std::invalid_argument& e) {
+        // A core precondition the wire validation let through: still the caller's input.
+        WriteError(res, Status::kInvalidArgument, e.what());
+      } catch (const std::exception& e) {
+        LogEvent(spdlog::level::err, "unhandled exception",
+                 {{"request_id", request_id}, {"what", api::SafeText(e.what())}});
+        WriteError(res, Status::kInternal, std::string("internal error: ") + e.what());
+      } catch (...) {
+        WriteError(res, Status::kInternal, "internal error");
       }
-    } catch (const std::invalid_argument& e) {
-      // A core precondition the wire validation let through: still the caller's input.
-      WriteError(res, Status::kInvalidArgument, e.what());
-    } catch (const std::exception& e) {
-      LogEvent(spdlog::level::err, "unhandled exception", {{"request_id", request_id}, {"what", e.what()}});
-      WriteError(res, Status::kInternal, std::string("internal error: ") + e.what());
     } catch (...) {
-      WriteError(res, Status::kInternal, "internal error");
+      res.status = 500;
+      res.set_content(kInternalErrorBody, "application/json");
     }
   });
 
-  // Errors produced by the HTTP library itself (unknown path, body too large) get the same body shape.
+  // Errors produced by the HTTP library itself (unknown path, a head it cannot parse, a body the edge cut off)
+  // get the same body shape. Nothing in here may throw out: the reply falls back to a fixed 500 body.
   svr.set_error_handler([impl](const httplib::Request& req, httplib::Response& res) {
-    if (!res.body.empty()) return;
-    const bool form = req.get_header_value("Content-Type") == "application/x-www-form-urlencoded" &&
-                      req.get_header_value<std::uint64_t>("Content-Length") <=
-                          static_cast<std::uint64_t>(impl->config.max_body_bytes);
-    if (res.status == 404) {
-      WriteError(res, Status::kNotFound, "no such endpoint: " + req.method + " " + req.path);
-    } else if (res.status == 413 && form) {
-      // The HTTP library caps form bodies (curl -d's default type) far below max_body_bytes.
-      WriteError(res, Status::kResourceExhausted, "form-encoded request body too large; send JSON as application/json",
-                 {{"body", "Content-Type must be application/json"}});
-    } else if (res.status == 413) {
-      WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
-                 {{"body", "exceeds the max_body_bytes limit"}});
-    } else if (res.status == 400) {
-      WriteError(res, Status::kInvalidArgument, "malformed HTTP request");
-    } else {
-      const int status = res.status;
-      res.set_content(api::ErrorBody(Status::kInvalidArgument, status, "HTTP error " + std::to_string(status))
-                          .dump(),
-                      "application/json");
+    try {
+      const edge::Fault fault = edge::CurrentFault();
+      if (fault != edge::Fault::kNone) {
+        res.set_header("Connection", "close");
+        res.body.clear();
+      }
+      if (!res.body.empty()) return;
+      const std::string limit_s = std::to_string(impl->config.request_read_timeout_s);
+      switch (fault) {
+        case edge::Fault::kDeadline:
+          WriteError(res, Status::kDeadlineExceeded, "request not received in time",
+                     {{"request", "the request line, headers and body must arrive within request_read_timeout_s (" +
+                                      limit_s + " s)"}});
+          return;
+        case edge::Fault::kHeadTooLarge:
+          WriteError(res, Status::kResourceExhausted, "request head too large",
+                     {{"head", "request line and headers exceed max_head_bytes (" +
+                                   std::to_string(impl->config.max_head_bytes) + ")"}},
+                     431);
+          return;
+        case edge::Fault::kBodyTooLarge:
+          WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
+                     {{"body", "exceeds the max_body_bytes limit (" + std::to_string(impl->config.max_body_bytes) +
+                                   "), counted as sent"}});
+          return;
+        case edge::Fault::kNone:
+          break;
+      }
+      if (res.status == 404) {
+        WriteError(res, Status::kNotFound, "no such endpoint: " + req.method + " " + req.path,
+                   {{"path", "no route for " + req.method + " " + req.path + " (see /v1/openapi.json)"}});
+      } else if (res.status == 413) {
+        WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
+                   {{"body", "exceeds the max_body_bytes limit"}});
+      } else if (res.status == 414) {
+        WriteError(res, Status::kInvalidArgument, "request line too long",
+                   {{"uri", "the request line is longer than 8192 bytes"}}, 414);
+      } else if (res.status == 400) {
+        WriteError(res, Status::kInvalidArgument, "malformed HTTP request",
+                   {{"request", "the request line or a header could not be parsed"}});
+      } else {
+        const int status = res.status;
+        res.set_content(api::ErrorBody(Status::kInvalidArgument, status, "HTTP error " + std::to_string(status),
+                                       {{"request", "the HTTP layer answered " + std::to_string(status)}})
+                            .dump(),
+                        "application/json");
+      }
+    } catch (...) {
+      res.status = 500;
+      res.set_content(kInternalErrorBody, "application/json");
     }
   });
 
@@ -360,13 +606,16 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
             : std::chrono::duration<double>(std::chrono::steady_clock::now() - request_start).count();
     const std::string route = RouteLabel(req.method, req.path);
     impl->metrics.Record(req.method, route, res.status, seconds);
+    // A head the library could not parse never reached the pre-routing handler: it has no id of its own.
+    if (request_id.empty()) request_id = NewId("req");
     LogEvent(res.status >= 500 ? spdlog::level::err : spdlog::level::info, "request",
              {{"request_id", request_id},
-              {"method", req.method},
-              {"path", req.path},
+              {"method", api::SafeText(req.method, 16)},
+              {"path", api::SafeText(req.path, 256)},
               {"status", res.status},
               {"ms", std::round(seconds * 1e4) / 10.0}});
     request_start = {};
+    request_id.clear();
   });
 }
 

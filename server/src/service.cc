@@ -35,8 +35,12 @@ bool IsPreset(const std::string& id) {
   return std::find(names.begin(), names.end(), id) != names.end();
 }
 
+// An id from a path that cannot name anything is the caller's mistake (400), not a missing resource (404).
 void CheckId(const std::string& id, const std::string& what) {
-  if (!api::IsValidId(id)) throw ApiError(Status::kNotFound, what + " \"" + id + "\" not found");
+  if (!api::IsValidId(id)) {
+    throw ApiError(Status::kInvalidArgument, "invalid " + what + " id \"" + id + "\"",
+                   {{what, "must match [a-z0-9][a-z0-9_.-]{0,63}"}});
+  }
 }
 
 MeasurementType ParseType(const std::string& text) {
@@ -45,14 +49,20 @@ MeasurementType ParseType(const std::string& text) {
   return type;
 }
 
-// One page of a list: page_size items after page_token (the last id of the previous page; opaque to clients).
+// One page of a list: page_size items after page_token. A token is the last id of the previous page with a
+// check of the list it came from, so that a token made up or taken from another list is refused instead of
+// silently giving an empty or wrong page. Clients treat it as opaque.
 struct PageRequest {
   std::size_t size = 100;
-  std::string token;
+  std::string token;  // the last id of the previous page ("" for the first page)
 };
+
+std::string PageToken(const std::string& list, const std::string& last_id) {
+  return last_id + "~" + api::ContentHash(list + "/" + last_id).substr(0, 8);
+}
 constexpr std::int64_t kMaxPageSize = 1000;
 
-PageRequest ParsePageRequest(const std::string& size_text, const std::string& token) {
+PageRequest ParsePageRequest(const std::string& list, const std::string& size_text, const std::string& token) {
   api::Problems problems;
   PageRequest page;
   if (!size_text.empty()) {
@@ -70,10 +80,15 @@ PageRequest ParsePageRequest(const std::string& size_text, const std::string& to
       page.size = static_cast<std::size_t>(v);
     }
   }
-  if (!token.empty() && !api::IsValidId(token)) {
-    problems.Add("page_token", "not a next_page_token of a previous page");
+  if (!token.empty()) {
+    const std::size_t mark = token.rfind('~');
+    const std::string last = mark == std::string::npos ? "" : token.substr(0, mark);
+    if (!api::IsValidId(last) || PageToken(list, last) != token) {
+      problems.Add("page_token", "not a next_page_token of a previous page of this list");
+    } else {
+      page.token = last;
+    }
   }
-  page.token = token;
   problems.ThrowIfAny("invalid query");
   return page;
 }
@@ -193,7 +208,7 @@ RobotModel Service::ResolveRobot(const std::string& id, json* definition) {
 }
 
 json Service::ListRobots(const std::string& page_size, const std::string& page_token) {
-  const PageRequest page = ParsePageRequest(page_size, page_token);
+  const PageRequest page = ParsePageRequest(kRobots, page_size, page_token);
   // One ordering over presets then registered robots (whose ids never equal a preset's name), so a token is
   // simply the last id returned.
   const std::vector<std::string> presets = PresetNames();
@@ -228,7 +243,7 @@ json Service::ListRobots(const std::string& page_size, const std::string& page_t
     }
   }
   json result = {{"robots", robots}};
-  if (more) result["next_page_token"] = last;
+  if (more) result["next_page_token"] = PageToken(kRobots, last);
   return result;
 }
 
@@ -560,7 +575,7 @@ json Service::GetCampaign(const std::string& id) {
 }
 
 json Service::ListCampaigns(const std::string& page_size, const std::string& page_token) {
-  const PageRequest page = ParsePageRequest(page_size, page_token);
+  const PageRequest page = ParsePageRequest(kCampaigns, page_size, page_token);
   auto docs = storage_->List(kCampaigns, page.token, static_cast<int>(page.size + 1));
   const bool more = docs.size() > page.size;
   if (more) docs.resize(page.size);
@@ -571,7 +586,7 @@ json Service::ListCampaigns(const std::string& page_size, const std::string& pag
     list.push_back(c);
   }
   json result = {{"campaigns", list}};
-  if (more) result["next_page_token"] = docs.back().id;
+  if (more) result["next_page_token"] = PageToken(kCampaigns, docs.back().id);
   return result;
 }
 

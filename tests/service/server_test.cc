@@ -400,7 +400,7 @@ TEST(ServerTest, EveryEndpointRejectsBadInputNamingTheFieldAndStoresNothing) {
       {"DELETE", "/v1/robots/no-such", "", 404, ""},
       {"POST", "/v1/robots/no-such:forward", R"({"joints":[[0]]})", 404, ""},
       {"GET", "/v1/plans/no-such", "", 404, ""},
-      {"GET", "/v1/campaigns/NO-SUCH", "", 404, ""},
+      {"GET", "/v1/campaigns/NO-SUCH", "", 400, "campaign"},
       {"POST", "/v1/campaigns/no-such/measurements", good.dump(), 404, ""},
       {"GET", "/v1/campaigns/no-such/measurements", "", 404, ""},
       {"POST", "/v1/campaigns/no-such:fit", "{}", 404, ""},
@@ -594,15 +594,17 @@ TEST(ServerTest, AsyncFitCanBeCancelledAndCountsAsARunningOperation) {
   EXPECT_EQ(s.Get("/v1/campaigns/cf/calibration").status, 200);
 }
 
-TEST(ServerTest, LargeFormEncodedBodyGetsAContentTypeHint) {
-  // curl -d sends application/x-www-form-urlencoded, which the HTTP library caps at 8 KiB whatever
-  // max_body_bytes says: the reply must say what to change, not blame max_body_bytes.
+TEST(ServerTest, FormEncodedBodyGetsAContentTypeHint) {
+  // curl -d sends application/x-www-form-urlencoded: the reply must say what to change, whatever the size.
   TestServer s;
   httplib::Client raw("127.0.0.1", s.port());
-  auto form = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/x-www-form-urlencoded");
-  ASSERT_TRUE(form);
-  EXPECT_EQ(form->status, 413);
-  EXPECT_NE(form->body.find("application/json"), std::string::npos) << form->body;
+  for (const std::size_t size : {10, 9000}) {
+    auto form = raw.Post("/v1/robots", std::string(size, ' ') + "{}", "application/x-www-form-urlencoded");
+    ASSERT_TRUE(form);
+    EXPECT_EQ(form->status, 400);
+    EXPECT_NE(form->body.find("application/json"), std::string::npos) << form->body;
+    EXPECT_NE(form->body.find("\"field\":\"Content-Type\""), std::string::npos) << form->body;
+  }
   auto json_body = raw.Post("/v1/robots", std::string(9000, ' ') + "{}", "application/json");
   ASSERT_TRUE(json_body);
   EXPECT_EQ(json_body->status, 400);  // parsed: the id is missing
@@ -737,20 +739,23 @@ TEST(ConfigTest, EveryLimitIsConfigurable) {
 TEST(ConfigTest, ConnectionTimeoutsFromFlagsEnvAndFile) {
   const ServerConfig defaults = LoadConfig({}, {}).config;
   EXPECT_EQ(defaults.keep_alive_timeout_s, 2);
-  EXPECT_EQ(defaults.read_timeout_s, 60);
+  EXPECT_EQ(defaults.request_read_timeout_s, 10);
   EXPECT_EQ(defaults.write_timeout_s, 60);
+  EXPECT_EQ(defaults.max_connections, 256);
+  EXPECT_EQ(defaults.max_queued_connections, 64);
   const std::string file = ::testing::TempDir() + "robocal_timeouts_test.json";
-  std::ofstream(file) << R"({"keep_alive_timeout_s":7,"read_timeout_s":8,"write_timeout_s":9})";
+  std::ofstream(file) << R"({"keep_alive_timeout_s":7,"request_read_timeout_s":8,"write_timeout_s":9,"max_connections":11})";
   const ConfigResult from_file = LoadConfig({"--config", file}, {});
   ASSERT_TRUE(from_file.run) << from_file.message;
   EXPECT_EQ(from_file.config.keep_alive_timeout_s, 7);
-  EXPECT_EQ(from_file.config.read_timeout_s, 8);
+  EXPECT_EQ(from_file.config.request_read_timeout_s, 8);
   EXPECT_EQ(from_file.config.write_timeout_s, 9);
+  EXPECT_EQ(from_file.config.max_connections, 11);
   const ConfigResult r = LoadConfig({"--keep-alive-timeout-s", "3", "--config", file},
-                                    {{"ROBOCAL_KEEP_ALIVE_TIMEOUT_S", "4"}, {"ROBOCAL_READ_TIMEOUT_S", "5"}});
+                                    {{"ROBOCAL_KEEP_ALIVE_TIMEOUT_S", "4"}, {"ROBOCAL_REQUEST_READ_TIMEOUT_S", "5"}});
   ASSERT_TRUE(r.run) << r.message;
   EXPECT_EQ(r.config.keep_alive_timeout_s, 3);
-  EXPECT_EQ(r.config.read_timeout_s, 5);
+  EXPECT_EQ(r.config.request_read_timeout_s, 5);
   EXPECT_EQ(r.config.write_timeout_s, 9);
   const ConfigResult zero = LoadConfig({"--keep-alive-timeout-s", "0"}, {});
   EXPECT_EQ(zero.exit_code, 2);

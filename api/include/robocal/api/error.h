@@ -21,6 +21,8 @@ enum class Status {
   kResourceExhausted,
   kInternal,
   kUnavailable,
+  /// The client did not send its request within the server's deadline (HTTP 408).
+  kDeadlineExceeded,
 };
 
 /// "INVALID_ARGUMENT", "NOT_FOUND", ...
@@ -34,7 +36,8 @@ struct FieldViolation {
   std::string reason;
 };
 
-/// An error the server turns into an error body. Thrown by validation and by the services.
+/// An error the server turns into an error body. Thrown by validation and by the services. The message and
+/// every detail pass through SafeText (text.h), so request bytes echoed in them are always valid UTF-8.
 class ApiError : public std::runtime_error {
  public:
   ApiError(Status status, const std::string& message, std::vector<FieldViolation> details = {});
@@ -47,6 +50,7 @@ class ApiError : public std::runtime_error {
 };
 
 /// {"error":{"code":http_code,"status":"...","message":"...","details":[{"field":"...","reason":"..."}]}}
+/// Message, fields and reasons pass through SafeText: the body can always be serialised.
 nlohmann::json ErrorBody(Status status, int http_code, const std::string& message,
                          const std::vector<FieldViolation>& details = {});
 

@@ -19,7 +19,8 @@ std::string JoinPath(const std::string& path, const std::string& key);
 std::string IndexPath(const std::string& path, std::size_t index);
 
 /// Parses request text. Malformed JSON (or a body that is not an object) throws ApiError(kInvalidArgument)
-/// with the byte offset of the problem.
+/// with the byte offset of the problem; a key repeated within one object is refused with its path (the parser
+/// alone would keep the last one silently).
 nlohmann::json ParseBody(const std::string& body);
 
 /// Reads the members of one JSON object. Every getter records a violation in `problems` and returns false

@@ -30,13 +30,21 @@ struct ServerConfig {
   /// Operations (async plans) running at once.
   int max_running_operations = 2;
   int request_timeout_s = 60;
-  /// An idle keep-alive connection is closed after this many seconds: each one holds a worker thread while it
-  /// waits, so `threads` idle clients would otherwise stall the server.
+  /// An idle keep-alive connection is closed after this many seconds (it holds a connection thread).
   int keep_alive_timeout_s = 2;
-  /// Seconds the server waits for the next bytes of a request, and for the client to take the reply's.
-  int read_timeout_s = 60;
+  /// A request's line, headers and body must all arrive within this time (of the first byte, or of the
+  /// connection's accept for its first request): a client that trickles bytes cannot hold a thread longer.
+  int request_read_timeout_s = 10;
+  /// The client must take a whole reply within this time.
   int write_timeout_s = 60;
+  /// Request line and headers together, in bytes.
+  std::int64_t max_head_bytes = 65536;
+  /// Requests handled at once (service work); further requests wait for a slot.
   int threads = 8;
+  /// Connections served at once, one thread each (reading, waiting for a slot, writing, idle keep-alive).
+  int max_connections = 256;
+  /// Accepted connections waiting for a connection thread; a connection beyond is answered 503 and closed.
+  int max_queued_connections = 64;
   std::string config_file;
 };
 
@@ -58,7 +66,8 @@ std::map<std::string, std::string> RobocalEnvironment();
 /// --help text.
 std::string UsageText();
 
-/// True for 127.0.0.0/8, ::1 and "localhost".
+/// True for an IPv4 address in 127.0.0.0/8, the IPv6 loopback address and "localhost" (nothing else: a name
+/// that merely starts with "127." is not an address).
 bool IsLoopbackHost(const std::string& host);
 
 /// Tokens from a tokens file (one per line, '#' comments, blank lines ignored). Throws std::runtime_error if
