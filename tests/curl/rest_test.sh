@@ -75,6 +75,22 @@ call POST /v1/plans '{"robot": "nosuch"}' >/dev/null
 expect "plan for an unknown robot -> 404" "$(status)" 404
 call GET /v1/nowhere >/dev/null
 expect "unknown endpoint -> 404" "$(status)" 404
+# Bytes nobody planned for: each a 4xx with a readable error body, and the server keeps serving.
+expect "invalid UTF-8 in a path -> field" "$(call GET '/v1/robots/%ff' | jq -r '.error.details[0].field')" robot
+expect "... status 400" "$(status)" 400
+expect "id that cannot name a robot -> 400" "$(call GET '/v1/robots/UPPER' >/dev/null; status)" 400
+expect "invalid UTF-8 in a body -> 400" "$(call POST /v1/plans "$(printf '{"robot": "\xff"}')" | jq -r .error.status)" \
+  INVALID_ARGUMENT
+expect "a key given twice -> its path" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "options": {"k_max": 5, "k_max": 6}}' | jq -r '.error.details[0].field')" \
+  options.k_max
+expect "POST without a body -> 400 at once" \
+  "$(curl -sS -m 5 -X POST -o /dev/null -w '%{http_code}' "$ROBOCAL_URL/v1/campaigns/nosuch:evaluate")" 400
+expect "form-encoded body -> Content-Type named" \
+  "$(curl -sS -d '{}' "$ROBOCAL_URL/v1/plans" | jq -r '.error.details[0].field')" Content-Type
+expect "made-up page_token -> field" \
+  "$(call GET '/v1/robots?page_token=garbage' | jq -r '.error.details[0].field')" page_token
+expect "still serving" "$(call GET /healthz | jq -r .status)" ok
 
 # ---- plans and operations ---------------------------------------------------------------------------------
 call POST /v1/plans '{"robot": "grinder5", "num_configurations": 10, "measurement_type": "pose", "seed": 1}' \
