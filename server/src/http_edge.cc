@@ -320,6 +320,10 @@ void NoBody() {
   if (current != nullptr && current->stream != nullptr) current->stream->set_no_body();
 }
 
+void WidenBacklog(int listening) {
+  if (listening >= 0) ::listen(listening, SOMAXCONN);
+}
+
 Lingerer::Lingerer(std::size_t capacity) : capacity_(capacity), thread_([this] { Run(); }) {}
 
 Lingerer::~Lingerer() {

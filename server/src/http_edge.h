@@ -118,9 +118,16 @@ class Lingerer {
   std::thread thread_;
 };
 
+/// The library listens with a backlog of a few connections; beyond that the kernel drops connection attempts
+/// and clients retry after a second or more. Widens the backlog of the bound socket `listening` (call after
+/// binding, before serving).
+void WidenBacklog(int listening);
+
 class Server : public httplib::Server {
  public:
   Server(Limits limits, CannedReplies canned, Counters* counters);
+  /// The bound listening socket (after bind_to_port), for WidenBacklog.
+  int listening_socket() const { return svr_sock_; }
 
  private:
   bool process_and_close_socket(socket_t sock) override;
@@ -133,6 +140,7 @@ class Server : public httplib::Server {
 class SslServer : public httplib::SSLServer {
  public:
   SslServer(const char* cert_path, const char* key_path, Limits limits, CannedReplies canned, Counters* counters);
+  int listening_socket() const { return svr_sock_; }
 
  private:
   bool process_and_close_socket(socket_t sock) override;

@@ -627,6 +627,10 @@ int HttpServer::Bind() {
   } else {
     impl_->port = impl_->server->bind_to_port(impl_->config.host, impl_->config.port) ? impl_->config.port : -1;
   }
+  if (impl_->port > 0) {
+    edge::WidenBacklog(impl_->tls ? static_cast<edge::SslServer&>(*impl_->server).listening_socket()
+                                  : static_cast<edge::Server&>(*impl_->server).listening_socket());
+  }
   return impl_->port;
 }
 
