@@ -32,7 +32,9 @@ std::string Segment(const std::string& id) {
   return out;
 }
 
-bool Retryable(int status) { return status == 502 || status == 503 || status == 504; }
+// 408: the server did not receive the whole request in time (a slow link); the others: a gateway or a full
+// server. Each is safe to repeat for an idempotent call.
+bool Retryable(int status) { return status == 408 || status == 502 || status == 503 || status == 504; }
 
 std::string Snippet(const std::string& body) {
   std::string s = body.substr(0, 200);

@@ -436,6 +436,17 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   svr.set_keep_alive_timeout(config.keep_alive_timeout_s);
   svr.set_keep_alive_max_count(100);
 
+  // A client that asks before sending its body (Expect: 100-continue, as curl does for large ones) gets the
+  // refusal instead of the go-ahead.
+  svr.set_expect_100_continue_handler([impl](const httplib::Request& req, httplib::Response& res) {
+    if (!CheckHead(req, res, impl->config.max_body_bytes)) {
+      res.set_header("Connection", "close");
+      edge::CloseAfterResponse();
+      return res.status;
+    }
+    return 100;
+  });
+
   svr.set_pre_routing_handler([impl](const httplib::Request& req, httplib::Response& res) {
     request_start = std::chrono::steady_clock::now();
     const std::string* client_id = RawHeader(req, "X-Request-Id");

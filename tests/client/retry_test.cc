@@ -22,10 +22,12 @@ namespace {
 
 // A one-connection-at-a-time HTTP/1.1 forwarder on a free loopback port. It forwards each request to the
 // backend; for the first `lose_replies` requests it then drops the reply: it closes the connection (kClose),
-// or keeps it open without answering until the client gives up (kHang, the client's read timeout).
+// or keeps it open without answering until the client gives up (kHang, the client's read timeout). With
+// kRequestTimeout it does not forward them at all and answers 408, as a server does whose read deadline a slow
+// link missed.
 class LossyGateway {
  public:
-  enum class Loss { kClose, kHang };
+  enum class Loss { kClose, kHang, kRequestTimeout };
 
   LossyGateway(const std::string& backend_url, int lose_replies, Loss loss) : lose_replies_(lose_replies), loss_(loss) {
     ClientOptions options;
@@ -97,6 +99,16 @@ class LossyGateway {
     const std::string body_text = data.substr(header_end + 4, length);
     int status = 200;
     std::string reply;
+    if (loss_ == Loss::kRequestTimeout && forwarded_ < lose_replies_) {
+      ++forwarded_;
+      reply = R"({"error":{"code":408,"status":"DEADLINE_EXCEEDED","message":"request not received in time",)"
+              R"("details":[{"field":"request","reason":"slow link"}]}})";
+      const std::string response = "HTTP/1.1 408 Request Timeout\r\nContent-Type: application/json\r\n"
+                                   "Connection: close\r\nContent-Length: " +
+                                   std::to_string(reply.size()) + "\r\n\r\n" + reply;
+      ::send(fd, response.data(), response.size(), MSG_NOSIGNAL);
+      return;
+    }
     try {
       const nlohmann::json body = body_text.empty() ? nlohmann::json() : nlohmann::json::parse(body_text);
       reply = backend_->Call(method, path, body_text.empty() ? nullptr : &body, false).dump();
@@ -195,6 +207,32 @@ TEST_P(RetryTest, GivesUpAfterMaxRetries) {
   Client c(options);
   EXPECT_THROW(c.ListRobots(), client::ConnectionError);
   EXPECT_EQ(gateway.forwarded(), 3);
+}
+
+TEST(RetryOnRequestTimeoutTest, IdempotentCallsAreRetriedAfter408AndOthersAreNot) {
+  testing::TestServer server;
+  {
+    LossyGateway gateway(server.url(), 2, LossyGateway::Loss::kRequestTimeout);
+    ClientOptions o;
+    o.server_url = gateway.url();
+    o.retry_backoff = std::chrono::milliseconds(1);
+    EXPECT_EQ(Client(o).ListRobots().size(), 3u);
+    EXPECT_EQ(gateway.forwarded(), 3);  // two 408s, then the answer
+  }
+  LossyGateway gateway(server.url(), 1, LossyGateway::Loss::kRequestTimeout);
+  ClientOptions o;
+  o.server_url = gateway.url();
+  o.retry_backoff = std::chrono::milliseconds(1);
+  api::CreateCampaignRequest request;
+  request.robot = "grinder5";
+  try {
+    Client(o).CreateCampaign(request);
+    ADD_FAILURE() << "a 408 on a campaign creation must reach the caller";
+  } catch (const client::ServiceError& e) {
+    EXPECT_EQ(e.http_status(), 408);
+    EXPECT_EQ(e.status(), "DEADLINE_EXCEEDED");
+  }
+  EXPECT_EQ(gateway.forwarded(), 1);
 }
 
 INSTANTIATE_TEST_SUITE_P(LostReplies, RetryTest,

@@ -104,6 +104,22 @@ TEST(EdgeTest, ContentLengthOverTheLimitIsRefusedBeforeReading) {
   ExpectErrorBody(c.Read(5000ms), 413, "body");
 }
 
+TEST(EdgeTest, AClientThatAsksFirstIsRefusedBeforeItSends) {
+  ServerConfig config;
+  config.max_body_bytes = 65536;
+  TestServer server(config);
+  const RawReply r = RawConnection::Exchange(
+      server.port(),
+      "POST /v1/robots HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 1000000\r\n"
+      "Expect: 100-continue\r\n\r\n");
+  ExpectErrorBody(r, 413, "body");  // not "100 Continue"
+  const RawReply go = RawConnection::Exchange(
+      server.port(),
+      "POST /v1/robots HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 2\r\n"
+      "Expect: 100-continue\r\n\r\n", 1000ms);
+  EXPECT_EQ(go.status, 100) << go.head;
+}
+
 TEST(EdgeTest, PostWithoutBodyIs400AtOnce) {
   ServerConfig config;
   config.request_read_timeout_s = 60;

@@ -15,6 +15,9 @@
 
 #include "server/storage/storage.h"
 #include "server_process.h"
+// clang-format off
+#include "raw_http.h"
+// clang-format on
 
 namespace robocal::server::testing {
 namespace {
@@ -50,7 +53,7 @@ TEST(ProcessTest, ServesHttpsWithBearerTokens) {
   std::ofstream(tokens) << "# test token\ntls-test-token\n";
 
   ServerProcess server({"--db", dir.File("robocal.db"), "--tls-cert", cert, "--tls-key", key, "--tokens-file", tokens,
-                        "--log-level", "error"});
+                        "--log-level", "error", "--request-read-timeout-s", "1"});
   ASSERT_EQ(server.scheme(), "https");
   httplib::SSLClient client("127.0.0.1", server.port());
   // The client trusts only this certificate, so a successful call proves the server presented it.
@@ -74,6 +77,16 @@ TEST(ProcessTest, ServesHttpsWithBearerTokens) {
   plain.set_read_timeout(5, 0);
   auto refused = plain.Get("/healthz");
   EXPECT_FALSE(refused && refused->status == 200);
+
+  // A client that never completes its handshake is closed at the request deadline, not kept forever.
+  RawConnection silent(server.port());
+  RawConnection partial(server.port());
+  partial.Send(std::string("\x16\x03\x01\x02\x00", 5));  // the start of a ClientHello, then nothing
+  EXPECT_TRUE(silent.ClosedByServer(std::chrono::milliseconds(5000)));
+  EXPECT_TRUE(partial.ClosedByServer(std::chrono::milliseconds(5000)));
+  auto still = client.Get("/healthz");
+  ASSERT_TRUE(still) << httplib::to_string(still.error());
+  EXPECT_EQ(still->status, 200);
 }
 
 // The exit code of the server binary run with `args` (it is expected to refuse to start), and its stderr.
@@ -91,6 +104,9 @@ TEST(ProcessTest, RefusesUnsafeOrBrokenStartups) {
   const std::string db = " --port 0 --db " + dir.File("robocal.db");
   std::string err;
   EXPECT_EQ(RunToExit("--host 0.0.0.0" + db, dir.File("a.log"), &err), 2);
+  EXPECT_NE(err.find("--tokens-file"), std::string::npos) << err;
+  // A name that starts like a loopback address is not one.
+  EXPECT_EQ(RunToExit("--host 127.evil.invalid" + db, dir.File("a2.log"), &err), 2);
   EXPECT_NE(err.find("--tokens-file"), std::string::npos) << err;
   EXPECT_EQ(RunToExit("--tls-cert " + dir.File("none.pem") + " --tls-key " + dir.File("none.key") + db,
                       dir.File("b.log"), &err),

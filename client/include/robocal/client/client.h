@@ -27,7 +27,7 @@ struct ClientOptions {
   std::chrono::milliseconds connect_timeout{5000};
   std::chrono::milliseconds read_timeout{120000};
   /// Retries of idempotent calls (GETs and measurement uploads, which carry a request_id) after a connection
-  /// failure or a 502 / 503 / 504. Waits retry_backoff, 2 retry_backoff, 4 retry_backoff, ... between tries.
+  /// failure or a 408 / 502 / 503 / 504. Waits retry_backoff, 2 retry_backoff, 4 retry_backoff, ... between tries.
   /// Other calls (a POST that creates a plan or campaign, a fit) are never retried: repeating them could do
   /// the work twice.
   int max_retries = 3;
