@@ -6,6 +6,7 @@
 
 #include "robocal/api/convert.h"
 #include "robocal/api/json_reader.h"
+#include "robocal/api/text.h"
 #include "robocal/api/types.h"
 #include "robocal/core/presets.h"
 
@@ -51,6 +52,41 @@ TEST(ApiTest, MalformedJsonIsInvalidArgument) {
   } catch (const ApiError& e) {
     EXPECT_EQ(e.details().at(0).field, "body");
   }
+}
+
+TEST(SafeTextTest, KeepsUtf8AndEscapesEverythingElse) {
+  using api::SafeText;
+  EXPECT_EQ(SafeText("joint 3 dz"), "joint 3 dz");
+  EXPECT_EQ(SafeText("\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80"), "\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80");  // e-acute, euro, emoji
+  EXPECT_EQ(SafeText("a\xff" "b"), "a\\xffb");
+  EXPECT_EQ(SafeText("\xc3\x28"), "\\xc3(");                                 // a lead byte without its continuation
+  EXPECT_EQ(SafeText("\xc0\xaf"), "\\xc0\\xaf");                            // overlong '/'
+  EXPECT_EQ(SafeText("\xed\xa0\x80"), "\\xed\\xa0\\x80");                   // a UTF-16 surrogate
+  EXPECT_EQ(SafeText("\xf4\x90\x80\x80"), "\\xf4\\x90\\x80\\x80");          // above U+10FFFF
+  EXPECT_EQ(SafeText("\xe2\x82"), "\\xe2\\x82");                            // cut short at the end
+  EXPECT_EQ(SafeText(std::string("a\0b\x1b[31m\x7f", 9)), "a\\x00b\\x1b[31m\\x7f");
+  EXPECT_EQ(SafeText(std::string(10, 'x'), 4), "xxxx...");
+  for (const std::string raw : {"\xff\xfe", "ok", "\x1b\xc3"}) EXPECT_EQ(SafeText(SafeText(raw)), SafeText(raw));
+  EXPECT_TRUE(api::IsValidUtf8("\xc3\xa9"));
+  EXPECT_FALSE(api::IsValidUtf8("\xc3"));
+  // An error made from request bytes can always be serialised.
+  const api::ApiError e(api::Status::kInvalidArgument, "bad \xff", {{"f\xfe", "r\x01"}});
+  EXPECT_EQ(std::string(e.what()), "bad \\xff");
+  EXPECT_EQ(e.details()[0].field, "f\\xfe");
+  EXPECT_NO_THROW((void)api::ErrorBody(e.status(), 400, "raw \xff", e.details()).dump());
+}
+
+TEST(ApiTest, DuplicateKeysAreNamedByTheirPath) {
+  try {
+    (void)api::ParseBody(R"({"a":[{"b":1},{"b":1,"c":{"d":1,"d":2}}],"e":1,"e":2})");
+    FAIL() << "duplicates accepted";
+  } catch (const api::ApiError& e) {
+    ASSERT_EQ(e.details().size(), 2u);
+    EXPECT_EQ(e.details()[0].field, "a[1].c.d");
+    EXPECT_EQ(e.details()[1].field, "e");
+  }
+  // The same key in sibling objects is no duplicate.
+  EXPECT_NO_THROW((void)api::ParseBody(R"({"a":[{"b":1},{"b":2}],"c":{"b":3}})"));
 }
 
 TEST(ApiTest, MeasurementBatchCollectsEveryProblem) {
