@@ -33,20 +33,23 @@ std::string IndexPath(const std::string& path, std::size_t index) {
 
 nlohmann::json ParseBody(const std::string& body) {
   // The parser keeps the last of repeated keys; a request that says two things must be refused instead. The
-  // callback follows the nesting to name each repeated key by its path.
+  // callback follows the nesting (one small frame per open object or array; a path is spelt out only for a
+  // duplicate, so deep nesting costs linear memory) and stops at kMaxJsonDepth.
   struct Frame {
     bool object;
-    std::string path;
     std::size_t count = 0;  // elements completed (arrays)
     std::string key;        // the member being read (objects)
     std::set<std::string> keys;
   };
+  struct TooDeep {};
   std::vector<Frame> stack;
   Problems duplicates;
-  const auto child_path = [&stack]() -> std::string {
-    if (stack.empty()) return "";
-    const Frame& parent = stack.back();
-    return parent.object ? JoinPath(parent.path, parent.key) : IndexPath(parent.path, parent.count);
+  const auto path_of = [&stack](std::size_t frames) {
+    std::string path;
+    for (std::size_t i = 0; i < frames; ++i) {
+      path = stack[i].object ? JoinPath(path, stack[i].key) : IndexPath(path, stack[i].count);
+    }
+    return path;
   };
   const auto completed = [&stack]() {
     if (!stack.empty() && !stack.back().object) ++stack.back().count;
@@ -57,13 +60,14 @@ nlohmann::json ParseBody(const std::string& body) {
     switch (event) {
       case Event::object_start:
       case Event::array_start:
-        stack.push_back(Frame{event == Event::object_start, child_path(), 0, {}, {}});
+        if (stack.size() >= kMaxJsonDepth) throw TooDeep{};
+        stack.push_back(Frame{event == Event::object_start, 0, {}, {}});
         break;
       case Event::key: {
         Frame& top = stack.back();
         top.key = parsed.get<std::string>();
         if (!top.keys.insert(top.key).second && duplicates.size() < 16) {
-          duplicates.Add(JoinPath(top.path, top.key), "duplicate key (each member may appear once)");
+          duplicates.Add(path_of(stack.size()), "duplicate key (each member may appear once)");
         }
         break;
       }
@@ -85,6 +89,9 @@ nlohmann::json ParseBody(const std::string& body) {
     // e.what() quotes the bytes last read, which may be any bytes of the request: ApiError makes them safe.
     throw ApiError(Status::kInvalidArgument, "malformed JSON: " + std::string(e.what()),
                    {{"body", "malformed JSON at byte " + std::to_string(e.byte)}});
+  } catch (const TooDeep&) {
+    throw ApiError(Status::kInvalidArgument, "request body nested too deeply",
+                   {{"body", "objects and arrays nest at most " + std::to_string(kMaxJsonDepth) + " levels deep"}});
   } catch (const nlohmann::json::out_of_range& e) {
     // A number literal beyond double range (1e999) would otherwise become inf.
     throw ApiError(Status::kInvalidArgument, "number out of range: " + std::string(e.what()),

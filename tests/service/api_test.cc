@@ -85,6 +85,15 @@ TEST(ApiTest, DuplicateKeysAreNamedByTheirPath) {
     EXPECT_EQ(e.details()[0].field, "a[1].c.d");
     EXPECT_EQ(e.details()[1].field, "e");
   }
+  // Deep nesting is refused in linear time and memory (a path per level would be quadratic).
+  const std::string deep = std::string(4000000, '[') + std::string(4000000, ']');
+  try {
+    (void)api::ParseBody("{\"a\":" + deep + "}");
+    FAIL() << "deep nesting accepted";
+  } catch (const api::ApiError& e) {
+    EXPECT_EQ(e.details()[0].field, "body");
+  }
+  EXPECT_NO_THROW((void)api::ParseBody("{\"a\":" + std::string(31, '[') + std::string(31, ']') + "}"));
   // The same key in sibling objects is no duplicate.
   EXPECT_NO_THROW((void)api::ParseBody(R"({"a":[{"b":1},{"b":2}],"c":{"b":3}})"));
 }

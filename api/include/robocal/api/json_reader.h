@@ -18,9 +18,12 @@ std::string JoinPath(const std::string& path, const std::string& key);
 /// "a" + 3 -> "a[3]".
 std::string IndexPath(const std::string& path, std::size_t index);
 
+/// Objects and arrays in a request nest at most this deep (the deepest real request nests 5 levels).
+inline constexpr std::size_t kMaxJsonDepth = 32;
+
 /// Parses request text. Malformed JSON (or a body that is not an object) throws ApiError(kInvalidArgument)
 /// with the byte offset of the problem; a key repeated within one object is refused with its path (the parser
-/// alone would keep the last one silently).
+/// alone would keep the last one silently); nesting deeper than kMaxJsonDepth is refused.
 nlohmann::json ParseBody(const std::string& body);
 
 /// Reads the members of one JSON object. Every getter records a violation in `problems` and returns false
