@@ -88,13 +88,15 @@ class TlsTransport : public Transport {
   SSL* ssl_;
 };
 
-// Waits until `sock` is ready for `events` or `deadline` passes. True if ready.
-bool WaitReady(int sock, short events, Clock::time_point deadline) {
+// Waits until `sock` is ready for `events` or `deadline` passes, or (given `listening`) the server stops. True if
+// ready.
+bool WaitReady(int sock, short events, Clock::time_point deadline,
+               const std::atomic<socket_t>* listening = nullptr) {
   for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-    if (left <= 0) return false;
+    if (left <= 0 || (listening != nullptr && *listening == INVALID_SOCKET)) return false;
     pollfd p{sock, events, 0};
-    const int r = ::poll(&p, 1, static_cast<int>(std::min<long long>(left, 1000)));
+    const int r = ::poll(&p, 1, static_cast<int>(std::min<long long>(left, 200)));
     if (r > 0) return true;
     if (r < 0 && errno != EINTR) return false;
   }
@@ -111,8 +113,8 @@ thread_local ConnectionState* current = nullptr;
 
 class GuardedStream : public httplib::Stream {
  public:
-  GuardedStream(int sock, Transport* transport, const Limits& limits)
-      : sock_(sock), transport_(transport), limits_(limits), buffer_(16384) {}
+  GuardedStream(int sock, Transport* transport, const Limits& limits, const std::atomic<socket_t>& listening)
+      : sock_(sock), transport_(transport), limits_(limits), listening_(listening), buffer_(16384) {}
 
   /// Starts reading a request whose bytes must all arrive by `deadline`.
   void BeginRequest(Clock::time_point deadline) {
@@ -207,7 +209,9 @@ class GuardedStream : public httplib::Stream {
       }
       if (n == 0) return 0;
       if (want == 0) return -1;
-      if (!WaitReady(sock_, want, read_deadline_)) return Stop(Fault::kDeadline);
+      if (!WaitReady(sock_, want, read_deadline_, &listening_)) {
+        return Stop(listening_ == INVALID_SOCKET ? Fault::kStopping : Fault::kDeadline);
+      }
     }
   }
   void Address(bool remote, std::string& ip, int& port) const {
@@ -227,6 +231,7 @@ class GuardedStream : public httplib::Stream {
   int sock_;
   Transport* transport_;
   const Limits& limits_;
+  const std::atomic<socket_t>& listening_;
   std::vector<char> buffer_;
   std::size_t begin_ = 0, end_ = 0;
   Clock::time_point read_deadline_{}, write_deadline_{};
@@ -262,7 +267,7 @@ using ProcessRequest = std::function<bool(httplib::Stream&, bool close_connectio
 bool Serve(int sock, Transport* transport, const Limits& limits, const CannedReplies& canned,
            Counters* counters, Clock::time_point accepted, const std::atomic<socket_t>& listening,
            const ProcessRequest& process) {
-  GuardedStream stream(sock, transport, limits);
+  GuardedStream stream(sock, transport, limits, listening);
   ConnectionState state{&stream, false};
   current = &state;
   bool ok = true;
@@ -288,7 +293,9 @@ bool Serve(int sock, Transport* transport, const Limits& limits, const CannedRep
     if (fault == Fault::kHeadTooLarge || fault == Fault::kBodyTooLarge) ++counters->too_large;
     if (fault != Fault::kNone && !stream.line_done()) {
       // The library writes nothing when the request line itself is incomplete.
-      const std::string& reply = fault == Fault::kDeadline ? canned.timeout : canned.head_too_large;
+      const std::string& reply = fault == Fault::kDeadline   ? canned.timeout
+                                 : fault == Fault::kStopping ? canned.stopping
+                                                             : canned.head_too_large;
       (void)stream.write(reply.data(), reply.size());
     }
     if (fault != Fault::kNone || state.close_after) unread = true;

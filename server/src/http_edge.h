@@ -47,6 +47,7 @@ enum class Fault {
   kDeadline,      // head and body did not arrive within request_read_timeout
   kHeadTooLarge,  // more than max_head_bytes before the blank line
   kBodyTooLarge,  // more than max_body_bytes of body
+  kStopping,      // the server began to shut down while the request was arriving
 };
 
 /// The fault of the request being handled on this thread (kNone outside a connection).
@@ -96,6 +97,7 @@ struct CannedReplies {
   std::string busy;          // 503, for a refused connection
   std::string timeout;       // 408, for a request line that did not arrive in time
   std::string head_too_large;  // 431, for a request line beyond max_head_bytes
+  std::string stopping;        // 503, for a request line cut off by the server stopping
 };
 
 /// Closes refused connections on its own thread after reading and dropping what their clients still send:

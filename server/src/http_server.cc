@@ -397,6 +397,9 @@ edge::CannedReplies EdgeReplies(const ServerConfig& c) {
   canned.head_too_large = CannedReply(Status::kResourceExhausted, 431, "request head too large", "head",
                                       "request line and headers exceed max_head_bytes (" +
                                           std::to_string(c.max_head_bytes) + ")");
+  canned.stopping = CannedReply(Status::kUnavailable, HttpStatusOf(Status::kUnavailable), "server shutting down",
+                                "request", "the server stopped while the request was arriving; retry",
+                                "Retry-After: 1\r\n");
   return canned;
 }
 
@@ -581,6 +584,11 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
           WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
                      {{"body", "exceeds the max_body_bytes limit (" + std::to_string(impl->config.max_body_bytes) +
                                    "), counted as sent"}});
+          return;
+        case edge::Fault::kStopping:
+          res.set_header("Retry-After", "1");
+          WriteError(res, Status::kUnavailable, "server shutting down",
+                     {{"request", "the server stopped while the request was arriving; retry"}});
           return;
         case edge::Fault::kNone:
           break;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -166,7 +167,19 @@ TEST(ProcessTest, SigtermCancelsOperationsAndExitsZero) {
                     "application/json");
     ASSERT_TRUE(op && op->status == 200);
     operation = json::parse(op->body)["id"];
+    // Clients in the middle of sending a request are told the server is stopping, not held until their
+    // request deadline (10 s by default).
+    RawConnection line(server.port());
+    line.Send("GET /v1/rob");
+    RawConnection body(server.port());
+    body.Send("POST /v1/robots HTTP/1.1\r\nContent-Type: application/json\r\nContent-Length: 50\r\n\r\n{");
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
     EXPECT_EQ(server.Terminate(), 0);
+    const RawReply line_reply = line.Read(std::chrono::milliseconds(100));
+    const RawReply body_reply = body.Read(std::chrono::milliseconds(100));
+    EXPECT_EQ(line_reply.status, 503) << line_reply.head;
+    EXPECT_EQ(body_reply.status, 503) << body_reply.head;
+    EXPECT_EQ(body_reply.json["error"]["status"], "UNAVAILABLE") << body_reply.body;
   }
   // Shut down in order: the running operation was cancelled and its final state written, not left RUNNING.
   auto storage = OpenSqliteStorage(db);
