@@ -1,5 +1,6 @@
-// The SQLite storage against its interface: documents, versions, measurement batches (atomicity, idempotency,
-// limits, roles, concurrency), reopening a file database, schema versions and the integrity check.
+// One contract suite for every Storage implementation (SQLite in memory, SQLite in a file, and the in-memory
+// fake the service tests use): documents, versions, measurement batches (atomicity, idempotency, limits,
+// roles). Then what only a file database has: concurrency, reopening, schema versions, the integrity check.
 #include "server/storage/storage.h"
 
 #include <gtest/gtest.h>
@@ -14,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "fake_storage.h"
 #include "temp_dir.h"
 
 namespace robocal::server {
@@ -39,12 +41,28 @@ std::optional<Kind> ErrorKind(F&& f) {
   return std::nullopt;
 }
 
-class StorageTest : public ::testing::Test {
+enum class Implementation { kSqliteMemory, kSqliteFile, kFake };
+
+class StorageTest : public ::testing::TestWithParam<Implementation> {
  protected:
-  std::unique_ptr<Storage> storage_ = OpenSqliteStorage(":memory:");
+  StorageTest() {
+    switch (GetParam()) {
+      case Implementation::kSqliteMemory:
+        storage_ = OpenSqliteStorage(":memory:");
+        break;
+      case Implementation::kSqliteFile:
+        storage_ = OpenSqliteStorage(dir_.File("contract.db"));
+        break;
+      case Implementation::kFake:
+        storage_ = std::make_unique<testing::FakeStorage>();
+        break;
+    }
+  }
+  testing::TempDir dir_;
+  std::unique_ptr<Storage> storage_;
 };
 
-TEST_F(StorageTest, CreateGetUpdatePutDelete) {
+TEST_P(StorageTest, CreateGetUpdatePutDelete) {
   const Document created = storage_->Create("robots", "ur5", R"({"a":1})");
   EXPECT_EQ(created.version, 1);
   EXPECT_GT(created.created_unix_ms, 0);
@@ -71,7 +89,7 @@ TEST_F(StorageTest, CreateGetUpdatePutDelete) {
   EXPECT_FALSE(storage_->Get("robots", "ur5").has_value());
 }
 
-TEST_F(StorageTest, CreateTwiceIsAlreadyExistsAndKeepsTheFirst) {
+TEST_P(StorageTest, CreateTwiceIsAlreadyExistsAndKeepsTheFirst) {
   storage_->Create("plans", "p1", "{}");
   EXPECT_EQ(ErrorKind([&] { storage_->Create("plans", "p1", R"({"x":1})"); }), Kind::kAlreadyExists);
   EXPECT_EQ(storage_->Get("plans", "p1")->json, "{}");
@@ -79,7 +97,7 @@ TEST_F(StorageTest, CreateTwiceIsAlreadyExistsAndKeepsTheFirst) {
   EXPECT_NO_THROW(storage_->Create("robots", "p1", "{}"));
 }
 
-TEST_F(StorageTest, UpdateChecksVersionAndExistence) {
+TEST_P(StorageTest, UpdateChecksVersionAndExistence) {
   EXPECT_EQ(ErrorKind([&] { storage_->Update("robots", "none", "{}"); }), Kind::kNotFound);
   storage_->Create("robots", "r", "{}");
   storage_->Update("robots", "r", R"({"v":2})", 1);
@@ -88,7 +106,7 @@ TEST_F(StorageTest, UpdateChecksVersionAndExistence) {
   EXPECT_EQ(storage_->Update("robots", "r", R"({"v":3})", 2).version, 3);
 }
 
-TEST_F(StorageTest, ListPagesInIdOrderWithinACollection) {
+TEST_P(StorageTest, ListPagesInIdOrderWithinACollection) {
   for (const char* id : {"d", "a", "c", "e", "b"})
     storage_->Create("robots", id, std::string(R"({"id":")") + id + "\"}");
   storage_->Create("plans", "a0", "{}");
@@ -111,13 +129,13 @@ TEST_F(StorageTest, ListPagesInIdOrderWithinACollection) {
   EXPECT_EQ(storage_->List("nothing").size(), 0u);
 }
 
-TEST_F(StorageTest, AppendNeedsTheCampaign) {
+TEST_P(StorageTest, AppendNeedsTheCampaign) {
   EXPECT_EQ(ErrorKind([&] { storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3)); }),
             Kind::kNotFound);
   EXPECT_EQ(storage_->CountMeasurements("c"), 0);
 }
 
-TEST_F(StorageTest, AppendAssignsSequencesAndCountsTotals) {
+TEST_P(StorageTest, AppendAssignsSequencesAndCountsTotals) {
   storage_->Create("campaigns", "c", "{}");
   const BatchResult a = storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   EXPECT_FALSE(a.replayed);
@@ -142,7 +160,7 @@ TEST_F(StorageTest, AppendAssignsSequencesAndCountsTotals) {
   EXPECT_EQ(all[4].batch_id, b.batch_id);
 }
 
-TEST_F(StorageTest, ReplaySameContentWritesNothing) {
+TEST_P(StorageTest, ReplaySameContentWritesNothing) {
   storage_->Create("campaigns", "c", "{}");
   const BatchResult first = storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   storage_->AppendMeasurements("c", "r2", "h2", "calibration", Batch(2));
@@ -155,7 +173,7 @@ TEST_F(StorageTest, ReplaySameContentWritesNothing) {
   EXPECT_EQ(storage_->CountMeasurements("c"), 5);
 }
 
-TEST_F(StorageTest, SameRequestIdWithOtherContentIsAConflict) {
+TEST_P(StorageTest, SameRequestIdWithOtherContentIsAConflict) {
   storage_->Create("campaigns", "c", "{}");
   storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   EXPECT_EQ(ErrorKind([&] { storage_->AppendMeasurements("c", "r1", "h-other", "calibration", Batch(4)); }),
@@ -168,7 +186,7 @@ TEST_F(StorageTest, SameRequestIdWithOtherContentIsAConflict) {
   EXPECT_FALSE(storage_->AppendMeasurements("d", "r1", "h-other", "calibration", Batch(1)).replayed);
 }
 
-TEST_F(StorageTest, EmptyRequestIdNeverReplays) {
+TEST_P(StorageTest, EmptyRequestIdNeverReplays) {
   storage_->Create("campaigns", "c", "{}");
   storage_->AppendMeasurements("c", "", "h", "calibration", Batch(1));
   const BatchResult second = storage_->AppendMeasurements("c", "", "h", "calibration", Batch(1));
@@ -176,7 +194,7 @@ TEST_F(StorageTest, EmptyRequestIdNeverReplays) {
   EXPECT_EQ(second.campaign_total, 2);
 }
 
-TEST_F(StorageTest, BatchOverTheLimitStoresNothing) {
+TEST_P(StorageTest, BatchOverTheLimitStoresNothing) {
   storage_->Create("campaigns", "c", "{}");
   storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(8), 10);
   EXPECT_EQ(ErrorKind([&] { storage_->AppendMeasurements("c", "r2", "h2", "calibration", Batch(3), 10); }),
@@ -192,7 +210,7 @@ TEST_F(StorageTest, BatchOverTheLimitStoresNothing) {
   EXPECT_TRUE(storage_->AppendMeasurements("c", "r2", "h2-small", "calibration", Batch(2), 10).replayed);
 }
 
-TEST_F(StorageTest, RoleFilterAndPagingKeepSequenceOrder) {
+TEST_P(StorageTest, RoleFilterAndPagingKeepSequenceOrder) {
   storage_->Create("campaigns", "c", "{}");
   for (int i = 0; i < 6; ++i) {
     storage_->AppendMeasurements("c", "r" + std::to_string(i), "h", i % 2 ? "validation" : "calibration", Batch(3));
@@ -223,7 +241,7 @@ TEST_F(StorageTest, RoleFilterAndPagingKeepSequenceOrder) {
   EXPECT_EQ(paged, (std::vector<std::int64_t>{1, 2, 3, 7, 8, 9, 13, 14, 15}));
 }
 
-TEST_F(StorageTest, DeletingACampaignDeletesItsMeasurements) {
+TEST_P(StorageTest, DeletingACampaignDeletesItsMeasurements) {
   storage_->Create("campaigns", "c", "{}");
   storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   EXPECT_TRUE(storage_->Delete("campaigns", "c"));
@@ -233,6 +251,21 @@ TEST_F(StorageTest, DeletingACampaignDeletesItsMeasurements) {
   EXPECT_FALSE(fresh.replayed);
   EXPECT_EQ(fresh.first_sequence, 1);
 }
+
+INSTANTIATE_TEST_SUITE_P(EveryImplementation, StorageTest,
+                         ::testing::Values(Implementation::kSqliteMemory, Implementation::kSqliteFile,
+                                           Implementation::kFake),
+                         [](const ::testing::TestParamInfo<Implementation>& info) {
+                           switch (info.param) {
+                             case Implementation::kSqliteMemory:
+                               return std::string("SqliteMemory");
+                             case Implementation::kSqliteFile:
+                               return std::string("SqliteFile");
+                             case Implementation::kFake:
+                               return std::string("Fake");
+                           }
+                           return std::string("Unknown");
+                         });
 
 TEST(StorageFileTest, ConcurrentAppendsLoseAndDuplicateNothing) {
   testing::TempDir dir;

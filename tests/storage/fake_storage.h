@@ -1,7 +1,9 @@
 // An in-memory Storage for the service tests, with the interface's semantics (atomic, idempotent batches,
-// limits). Used until the SQLite storage is available on this branch, and for tests that need no disk.
+// limits, a deleted campaign's measurements gone with it). storage_test.cc runs the same contract suite against
+// it and against SQLite, so that the service tests never pass on behaviour SQLite does not have.
 #pragma once
 
+#include <cstdio>
 #include <map>
 #include <mutex>
 
@@ -45,11 +47,20 @@ class FakeStorage : public Storage {
     if (it == c.end()) return c[id] = Document{collection, id, json, 1, ++clock_, clock_};
     it->second.json = json;
     ++it->second.version;
+    it->second.updated_unix_ms = ++clock_;
     return it->second;
   }
   bool Delete(const std::string& collection, const std::string& id) override {
     std::lock_guard lock(mutex_);
-    return docs_[collection].erase(id) > 0;
+    if (docs_[collection].erase(id) == 0) return false;
+    if (collection == "campaigns") {
+      // A campaign's measurements and batch keys go with it, as in SQLite.
+      measurements_.erase(id);
+      for (auto it = batches_.begin(); it != batches_.end();) {
+        it = it->first.first == id ? batches_.erase(it) : std::next(it);
+      }
+    }
+    return true;
   }
   std::vector<Document> List(const std::string& collection, const std::string& after_id, int limit) override {
     std::lock_guard lock(mutex_);
@@ -68,9 +79,13 @@ class FakeStorage : public Storage {
     if (!docs_["campaigns"].count(campaign_id)) throw StorageError(StorageError::Kind::kNotFound, campaign_id);
     auto& list = measurements_[campaign_id];
     const auto key = std::make_pair(campaign_id, request_id);
-    if (auto it = batches_.find(key); it != batches_.end()) {
-      if (it->second.first != content_hash) throw StorageError(StorageError::Kind::kAlreadyExists, request_id);
-      BatchResult r = it->second.second;
+    // An empty request_id is no idempotency key: every such batch is new.
+    if (auto it = request_id.empty() ? batches_.end() : batches_.find(key); it != batches_.end()) {
+      // The same key with other content, or the same content for another role, is another batch.
+      if (it->second.hash != content_hash || it->second.role != role) {
+        throw StorageError(StorageError::Kind::kAlreadyExists, request_id);
+      }
+      BatchResult r = it->second.result;
       r.replayed = true;
       r.campaign_total = static_cast<std::int64_t>(list.size());
       return r;
@@ -79,13 +94,15 @@ class FakeStorage : public Storage {
     if (max_campaign_total > 0 && total > max_campaign_total) {
       throw StorageError(StorageError::Kind::kResourceExhausted, "too many measurements");
     }
-    BatchResult r{"batch-" + std::to_string(++clock_), request_id, false,
+    char batch_id[19];
+    std::snprintf(batch_id, sizeof batch_id, "b-%016llx", static_cast<unsigned long long>(++clock_));
+    BatchResult r{batch_id, request_id, false,
                   static_cast<std::int64_t>(list.size()) + 1,
                   static_cast<std::int64_t>(measurements_json.size()), total};
     for (const auto& m : measurements_json) {
       list.push_back({static_cast<std::int64_t>(list.size()) + 1, r.batch_id, role, m});
     }
-    batches_[key] = {content_hash, r};
+    if (!request_id.empty()) batches_[key] = {content_hash, role, r};
     return r;
   }
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,
@@ -113,7 +130,12 @@ class FakeStorage : public Storage {
   std::int64_t clock_ = 0;
   std::map<std::string, std::map<std::string, Document>> docs_;
   std::map<std::string, std::vector<StoredMeasurement>> measurements_;
-  std::map<std::pair<std::string, std::string>, std::pair<std::string, BatchResult>> batches_;
+  struct Batch {
+    std::string hash;
+    std::string role;
+    BatchResult result;
+  };
+  std::map<std::pair<std::string, std::string>, Batch> batches_;  // (campaign, request_id)
 };
 
 }  // namespace robocal::server::testing
