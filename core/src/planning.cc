@@ -106,7 +106,27 @@ std::string IndicesLine(const ObservabilityIndices& x) {
 
 const char* ToString(LimitHandling handling) { return handling == LimitHandling::kReflect ? "reflect" : "clamp"; }
 
-SolisWetsOptions SolisWetsOptions::Paper() { return SolisWetsOptions{}; }
+SolisWetsOptions SolisWetsOptions::Paper() {
+  // Set one by one, not taken from the defaults: changing a default must never change the paper's preset.
+  SolisWetsOptions o;
+  o.k_max = 100;           // Wang & Zhang (2007), section 3
+  o.scent_threshold = 5;   // Scent
+  o.fcent_threshold = 3;   // Fcent
+  o.sigma0 = 1.0;          // sigma_0
+  o.sigma_ub = 3.0;        // sigma_ub
+  o.sigma_lb = 0.1;        // sigma_lb
+  o.expansion = 2.0;       // ex
+  o.contraction = 0.5;     // ct
+  o.restarts = 0;          // one run
+  o.max_evaluations = 0;   // no budget beyond k_max
+  o.objective = ObservabilityIndex::kConditionNumber;
+  // What the paper leaves open, decided as docs/planning.md says: sigma in tenths of each joint's range,
+  // counters reset after they change sigma, joint limits by reflection.
+  o.step_fraction = 0.1;
+  o.reset_counters = true;
+  o.limits = LimitHandling::kReflect;
+  return o;
+}
 
 bool SolisWetsOptions::IsValid(std::string* error) const {
   auto fail = [&](const char* message) {

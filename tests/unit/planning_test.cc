@@ -105,6 +105,29 @@ INSTANTIATE_TEST_SUITE_P(PresetsAndTypes, PlannerTest,
                            return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param));
                          });
 
+TEST(SolisWetsOptionsTest, PaperPresetHoldsThePapersConstants) {
+  // Wang & Zhang (2007), section 3: k_max = 100, Scent = 5, Fcent = 3, sigma_0 = 1, sigma_ub = 3, sigma_lb = 0.1,
+  // ex = 2, ct = 0.5, the condition number as objective, one run.
+  const SolisWetsOptions p = SolisWetsOptions::Paper();
+  EXPECT_EQ(p.k_max, 100);
+  EXPECT_EQ(p.scent_threshold, 5);
+  EXPECT_EQ(p.fcent_threshold, 3);
+  EXPECT_EQ(p.sigma0, 1.0);
+  EXPECT_EQ(p.sigma_ub, 3.0);
+  EXPECT_EQ(p.sigma_lb, 0.1);
+  EXPECT_EQ(p.expansion, 2.0);
+  EXPECT_EQ(p.contraction, 0.5);
+  EXPECT_EQ(p.objective, ObservabilityIndex::kConditionNumber);
+  EXPECT_EQ(p.restarts, 0);
+  EXPECT_EQ(p.max_evaluations, 0);
+  // The decisions on what the paper leaves open (docs/planning.md).
+  EXPECT_EQ(p.step_fraction, 0.1);
+  EXPECT_TRUE(p.reset_counters);
+  EXPECT_EQ(p.limits, LimitHandling::kReflect);
+  std::string error;
+  EXPECT_TRUE(p.IsValid(&error)) << error;
+}
+
 TEST(PlanningTest, SameSeedSameResultOtherSeedOtherResult) {
   const RobotModel model = Preset("grinder5");
   const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
