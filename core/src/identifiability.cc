@@ -10,22 +10,24 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/random.h"
 
 namespace robocal {
 namespace {
 
-std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorXd& norms,
-                           const std::vector<int>& kept, const Eigen::MatrixXd& kept_scaled,
-                           const Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& kept_qr, int j, double max_norm,
-                           const RobotModel& model, MeasurementType type) {
-  if (norms[j] <= 1e-12 * max_norm) {
+// `d` are the unit-column factors of `weighted` (UnitColumnFactors): 0 for a column without effect.
+std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorXd& d, const std::vector<int>& kept,
+                           const Eigen::MatrixXd& kept_scaled,
+                           const Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& kept_qr, int j, const RobotModel& model,
+                           MeasurementType type) {
+  if (d[j] == 0.0) {
     return std::string("no effect on ") + ToString(type) + " measurements";
   }
   // Column j (unit norm) as a combination of the kept unit columns; back to physical units the coefficient
   // of kept parameter k is c_k * |a_j| / |a_k|, i.e. "a change of parameter j looks like c * parameter k".
-  const Eigen::VectorXd target = weighted.col(j) / norms[j];
+  const Eigen::VectorXd target = weighted.col(j) * d[j];
   const Eigen::VectorXd c = kept_qr.solve(target);
   const double misfit = (kept_scaled * c - target).norm();
   std::vector<int> order(kept.size());
@@ -43,7 +45,7 @@ std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorX
   out << (single ? "indistinguishable from " : "a combination of ");
   for (int i = 0; i < (single ? 1 : shown); ++i) {
     const int k = kept[order[i]];
-    const double coeff = c[order[i]] * norms[j] / norms[k];
+    const double coeff = c[order[i]] * d[k] / d[j];
     if (i > 0) out << ", ";
     out << coeff << " " << model.parameter_name(k);
   }
@@ -106,20 +108,13 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
     IdentificationJacobian(model, q, Eigen::VectorXd(), type, &ws, block);
     weighted.middleRows(m * rows, rows) = w.asDiagonal() * block;
   }
-  const Eigen::VectorXd norms = weighted.colwise().norm();
-  const double max_norm = norms.maxCoeff();
-  Eigen::MatrixXd scaled = weighted;
-  for (int j = 0; j < n; ++j) {
-    // A column with no effect stays zero; the QR then pivots it last.
-    if (norms[j] > 1e-12 * max_norm) scaled.col(j) /= norms[j];
-    else scaled.col(j).setZero();
-  }
-
+  // A column with no effect stays zero; the QR then pivots it last.
+  const Eigen::VectorXd d = UnitColumnFactorsOf(weighted);
+  const Eigen::MatrixXd scaled = weighted * d.asDiagonal();
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
   const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
   const double r00 = diag[0];
-  int rank = 0;
-  while (rank < n && diag[rank] > options.rank_tolerance * r00) ++rank;
+  const int rank = PivotRank(diag, options.rank_tolerance);
   summary.smallest_kept_pivot = rank > 0 ? diag[rank - 1] / r00 : 0.0;
   summary.largest_dropped_pivot = rank < n ? diag[rank] / r00 : 0.0;
 
@@ -135,8 +130,8 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   std::sort(dropped_indices.begin(), dropped_indices.end());
   for (int j : dropped_indices) {
     summary.dropped.push_back({j, model.parameter_name(j),
-                               ExplainDropped(weighted, norms, summary.identifiable, kept_scaled, kept_qr, j,
-                                              max_norm, model, type)});
+                               ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model,
+                                              type)});
   }
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept_scaled);

@@ -14,6 +14,7 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/kinematics.h"
 
 namespace robocal {
@@ -136,15 +137,6 @@ class Problem {
   std::vector<Eigen::VectorXd> poses_;
   std::vector<int> pose_of_;
 };
-
-// Unit-norm columns: the scaling every reported condition number and rank decision uses.
-Eigen::VectorXd ColumnNorms(const Eigen::MatrixXd& j) {
-  Eigen::VectorXd norms = j.colwise().norm();
-  for (Eigen::Index k = 0; k < norms.size(); ++k) {
-    if (!(norms[k] > 0.0)) norms[k] = 1.0;
-  }
-  return norms;
-}
 
 struct LmResult {
   Eigen::VectorXd x;
@@ -471,10 +463,8 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
     s.initial_cost = 0.5 * r.squaredNorm();
     if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * ColumnNorms(j).cwiseInverse().asDiagonal());
-    const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
-    int rank = 0;
-    while (rank < s.num_parameters && diag[rank] > options.identifiability.rank_tolerance * diag[0]) ++rank;
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
+    const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(), options.identifiability.rank_tolerance);
     if (rank < s.num_parameters) {
       std::ostringstream msg;
       msg << "degenerate configurations: rank-deficient Jacobian, the " << s.num_poses << " poses determine only "
@@ -497,17 +487,16 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   const int dof = s.num_residuals - s.num_parameters;
   s.sigma_hat = std::sqrt(2.0 * s.final_cost / dof);
 
-  // Covariance and condition number from the column-scaled Jacobian: (J'J)^-1 = D^-1 (Js'Js)^-1 D^-1.
-  const Eigen::VectorXd norms = ColumnNorms(lm.jacobian);
-  const Eigen::MatrixXd scaled = lm.jacobian * norms.cwiseInverse().asDiagonal();
+  // Covariance and condition number from the column-scaled Jacobian Js = J D: (J'J)^-1 = D (Js'Js)^-1 D.
+  const Eigen::VectorXd d = UnitColumnFactorsOf(lm.jacobian);
+  const Eigen::MatrixXd scaled = lm.jacobian * d.asDiagonal();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();
   if (!(sv[sv.size() - 1] > 0.0)) return fail("degenerate configurations: singular Jacobian at the solution");
   s.condition_number = sv[0] / sv[sv.size() - 1];
   const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();
-  cal.covariance = s.sigma_hat * s.sigma_hat * norms.cwiseInverse().asDiagonal() * inverse_scaled *
-                   norms.cwiseInverse().asDiagonal();
+  cal.covariance = s.sigma_hat * s.sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
 
   for (int k = 0; k < s.num_parameters; ++k) {
     cal.parameters.push_back(

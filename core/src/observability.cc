@@ -12,6 +12,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include "robocal/core/column_scaling.h"
+
 namespace robocal {
 namespace {
 
@@ -21,11 +23,11 @@ constexpr int kRefreshInterval = 64;
 
 Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::VectorXd& column_norms) {
   const int l = static_cast<int>(options.parameters.size());
+  if (options.scaling == ColumnScaling::kColumnNorm) return UnitColumnFactors(column_norms);
   Eigen::VectorXd d(l);
   for (int k = 0; k < l; ++k) {
     switch (options.scaling) {
       case ColumnScaling::kColumnNorm:
-        d[k] = column_norms[k] > 0.0 ? 1.0 / column_norms[k] : 1.0;
         break;
       case ColumnScaling::kExpectedDeviation:
         d[k] = RobotModel::IsTranslationParameter(options.parameters[k]) ? options.expected_translation_mm

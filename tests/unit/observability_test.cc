@@ -7,6 +7,7 @@
 
 #include "robocal/core/identifiability.h"
 #include "robocal/core/observability.h"
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 
@@ -159,6 +160,34 @@ TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
   Rng rng(4);
   const auto plan = RandomConfigurations(model, 2, &rng);  // 12 rows for 30 parameters
   EXPECT_EQ(PredictAccuracy(model, o, plan, RandomConfigurations(model, 5, &rng)).num_validation, 0);
+}
+
+}  // namespace
+}  // namespace robocal
+
+namespace robocal {
+namespace {
+
+TEST(ColumnScalingTest, UnitColumnsAndColumnsWithoutEffect) {
+  Eigen::MatrixXd j(2, 4);
+  j << 3, 0, 1e-20, 0.5,  //
+      4, 0, 0, 0;
+  const Eigen::VectorXd d = UnitColumnFactorsOf(j);
+  EXPECT_DOUBLE_EQ(d[0], 0.2);  // |(3, 4)| = 5
+  EXPECT_EQ(d[1], 0.0);         // a zero column stays zero
+  EXPECT_EQ(d[2], 0.0);         // 1e-20 is below 1e-12 of the largest norm: no effect, not amplified
+  EXPECT_DOUBLE_EQ(d[3], 2.0);
+  const Eigen::MatrixXd scaled = j * d.asDiagonal();
+  EXPECT_NEAR(scaled.col(0).norm(), 1.0, 1e-15);
+  EXPECT_NEAR(scaled.col(3).norm(), 1.0, 1e-15);
+  EXPECT_EQ(scaled.col(2).norm(), 0.0);
+}
+
+TEST(ColumnScalingTest, PivotRankCountsPivotsAboveTheTolerance) {
+  EXPECT_EQ(PivotRank(Eigen::Vector3d(10.0, 1.0, 1e-9), 1e-6), 2);
+  EXPECT_EQ(PivotRank(Eigen::Vector3d(10.0, 1.0, 1e-5), 1e-6), 3);
+  EXPECT_EQ(PivotRank(Eigen::Vector3d(0.0, 0.0, 0.0), 1e-6), 0);
+  EXPECT_EQ(PivotRank(Eigen::VectorXd(), 1e-6), 0);
 }
 
 }  // namespace
