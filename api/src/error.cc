@@ -70,7 +70,8 @@ nlohmann::json ErrorBody(Status status, int http_code, const std::string& messag
 void Problems::ThrowIfAny(const std::string& what) const {
   if (list_.empty()) return;
   std::string message = what + ": " + list_.front().field + ": " + list_.front().reason;
-  if (list_.size() > 1) message += " (and " + std::to_string(list_.size() - 1) + " more)";
+  if (count_ > 1) message += " (and " + std::to_string(count_ - 1) + " more)";
+  if (count_ > list_.size()) message += "; the first " + std::to_string(list_.size()) + " are listed";
   throw ApiError(Status::kInvalidArgument, message, list_);
 }
 

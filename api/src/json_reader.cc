@@ -31,73 +31,110 @@ std::string IndexPath(const std::string& path, std::size_t index) {
   return path + "[" + std::to_string(index) + "]";
 }
 
-nlohmann::json ParseBody(const std::string& body) {
-  // The parser keeps the last of repeated keys; a request that says two things must be refused instead. The
-  // callback follows the nesting (one small frame per open object or array; a path is spelt out only for a
-  // duplicate, so deep nesting costs linear memory) and stops at kMaxJsonDepth.
+namespace {
+
+// A first pass over request text with the parser's event interface, before any value is built: it refuses
+// nesting deeper than kMaxJsonDepth (a deep body would otherwise cost hundreds of bytes per input byte) and keys
+// repeated within one object (the parser alone keeps the last one silently). Linear in the body: one small frame
+// per open object or array, and a path is spelt out only for a duplicate. (The parser's callback interface
+// could do the same but rescans containers on every closing brace, which is quadratic.)
+class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
+ public:
+  bool null() override { return Value(); }
+  bool boolean(bool) override { return Value(); }
+  bool number_integer(number_integer_t) override { return Value(); }
+  bool number_unsigned(number_unsigned_t) override { return Value(); }
+  bool number_float(number_float_t, const string_t&) override { return Value(); }
+  bool string(string_t&) override { return Value(); }
+  bool binary(binary_t&) override { return Value(); }
+  bool start_object(std::size_t) override { return Open(true); }
+  bool start_array(std::size_t) override { return Open(false); }
+  bool end_object() override { return Close(); }
+  bool end_array() override { return Close(); }
+  bool key(string_t& name) override {
+    Frame& top = stack_.back();
+    top.key = name;
+    if (!top.keys.insert(name).second) duplicates_.Add(PathOf(stack_.size()), "duplicate key (each member may appear once)");
+    return true;
+  }
+  bool parse_error(std::size_t position, const std::string&, const nlohmann::detail::exception& e) override {
+    error_ = e.what();
+    error_id_ = e.id;
+    error_position_ = position;
+    return false;
+  }
+
+  /// Throws the ApiError for what the pass found, if anything.
+  void ThrowIfBad() const {
+    if (too_deep_) {
+      throw ApiError(Status::kInvalidArgument, "request body nested too deeply",
+                     {{"body", "objects and arrays nest at most " + std::to_string(kMaxJsonDepth) + " levels deep"}});
+    }
+    if (!error_.empty()) {
+      // 406: a number literal beyond double range (1e999), which would otherwise become inf.
+      if (error_id_ == 406) {
+        throw ApiError(Status::kInvalidArgument, "number out of range: " + error_,
+                       {{"body", "a number is out of the range of a double (non-finite values are not accepted)"}});
+      }
+      // The message quotes the bytes last read, which may be any bytes of the request: ApiError makes them safe.
+      throw ApiError(Status::kInvalidArgument, "malformed JSON: " + error_,
+                     {{"body", "malformed JSON at byte " + std::to_string(error_position_)}});
+    }
+    duplicates_.ThrowIfAny("invalid request body");
+  }
+
+ private:
   struct Frame {
     bool object;
     std::size_t count = 0;  // elements completed (arrays)
     std::string key;        // the member being read (objects)
     std::set<std::string> keys;
   };
-  struct TooDeep {};
-  std::vector<Frame> stack;
-  Problems duplicates;
-  const auto path_of = [&stack](std::size_t frames) {
+  bool Value() {
+    if (!stack_.empty() && !stack_.back().object) ++stack_.back().count;
+    return true;
+  }
+  bool Open(bool object) {
+    if (stack_.size() >= kMaxJsonDepth) {
+      too_deep_ = true;
+      return false;
+    }
+    stack_.push_back(Frame{object, 0, {}, {}});
+    return true;
+  }
+  bool Close() {
+    stack_.pop_back();
+    return Value();
+  }
+  std::string PathOf(std::size_t frames) const {
     std::string path;
     for (std::size_t i = 0; i < frames; ++i) {
-      path = stack[i].object ? JoinPath(path, stack[i].key) : IndexPath(path, stack[i].count);
+      path = stack_[i].object ? JoinPath(path, stack_[i].key) : IndexPath(path, stack_[i].count);
     }
     return path;
-  };
-  const auto completed = [&stack]() {
-    if (!stack.empty() && !stack.back().object) ++stack.back().count;
-  };
-  const nlohmann::json::parser_callback_t callback = [&](int, nlohmann::json::parse_event_t event,
-                                                         nlohmann::json& parsed) {
-    using Event = nlohmann::json::parse_event_t;
-    switch (event) {
-      case Event::object_start:
-      case Event::array_start:
-        if (stack.size() >= kMaxJsonDepth) throw TooDeep{};
-        stack.push_back(Frame{event == Event::object_start, 0, {}, {}});
-        break;
-      case Event::key: {
-        Frame& top = stack.back();
-        top.key = parsed.get<std::string>();
-        if (!top.keys.insert(top.key).second && duplicates.size() < 16) {
-          duplicates.Add(path_of(stack.size()), "duplicate key (each member may appear once)");
-        }
-        break;
-      }
-      case Event::object_end:
-      case Event::array_end:
-        stack.pop_back();
-        completed();
-        break;
-      case Event::value:
-        completed();
-        break;
-    }
-    return true;
-  };
+  }
+
+  std::vector<Frame> stack_;
+  Problems duplicates_;
+  bool too_deep_ = false;
+  std::string error_;
+  int error_id_ = 0;
+  std::size_t error_position_ = 0;
+};
+
+}  // namespace
+
+nlohmann::json ParseBody(const std::string& body) {
+  RequestShapeCheck check;
+  nlohmann::json::sax_parse(body, &check);
+  check.ThrowIfBad();
   nlohmann::json value;
   try {
-    value = nlohmann::json::parse(body, callback);
-  } catch (const nlohmann::json::parse_error& e) {
-    // e.what() quotes the bytes last read, which may be any bytes of the request: ApiError makes them safe.
-    throw ApiError(Status::kInvalidArgument, "malformed JSON: " + std::string(e.what()),
-                   {{"body", "malformed JSON at byte " + std::to_string(e.byte)}});
-  } catch (const TooDeep&) {
-    throw ApiError(Status::kInvalidArgument, "request body nested too deeply",
-                   {{"body", "objects and arrays nest at most " + std::to_string(kMaxJsonDepth) + " levels deep"}});
-  } catch (const nlohmann::json::out_of_range& e) {
-    // A number literal beyond double range (1e999) would otherwise become inf.
-    throw ApiError(Status::kInvalidArgument, "number out of range: " + std::string(e.what()),
-                   {{"body", "a number is out of the range of a double (non-finite values are not accepted)"}});
+    value = nlohmann::json::parse(body);
+  } catch (const nlohmann::json::exception& e) {
+    // The first pass has seen the same text parse cleanly.
+    throw ApiError(Status::kInvalidArgument, "malformed JSON: " + std::string(e.what()), {{"body", "malformed JSON"}});
   }
-  duplicates.ThrowIfAny("invalid request body");
   if (!value.is_object()) {
     throw ApiError(Status::kInvalidArgument, "the request body must be a JSON object",
                    {{"body", std::string("expected an object, got ") + TypeName(value)}});

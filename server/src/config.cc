@@ -290,7 +290,14 @@ std::vector<std::string> ReadTokensFile(const std::string& path) {
     const auto first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos) continue;
     const auto last = line.find_last_not_of(" \t\r");
-    tokens.push_back(line.substr(first, last - first + 1));
+    const std::string token = line.substr(first, last - first + 1);
+    // Clients send tokens in a header, which the HTTP layer percent-decodes: a '%' could not be sent as it is.
+    for (const char c : token) {
+      if (c <= ' ' || c == '%' || static_cast<unsigned char>(c) >= 0x7F) {
+        throw std::runtime_error("tokens file " + path + ": a token must be printable ASCII without spaces or '%'");
+      }
+    }
+    tokens.push_back(token);
   }
   if (tokens.empty()) throw std::runtime_error("tokens file " + path + " holds no token");
   return tokens;

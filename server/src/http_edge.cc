@@ -184,7 +184,8 @@ class GuardedStream : public httplib::Stream {
       short want = 0;
       const ssize_t n = transport_->Send(ptr, size, &want);
       if (n > 0) return n;
-      if (n == 0 || want == 0 || !WaitReady(sock_, want, write_deadline_)) return -1;
+      // A client that does not take its reply is cut at the write deadline, or when the server stops.
+      if (n == 0 || want == 0 || !WaitReady(sock_, want, write_deadline_, &listening_)) return -1;
     }
   }
 
@@ -314,6 +315,10 @@ void MakeNonBlocking(int sock) {
 
 // Set by the pool while it refuses a connection on the accepting thread.
 thread_local bool refusing = false;
+// Set by the pool before it runs a connection's task: when the connection was accepted.
+thread_local Clock::time_point accepted_at{};
+
+Clock::time_point AcceptedAt() { return accepted_at == Clock::time_point{} ? Clock::now() : accepted_at; }
 
 }  // namespace
 
@@ -398,7 +403,7 @@ void ConnectionPool::enqueue(std::function<void()> fn) {
     // Threads that will take a task without a new one started: idle ones and ones still starting.
     const std::size_t free = idle_ + starting_;
     if (queue_.size() < free + (max_threads_ - threads_.size()) + max_queued_) {
-      queue_.push_back(std::move(fn));
+      queue_.emplace_back(std::move(fn), Clock::now());
       ++counters_->queued;
       if (queue_.size() > free && threads_.size() < max_threads_) {
         ++starting_;
@@ -440,7 +445,8 @@ void ConnectionPool::Work() {
       ready_.wait(lock, [this] { return shutdown_ || !queue_.empty(); });
       --idle_;
       if (queue_.empty()) return;  // shut down and drained
-      fn = std::move(queue_.front());
+      fn = std::move(queue_.front().first);
+      accepted_at = queue_.front().second;
       queue_.pop_front();
     }
     --counters_->queued;
@@ -459,7 +465,7 @@ bool Server::process_and_close_socket(socket_t sock) {
     lingerer_.Close(sock);
     return false;
   }
-  const auto accepted = Clock::now();
+  const auto accepted = AcceptedAt();
   MakeNonBlocking(sock);
   PlainTransport transport(sock);
   return Serve(sock, &transport, limits_, canned_, counters_, accepted, svr_sock_,
@@ -478,7 +484,7 @@ bool SslServer::process_and_close_socket(socket_t sock) {
     lingerer_.Close(sock);
     return false;
   }
-  const auto accepted = Clock::now();
+  const auto accepted = AcceptedAt();
   MakeNonBlocking(sock);
   SSL* ssl = SSL_new(ssl_context());
   if (ssl == nullptr || SSL_set_fd(ssl, sock) != 1) {
@@ -497,7 +503,7 @@ bool SslServer::process_and_close_socket(socket_t sock) {
     }
     const int e = SSL_get_error(ssl, r);
     const short want = e == SSL_ERROR_WANT_READ ? POLLIN : e == SSL_ERROR_WANT_WRITE ? POLLOUT : 0;
-    if (want == 0 || !WaitReady(sock, want, deadline)) break;
+    if (want == 0 || !WaitReady(sock, want, deadline, &svr_sock_)) break;
   }
   bool ok = false;
   if (shaken) {

@@ -85,7 +85,9 @@ class ConnectionPool : public httplib::TaskQueue {
   Counters* counters_;
   std::mutex mutex_;
   std::condition_variable ready_;
-  std::deque<std::function<void()>> queue_;
+  // Each task with the time its connection was accepted: its first request's deadline runs from there, also
+  // while it waits in the queue.
+  std::deque<std::pair<std::function<void()>, std::chrono::steady_clock::time_point>> queue_;
   std::vector<std::thread> threads_;
   std::size_t idle_ = 0;      // threads waiting for a task
   std::size_t starting_ = 0;  // threads started that have not yet waited

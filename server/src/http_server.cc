@@ -103,6 +103,15 @@ const std::vector<Route>& RouteTable() {
   return routes;
 }
 
+// The method label for metrics: one of the methods HTTP defines, else "other" (a client may send any bytes as a
+// method; each distinct one would otherwise become a series kept forever).
+std::string MethodLabel(const std::string& method) {
+  for (const char* known : {"GET", "POST", "DELETE", "PUT", "PATCH", "HEAD", "OPTIONS", "CONNECT", "TRACE"}) {
+    if (method == known) return method;
+  }
+  return "other";
+}
+
 // The route label of a request path for metrics and logs (bounded cardinality: never the raw path).
 std::string RouteLabel(const std::string& method, const std::string& path) {
   // Compiled once: building a std::regex costs far more than matching one.
@@ -165,6 +174,12 @@ bool HasControlBytes(const std::string& text) {
   return false;
 }
 
+// No robocal reply is a byte-range resource, and the library would cut every reply, error bodies included, to
+// the ranges a client names (building thousands of ranges in memory). HTTP lets a server ignore Range: the
+// parsed ranges are dropped. The request object is the library's own non-const local; only its view here is
+// const.
+void IgnoreRanges(const httplib::Request& req) { const_cast<httplib::Request&>(req).ranges.clear(); }
+
 // "application/json" or "application/json; charset=utf-8" (any case).
 bool IsJsonMediaType(const std::string& content_type) {
   std::string media = content_type.substr(0, content_type.find(';'));
@@ -185,9 +200,18 @@ bool CheckHead(const httplib::Request& req, httplib::Response& res, std::int64_t
   }
   const bool may_carry_body = req.method == "POST" || req.method == "PUT" || req.method == "PATCH" ||
                               req.method == "DELETE" || req.method == "PRI";
-  if (!may_carry_body) return true;
   const std::string* length = RawHeader(req, "Content-Length");
   const std::string* encoding = RawHeader(req, "Transfer-Encoding");
+  if (!may_carry_body) {
+    // The library never reads a GET's body, so one would be parsed as the next request on the connection: a
+    // request smuggled past whatever checked the first.
+    if (encoding != nullptr || (length != nullptr && *length != "0")) {
+      WriteError(res, Status::kInvalidArgument, req.method + " requests carry no body",
+                 {{"body", "not allowed on " + req.method + " (no Content-Length or Transfer-Encoding)"}});
+      return false;
+    }
+    return true;
+  }
   if (const std::string* coding = RawHeader(req, "Content-Encoding"); coding != nullptr && *coding != "identity") {
     WriteError(res, Status::kInvalidArgument, "compressed request bodies are not accepted",
                {{"Content-Encoding", "send the body uncompressed (got \"" + *coding + "\")"}});
@@ -451,6 +475,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   });
 
   svr.set_pre_routing_handler([impl](const httplib::Request& req, httplib::Response& res) {
+    IgnoreRanges(req);
     request_start = std::chrono::steady_clock::now();
     const std::string* client_id = RawHeader(req, "X-Request-Id");
     request_id = client_id != nullptr && UsableRequestId(*client_id) ? *client_id : NewId("req");
@@ -560,6 +585,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   // Errors produced by the HTTP library itself (unknown path, a head it cannot parse, a body the edge cut off)
   // get the same body shape. Nothing in here may throw out: the reply falls back to a fixed 500 body.
   svr.set_error_handler([impl](const httplib::Request& req, httplib::Response& res) {
+    IgnoreRanges(req);
     try {
       const edge::Fault fault = edge::CurrentFault();
       if (fault != edge::Fault::kNone) {
@@ -624,7 +650,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
             ? 0.0
             : std::chrono::duration<double>(std::chrono::steady_clock::now() - request_start).count();
     const std::string route = RouteLabel(req.method, req.path);
-    impl->metrics.Record(req.method, route, res.status, seconds);
+    impl->metrics.Record(MethodLabel(req.method), route, res.status, seconds);
     // A head the library could not parse never reached the pre-routing handler: it has no id of its own.
     if (request_id.empty()) request_id = NewId("req");
     LogEvent(res.status >= 500 ? spdlog::level::err : spdlog::level::info, "request",

@@ -312,6 +312,56 @@ TEST(EdgeTest, UnsafeRequestIdsAreReplaced) {
   EXPECT_EQ(spaced.head.find("X-Request-Id: a b"), std::string::npos) << spaced.head;
 }
 
+TEST(EdgeTest, MetricsLabelsStayBoundedWhateverTheMethod) {
+  TestServer server;
+  for (int i = 0; i < 50; ++i) {
+    RawConnection::Exchange(server.port(), "M" + std::to_string(i) + "X\"}\xff\x1b /healthz HTTP/1.1\r\nHost: x\r\n\r\n");
+  }
+  const RawReply metrics = RawConnection::Exchange(server.port(), Get("/metrics"));
+  ASSERT_EQ(metrics.status, 200);
+  EXPECT_NE(metrics.body.find("method=\"other\""), std::string::npos) << metrics.body;
+  EXPECT_EQ(metrics.body.find("M7X"), std::string::npos);
+  EXPECT_TRUE(api::IsValidUtf8(metrics.body));
+  EXPECT_EQ(metrics.body.find('\x1b'), std::string::npos);
+}
+
+TEST(EdgeTest, RangeHeadersAreIgnored) {
+  TestServer server({}, {"s3cret"});
+  // An error body stays whole (it used to be cut to the first byte).
+  ExpectErrorBody(RawConnection::Exchange(server.port(),
+                                          "GET /v1/robots HTTP/1.1\r\nHost: x\r\nRange: bytes=0-0\r\n\r\n"),
+                  401, "");
+  std::string ranges;
+  for (int i = 0; i < 4000; ++i) ranges += i == 0 ? "-" : ",-";
+  const RawReply many = RawConnection::Exchange(
+      server.port(), "GET /healthz HTTP/1.1\r\nHost: x\r\nRange: bytes=" + ranges + "\r\n\r\n");
+  EXPECT_EQ(many.status, 200);
+  EXPECT_EQ(many.json["status"], "ok") << many.body.substr(0, 200);
+}
+
+TEST(EdgeTest, AGetWithABodyIsRefusedNotSplitIntoTwoRequests) {
+  TestServer server;
+  const std::string inner = "DELETE /v1/robots/abc HTTP/1.1\r\nHost: x\r\n\r\n";
+  for (const std::string& framing :
+       {"Content-Length: " + std::to_string(inner.size()), std::string("Transfer-Encoding: chunked")}) {
+    RawConnection c(server.port());
+    c.Send("GET /healthz HTTP/1.1\r\nHost: x\r\n" + framing + "\r\n\r\n" + inner);
+    ExpectErrorBody(c.Read(), 400, "body");
+    EXPECT_EQ(c.Read(500ms).status, 0) << "a second reply: the body was read as a request";
+  }
+}
+
+TEST(EdgeTest, ErrorDetailsAreCapped) {
+  TestServer server;
+  std::string body = "{";
+  for (int i = 0; i < 1000; ++i) body += (i ? "," : "") + std::string("\"k") + std::to_string(i) + "\":1";
+  body += "}";
+  const RawReply r = RawConnection::Exchange(server.port(), PostJson("/v1/plans", body));
+  ASSERT_EQ(r.status, 400) << r.body.substr(0, 300);
+  EXPECT_EQ(r.json["error"]["details"].size(), 100u);
+  EXPECT_NE(r.json["error"]["message"].get<std::string>().find("more"), std::string::npos);
+}
+
 TEST(EdgeTest, LoopbackMeansAnAddress) {
   EXPECT_TRUE(IsLoopbackHost("127.0.0.1"));
   EXPECT_TRUE(IsLoopbackHost("127.8.9.10"));

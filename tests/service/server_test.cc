@@ -736,6 +736,14 @@ TEST(ConfigTest, EveryLimitIsConfigurable) {
   EXPECT_TRUE(example.run) << example.message;
 }
 
+TEST(ConfigTest, TokensMustBeSendableAsWritten) {
+  const std::string file = ::testing::TempDir() + "robocal_tokens_percent";
+  std::ofstream(file) << "# cell 7\nabc%2Ddef\n";
+  EXPECT_THROW(ReadTokensFile(file), std::runtime_error);
+  std::ofstream(file) << "good-token_1.x\n";
+  EXPECT_EQ(ReadTokensFile(file), std::vector<std::string>{"good-token_1.x"});
+}
+
 TEST(ConfigTest, ConnectionTimeoutsFromFlagsEnvAndFile) {
   const ServerConfig defaults = LoadConfig({}, {}).config;
   EXPECT_EQ(defaults.keep_alive_timeout_s, 2);

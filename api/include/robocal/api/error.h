@@ -54,12 +54,19 @@ class ApiError : public std::runtime_error {
 nlohmann::json ErrorBody(Status status, int http_code, const std::string& message,
                          const std::vector<FieldViolation>& details = {});
 
-/// Collects every violation found in a request before failing, so that a client sees all of them at once.
+/// Collects every violation found in a request before failing, so that a client sees all of them at once (the
+/// first kMaxDetails of them in detail, with the count of the rest: a request of a million bad keys must not
+/// make an error reply a hundred times its size).
 class Problems {
  public:
-  void Add(const std::string& field, const std::string& reason) { list_.push_back({field, reason}); }
-  bool empty() const { return list_.empty(); }
-  std::size_t size() const { return list_.size(); }
+  static constexpr std::size_t kMaxDetails = 100;
+  void Add(const std::string& field, const std::string& reason) {
+    if (list_.size() < kMaxDetails) list_.push_back({field, reason});
+    ++count_;
+  }
+  bool empty() const { return count_ == 0; }
+  /// All violations found, including those beyond kMaxDetails.
+  std::size_t size() const { return count_; }
   const std::vector<FieldViolation>& list() const { return list_; }
   /// Throws ApiError(kInvalidArgument) listing every violation if there is any. `what` names the request,
   /// e.g. "invalid measurement batch".
@@ -67,6 +74,7 @@ class Problems {
 
  private:
   std::vector<FieldViolation> list_;
+  std::size_t count_ = 0;
 };
 
 }  // namespace robocal::api

@@ -71,7 +71,8 @@ std::string UsageText();
 bool IsLoopbackHost(const std::string& host);
 
 /// Tokens from a tokens file (one per line, '#' comments, blank lines ignored). Throws std::runtime_error if
-/// the file cannot be read or holds no token.
+/// the file cannot be read, holds no token, or a token is not printable ASCII without spaces and '%' (header
+/// values are percent-decoded on arrival, so such a token could not be presented as written).
 std::vector<std::string> ReadTokensFile(const std::string& path);
 
 }  // namespace robocal::server
