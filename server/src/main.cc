@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
   options.limits.max_plan_configurations = config.max_plan_configurations;
   options.limits.max_array_length = static_cast<std::size_t>(config.max_array_length);
   options.limits.max_plan_evaluations = config.max_plan_evaluations;
+  options.limits.max_plan_jacobians = config.max_plan_jacobians;
+  options.limits.max_plan_candidates = config.max_plan_candidates;
+  options.limits.max_fit_jacobian_entries = config.max_fit_jacobian_entries;
   options.max_running_operations = config.max_running_operations;
   options.max_measurements_per_campaign = config.max_measurements_per_campaign;
   options.request_deadline = std::chrono::seconds(config.request_timeout_s);
