@@ -85,6 +85,24 @@ Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w) {
   return m;
 }
 
+// Asks `trimmer` for a trim as a large request's work ends; the trim's delay covers what is freed after this
+// (the request's other locals, its request and reply documents).
+class TrimWhenDone {
+ public:
+  TrimWhenDone(MemoryTrimmer* trimmer, bool large) : trimmer_(large ? trimmer : nullptr) {}
+  ~TrimWhenDone() {
+    if (trimmer_ != nullptr) trimmer_->Schedule();
+  }
+  TrimWhenDone(const TrimWhenDone&) = delete;
+  TrimWhenDone& operator=(const TrimWhenDone&) = delete;
+
+ private:
+  MemoryTrimmer* trimmer_;
+};
+
+// Requests with at least this many elements (measurements, joint vectors, targets) count as large.
+constexpr std::size_t kLargeRequest = 1000;
+
 // Calls `visit` for a campaign's measurements of `role` in sequence order, a page at a time, so that a
 // campaign's stored text is never all in memory at once (only what the caller keeps of it).
 void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const std::string& role,
@@ -303,6 +321,7 @@ void Service::DeleteRobot(const std::string& id) {
 json Service::RobotForward(const std::string& id, const json& body) {
   const RobotModel model = ResolveRobot(id, nullptr);
   const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   return {{"robot", id}, {"frame", "world (nominal base)"}, {"poses", ForwardPoses(model, Eigen::VectorXd(), req)}};
 }
 
@@ -399,6 +418,7 @@ json Service::CreatePlan(const json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
   const RobotModel model = ResolveRobot(req.robot, nullptr);  // NOT_FOUND before any work or operation is created
   if (!req.async) {
+    const TrimWhenDone trim(&trimmer_, true);
     const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
     bool deadline_hit = false;
     auto progress = [&](double) {
@@ -455,6 +475,7 @@ json Service::StartOperation(const std::string& kind, const json& fields, Operat
   auto running = std::make_unique<RunningOperation>();
   RunningOperation* r = running.get();
   running->thread = std::thread([this, work = std::move(work), op_id, op, r]() mutable {
+    const TrimWhenDone trim(&trimmer_, true);  // plans and fits
     try {
       bool cancelled = false;
       auto progress = [r](double fraction) {
@@ -606,6 +627,7 @@ json Service::AppendMeasurements(const std::string& campaign_id, const json& bod
   const RobotModel model = CampaignModel(campaign, options_.limits);
   const api::MeasurementBatchRequest req = api::ParseMeasurementBatchRequest(
       body, model, ParseType(campaign.at("measurement_type")), options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
   std::vector<std::string> texts;
   texts.reserve(req.measurements.size());
   std::string all = req.role;
@@ -750,6 +772,7 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
                             return result;
                           });
   }
+  const TrimWhenDone trim(&trimmer_, true);
   const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
   bool deadline_hit = false;
   json result = fit([&](double) { return std::chrono::steady_clock::now() <= deadline; }, &deadline_hit);
@@ -800,6 +823,7 @@ json Service::CampaignForward(const std::string& campaign_id, const json& body) 
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   return {{"campaign", campaign_id}, {"frame", "tracker"},
           {"poses", ForwardPoses(calibration.model, calibration.errors, req)}};
 }
@@ -809,6 +833,7 @@ json Service::Compensate(const std::string& campaign_id, const json& body) {
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::CompensateRequest req = api::ParseCompensateRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.targets.size() >= kLargeRequest);
   json results = json::array();
   for (const auto& t : req.targets) {
     CompensationResult r;
@@ -839,6 +864,7 @@ json Service::Evaluate(const std::string& campaign_id, const json& body) {
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::EvaluateRequest req = api::ParseEvaluateRequest(body);
+  const TrimWhenDone trim(&trimmer_, true);
   std::vector<Transform> measured, nominal, calibrated;
   KinematicsWorkspace ws(calibration.model);
   ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {

@@ -22,6 +22,7 @@
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 #include "robocal/server/config.h"
+#include "robocal/server/memory_trimmer.h"
 #include "test_server.h"
 
 namespace robocal::server::testing {
@@ -825,6 +826,33 @@ TEST(ServerTest, OpenApiSpecMatchesTheRouteTable) {
   }
   for (const auto& r : routes) EXPECT_TRUE(documented.count(r)) << "undocumented: " << r.first << " " << r.second;
   for (const auto& d : documented) EXPECT_TRUE(routes.count(d)) << "not served: " << d.first << " " << d.second;
+}
+
+// Trims run on the trimmer's thread after the delay, once however often they were asked for, and a trimmer
+// with a trim still waiting stops at once.
+TEST(MemoryTrimmerTest, TrimsOnceAfterTheDelayAndStopsAtOnce) {
+  std::atomic<int> trims{0};
+  {
+    MemoryTrimmer trimmer(std::chrono::milliseconds(50), [&] { ++trims; });
+    for (int i = 0; i < 5; ++i) trimmer.Schedule();
+    for (int i = 0; i < 500 && trims.load() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_GE(trims.load(), 1);
+    EXPECT_LE(trims.load(), 5);
+    const int after_burst = trims.load();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_EQ(trims.load(), after_burst);  // nothing asked, nothing done
+    trimmer.Schedule();
+    for (int i = 0; i < 500 && trims.load() == after_burst; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_EQ(trims.load(), after_burst + 1);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  {
+    MemoryTrimmer waiting(std::chrono::hours(1), [&] { ++trims; });
+    waiting.Schedule();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::minutes(1));
 }
 
 TEST(ConfigTest, PrecedenceFlagsEnvFileDefaults) {

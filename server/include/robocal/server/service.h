@@ -16,6 +16,7 @@
 
 #include "robocal/api/types.h"
 #include "robocal/core/robot_model.h"
+#include "robocal/server/memory_trimmer.h"
 #include "server/storage/storage.h"
 
 namespace robocal::server {
@@ -104,6 +105,8 @@ class Service {
 
   Storage* storage_;
   ServiceOptions options_;
+  /// Returns the memory of large requests to the system after them.
+  MemoryTrimmer trimmer_;
   std::mutex operations_mutex_;
   std::map<std::string, std::unique_ptr<RunningOperation>> running_;
 };
