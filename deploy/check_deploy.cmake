@@ -5,7 +5,8 @@ cmake_minimum_required(VERSION 3.25)
 set(known_keys host port db tokens_file allow_insecure_bind tls_cert tls_key log_level log_format max_body_bytes
     max_measurements_per_campaign max_plan_configurations max_array_length max_plan_evaluations max_running_operations
     request_timeout_s keep_alive_timeout_s request_read_timeout_s write_timeout_s threads
-    max_head_bytes max_connections max_queued_connections)
+    max_head_bytes max_connections max_queued_connections
+    max_plan_jacobians max_plan_candidates max_fit_jacobian_entries)
 
 file(READ "${DEPLOY_DIR}/robocal.example.json" config)
 string(JSON type ERROR_VARIABLE error TYPE "${config}")

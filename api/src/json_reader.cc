@@ -40,6 +40,7 @@ namespace {
 // could do the same but rescans containers on every closing brace, which is quadratic.)
 class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
  public:
+  explicit RequestShapeCheck(std::size_t max_elements) : max_elements_(max_elements) {}
   bool null() override { return Value(); }
   bool boolean(bool) override { return Value(); }
   bool number_integer(number_integer_t) override { return Value(); }
@@ -54,6 +55,7 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
   bool key(string_t& name) override {
     Frame& top = stack_.back();
     top.key = name;
+    if (++top.count > max_elements_) return TooLarge();
     if (!top.keys.insert(name).second) duplicates_.Add(PathOf(stack_.size()), "duplicate key (each member may appear once)");
     return true;
   }
@@ -66,6 +68,11 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
 
   /// Throws the ApiError for what the pass found, if anything.
   void ThrowIfBad() const {
+    if (!too_large_.empty()) {
+      throw ApiError(Status::kInvalidArgument, "request body too large in one place",
+                     {{too_large_, "more than " + std::to_string(max_elements_) +
+                                       " elements (the max_array_length limit), found before parsing went further"}});
+    }
     if (too_deep_) {
       throw ApiError(Status::kInvalidArgument, "request body nested too deeply",
                      {{"body", "objects and arrays nest at most " + std::to_string(kMaxJsonDepth) + " levels deep"}});
@@ -86,13 +93,19 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
  private:
   struct Frame {
     bool object;
-    std::size_t count = 0;  // elements completed (arrays)
+    std::size_t count = 0;  // elements completed (arrays), members seen (objects)
     std::string key;        // the member being read (objects)
     std::set<std::string> keys;
   };
   bool Value() {
-    if (!stack_.empty() && !stack_.back().object) ++stack_.back().count;
+    if (!stack_.empty() && !stack_.back().object && ++stack_.back().count > max_elements_) return TooLarge();
     return true;
+  }
+  // An array or object with more elements than any request may hold: refused before its values are built.
+  bool TooLarge() {
+    too_large_ = PathOf(stack_.size() - 1);  // the container's own path: its parents' keys and indices
+    if (too_large_.empty()) too_large_ = "body";
+    return false;
   }
   bool Open(bool object) {
     if (stack_.size() >= kMaxJsonDepth) {
@@ -114,9 +127,11 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
     return path;
   }
 
+  const std::size_t max_elements_;
   std::vector<Frame> stack_;
   Problems duplicates_;
   bool too_deep_ = false;
+  std::string too_large_;
   std::string error_;
   int error_id_ = 0;
   std::size_t error_position_ = 0;
@@ -124,8 +139,8 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
 
 }  // namespace
 
-nlohmann::json ParseBody(const std::string& body) {
-  RequestShapeCheck check;
+nlohmann::json ParseBody(const std::string& body, std::size_t max_elements) {
+  RequestShapeCheck check(max_elements);
   nlohmann::json::sax_parse(body, &check);
   check.ThrowIfBad();
   nlohmann::json value;

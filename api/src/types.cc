@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 
 #include "robocal/api/convert.h"
 #include "robocal/api/json_reader.h"
+#include "robocal/core/observability.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/transforms.h"
 
@@ -308,12 +310,75 @@ nlohmann::json ToJson(const ForwardRequest& req) { return {{"joints", req.joints
 
 // ---------------------------------------------------------------------------------------------- plans
 
+namespace {
+
+constexpr int kMaxInt = std::numeric_limits<int>::max();
+
+// The request fields that set a plan's work, and how they add up to it, for the reasons of a refused plan.
+struct WorkTerms {
+  std::vector<std::string> evaluation_fields;
+  std::string evaluations;  // e.g. "(restarts + 1) x (2 k_max + 1)"
+  std::vector<std::string> jacobian_fields;
+  std::string jacobians;
+};
+
+WorkTerms WorkTermsOf(const PlanRequest& req) {
+  if (req.optimiser == "random") {
+    return {{"options.num_sets"},
+            "num_sets",
+            {"num_configurations", "options.num_sets", "num_validation"},
+            "num_sets x num_configurations + 2 x num_validation"};
+  }
+  if (req.optimiser == "exchange") {
+    return {{"options.max_iterations", "options.num_candidates", "options.screen"},
+            "max_iterations x (num_candidates + min(screen, num_candidates - num_configurations)) + 1",
+            {"options.num_candidates", "num_validation"},
+            "num_candidates + 2 x num_validation"};
+  }
+  // A set max_evaluations caps the evaluations within their limit (it is checked on its own), not the product.
+  std::vector<std::string> jacobian_fields = {"num_configurations", "options.k_max", "options.restarts"};
+  if (req.max_evaluations > 0) jacobian_fields.push_back("options.max_evaluations");
+  jacobian_fields.push_back("num_validation");
+  return {{"options.k_max", "options.restarts"},
+          "(restarts + 1) x (2 k_max + 1)",
+          jacobian_fields,
+          "evaluations x num_configurations + 2 x num_validation"};
+}
+
+// Refuses, before any work starts, a plan whose total work exceeds the limits, naming every field that sets it.
+void CheckPlanWork(const PlanRequest& req, const Limits& limits, Problems* problems) {
+  const PlanWork work = MaxWork(req);
+  const WorkTerms terms = WorkTermsOf(req);
+  if (work.evaluations > limits.max_plan_evaluations) {
+    const std::string reason = OverLimit(work.evaluations, "objective evaluations (" + terms.evaluations + ")",
+                                         "max_plan_evaluations", limits.max_plan_evaluations) +
+                               "; lower them, or cap the plan with options.max_evaluations";
+    for (const std::string& field : terms.evaluation_fields) problems->Add(field, reason);
+  }
+  if (work.jacobians > limits.max_plan_jacobians) {
+    const std::string reason = OverLimit(work.jacobians, "configuration Jacobians (" + terms.jacobians + ")",
+                                         "max_plan_jacobians", limits.max_plan_jacobians);
+    for (const std::string& field : terms.jacobian_fields) problems->Add(field, reason);
+  }
+}
+
+}  // namespace
+
+std::string OverLimit(std::int64_t value, const std::string& what, const std::string& limit_name, std::int64_t limit) {
+  return std::to_string(value) + " " + what + " exceed the server's limit " + limit_name + " = " +
+         std::to_string(limit);
+}
+
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   Problems problems;
   PlanRequest req;
   ObjectReader r(body, "", &problems);
   r.String("robot", true, &req.robot, 64);
-  r.Int("num_configurations", false, &req.num_configurations, 1, limits.max_plan_configurations);
+  if (r.Int("num_configurations", false, &req.num_configurations, 1, kMaxInt) &&
+      req.num_configurations > limits.max_plan_configurations) {
+    problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
+                                                 limits.max_plan_configurations));
+  }
   r.Enum("measurement_type", false, kMeasurementTypes, &req.measurement_type);
   r.Enum("objective", false, {"condition_number", "o1", "o2", "o3", "o4", "o5", "log_det"}, &req.objective);
   r.Enum("optimiser", false, {"solis_wets", "random", "exchange"}, &req.optimiser);
@@ -325,22 +390,76 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   r.Bool("async", false, &req.async);
   if (const nlohmann::json* o = r.Get("options")) {
     ObjectReader opt(*o, "options", &problems);
-    const int budget = static_cast<int>(std::min<std::int64_t>(limits.max_plan_evaluations, INT32_MAX));
-    opt.Int("k_max", false, &req.k_max, 1, budget);
-    opt.Int("restarts", false, &req.restarts, 0, 1000);
-    opt.Int("max_evaluations", false, &req.max_evaluations, 0, budget);
+    // Each option within the core's own range; what they add up to is checked against the limits below.
+    opt.Int("k_max", false, &req.k_max, 1, 10000000);
+    opt.Int("restarts", false, &req.restarts, 0, 10000);
+    if (opt.Int("max_evaluations", false, &req.max_evaluations, 0, kMaxInt) &&
+        req.max_evaluations > limits.max_plan_evaluations) {
+      problems.Add("options.max_evaluations",
+                   OverLimit(req.max_evaluations, "evaluations", "max_plan_evaluations", limits.max_plan_evaluations));
+    }
     opt.Number("step_fraction", false, &req.step_fraction, 1e-6, 1.0);
-    opt.Int("num_sets", false, &req.num_sets, 1, budget);
-    opt.Int("num_candidates", false, &req.num_candidates, 1, 100000);
-    opt.Int("screen", false, &req.screen, 1, 100000);
-    opt.Int("max_iterations", false, &req.max_iterations, 1, budget);
+    opt.Int("num_sets", false, &req.num_sets, 1, 10000000);
+    opt.Int("num_candidates", false, &req.num_candidates, 1, 1000000);
+    opt.Int("screen", false, &req.screen, 1, 1000000);
+    opt.Int("max_iterations", false, &req.max_iterations, 1, 10000000);
     opt.RejectUnknown({"k_max", "restarts", "max_evaluations", "step_fraction", "num_sets", "num_candidates",
                        "screen", "max_iterations"});
   }
   r.RejectUnknown({"robot", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
                    "seed", "num_validation", "async", "options"});
+  // Only the chosen optimiser's options count (clients may send every option with its default).
+  if (req.optimiser == "exchange" && req.num_candidates > limits.max_plan_candidates) {
+    problems.Add("options.num_candidates",
+                 OverLimit(req.num_candidates, "candidates", "max_plan_candidates", limits.max_plan_candidates));
+  } else if (req.optimiser == "exchange" && req.num_candidates < req.num_configurations) {
+    problems.Add("options.num_candidates", "the pool (" + std::to_string(req.num_candidates) +
+                                               ") must hold at least num_configurations (" +
+                                               std::to_string(req.num_configurations) + ")");
+  }
+  if (problems.empty()) CheckPlanWork(req, limits, &problems);
   problems.ThrowIfAny("invalid plan request");
   return req;
+}
+
+SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
+  SolisWetsOptions o = SolisWetsOptions::Paper();
+  o.k_max = req.k_max;
+  o.restarts = req.restarts;
+  o.max_evaluations = req.max_evaluations;
+  o.step_fraction = req.step_fraction;
+  ParseObservabilityIndex(req.objective, &o.objective);
+  o.seed = req.seed;
+  return o;
+}
+
+RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& req) {
+  RandomSelectionOptions o;
+  o.num_sets = req.num_sets;
+  ParseObservabilityIndex(req.objective, &o.objective);
+  o.seed = req.seed;
+  return o;
+}
+
+ExchangeOptions ToExchangeOptions(const PlanRequest& req) {
+  ExchangeOptions o;
+  o.num_candidates = req.num_candidates;
+  o.screen = req.screen;
+  o.max_iterations = req.max_iterations;
+  o.max_evaluations = req.max_evaluations;
+  ParseObservabilityIndex(req.objective, &o.objective);
+  o.seed = req.seed;
+  return o;
+}
+
+PlanWork MaxWork(const PlanRequest& req) {
+  const int m = req.num_configurations;
+  PlanWork work = req.optimiser == "random"     ? MaxPlanWork(m, ToRandomSelectionOptions(req))
+                  : req.optimiser == "exchange" ? MaxPlanWork(m, ToExchangeOptions(req))
+                                                : MaxPlanWork(m, ToSolisWetsOptions(req));
+  work.jacobians = std::min(work.jacobians, std::numeric_limits<std::int64_t>::max() - 2 * req.num_validation) +
+                   2 * static_cast<std::int64_t>(req.num_validation);
+  return work;
 }
 
 nlohmann::json ToJson(const PlanRequest& req) {

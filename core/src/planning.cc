@@ -168,7 +168,48 @@ bool ExchangeOptions::IsValid(std::string* error) const {
     *error = "max_iterations must be >= 0";
     return false;
   }
+  if (max_evaluations < 0) {
+    *error = "max_evaluations must be >= 0";
+    return false;
+  }
   return true;
+}
+
+namespace {
+// a x b for non-negative bounds, saturated rather than overflowing: bounds are only compared with limits.
+std::int64_t SaturatingProduct(std::int64_t a, std::int64_t b) {
+  if (a == 0 || b == 0) return 0;
+  return a > std::numeric_limits<std::int64_t>::max() / b ? std::numeric_limits<std::int64_t>::max() : a * b;
+}
+
+std::int64_t CappedBy(std::int64_t evaluations, int max_evaluations) {
+  return max_evaluations > 0 ? std::min<std::int64_t>(evaluations, max_evaluations) : evaluations;
+}
+}  // namespace
+
+PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options) {
+  // Each run evaluates its starting set, then at most a forward and a reversed step per iteration.
+  const std::int64_t per_run = 2 * static_cast<std::int64_t>(options.k_max) + 1;
+  PlanWork work;
+  work.evaluations = CappedBy(SaturatingProduct(options.restarts + 1, per_run), options.max_evaluations);
+  work.jacobians = SaturatingProduct(work.evaluations, num_configurations);
+  return work;
+}
+
+PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& options) {
+  return {options.num_sets, SaturatingProduct(options.num_sets, num_configurations)};
+}
+
+PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options) {
+  const std::int64_t outside = std::max(0, options.num_candidates - num_configurations);
+  const std::int64_t per_iteration = options.num_candidates + std::min<std::int64_t>(options.screen, outside);
+  PlanWork work;
+  work.evaluations = CappedBy(
+      std::min(SaturatingProduct(options.max_iterations, per_iteration), std::numeric_limits<std::int64_t>::max() - 1) +
+          1,
+      options.max_evaluations);
+  work.jacobians = options.num_candidates;
+  return work;
 }
 
 std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, Rng* rng) {
@@ -210,17 +251,34 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
   };
   auto budget_left = [&] { return options.max_evaluations == 0 || s.evaluations < options.max_evaluations; };
 
+  // The fraction done by iterations, or by the evaluation budget when that ends the search sooner.
+  auto fraction_done = [&] {
+    const double by_iterations = static_cast<double>(s.iterations) / total_iterations;
+    return options.max_evaluations > 0
+               ? std::max(by_iterations, static_cast<double>(s.evaluations) / options.max_evaluations)
+               : by_iterations;
+  };
+
   double best_f = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_z;
+  // Indices are kept with their sets (x_indices with x), so that the result needs no evaluation beyond the
+  // counted ones.
+  ObservabilityIndices best_indices;
   for (int run = 0; run <= options.restarts && !stopped; ++run) {
+    if (run > 0 && !budget_left()) {
+      stopped = true;
+      break;
+    }
     Eigen::VectorXd x = normaliser.ToZ(run == 0 && !initial.empty()
                                            ? initial
                                            : RandomConfigurations(model, num_configurations, &rng));
     double fx = evaluate(x);
-    if (run == 0) s.initial = evaluator.indices();
+    ObservabilityIndices x_indices = evaluator.indices();
+    if (run == 0) s.initial = x_indices;
     if (fx < best_f || best_z.size() == 0) {
       best_f = fx;
       best_z = x;
+      best_indices = x_indices;
     }
     Eigen::VectorXd mu = Eigen::VectorXd::Zero(x.size());
     double sigma = options.sigma0;
@@ -250,6 +308,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       if (f_xi < fx) {
         x = xi;
         fx = f_xi;
+        x_indices = evaluator.indices();
         mu = 0.2 * mu + 0.4 * d_taken;
         ++scent;
         fcent = 0;
@@ -260,6 +319,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
           mu = mu - 0.4 * d_taken;
           x = reverse;
           fx = f_reverse;
+          x_indices = evaluator.indices();
           ++scent;
           fcent = 0;
         } else {
@@ -271,10 +331,11 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       if (fx < best_f) {
         best_f = fx;
         best_z = x;
+        best_indices = x_indices;
       }
       ++s.iterations;
       s.objective_trace.push_back(best_f);
-      if (options.progress && !options.progress(static_cast<double>(s.iterations) / total_iterations)) {
+      if (options.progress && !options.progress(fraction_done())) {
         stopped = true;
         s.message = "cancelled";
         break;
@@ -282,8 +343,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     }
   }
   plan.configurations = normaliser.FromZ(best_z);
-  evaluator.SetConfigurations(plan.configurations);
-  s.final = evaluator.indices();
+  s.final = std::move(best_indices);
   if (stopped) {
     s.termination = Termination::kNoConvergence;
     if (s.message != "cancelled") s.message = "evaluation budget reached";
@@ -347,56 +407,68 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   PlanSummary& s = plan.summary;
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
-  const auto pool = RandomConfigurations(model, options.num_candidates, &rng);
-  // Every candidate's weighted, reduced block and its contribution to A, computed once.
-  std::vector<Eigen::MatrixXd> blocks, contributions;
-  blocks.reserve(pool.size());
-  contributions.reserve(pool.size());
-  for (const Eigen::VectorXd& q : pool) {
-    blocks.push_back(evaluator.Block(q));
-    contributions.push_back(blocks.back().transpose() * blocks.back());
+  const int count = options.num_candidates;
+  const int l = static_cast<int>(observability.parameters.size());
+  const int rows = MeasurementRows(observability.measurement_type);
+  // The pool and every candidate's weighted, reduced block, each in one allocation: they are the optimiser's
+  // memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed
+  // when needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored
+  // (L^2 doubles per candidate, several times the blocks).
+  Eigen::MatrixXd pool(model.num_joints(), count);
+  Eigen::MatrixXd blocks(rows, static_cast<Eigen::Index>(count) * l);
+  for (int c = 0; c < count; ++c) {
+    pool.col(c) = RandomConfiguration(model, &rng);
+    blocks.middleCols(static_cast<Eigen::Index>(c) * l, l) = evaluator.Block(pool.col(c));
   }
+  auto block = [&](int c) { return blocks.middleCols(static_cast<Eigen::Index>(c) * l, l); };
+  auto contribution = [&](int c) -> Eigen::MatrixXd { return block(c).transpose() * block(c); };
   // Random starting subset (partial Fisher-Yates).
-  std::vector<int> order(pool.size());
+  std::vector<int> order(count);
   std::iota(order.begin(), order.end(), 0);
   for (int i = 0; i < num_configurations; ++i) {
     std::swap(order[i], order[i + rng.Index(order.size() - i)]);
   }
   std::vector<int> members(order.begin(), order.begin() + num_configurations);
-  std::vector<char> in_set(pool.size(), 0);
-  const int l = static_cast<int>(observability.parameters.size());
+  std::vector<char> in_set(count, 0);
   Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(l, l);
   for (int j : members) {
-    normal += contributions[j];
+    normal += contribution(j);
     in_set[j] = 1;
   }
-  auto objective = [&](const Eigen::MatrixXd& a, int count) {
+  auto evaluate = [&](const Eigen::MatrixXd& a, int size) {
     ++s.evaluations;
-    return Finite(ObjectiveValue(evaluator.IndicesOf(a, count), options.objective));
+    return evaluator.IndicesOf(a, size);
   };
-  double current = objective(normal, num_configurations);
-  s.initial = evaluator.IndicesOf(normal, num_configurations);
-  bool cancelled = false, converged = false;
-  const int rows = static_cast<int>(blocks[0].rows());
+  auto value = [&](const ObservabilityIndices& x) { return Finite(ObjectiveValue(x, options.objective)); };
+  ObservabilityIndices current_indices = evaluate(normal, num_configurations);
+  s.initial = current_indices;
+  double current = value(current_indices);
+  const int outside = count - num_configurations;
+  const std::int64_t per_iteration = static_cast<std::int64_t>(count) + std::min(options.screen, outside);
+  bool cancelled = false, converged = false, budget_reached = false;
   while (s.iterations < options.max_iterations) {
+    if (options.max_evaluations > 0 && s.evaluations + per_iteration > options.max_evaluations) {
+      budget_reached = true;
+      break;
+    }
     // Screen additions by the D-optimal gain log det(I + B A^-1 B') (a small ridge keeps A invertible while
     // the set is still rank deficient), then evaluate the most promising exactly.
     const double ridge = 1e-9 * std::max(normal.trace() / l, 1e-300);
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal + ridge * Eigen::MatrixXd::Identity(l, l));
     std::vector<std::pair<double, int>> gains;
-    gains.reserve(pool.size());
-    for (size_t c = 0; c < pool.size(); ++c) {
+    gains.reserve(outside);
+    for (int c = 0; c < count; ++c) {
       if (in_set[c]) continue;
-      const Eigen::MatrixXd m =
-          Eigen::MatrixXd::Identity(rows, rows) + blocks[c] * ldlt.solve(blocks[c].transpose());
-      gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).vectorD().array().log().sum(), static_cast<int>(c));
+      const Eigen::MatrixXd m = Eigen::MatrixXd::Identity(rows, rows) + block(c) * ldlt.solve(block(c).transpose());
+      ++s.evaluations;
+      gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).vectorD().array().log().sum(), c);
     }
     const size_t screened = std::min<size_t>(options.screen, gains.size());
     std::partial_sort(gains.begin(), gains.begin() + screened, gains.end(), std::greater<>());
     int best_add = -1;
     double best_add_f = std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < screened; ++i) {
-      const double f = objective(normal + contributions[gains[i].second], num_configurations + 1);
+      const double f = value(evaluate(normal + contribution(gains[i].second), num_configurations + 1));
       if (best_add < 0 || f < best_add_f) {
         best_add_f = f;
         best_add = gains[i].second;
@@ -404,15 +476,18 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
     }
     if (best_add < 0) break;
     // Remove whichever member (the new one included) leaves the best set of M.
-    const Eigen::MatrixXd enlarged = normal + contributions[best_add];
+    const Eigen::MatrixXd enlarged = normal + contribution(best_add);
     members.push_back(best_add);
     int best_remove = static_cast<int>(members.size()) - 1;
     double best_remove_f = current;
+    ObservabilityIndices best_remove_indices;
     for (size_t i = 0; i + 1 < members.size(); ++i) {
-      const double f = objective(enlarged - contributions[members[i]], num_configurations);
+      ObservabilityIndices x = evaluate(enlarged - contribution(members[i]), num_configurations);
+      const double f = value(x);
       if (f < best_remove_f) {
         best_remove_f = f;
         best_remove = static_cast<int>(i);
+        best_remove_indices = std::move(x);
       }
     }
     ++s.iterations;
@@ -425,26 +500,34 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
     }
     in_set[best_add] = 1;
     in_set[members[best_remove]] = 0;
-    normal = enlarged - contributions[members[best_remove]];
+    normal = enlarged - contribution(members[best_remove]);
     members[best_remove] = members.back();
     members.pop_back();
     current = best_remove_f;
+    current_indices = std::move(best_remove_indices);
     s.objective_trace.push_back(current);
-    if (options.progress &&
-        !options.progress(static_cast<double>(s.iterations) / std::max(1, options.max_iterations))) {
-      cancelled = true;
-      break;
+    if (options.progress) {
+      double fraction = static_cast<double>(s.iterations) / std::max(1, options.max_iterations);
+      if (options.max_evaluations > 0) {
+        fraction = std::max(fraction, static_cast<double>(s.evaluations) / options.max_evaluations);
+      }
+      if (!options.progress(fraction)) {
+        cancelled = true;
+        break;
+      }
     }
   }
-  for (int j : members) plan.configurations.push_back(pool[j]);
-  evaluator.SetConfigurations(plan.configurations);
-  s.final = evaluator.indices();
+  for (int j : members) plan.configurations.push_back(pool.col(j));
+  s.final = std::move(current_indices);
   if (cancelled) {
     s.termination = Termination::kNoConvergence;
     s.message = "cancelled";
   } else if (converged) {
     s.termination = Termination::kConvergence;
     s.message = "no exchange improves the objective after " + std::to_string(s.iterations) + " iterations";
+  } else if (budget_reached) {
+    s.termination = Termination::kNoConvergence;
+    s.message = "evaluation budget reached after " + std::to_string(s.iterations) + " iterations";
   } else {
     s.termination = Termination::kNoConvergence;
     s.message = "max_iterations reached";

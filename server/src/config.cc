@@ -93,9 +93,22 @@ const std::vector<Option>& Options() {
        [](ServerConfig& c, const std::string& v) {
          c.max_array_length = ToInt("max_array_length", v, 1, 100000000);
        }},
-      {"max_plan_evaluations", Kind::kInt, "optimiser budget of one plan (default 1000000)",
+      {"max_plan_evaluations", Kind::kInt,
+       "objective evaluations of one plan in total: restarts x k_max, exchange screening (default 1000000)",
        [](ServerConfig& c, const std::string& v) {
          c.max_plan_evaluations = ToInt("max_plan_evaluations", v, 1, 1000000000);
+       }},
+      {"max_plan_jacobians", Kind::kInt, "configuration Jacobians of one plan: evaluations x M (default 10000000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_plan_jacobians = ToInt("max_plan_jacobians", v, 1, 1LL << 40);
+       }},
+      {"max_plan_candidates", Kind::kInt, "exchange candidate pool, <= 2.7 kB each (default 20000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_plan_candidates = static_cast<int>(ToInt("max_plan_candidates", v, 1, 1000000));
+       }},
+      {"max_fit_jacobian_entries", Kind::kInt, "rows x measurements x parameters of a fit (default 2000000)",
+       [](ServerConfig& c, const std::string& v) {
+         c.max_fit_jacobian_entries = ToInt("max_fit_jacobian_entries", v, 1, 1LL << 40);
        }},
       {"max_running_operations", Kind::kInt, "async operations running at once (default 2)",
        [](ServerConfig& c, const std::string& v) {

@@ -35,12 +35,12 @@ struct Route {
 };
 
 // The pre-routing check has made sure a POST carries a body declared as JSON; an empty one is refused here.
-json Body(const httplib::Request& req) {
+json Body(const Service& service, const httplib::Request& req) {
   if (req.body.empty()) {
     throw ApiError(Status::kInvalidArgument, "empty request body: send a JSON object ({} for the defaults)",
                    {{"body", "must be a JSON object, got an empty body"}});
   }
-  return api::ParseBody(req.body);
+  return api::ParseBody(req.body, service.limits().max_array_length);
 }
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
@@ -58,7 +58,7 @@ const std::vector<Route>& RouteTable() {
          return s.ListRobots(Query(r, "page_size"), Query(r, "page_token"));
        }},
       {"POST", "/v1/robots", "/v1/robots",
-       [](Service& s, const httplib::Request& r) { return s.CreateRobot(Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.CreateRobot(Body(s, r)); }},
       {"GET", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
        [](Service& s, const httplib::Request& r) { return s.GetRobot(Id(r)); }},
       {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
@@ -67,8 +67,8 @@ const std::vector<Route>& RouteTable() {
          return json::object();
        }},
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
-       [](Service& s, const httplib::Request& r) { return s.RobotForward(Id(r), Body(r)); }},
-      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return s.CreatePlan(Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.RobotForward(Id(r), Body(s, r)); }},
+      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return s.CreatePlan(Body(s, r)); }},
       {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
        [](Service& s, const httplib::Request& r) { return s.GetPlan(Id(r)); }},
       {"GET", "/v1/campaigns", "/v1/campaigns",
@@ -76,25 +76,25 @@ const std::vector<Route>& RouteTable() {
          return s.ListCampaigns(Query(r, "page_size"), Query(r, "page_token"));
        }},
       {"POST", "/v1/campaigns", "/v1/campaigns",
-       [](Service& s, const httplib::Request& r) { return s.CreateCampaign(Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.CreateCampaign(Body(s, r)); }},
       {"GET", R"(/v1/campaigns/([^/:]+))", "/v1/campaigns/{campaign}",
        [](Service& s, const httplib::Request& r) { return s.GetCampaign(Id(r)); }},
       {"POST", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
-       [](Service& s, const httplib::Request& r) { return s.AppendMeasurements(Id(r), Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.AppendMeasurements(Id(r), Body(s, r)); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
        [](Service& s, const httplib::Request& r) {
          return s.ListMeasurements(Id(r), Query(r, "role"), Query(r, "after"), Query(r, "limit"));
        }},
       {"POST", R"(/v1/campaigns/([^/:]+):fit)", "/v1/campaigns/{campaign}:fit",
-       [](Service& s, const httplib::Request& r) { return s.Fit(Id(r), Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.Fit(Id(r), Body(s, r)); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/calibration)", "/v1/campaigns/{campaign}/calibration",
        [](Service& s, const httplib::Request& r) { return s.GetCalibration(Id(r)); }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
-       [](Service& s, const httplib::Request& r) { return s.Compensate(Id(r), Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.Compensate(Id(r), Body(s, r)); }},
       {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",
-       [](Service& s, const httplib::Request& r) { return s.CampaignForward(Id(r), Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.CampaignForward(Id(r), Body(s, r)); }},
       {"POST", R"(/v1/campaigns/([^/:]+):evaluate)", "/v1/campaigns/{campaign}:evaluate",
-       [](Service& s, const httplib::Request& r) { return s.Evaluate(Id(r), Body(r)); }},
+       [](Service& s, const httplib::Request& r) { return s.Evaluate(Id(r), Body(s, r)); }},
       {"GET", R"(/v1/operations/([^/:]+))", "/v1/operations/{operation}",
        [](Service& s, const httplib::Request& r) { return s.GetOperation(Id(r)); }},
       {"POST", R"(/v1/operations/([^/:]+):cancel)", "/v1/operations/{operation}:cancel",

@@ -5,6 +5,10 @@
 #include <pthread.h>
 #include <thread>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include "robocal/server/config.h"
 #include "robocal/server/http_server.h"
 #include "robocal/server/logging.h"
@@ -13,6 +17,14 @@
 
 int main(int argc, char** argv) {
   using namespace robocal::server;
+#ifdef __GLIBC__
+  // Before any thread starts: two malloc arenas instead of glibc's 8 per core. The service trims freed memory
+  // after large requests (malloc_trim), but glibc never trims the top of a thread arena below its dynamic
+  // threshold (up to 64 MB each): with 8 arenas, 8 concurrent fits of 10,000 measurements left 355 MB resident,
+  // with 2 arenas 19 MB, at the same speed on 2 cores (per-thread caches serve most small allocations without
+  // the arena lock).
+  mallopt(M_ARENA_MAX, 2);
+#endif
   const ConfigResult loaded = LoadConfig(std::vector<std::string>(argv + 1, argv + argc), RobocalEnvironment());
   if (!loaded.run) {
     (loaded.exit_code == 0 ? std::cout : std::cerr) << loaded.message;
@@ -54,6 +66,9 @@ int main(int argc, char** argv) {
   options.limits.max_plan_configurations = config.max_plan_configurations;
   options.limits.max_array_length = static_cast<std::size_t>(config.max_array_length);
   options.limits.max_plan_evaluations = config.max_plan_evaluations;
+  options.limits.max_plan_jacobians = config.max_plan_jacobians;
+  options.limits.max_plan_candidates = config.max_plan_candidates;
+  options.limits.max_fit_jacobian_entries = config.max_fit_jacobian_entries;
   options.max_running_operations = config.max_running_operations;
   options.max_measurements_per_campaign = config.max_measurements_per_campaign;
   options.request_deadline = std::chrono::seconds(config.request_timeout_s);

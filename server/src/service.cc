@@ -100,6 +100,62 @@ Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w) {
   return m;
 }
 
+// Asks `trimmer` for a trim as a large request's work ends; the trim's delay covers what is freed after this
+// (the request's other locals, its request and reply documents).
+class TrimWhenDone {
+ public:
+  TrimWhenDone(MemoryTrimmer* trimmer, bool large) : trimmer_(large ? trimmer : nullptr) {}
+  ~TrimWhenDone() {
+    if (trimmer_ != nullptr) trimmer_->Schedule();
+  }
+  TrimWhenDone(const TrimWhenDone&) = delete;
+  TrimWhenDone& operator=(const TrimWhenDone&) = delete;
+
+ private:
+  MemoryTrimmer* trimmer_;
+};
+
+// Requests with at least this many elements (measurements, joint vectors, targets) count as large.
+constexpr std::size_t kLargeRequest = 1000;
+
+// Calls `visit` for a campaign's measurements of `role` in sequence order, a page at a time, so that a
+// campaign's stored text is never all in memory at once (only what the caller keeps of it).
+void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const std::string& role,
+                        const std::function<void(const StoredMeasurement&)>& visit) {
+  constexpr int kPage = 1000;
+  std::int64_t after = 0;
+  for (;;) {
+    const std::vector<StoredMeasurement> page = storage->ListMeasurements(campaign_id, role, after, kPage);
+    for (const StoredMeasurement& m : page) visit(m);
+    if (static_cast<int>(page.size()) < kPage) return;
+    after = page.back().sequence;
+  }
+}
+
+// Refuses, before any measurement is loaded, a fit whose Jacobian (rows x measurements x parameters) exceeds
+// max_fit_jacobian_entries: its size bounds the fit's memory and the time of each iteration.
+void CheckFitSize(const RobotModel& model, const IdentificationOptions& options, std::int64_t measurements,
+                  bool parameters_requested, const api::Limits& limits) {
+  const std::int64_t parameters =
+      parameters_requested ? static_cast<std::int64_t>(options.parameters.size())
+                           : static_cast<std::int64_t>(
+                                 FindIdentifiableParameters(model, options.measurement_type, options.identifiability)
+                                     .identifiable.size());
+  const std::int64_t rows = MeasurementRows(options.measurement_type);
+  const std::int64_t entries = rows * measurements * parameters;
+  if (entries <= limits.max_fit_jacobian_entries) return;
+  const std::int64_t most = limits.max_fit_jacobian_entries / std::max<std::int64_t>(1, rows * parameters);
+  const std::string reason =
+      api::OverLimit(entries,
+                     "Jacobian entries (" + std::to_string(rows) + " rows x " + std::to_string(measurements) +
+                         " calibration measurements x " + std::to_string(parameters) + " parameters)",
+                     "max_fit_jacobian_entries", limits.max_fit_jacobian_entries) +
+      "; this fit takes at most " + std::to_string(most) + " calibration measurements";
+  std::vector<api::FieldViolation> details = {{"measurements", reason}};
+  if (parameters_requested) details.push_back({"parameters", reason});
+  throw ApiError(Status::kFailedPrecondition, "the fit is too large: " + reason, details);
+}
+
 json ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors, const api::ForwardRequest& req) {
   KinematicsWorkspace ws(model);
   json poses = json::array();
@@ -280,6 +336,7 @@ void Service::DeleteRobot(const std::string& id) {
 json Service::RobotForward(const std::string& id, const json& body) {
   const RobotModel model = ResolveRobot(id, nullptr);
   const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   return {{"robot", id}, {"frame", "world (nominal base)"}, {"poses", ForwardPoses(model, Eigen::VectorXd(), req)}};
 }
 
@@ -302,6 +359,10 @@ json Service::RunPlan(const RobotModel& model, const api::PlanRequest& req, cons
   obs.parameters = ident.identifiable;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   ParseObservabilityIndex(req.objective, &objective);
+  // ParsePlanRequest refused plans whose work exceeds max_plan_evaluations; the limit is also the optimiser's
+  // budget, so that no plan can count past it.
+  const int evaluation_limit =
+      static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
 
   bool stopped = false;
   auto callback = [&](double fraction) {
@@ -313,34 +374,18 @@ json Service::RunPlan(const RobotModel& model, const api::PlanRequest& req, cons
   };
   Plan plan;
   if (req.optimiser == "random") {
-    RandomSelectionOptions o;
-    o.num_sets = req.num_sets;
-    o.objective = objective;
-    o.seed = req.seed;
+    RandomSelectionOptions o = api::ToRandomSelectionOptions(req);
     o.progress = callback;
     plan = PlanRandom(model, req.num_configurations, obs, o);
   } else if (req.optimiser == "exchange") {
-    ExchangeOptions o;
-    o.num_candidates = req.num_candidates;
-    o.screen = req.screen;
-    o.max_iterations = req.max_iterations;
-    o.objective = objective;
-    o.seed = req.seed;
+    ExchangeOptions o = api::ToExchangeOptions(req);
+    if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
     o.progress = callback;
-    std::string error;
-    if (!o.IsValid(&error)) throw ApiError(Status::kInvalidArgument, "invalid options: " + error, {{"options", error}});
     plan = PlanExchange(model, req.num_configurations, obs, o);
   } else {
-    SolisWetsOptions o = SolisWetsOptions::Paper();
-    o.k_max = req.k_max;
-    o.restarts = req.restarts;
-    o.max_evaluations = req.max_evaluations;
-    o.step_fraction = req.step_fraction;
-    o.objective = objective;
-    o.seed = req.seed;
+    SolisWetsOptions o = api::ToSolisWetsOptions(req);
+    if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
     o.progress = callback;
-    std::string error;
-    if (!o.IsValid(&error)) throw ApiError(Status::kInvalidArgument, "invalid options: " + error, {{"options", error}});
     plan = PlanSolisWets(model, req.num_configurations, obs, o);
   }
   if (cancelled) *cancelled = stopped;
@@ -388,6 +433,7 @@ json Service::CreatePlan(const json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
   const RobotModel model = ResolveRobot(req.robot, nullptr);  // NOT_FOUND before any work or operation is created
   if (!req.async) {
+    const TrimWhenDone trim(&trimmer_, true);
     const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
     bool deadline_hit = false;
     auto progress = [&](double) {
@@ -444,6 +490,7 @@ json Service::StartOperation(const std::string& kind, const json& fields, Operat
   auto running = std::make_unique<RunningOperation>();
   RunningOperation* r = running.get();
   running->thread = std::thread([this, work = std::move(work), op_id, op, r]() mutable {
+    const TrimWhenDone trim(&trimmer_, true);  // plans and fits
     try {
       bool cancelled = false;
       auto progress = [r](double fraction) {
@@ -595,6 +642,7 @@ json Service::AppendMeasurements(const std::string& campaign_id, const json& bod
   const RobotModel model = CampaignModel(campaign, options_.limits);
   const api::MeasurementBatchRequest req = api::ParseMeasurementBatchRequest(
       body, model, ParseType(campaign.at("measurement_type")), options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
   std::vector<std::string> texts;
   texts.reserve(req.measurements.size());
   std::string all = req.role;
@@ -665,11 +713,8 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
   const RobotModel model = CampaignModel(campaign, options_.limits);
   const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits);
   const MeasurementType type = ParseType(campaign.at("measurement_type"));
-  auto measurements = std::make_shared<std::vector<Measurement>>();
-  for (const StoredMeasurement& s : storage_->ListMeasurements(campaign_id, "calibration")) {
-    measurements->push_back(ToCore(model, api::MeasurementFromJson(json::parse(s.json))));
-  }
-  if (measurements->empty()) {
+  const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
+  if (count == 0) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
@@ -686,6 +731,12 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
                            options.parameters.end());
   options.register_base = req.register_base;
   options.max_iterations = req.max_iterations;
+  CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
+  auto measurements = std::make_shared<std::vector<Measurement>>();
+  measurements->reserve(static_cast<std::size_t>(count));
+  ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    measurements->push_back(ToCore(model, api::MeasurementFromJson(json::parse(s.json))));
+  });
 
   // Identifies and returns the reply; stores the calibration only if `progress` never stopped the fit: a fit
   // cut short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
@@ -736,6 +787,7 @@ json Service::Fit(const std::string& campaign_id, const json& body) {
                             return result;
                           });
   }
+  const TrimWhenDone trim(&trimmer_, true);
   const auto deadline = std::chrono::steady_clock::now() + options_.request_deadline;
   bool deadline_hit = false;
   json result = fit([&](double) { return std::chrono::steady_clock::now() <= deadline; }, &deadline_hit);
@@ -786,6 +838,7 @@ json Service::CampaignForward(const std::string& campaign_id, const json& body) 
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   return {{"campaign", campaign_id}, {"frame", "tracker"},
           {"poses", ForwardPoses(calibration.model, calibration.errors, req)}};
 }
@@ -795,6 +848,7 @@ json Service::Compensate(const std::string& campaign_id, const json& body) {
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::CompensateRequest req = api::ParseCompensateRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.targets.size() >= kLargeRequest);
   json results = json::array();
   for (const auto& t : req.targets) {
     CompensationResult r;
@@ -825,14 +879,15 @@ json Service::Evaluate(const std::string& campaign_id, const json& body) {
   const RobotModel& model = loaded.model;
   const Calibration& calibration = loaded.calibration;
   const api::EvaluateRequest req = api::ParseEvaluateRequest(body);
+  const TrimWhenDone trim(&trimmer_, true);
   std::vector<Transform> measured, nominal, calibrated;
   KinematicsWorkspace ws(calibration.model);
-  for (const StoredMeasurement& s : storage_->ListMeasurements(campaign_id, "validation")) {
+  ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {
     const Measurement m = ToCore(model, api::MeasurementFromJson(json::parse(s.json)));
     measured.push_back(m.T_world_tool);
     nominal.push_back(ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws));
     calibrated.push_back(ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws));
-  }
+  });
   if (measured.empty()) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no validation measurements",
                    {{"measurements", "upload measurements with role validation first"}});

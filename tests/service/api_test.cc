@@ -155,6 +155,52 @@ TEST(ApiTest, PlanRequestRejectsUnknownEnumsAndFields) {
   EXPECT_TRUE(HasField(v, "options.k_max"));
 }
 
+std::string ReasonFor(const std::vector<FieldViolation>& v, const std::string& field) {
+  for (const auto& f : v) {
+    if (f.field == field) return f.reason;
+  }
+  return "";
+}
+
+// Each optimiser's defaults fit the default limits; the limits bound a plan's total work, computed from its
+// options alone, and a refusal names every field that sets the total and the limit.
+TEST(ApiTest, PlanWorkIsBoundedOnItsTotal) {
+  for (const char* optimiser : {"solis_wets", "random", "exchange"}) {
+    EXPECT_NO_THROW(ParsePlanRequest(json{{"robot", "ur5e"}, {"optimiser", optimiser}}, Limits{})) << optimiser;
+  }
+  const PlanRequest capped = ParsePlanRequest(
+      json::parse(R"({"robot":"ur5e","options":{"k_max":1000000,"restarts":1000,"max_evaluations":1000}})"), Limits{});
+  EXPECT_EQ(MaxWork(capped).evaluations, 1000);
+  EXPECT_EQ(MaxWork(capped).jacobians, 1000 * 10 + 2 * 100);
+
+  Limits limits;
+  limits.max_plan_jacobians = 5000;
+  auto v = Violations([&] {
+    ParsePlanRequest(json::parse(R"({"robot":"ur5e","num_configurations":30,"num_validation":10,
+                                     "optimiser":"random","options":{"num_sets":200}})"),
+                     limits);
+  });
+  for (const char* field : {"num_configurations", "options.num_sets", "num_validation"}) {
+    EXPECT_NE(ReasonFor(v, field).find("6020 configuration Jacobians"), std::string::npos) << field;
+    EXPECT_NE(ReasonFor(v, field).find("max_plan_jacobians = 5000"), std::string::npos) << field;
+  }
+
+  // Only the chosen optimiser's options count: clients send every option with its default.
+  EXPECT_NO_THROW(ParsePlanRequest(json::parse(R"({"robot":"ur5e","options":{"num_candidates":1000000}})"), Limits{}));
+  v = Violations([] {
+    ParsePlanRequest(json::parse(R"({"robot":"ur5e","optimiser":"exchange","num_configurations":20,
+                                     "options":{"num_candidates":10}})"),
+                     Limits{});
+  });
+  EXPECT_NE(ReasonFor(v, "options.num_candidates").find("at least num_configurations"), std::string::npos);
+  v = Violations([] {
+    ParsePlanRequest(json::parse(R"({"robot":"ur5e","num_configurations":1001,"options":{"max_evaluations":2000000}})"),
+                     Limits{});
+  });
+  EXPECT_NE(ReasonFor(v, "num_configurations").find("max_plan_configurations = 1000"), std::string::npos);
+  EXPECT_NE(ReasonFor(v, "options.max_evaluations").find("max_plan_evaluations = 1000000"), std::string::npos);
+}
+
 TEST(ApiTest, RegisterRobotRoundTripsThroughTheCore) {
   const json body = json::parse(R"({"id":"arm2","convention":"dh","joints":[
       {"type":"revolute","a_mm":100,"alpha_deg":90,"d_mm":50,"min_deg":-170,"max_deg":170},

@@ -47,7 +47,8 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
     auto created = client.Post("/v1/campaigns", R"({"id":"dur","robot":"ur5e"})", "application/json");
     ASSERT_TRUE(created && created->status == 200);
     auto op = client.Post("/v1/plans",
-                          R"({"robot":"ur5e","num_configurations":20,"async":true,"options":{"k_max":1000000}})",
+                          R"({"robot":"ur5e","num_configurations":20,"async":true,)"
+                          R"("options":{"k_max":1000000,"max_evaluations":400000}})",
                           "application/json");
     ASSERT_TRUE(op && op->status == 200);
     operation = json::parse(op->body)["id"];

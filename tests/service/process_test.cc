@@ -155,6 +155,61 @@ TEST(ProcessTest, JsonLogHasOneLinePerRequest) {
   EXPECT_EQ(not_found_line["path"], "/v1/campaigns/nothing-here");
 }
 
+// A line of /proc/PID/status ("VmHWM", "VmRSS") in kB; -1 if absent.
+long StatusKb(pid_t pid, const std::string& key) {
+  for (const std::string& line : ReadLines("/proc/" + std::to_string(pid) + "/status")) {
+    if (line.rfind(key + ":", 0) == 0) return std::stol(line.substr(key.size() + 1));
+  }
+  return -1;
+}
+
+// The work limits reach the service from the command line, each refusal naming its limit's value.
+TEST(ProcessTest, WorkLimitsComeFromTheFlags) {
+  TempDir dir("robocal_limits");
+  ServerProcess server({"--db", dir.File("robocal.db"), "--log-level", "error", "--max-plan-evaluations", "5000",
+                        "--max-plan-jacobians", "6000", "--max-plan-candidates", "300", "--max-fit-jacobian-entries",
+                        "100"});
+  httplib::Client client("127.0.0.1", server.port());
+  auto reason = [&](const std::string& path, const std::string& body) {
+    auto r = client.Post(path, body, "application/json");
+    EXPECT_TRUE(r && r->status == 400) << path << " " << body;
+    return r ? json::parse(r->body)["error"]["details"][0]["reason"].get<std::string>() : std::string();
+  };
+  EXPECT_NE(reason("/v1/plans", R"({"robot":"ur5e","options":{"k_max":2500}})").find("max_plan_evaluations = 5000"),
+            std::string::npos);
+  EXPECT_NE(reason("/v1/plans", R"({"robot":"ur5e","num_configurations":30,"options":{"k_max":100}})")
+                .find("max_plan_jacobians = 6000"),
+            std::string::npos);
+  EXPECT_NE(reason("/v1/plans", R"({"robot":"ur5e","optimiser":"exchange","options":{"num_candidates":301}})")
+                .find("max_plan_candidates = 300"),
+            std::string::npos);
+  ASSERT_EQ(client.Post("/v1/campaigns", R"({"id":"c","robot":"ur5e"})", "application/json")->status, 200);
+  json batch = {{"request_id", "one"}, {"measurements", json::array()}};
+  batch["measurements"].push_back(
+      {{"joints", {0, -90, 90, 0, 90, 0}}, {"pose", {{"position_mm", {0, 0, 0}}, {"quaternion", {1, 0, 0, 0}}}}});
+  ASSERT_EQ(client.Post("/v1/campaigns/c/measurements", batch.dump(), "application/json")->status, 200);
+  EXPECT_NE(reason("/v1/campaigns/c:fit", "{}").find("max_fit_jacobian_entries = 100"), std::string::npos);
+}
+
+// An exchange plan at the candidate limit keeps the server well under 100 MB. Storing every candidate's L x L
+// contribution, as the optimiser once did, took 8.7 kB per candidate (174 MB for this pool, 850 MB for 100,000).
+TEST(ProcessTest, AnExchangePlanAtTheCandidateLimitStaysSmall) {
+  TempDir dir("robocal_memory");
+  ServerProcess server({"--db", dir.File("robocal.db"), "--log-level", "error"});
+  httplib::Client client("127.0.0.1", server.port());
+  client.set_read_timeout(300, 0);
+  const long before_kb = StatusKb(server.pid(), "VmRSS");
+  auto plan = client.Post("/v1/plans",
+                          R"({"robot":"ur5e","optimiser":"exchange","num_validation":5,)"
+                          R"("options":{"num_candidates":20000,"max_evaluations":1000000}})",
+                          "application/json");
+  ASSERT_TRUE(plan && plan->status == 200) << (plan ? plan->body : httplib::to_string(plan.error()));
+  EXPECT_LE(json::parse(plan->body)["summary"]["evaluations"].get<int>(), 1000000);
+  const long peak_kb = StatusKb(server.pid(), "VmHWM");
+  ASSERT_GT(before_kb, 0);
+  EXPECT_LT(peak_kb - before_kb, 100 * 1024) << "peak " << peak_kb << " kB, before " << before_kb << " kB";
+}
+
 TEST(ProcessTest, SigtermCancelsOperationsAndExitsZero) {
   TempDir dir("robocal_term");
   const std::string db = dir.File("robocal.db"), log = dir.File("server.log");
@@ -162,9 +217,10 @@ TEST(ProcessTest, SigtermCancelsOperationsAndExitsZero) {
   {
     ServerProcess server({"--db", db, "--log-format", "json"}, log);
     httplib::Client client("127.0.0.1", server.port());
-    auto op =
-        client.Post("/v1/plans", R"({"robot":"ur5e","num_configurations":20,"async":true,"options":{"k_max":1000000}})",
-                    "application/json");
+    auto op = client.Post("/v1/plans",
+                          R"({"robot":"ur5e","num_configurations":20,"async":true,)"
+                          R"("options":{"k_max":1000000,"max_evaluations":400000}})",
+                          "application/json");
     ASSERT_TRUE(op && op->status == 200);
     operation = json::parse(op->body)["id"];
     // Clients in the middle of sending a request are told the server is stopping, not held until their

@@ -72,6 +72,7 @@ class ServerProcess {
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   /// "http" or "https", from the listening line.
   const std::string& scheme() const { return scheme_; }
 

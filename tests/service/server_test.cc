@@ -17,10 +17,12 @@
 #include <gtest/gtest.h>
 
 #include "robocal/api/convert.h"
+#include "robocal/core/identifiability.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 #include "robocal/server/config.h"
+#include "robocal/server/memory_trimmer.h"
 #include "test_server.h"
 
 namespace robocal::server::testing {
@@ -176,6 +178,86 @@ TEST(ServerTest, PlanValidationAndLimits) {
   EXPECT_TRUE(NamesField(enums, "objective"));
   EXPECT_TRUE(NamesField(enums, "options.kmax"));
   EXPECT_EQ(s.storage().List("plans").size(), 0u);
+}
+
+// The reason given for `field`, "" if it is not named.
+std::string ReasonFor(const Reply& r, const std::string& field) {
+  if (!r.body.is_object() || !r.body.contains("error")) return "";
+  for (const auto& d : r.body["error"]["details"]) {
+    if (d.value("field", "") == field) return d.value("reason", "");
+  }
+  return "";
+}
+
+// Work is bounded on the plan's total before anything runs (async, so that a server without the bound would
+// answer at once with an operation instead of holding the test): each refusal names the fields that set the
+// total and the limit it exceeds, and nothing is stored or started.
+TEST(ServerTest, PlansOverTheWorkLimitsAreRefusedNamingFieldsAndLimit) {
+  TestServer s;
+  json p = SmallPlan("ur5e");
+  p["async"] = true;
+  p["options"] = {{"k_max", 1000000}, {"restarts", 1000}};
+  const Reply restarts = s.Post("/v1/plans", p);
+  EXPECT_EQ(restarts.status, 400) << restarts.text;
+  for (const char* field : {"options.k_max", "options.restarts"}) {
+    EXPECT_NE(ReasonFor(restarts, field).find("2002001001 objective evaluations"), std::string::npos) << field;
+    EXPECT_NE(ReasonFor(restarts, field).find("max_plan_evaluations = 1000000"), std::string::npos) << field;
+  }
+
+  p["optimiser"] = "exchange";
+  p["options"] = {{"num_candidates", 100000}};
+  const Reply pool = s.Post("/v1/plans", p);
+  EXPECT_EQ(pool.status, 400) << pool.text;
+  EXPECT_NE(ReasonFor(pool, "options.num_candidates").find("max_plan_candidates = 20000"), std::string::npos)
+      << pool.text;
+
+  // A pool within its limit, but 200 iterations of 20016 evaluations each.
+  p["options"] = {{"num_candidates", 20000}};
+  const Reply exchange = s.Post("/v1/plans", p);
+  EXPECT_EQ(exchange.status, 400) << exchange.text;
+  for (const char* field : {"options.max_iterations", "options.num_candidates", "options.screen"}) {
+    EXPECT_NE(ReasonFor(exchange, field).find("max_plan_evaluations"), std::string::npos) << field;
+  }
+
+  // M = 1000 at 20001 evaluations: 2e7 Jacobians.
+  p["optimiser"] = "solis_wets";
+  p["num_configurations"] = 1000;
+  p["options"] = {{"k_max", 10000}};
+  const Reply jacobians = s.Post("/v1/plans", p);
+  EXPECT_EQ(jacobians.status, 400) << jacobians.text;
+  for (const char* field : {"num_configurations", "options.k_max", "options.restarts", "num_validation"}) {
+    EXPECT_NE(ReasonFor(jacobians, field).find("max_plan_jacobians = 10000000"), std::string::npos) << field;
+  }
+  EXPECT_EQ(s.storage().List("plans").size(), 0u);
+  EXPECT_EQ(s.storage().List("operations").size(), 0u);
+}
+
+// With a budget at the limit, the plan's reported evaluations stay within it, and they include the exchange
+// optimiser's screening: 1 + iterations x (num_candidates + screen).
+TEST(ServerTest, PlansAtTheLimitReportEvaluationsWithinIt) {
+  ServiceOptions options;
+  options.limits.max_plan_evaluations = 3000;
+  TestServer s({}, {}, options);
+  json p = SmallPlan("ur5e");
+  p["optimiser"] = "exchange";
+  p["options"] = {{"num_candidates", 300}, {"max_iterations", 1000}, {"max_evaluations", 3000}};
+  const Reply exchange = s.Post("/v1/plans", p);
+  ASSERT_EQ(exchange.status, 200) << exchange.text;
+  const json& summary = exchange.body["summary"];
+  EXPECT_LE(summary["evaluations"].get<int>(), 3000) << summary.dump();
+  EXPECT_EQ(summary["evaluations"].get<int>(), 1 + summary["iterations"].get<int>() * (300 + 16)) << summary.dump();
+  // Without max_evaluations the same request is over the limit.
+  p["options"].erase("max_evaluations");
+  EXPECT_EQ(s.Post("/v1/plans", p).status, 400);
+
+  p["optimiser"] = "solis_wets";
+  p["options"] = {{"k_max", 100000}, {"restarts", 5}, {"max_evaluations", 3000}};
+  const Reply solis_wets = s.Post("/v1/plans", p);
+  ASSERT_EQ(solis_wets.status, 200) << solis_wets.text;
+  EXPECT_LE(solis_wets.body["summary"]["evaluations"].get<int>(), 3000);
+  EXPECT_GE(solis_wets.body["summary"]["evaluations"].get<int>(), 2999);
+  EXPECT_NE(solis_wets.body["summary"]["message"].get<std::string>().find("evaluation budget reached"),
+            std::string::npos);
 }
 
 TEST(ServerTest, AsyncPlanRunsAsAnOperation) {
@@ -477,7 +559,8 @@ TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
   TestServer s({}, {}, options);
   json p = SmallPlan("ur5e");
   p["num_configurations"] = 20;
-  p["options"] = {{"k_max", 1000000}, {"max_evaluations", 1000000}};  // hours of search without the deadline
+  // Over a minute of search without the deadline, within the default work limits (400000 x 20 Jacobians).
+  p["options"] = {{"k_max", 1000000}, {"max_evaluations", 400000}};
   const Reply plan = s.Post("/v1/plans", p);
   ASSERT_EQ(plan.status, 200) << plan.text;
   EXPECT_EQ(plan.body["configurations"].size(), 20u);
@@ -485,7 +568,7 @@ TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
   EXPECT_TRUE(summary.value("deadline_exceeded", false)) << summary.dump();
   EXPECT_EQ(summary["termination"], "NO_CONVERGENCE");
   EXPECT_NE(summary["message"].get<std::string>().find("request deadline"), std::string::npos) << summary.dump();
-  EXPECT_LT(summary["iterations"].get<int>(), 1000000);
+  EXPECT_LT(summary["evaluations"].get<int>(), 400000);  // the deadline stopped it, not the budget
   EXPECT_EQ(s.Get("/v1/plans/" + plan.body["id"].get<std::string>()).status, 200);
   // A plan within its deadline does not claim otherwise.
   const Reply small = s.Post("/v1/plans", SmallPlan());
@@ -610,6 +693,48 @@ TEST(ServerTest, FormEncodedBodyGetsAContentTypeHint) {
   EXPECT_EQ(json_body->status, 400);  // parsed: the id is missing
 }
 
+// A fit's Jacobian (rows x measurements x parameters) is bounded before any measurement is loaded: over the
+// limit the fit is refused naming the measurements, the parameters when given, and the limit; fewer parameters
+// bring it within.
+TEST(ServerTest, FitsOverTheJacobianLimitAreRefusedBeforeTheyStart) {
+  ServiceOptions options;
+  options.limits.max_fit_jacobian_entries = 3000;  // 30 pose shots x 6 rows x 30 identifiable parameters = 5400
+  TestServer s({}, {}, options);
+  CreateFitCampaign(s);
+  const Reply all = s.Post("/v1/campaigns/cf:fit", json::object());
+  EXPECT_EQ(all.status, 400) << all.text;
+  EXPECT_EQ(all.body["error"]["status"], "FAILED_PRECONDITION");
+  EXPECT_NE(ReasonFor(all, "measurements").find("5400 Jacobian entries"), std::string::npos) << all.text;
+  EXPECT_NE(ReasonFor(all, "measurements").find("max_fit_jacobian_entries = 3000"), std::string::npos) << all.text;
+  EXPECT_NE(ReasonFor(all, "measurements").find("at most 16 calibration measurements"), std::string::npos) << all.text;
+  const std::vector<std::string> identifiable =
+      FindIdentifiableParameters(Preset("ur5e"), MeasurementType::kPose).identifiable_names;
+  ASSERT_EQ(identifiable.size(), 30u);
+  json some = {{"parameters", std::vector<std::string>(identifiable.begin(), identifiable.begin() + 17)}};
+  const Reply over = s.Post("/v1/campaigns/cf:fit", some);  // 30 x 6 x 17 = 3060
+  EXPECT_EQ(over.status, 400) << over.text;
+  EXPECT_NE(ReasonFor(over, "parameters").find("3060 Jacobian entries"), std::string::npos) << over.text;
+  some["parameters"].erase(16);  // 30 x 6 x 16 = 2880
+  const Reply within = s.Post("/v1/campaigns/cf:fit", some);
+  ASSERT_EQ(within.status, 200) << within.text;
+  EXPECT_EQ(within.body["parameters"].size(), 16u);
+}
+
+// Fit and evaluate read a campaign's measurements a page (1000) at a time: every measurement still counts.
+TEST(ServerTest, FitAndEvaluateReadEveryPageOfMeasurements) {
+  TestServer s;
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "pages"}, {"robot", "grinder5"}}).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/pages/measurements", NominalBatch("grinder5", "cal", 1001, 1)).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/pages/measurements", NominalBatch("grinder5", "val", 2001, 2, "validation")).status,
+            200);
+  const Reply fit = s.Post("/v1/campaigns/pages:fit", json::object());
+  ASSERT_EQ(fit.status, 200) << fit.text;
+  EXPECT_EQ(fit.body["summary"]["num_measurements"], 1001);
+  const Reply evaluation = s.Post("/v1/campaigns/pages:evaluate", json::object());
+  ASSERT_EQ(evaluation.status, 200) << evaluation.text;
+  EXPECT_EQ(evaluation.body["num_validation"], 2001);
+}
+
 TEST(ServerTest, MeasurementsPerCampaignLimit) {
   ServiceOptions options;
   options.max_measurements_per_campaign = 10;
@@ -705,6 +830,33 @@ TEST(ServerTest, OpenApiSpecMatchesTheRouteTable) {
   for (const auto& d : documented) EXPECT_TRUE(routes.count(d)) << "not served: " << d.first << " " << d.second;
 }
 
+// Trims run on the trimmer's thread after the delay, once however often they were asked for, and a trimmer
+// with a trim still waiting stops at once.
+TEST(MemoryTrimmerTest, TrimsOnceAfterTheDelayAndStopsAtOnce) {
+  std::atomic<int> trims{0};
+  {
+    MemoryTrimmer trimmer(std::chrono::milliseconds(50), [&] { ++trims; });
+    for (int i = 0; i < 5; ++i) trimmer.Schedule();
+    for (int i = 0; i < 500 && trims.load() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_GE(trims.load(), 1);
+    EXPECT_LE(trims.load(), 5);
+    const int after_burst = trims.load();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_EQ(trims.load(), after_burst);  // nothing asked, nothing done
+    trimmer.Schedule();
+    for (int i = 0; i < 500 && trims.load() == after_burst; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_EQ(trims.load(), after_burst + 1);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  {
+    MemoryTrimmer waiting(std::chrono::hours(1), [&] { ++trims; });
+    waiting.Schedule();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::minutes(1));
+}
+
 TEST(ConfigTest, PrecedenceFlagsEnvFileDefaults) {
   const std::string file = ::testing::TempDir() + "robocal_config_test.json";
   std::ofstream(file) << R"({"host":"127.0.0.2","port":9000,"db":"/tmp/a.db","threads":3})";
@@ -731,6 +883,20 @@ TEST(ConfigTest, EveryLimitIsConfigurable) {
   EXPECT_EQ(r.config.request_timeout_s, 2);
   EXPECT_EQ(r.config.max_body_bytes, 4096);
   EXPECT_EQ(LoadConfig({"--max-array-length", "0"}, {}).exit_code, 2);
+  // The work limits, from flags, the environment and a file, and each one in --help.
+  const std::string file = ::testing::TempDir() + "robocal_limits_test.json";
+  std::ofstream(file) << R"({"max_fit_jacobian_entries": 12345})";
+  const ConfigResult work =
+      LoadConfig({"--max-plan-jacobians", "777", "--config", file}, {{"ROBOCAL_MAX_PLAN_CANDIDATES", "55"}});
+  ASSERT_TRUE(work.run) << work.message;
+  EXPECT_EQ(work.config.max_plan_jacobians, 777);
+  EXPECT_EQ(work.config.max_plan_candidates, 55);
+  EXPECT_EQ(work.config.max_fit_jacobian_entries, 12345);
+  EXPECT_EQ(LoadConfig({"--max-plan-candidates", "0"}, {}).exit_code, 2);
+  for (const char* flag :
+       {"--max-plan-evaluations", "--max-plan-jacobians", "--max-plan-candidates", "--max-fit-jacobian-entries"}) {
+    EXPECT_NE(UsageText().find(flag), std::string::npos) << flag;
+  }
   // The shipped example configuration is accepted as it stands.
   const ConfigResult example = LoadConfig({"--config", ROBOCAL_SOURCE_DIR "/deploy/robocal.example.json"}, {});
   EXPECT_TRUE(example.run) << example.message;

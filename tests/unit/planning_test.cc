@@ -2,6 +2,7 @@
 // budgets, the exchange optimiser against random selection, limits, reproducibility, options, cancelling.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 #include <gmock/gmock.h>
@@ -160,6 +161,90 @@ TEST(PlanningTest, ClampKeepsLimitsAndRestartsAndBudgetsAreHonoured) {
   EXPECT_EQ(plan.summary.termination, Termination::kNoConvergence);
   EXPECT_LE(plan.summary.evaluations, 50);
   ExpectWithinLimits(model, plan, kM);
+}
+
+// A restart whose previous run ended exactly at max_evaluations must not evaluate its starting set.
+TEST(PlanningTest, RestartsNeverEvaluatePastTheBudget) {
+  const RobotModel model = Preset("grinder5");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  SolisWetsOptions options = SolisWetsOptions::Paper();
+  options.k_max = 10;
+  const int one_run = PlanSolisWets(model, kM, o, options).summary.evaluations;
+  options.restarts = 3;
+  options.max_evaluations = one_run;
+  const Plan plan = PlanSolisWets(model, kM, o, options);
+  EXPECT_EQ(plan.summary.evaluations, one_run);
+  EXPECT_EQ(plan.summary.termination, Termination::kNoConvergence);
+  EXPECT_EQ(plan.summary.message, "evaluation budget reached");
+  EXPECT_LE(plan.summary.evaluations, MaxPlanWork(kM, options).evaluations);
+}
+
+// The exchange optimiser counts each candidate's screening gain: an iteration costs num_candidates +
+// min(screen, num_candidates - M) evaluations, and a run cut by max_iterations costs MaxPlanWork exactly.
+TEST(PlanningTest, ExchangeCountsScreeningAndReachesItsWorkBoundExactly) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  ExchangeOptions options;
+  options.num_candidates = 300;
+  options.max_iterations = 2;
+  const Plan cut = PlanExchange(model, kM, o, options);
+  ASSERT_EQ(cut.summary.iterations, 2) << cut.summary.message;
+  EXPECT_EQ(cut.summary.evaluations, 1 + 2 * (300 + 16));
+  EXPECT_EQ(cut.summary.evaluations, MaxPlanWork(kM, options).evaluations);
+  EXPECT_EQ(MaxPlanWork(kM, options).jacobians, 300);
+  // The result's indices are those of its configurations.
+  EXPECT_NEAR(cut.summary.final.condition_number, ComputeIndicesBySvd(model, cut.configurations, o).condition_number,
+              1e-8 * cut.summary.final.condition_number);
+}
+
+TEST(PlanningTest, ExchangeStopsAtItsEvaluationBudget) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  ExchangeOptions options;
+  options.num_candidates = 300;
+  const Plan free = PlanExchange(model, kM, o, options);
+  ASSERT_EQ(free.summary.termination, Termination::kConvergence) << free.summary.message;
+  ASSERT_GE(free.summary.iterations, 3);
+  EXPECT_EQ(free.summary.evaluations, 1 + free.summary.iterations * (300 + 16));
+  // Room for two iterations and a half: it stops before the third.
+  options.max_evaluations = 1 + 2 * 316 + 158;
+  const Plan budgeted = PlanExchange(model, kM, o, options);
+  EXPECT_EQ(budgeted.summary.iterations, 2);
+  EXPECT_EQ(budgeted.summary.evaluations, 1 + 2 * 316);
+  EXPECT_EQ(budgeted.summary.termination, Termination::kNoConvergence);
+  EXPECT_THAT(budgeted.summary.message, HasSubstr("evaluation budget reached"));
+  ExpectWithinLimits(model, budgeted, kM);
+  // The same path as the free run up to the cut.
+  EXPECT_EQ(budgeted.summary.objective_trace,
+            std::vector<double>(free.summary.objective_trace.begin(), free.summary.objective_trace.begin() + 2));
+}
+
+TEST(PlanningTest, EveryOptimiserStaysWithinItsWorkBound) {
+  const RobotModel model = Preset("puma560");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPosition);
+  SolisWetsOptions solis_wets = SolisWetsOptions::Paper();
+  solis_wets.k_max = 30;
+  solis_wets.restarts = 2;
+  const Plan a = PlanSolisWets(model, kM, o, solis_wets);
+  EXPECT_EQ(MaxPlanWork(kM, solis_wets).evaluations, 3 * 61);
+  EXPECT_EQ(MaxPlanWork(kM, solis_wets).jacobians, 3 * 61 * kM);
+  EXPECT_LE(a.summary.evaluations, MaxPlanWork(kM, solis_wets).evaluations);
+  EXPECT_GE(a.summary.evaluations, 3 * 31);  // every run: its starting set and a forward step per iteration
+  EXPECT_NEAR(a.summary.final.condition_number, ComputeIndicesBySvd(model, a.configurations, o).condition_number,
+              1e-8 * a.summary.final.condition_number);
+  solis_wets.max_evaluations = 50;
+  EXPECT_EQ(MaxPlanWork(kM, solis_wets).evaluations, 50);
+  RandomSelectionOptions random;
+  random.num_sets = 7;
+  EXPECT_EQ(PlanRandom(model, kM, o, random).summary.evaluations, 7);
+  EXPECT_EQ(MaxPlanWork(kM, random).evaluations, 7);
+  EXPECT_EQ(MaxPlanWork(kM, random).jacobians, 7 * kM);
+  // Bounds of absurd options saturate instead of overflowing.
+  solis_wets.k_max = 10000000;
+  solis_wets.restarts = 10000;
+  solis_wets.max_evaluations = 0;
+  EXPECT_EQ(MaxPlanWork(1000000000, solis_wets).jacobians, std::numeric_limits<std::int64_t>::max());
+  EXPECT_EQ(MaxPlanWork(kM, solis_wets).evaluations, 10001LL * 20000001LL);
 }
 
 TEST(PlanningTest, StartsFromAGivenSetAndValidatesIt) {

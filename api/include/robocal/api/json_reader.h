@@ -24,7 +24,9 @@ inline constexpr std::size_t kMaxJsonDepth = 32;
 /// Parses request text. Malformed JSON (or a body that is not an object) throws ApiError(kInvalidArgument)
 /// with the byte offset of the problem; a key repeated within one object is refused with its path (the parser
 /// alone would keep the last one silently); nesting deeper than kMaxJsonDepth is refused.
-nlohmann::json ParseBody(const std::string& body);
+/// Arrays and objects with more than `max_elements` elements are refused (with their path) before any value is
+/// built: an 8 MB body of small numbers would otherwise cost about 25 times its size as parsed values.
+nlohmann::json ParseBody(const std::string& body, std::size_t max_elements = SIZE_MAX);
 
 /// Reads the members of one JSON object. Every getter records a violation in `problems` and returns false
 /// (leaving *out untouched) when the member is missing (if required), of the wrong type, non-finite or out of

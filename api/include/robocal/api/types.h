@@ -13,19 +13,36 @@
 
 #include "robocal/api/error.h"
 #include "robocal/core/error_model.h"
+#include "robocal/core/planning.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal::api {
 
-/// Size limits applied while parsing. The server fills them from its configuration.
+/// Size and work limits applied while parsing, to each request's total before any work starts. The server
+/// fills them from its configuration; each bounds what its comment says.
 struct Limits {
   /// Joint vectors / targets / measurements in one request.
   std::size_t max_array_length = 10000;
   /// Configurations of one plan (M).
   int max_plan_configurations = 1000;
-  /// Objective evaluations of one plan (optimiser budget).
+  /// Objective evaluations of one plan at most (PlanWork::evaluations: all restarts, and the exchange
+  /// optimiser's screening of candidates).
   std::int64_t max_plan_evaluations = 1000000;
+  /// Identification Jacobians of single configurations one plan computes at most (PlanWork::jacobians plus the
+  /// predicted accuracy's 2 x num_validation): the time of M x evaluations.
+  std::int64_t max_plan_jacobians = 10000000;
+  /// The exchange optimiser's candidate pool (its memory: rows x L + joints doubles per candidate, at most
+  /// 2.7 kB for 12 joints).
+  int max_plan_candidates = 20000;
+  /// Entries of a fit's Jacobian, rows per measurement x calibration measurements x parameters (the fit holds
+  /// a few copies of it, 8 bytes an entry).
+  std::int64_t max_fit_jacobian_entries = 2000000;
 };
+
+/// The reason given for a request value over one of the limits above: names the limit, so that a caller knows
+/// what bounds the request and an operator what to raise. E.g. "16200000 Jacobian entries (...) exceed the
+/// server's limit max_fit_jacobian_entries = 2000000".
+std::string OverLimit(std::int64_t value, const std::string& what, const std::string& limit_name, std::int64_t limit);
 
 /// Identifiers of robots, plans, campaigns, operations: [a-z0-9][a-z0-9_.-]{0,63}, so that they never
 /// collide with the ':' of custom methods or with path separators.
@@ -100,17 +117,26 @@ struct PlanRequest {
   NoiseWire noise;
   std::uint64_t seed = 1;
   /// Optimiser options ("options" object); unset ones keep the core's defaults (the paper's for solis_wets).
-  int k_max = 100, restarts = 0, max_evaluations = 0;   // solis_wets
+  int k_max = 100, restarts = 0;                        // solis_wets
   double step_fraction = 0.1;                           // solis_wets
+  int max_evaluations = 0;                              // solis_wets, exchange (0: no cap)
   int num_sets = 1;                                     // random
-  int num_candidates = 2000, screen = 16, max_iterations = 500;  // exchange
+  int num_candidates = 2000, screen = 16, max_iterations = 200;  // exchange
   /// Random validation configurations for the predicted accuracy.
   int num_validation = 100;
   /// Run as a long-running operation.
   bool async = false;
 };
+/// Also refuses a request whose work (MaxWork) exceeds the limits, naming the fields that set it.
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits);
 nlohmann::json ToJson(const PlanRequest& request);
+/// The core options of the request's optimiser, objective and seed included (progress left empty).
+SolisWetsOptions ToSolisWetsOptions(const PlanRequest& request);
+RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& request);
+ExchangeOptions ToExchangeOptions(const PlanRequest& request);
+/// The most work the request can cause: its optimiser's (MaxPlanWork), and the Jacobians of the predicted
+/// accuracy of the plan and of its random baseline (2 x num_validation).
+PlanWork MaxWork(const PlanRequest& request);
 
 /// POST /v1/campaigns.
 struct CreateCampaignRequest {

@@ -56,7 +56,8 @@ struct SolisWetsOptions {
   LimitHandling limits = LimitHandling::kReflect;
   /// Independent restarts from new random starting sets after the first run (0 = the paper); best kept.
   int restarts = 0;
-  /// Stop after this many objective evaluations in all (0 = no limit beyond k_max and restarts).
+  /// Stop before the objective evaluations of all runs would exceed this many (0 = no limit beyond k_max and
+  /// restarts); a restart is not begun without one evaluation left for its starting set.
   int max_evaluations = 0;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
@@ -82,11 +83,19 @@ struct RandomSelectionOptions {
 /// candidates; each iteration adds the candidate that most improves the objective (screened by the
 /// D-optimal gain det(I + B A^-1 B'), the top `screen` then evaluated exactly) and removes the configuration
 /// whose removal leaves the best objective; stops when an exchange no longer improves it.
+///
+/// One iteration costs num_candidates + min(screen, num_candidates - M) evaluations: a screening gain for each
+/// candidate outside the set, the screened ones exactly, and one removal per member. The pool's blocks are
+/// its memory: num_candidates x (rows x L + joints) doubles.
 struct ExchangeOptions {
   int num_candidates = 2000;
   /// Candidates per addition evaluated exactly after D-optimal screening.
   int screen = 16;
-  int max_iterations = 500;
+  /// Exchanges at most; on the presets the optimiser converges after 8-35 (M = 10 and 50, 2000 candidates).
+  int max_iterations = 200;
+  /// Stop before an iteration that would take the evaluations past this many (0 = no limit beyond
+  /// max_iterations).
+  int max_evaluations = 0;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
   PlanProgressCallback progress;
@@ -100,6 +109,8 @@ struct PlanSummary {
   std::string method;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   int iterations = 0;
+  /// Objective evaluations, each an L x L eigenproblem of a candidate set; the exchange optimiser also counts
+  /// each candidate's D-optimal screening gain as one. Never more than MaxPlanWork(...).evaluations.
   int evaluations = 0;
   /// Objective value (ObjectiveValue: the index, negated if maximised) of the best set after each iteration.
   std::vector<double> objective_trace;
@@ -117,6 +128,21 @@ struct Plan {
   std::vector<Eigen::VectorXd> configurations;
   PlanSummary summary;
 };
+
+/// The most work a plan can do, from M and its options alone, so that a caller can refuse or schedule a plan
+/// before it starts. Saturates at INT64_MAX.
+struct PlanWork {
+  /// Objective evaluations: Solis & Wets (restarts + 1) x (2 k_max + 1), or max_evaluations if smaller; random
+  /// selection num_sets; exchange 1 + max_iterations x (num_candidates + min(screen, num_candidates - M)), or
+  /// max_evaluations if smaller.
+  std::int64_t evaluations = 0;
+  /// Identification Jacobians of single configurations: an evaluation of a whole set computes M of them (Solis &
+  /// Wets, random selection); the exchange optimiser computes one per candidate, once.
+  std::int64_t jacobians = 0;
+};
+PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options);
+PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& options);
+PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options);
 
 /// Solis & Wets from `initial` (M configurations within limits) or, if empty, from a random set.
 /// Throws std::invalid_argument for invalid options, M < 1 or a wrongly sized initial set.

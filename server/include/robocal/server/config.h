@@ -25,8 +25,11 @@ struct ServerConfig {
   int max_plan_configurations = 1000;
   /// Elements of any one array in a request (joint vectors, measurements, targets).
   std::int64_t max_array_length = 10000;
-  /// Optimiser budget of one plan (k_max, max_evaluations, num_sets, max_iterations).
+  /// Work and memory of one request, bounded before it starts (api::Limits says what each counts).
   std::int64_t max_plan_evaluations = 1000000;
+  std::int64_t max_plan_jacobians = 10000000;
+  int max_plan_candidates = 20000;
+  std::int64_t max_fit_jacobian_entries = 2000000;
   /// Operations (async plans) running at once.
   int max_running_operations = 2;
   int request_timeout_s = 60;

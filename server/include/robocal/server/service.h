@@ -16,6 +16,7 @@
 
 #include "robocal/api/types.h"
 #include "robocal/core/robot_model.h"
+#include "robocal/server/memory_trimmer.h"
 #include "server/storage/storage.h"
 
 namespace robocal::server {
@@ -78,6 +79,8 @@ class Service {
   nlohmann::json CancelOperation(const std::string& id);
 
   int running_operations();
+  /// The request limits the service enforces (the routes apply max_array_length while parsing bodies).
+  const api::Limits& limits() const { return options_.limits; }
   /// For /healthz and metrics.
   Storage* storage() { return storage_; }
 
@@ -104,6 +107,8 @@ class Service {
 
   Storage* storage_;
   ServiceOptions options_;
+  /// Returns the memory of large requests to the system after them.
+  MemoryTrimmer trimmer_;
   std::mutex operations_mutex_;
   std::map<std::string, std::unique_ptr<RunningOperation>> running_;
 };
