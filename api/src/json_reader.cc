@@ -70,8 +70,8 @@ class RequestShapeCheck : public nlohmann::json_sax<nlohmann::json> {
   void ThrowIfBad() const {
     if (!too_large_.empty()) {
       throw ApiError(Status::kInvalidArgument, "request body too large in one place",
-                     {{too_large_, "more than " + std::to_string(max_elements_) +
-                                       " elements (the max_array_length limit), found before parsing went further"}});
+                     {{too_large_, "too many values: more than " + std::to_string(max_elements_) + " (limit " +
+                                       std::to_string(max_elements_) + ", max_array_length)"}});
     }
     if (too_deep_) {
       throw ApiError(Status::kInvalidArgument, "request body nested too deeply",

@@ -94,6 +94,21 @@ TEST(ApiTest, DuplicateKeysAreNamedByTheirPath) {
     EXPECT_EQ(e.details()[0].field, "body");
   }
   EXPECT_NO_THROW((void)api::ParseBody("{\"a\":" + std::string(31, '[') + std::string(31, ']') + "}"));
+  // Arrays and objects beyond the element limit are refused with their path before values are built.
+  try {
+    (void)api::ParseBody(R"({"a":{"b":[1,2,3,4]}})", 3);
+    FAIL() << "a long array accepted";
+  } catch (const api::ApiError& e) {
+    EXPECT_EQ(e.details()[0].field, "a.b");
+    EXPECT_NE(e.details()[0].reason.find("limit 3"), std::string::npos) << e.details()[0].reason;
+  }
+  try {
+    (void)api::ParseBody(R"({"a":1,"b":2,"c":3,"d":4})", 3);
+    FAIL() << "a wide object accepted";
+  } catch (const api::ApiError& e) {
+    EXPECT_EQ(e.details()[0].field, "body");
+  }
+  EXPECT_NO_THROW((void)api::ParseBody(R"({"a":[[1,2,3],[4,5,6],[7,8,9]]})", 3));
   // The same key in sibling objects is no duplicate.
   EXPECT_NO_THROW((void)api::ParseBody(R"({"a":[{"b":1},{"b":2}],"c":{"b":3}})"));
 }
