@@ -3,7 +3,7 @@ BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
 
-.PHONY: all deps configure build test run bench format clean demo
+.PHONY: all deps configure build test run bench format clean demo sanitize-build test-sanitize fuzz
 
 all: build
 
@@ -18,6 +18,25 @@ build: configure
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+# One clang tree serves the sanitizers and the fuzzers, so CI builds it once: every target with ASan and UBSan,
+# the fuzz targets with libFuzzer. test-sanitize runs the whole suite there (each fuzz target for
+# ROBOCAL_FUZZ_SECONDS, 15 s); fuzz runs only the fuzz targets, FUZZ_SECONDS each (docs/testing.md).
+SANITIZE_BUILD_DIR ?= build-sanitize
+SANITIZERS ?= address,undefined
+FUZZ_SECONDS ?= 300
+
+sanitize-build: deps
+	cmake -S . -B $(SANITIZE_BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	  -DROBOCAL_SANITIZE=$(SANITIZERS) -DROBOCAL_FUZZ=ON
+	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS)
+
+test-sanitize: sanitize-build
+	cd $(SANITIZE_BUILD_DIR) && UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS) --timeout 900
+
+fuzz: sanitize-build
+	cd $(SANITIZE_BUILD_DIR) && ROBOCAL_FUZZ_SECONDS=$(FUZZ_SECONDS) UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --output-on-failure -j $(JOBS) -L fuzz --timeout $$(($(FUZZ_SECONDS) + 300))
 
 # Starts the server on 127.0.0.1:8080 with its SQLite file under ./var (Ctrl-C stops it).
 run: build

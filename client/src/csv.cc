@@ -2,7 +2,6 @@
 #include "robocal/client/csv.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -27,9 +26,10 @@ std::vector<std::string> SplitFields(const std::string& line) {
 
 double ParseNumber(const std::string& text, int line, std::size_t column) {
   char* end = nullptr;
-  errno = 0;
+  // strtod's ERANGE is not consulted: it also flags results below the normal range (subnormal values, which
+  // the writer writes, or text that rounds to zero). Overflow gives an infinity, refused below.
   const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v)) {
+  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
     throw std::runtime_error("line " + std::to_string(line) + ", column " + std::to_string(column + 1) +
                              ": not a finite number: \"" + text + "\"");
   }

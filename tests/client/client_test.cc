@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <sstream>
 
 #include "mock_tracker.h"
@@ -333,6 +334,20 @@ TEST(CsvTest, JointsRoundTrip) {
   const auto rows = client::ReadJointsCsv(s, 2);
   ASSERT_EQ(rows.size(), 2u);
   EXPECT_DOUBLE_EQ(rows[0][1], -20.25);
+}
+
+// Values below the normal double range make strtod report ERANGE, yet they are finite values a plan or a
+// measurement can hold, and the writer writes them; the reader must give them back (found by the csv fuzzer).
+TEST(CsvTest, SubnormalValuesReadBackAsWritten) {
+  const std::vector<client::JointInfo> joints = {{"x", "prismatic", "mm", 0, 1}};
+  const std::vector<std::vector<double>> rows = {
+      {1.3833344017909062e-319}, {-2.5e-310}, {std::numeric_limits<double>::denorm_min()}};
+  std::stringstream s;
+  client::WriteJointsCsv(s, joints, rows);
+  EXPECT_EQ(client::ReadJointsCsv(s, 1), rows);
+  // Text below even the subnormals rounds to zero, as any decimal conversion does.
+  std::istringstream tiny("x_mm\n1e-400\n");
+  EXPECT_EQ(client::ReadJointsCsv(tiny, 1), (std::vector<std::vector<double>>{{0.0}}));
 }
 
 TEST(CsvTest, MeasurementsWithAndWithoutOrientation) {

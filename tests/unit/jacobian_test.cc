@@ -41,8 +41,9 @@ TEST_P(JacobianTest, IdentificationJacobianMatchesCentralDifferences) {
     Eigen::MatrixXd jac(MeasurementRows(type), n);
     IdentificationJacobian(model, q, eps, type, &ws, jac);
     const Transform t_ref = ws.T_world_tool;
+    // `type` is captured by name: clang before 16 cannot capture a structured binding implicitly.
     const Eigen::MatrixXd fd = -test::CentralDifferences(
-        [&](const Eigen::VectorXd& e) { return Residual(model, type, t_ref, q, e); }, eps, steps);
+        [&, type = type](const Eigen::VectorXd& e) { return Residual(model, type, t_ref, q, e); }, eps, steps);
     EXPECT_LT(test::MaxRelativeColumnError(jac, fd), 1e-6) << "trial " << trial;
   }
 }
@@ -61,7 +62,7 @@ TEST_P(JacobianTest, JointJacobianMatchesCentralDifferences) {
     JointJacobian(model, q, eps, type, &ws, jac);
     const Transform t_ref = ws.T_world_tool;
     const Eigen::MatrixXd fd = -test::CentralDifferences(
-        [&](const Eigen::VectorXd& qq) { return Residual(model, type, t_ref, qq, eps); }, q, steps);
+        [&, type = type](const Eigen::VectorXd& qq) { return Residual(model, type, t_ref, qq, eps); }, q, steps);
     EXPECT_LT(test::MaxRelativeColumnError(jac, fd), 1e-6) << "trial " << trial;
   }
 }

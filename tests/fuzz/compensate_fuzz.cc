@@ -1,0 +1,25 @@
+// Fuzz target: the body of POST /v1/campaigns/{c}:compensate (api::ParseCompensateRequest), against every
+// preset.
+#include "fuzz_util.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace robocal;
+  const std::optional<nlohmann::json> body = fuzz::Body(data, size);
+  if (!body) return 0;
+  const api::Limits limits;
+  for (const RobotModel& model : fuzz::Presets()) {
+    const auto parse = [&](const nlohmann::json& b) { return api::ParseCompensateRequest(b, model, limits); };
+    const auto request = fuzz::Parsed([&] { return parse(*body); });
+    if (!request) continue;
+    const std::size_t n = static_cast<std::size_t>(model.num_joints());
+    for (const api::CompensationTargetWire& t : request->targets) {
+      // The service dispatches on these: exactly one kind of target, vectors sized to the robot.
+      fuzz::Check(t.pose.has_value() != (t.joints.size() == n), "a target is either joints or a pose");
+      fuzz::Check(t.start_joints.empty() || (t.pose && t.start_joints.size() == n),
+                  "start_joints only on a pose target, sized to the robot");
+      fuzz::Check(t.frame == "tracker" || t.frame == "base", "frame is tracker or base");
+    }
+    fuzz::CheckRoundTrip(*request, parse);
+  }
+  return 0;
+}
