@@ -456,27 +456,25 @@ void ConnectionPool::Work() {
   }
 }
 
-Server::Server(Limits limits, CannedReplies canned, Counters* counters)
-    : limits_(limits), canned_(std::move(canned)), counters_(counters) {}
+Server::Server(Settings settings) : settings_(std::move(settings)) {}
 
 bool Server::process_and_close_socket(socket_t sock) {
   if (refusing) {
-    SendNow(sock, canned_.busy);
+    SendNow(sock, settings_.canned.busy);
     lingerer_.Close(sock);
     return false;
   }
   const auto accepted = AcceptedAt();
   MakeNonBlocking(sock);
   PlainTransport transport(sock);
-  return Serve(sock, &transport, limits_, canned_, counters_, accepted, svr_sock_,
+  return Serve(sock, &transport, settings_.limits, settings_.canned, settings_.counters, accepted, svr_sock_,
                [this](httplib::Stream& strm, bool close_connection, bool& connection_closed) {
                  return process_request(strm, close_connection, connection_closed, nullptr);
                });
 }
 
-SslServer::SslServer(const char* cert_path, const char* key_path, Limits limits, CannedReplies canned,
-                     Counters* counters)
-    : httplib::SSLServer(cert_path, key_path), limits_(limits), canned_(std::move(canned)), counters_(counters) {}
+SslServer::SslServer(const char* cert_path, const char* key_path, Settings settings)
+    : httplib::SSLServer(cert_path, key_path), settings_(std::move(settings)) {}
 
 bool SslServer::process_and_close_socket(socket_t sock) {
   if (refusing) {
@@ -493,7 +491,7 @@ bool SslServer::process_and_close_socket(socket_t sock) {
     return false;
   }
   // The handshake counts against the first request's deadline.
-  const auto deadline = accepted + limits_.request_read_timeout;
+  const auto deadline = accepted + settings_.limits.request_read_timeout;
   bool shaken = false;
   for (;;) {
     const int r = SSL_accept(ssl);
@@ -508,7 +506,7 @@ bool SslServer::process_and_close_socket(socket_t sock) {
   bool ok = false;
   if (shaken) {
     TlsTransport transport(ssl);
-    ok = Serve(sock, &transport, limits_, canned_, counters_, accepted, svr_sock_,
+    ok = Serve(sock, &transport, settings_.limits, settings_.canned, settings_.counters, accepted, svr_sock_,
                [this](httplib::Stream& strm, bool close_connection, bool& connection_closed) {
                  return process_request(strm, close_connection, connection_closed, nullptr);
                });

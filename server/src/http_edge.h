@@ -127,30 +127,33 @@ class Lingerer {
 /// binding, before serving).
 void WidenBacklog(int listening);
 
+/// What the plain and the TLS server share: the limits, the canned replies and the counters.
+struct Settings {
+  Limits limits;
+  CannedReplies canned;
+  Counters* counters;
+};
+
 class Server : public httplib::Server {
  public:
-  Server(Limits limits, CannedReplies canned, Counters* counters);
+  explicit Server(Settings settings);
   /// The bound listening socket (after bind_to_port), for WidenBacklog.
   int listening_socket() const { return svr_sock_; }
 
  private:
   bool process_and_close_socket(socket_t sock) override;
-  Limits limits_;
-  CannedReplies canned_;
-  Counters* counters_;
+  const Settings settings_;
   Lingerer lingerer_;
 };
 
 class SslServer : public httplib::SSLServer {
  public:
-  SslServer(const char* cert_path, const char* key_path, Limits limits, CannedReplies canned, Counters* counters);
+  SslServer(const char* cert_path, const char* key_path, Settings settings);
   int listening_socket() const { return svr_sock_; }
 
  private:
   bool process_and_close_socket(socket_t sock) override;
-  Limits limits_;
-  CannedReplies canned_;
-  Counters* counters_;
+  const Settings settings_;
   Lingerer lingerer_;
 };
 

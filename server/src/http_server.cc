@@ -289,25 +289,22 @@ class Metrics {
       out << "robocal_http_request_duration_seconds_sum{route=\"" << route << "\"} " << d.first << "\n"
           << "robocal_http_request_duration_seconds_count{route=\"" << route << "\"} " << d.second << "\n";
     }
-    out << "# HELP robocal_operations_running Long-running operations in progress.\n"
-           "# TYPE robocal_operations_running gauge\n"
-        << "robocal_operations_running " << running_operations << "\n"
-        << "# HELP robocal_http_connections_active Connections being served.\n"
-           "# TYPE robocal_http_connections_active gauge\n"
-        << "robocal_http_connections_active " << connections.active << "\n"
-        << "# HELP robocal_http_connections_queued Accepted connections waiting for a connection thread.\n"
-           "# TYPE robocal_http_connections_queued gauge\n"
-        << "robocal_http_connections_queued " << connections.queued << "\n"
-        << "# HELP robocal_http_connections_refused_total Connections refused (503) because the queue was full.\n"
-           "# TYPE robocal_http_connections_refused_total counter\n"
-        << "robocal_http_connections_refused_total " << connections.refused << "\n"
-        << "# HELP robocal_http_requests_timed_out_total Requests not received within request_read_timeout_s.\n"
-           "# TYPE robocal_http_requests_timed_out_total counter\n"
-        << "robocal_http_requests_timed_out_total " << connections.timed_out << "\n"
-        << "# HELP robocal_http_requests_too_large_total Requests whose head or body exceeded its limit.\n"
-           "# TYPE robocal_http_requests_too_large_total counter\n"
-        << "robocal_http_requests_too_large_total " << connections.too_large << "\n"
-        << "# HELP robocal_build_info Build version.\n# TYPE robocal_build_info gauge\n"
+    // One metric without labels: its help, its type and its value.
+    const auto single = [&out](const char* name, const char* type, const char* help, auto value) {
+      out << "# HELP " << name << " " << help << "\n# TYPE " << name << " " << type << "\n"
+          << name << " " << value << "\n";
+    };
+    single("robocal_operations_running", "gauge", "Long-running operations in progress.", running_operations);
+    single("robocal_http_connections_active", "gauge", "Connections being served.", connections.active.load());
+    single("robocal_http_connections_queued", "gauge", "Accepted connections waiting for a connection thread.",
+           connections.queued.load());
+    single("robocal_http_connections_refused_total", "counter",
+           "Connections refused (503) because the queue was full.", connections.refused.load());
+    single("robocal_http_requests_timed_out_total", "counter",
+           "Requests not received within request_read_timeout_s.", connections.timed_out.load());
+    single("robocal_http_requests_too_large_total", "counter", "Requests whose head or body exceeded its limit.",
+           connections.too_large.load());
+    out        << "# HELP robocal_build_info Build version.\n# TYPE robocal_build_info gauge\n"
         << "robocal_build_info{version=\"" << ROBOCAL_VERSION << "\"} 1\n";
     return out.str();
   }
@@ -437,15 +434,15 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   impl_->handler_slots = std::make_unique<std::counting_semaphore<>>(std::max(1, config.threads));
   edge::Counters* counters = &impl_->connections;
   if (!config.tls_cert.empty()) {
-    auto ssl = std::make_unique<edge::SslServer>(config.tls_cert.c_str(), config.tls_key.c_str(), EdgeLimits(config),
-                                                 EdgeReplies(config), counters);
+    auto ssl = std::make_unique<edge::SslServer>(config.tls_cert.c_str(), config.tls_key.c_str(),
+                                                 edge::Settings{EdgeLimits(config), EdgeReplies(config), counters});
     if (!ssl->is_valid()) {
       throw std::runtime_error("cannot load TLS certificate " + config.tls_cert + " / key " + config.tls_key);
     }
     impl_->server = std::move(ssl);
     impl_->tls = true;
   } else {
-    impl_->server = std::make_unique<edge::Server>(EdgeLimits(config), EdgeReplies(config), counters);
+    impl_->server = std::make_unique<edge::Server>(edge::Settings{EdgeLimits(config), EdgeReplies(config), counters});
   }
   httplib::Server& svr = *impl_->server;
   Impl* impl = impl_.get();
@@ -503,7 +500,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     httplib::Server::Handler handler;
     const std::string path = route.openapi_path;
     if (path == "/healthz") {
-      handler = [impl](const httplib::Request&, httplib::Response& res) {
+      handler = [](const httplib::Request&, httplib::Response& res) {
         res.set_content(json{{"status", "ok"}, {"version", ROBOCAL_VERSION}}.dump(), "application/json");
       };
     } else if (path == "/metrics") {
