@@ -4,23 +4,16 @@
 // errors: the parsers' own, on the input as a request body, and the input's bytes taken as message, fields
 // and reasons directly (an error may quote anything a client sent).
 #include "fuzz_util.h"
+#include "robocal/api/text.h"
 
 namespace {
 
 using namespace robocal;
 using fuzz::Check;
 
-bool IsUtf8(const std::string& text) {
-  try {
-    (void)nlohmann::json(text).dump();
-    return true;
-  } catch (const nlohmann::json::type_error&) {
-    return false;
-  }
-}
-
-// The error body as the server sends it must parse, carry the status and one entry per violation, and keep
-// text that was already valid unchanged.
+// The error body as the server sends it must parse, carry the status and one entry per violation, and carry
+// each text as api::SafeText makes it (unchanged when it is valid UTF-8 without control characters and short;
+// text.h), never a raw control byte.
 void CheckErrorBody(api::Status status, const std::string& message, const std::vector<api::FieldViolation>& details) {
   const std::string text = api::ErrorBody(status, 400, message, details).dump();
   nlohmann::json body;
@@ -33,11 +26,14 @@ void CheckErrorBody(api::Status status, const std::string& message, const std::v
   Check(error.at("status") == api::ToString(status), "the error body carries the status");
   Check(error.at("code") == 400, "the error body carries the HTTP code");
   Check(error.at("details").size() == details.size(), "one detail per violation");
-  Check(!IsUtf8(message) || error.at("message") == message, "a valid UTF-8 message is sent unchanged");
+  Check(error.at("message") == api::SafeText(message), "the message is sent as SafeText makes it");
+  for (const char c : error.at("message").get<std::string>()) {
+    Check(static_cast<unsigned char>(c) >= 0x20 && c != 0x7F, "no control byte in a message");
+  }
   for (std::size_t i = 0; i < details.size(); ++i) {
     const nlohmann::json& d = error.at("details")[i];
-    Check(!IsUtf8(details[i].field) || d.at("field") == details[i].field, "a valid UTF-8 field is sent unchanged");
-    Check(!IsUtf8(details[i].reason) || d.at("reason") == details[i].reason, "a valid UTF-8 reason is sent unchanged");
+    Check(d.at("field") == api::SafeText(details[i].field, 256), "a field is sent as SafeText makes it");
+    Check(d.at("reason") == api::SafeText(details[i].reason), "a reason is sent as SafeText makes it");
   }
 }
 
