@@ -165,9 +165,9 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
   r.Required("stored", &c.stored);
   r.Required("parameters", &c.parameters);
   r.Required("dropped", &c.dropped);
-  r.Required("base", &c.base);
-  r.Required("tool", &c.tool);
-  r.Required("registered_base", &c.registered_base);
+  ReadResultPose(r, "base", &c.base);
+  ReadResultPose(r, "tool", &c.tool);
+  ReadResultPose(r, "registered_base", &c.registered_base);
   r.Required("residuals_before", &c.residuals_before);
   r.Required("residuals_after", &c.residuals_after);
   r.Required("condition_number", &c.condition_number);

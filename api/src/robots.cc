@@ -33,16 +33,24 @@ nlohmann::json JointJson(const JointWire& jw, GeometryConvention convention) {
   return o;
 }
 
-JointWire JointFromJson(const WireReader& r) {
+// The fields JointJson writes are required (a definition may leave the name out: the core names the joint).
+JointWire JointFromJson(const WireReader& r, GeometryConvention convention, bool name_required) {
   JointWire jw;
-  r.Optional("name", &jw.name);
+  if (name_required) {
+    r.Required("name", &jw.name);
+  } else {
+    r.Optional("name", &jw.name);
+  }
   r.Required("type", &jw.type);
-  r.Optional("a_mm", &jw.a_mm);
-  r.Optional("alpha_deg", &jw.alpha_deg);
-  r.Optional("d_mm", &jw.d_mm);
-  r.Optional("theta_deg", &jw.theta_deg);
-  r.Optional("xyz_mm", &jw.xyz_mm);
-  r.Optional("rpy_deg", &jw.rpy_deg);
+  if (convention == GeometryConvention::kTransform) {
+    r.Required("xyz_mm", &jw.xyz_mm);
+    r.Required("rpy_deg", &jw.rpy_deg);
+  } else {
+    r.Required("a_mm", &jw.a_mm);
+    r.Required("alpha_deg", &jw.alpha_deg);
+    r.Required("d_mm", &jw.d_mm);
+    r.Required("theta_deg", &jw.theta_deg);
+  }
   r.Required(MinKey(jw.type), &jw.min);
   r.Required(MaxKey(jw.type), &jw.max);
   return jw;
@@ -130,7 +138,7 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
     req.joints.clear();
     for (std::size_t i = 0; i < joints.size(); ++i) {
       try {
-        req.joints.push_back(JointFromJson(WireReader(joints[i])));
+        req.joints.push_back(JointFromJson(WireReader(joints[i]), req.convention, false));
       } catch (const WireError& e) {
         throw WireError(WirePath("joints[" + std::to_string(i) + "]", e.path()), e.reason());
       }
@@ -215,15 +223,15 @@ void from_json(const nlohmann::json& j, Robot& robot) {
     const std::string path = "joints[" + std::to_string(i) + "]";
     try {
       const WireReader jr(joints[i]);
-      RobotJoint rj{JointFromJson(jr), ""};
+      RobotJoint rj{JointFromJson(jr, robot.convention, true), ""};
       jr.Required("unit", &rj.unit);
       robot.joints.push_back(std::move(rj));
     } catch (const WireError& e) {
       throw WireError(WirePath(path, e.path()), e.reason());
     }
   }
-  r.Required("base", &robot.base);
-  r.Required("tool", &robot.tool);
+  ReadResultPose(r, "base", &robot.base);
+  ReadResultPose(r, "tool", &robot.tool);
   r.Required("error_parameters", &robot.error_parameters);
 }
 
@@ -303,9 +311,18 @@ void from_json(const nlohmann::json& j, ForwardResult& result) {
   const WireReader r(j);
   r.Optional("robot", &result.robot);
   r.Optional("campaign", &result.campaign);
-  if (!result.robot && !result.campaign) throw WireError("robot", "required (or campaign)");
+  if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
   r.Required("frame", &result.frame);
-  r.Required("poses", &result.poses);
+  const nlohmann::json& poses = r.Member("poses");
+  if (!poses.is_array()) throw WireError("poses", "expected an array");
+  result.poses.resize(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    try {
+      ReadResultPose(WireReader(poses[i]), &result.poses[i]);
+    } catch (const WireError& e) {
+      throw WireError(WirePath("poses[" + std::to_string(i) + "]", e.path()), e.reason());
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------------------------- joints

@@ -89,9 +89,9 @@ void from_json(const nlohmann::json& j, StoredCalibration& c) {
   const WireReader r(doc);
   r.Required("result", &c.result);
   const WireReader state(r.Member("state"), "state");
-  state.Required("registered_base", &c.registered_base);
-  state.Required("T_world_base", &c.T_world_base);
-  state.Required("T_flange_tool", &c.T_flange_tool);
+  ReadResultPose(state, "registered_base", &c.registered_base);
+  ReadResultPose(state, "T_world_base", &c.T_world_base);
+  ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
   state.Required("errors", &c.errors);
 }
 

@@ -193,6 +193,17 @@ void from_json(const nlohmann::json& j, PoseWire& pose) {
   if (!pose.has_orientation) pose.quaternion = {1.0, 0.0, 0.0, 0.0};
 }
 
+void ReadResultPose(const WireReader& pose, PoseWire* out) {
+  pose.Required("position_mm", &out->position_mm);
+  pose.Required("quaternion", &out->quaternion);
+  out->has_orientation = true;
+}
+
+void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out) {
+  const WireReader pose(parent.Member(key), WirePath(parent.path(), key));
+  ReadResultPose(pose, out);
+}
+
 nlohmann::json PoseResultJson(const PoseWire& pose) {
   nlohmann::json j = pose;
   if (pose.has_orientation) {

@@ -325,6 +325,10 @@ void to_json(nlohmann::json& j, const PoseWire& pose);
 void from_json(const nlohmann::json& j, PoseWire& pose);
 /// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
 nlohmann::json PoseResultJson(const PoseWire& pose);
+/// Reads a pose of a response (as PoseResultJson writes it: the quaternion required, rpy_deg derived): the
+/// object `pose`, or the member `key` of `parent`.
+void ReadResultPose(const WireReader& pose, PoseWire* out);
+void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out);
 Transform PoseToTransform(const PoseWire& pose);
 /// One sign per rotation (w >= 0), so that equal poses serialise equally.
 PoseWire TransformToPose(const Transform& pose);
