@@ -8,10 +8,12 @@
 #include <regex>
 #include <semaphore>
 #include <sstream>
+#include <variant>
 
 #include <httplib.h>
 
 #include "http_edge.h"
+#include "robocal/api/health.h"
 #include "robocal/api/json_reader.h"
 #include "robocal/api/text.h"
 #include "robocal/server/logging.h"
@@ -42,6 +44,15 @@ json Body(const Service& service, const httplib::Request& req) {
   }
   return api::ParseBody(req.body, service.limits().max_array_length);
 }
+// A typed reply as the response body; a plan or fit is either the result or (async) its operation.
+template <typename T>
+json Reply(const T& value) {
+  return json(value);
+}
+template <typename... T>
+json Reply(const std::variant<T...>& value) {
+  return std::visit([](const auto& v) { return json(v); }, value);
+}
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
   return req.has_param(key) ? req.get_param_value(key) : "";
@@ -55,50 +66,50 @@ const std::vector<Route>& RouteTable() {
       {"GET", "/v1/openapi.json", "/v1/openapi.json", nullptr},
       {"GET", "/v1/robots", "/v1/robots",
        [](Service& s, const httplib::Request& r) {
-         return s.ListRobots(Query(r, "page_size"), Query(r, "page_token"));
+         return Reply(s.ListRobots(Query(r, "page_size"), Query(r, "page_token")));
        }},
       {"POST", "/v1/robots", "/v1/robots",
-       [](Service& s, const httplib::Request& r) { return s.CreateRobot(Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateRobot(Body(s, r))); }},
       {"GET", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
-       [](Service& s, const httplib::Request& r) { return s.GetRobot(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetRobot(Id(r))); }},
       {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
        [](Service& s, const httplib::Request& r) {
          s.DeleteRobot(Id(r));
          return json::object();
        }},
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
-       [](Service& s, const httplib::Request& r) { return s.RobotForward(Id(r), Body(s, r)); }},
-      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return s.CreatePlan(Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
+      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return Reply(s.CreatePlan(Body(s, r))); }},
       {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
-       [](Service& s, const httplib::Request& r) { return s.GetPlan(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetPlan(Id(r))); }},
       {"GET", "/v1/campaigns", "/v1/campaigns",
        [](Service& s, const httplib::Request& r) {
-         return s.ListCampaigns(Query(r, "page_size"), Query(r, "page_token"));
+         return Reply(s.ListCampaigns(Query(r, "page_size"), Query(r, "page_token")));
        }},
       {"POST", "/v1/campaigns", "/v1/campaigns",
-       [](Service& s, const httplib::Request& r) { return s.CreateCampaign(Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateCampaign(Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+))", "/v1/campaigns/{campaign}",
-       [](Service& s, const httplib::Request& r) { return s.GetCampaign(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetCampaign(Id(r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
-       [](Service& s, const httplib::Request& r) { return s.AppendMeasurements(Id(r), Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.AppendMeasurements(Id(r), Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
        [](Service& s, const httplib::Request& r) {
-         return s.ListMeasurements(Id(r), Query(r, "role"), Query(r, "after"), Query(r, "limit"));
+         return Reply(s.ListMeasurements(Id(r), Query(r, "role"), Query(r, "after"), Query(r, "limit")));
        }},
       {"POST", R"(/v1/campaigns/([^/:]+):fit)", "/v1/campaigns/{campaign}:fit",
-       [](Service& s, const httplib::Request& r) { return s.Fit(Id(r), Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.Fit(Id(r), Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/calibration)", "/v1/campaigns/{campaign}/calibration",
-       [](Service& s, const httplib::Request& r) { return s.GetCalibration(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetCalibration(Id(r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
-       [](Service& s, const httplib::Request& r) { return s.Compensate(Id(r), Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",
-       [](Service& s, const httplib::Request& r) { return s.CampaignForward(Id(r), Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.CampaignForward(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):evaluate)", "/v1/campaigns/{campaign}:evaluate",
-       [](Service& s, const httplib::Request& r) { return s.Evaluate(Id(r), Body(s, r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.Evaluate(Id(r), Body(s, r))); }},
       {"GET", R"(/v1/operations/([^/:]+))", "/v1/operations/{operation}",
-       [](Service& s, const httplib::Request& r) { return s.GetOperation(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetOperation(Id(r))); }},
       {"POST", R"(/v1/operations/([^/:]+):cancel)", "/v1/operations/{operation}:cancel",
-       [](Service& s, const httplib::Request& r) { return s.CancelOperation(Id(r)); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.CancelOperation(Id(r))); }},
   };
   return routes;
 }
@@ -317,31 +328,6 @@ class Metrics {
 
 }  // namespace
 
-int HttpStatusOf(Status status) {
-  switch (status) {
-    case Status::kInvalidArgument:
-      return 400;
-    case Status::kFailedPrecondition:
-      return 400;
-    case Status::kNotFound:
-      return 404;
-    case Status::kAlreadyExists:
-      return 409;
-    case Status::kUnauthenticated:
-      return 401;
-    case Status::kPermissionDenied:
-      return 403;
-    case Status::kResourceExhausted:
-      return 413;
-    case Status::kInternal:
-      return 500;
-    case Status::kUnavailable:
-      return 503;
-    case Status::kDeadlineExceeded:
-      return 408;
-  }
-  return 500;
-}
 
 std::vector<RouteInfo> Routes() {
   std::vector<RouteInfo> routes;
@@ -501,7 +487,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     const std::string path = route.openapi_path;
     if (path == "/healthz") {
       handler = [](const httplib::Request&, httplib::Response& res) {
-        res.set_content(json{{"status", "ok"}, {"version", ROBOCAL_VERSION}}.dump(), "application/json");
+        res.set_content(json(api::Health{"ok", ROBOCAL_VERSION}).dump(), "application/json");
       };
     } else if (path == "/metrics") {
       handler = [impl](const httplib::Request&, httplib::Response& res) {
