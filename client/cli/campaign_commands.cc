@@ -74,8 +74,8 @@ int CampaignList(Invocation& in) {
   auto row = [&](const std::string& id, const std::string& robot, const std::string& type,
                  const std::string& calibration, const std::string& validation, const std::string& calibrated) {
     in.out << std::left << std::setw(static_cast<int>(id_width)) << id << "  "
-           << std::setw(static_cast<int>(robot_width)) << robot << "  " << std::setw(13) << type << std::right
-           << std::setw(11) << calibration << std::setw(11) << validation << "  " << calibrated << "\n";
+           << std::setw(static_cast<int>(robot_width)) << robot << "  " << std::setw(13) << type << std::right << "  "
+           << std::setw(11) << calibration << "  " << std::setw(10) << validation << "  " << calibrated << "\n";
   };
   row("campaign", "robot", "type", "calibration", "validation", "calibrated");
   for (const api::Campaign& c : list.campaigns) {
