@@ -22,8 +22,9 @@ mkdir -p "$work/replies"
 request() {
   local method=$1 path=$2
   shift 2
-  local n meta
-  n=$(wc -l <"$work/replies.tsv")
+  local recorded meta
+  mapfile -t recorded <"$work/replies.tsv"  # a builtin: each fork costs under load, and this runs per request
+  local n=${#recorded[@]}
   meta=$(curl -sS -X "$method" -o "$work/body" -w '%{http_code}\t%{content_type}' "$@" "$ROBOCAL_URL$path")
   echo "${meta%%$'\t'*}" >"$work/status"
   cp "$work/body" "$work/replies/$n"
