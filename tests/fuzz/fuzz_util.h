@@ -19,6 +19,8 @@
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
 #include "robocal/api/plans.h"
+#include "robocal/api/robots.h"
+#include "robocal/api/wire.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/robot_model.h"
 
@@ -99,6 +101,9 @@ void CheckRoundTrip(const Request& request, Parse parse) {
   const auto again = Parsed([&] { return parse(api::ParseBody(written.dump())); });
   Check(again.has_value(), "a parsed request's ToJson parses again");
   Check(SameJson(nlohmann::json(*again), written), "a parsed request's ToJson reads back the same");
+  // The strict structural reader (what a stored or echoed request goes through) reads it back the same too.
+  Check(SameJson(nlohmann::json(api::FromWire<Request>(written)), written),
+        "a parsed request's JSON reads back the same through from_json");
 }
 
 }  // namespace robocal::fuzz
