@@ -5,7 +5,6 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
@@ -71,28 +70,6 @@ ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_v
   return out;
 }
 
-const char* ToString(ColumnScaling scaling) {
-  switch (scaling) {
-    case ColumnScaling::kColumnNorm:
-      return "column_norm";
-    case ColumnScaling::kExpectedDeviation:
-      return "expected_deviation";
-    case ColumnScaling::kNone:
-      return "none";
-  }
-  return "?";
-}
-
-bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling) {
-  for (ColumnScaling s : {ColumnScaling::kColumnNorm, ColumnScaling::kExpectedDeviation, ColumnScaling::kNone}) {
-    if (text == ToString(s)) {
-      *scaling = s;
-      return true;
-    }
-  }
-  return false;
-}
-
 const char* ToString(ObservabilityIndex index) {
   switch (index) {
     case ObservabilityIndex::kConditionNumber:
@@ -153,13 +130,7 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
 }
 
 std::string ObservabilityOptions::ScalingDescription() const {
-  std::ostringstream out;
-  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad); columns: "
-      << ToString(scaling);
-  if (scaling == ColumnScaling::kExpectedDeviation) {
-    out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
-  }
-  return out.str();
+  return DescribeScaling(noise, scaling, expected_translation_mm, expected_rotation_rad);
 }
 
 double ObservabilityIndices::Get(ObservabilityIndex index) const {

@@ -190,5 +190,29 @@ TEST(ColumnScalingTest, PivotRankCountsPivotsAboveTheTolerance) {
   EXPECT_EQ(PivotRank(Eigen::VectorXd(), 1e-6), 0);
 }
 
+// One text for every Summary's scaling: identifiability and identification (unit columns) say what an
+// observability evaluation with kColumnNorm says.
+TEST(ColumnScalingTest, OneDescriptionOfTheScaling) {
+  MeasurementNoise noise;
+  noise.position_mm = 0.02;
+  noise.orientation_rad = 1.5e-4;
+  EXPECT_EQ(DescribeScaling(noise), "rows / noise (0.02 mm, 0.00015 rad); columns: column_norm");
+  EXPECT_EQ(DescribeScaling(noise, ColumnScaling::kNone), "rows / noise (0.02 mm, 0.00015 rad); columns: none");
+  EXPECT_EQ(DescribeScaling(noise, ColumnScaling::kExpectedDeviation, 0.2, 2e-3),
+            "rows / noise (0.02 mm, 0.00015 rad); columns: expected_deviation (0.2 mm, 0.002 rad)");
+
+  const RobotModel model = Preset("grinder5");
+  IdentifiabilityOptions identifiability;
+  identifiability.noise = noise;
+  const IdentifiabilitySummary s = FindIdentifiableParameters(model, MeasurementType::kPose, identifiability);
+  EXPECT_EQ(s.scaling, DescribeScaling(noise));
+  ObservabilityOptions o;
+  o.noise = noise;
+  o.parameters = s.identifiable;
+  EXPECT_EQ(o.ScalingDescription(), s.scaling);
+  Rng rng(5);
+  EXPECT_EQ(ComputeIndicesBySvd(model, RandomConfigurations(model, 10, &rng), o).scaling, s.scaling);
+}
+
 }  // namespace
 }  // namespace robocal

@@ -55,7 +55,7 @@ struct IdentifiabilitySummary {
   double largest_dropped_pivot = 0.0;
   /// Condition number of the kept columns (row-weighted, unit column norm) over the probe configurations.
   double condition_number = 0.0;
-  /// Which scaling produced condition_number.
+  /// Which scaling produced condition_number (DescribeScaling of options.noise, ColumnScaling::kColumnNorm).
   std::string scaling;
 
   std::string BriefReport() const;

@@ -7,23 +7,11 @@
 
 #include <Eigen/Core>
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal {
-
-/// How the columns of E* are scaled before its singular values are taken. Rows are always divided by the
-/// measurement noise (MeasurementNoise), so a row is in units of "noise sigmas".
-enum class ColumnScaling {
-  /// Each column divided by its norm over the configuration set (Hollerbach & Wampler's scaling): the index
-  /// then does not depend on the parameters' units.
-  kColumnNorm,
-  /// Each column multiplied by the parameter's expected deviation (expected_translation_mm,
-  /// expected_rotation_rad): E* then maps "typical error sizes" to noise sigmas.
-  kExpectedDeviation,
-  /// No column scaling: mixes mm and rad, reported for completeness.
-  kNone,
-};
 
 /// The observability indices (the first is the paper's objective).
 enum class ObservabilityIndex {
@@ -36,8 +24,6 @@ enum class ObservabilityIndex {
   kLogDet,           ///< log det(E*' E*) (D-optimality), maximised.
 };
 
-const char* ToString(ColumnScaling scaling);
-bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling);
 /// "condition_number", "o1" .. "o5", "log_det".
 const char* ToString(ObservabilityIndex index);
 bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index);
@@ -54,7 +40,7 @@ struct ObservabilityOptions {
   std::vector<int> parameters;
 
   bool IsValid(const RobotModel& model, std::string* error) const;
-  /// E.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
+  /// DescribeScaling of these options, e.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
   std::string ScalingDescription() const;
 };
 
