@@ -486,7 +486,10 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   const Eigen::MatrixXd scaled = lm.jacobian * d.asDiagonal();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();
-  if (!(sv[sv.size() - 1] > 0.0)) return fail("degenerate configurations: singular Jacobian at the solution");
+  // The rank test of the start, on the singular values at the solution: the covariance needs every one.
+  if (PivotRank(sv, options.identifiability.rank_tolerance) < s.num_parameters) {
+    return fail("degenerate configurations: rank-deficient Jacobian at the solution");
+  }
   s.condition_number = sv[0] / sv[sv.size() - 1];
   const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();

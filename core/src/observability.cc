@@ -173,6 +173,14 @@ ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vec
                                    options.ScalingDescription());
 }
 
+int NumericalRank(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                  const ObservabilityOptions& options) {
+  if (configurations.empty()) return 0;
+  ObservabilityOptions unit_columns = options;
+  unit_columns.scaling = ColumnScaling::kColumnNorm;
+  return PivotRank(ComputeIndicesBySvd(model, configurations, unit_columns).singular_values, kRankTolerance);
+}
+
 ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, ObservabilityOptions options)
     : model_(model), options_(std::move(options)), ws_(model_) {
   std::string error;
@@ -267,12 +275,10 @@ PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOp
   PredictedAccuracy out;
   ObservabilityEvaluator evaluator(model, options);
   evaluator.SetConfigurations(plan);
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(evaluator.normal());
-  if (ldlt.info() != Eigen::Success || !(evaluator.indices().o3 > 0.0) ||
-      !std::isfinite(evaluator.indices().condition_number) || evaluator.indices().condition_number > 1e12) {
-    return out;
-  }
   const int l = static_cast<int>(options.parameters.size());
+  if (NumericalRank(model, plan, options) < l) return out;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(evaluator.normal());
+  if (ldlt.info() != Eigen::Success) return out;
   const Eigen::MatrixXd covariance = ldlt.solve(Eigen::MatrixXd::Identity(l, l));
   out.has_orientation = options.measurement_type != MeasurementType::kPosition;
   KinematicsWorkspace ws(model);

@@ -162,6 +162,34 @@ TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
   EXPECT_EQ(PredictAccuracy(model, o, plan, RandomConfigurations(model, 5, &rng)).num_validation, 0);
 }
 
+// The one rank cut on a plan: unit columns and an SVD of the stack, whatever scaling the indices use.
+TEST(NumericalRankTest, CountsWhatTheSetDetermines) {
+  const RobotModel model = Preset("ur5e");
+  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const int l = static_cast<int>(o.parameters.size());
+  Rng rng(4);
+  const auto plan = RandomConfigurations(model, 12, &rng);
+  EXPECT_EQ(NumericalRank(model, plan, o), l);
+  EXPECT_LE(NumericalRank(model, RandomConfigurations(model, 2, &rng), o), 12);  // 12 rows
+  // One configuration twelve times: 6 independent rows. From the normal matrix's eigenvalues the lost
+  // directions come out at its round-off, sigma up to ~4e-8 sigma_1, right at the cut; the SVD of the stack
+  // puts them at ~1e-16.
+  const std::vector<Eigen::VectorXd> repeated(12, plan.front());
+  EXPECT_LE(NumericalRank(model, repeated, o), 6);
+  EXPECT_EQ(NumericalRank(model, {}, o), 0);
+  o.scaling = ColumnScaling::kNone;
+  EXPECT_EQ(NumericalRank(model, plan, o), l);
+  EXPECT_LE(NumericalRank(model, repeated, o), 6);
+}
+
+TEST(PredictedAccuracyTest, RepeatedConfigurationPredictsNothing) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(4);
+  const std::vector<Eigen::VectorXd> repeated(12, RandomConfigurations(model, 1, &rng).front());
+  EXPECT_EQ(PredictAccuracy(model, o, repeated, RandomConfigurations(model, 5, &rng)).num_validation, 0);
+}
+
 }  // namespace
 }  // namespace robocal
 

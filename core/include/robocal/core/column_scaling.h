@@ -44,8 +44,14 @@ Eigen::VectorXd UnitColumnFactors(const Eigen::VectorXd& column_norms);
 /// The same from the matrix J itself.
 Eigen::VectorXd UnitColumnFactorsOf(const Eigen::MatrixXd& j);
 
-/// The numerical rank read off the absolute diagonal of a column-pivoted QR (non-increasing): the number of
-/// leading pivots larger than `tolerance` times the first. 0 for an empty or all-zero diagonal.
+/// The rank cut: of a row-weighted Jacobian with unit columns, a pivot or singular value at most this fraction
+/// of the largest counts as zero (the default of IdentifiabilityOptions::rank_tolerance, which identification
+/// also uses, and the cut of NumericalRank in observability.h).
+inline constexpr double kRankTolerance = 1e-8;
+
+/// The numerical rank read off a non-increasing sequence of non-negative values, the absolute diagonal of a
+/// column-pivoted QR or the singular values: the number of leading values larger than `tolerance` times the
+/// first. 0 for an empty or all-zero sequence.
 int PivotRank(const Eigen::VectorXd& abs_diagonal, double tolerance);
 
 }  // namespace robocal

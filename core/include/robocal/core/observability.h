@@ -72,6 +72,13 @@ ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_v
 ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
                                          const ObservabilityOptions& options);
 
+/// The numerical rank of E* for `configurations` by the library's one rank cut, whatever options.scaling says:
+/// columns to unit norm (UnitColumnFactors), singular values by SVD of the stack (not the normal matrix, whose
+/// squared condition number would hide the cut), PivotRank at kRankTolerance. options.parameters.size() when
+/// the set determines every parameter; 0 for no configurations.
+int NumericalRank(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                  const ObservabilityOptions& options);
+
 /// Keeps A = E*' W E* (unscaled, L x L) of a configuration set and each configuration's contribution, so that
 /// changing one configuration costs one Jacobian, a rank-r update of A and an L x L symmetric eigenproblem,
 /// whatever the number of configurations M.
@@ -138,7 +145,8 @@ struct PredictedAccuracy {
 };
 
 /// Predicted accuracy after calibrating from `plan` (noise-only: unmodelled errors are not included).
-/// Returns num_validation = 0 and zeros if E*'WE* is singular.
+/// Returns num_validation = 0 and zeros if the plan does not determine every parameter (NumericalRank below
+/// the number of parameters).
 PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOptions& options,
                                   const std::vector<Eigen::VectorXd>& plan,
                                   const std::vector<Eigen::VectorXd>& validation);
