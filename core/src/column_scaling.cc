@@ -31,8 +31,8 @@ std::string DescribeScaling(const MeasurementNoise& noise, ColumnScaling columns
                             double expected_rotation_rad) {
   // The stream's shortest form (0.015, not std::to_string's 0.015000).
   std::ostringstream out;
-  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad); columns: "
-      << ToString(columns);
+  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad
+      << " rad); columns: " << ToString(columns);
   if (columns == ColumnScaling::kExpectedDeviation) {
     out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
   }
