@@ -274,6 +274,7 @@ void to_json(nlohmann::json& j, const Compensation& c) {
        {"orientation_error_deg", Num(c.orientation_error_deg)},
        {"free_rotation_deg", Num(c.free_rotation_deg)},
        {"converged", c.converged},
+       {"termination", c.termination},
        {"iterations", c.iterations},
        {"message", c.message}};
 }
@@ -285,6 +286,7 @@ void from_json(const nlohmann::json& j, Compensation& c) {
   r.Required("orientation_error_deg", &c.orientation_error_deg);
   r.Required("free_rotation_deg", &c.free_rotation_deg);
   r.Required("converged", &c.converged);
+  r.Required("termination", &c.termination);
   r.Required("iterations", &c.iterations);
   r.Required("message", &c.message);
 }
@@ -296,6 +298,7 @@ Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
   c.orientation_error_deg = r.orientation_error_rad * kDegPerRad;
   c.free_rotation_deg = r.free_rotation_rad * kDegPerRad;
   c.converged = r.converged;
+  c.termination = r.termination;
   c.iterations = r.iterations;
   c.message = r.message;
   return c;
@@ -388,11 +391,8 @@ void from_json(const nlohmann::json& j, Improvement& i) {
 }
 
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after) {
-  auto percent = [](double b, double a) {
-    return b > 0.0 ? 100.0 * (b - a) / b : std::numeric_limits<double>::quiet_NaN();
-  };
-  return {percent(before.e_xyz_mm.mean, after.e_xyz_mm.mean), percent(before.e_xyz_mm.rp, after.e_xyz_mm.rp),
-          percent(before.e_tot_mm.mean, after.e_tot_mm.mean), percent(before.e_tot_mm.rp, after.e_tot_mm.rp)};
+  const AccuracyImprovement i = ComputeImprovement(before, after);
+  return {i.e_xyz_mean, i.e_xyz_rp, i.e_tot_mean, i.e_tot_rp};
 }
 
 void to_json(nlohmann::json& j, const Evaluation& e) {

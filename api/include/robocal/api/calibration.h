@@ -132,6 +132,9 @@ struct Compensation {
   /// Robots with fewer than 6 joints: the rotation about the tool axis left free; 0 otherwise.
   double free_rotation_deg = 0.0;
   bool converged = false;
+  /// CONVERGENCE (converged), DEGRADED (a joint held at its limit), NO_CONVERGENCE (stopped with the error
+  /// left in position_error_mm / orientation_error_deg; message says why), FAILURE (no usable joints).
+  Termination termination = Termination::kFailure;
   int iterations = 0;
   std::string message;
 };
@@ -188,7 +191,7 @@ struct Improvement {
 };
 void to_json(nlohmann::json& j, const Improvement& i);
 void from_json(const nlohmann::json& j, Improvement& i);
-/// 100 (before - after) / before per statistic; NaN where the baseline is not positive.
+/// The core's ComputeImprovement of the statistics the wire reports (NaN where undefined).
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after);
 
 /// The reply of :evaluate.
