@@ -1,5 +1,6 @@
 // The wire shapes of api/: every resource the service returns survives wire -> typed -> wire unchanged, every
 // required field is required by name, and stored documents of the previous schema version still load.
+#include <fstream>
 #include <functional>
 #include <map>
 #include <set>
@@ -318,6 +319,47 @@ TEST(WireEnumTest, EveryEnumHasOneNameEachAndUnknownNamesAreNamed) {
   } catch (const WireError& e) {
     EXPECT_EQ(e.path(), "num_parameters");
   }
+}
+
+// The spec's enum lists are the enum tables' names: a value added to an enum without the spec, or the other way
+// round, fails here.
+TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
+  std::ifstream in(ROBOCAL_OPENAPI_JSON);
+  ASSERT_TRUE(in) << ROBOCAL_OPENAPI_JSON;
+  const json spec = json::parse(in);
+  const std::map<std::string, std::vector<std::string>> tables = {
+      {"measurement_type", WireNames<MeasurementType>()}, {"termination", WireNames<Termination>()},
+      {"objective", WireNames<ObservabilityIndex>()},     {"optimiser", WireNames<Optimiser>()},
+      {"scaling", WireNames<ColumnScaling>()},            {"kind", WireNames<OperationKind>()},
+      {"state", WireNames<OperationState>()},             {"status", WireNames<Status>()},
+      {"convention", WireNames<GeometryConvention>()},    {"type", WireNames<JointType>()},
+      {"frame", WireNames<TargetFrame>()},                {"role", WireNames<MeasurementRole>()},
+      {"from_preset", PresetNames()}};
+  // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
+  const std::set<std::vector<std::string>> fixed = {
+      {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};
+  int checked = 0;
+  std::function<void(const json&, const std::string&)> walk = [&](const json& node, const std::string& path) {
+    if (node.is_object()) {
+      if (node.contains("properties")) {
+        for (const auto& [name, schema] : node["properties"].items()) {
+          if (!schema.is_object() || !schema.contains("enum")) continue;
+          const auto values = schema["enum"].get<std::vector<std::string>>();
+          if (fixed.count(values)) continue;
+          ASSERT_TRUE(tables.count(name)) << path << "." << name << " has an enum no table owns";
+          EXPECT_EQ(std::set<std::string>(values.begin(), values.end()),
+                    std::set<std::string>(tables.at(name).begin(), tables.at(name).end()))
+              << path << "." << name;
+          ++checked;
+        }
+      }
+      for (const auto& [key, child] : node.items()) walk(child, path + "/" + key);
+    } else if (node.is_array()) {
+      for (const json& child : node) walk(child, path);
+    }
+  };
+  walk(spec, "");
+  EXPECT_GT(checked, 12);
 }
 
 // ---------------------------------------------------------------------------------------------- stored documents
