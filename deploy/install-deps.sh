@@ -8,6 +8,8 @@ packages=(
   libeigen3-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libcpp-httplib-dev libsqlite3-dev libssl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   curl jq sqlite3 openssl
+  # The replies of the curl harness and the docs' examples checked against api/openapi.json.
+  python3 python3-jsonschema
   # make test-sanitize and make fuzz: clang, and its sanitizer and libFuzzer runtimes (libclang_rt.*).
   clang libclang-rt-14-dev
 )

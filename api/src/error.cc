@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "robocal/api/text.h"
+#include "robocal/api/wire.h"
 
 namespace robocal::api {
 namespace {
@@ -54,17 +55,60 @@ std::vector<FieldViolation> SafeDetails(std::vector<FieldViolation> details) {
 ApiError::ApiError(Status status, const std::string& message, std::vector<FieldViolation> details)
     : std::runtime_error(SafeText(message)), status_(status), details_(SafeDetails(std::move(details))) {}
 
+void to_json(nlohmann::json& j, const FieldViolation& v) { j = {{"field", v.field}, {"reason", v.reason}}; }
+
+void from_json(const nlohmann::json& j, FieldViolation& v) {
+  const WireReader r(j);
+  r.Required("field", &v.field);
+  r.Required("reason", &v.reason);
+}
+
+void to_json(nlohmann::json& j, const ErrorInfo& e) {
+  j = {{"code", e.code}, {"status", e.status}, {"message", e.message}, {"details", e.details}};
+}
+
+void from_json(const nlohmann::json& j, ErrorInfo& e) {
+  const WireReader r(j);
+  r.Required("code", &e.code);
+  r.Required("status", &e.status);
+  r.Required("message", &e.message);
+  r.Required("details", &e.details);
+}
+
+ErrorInfo MakeErrorInfo(Status status, int http_code, const std::string& message,
+                        const std::vector<FieldViolation>& details) {
+  return {http_code, status, SafeText(message), SafeDetails(details)};
+}
+
 nlohmann::json ErrorBody(Status status, int http_code, const std::string& message,
                          const std::vector<FieldViolation>& details) {
-  nlohmann::json detail_list = nlohmann::json::array();
-  for (const FieldViolation& d : details) {
-    detail_list.push_back({{"field", SafeText(d.field, 256)}, {"reason", SafeText(d.reason)}});
+  return {{"error", MakeErrorInfo(status, http_code, message, details)}};
+}
+
+int HttpStatusOf(Status status) {
+  switch (status) {
+    case Status::kInvalidArgument:
+      return 400;
+    case Status::kFailedPrecondition:
+      return 400;
+    case Status::kNotFound:
+      return 404;
+    case Status::kAlreadyExists:
+      return 409;
+    case Status::kUnauthenticated:
+      return 401;
+    case Status::kPermissionDenied:
+      return 403;
+    case Status::kResourceExhausted:
+      return 413;
+    case Status::kInternal:
+      return 500;
+    case Status::kUnavailable:
+      return 503;
+    case Status::kDeadlineExceeded:
+      return 408;
   }
-  return {{"error",
-           {{"code", http_code},
-            {"status", ToString(status)},
-            {"message", SafeText(message)},
-            {"details", detail_list}}}};
+  return 500;
 }
 
 void Problems::ThrowIfAny(const std::string& what) const {

@@ -2,11 +2,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include "flags.h"
 #include "mock_tracker.h"
-#include "robocal/api/convert.h"
+#include "robocal/api/plans.h"
 #include "robocal/client/csv.h"
 
 namespace {
@@ -55,18 +57,18 @@ int Usage(const std::string& message) {
   return 2;
 }
 
-bool ParseInt(const std::string& text, long long* out) {
-  try {
-    std::size_t used = 0;
-    *out = std::stoll(text, &used);
-    return used == text.size();
-  } catch (const std::exception&) {
-    return false;
-  }
+// The value of an enum flag by its wire name ("--type pose").
+template <typename E>
+E EnumFlag(const std::string& flag, const std::string& text) {
+  E value{};
+  if (robocal::api::FromWireName(text, &value)) return value;
+  std::string names;
+  for (const std::string& n : robocal::api::WireNames<E>()) names += (names.empty() ? "" : ", ") + n;
+  throw robocal::tools::BadFlag(flag + ": '" + text + "' is not one of " + names);
 }
 
 int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& file, const std::string& configurations,
-         int random, const std::string& role) {
+         int random, robocal::api::MeasurementRole role) {
   robocal::VirtualCell cell = robocal::mock::MakeCell(options);
   const robocal::RobotModel& model = cell.nominal();
   std::vector<std::vector<double>> wire;
@@ -76,8 +78,11 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
     if (configurations.size() > 4 && configurations.substr(configurations.size() - 4) == ".csv") {
       wire = robocal::client::ReadJointsCsv(in, model.num_joints());
     } else {
-      const json plan = json::parse(in);
-      wire = plan.at("configurations").get<std::vector<std::vector<double>>>();
+      try {
+        wire = robocal::api::FromWire<robocal::api::PlanResult>(json::parse(in)).configurations;
+      } catch (const std::exception& e) {  // not JSON, or not a plan (api::WireError names the field)
+        return Usage(configurations + ": not a plan as GET /v1/plans/{plan} returns it: " + e.what());
+      }
     }
   } else {
     robocal::mock::MockTrackerOptions o = options;
@@ -108,67 +113,68 @@ int main(int argc, char** argv) {
   if (const char* s = std::getenv("ROBOCAL_SERVER")) client_options.server_url = s;
   if (const char* t = std::getenv("ROBOCAL_TOKEN")) client_options.bearer_token = t;
   bool as_json = false;
-  std::string dump_file, configurations, role = "calibration";
+  std::string dump_file, configurations;
+  robocal::api::MeasurementRole role = robocal::api::MeasurementRole::kCalibration;
   int random = 0;
 
   std::vector<std::string> args(argv + 1, argv + argc);
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    }
-    if (a == "--json") {
-      as_json = true;
-      continue;
-    }
-    if (i + 1 >= args.size()) return Usage("unknown option or missing value: " + a);
-    const std::string v = args[++i];
-    long long n = 0;
-    const bool is_int = ParseInt(v, &n);
-    if (a == "--server") {
-      client_options.server_url = v;
-    } else if (a == "--token") {
-      client_options.bearer_token = v;
-    } else if (a == "--robot") {
-      options.robot = v;
-    } else if (a == "--count" && is_int) {
-      options.count = static_cast<int>(n);
-    } else if (a == "--type") {
-      options.measurement_type = v;
-    } else if (a == "--optimiser") {
-      options.optimiser = v;
-    } else if (a == "--objective") {
-      options.objective = v;
-    } else if (a == "--seed" && is_int && n >= 0) {
-      options.seed = static_cast<std::uint64_t>(n);
-    } else if (a == "--shots" && is_int) {
-      options.shots_per_pose = static_cast<int>(n);
-    } else if (a == "--trials" && is_int) {
-      options.trials = static_cast<int>(n);
-    } else if (a == "--validation" && is_int) {
-      options.num_validation = static_cast<int>(n);
-    } else if (a == "--h-mm") {
-      try {
-        options.h_mm = std::stod(v);
-      } catch (const std::exception&) {
-        return Usage("--h-mm needs a number");
+  for (std::string& a : args) {
+    if (a == "-h") a = "--help";
+  }
+  namespace tools = robocal::tools;
+  // Ranges are MockTrackerOptions::IsValid's, checked below with its messages.
+  auto integer = [](const std::string& flag, const std::string& v) {
+    return static_cast<int>(
+        tools::ParseIntegerFlag(flag, v, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+  };
+  try {
+    for (const auto& [flag, v] : tools::SplitFlags(args, {"--json", "--help"})) {
+      if (flag == "--help") {
+        std::cout << kUsage;
+        return 0;
+      } else if (flag == "--json") {
+        as_json = true;
+      } else if (flag == "--server") {
+        client_options.server_url = v;
+      } else if (flag == "--token") {
+        client_options.bearer_token = v;
+      } else if (flag == "--robot") {
+        options.robot = v;
+      } else if (flag == "--count") {
+        options.count = integer(flag, v);
+      } else if (flag == "--type") {
+        options.measurement_type = EnumFlag<robocal::MeasurementType>(flag, v);
+      } else if (flag == "--optimiser") {
+        options.optimiser = EnumFlag<robocal::api::Optimiser>(flag, v);
+      } else if (flag == "--objective") {
+        options.objective = EnumFlag<robocal::ObservabilityIndex>(flag, v);
+      } else if (flag == "--seed") {
+        options.seed = tools::ParseSeedFlag(flag, v);
+      } else if (flag == "--shots") {
+        options.shots_per_pose = integer(flag, v);
+      } else if (flag == "--trials") {
+        options.trials = integer(flag, v);
+      } else if (flag == "--validation") {
+        options.num_validation = integer(flag, v);
+      } else if (flag == "--h-mm") {
+        options.h_mm = tools::ParseDoubleFlag(flag, v, std::numeric_limits<double>::lowest());
+      } else if (flag == "--compare") {
+        if (v != "random") return Usage("--compare takes 'random'");
+        options.compare_random = true;
+      } else if (flag == "--dump-measurements") {
+        dump_file = v;
+      } else if (flag == "--configurations") {
+        configurations = v;
+      } else if (flag == "--random") {
+        random = static_cast<int>(tools::ParseIntegerFlag(flag, v, 1, std::numeric_limits<int>::max()));
+      } else if (flag == "--role") {
+        role = EnumFlag<robocal::api::MeasurementRole>(flag, v);
+      } else {
+        return Usage("unknown option " + flag);
       }
-    } else if (a == "--compare") {
-      if (v != "random") return Usage("--compare takes 'random'");
-      options.compare_random = true;
-    } else if (a == "--dump-measurements") {
-      dump_file = v;
-    } else if (a == "--configurations") {
-      configurations = v;
-    } else if (a == "--random" && is_int && n > 0) {
-      random = static_cast<int>(n);
-    } else if (a == "--role") {
-      if (v != "calibration" && v != "validation") return Usage("--role is calibration or validation");
-      role = v;
-    } else {
-      return Usage("unknown option or bad value: " + a + " " + v);
     }
+  } catch (const robocal::tools::BadFlag& e) {
+    return Usage(e.what());
   }
   std::string error;
   if (!options.IsValid(&error)) return Usage(error);

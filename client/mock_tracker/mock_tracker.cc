@@ -5,10 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <numbers>
 #include <sstream>
 
-#include "robocal/api/convert.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/robots.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
@@ -35,7 +35,7 @@ std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vect
 }
 
 CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const MockTrackerOptions& options,
-                            const std::string& optimiser, std::uint64_t plan_seed,
+                            api::Optimiser optimiser, std::uint64_t plan_seed,
                             const std::vector<Eigen::VectorXd>& validation, std::ostream* log) {
   const RobotModel& nominal = cell->nominal();
   CampaignOutcome out;
@@ -48,35 +48,32 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
   plan_request.optimiser = optimiser;
   plan_request.seed = plan_seed;
   plan_request.noise.position_mm = cell->options().noise.position_mm;
-  plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * 180.0 / std::numbers::pi;
+  plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * api::kDegPerRad;
   out.plan = client.CreatePlan(plan_request);
-  Log(log, "plan " + out.plan.id + " (" + optimiser + "): " + out.plan.summary);
+  Log(log, "plan " + out.plan.id + " (" + api::WireName(optimiser) + "): " + out.plan.summary.brief);
 
   api::CreateCampaignRequest campaign_request;
   campaign_request.robot = options.robot;
   campaign_request.measurement_type = options.measurement_type;
   campaign_request.plan = out.plan.id;
   campaign_request.noise = plan_request.noise;
-  campaign_request.description = "mock tracker, seed " + std::to_string(options.seed) + ", " + optimiser;
+  campaign_request.description =
+      "mock tracker, seed " + std::to_string(options.seed) + ", " + api::WireName(optimiser);
   out.campaign = client.CreateCampaign(campaign_request);
   Log(log, "campaign " + out.campaign.id);
 
   // "Move" the robot to each planned configuration and shoot it with the tracker.
-  const json calibration_batch = MeasurementBatch(cell, out.plan.configurations, "calibration", options);
-  api::MeasurementBatchRequest batch;
-  batch.request_id = calibration_batch.at("request_id");
-  batch.role = "calibration";
-  for (const json& m : calibration_batch.at("measurements")) batch.measurements.push_back(api::MeasurementFromJson(m));
-  const client::UploadResult uploaded = client.UploadMeasurements(out.campaign.id, batch);
+  const api::BatchResult uploaded = client.UploadMeasurements(
+      out.campaign.id, MeasurementBatch(cell, out.plan.configurations, api::MeasurementRole::kCalibration, options));
   Log(log, "uploaded " + std::to_string(uploaded.count) + " calibration shots");
 
   out.calibration = client.Fit(out.campaign.id);
-  Log(log, "fit: " + out.calibration.brief);
+  Log(log, "fit: " + out.calibration.summary.brief);
 
   // Validation: the nominal command lands where the true robot goes; the target is where the nominal model
   // says it should be, in the calibrated base frame (the frame compensation aims at).
   const std::vector<std::vector<double>> validation_wire = ToWire(nominal, validation);
-  const std::vector<client::Compensation> compensated = client.CompensateJoints(out.campaign.id, validation_wire);
+  const std::vector<api::Compensation> compensated = client.CompensateJoints(out.campaign.id, validation_wire).results;
   const Transform T_world_base = api::PoseToTransform(out.calibration.base);
   std::vector<Transform> targets, reached_nominal, reached_compensated;
   for (std::size_t i = 0; i < validation.size(); ++i) {
@@ -92,46 +89,25 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
   out.reached_compensated = std::move(reached_compensated);
 
   // The service's own view: validation shots at the nominal commands, evaluated on the server.
-  const json validation_batch = MeasurementBatch(cell, validation_wire, "validation", options);
-  api::MeasurementBatchRequest vbatch;
-  vbatch.request_id = validation_batch.at("request_id");
-  vbatch.role = "validation";
-  for (const json& m : validation_batch.at("measurements")) vbatch.measurements.push_back(api::MeasurementFromJson(m));
-  client.UploadMeasurements(out.campaign.id, vbatch);
+  client.UploadMeasurements(out.campaign.id,
+                            MeasurementBatch(cell, validation_wire, api::MeasurementRole::kValidation, options));
   api::EvaluateRequest evaluate;
   evaluate.h_mm = options.h_mm;
   out.evaluation = client.Evaluate(out.campaign.id, evaluate);
   return out;
 }
 
-double Percent(double reference, double value) {
-  return reference > 0 ? 100.0 * (reference - value) / reference : std::nan("");
-}
-
-json StatsJson(const ErrorStatistics& s, double scale) {
-  return {{"mean", s.mean * scale}, {"std", s.std * scale}, {"max", s.max * scale}, {"rp", s.rp * scale}};
-}
-
-json AccuracyJson(const AccuracyReport& r) {
-  return {{"e_xyz_mm", StatsJson(r.e_xyz_mm, 1.0)},
-          {"e_cos_deg", StatsJson(r.e_cos_rad, 180.0 / std::numbers::pi)},
-          {"e_tot_mm", StatsJson(r.e_tot_mm, 1.0)},
-          {"h_mm", r.h_mm}};
-}
-
 json OutcomeJson(const CampaignOutcome& o) {
   return {{"plan", o.plan.id},
           {"campaign", o.campaign.id},
-          {"condition_number", o.plan.indices.condition_number},
-          {"fit", o.calibration.brief},
-          {"before", AccuracyJson(o.before)},
-          {"after", AccuracyJson(o.after)},
-          {"service_evaluation", o.evaluation.raw}};
+          {"condition_number", api::Num(o.plan.indices.condition_number)},
+          {"fit", o.calibration.summary.brief},
+          {"before", api::ToWire(o.before)},
+          {"after", api::ToWire(o.after)},
+          {"service_evaluation", o.evaluation}};
 }
 
-json PooledJson(const PooledAccuracy& p) {
-  return {{"before", AccuracyJson(p.before)}, {"after", AccuracyJson(p.after)}};
-}
+json PooledJson(const PooledAccuracy& p) { return {{"before", api::ToWire(p.before)}, {"after", api::ToWire(p.after)}}; }
 
 // The validation errors of one method over all trials, as if one long validation run.
 PooledAccuracy Pool(const std::vector<const CampaignOutcome*>& outcomes, double h_mm) {
@@ -156,9 +132,6 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
     return fail("--robot must be a preset (the mock cell simulates its nominal model): grinder5, puma560, ur5e");
   }
   if (count < 1 || count > 1000) return fail("--count must be in [1, 1000]");
-  if (measurement_type != "pose" && measurement_type != "position" && measurement_type != "position_axis") {
-    return fail("--type must be pose, position_axis or position");
-  }
   if (shots_per_pose < 1 || shots_per_pose > 100) return fail("--shots must be in [1, 100]");
   if (num_validation < 2 || num_validation > 10000) return fail("--validation must be in [2, 10000]");
   if (!(h_mm > 0)) return fail("--h-mm must be positive");
@@ -178,23 +151,20 @@ std::vector<Eigen::VectorXd> ValidationConfigurations(const RobotModel& model, c
   return RandomConfigurations(model, options.num_validation, &rng);
 }
 
-json MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
-                      const std::string& role, const MockTrackerOptions& options) {
+api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
+                                             api::MeasurementRole role, const MockTrackerOptions& options) {
   const RobotModel& nominal = cell->nominal();
-  json measurements = json::array();
+  api::MeasurementBatchRequest batch;
+  batch.request_id = "mock-" + std::to_string(options.seed) + "-" + api::WireName(role);
+  batch.role = role;
   for (const auto& wire_q : configurations) {
     const Eigen::VectorXd q = api::JointsToCore(nominal, wire_q);
     // One shot per validation pose; the planned poses get the cell's shots per pose, as the paper measures.
-    for (const Measurement& m : cell->Measure(q, role == "validation" ? 1 : 0)) {
-      api::MeasurementWire w;
-      w.joints = wire_q;
-      w.pose = api::TransformToPose(m.T_world_tool);
-      measurements.push_back(api::ToJson(w));
+    for (const Measurement& m : cell->Measure(q, role == api::MeasurementRole::kValidation ? 1 : 0)) {
+      batch.measurements.push_back({wire_q, api::TransformToPose(m.T_world_tool)});
     }
   }
-  return {{"request_id", "mock-" + std::to_string(options.seed) + "-" + role},
-          {"role", role},
-          {"measurements", measurements}};
+  return batch;
 }
 
 MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOptions& options, std::ostream* log) {
@@ -216,7 +186,8 @@ MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOption
       // The same cell (same hidden errors), calibrated from random configurations: the paper's comparison.
       MockTrackerOptions random_options = trial_options;
       random_options.seed = trial_options.seed + kRandomPlanSeedOffset;  // distinct request ids for this campaign
-      trial.random = RunCampaign(client, &cell, random_options, "random", random_options.seed, validation, log);
+      trial.random =
+          RunCampaign(client, &cell, random_options, api::Optimiser::kRandom, random_options.seed, validation, log);
     }
     report.trials.push_back(std::move(trial));
   }
@@ -248,26 +219,23 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
         "before calibration (nominal joints), " + std::to_string(poses) + " validation poses" +
             (report.trials.size() > 1 ? " (" + std::to_string(report.trials.size()) + " trials pooled)" : ""));
     out << FormatAccuracyTable(a.after, "after calibration (compensated joints)");
-    out << std::fixed << std::setprecision(1) << "improvement: E_xyz mean "
-        << Percent(a.before.e_xyz_mm.mean, a.after.e_xyz_mm.mean) << " %, E_tot mean "
-        << Percent(a.before.e_tot_mm.mean, a.after.e_tot_mm.mean) << " %, E_tot RP "
-        << Percent(a.before.e_tot_mm.rp, a.after.e_tot_mm.rp) << " %\n"
+    const api::Improvement improvement = api::ImprovementOf(a.before, a.after);
+    out << std::fixed << std::setprecision(1) << "improvement: E_xyz mean " << improvement.e_xyz_mean
+        << " %, E_tot mean " << improvement.e_tot_mean << " %, E_tot RP " << improvement.e_tot_rp << " %\n"
         << std::defaultfloat;
   };
-  out << "robot " << options.robot << ", " << options.count << " " << options.measurement_type
+  out << "robot " << options.robot << ", " << options.count << " " << api::WireName(options.measurement_type)
       << " configurations, seed " << options.seed << ", " << report.trials.size() << " trial"
       << (report.trials.size() > 1 ? "s" : "") << ", h = " << options.h_mm << " mm\n";
-  tables(report.planned, options.optimiser, false);
+  tables(report.planned, api::WireName(options.optimiser), false);
   if (report.random) {
     tables(*report.random, "random", true);
-    const AccuracyReport& a = report.planned.after;
-    const AccuracyReport& r = report.random->after;
+    const api::Improvement over = api::ImprovementOf(report.random->after, report.planned.after);
     out << std::fixed << std::setprecision(1) << "\n"
-        << options.optimiser
+        << api::WireName(options.optimiser)
         << " over random, after calibration (percent lower error; negative: random did better): E_xyz mean "
-        << Percent(r.e_xyz_mm.mean, a.e_xyz_mm.mean) << " %, E_xyz RP " << Percent(r.e_xyz_mm.rp, a.e_xyz_mm.rp)
-        << " %, E_tot mean " << Percent(r.e_tot_mm.mean, a.e_tot_mm.mean) << " %, E_tot RP "
-        << Percent(r.e_tot_mm.rp, a.e_tot_mm.rp) << " %\n";
+        << over.e_xyz_mean << " %, E_xyz RP " << over.e_xyz_rp << " %, E_tot mean " << over.e_tot_mean
+        << " %, E_tot RP " << over.e_tot_rp << " %\n";
     if (report.trials.size() == 1) {
       out << "note: one trial compares one planned with one random set of " << options.count << " configurations on "
           << options.num_validation
@@ -289,12 +257,7 @@ json ReportToJson(const MockTrackerReport& report) {
   json j = {{"trials", trials}, {"planned", PooledJson(report.planned)}, {"improved", report.improved}};
   if (report.random) {
     j["random"] = PooledJson(*report.random);
-    const AccuracyReport& a = report.planned.after;
-    const AccuracyReport& r = report.random->after;
-    j["improvement_over_random_percent"] = {{"e_xyz_mean", api::Num(Percent(r.e_xyz_mm.mean, a.e_xyz_mm.mean))},
-                                            {"e_xyz_rp", api::Num(Percent(r.e_xyz_mm.rp, a.e_xyz_mm.rp))},
-                                            {"e_tot_mean", api::Num(Percent(r.e_tot_mm.mean, a.e_tot_mm.mean))},
-                                            {"e_tot_rp", api::Num(Percent(r.e_tot_mm.rp, a.e_tot_mm.rp))}};
+    j["improvement_over_random_percent"] = api::ImprovementOf(report.random->after, report.planned.after);
   }
   return j;
 }

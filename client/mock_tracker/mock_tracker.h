@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "robocal/api/campaigns.h"
 #include "robocal/client/client.h"
 #include "robocal/core/accuracy.h"
 #include "robocal/core/transforms.h"
@@ -21,9 +22,9 @@ struct MockTrackerOptions {
   /// A preset robot (the cell must know the nominal model to simulate it).
   std::string robot = "grinder5";
   int count = 10;
-  std::string measurement_type = "pose";
-  std::string optimiser = "solis_wets";
-  std::string objective = "condition_number";
+  MeasurementType measurement_type = MeasurementType::kPose;
+  api::Optimiser optimiser = api::Optimiser::kSolisWets;
+  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   /// Seeds the cell (hidden errors, tracker placement, noise), the plan and the validation poses.
   std::uint64_t seed = 1;
   int shots_per_pose = 10;
@@ -42,15 +43,15 @@ struct MockTrackerOptions {
 
 /// One calibration run and how the robot does on the validation poses before and after it.
 struct CampaignOutcome {
-  client::PlanResult plan;
-  client::Campaign campaign;
-  client::CalibrationResult calibration;
+  api::PlanResult plan;
+  api::Campaign campaign;
+  api::CalibrationResult calibration;
   /// Nominal joints commanded: the nominal model's accuracy (with the calibrated base registration).
   AccuracyReport before;
   /// Compensated joints commanded.
   AccuracyReport after;
   /// The service's own evaluation on the uploaded validation measurements.
-  client::Evaluation evaluation;
+  api::Evaluation evaluation;
   /// Per validation pose: the target, and where the true robot went with nominal and compensated joints
   /// (tracker frame); kept for pooling over trials.
   std::vector<Transform> targets, reached_nominal, reached_compensated;
@@ -91,11 +92,14 @@ MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOption
 /// The paper's tables of a report, pooled over trials (and, with --compare random, the improvement of the plan
 /// over random, with a note when a single trial makes that comparison noisy).
 std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptions& options);
+/// The report as JSON: per trial and pooled, the accuracies as api::Accuracy (mm and degrees, as the service
+/// reports them), the service's own evaluation as api::Evaluation, improvements as api::Improvement.
 nlohmann::json ReportToJson(const MockTrackerReport& report);
 
-/// A measurement batch body (POST /v1/campaigns/{c}/measurements) of the cell measuring `configurations`
-/// (wire joints: deg / mm), with request_id "mock-<seed>-<role>".
-nlohmann::json MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
-                                const std::string& role, const MockTrackerOptions& options);
+/// The measurement batch (POST /v1/campaigns/{c}/measurements) of the cell measuring `configurations` (wire
+/// joints: deg / mm): the cell's shots per pose for calibration, one shot per pose for validation; request_id
+/// "mock-<seed>-<role>".
+api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
+                                             api::MeasurementRole role, const MockTrackerOptions& options);
 
 }  // namespace robocal::mock

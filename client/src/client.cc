@@ -47,25 +47,55 @@ std::string Snippet(const std::string& body) {
 json PlanBody(const api::PlanRequest& request, bool async) {
   api::PlanRequest r = request;
   r.async = async;
-  return api::ToJson(r);
+  return r;
 }
 
-json JointsBody(const std::vector<std::vector<double>>& joints) { return {{"joints", joints}}; }
-
-std::vector<api::PoseWire> Poses(const json& response) {
-  std::vector<api::PoseWire> poses;
-  for (const json& p : response.at("poses")) poses.push_back(ParsePoseResult(p));
-  return poses;
+json FitBody(const api::FitRequest& request, bool async) {
+  api::FitRequest r = request;
+  r.async = async;
+  return r;
 }
 
-// Runs a parser on a response; a response without the expected members is the server's fault, not the
-// caller's, and is reported as such.
-template <typename Parser>
-auto Parse(const json& body, const char* what, Parser parser) -> decltype(parser(body)) {
+json JointsBody(const std::vector<std::vector<double>>& joints) { return api::ForwardRequest{joints}; }
+
+// A response read as the resource T, strictly: a response without the shape T requires is the server's fault
+// (another version, or not robocal), not the caller's, and is reported as such, naming the field.
+template <typename T>
+T Parse(const json& body, const std::string& what) {
   try {
-    return parser(body);
+    return api::FromWire<T>(body);
+  } catch (const api::WireError& e) {
+    throw ProtocolError("unexpected " + what + " response: " + e.what());
   } catch (const json::exception& e) {
-    throw ProtocolError(std::string("unexpected ") + what + " response: " + e.what());
+    throw ProtocolError("unexpected " + what + " response: " + e.what());
+  }
+}
+
+// The status an HTTP code stands for, for an error answer that is not the API's error body (a proxy or a
+// gateway in between): the inverse of api::HttpStatusOf where that is one status, else kInternal.
+api::Status StatusOfHttp(int http_status) {
+  switch (http_status) {
+    case 400:
+      return api::Status::kInvalidArgument;
+    case 401:
+      return api::Status::kUnauthenticated;
+    case 403:
+      return api::Status::kPermissionDenied;
+    case 404:
+      return api::Status::kNotFound;
+    case 408:
+      return api::Status::kDeadlineExceeded;
+    case 409:
+      return api::Status::kAlreadyExists;
+    case 413:
+    case 429:
+      return api::Status::kResourceExhausted;
+    case 502:
+    case 503:
+    case 504:
+      return api::Status::kUnavailable;
+    default:
+      return api::Status::kInternal;
   }
 }
 
@@ -94,15 +124,15 @@ bool ClientOptions::IsValid(std::string* error) const {
 
 namespace {
 
-std::string ErrorMessage(int http_status, const ErrorInfo& info) {
-  std::string text = "HTTP " + std::to_string(http_status) + " " + info.status + ": " + info.message;
+std::string ErrorMessage(int http_status, const api::ErrorInfo& info) {
+  std::string text = "HTTP " + std::to_string(http_status) + " " + api::WireName(info.status) + ": " + info.message;
   for (const api::FieldViolation& d : info.details) text += "; " + d.field + ": " + d.reason;
   return text;
 }
 
 }  // namespace
 
-ServiceError::ServiceError(int http_status, ErrorInfo info)
+ServiceError::ServiceError(int http_status, api::ErrorInfo info)
     : std::runtime_error(ErrorMessage(http_status, info)), http_status_(http_status), info_(std::move(info)) {}
 
 struct Client::Impl {
@@ -173,14 +203,15 @@ std::string Send(httplib::Client& http, const std::string& base_url, const Clien
     } else if (!(Retryable(result->status) && !last)) {
       const httplib::Response& response = *result;
       if (response.status < 400) return response.body;
-      ErrorInfo info;
+      api::ErrorInfo info;
       try {
-        info = ParseErrorInfo(json::parse(response.body).at("error"));
-      } catch (const json::exception&) {
+        info = api::FromWire<api::ErrorInfo>(json::parse(response.body).at("error"));
+      } catch (const std::exception&) {
         // Not the API's error body (a proxy in between, or not a robocal server).
         info.code = response.status;
-        info.status = "HTTP_" + std::to_string(response.status);
-        info.message = Snippet(response.body);
+        info.status = StatusOfHttp(response.status);
+        info.message = "HTTP " + std::to_string(response.status) + " without the API's error body: " +
+                       Snippet(response.body);
       }
       throw ServiceError(response.status, std::move(info));
     }
@@ -201,10 +232,7 @@ json Client::Call(const std::string& method, const std::string& path, const json
   }
 }
 
-Health Client::GetHealth() {
-  const json j = Call("GET", "/healthz", nullptr, true);
-  return {j.value("status", ""), j.value("version", "")};
-}
+api::Health Client::GetHealth() { return Parse<api::Health>(Call("GET", "/healthz", nullptr, true), "health"); }
 
 json Client::GetOpenApi() { return Call("GET", "/v1/openapi.json", nullptr, true); }
 
@@ -212,141 +240,157 @@ std::string Client::GetMetrics() {
   return Send(*impl_->http, impl_->base_url, options_, "GET", "/metrics", nullptr, true);
 }
 
-std::vector<json> Client::GetAllPages(const std::string& path, const std::string& key, int page_size) {
+namespace {
+
+void CheckPageSize(int page_size) {
   if (page_size < 1 || page_size > 1000) {
     throw std::invalid_argument("page_size must be in 1..1000, got " + std::to_string(page_size));
   }
+}
+
+std::string PageQuery(const std::string& path, int page_size, const std::string& token) {
+  std::string query = path + "?page_size=" + std::to_string(page_size);
+  if (!token.empty()) query += "&page_token=" + Segment(token);
+  return query;
+}
+
+// Every item of a paged list (RobotList, CampaignList: `items` and next_page_token), page by page.
+template <typename List, typename Item>
+std::vector<Item> AllPages(Client& client, const std::string& path, const std::string& what, int page_size,
+                           std::vector<Item> List::*items) {
+  CheckPageSize(page_size);
+  std::vector<Item> all;
+  std::string token;
+  do {
+    List page = Parse<List>(client.Call("GET", PageQuery(path, page_size, token), nullptr, true), what);
+    for (Item& item : page.*items) all.push_back(std::move(item));
+    token = page.next_page_token.value_or("");
+  } while (!token.empty());
+  return all;
+}
+
+}  // namespace
+
+std::vector<json> Client::GetAllPages(const std::string& path, const std::string& key, int page_size) {
+  CheckPageSize(page_size);
   std::vector<json> items;
   std::string token;
   do {
-    std::string query = path + "?page_size=" + std::to_string(page_size);
-    if (!token.empty()) query += "&page_token=" + Segment(token);
-    const json page = Call("GET", query, nullptr, true);
-    token = Parse(page, (key + " page").c_str(), [&](const json& b) {
-      for (const json& item : b.at(key)) items.push_back(item);
-      return b.contains("next_page_token") && b["next_page_token"].is_string()
-                 ? b["next_page_token"].get<std::string>()
-                 : std::string();
-    });
+    const json page = Call("GET", PageQuery(path, page_size, token), nullptr, true);
+    std::vector<json> list;
+    std::optional<std::string> next;
+    try {
+      const api::WireReader reader(page);
+      reader.Required(key.c_str(), &list);
+      reader.Optional("next_page_token", &next);
+    } catch (const api::WireError& e) {
+      throw ProtocolError("unexpected " + key + " page: " + e.what());
+    }
+    items.insert(items.end(), list.begin(), list.end());
+    token = next.value_or("");
   } while (!token.empty());
   return items;
 }
 
-std::vector<RobotInfo> Client::ListRobots(int page_size) {
-  std::vector<RobotInfo> robots;
-  for (const json& r : GetAllPages("/v1/robots", "robots", page_size)) {
-    robots.push_back(Parse(r, "robot", ParseRobotInfo));
-  }
-  return robots;
+std::vector<api::Robot> Client::ListRobots(int page_size) {
+  return AllPages(*this, "/v1/robots", "robot list", page_size, &api::RobotList::robots);
 }
 
-RobotInfo Client::GetRobot(const std::string& robot) {
-  return Parse(Call("GET", "/v1/robots/" + Segment(robot), nullptr, true), "robot", ParseRobotInfo);
+api::Robot Client::GetRobot(const std::string& robot) {
+  return Parse<api::Robot>(Call("GET", "/v1/robots/" + Segment(robot), nullptr, true), "robot");
 }
 
-RobotInfo Client::RegisterRobot(const api::RegisterRobotRequest& request) {
-  return RegisterRobot(api::ToJson(request));
-}
+api::Robot Client::RegisterRobot(const api::RegisterRobotRequest& request) { return RegisterRobot(json(request)); }
 
-RobotInfo Client::RegisterRobot(const json& body) {
-  return Parse(Call("POST", "/v1/robots", &body, false), "robot", ParseRobotInfo);
+api::Robot Client::RegisterRobot(const json& body) {
+  return Parse<api::Robot>(Call("POST", "/v1/robots", &body, false), "robot");
 }
 
 void Client::DeleteRobot(const std::string& robot) { Call("DELETE", "/v1/robots/" + Segment(robot), nullptr, false); }
 
-std::vector<api::PoseWire> Client::RobotForward(const std::string& robot,
-                                                const std::vector<std::vector<double>>& joints) {
+api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints) {
   const json body = JointsBody(joints);
   // Forward kinematics changes nothing on the server: safe to retry.
-  return Parse(Call("POST", "/v1/robots/" + Segment(robot) + ":forward", &body, true), "forward", Poses);
+  return Parse<api::ForwardResult>(Call("POST", "/v1/robots/" + Segment(robot) + ":forward", &body, true),
+                                   "forward");
 }
 
-PlanResult Client::CreatePlan(const api::PlanRequest& request) {
+api::PlanResult Client::CreatePlan(const api::PlanRequest& request) {
   const json body = PlanBody(request, false);
-  return Parse(Call("POST", "/v1/plans", &body, false), "plan", ParsePlanResult);
+  return Parse<api::PlanResult>(Call("POST", "/v1/plans", &body, false), "plan");
 }
 
-Operation Client::StartPlan(const api::PlanRequest& request) {
+api::Operation Client::StartPlan(const api::PlanRequest& request) {
   const json body = PlanBody(request, true);
-  return Parse(Call("POST", "/v1/plans", &body, false), "operation", ParseOperation);
+  return Parse<api::Operation>(Call("POST", "/v1/plans", &body, false), "operation");
 }
 
-PlanResult Client::GetPlan(const std::string& plan) {
-  return Parse(Call("GET", "/v1/plans/" + Segment(plan), nullptr, true), "plan", ParsePlanResult);
+api::PlanResult Client::GetPlan(const std::string& plan) {
+  return Parse<api::PlanResult>(Call("GET", "/v1/plans/" + Segment(plan), nullptr, true), "plan");
 }
 
-Campaign Client::CreateCampaign(const api::CreateCampaignRequest& request) {
-  const json body = api::ToJson(request);
-  return Parse(Call("POST", "/v1/campaigns", &body, false), "campaign", ParseCampaign);
+api::Campaign Client::CreateCampaign(const api::CreateCampaignRequest& request) {
+  const json body = request;
+  return Parse<api::Campaign>(Call("POST", "/v1/campaigns", &body, false), "campaign");
 }
 
-std::vector<Campaign> Client::ListCampaigns(int page_size) {
-  std::vector<Campaign> campaigns;
-  for (const json& c : GetAllPages("/v1/campaigns", "campaigns", page_size)) {
-    campaigns.push_back(Parse(c, "campaign", ParseCampaign));
-  }
-  return campaigns;
+std::vector<api::Campaign> Client::ListCampaigns(int page_size) {
+  return AllPages(*this, "/v1/campaigns", "campaign list", page_size, &api::CampaignList::campaigns);
 }
 
-Campaign Client::GetCampaign(const std::string& campaign) {
-  return Parse(Call("GET", "/v1/campaigns/" + Segment(campaign), nullptr, true), "campaign", ParseCampaign);
+api::Campaign Client::GetCampaign(const std::string& campaign) {
+  return Parse<api::Campaign>(Call("GET", "/v1/campaigns/" + Segment(campaign), nullptr, true), "campaign");
 }
 
 std::string ContentRequestId(const api::MeasurementBatchRequest& batch) {
   api::MeasurementBatchRequest content = batch;
   content.request_id.clear();
-  return "auto-" + api::ContentHash(api::ToJson(content).dump());
+  return "auto-" + api::ContentHash(json(content).dump());
 }
 
-UploadResult Client::UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch) {
+api::BatchResult Client::UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch) {
   api::MeasurementBatchRequest request = batch;
   if (request.request_id.empty()) request.request_id = ContentRequestId(batch);
-  const json body = api::ToJson(request);
+  const json body = request;
   // The request_id makes the upload idempotent on the server, so a retry after a lost answer stores it once.
-  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + "/measurements", &body, true), "upload",
-               ParseUploadResult);
+  return Parse<api::BatchResult>(
+      Call("POST", "/v1/campaigns/" + Segment(campaign) + "/measurements", &body, true), "upload");
 }
 
-MeasurementPage Client::ListMeasurements(const std::string& campaign, const std::string& role, std::int64_t after,
-                                         int limit) {
+api::MeasurementList Client::ListMeasurements(const std::string& campaign, std::optional<api::MeasurementRole> role,
+                                              std::int64_t after, int limit) {
   std::string path = "/v1/campaigns/" + Segment(campaign) + "/measurements?limit=" + std::to_string(limit);
-  if (!role.empty()) path += "&role=" + Segment(role);
+  if (role) path += std::string("&role=") + api::WireName(*role);
   if (after > 0) path += "&after=" + std::to_string(after);
-  return Parse(Call("GET", path, nullptr, true), "measurement list", ParseMeasurementPage);
+  return Parse<api::MeasurementList>(Call("GET", path, nullptr, true), "measurement list");
 }
 
-CalibrationResult Client::Fit(const std::string& campaign, const api::FitRequest& request) {
-  json body = api::ToJson(request);
-  body["async"] = false;
-  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false), "fit",
-               ParseCalibrationResult);
+api::CalibrationResult Client::Fit(const std::string& campaign, const api::FitRequest& request) {
+  const json body = FitBody(request, false);
+  return Parse<api::CalibrationResult>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false),
+                                       "fit");
 }
 
-Operation Client::StartFit(const std::string& campaign, const api::FitRequest& request) {
-  json body = api::ToJson(request);
-  body["async"] = true;
-  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false), "operation",
-               ParseOperation);
+api::Operation Client::StartFit(const std::string& campaign, const api::FitRequest& request) {
+  const json body = FitBody(request, true);
+  return Parse<api::Operation>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":fit", &body, false),
+                               "operation");
 }
 
-CalibrationResult Client::GetCalibration(const std::string& campaign) {
-  return Parse(Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration",
-               ParseCalibrationResult);
+api::CalibrationResult Client::GetCalibration(const std::string& campaign) {
+  return Parse<api::CalibrationResult>(
+      Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration");
 }
 
-std::vector<Compensation> Client::Compensate(const std::string& campaign, const api::CompensateRequest& request) {
-  const json body = api::ToJson(request);
+api::CompensateResult Client::Compensate(const std::string& campaign, const api::CompensateRequest& request) {
+  const json body = request;
   // Compensation is a pure computation on the stored calibration: safe to retry.
-  const json j = Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate", &body, true);
-  return Parse(j, "compensation", [](const json& b) {
-    std::vector<Compensation> results;
-    for (const json& r : b.at("results")) results.push_back(ParseCompensation(r));
-    return results;
-  });
+  return Parse<api::CompensateResult>(
+      Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate", &body, true), "compensation");
 }
 
-std::vector<Compensation> Client::CompensateJoints(const std::string& campaign,
-                                                   const std::vector<std::vector<double>>& nominal_joints) {
+api::CompensateResult Client::CompensateJoints(const std::string& campaign,
+                                               const std::vector<std::vector<double>>& nominal_joints) {
   api::CompensateRequest request;
   for (const auto& q : nominal_joints) {
     api::CompensationTargetWire target;
@@ -356,33 +400,34 @@ std::vector<Compensation> Client::CompensateJoints(const std::string& campaign,
   return Compensate(campaign, request);
 }
 
-std::vector<api::PoseWire> Client::CampaignForward(const std::string& campaign,
-                                                   const std::vector<std::vector<double>>& joints) {
+api::ForwardResult Client::CampaignForward(const std::string& campaign,
+                                           const std::vector<std::vector<double>>& joints) {
   const json body = JointsBody(joints);
-  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":forward", &body, true), "forward", Poses);
+  return Parse<api::ForwardResult>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":forward", &body, true),
+                                   "forward");
 }
 
-Evaluation Client::Evaluate(const std::string& campaign, const api::EvaluateRequest& request) {
-  const json body = api::ToJson(request);
-  return Parse(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":evaluate", &body, true), "evaluation",
-               ParseEvaluation);
+api::Evaluation Client::Evaluate(const std::string& campaign, const api::EvaluateRequest& request) {
+  const json body = request;
+  return Parse<api::Evaluation>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":evaluate", &body, true),
+                                "evaluation");
 }
 
-Operation Client::GetOperation(const std::string& operation) {
-  return Parse(Call("GET", "/v1/operations/" + Segment(operation), nullptr, true), "operation", ParseOperation);
+api::Operation Client::GetOperation(const std::string& operation) {
+  return Parse<api::Operation>(Call("GET", "/v1/operations/" + Segment(operation), nullptr, true), "operation");
 }
 
-Operation Client::CancelOperation(const std::string& operation) {
+api::Operation Client::CancelOperation(const std::string& operation) {
   const json body = json::object();
   // Cancelling twice is the same as cancelling once.
-  return Parse(Call("POST", "/v1/operations/" + Segment(operation) + ":cancel", &body, true), "operation",
-               ParseOperation);
+  return Parse<api::Operation>(Call("POST", "/v1/operations/" + Segment(operation) + ":cancel", &body, true),
+                               "operation");
 }
 
-Operation Client::WaitOperation(const std::string& operation, const OperationCallback& callback,
-                                std::chrono::milliseconds poll_interval) {
+api::Operation Client::WaitOperation(const std::string& operation, const OperationCallback& callback,
+                                     std::chrono::milliseconds poll_interval) {
   for (;;) {
-    Operation op = GetOperation(operation);
+    api::Operation op = GetOperation(operation);
     if (callback && !callback(op)) return op;
     if (op.done) return op;
     std::this_thread::sleep_for(poll_interval);

@@ -73,7 +73,7 @@ void WriteValue(std::ostream& out, double v) {
 
 }  // namespace
 
-std::string JointColumn(const JointInfo& joint) { return joint.name + "_" + joint.unit; }
+std::string JointColumn(const api::RobotJoint& joint) { return joint.joint.name + "_" + joint.unit; }
 
 std::vector<std::vector<double>> ReadJointsCsv(std::istream& in, int num_joints) {
   std::vector<std::vector<double>> rows;
@@ -85,7 +85,7 @@ std::vector<std::vector<double>> ReadJointsCsv(std::istream& in, int num_joints)
   return rows;
 }
 
-void WriteJointsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+void WriteJointsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                     const std::vector<std::vector<double>>& rows) {
   for (std::size_t i = 0; i < joints.size(); ++i) out << (i ? "," : "") << JointColumn(joints[i]);
   out << "\n";
@@ -123,12 +123,12 @@ std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_
   return measurements;
 }
 
-void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                           const std::vector<api::MeasurementWire>& measurements) {
   // Position-only measurements have no quaternion to write (a made-up identity would read back as measured).
   const bool orientation = std::all_of(measurements.begin(), measurements.end(),
                                        [](const api::MeasurementWire& m) { return m.pose.has_orientation; });
-  for (const JointInfo& j : joints) out << JointColumn(j) << ",";
+  for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
   out << (orientation ? "x_mm,y_mm,z_mm,qw,qx,qy,qz\n" : "x_mm,y_mm,z_mm\n");
   for (const auto& m : measurements) {
     for (double v : m.joints) {
@@ -146,11 +146,11 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joint
   }
 }
 
-void WriteCompensationCsv(std::ostream& out, const std::vector<JointInfo>& joints,
-                          const std::vector<Compensation>& results) {
-  for (const JointInfo& j : joints) out << JointColumn(j) << ",";
+void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
+                          const std::vector<api::Compensation>& results) {
+  for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
   out << "position_error_mm,orientation_error_deg,converged\n";
-  for (const Compensation& r : results) {
+  for (const api::Compensation& r : results) {
     for (std::size_t i = 0; i < joints.size(); ++i) {
       WriteValue(out, i < r.joints.size() ? r.joints[i] : std::nan(""));
       out << ",";

@@ -1,4 +1,5 @@
-// Accuracy statistics of the paper (E_xyz, E_cos, E_tot; mean, sample std, max, RP) and their table.
+// Accuracy statistics of the paper (E_xyz, E_cos, E_tot; mean, sample std, max, RP), their table and the
+// improvement of one report over another.
 #include "robocal/core/accuracy.h"
 
 #include <algorithm>
@@ -90,6 +91,22 @@ AccuracyReport ComputeAccuracy(const std::vector<Transform>& reached, const std:
   report.e_cos_rad = ComputeErrorStatistics(report.e_cos_values_rad);
   report.e_tot_mm = ComputeErrorStatistics(report.e_tot_values_mm);
   return report;
+}
+
+double ImprovementPercent(double before, double after) {
+  if (!(before > 0.0) || !std::isfinite(before) || !std::isfinite(after)) return std::nan("");
+  return 100.0 * (before - after) / before;
+}
+
+AccuracyImprovement ComputeImprovement(const AccuracyReport& before, const AccuracyReport& after) {
+  AccuracyImprovement out;
+  out.e_xyz_mean = ImprovementPercent(before.e_xyz_mm.mean, after.e_xyz_mm.mean);
+  out.e_xyz_rp = ImprovementPercent(before.e_xyz_mm.rp, after.e_xyz_mm.rp);
+  out.e_cos_mean = ImprovementPercent(before.e_cos_rad.mean, after.e_cos_rad.mean);
+  out.e_cos_rp = ImprovementPercent(before.e_cos_rad.rp, after.e_cos_rad.rp);
+  out.e_tot_mean = ImprovementPercent(before.e_tot_mm.mean, after.e_tot_mm.mean);
+  out.e_tot_rp = ImprovementPercent(before.e_tot_mm.rp, after.e_tot_mm.rp);
+  return out;
 }
 
 std::string FormatAccuracyTable(const AccuracyReport& report, const std::string& title) {

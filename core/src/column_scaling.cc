@@ -1,7 +1,43 @@
-// Column scaling and numerical rank.
+// Column scaling, numerical rank, and the description of a scaling.
 #include "robocal/core/column_scaling.h"
 
+#include <sstream>
+
 namespace robocal {
+
+const char* ToString(ColumnScaling scaling) {
+  switch (scaling) {
+    case ColumnScaling::kColumnNorm:
+      return "column_norm";
+    case ColumnScaling::kExpectedDeviation:
+      return "expected_deviation";
+    case ColumnScaling::kNone:
+      return "none";
+  }
+  return "?";
+}
+
+bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling) {
+  for (ColumnScaling s : {ColumnScaling::kColumnNorm, ColumnScaling::kExpectedDeviation, ColumnScaling::kNone}) {
+    if (text == ToString(s)) {
+      *scaling = s;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string DescribeScaling(const MeasurementNoise& noise, ColumnScaling columns, double expected_translation_mm,
+                            double expected_rotation_rad) {
+  // The stream's shortest form (0.015, not std::to_string's 0.015000).
+  std::ostringstream out;
+  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad
+      << " rad); columns: " << ToString(columns);
+  if (columns == ColumnScaling::kExpectedDeviation) {
+    out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
+  }
+  return out.str();
+}
 
 Eigen::VectorXd UnitColumnFactors(const Eigen::VectorXd& column_norms) {
   const double largest = column_norms.size() > 0 ? column_norms.maxCoeff() : 0.0;

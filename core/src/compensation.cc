@@ -270,7 +270,17 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;
   if (type == MeasurementType::kPositionAxis) result.free_rotation_rad = FreeRotation(reached, T_world_target);
-  if (result.converged) return result;
+  // Not expected (inputs are checked and every accepted step has a finite cost), but never handed out as usable.
+  if (!q.allFinite() || !std::isfinite(e.position_mm) || !std::isfinite(e.orientation_rad)) {
+    result.converged = false;
+    result.termination = Termination::kFailure;
+    result.message = "non-finite joints or errors";
+    return result;
+  }
+  if (result.converged) {
+    result.termination = Termination::kConvergence;
+    return result;
+  }
 
   // Say why: joints held at a limit first, then whether the solver ran out of iterations or of descent.
   JointJacobian(model, q, calibration.errors, MeasurementType::kPose, &ws, twist_jacobian);
@@ -284,6 +294,8 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
     limits += "joint " + std::to_string(i + 1) + " (" + model.joint_name(i) + ") at its " +
               (at_lower ? "lower limit " + Number(lower[i]) : "upper limit " + Number(upper[i])) + "; ";
   }
+  // A joint held at a limit is what keeps the robot from the target: weaker than asked, whatever stopped the loop.
+  result.termination = limits.empty() ? Termination::kNoConvergence : Termination::kDegraded;
   result.message = limits + (stalled ? "no step lowers the error (target out of reach, or a singularity)"
                                      : "max_iterations (" + std::to_string(options.max_iterations) + ") reached");
   result.message += "; remaining error " + Number(e.position_mm) + " mm, " + Number(e.orientation_rad) + " rad";

@@ -37,12 +37,12 @@ struct Pool {
   int unconverged_targets = 0;
 };
 
-// Improvement of `after` over `before` in percent. A zero baseline (e.g. a noise-free cell whose random plan
-// already reaches round-off) has no relative improvement: "n/a" rather than inf or nan in the table.
-std::string Percent(double before, double after) {
-  if (!(before > 0.0)) return "n/a";
+// One improvement (ImprovementPercent) as the table shows it: "n/a" where there is none (a zero baseline, e.g. a
+// noise-free cell whose random plan already reaches round-off) rather than inf or nan.
+std::string Percent(double improvement_percent) {
+  if (std::isnan(improvement_percent)) return "n/a";
   char text[32];
-  std::snprintf(text, sizeof(text), "%+.1f %%", 100.0 * (before - after) / before);
+  std::snprintf(text, sizeof(text), "%+.1f %%", improvement_percent);
   return text;
 }
 
@@ -51,17 +51,10 @@ std::string Percent(double before, double after) {
 std::string Improvement(const MethodResult& planned, const MethodResult& random, const char* title) {
   std::ostringstream out;
   out << title << " against random selection (positive: " << title << " better)\n";
-  const struct {
-    const char* name;
-    const ErrorStatistics& planned;
-    const ErrorStatistics& random;
-  } rows[] = {{"E_xyz", planned.after.e_xyz_mm, random.after.e_xyz_mm},
-              {"E_cos", planned.after.e_cos_rad, random.after.e_cos_rad},
-              {"E_tot", planned.after.e_tot_mm, random.after.e_tot_mm}};
-  for (const auto& r : rows) {
-    out << "  " << r.name << ": mean " << Percent(r.random.mean, r.planned.mean) << ", RP "
-        << Percent(r.random.rp, r.planned.rp) << "\n";
-  }
+  const AccuracyImprovement x = ComputeImprovement(random.after, planned.after);
+  out << "  E_xyz: mean " << Percent(x.e_xyz_mean) << ", RP " << Percent(x.e_xyz_rp) << "\n";
+  out << "  E_cos: mean " << Percent(x.e_cos_mean) << ", RP " << Percent(x.e_cos_rp) << "\n";
+  out << "  E_tot: mean " << Percent(x.e_tot_mean) << ", RP " << Percent(x.e_tot_rp) << "\n";
   char line[128];
   std::snprintf(line, sizeof(line), "  median cond %.4g (%s) against %.4g (random)\n",
                 planned.median_condition_number, title, random.median_condition_number);

@@ -83,8 +83,7 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   summary.measurement_type = type;
   summary.num_parameters = model.num_error_parameters();
   summary.num_configurations = options.num_configurations;
-  summary.scaling = "rows / noise (" + std::to_string(options.noise.position_mm) + " mm, " +
-                    std::to_string(options.noise.orientation_rad) + " rad), columns to unit norm";
+  summary.scaling = DescribeScaling(options.noise);
   std::string error;
   if (!options.IsValid(&error)) {
     summary.message = "invalid options: " + error;

@@ -33,12 +33,6 @@ std::string Num(double value) {
   return out.str();
 }
 
-std::string Scaling(const MeasurementNoise& noise) {
-  std::ostringstream out;
-  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad), columns to unit norm";
-  return out.str();
-}
-
 // Lexicographic order on joint vectors, to count distinct poses and share their kinematics.
 struct JointsLess {
   bool operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
@@ -378,7 +372,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   s.measurement_type = type;
   s.num_measurements = static_cast<int>(measurements.size());
   s.num_residuals = MeasurementRows(type) * s.num_measurements;
-  s.scaling = Scaling(options.noise);
+  s.scaling = DescribeScaling(options.noise);
   s.T_world_base = cal.T_world_base;
   s.T_flange_tool = cal.T_flange_tool;
   const auto fail = [&](const std::string& message) {
@@ -492,7 +486,10 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   const Eigen::MatrixXd scaled = lm.jacobian * d.asDiagonal();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();
-  if (!(sv[sv.size() - 1] > 0.0)) return fail("degenerate configurations: singular Jacobian at the solution");
+  // The rank test of the start, on the singular values at the solution: the covariance needs every one.
+  if (PivotRank(sv, options.identifiability.rank_tolerance) < s.num_parameters) {
+    return fail("degenerate configurations: rank-deficient Jacobian at the solution");
+  }
   s.condition_number = sv[0] / sv[sv.size() - 1];
   const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();

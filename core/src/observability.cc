@@ -5,7 +5,6 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
@@ -71,28 +70,6 @@ ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_v
   return out;
 }
 
-const char* ToString(ColumnScaling scaling) {
-  switch (scaling) {
-    case ColumnScaling::kColumnNorm:
-      return "column_norm";
-    case ColumnScaling::kExpectedDeviation:
-      return "expected_deviation";
-    case ColumnScaling::kNone:
-      return "none";
-  }
-  return "?";
-}
-
-bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling) {
-  for (ColumnScaling s : {ColumnScaling::kColumnNorm, ColumnScaling::kExpectedDeviation, ColumnScaling::kNone}) {
-    if (text == ToString(s)) {
-      *scaling = s;
-      return true;
-    }
-  }
-  return false;
-}
-
 const char* ToString(ObservabilityIndex index) {
   switch (index) {
     case ObservabilityIndex::kConditionNumber:
@@ -153,13 +130,7 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
 }
 
 std::string ObservabilityOptions::ScalingDescription() const {
-  std::ostringstream out;
-  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad << " rad); columns: "
-      << ToString(scaling);
-  if (scaling == ColumnScaling::kExpectedDeviation) {
-    out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
-  }
-  return out.str();
+  return DescribeScaling(noise, scaling, expected_translation_mm, expected_rotation_rad);
 }
 
 double ObservabilityIndices::Get(ObservabilityIndex index) const {
@@ -200,6 +171,14 @@ ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vec
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked * d.asDiagonal());
   return IndicesFromSingularValues(svd.singularValues(), static_cast<int>(configurations.size()),
                                    options.ScalingDescription());
+}
+
+int NumericalRank(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                  const ObservabilityOptions& options) {
+  if (configurations.empty()) return 0;
+  ObservabilityOptions unit_columns = options;
+  unit_columns.scaling = ColumnScaling::kColumnNorm;
+  return PivotRank(ComputeIndicesBySvd(model, configurations, unit_columns).singular_values, kRankTolerance);
 }
 
 ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, ObservabilityOptions options)
@@ -296,12 +275,10 @@ PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOp
   PredictedAccuracy out;
   ObservabilityEvaluator evaluator(model, options);
   evaluator.SetConfigurations(plan);
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(evaluator.normal());
-  if (ldlt.info() != Eigen::Success || !(evaluator.indices().o3 > 0.0) ||
-      !std::isfinite(evaluator.indices().condition_number) || evaluator.indices().condition_number > 1e12) {
-    return out;
-  }
   const int l = static_cast<int>(options.parameters.size());
+  if (NumericalRank(model, plan, options) < l) return out;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(evaluator.normal());
+  if (ldlt.info() != Eigen::Success) return out;
   const Eigen::MatrixXd covariance = ldlt.solve(Eigen::MatrixXd::Identity(l, l));
   out.has_orientation = options.measurement_type != MeasurementType::kPosition;
   KinematicsWorkspace ws(model);

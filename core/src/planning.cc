@@ -85,14 +85,18 @@ Plan StartPlan(const char* method, ObservabilityIndex objective) {
   return plan;
 }
 
-// The common end: elapsed time, and DEGRADED when the result is still rank deficient.
-void FinishPlan(Clock::time_point start_time, Plan* plan) {
+// The common end: elapsed time, and DEGRADED when the result is still rank deficient (by the rank cut of
+// identification, not only when the condition number is infinite).
+void FinishPlan(Clock::time_point start_time, const RobotModel& model, const ObservabilityOptions& observability,
+                Plan* plan) {
   PlanSummary& s = plan->summary;
-  s.seconds = Seconds(start_time);
-  if (!std::isfinite(s.final.condition_number)) {
+  const int l = static_cast<int>(observability.parameters.size());
+  const int rank = NumericalRank(model, plan->configurations, observability);
+  if (rank < l || !std::isfinite(s.final.condition_number)) {
     s.termination = Termination::kDegraded;
-    s.message += "; the set is rank deficient";
+    s.message += "; the set is rank deficient (rank " + std::to_string(rank) + " of " + std::to_string(l) + ")";
   }
+  s.seconds = Seconds(start_time);
 }
 
 std::string IndicesLine(const ObservabilityIndices& x) {
@@ -352,7 +356,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     s.termination = Termination::kConvergence;
     s.message = "completed " + std::to_string(s.iterations) + " iterations";
   }
-  FinishPlan(start_time, &plan);
+  FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
 
@@ -388,7 +392,7 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   }
   s.termination = cancelled ? Termination::kNoConvergence : Termination::kConvergence;
   s.message = cancelled ? "cancelled" : "best of " + std::to_string(s.evaluations) + " random sets";
-  FinishPlan(start_time, &plan);
+  FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
 
@@ -532,7 +536,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
     s.termination = Termination::kNoConvergence;
     s.message = "max_iterations reached";
   }
-  FinishPlan(start_time, &plan);
+  FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
 

@@ -52,7 +52,16 @@ const char* const kExperimentFlagsHelp = R"(  --robot NAME           grinder5 (d
 
 std::string ParseExperimentFlags(const std::vector<std::string>& args, ExperimentOptions* options) {
   try {
-    for (const auto& [flag, value] : SplitFlags(args)) Apply(flag, value, options);
+    return ApplyExperimentFlags(SplitFlags(args), options);
+  } catch (const BadFlag& e) {
+    return e.what();
+  }
+}
+
+std::string ApplyExperimentFlags(const std::vector<std::pair<std::string, std::string>>& flags,
+                                 ExperimentOptions* options) {
+  try {
+    for (const auto& [flag, value] : flags) Apply(flag, value, options);
   } catch (const BadFlag& e) {
     return e.what();
   }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "robocal/core/experiment.h"
@@ -16,5 +17,9 @@ extern const char* const kExperimentFlagsHelp;
 /// removed) into *options, then checks them with ExperimentOptions::IsValid. Returns "" when they are valid,
 /// else a message naming the first bad flag ("--trials: 0 is out of range [1, 10000]").
 std::string ParseExperimentFlags(const std::vector<std::string>& args, ExperimentOptions* options);
+/// The same for flags already split (tools::SplitFlags, SplitCommandLine), e.g. by a command line that also has
+/// flags of its own.
+std::string ApplyExperimentFlags(const std::vector<std::pair<std::string, std::string>>& flags,
+                                 ExperimentOptions* options);
 
 }  // namespace robocal::tools

@@ -7,12 +7,20 @@
 
 namespace robocal::tools {
 
-std::vector<std::pair<std::string, std::string>> SplitFlags(const std::vector<std::string>& args,
-                                                            const std::set<std::string>& switches) {
+namespace {
+
+// Splits `args`; arguments that are not flags go to *positional, or are refused when it is null.
+std::vector<std::pair<std::string, std::string>> Split(const std::vector<std::string>& args,
+                                                       const std::set<std::string>& switches,
+                                                       std::vector<std::string>* positional) {
   std::vector<std::pair<std::string, std::string>> flags;
   for (std::size_t i = 0; i < args.size(); ++i) {
     std::string flag = args[i];
-    if (flag.rfind("--", 0) != 0) throw BadFlag("unexpected argument '" + flag + "'");
+    if (flag.rfind("--", 0) != 0) {
+      if (!positional) throw BadFlag("unexpected argument '" + flag + "'");
+      positional->push_back(flag);
+      continue;
+    }
     const std::size_t equals = flag.find('=');
     if (equals != std::string::npos) {
       std::string value = flag.substr(equals + 1);
@@ -28,6 +36,19 @@ std::vector<std::pair<std::string, std::string>> SplitFlags(const std::vector<st
     }
   }
   return flags;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> SplitFlags(const std::vector<std::string>& args,
+                                                            const std::set<std::string>& switches) {
+  return Split(args, switches, nullptr);
+}
+
+CommandLine SplitCommandLine(const std::vector<std::string>& args, const std::set<std::string>& switches) {
+  CommandLine line;
+  line.flags = Split(args, switches, &line.positional);
+  return line;
 }
 
 double ParseDoubleFlag(const std::string& flag, const std::string& text, double min) {

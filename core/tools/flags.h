@@ -1,5 +1,5 @@
 // Command line flags of the core's tools: "--flag value" / "--flag=value" splitting and number parsing with
-// messages that name the flag. Shared by robocal-experiment, robocal-plan-study and the CLI's experiment.
+// messages that name the flag. Shared by robocal-experiment, robocal-plan-study and the `robocal` CLI.
 #pragma once
 
 #include <cstdint>
@@ -21,6 +21,17 @@ struct BadFlag : std::runtime_error {
 /// positional argument, a missing value or a value given to a switch.
 std::vector<std::pair<std::string, std::string>> SplitFlags(const std::vector<std::string>& args,
                                                             const std::set<std::string>& switches = {});
+
+/// A command line whose positional arguments and flags mix ("plan grinder5 --count 10 --json").
+struct CommandLine {
+  /// Arguments that are neither a flag nor a flag's value, in order.
+  std::vector<std::string> positional;
+  /// (flag, value) pairs in order, as SplitFlags splits them.
+  std::vector<std::pair<std::string, std::string>> flags;
+};
+/// Splits args as SplitFlags does, taking every argument that does not start with "--" (and is not a flag's
+/// value) as positional. Throws BadFlag for a missing value or a value given to a switch.
+CommandLine SplitCommandLine(const std::vector<std::string>& args, const std::set<std::string>& switches = {});
 
 /// A finite number >= min. Throws BadFlag naming `flag`.
 double ParseDoubleFlag(const std::string& flag, const std::string& text, double min);

@@ -8,10 +8,14 @@
 #include <regex>
 #include <semaphore>
 #include <sstream>
+#include <variant>
 
 #include <httplib.h>
 
 #include "http_edge.h"
+#include "request_checks.h"
+#include "routes.h"
+#include "robocal/api/health.h"
 #include "robocal/api/json_reader.h"
 #include "robocal/api/text.h"
 #include "robocal/server/logging.h"
@@ -24,245 +28,9 @@ using api::ApiError;
 using api::Status;
 using nlohmann::json;
 
-// What a route does: parse path/query/body, call the service, return the response body.
-using RouteHandler = std::function<json(Service&, const httplib::Request&)>;
-
-struct Route {
-  const char* method;
-  const char* pattern;  // cpp-httplib regex; ids never contain '/' or ':'
-  const char* openapi_path;
-  RouteHandler handler;
-};
-
-// The pre-routing check has made sure a POST carries a body declared as JSON; an empty one is refused here.
-json Body(const Service& service, const httplib::Request& req) {
-  if (req.body.empty()) {
-    throw ApiError(Status::kInvalidArgument, "empty request body: send a JSON object ({} for the defaults)",
-                   {{"body", "must be a JSON object, got an empty body"}});
-  }
-  return api::ParseBody(req.body, service.limits().max_array_length);
-}
-std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
-std::string Query(const httplib::Request& req, const char* key) {
-  return req.has_param(key) ? req.get_param_value(key) : "";
-}
-
-// The single route table: registration, the OpenAPI completeness test and /metrics labels all come from it.
-const std::vector<Route>& RouteTable() {
-  static const std::vector<Route> routes = {
-      {"GET", "/healthz", "/healthz", nullptr},
-      {"GET", "/metrics", "/metrics", nullptr},
-      {"GET", "/v1/openapi.json", "/v1/openapi.json", nullptr},
-      {"GET", "/v1/robots", "/v1/robots",
-       [](Service& s, const httplib::Request& r) {
-         return s.ListRobots(Query(r, "page_size"), Query(r, "page_token"));
-       }},
-      {"POST", "/v1/robots", "/v1/robots",
-       [](Service& s, const httplib::Request& r) { return s.CreateRobot(Body(s, r)); }},
-      {"GET", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
-       [](Service& s, const httplib::Request& r) { return s.GetRobot(Id(r)); }},
-      {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
-       [](Service& s, const httplib::Request& r) {
-         s.DeleteRobot(Id(r));
-         return json::object();
-       }},
-      {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
-       [](Service& s, const httplib::Request& r) { return s.RobotForward(Id(r), Body(s, r)); }},
-      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return s.CreatePlan(Body(s, r)); }},
-      {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
-       [](Service& s, const httplib::Request& r) { return s.GetPlan(Id(r)); }},
-      {"GET", "/v1/campaigns", "/v1/campaigns",
-       [](Service& s, const httplib::Request& r) {
-         return s.ListCampaigns(Query(r, "page_size"), Query(r, "page_token"));
-       }},
-      {"POST", "/v1/campaigns", "/v1/campaigns",
-       [](Service& s, const httplib::Request& r) { return s.CreateCampaign(Body(s, r)); }},
-      {"GET", R"(/v1/campaigns/([^/:]+))", "/v1/campaigns/{campaign}",
-       [](Service& s, const httplib::Request& r) { return s.GetCampaign(Id(r)); }},
-      {"POST", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
-       [](Service& s, const httplib::Request& r) { return s.AppendMeasurements(Id(r), Body(s, r)); }},
-      {"GET", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
-       [](Service& s, const httplib::Request& r) {
-         return s.ListMeasurements(Id(r), Query(r, "role"), Query(r, "after"), Query(r, "limit"));
-       }},
-      {"POST", R"(/v1/campaigns/([^/:]+):fit)", "/v1/campaigns/{campaign}:fit",
-       [](Service& s, const httplib::Request& r) { return s.Fit(Id(r), Body(s, r)); }},
-      {"GET", R"(/v1/campaigns/([^/:]+)/calibration)", "/v1/campaigns/{campaign}/calibration",
-       [](Service& s, const httplib::Request& r) { return s.GetCalibration(Id(r)); }},
-      {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
-       [](Service& s, const httplib::Request& r) { return s.Compensate(Id(r), Body(s, r)); }},
-      {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",
-       [](Service& s, const httplib::Request& r) { return s.CampaignForward(Id(r), Body(s, r)); }},
-      {"POST", R"(/v1/campaigns/([^/:]+):evaluate)", "/v1/campaigns/{campaign}:evaluate",
-       [](Service& s, const httplib::Request& r) { return s.Evaluate(Id(r), Body(s, r)); }},
-      {"GET", R"(/v1/operations/([^/:]+))", "/v1/operations/{operation}",
-       [](Service& s, const httplib::Request& r) { return s.GetOperation(Id(r)); }},
-      {"POST", R"(/v1/operations/([^/:]+):cancel)", "/v1/operations/{operation}:cancel",
-       [](Service& s, const httplib::Request& r) { return s.CancelOperation(Id(r)); }},
-  };
-  return routes;
-}
-
-// The method label for metrics: one of the methods HTTP defines, else "other" (a client may send any bytes as a
-// method; each distinct one would otherwise become a series kept forever).
-std::string MethodLabel(const std::string& method) {
-  for (const char* known : {"GET", "POST", "DELETE", "PUT", "PATCH", "HEAD", "OPTIONS", "CONNECT", "TRACE"}) {
-    if (method == known) return method;
-  }
-  return "other";
-}
-
-// The route label of a request path for metrics and logs (bounded cardinality: never the raw path).
-std::string RouteLabel(const std::string& method, const std::string& path) {
-  // Compiled once: building a std::regex costs far more than matching one.
-  static const std::vector<std::regex> patterns = [] {
-    std::vector<std::regex> compiled;
-    for (const Route& r : RouteTable()) compiled.emplace_back(r.pattern);
-    return compiled;
-  }();
-  const auto& routes = RouteTable();
-  for (std::size_t i = 0; i < routes.size(); ++i) {
-    if (method == routes[i].method && std::regex_match(path, patterns[i])) return routes[i].openapi_path;
-  }
-  return "unmatched";
-}
-
 // Per-request state: a request is handled start to end on one worker thread.
 thread_local std::chrono::steady_clock::time_point request_start;
 thread_local std::string request_id;
-
-// A fixed body for when writing the real one fails: it cannot fail itself.
-constexpr const char* kInternalErrorBody =
-    R"({"error":{"code":500,"status":"INTERNAL","message":"internal error","details":[]}})";
-
-// `code` overrides the status's HTTP code where HTTP has a more precise one (414, 431).
-void WriteError(httplib::Response& res, Status status, const std::string& message,
-                const std::vector<api::FieldViolation>& details = {}, int code = 0) {
-  if (code == 0) code = HttpStatusOf(status);
-  try {
-    res.status = code;
-    res.set_content(api::ErrorBody(status, code, message, details).dump(), "application/json");
-  } catch (...) {
-    res.status = 500;
-    res.set_content(kInternalErrorBody, "application/json");
-  }
-}
-
-// A client's X-Request-Id is kept if it is short and of safe characters (it goes into logs and replies);
-// otherwise the server makes its own.
-bool UsableRequestId(const std::string& id) {
-  if (id.empty() || id.size() > 128) return false;
-  for (const char c : id) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':' ||
-                    c == '/' || c == '+' || c == '=' || c == '@';
-    if (!ok) return false;
-  }
-  return true;
-}
-
-// The member of a header as received, all of it (the library's get_header_value stops at a NUL byte).
-const std::string* RawHeader(const httplib::Request& req, const char* name) {
-  const auto it = req.headers.find(name);
-  return it == req.headers.end() ? nullptr : &it->second;
-}
-
-bool HasControlBytes(const std::string& text) {
-  for (const char c : text) {
-    const auto b = static_cast<unsigned char>(c);
-    if ((b < 0x20 && b != '\t') || b == 0x7F) return true;
-  }
-  return false;
-}
-
-// No robocal reply is a byte-range resource, and the library would cut every reply, error bodies included, to
-// the ranges a client names (building thousands of ranges in memory). HTTP lets a server ignore Range: the
-// parsed ranges are dropped. The request object is the library's own non-const local; only its view here is
-// const.
-void IgnoreRanges(const httplib::Request& req) { const_cast<httplib::Request&>(req).ranges.clear(); }
-
-// "application/json" or "application/json; charset=utf-8" (any case).
-bool IsJsonMediaType(const std::string& content_type) {
-  std::string media = content_type.substr(0, content_type.find(';'));
-  while (!media.empty() && (media.back() == ' ' || media.back() == '\t')) media.pop_back();
-  for (char& c : media) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return media == "application/json";
-}
-
-// Checks of the request head that the library leaves to the application, made before it reads any body:
-// header bytes, body framing and size, and the media type. Returns false after writing the error reply.
-bool CheckHead(const httplib::Request& req, httplib::Response& res, std::int64_t max_body_bytes) {
-  for (const auto& [name, value] : req.headers) {
-    if (HasControlBytes(name) || HasControlBytes(value)) {
-      WriteError(res, Status::kInvalidArgument, "a request header holds control characters",
-                 {{"header " + name, "control characters (such as NUL) are not allowed in header values"}});
-      return false;
-    }
-  }
-  const bool may_carry_body = req.method == "POST" || req.method == "PUT" || req.method == "PATCH" ||
-                              req.method == "DELETE" || req.method == "PRI";
-  const std::string* length = RawHeader(req, "Content-Length");
-  const std::string* encoding = RawHeader(req, "Transfer-Encoding");
-  if (!may_carry_body) {
-    // The library never reads a GET's body, so one would be parsed as the next request on the connection: a
-    // request smuggled past whatever checked the first.
-    if (encoding != nullptr || (length != nullptr && *length != "0")) {
-      WriteError(res, Status::kInvalidArgument, req.method + " requests carry no body",
-                 {{"body", "not allowed on " + req.method + " (no Content-Length or Transfer-Encoding)"}});
-      return false;
-    }
-    return true;
-  }
-  if (const std::string* coding = RawHeader(req, "Content-Encoding"); coding != nullptr && *coding != "identity") {
-    WriteError(res, Status::kInvalidArgument, "compressed request bodies are not accepted",
-               {{"Content-Encoding", "send the body uncompressed (got \"" + *coding + "\")"}});
-    edge::CloseAfterResponse();
-    return false;
-  }
-  if (encoding != nullptr && (length != nullptr || *encoding != "chunked")) {
-    WriteError(res, Status::kInvalidArgument, "unsupported body framing",
-               {{"Transfer-Encoding", length != nullptr ? "not allowed together with Content-Length"
-                                                        : "only chunked is accepted"}});
-    edge::CloseAfterResponse();
-    return false;
-  }
-  if (length != nullptr) {
-    const bool digits = !length->empty() && length->size() <= 18 &&
-                        length->find_first_not_of("0123456789") == std::string::npos;
-    if (!digits) {
-      WriteError(res, Status::kInvalidArgument, "malformed Content-Length",
-                 {{"Content-Length", "expected a decimal byte count"}});
-      edge::CloseAfterResponse();
-      return false;
-    }
-    if (std::stoll(*length) > max_body_bytes) {
-      WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
-                 {{"body", "Content-Length " + *length + " exceeds the max_body_bytes limit (" +
-                               std::to_string(max_body_bytes) + ")"}});
-      edge::CloseAfterResponse();
-      return false;
-    }
-  }
-  if (length == nullptr && encoding == nullptr) {
-    if (req.method == "POST") {
-      WriteError(res, Status::kInvalidArgument, "a POST needs a body",
-                 {{"body", "missing: send a JSON object ({} for the defaults) with Content-Length or chunked"}});
-      return false;
-    }
-    edge::NoBody();
-    return true;
-  }
-  if (req.method == "POST") {
-    const std::string* type = RawHeader(req, "Content-Type");
-    if (type == nullptr || !IsJsonMediaType(*type)) {
-      WriteError(res, Status::kInvalidArgument, "request bodies are JSON",
-                 {{"Content-Type", type == nullptr ? "missing: send Content-Type: application/json"
-                                                   : "expected application/json, got \"" + *type + "\""}});
-      edge::CloseAfterResponse();
-      return false;
-    }
-  }
-  return true;
-}
 
 class Metrics {
  public:
@@ -317,37 +85,6 @@ class Metrics {
 
 }  // namespace
 
-int HttpStatusOf(Status status) {
-  switch (status) {
-    case Status::kInvalidArgument:
-      return 400;
-    case Status::kFailedPrecondition:
-      return 400;
-    case Status::kNotFound:
-      return 404;
-    case Status::kAlreadyExists:
-      return 409;
-    case Status::kUnauthenticated:
-      return 401;
-    case Status::kPermissionDenied:
-      return 403;
-    case Status::kResourceExhausted:
-      return 413;
-    case Status::kInternal:
-      return 500;
-    case Status::kUnavailable:
-      return 503;
-    case Status::kDeadlineExceeded:
-      return 408;
-  }
-  return 500;
-}
-
-std::vector<RouteInfo> Routes() {
-  std::vector<RouteInfo> routes;
-  for (const Route& r : RouteTable()) routes.push_back({r.method, r.openapi_path});
-  return routes;
-}
 
 const std::string& OpenApiSpec() {
   static const std::string spec(kOpenApiJson);
@@ -501,7 +238,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     const std::string path = route.openapi_path;
     if (path == "/healthz") {
       handler = [](const httplib::Request&, httplib::Response& res) {
-        res.set_content(json{{"status", "ok"}, {"version", ROBOCAL_VERSION}}.dump(), "application/json");
+        res.set_content(json(api::Health{"ok", ROBOCAL_VERSION}).dump(), "application/json");
       };
     } else if (path == "/metrics") {
       handler = [impl](const httplib::Request&, httplib::Response& res) {

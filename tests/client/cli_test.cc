@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli.h"
 #include "mock_tracker.h"
 #include "robocal/client/csv.h"
 #include "test_server.h"
@@ -33,6 +34,30 @@ Result RunCli(const std::string& args) {
   const int status = pclose(pipe);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+// Runs the CLI in-process (cli::Run), for its stderr.
+struct InProcess {
+  int exit_code = -1;
+  std::string out, err;
+};
+InProcess RunInProcess(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  InProcess r;
+  r.exit_code = cli::Run(args, {}, out, err);
+  r.out = out.str();
+  r.err = err.str();
+  return r;
+}
+
+// Joints named q1..q5 as the grinder's (three prismatic, two revolute), for writing CSV files.
+std::vector<api::RobotJoint> GrinderJoints() {
+  std::vector<api::RobotJoint> joints(5);
+  for (int i = 0; i < 5; ++i) {
+    joints[i].joint.name = "q" + std::to_string(i + 1);
+    joints[i].unit = i < 3 ? "mm" : "deg";
+  }
+  return joints;
 }
 
 std::string Trim(std::string s) {
@@ -81,7 +106,10 @@ TEST_F(CliTest, ExitCodes) {
   EXPECT_EQ(RunCli(server + " plan").exit_code, 2);
   EXPECT_EQ(RunCli(server + " plan grinder5 --count many").exit_code, 2);
   EXPECT_EQ(RunCli(server + " fit no-such-campaign").exit_code, 1);
-  EXPECT_EQ(RunCli(server + " plan grinder5 --type sideways").exit_code, 1);
+  // Enum values are checked by the CLI itself (the typed request has no place for another), naming the names.
+  EXPECT_EQ(RunCli(server + " plan grinder5 --type sideways").exit_code, 2);
+  EXPECT_EQ(RunCli(server + " campaign create grinder5 sideways").exit_code, 2);
+  EXPECT_EQ(RunCli(server + " plan grinder5 --count 0").exit_code, 2);
   EXPECT_EQ(RunCli("--server http://127.0.0.1:1 robots").exit_code, 3);
   EXPECT_EQ(RunCli("--server 127.0.0.1:1 robots").exit_code, 2);
 }
@@ -115,16 +143,13 @@ TEST_F(CliTest, WholeFlow) {
   std::ifstream plan_csv(Path("plan.csv"));
   const auto configurations = client::ReadJointsCsv(plan_csv, 5);
   ASSERT_EQ(configurations, plan_doc.at("configurations").get<std::vector<std::vector<double>>>());
-  const auto batch = mock::MeasurementBatch(&cell, configurations, "calibration", options);
-  std::vector<api::MeasurementWire> shots;
-  for (const auto& m : batch.at("measurements")) shots.push_back(api::MeasurementFromJson(m));
-  std::vector<client::JointInfo> joints(5);
-  for (int i = 0; i < 5; ++i) joints[i] = {"q" + std::to_string(i + 1), "", i < 3 ? "mm" : "deg", 0, 0};
+  const auto batch = mock::MeasurementBatch(&cell, configurations, api::MeasurementRole::kCalibration, options);
   {
     std::ofstream csv(Path("calibration.csv"));
-    client::WriteMeasurementsCsv(csv, joints, shots);
+    client::WriteMeasurementsCsv(csv, GrinderJoints(), batch.measurements);
   }
-  std::ofstream(Path("validation.json")) << mock::MeasurementBatch(&cell, configurations, "validation", options);
+  std::ofstream(Path("validation.json"))
+      << nlohmann::json(mock::MeasurementBatch(&cell, configurations, api::MeasurementRole::kValidation, options));
 
   const Result uploaded = RunCli(server + " upload " + campaign + " " + Path("calibration.csv") + " --json");
   ASSERT_EQ(uploaded.exit_code, 0);
@@ -148,6 +173,15 @@ TEST_F(CliTest, WholeFlow) {
   ASSERT_EQ(compensated.exit_code, 0);
   EXPECT_NE(compensated.out.find("position_error_mm"), std::string::npos);
   EXPECT_EQ(std::count(compensated.out.begin(), compensated.out.end(), '\n'), 11);
+  // --json is the compensation result as the service sends it (the CLI's own copy once dropped iterations and
+  // free_rotation_deg).
+  const Result compensated_json = RunCli(server + " compensate " + campaign + " " + Path("plan.csv") + " --json");
+  ASSERT_EQ(compensated_json.exit_code, 0);
+  const auto compensation = api::FromWire<api::CompensateResult>(nlohmann::json::parse(compensated_json.out));
+  EXPECT_EQ(compensation.campaign, campaign);
+  ASSERT_EQ(compensation.results.size(), 10u);
+  EXPECT_GT(compensation.results[0].iterations, 0);
+  EXPECT_TRUE(nlohmann::json::parse(compensated_json.out).at("results")[0].contains("free_rotation_deg"));
 
   const Result evaluated = RunCli(server + " evaluate " + campaign);
   ASSERT_EQ(evaluated.exit_code, 0);
@@ -157,7 +191,9 @@ TEST_F(CliTest, WholeFlow) {
   EXPECT_LT(e.at("calibrated").at("e_xyz_mm").at("mean").get<double>(),
             e.at("nominal").at("e_xyz_mm").at("mean").get<double>());
 
-  EXPECT_EQ(RunCli(server + " campaign get " + campaign).exit_code, 0);
+  const Result shown = RunCli(server + " campaign get " + campaign);
+  EXPECT_EQ(shown.exit_code, 0);
+  EXPECT_NE(shown.out.find("  calibrated"), std::string::npos) << shown.out;
   EXPECT_EQ(RunCli(server + " operation get op-0000000000000000").exit_code, 1);
 }
 
@@ -199,7 +235,8 @@ TEST_F(CliTest, PlanGetMeasurementsAndForward) {
   mock::MockTrackerOptions options;
   options.shots_per_pose = 2;
   VirtualCell cell = mock::MakeCell(options);
-  std::ofstream(Path("calibration.json")) << mock::MeasurementBatch(&cell, configurations, "calibration", options);
+  std::ofstream(Path("calibration.json"))
+      << nlohmann::json(mock::MeasurementBatch(&cell, configurations, api::MeasurementRole::kCalibration, options));
   ASSERT_EQ(RunCli(server + " upload " + campaign + " " + Path("calibration.json")).exit_code, 0);
   const Result listed = RunCli(server + " measurements " + campaign + " --out " + Path("listed.csv"));
   ASSERT_EQ(listed.exit_code, 0);
@@ -244,7 +281,7 @@ TEST_F(CliTest, OperationWait) {
   request.robot = "grinder5";
   request.num_configurations = 8;
   request.k_max = 10;
-  const client::Operation started = c.StartPlan(request);
+  const api::Operation started = c.StartPlan(request);
   const std::string server = "--server " + server_.url();
   const Result waited = RunCli(server + " operation wait " + started.id);
   ASSERT_EQ(waited.exit_code, 0);
@@ -261,12 +298,95 @@ TEST_F(CliTest, Experiment) {
   const auto result = nlohmann::json::parse(run.out);
   EXPECT_EQ(result.at("methods").size(), 3u);
   EXPECT_EQ(result.at("before").at("e_xyz_mm").at("count"), 5);
+  // Its accuracies are the service's shape (api::Accuracy: mm and degrees).
+  EXPECT_EQ(api::FromWire<api::Accuracy>(result.at("methods")[0].at("after")).e_tot_mm.count, 5);
   const Result table = RunCli("experiment --trials=1 --validation 5 --seed 3 --server http://127.0.0.1:1");
   ASSERT_EQ(table.exit_code, 0);  // local: the server is not asked
   EXPECT_NE(table.out.find("Solis & Wets against random selection"), std::string::npos);
   EXPECT_EQ(RunCli("experiment --trials 0").exit_code, 2);
   EXPECT_EQ(RunCli("experiment --robot kuka").exit_code, 2);
   EXPECT_EQ(RunCli("experiment --frobnicate 1").exit_code, 2);
+}
+
+// Each command takes the options its table entry declares, and the global ones; any other is a usage error
+// naming the option and the command (once silently ignored).
+TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
+  const std::string url = server_.url();
+  const InProcess robots = RunInProcess({"--server", url, "robots", "--count", "3"});
+  EXPECT_EQ(robots.exit_code, 2);
+  EXPECT_NE(robots.err.find("robots does not take the option --count"), std::string::npos) << robots.err;
+  const InProcess list = RunInProcess({"--server", url, "campaign", "list", "--role=validation"});
+  EXPECT_EQ(list.exit_code, 2);
+  EXPECT_NE(list.err.find("campaign list does not take the option --role"), std::string::npos) << list.err;
+  const InProcess fit = RunInProcess({"--server", url, "fit", "c1", "--out", "fit.csv"});
+  EXPECT_EQ(fit.exit_code, 2);
+  EXPECT_NE(fit.err.find("fit does not take the option --out (its options: --parameters"), std::string::npos)
+      << fit.err;
+  EXPECT_EQ(RunInProcess({"--server", url, "plan", "get", "p1", "--count", "3"}).exit_code, 2);
+  // The global options stay valid everywhere, before or after the command.
+  EXPECT_EQ(RunInProcess({"robots", "--json", "--server", url}).exit_code, 0);
+  EXPECT_EQ(RunInProcess({"--json", "--server=" + url, "campaign", "list"}).exit_code, 0);
+  // A command's help lists exactly its options.
+  const InProcess help = RunInProcess({"measurements", "--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("Usage: robocal measurements CAMPAIGN [--role calibration|validation] [--after SEQ] "
+                          "[--limit N] [--out FILE.csv]"),
+            std::string::npos)
+      << help.out;
+  const InProcess unknown = RunInProcess({"robot", "frobnicate", "x"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("robot commands: register, get, delete, forward"), std::string::npos) << unknown.err;
+}
+
+// campaign list says which campaigns are calibrated, in its table and as JSON (list items once carried no
+// calibrated, and every campaign read as uncalibrated).
+TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
+  const std::string server = "--server " + server_.url();
+  const Result plan = RunCli(server + " plan grinder5 --count 8 --seed 5 --json");
+  ASSERT_EQ(plan.exit_code, 0);
+  const auto configurations =
+      nlohmann::json::parse(plan.out).at("configurations").get<std::vector<std::vector<double>>>();
+  const std::string calibrated = Trim(RunCli(server + " campaign create grinder5 pose --id cal-1").out);
+  const std::string fresh = Trim(RunCli(server + " campaign create grinder5 position --id fresh-1").out);
+  ASSERT_EQ(calibrated, "cal-1");
+  ASSERT_EQ(fresh, "fresh-1");
+  mock::MockTrackerOptions options;
+  options.shots_per_pose = 2;
+  VirtualCell cell = mock::MakeCell(options);
+  std::ofstream(Path("shots.json"))
+      << nlohmann::json(mock::MeasurementBatch(&cell, configurations, api::MeasurementRole::kCalibration, options));
+  ASSERT_EQ(RunCli(server + " upload cal-1 " + Path("shots.json")).exit_code, 0);
+  ASSERT_EQ(RunCli(server + " fit cal-1").exit_code, 0);
+
+  const Result table = RunCli(server + " campaign list");
+  ASSERT_EQ(table.exit_code, 0);
+  std::istringstream lines(table.out);
+  std::string header, first, second;
+  std::getline(lines, header);
+  std::getline(lines, first);
+  std::getline(lines, second);
+  for (const char* column : {"campaign", "robot", "type", "calibration", "validation", "calibrated"}) {
+    EXPECT_NE(header.find(column), std::string::npos) << column << " in " << header;
+  }
+  auto words = [](const std::string& line) {
+    std::istringstream in(line);
+    std::vector<std::string> w;
+    for (std::string word; in >> word;) w.push_back(word);
+    return w;
+  };
+  EXPECT_EQ(words(first), (std::vector<std::string>{"cal-1", "grinder5", "pose", "16", "0", "yes"})) << table.out;
+  EXPECT_EQ(words(second), (std::vector<std::string>{"fresh-1", "grinder5", "position", "0", "0", "no"}))
+      << table.out;
+
+  const Result json = RunCli(server + " campaign list --json");
+  ASSERT_EQ(json.exit_code, 0);
+  const auto list = api::FromWire<api::CampaignList>(nlohmann::json::parse(json.out));
+  ASSERT_EQ(list.campaigns.size(), 2u);
+  EXPECT_TRUE(list.campaigns[0].calibrated);
+  EXPECT_EQ(list.campaigns[0].counts.calibration, 16);
+  EXPECT_FALSE(list.campaigns[1].calibrated);
+  // Each item is the campaign as campaign get --json prints it.
+  EXPECT_EQ(nlohmann::json(list.campaigns[0]), nlohmann::json::parse(RunCli(server + " campaign get cal-1 --json").out));
 }
 
 TEST_F(CliTest, TokenFromFlag) {

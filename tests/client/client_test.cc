@@ -25,8 +25,8 @@ ClientOptions Options(const std::string& url) {
 
 // A small calibrated campaign shared by the tests of the campaign calls.
 struct Calibrated {
-  client::PlanResult plan;
-  client::Campaign campaign;
+  api::PlanResult plan;
+  api::Campaign campaign;
 };
 
 Calibrated MakeCalibratedCampaign(Client& c) {
@@ -44,24 +44,20 @@ Calibrated MakeCalibratedCampaign(Client& c) {
   mock::MockTrackerOptions options;
   options.shots_per_pose = 2;
   VirtualCell cell = mock::MakeCell(options);
-  const auto batch_json = mock::MeasurementBatch(&cell, out.plan.configurations, "calibration", options);
-  api::MeasurementBatchRequest batch;
-  batch.role = "calibration";
-  for (const auto& m : batch_json.at("measurements")) batch.measurements.push_back(api::MeasurementFromJson(m));
-  c.UploadMeasurements(out.campaign.id, batch);
+  c.UploadMeasurements(out.campaign.id, mock::MeasurementBatch(&cell, out.plan.configurations,
+                                                               api::MeasurementRole::kCalibration, options));
   c.Fit(out.campaign.id);
-  const auto validation = mock::MeasurementBatch(&cell, out.plan.configurations, "validation", options);
-  api::MeasurementBatchRequest vbatch;
-  vbatch.role = "validation";
-  for (const auto& m : validation.at("measurements")) vbatch.measurements.push_back(api::MeasurementFromJson(m));
-  c.UploadMeasurements(out.campaign.id, vbatch);
+  c.UploadMeasurements(out.campaign.id, mock::MeasurementBatch(&cell, out.plan.configurations,
+                                                               api::MeasurementRole::kValidation, options));
   return out;
 }
 
 TEST(ClientTest, ServiceEndpoints) {
   testing::TestServer server;
   Client c(Options(server.url()));
-  EXPECT_EQ(c.GetHealth().status, "ok");
+  const api::Health health = c.GetHealth();
+  EXPECT_EQ(health.status, "ok");
+  EXPECT_FALSE(health.version.empty());
   EXPECT_EQ(c.GetOpenApi().value("openapi", ""), "3.0.3");
   EXPECT_NE(c.GetMetrics().find("robocal_http_requests_total"), std::string::npos);
 }
@@ -72,30 +68,35 @@ TEST(ClientTest, Robots) {
   const auto robots = c.ListRobots();
   ASSERT_GE(robots.size(), 3u);
   EXPECT_EQ(robots[0].id, "grinder5");
-  const client::RobotInfo grinder = c.GetRobot("grinder5");
+  const api::Robot grinder = c.GetRobot("grinder5");
   EXPECT_TRUE(grinder.preset);
-  EXPECT_EQ(grinder.joints.size(), 5u);
+  EXPECT_EQ(grinder.num_joints, 5);
+  ASSERT_EQ(grinder.joints.size(), 5u);
   EXPECT_EQ(grinder.joints[0].unit, "mm");
+  EXPECT_EQ(grinder.joints[0].joint.type, JointType::kPrismatic);
   EXPECT_EQ(grinder.joints[4].unit, "deg");
+  EXPECT_LT(grinder.joints[4].joint.min, grinder.joints[4].joint.max);
 
   api::RegisterRobotRequest request;
   request.id = "cell7";
   request.from_preset = "ur5e";
-  const client::RobotInfo registered = c.RegisterRobot(request);
+  const api::Robot registered = c.RegisterRobot(request);
   EXPECT_EQ(registered.id, "cell7");
   EXPECT_FALSE(registered.preset);
   EXPECT_EQ(c.GetRobot("cell7").joints.size(), 6u);
 
-  const auto poses = c.RobotForward("cell7", {std::vector<double>(6, 0.0)});
-  ASSERT_EQ(poses.size(), 1u);
-  EXPECT_TRUE(poses[0].has_orientation);
+  const api::ForwardResult forward = c.RobotForward("cell7", {std::vector<double>(6, 0.0)});
+  EXPECT_EQ(forward.robot, "cell7");
+  EXPECT_EQ(forward.frame, "world (nominal base)");
+  ASSERT_EQ(forward.poses.size(), 1u);
+  EXPECT_TRUE(forward.poses[0].has_orientation);
 
   try {
     c.RegisterRobot(request);
     FAIL() << "registering twice must fail";
   } catch (const ServiceError& e) {
     EXPECT_EQ(e.http_status(), 409);
-    EXPECT_EQ(e.status(), "ALREADY_EXISTS");
+    EXPECT_EQ(e.status(), api::Status::kAlreadyExists);
   }
   c.DeleteRobot("cell7");
   try {
@@ -103,7 +104,7 @@ TEST(ClientTest, Robots) {
     FAIL() << "deleted robot still there";
   } catch (const ServiceError& e) {
     EXPECT_EQ(e.http_status(), 404);
-    EXPECT_EQ(e.status(), "NOT_FOUND");
+    EXPECT_EQ(e.status(), api::Status::kNotFound);
   }
 }
 
@@ -120,12 +121,12 @@ TEST(ClientTest, ListsFollowEveryPage) {
   }
   for (int page_size : {1, 2, 5, 100}) {
     std::vector<std::string> listed;
-    for (const client::Campaign& campaign : c.ListCampaigns(page_size)) listed.push_back(campaign.id);
+    for (const api::Campaign& campaign : c.ListCampaigns(page_size)) listed.push_back(campaign.id);
     EXPECT_EQ(listed, created) << "page_size " << page_size;
   }
   std::vector<std::string> robots_by_one, robots_at_once;
-  for (const client::RobotInfo& r : c.ListRobots(1)) robots_by_one.push_back(r.id);
-  for (const client::RobotInfo& r : c.ListRobots(1000)) robots_at_once.push_back(r.id);
+  for (const api::Robot& r : c.ListRobots(1)) robots_by_one.push_back(r.id);
+  for (const api::Robot& r : c.ListRobots(1000)) robots_at_once.push_back(r.id);
   EXPECT_EQ(robots_by_one, robots_at_once);
   EXPECT_GE(robots_by_one.size(), 3u);
   EXPECT_THROW(c.ListCampaigns(0), std::invalid_argument);
@@ -140,7 +141,7 @@ TEST(ClientTest, InvalidArgumentCarriesFields) {
     FAIL() << "wrong joint count accepted";
   } catch (const ServiceError& e) {
     EXPECT_EQ(e.http_status(), 400);
-    EXPECT_EQ(e.status(), "INVALID_ARGUMENT");
+    EXPECT_EQ(e.status(), api::Status::kInvalidArgument);
     ASSERT_FALSE(e.details().empty());
     EXPECT_EQ(e.details()[0].field.rfind("joints[0]", 0), 0u) << e.details()[0].field;
   }
@@ -154,27 +155,29 @@ TEST(ClientTest, PlansAndOperations) {
   request.num_configurations = 8;
   request.k_max = 10;
   request.num_validation = 10;
-  const client::PlanResult plan = c.CreatePlan(request);
+  const api::PlanResult plan = c.CreatePlan(request);
   EXPECT_EQ(plan.configurations.size(), 8u);
+  EXPECT_EQ(plan.request.num_configurations, 8);
   EXPECT_EQ(plan.joint_units.size(), 5u);
   EXPECT_GT(plan.indices.condition_number, 0.0);
   EXPECT_EQ(c.GetPlan(plan.id).configurations, plan.configurations);
 
-  const client::Operation started = c.StartPlan(request);
-  EXPECT_EQ(started.kind, "plan");
+  const api::Operation started = c.StartPlan(request);
+  EXPECT_EQ(started.kind, api::OperationKind::kPlan);
   int callbacks = 0;
-  const client::Operation done = c.WaitOperation(
+  const api::Operation done = c.WaitOperation(
       started.id,
-      [&callbacks](const client::Operation&) {
+      [&callbacks](const api::Operation&) {
         ++callbacks;
         return true;
       },
       std::chrono::milliseconds(10));
   EXPECT_TRUE(done.done);
-  EXPECT_EQ(done.state, "SUCCEEDED");
+  EXPECT_EQ(done.state, api::OperationState::kSucceeded);
   EXPECT_GE(callbacks, 1);
+  ASSERT_TRUE(done.plan.has_value());
   // Same request, same seed: the same plan.
-  EXPECT_EQ(c.GetPlan(done.plan).configurations, plan.configurations);
+  EXPECT_EQ(c.GetPlan(*done.plan).configurations, plan.configurations);
   EXPECT_TRUE(c.CancelOperation(started.id).done);
 }
 
@@ -184,32 +187,49 @@ TEST(ClientTest, CampaignFlow) {
   const Calibrated calibrated = MakeCalibratedCampaign(c);
   const std::string id = calibrated.campaign.id;
 
-  const client::Campaign campaign = c.GetCampaign(id);
+  const api::Campaign campaign = c.GetCampaign(id);
   EXPECT_EQ(campaign.plan, calibrated.plan.id);
-  EXPECT_EQ(campaign.calibration_count, 20);
-  EXPECT_EQ(campaign.validation_count, 10);
+  EXPECT_EQ(campaign.counts.calibration, 20);
+  EXPECT_EQ(campaign.counts.validation, 10);
   EXPECT_TRUE(campaign.calibrated);
-  ASSERT_EQ(c.ListCampaigns().size(), 1u);
+  // The list's items are the same campaigns, counts and calibrated included (they once read as uncalibrated).
+  const std::vector<api::Campaign> listed = c.ListCampaigns();
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(nlohmann::json(listed[0]), nlohmann::json(campaign));
+  EXPECT_TRUE(listed[0].calibrated);
+  api::CreateCampaignRequest fresh;
+  fresh.robot = "grinder5";
+  const std::string uncalibrated = c.CreateCampaign(fresh).id;
+  for (const api::Campaign& item : c.ListCampaigns()) EXPECT_EQ(item.calibrated, item.id != uncalibrated) << item.id;
 
-  const client::MeasurementPage first = c.ListMeasurements(id, "calibration", 0, 15);
+  const api::MeasurementList first = c.ListMeasurements(id, api::MeasurementRole::kCalibration, 0, 15);
+  EXPECT_EQ(first.campaign, id);
   EXPECT_EQ(first.measurements.size(), 15u);
   ASSERT_TRUE(first.next_after.has_value());
-  const client::MeasurementPage rest = c.ListMeasurements(id, "calibration", *first.next_after, 15);
+  const api::MeasurementList rest = c.ListMeasurements(id, api::MeasurementRole::kCalibration, *first.next_after, 15);
   EXPECT_EQ(rest.measurements.size(), 5u);
+  EXPECT_EQ(rest.measurements[0].role, api::MeasurementRole::kCalibration);
+  EXPECT_EQ(c.ListMeasurements(id, api::MeasurementRole::kValidation).measurements.size(), 10u);
+  EXPECT_EQ(c.ListMeasurements(id).measurements.size(), 30u);
 
-  const client::CalibrationResult calibration = c.GetCalibration(id);
+  const api::CalibrationResult calibration = c.GetCalibration(id);
+  EXPECT_EQ(calibration.campaign, id);
   EXPECT_FALSE(calibration.parameters.empty());
   EXPECT_LT(calibration.residuals_after.rms_position_mm, calibration.residuals_before.rms_position_mm);
 
-  const auto compensated = c.CompensateJoints(id, {calibrated.plan.configurations[0]});
-  ASSERT_EQ(compensated.size(), 1u);
-  EXPECT_TRUE(compensated[0].converged) << compensated[0].message;
-  EXPECT_EQ(compensated[0].joints.size(), 5u);
+  const api::CompensateResult compensated = c.CompensateJoints(id, {calibrated.plan.configurations[0]});
+  EXPECT_EQ(compensated.campaign, id);
+  ASSERT_EQ(compensated.results.size(), 1u);
+  EXPECT_TRUE(compensated.results[0].converged) << compensated.results[0].message;
+  EXPECT_EQ(compensated.results[0].joints.size(), 5u);
+  EXPECT_GT(compensated.results[0].iterations, 0);
 
-  const auto poses = c.CampaignForward(id, {calibrated.plan.configurations[0]});
-  ASSERT_EQ(poses.size(), 1u);
+  const api::ForwardResult forward = c.CampaignForward(id, {calibrated.plan.configurations[0]});
+  EXPECT_EQ(forward.campaign, id);
+  EXPECT_EQ(forward.frame, "tracker");
+  ASSERT_EQ(forward.poses.size(), 1u);
 
-  const client::Evaluation evaluation = c.Evaluate(id);
+  const api::Evaluation evaluation = c.Evaluate(id);
   EXPECT_EQ(evaluation.num_validation, 10);
   EXPECT_LT(evaluation.calibrated.e_xyz_mm.mean, evaluation.nominal.e_xyz_mm.mean);
 }
@@ -218,24 +238,26 @@ TEST(ClientTest, AsyncFitIsAnOperationWhoseResultIsTheStoredFit) {
   testing::TestServer server;
   Client c(Options(server.url()));
   const Calibrated calibrated = MakeCalibratedCampaign(c);
-  const client::CalibrationResult sync = c.GetCalibration(calibrated.campaign.id);
+  // stored and deadline_exceeded are what the server sent: a fit without them is a ProtocolError (protocol_test).
+  const api::CalibrationResult sync = c.GetCalibration(calibrated.campaign.id);
   EXPECT_TRUE(sync.stored);
-  EXPECT_FALSE(sync.deadline_exceeded);
-  const client::Operation started = c.StartFit(calibrated.campaign.id);
-  EXPECT_EQ(started.kind, "fit");
-  const client::Operation done = c.WaitOperation(started.id, nullptr, std::chrono::milliseconds(5));
-  ASSERT_EQ(done.state, "SUCCEEDED") << done.raw.dump();
+  EXPECT_FALSE(sync.summary.deadline_exceeded);
+  EXPECT_EQ(sync.summary.termination, Termination::kConvergence);
+  const api::Operation started = c.StartFit(calibrated.campaign.id);
+  EXPECT_EQ(started.kind, api::OperationKind::kFit);
+  EXPECT_EQ(started.campaign, calibrated.campaign.id);
+  const api::Operation done = c.WaitOperation(started.id, nullptr, std::chrono::milliseconds(5));
+  ASSERT_EQ(done.state, api::OperationState::kSucceeded) << nlohmann::json(done).dump();
   ASSERT_TRUE(done.fit.has_value());
   EXPECT_TRUE(done.fit->stored);
-  EXPECT_TRUE(done.plan.empty());
+  EXPECT_FALSE(done.plan.has_value());
   ASSERT_EQ(done.fit->parameters.size(), sync.parameters.size());
   // The same data and request give the same fit, now stored again.
   for (size_t k = 0; k < sync.parameters.size(); ++k) {
     EXPECT_EQ(done.fit->parameters[k].name, sync.parameters[k].name);
     EXPECT_DOUBLE_EQ(done.fit->parameters[k].value, sync.parameters[k].value);
   }
-  EXPECT_EQ(c.GetCalibration(calibrated.campaign.id).raw.at("created_unix_ms"),
-            done.fit->raw.at("created_unix_ms"));
+  EXPECT_EQ(c.GetCalibration(calibrated.campaign.id).created_unix_ms, done.fit->created_unix_ms);
 }
 
 TEST(ClientTest, UploadIsIdempotentByRequestId) {
@@ -243,20 +265,21 @@ TEST(ClientTest, UploadIsIdempotentByRequestId) {
   Client c(Options(server.url()));
   api::CreateCampaignRequest campaign_request;
   campaign_request.robot = "grinder5";
-  const client::Campaign campaign = c.CreateCampaign(campaign_request);
+  const api::Campaign campaign = c.CreateCampaign(campaign_request);
   mock::MockTrackerOptions options;
   VirtualCell cell = mock::MakeCell(options);
-  const auto batch_json = mock::MeasurementBatch(&cell, {{0, 0, 0, 0, 0}}, "calibration", options);
-  api::MeasurementBatchRequest batch;
-  for (const auto& m : batch_json.at("measurements")) batch.measurements.push_back(api::MeasurementFromJson(m));
+  api::MeasurementBatchRequest batch =
+      mock::MeasurementBatch(&cell, {{0, 0, 0, 0, 0}}, api::MeasurementRole::kCalibration, options);
+  batch.request_id.clear();  // derived from the content
 
-  const client::UploadResult first = c.UploadMeasurements(campaign.id, batch);
+  const api::BatchResult first = c.UploadMeasurements(campaign.id, batch);
+  EXPECT_EQ(first.campaign, campaign.id);
   EXPECT_FALSE(first.replayed);
   EXPECT_EQ(first.request_id, client::ContentRequestId(batch));
-  const client::UploadResult again = c.UploadMeasurements(campaign.id, batch);
+  const api::BatchResult again = c.UploadMeasurements(campaign.id, batch);
   EXPECT_TRUE(again.replayed);
   EXPECT_EQ(again.batch_id, first.batch_id);
-  EXPECT_EQ(c.GetCampaign(campaign.id).calibration_count, first.count);
+  EXPECT_EQ(c.GetCampaign(campaign.id).counts.calibration, first.count);
 
   batch.request_id = first.request_id;
   batch.measurements.pop_back();
@@ -275,12 +298,12 @@ TEST(ClientTest, FitWithoutMeasurementsIsFailedPrecondition) {
   Client c(Options(server.url()));
   api::CreateCampaignRequest request;
   request.robot = "grinder5";
-  const client::Campaign campaign = c.CreateCampaign(request);
+  const api::Campaign campaign = c.CreateCampaign(request);
   try {
     c.Fit(campaign.id);
     FAIL();
   } catch (const ServiceError& e) {
-    EXPECT_EQ(e.status(), "FAILED_PRECONDITION");
+    EXPECT_EQ(e.status(), api::Status::kFailedPrecondition);
     EXPECT_EQ(e.http_status(), 400);
   }
 }
@@ -294,7 +317,7 @@ TEST(ClientTest, BearerToken) {
     FAIL();
   } catch (const ServiceError& e) {
     EXPECT_EQ(e.http_status(), 401);
-    EXPECT_EQ(e.status(), "UNAUTHENTICATED");
+    EXPECT_EQ(e.status(), api::Status::kUnauthenticated);
   }
   ClientOptions with_token = Options(server.url());
   with_token.bearer_token = "s3cret";
@@ -326,8 +349,17 @@ TEST(ClientTest, InvalidOptions) {
   EXPECT_FALSE(options.IsValid(&error));
 }
 
+// Joints as api::Robot gives them: the CSV columns take the name and the unit.
+api::RobotJoint Joint(const std::string& name, const std::string& unit) {
+  api::RobotJoint joint;
+  joint.joint.name = name;
+  joint.joint.type = unit == "deg" ? JointType::kRevolute : JointType::kPrismatic;
+  joint.unit = unit;
+  return joint;
+}
+
 TEST(CsvTest, JointsRoundTrip) {
-  const std::vector<client::JointInfo> joints = {{"x", "prismatic", "mm", 0, 1}, {"b", "revolute", "deg", 0, 1}};
+  const std::vector<api::RobotJoint> joints = {Joint("x", "mm"), Joint("b", "deg")};
   std::stringstream s;
   client::WriteJointsCsv(s, joints, {{1.5, -20.25}, {3, 4}});
   EXPECT_EQ(s.str().substr(0, 11), "x_mm,b_deg\n");
@@ -339,7 +371,7 @@ TEST(CsvTest, JointsRoundTrip) {
 // Values below the normal double range make strtod report ERANGE, yet they are finite values a plan or a
 // measurement can hold, and the writer writes them; the reader must give them back (found by the csv fuzzer).
 TEST(CsvTest, SubnormalValuesReadBackAsWritten) {
-  const std::vector<client::JointInfo> joints = {{"x", "prismatic", "mm", 0, 1}};
+  const std::vector<api::RobotJoint> joints = {Joint("x", "mm")};
   const std::vector<std::vector<double>> rows = {
       {1.3833344017909062e-319}, {-2.5e-310}, {std::numeric_limits<double>::denorm_min()}};
   std::stringstream s;

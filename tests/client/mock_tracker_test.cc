@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "robocal/api/calibration.h"
 #include "test_server.h"
 
 namespace robocal {
@@ -36,7 +37,7 @@ TEST_F(MockTrackerTest, CalibrationImprovesAccuracy) {
   EXPECT_LT(after.e_xyz_mm.mean, 0.5 * before.e_xyz_mm.mean);
   EXPECT_LT(after.e_tot_mm.rp, before.e_tot_mm.rp);
   // The service's evaluation on the uploaded validation shots agrees in direction.
-  const client::Evaluation& evaluation = report.trials[0].planned.evaluation;
+  const api::Evaluation& evaluation = report.trials[0].planned.evaluation;
   EXPECT_LT(evaluation.calibrated.e_xyz_mm.mean, evaluation.nominal.e_xyz_mm.mean);
   const std::string table = mock::FormatReport(report, options);
   EXPECT_NE(table.find("E_xyz"), std::string::npos);
@@ -55,7 +56,16 @@ TEST_F(MockTrackerTest, CompareRandom) {
   ASSERT_TRUE(report.random.has_value());
   EXPECT_TRUE(report.improved);
   EXPECT_LT(report.random->after.e_xyz_mm.mean, report.random->before.e_xyz_mm.mean);
-  EXPECT_TRUE(mock::ReportToJson(report).contains("improvement_over_random_percent"));
+  // The report's JSON is made of the API's shapes: it reads back as them, with the core's numbers.
+  const nlohmann::json j = mock::ReportToJson(report);
+  const auto over = api::FromWire<api::Improvement>(j.at("improvement_over_random_percent"));
+  EXPECT_DOUBLE_EQ(over.e_tot_mean, api::ImprovementOf(report.random->after, report.planned.after).e_tot_mean);
+  const auto after = api::FromWire<api::Accuracy>(j.at("planned").at("after"));
+  EXPECT_EQ(after.e_xyz_mm.count, report.planned.after.e_xyz_mm.count);
+  EXPECT_DOUBLE_EQ(after.e_xyz_mm.mean, report.planned.after.e_xyz_mm.mean);
+  EXPECT_NEAR(after.e_cos_deg.mean, report.planned.after.e_cos_rad.mean * api::kDegPerRad, 1e-12);
+  const auto evaluation = api::FromWire<api::Evaluation>(j.at("trials")[0].at("planned").at("service_evaluation"));
+  EXPECT_EQ(evaluation.campaign, report.trials[0].planned.campaign.id);
   EXPECT_NE(mock::FormatReport(report, options).find("note: one trial"), std::string::npos);
 }
 

@@ -114,7 +114,7 @@ class LossyGateway {
       reply = backend_->Call(method, path, body_text.empty() ? nullptr : &body, false).dump();
     } catch (const client::ServiceError& e) {
       status = e.http_status();
-      reply = nlohmann::json{{"error", {{"code", status}, {"status", e.status()}, {"message", e.message()}}}}.dump();
+      reply = nlohmann::json{{"error", e.info()}}.dump();
     }
     if (forwarded_++ < lose_replies_) {
       // The work is done on the backend; its answer is lost.
@@ -149,10 +149,9 @@ api::MeasurementBatchRequest SomeShots() {
   mock::MockTrackerOptions options;
   options.shots_per_pose = 3;
   VirtualCell cell = mock::MakeCell(options);
-  const auto batch_json =
-      mock::MeasurementBatch(&cell, {{400, 300, 200, 0, 0}, {500, 200, 250, 10, -20}}, "calibration", options);
-  api::MeasurementBatchRequest batch;
-  for (const auto& m : batch_json.at("measurements")) batch.measurements.push_back(api::MeasurementFromJson(m));
+  api::MeasurementBatchRequest batch = mock::MeasurementBatch(
+      &cell, {{400, 300, 200, 0, 0}, {500, 200, 250, 10, -20}}, api::MeasurementRole::kCalibration, options);
+  batch.request_id.clear();  // derived from the content, as a cell without its own ids uploads
   return batch;
 }
 
@@ -180,11 +179,11 @@ TEST_P(RetryTest, RetriedUploadIsStoredOnce) {
 
   LossyGateway gateway(server_.url(), 2, GetParam());
   Client c(Through(gateway));
-  const client::UploadResult result = c.UploadMeasurements(campaign, batch);
+  const api::BatchResult result = c.UploadMeasurements(campaign, batch);
   EXPECT_EQ(gateway.forwarded(), 3);  // two lost answers, then the one that came back
   EXPECT_TRUE(result.replayed);       // the server had it since the first try
   EXPECT_EQ(result.count, 6);
-  EXPECT_EQ(direct.GetCampaign(campaign).calibration_count, 6);
+  EXPECT_EQ(direct.GetCampaign(campaign).counts.calibration, 6);
   EXPECT_EQ(direct.ListMeasurements(campaign).measurements.size(), 6u);
 }
 
@@ -230,7 +229,7 @@ TEST(RetryOnRequestTimeoutTest, IdempotentCallsAreRetriedAfter408AndOthersAreNot
     ADD_FAILURE() << "a 408 on a campaign creation must reach the caller";
   } catch (const client::ServiceError& e) {
     EXPECT_EQ(e.http_status(), 408);
-    EXPECT_EQ(e.status(), "DEADLINE_EXCEEDED");
+    EXPECT_EQ(e.status(), api::Status::kDeadlineExceeded);
   }
   EXPECT_EQ(gateway.forwarded(), 1);
 }

@@ -1,23 +1,43 @@
 #!/usr/bin/env bash
 # The REST API as a shop-floor script calls it, with curl and jq, against the built robocal-server: every
 # endpoint, bad inputs (status code and the error's field), bearer tokens, and the whole calibration with
-# measurements from the mock tracker's simulated cell. The same calls are the examples of docs/rest.md.
+# measurements from the mock tracker's simulated cell. The same calls are the examples of docs/rest.md. Every
+# reply of the session is then checked against its schema in api/openapi.json (validate_responses.py).
 # Usage: tests/curl/rest_test.sh BUILD_DIR
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 build_dir=$(cd "${1:?usage: rest_test.sh BUILD_DIR}" && pwd)
+spec=$(cd "$here/../../api" && pwd)/openapi.json
 source "$here/server.sh"
 failures=0
 work=$(mktemp -d)
 cleanup() { stop_server; rm -rf "$work"; }
 
+# Every reply of the session is recorded (method, path, status, Content-Type, body file) in $work/replies.tsv;
+# validate_responses.py checks them all against api/openapi.json at the end.
+mkdir -p "$work/replies"
+: >"$work/replies.tsv"
+
+# request METHOD PATH [curl options]: the body goes to $work/body, the HTTP status to $work/status; recorded.
+request() {
+  local method=$1 path=$2
+  shift 2
+  local recorded meta
+  mapfile -t recorded <"$work/replies.tsv"  # a builtin: each fork costs under load, and this runs per request
+  local n=${#recorded[@]}
+  meta=$(curl -sS -X "$method" -o "$work/body" -w '%{http_code}\t%{content_type}' "$@" "$ROBOCAL_URL$path")
+  echo "${meta%%$'\t'*}" >"$work/status"
+  cp "$work/body" "$work/replies/$n"
+  printf '%s\t%s\t%s\treplies/%s\n' "$method" "$path" "$meta" "$n" >>"$work/replies.tsv"
+}
+
 # call METHOD PATH [JSON body]: prints the body; the HTTP status goes to $work/status.
 call() {
   local method=$1 path=$2 body=${3:-}
-  local args=(-sS -X "$method" -o "$work/body" -w '%{http_code}' "$ROBOCAL_URL$path")
+  local args=()
   [ -n "${TOKEN:-}" ] && args+=(-H "Authorization: Bearer $TOKEN")
   [ -n "$body" ] && args+=(-H 'Content-Type: application/json' --data-binary "$body")
-  curl "${args[@]}" >"$work/status"
+  request "$method" "$path" "${args[@]}"
   cat "$work/body"
 }
 status() { cat "$work/status"; }
@@ -37,6 +57,8 @@ start_server "$build_dir"
 trap cleanup EXIT
 expect "GET /healthz" "$(call GET /healthz | jq -r .status)" ok
 expect "GET /v1/openapi.json" "$(call GET /v1/openapi.json | jq -r .openapi)" 3.0.3
+expect "... is api/openapi.json (rebuilt after the last edit)" \
+  "$(jq -cS . "$work/body" | cksum)" "$(jq -cS . "$spec" | cksum)"
 call GET /metrics | grep -q robocal_http_requests_total && expect "GET /metrics" ok ok
 
 # ---- robots ---------------------------------------------------------------------------------------------
@@ -84,10 +106,9 @@ expect "invalid UTF-8 in a body -> 400" "$(call POST /v1/plans "$(printf '{"robo
 expect "a key given twice -> its path" \
   "$(call POST /v1/plans '{"robot": "grinder5", "options": {"k_max": 5, "k_max": 6}}' | jq -r '.error.details[0].field')" \
   options.k_max
-expect "POST without a body -> 400 at once" \
-  "$(curl -sS -m 5 -X POST -o /dev/null -w '%{http_code}' "$ROBOCAL_URL/v1/campaigns/nosuch:evaluate")" 400
+expect "POST without a body -> 400 at once" "$(request POST /v1/campaigns/nosuch:evaluate -m 5; status)" 400
 expect "form-encoded body -> Content-Type named" \
-  "$(curl -sS -d '{}' "$ROBOCAL_URL/v1/plans" | jq -r '.error.details[0].field')" Content-Type
+  "$(request POST /v1/plans -d '{}'; jq -r '.error.details[0].field' "$work/body")" Content-Type
 expect "made-up page_token -> field" \
   "$(call GET '/v1/robots?page_token=garbage' | jq -r '.error.details[0].field')" page_token
 expect "still serving" "$(call GET /healthz | jq -r .status)" ok
@@ -189,7 +210,7 @@ if command -v openssl >/dev/null; then
   start_server "$build_dir" --tls-cert "$work/cert.pem" --tls-key "$work/key.pem" --tokens-file "$work/tokens"
   trap cleanup EXIT
   expect "the server says https" "${ROBOCAL_URL%%://*}" https
-  expect "curl --cacert: healthz" "$(curl -sS --cacert "$work/cert.pem" "$ROBOCAL_URL/healthz" | jq -r .status)" ok
+  expect "curl --cacert: healthz" "$(request GET /healthz --cacert "$work/cert.pem"; jq -r .status "$work/body")" ok
   curl -sS "$ROBOCAL_URL/healthz" >/dev/null 2>&1 && untrusted=accepted || untrusted=refused
   expect "curl without the certificate: refused" "$untrusted" refused
   cli="$build_dir/client/robocal"
@@ -203,6 +224,17 @@ if command -v openssl >/dev/null; then
       jq '.robots | length')" 3
 else
   echo "skip HTTPS checks: no openssl command"
+fi
+
+# ---- every reply above against its schema in api/openapi.json -------------------------------------------------
+if ! command -v python3 >/dev/null; then
+  echo "FAIL schema check: python3 is missing (deploy/install-deps.sh installs it with python3-jsonschema)" >&2
+  failures=$((failures + 1))
+elif python3 "$here/validate_responses.py" "$spec" "$work/replies.tsv"; then
+  echo "ok   every reply matches its schema"
+else
+  echo "FAIL every reply matches its schema (see above)" >&2
+  failures=$((failures + 1))
 fi
 
 if [ "$failures" -ne 0 ]; then

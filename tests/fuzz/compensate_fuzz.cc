@@ -17,7 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       fuzz::Check(t.pose.has_value() != (t.joints.size() == n), "a target is either joints or a pose");
       fuzz::Check(t.start_joints.empty() || (t.pose && t.start_joints.size() == n),
                   "start_joints only on a pose target, sized to the robot");
-      fuzz::Check(t.frame == "tracker" || t.frame == "base", "frame is tracker or base");
+      fuzz::Check(t.frame == TargetFrame::kTracker || t.frame == TargetFrame::kBase, "frame is tracker or base");
     }
     fuzz::CheckRoundTrip(*request, parse);
   }

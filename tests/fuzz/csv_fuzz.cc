@@ -15,9 +15,14 @@ using robocal::api::MeasurementWire;
 using robocal::fuzz::Check;
 namespace client = robocal::client;
 
-std::vector<client::JointInfo> Joints(int n) {
-  std::vector<client::JointInfo> joints;
-  for (int i = 0; i < n; ++i) joints.push_back({"q" + std::to_string(i + 1), "revolute", "deg", -180.0, 180.0});
+std::vector<robocal::api::RobotJoint> Joints(int n) {
+  std::vector<robocal::api::RobotJoint> joints(n);
+  for (int i = 0; i < n; ++i) {
+    joints[i].joint.name = "q" + std::to_string(i + 1);
+    joints[i].joint.min = -180.0;
+    joints[i].joint.max = 180.0;
+    joints[i].unit = "deg";
+  }
   return joints;
 }
 

@@ -18,8 +18,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         fuzz::Check(static_cast<int>(m.joints.size()) == model.num_joints(), "joints sized to the robot");
         fuzz::Check(m.pose.has_orientation || type == MeasurementType::kPosition,
                     "an orientation unless the campaign measures position only");
-        // Stored as ToJson(m) and read back by MeasurementFromJson: exactly the same shot, bit for bit.
-        const api::MeasurementWire stored = api::MeasurementFromJson(nlohmann::json::parse(api::ToJson(m).dump()));
+        // Stored as its JSON and read back by from_json: exactly the same shot, bit for bit.
+        const auto stored = api::FromWire<api::MeasurementWire>(nlohmann::json::parse(nlohmann::json(m).dump()));
         fuzz::Check(stored.joints == m.joints && stored.pose.position_mm == m.pose.position_mm &&
                         stored.pose.has_orientation == m.pose.has_orientation &&
                         (!m.pose.has_orientation || stored.pose.quaternion == m.pose.quaternion),

@@ -4,10 +4,12 @@
 
 #include <gtest/gtest.h>
 
-#include "robocal/api/convert.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
 #include "robocal/api/json_reader.h"
 #include "robocal/api/text.h"
-#include "robocal/api/types.h"
+#include "robocal/api/plans.h"
+#include "robocal/api/robots.h"
 #include "robocal/core/presets.h"
 
 namespace robocal::api {
@@ -141,7 +143,7 @@ TEST(ApiTest, PositionMeasurementsNeedNoOrientation) {
   const json body = json::parse(R"({"request_id": "r", "measurements": [
       {"joints": [0,0,0,0,0], "pose": {"position_mm": [1,2,3]}}]})");
   const auto req = ParseMeasurementBatchRequest(body, model, MeasurementType::kPosition, Limits{});
-  EXPECT_EQ(req.role, "calibration");
+  EXPECT_EQ(req.role, MeasurementRole::kCalibration);
   EXPECT_FALSE(req.measurements[0].pose.has_orientation);
 }
 
@@ -226,8 +228,8 @@ TEST(ApiTest, RegisterRobotRoundTripsThroughTheCore) {
   EXPECT_EQ(model.num_joints(), 2);
   EXPECT_NEAR(model.upper_limits()[0], 170.0 * std::numbers::pi / 180.0, 1e-12);
   EXPECT_NEAR(model.upper_limits()[1], 500.0, 1e-12);
-  const json again = ToJson(ParseRegisterRobotRequest(ToJson(req), Limits{}));
-  EXPECT_EQ(again, ToJson(req));
+  const json again = json(ParseRegisterRobotRequest(json(req), Limits{}));
+  EXPECT_EQ(again, json(req));
 }
 
 TEST(ApiTest, RegisterRobotNamesCoreProblems) {

@@ -2,7 +2,9 @@
 // restart every acknowledged measurement is there, the database passes its integrity check, and an operation
 // that was running is reported FAILED.
 // Eigen first: glibc's resolver header (pulled in by httplib.h) defines a macro `_res` that breaks Eigen.
-#include "robocal/api/convert.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
+#include "robocal/api/plans.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "server/storage/storage.h"
@@ -28,7 +30,7 @@ json Batch(const RobotModel& model, const std::string& request_id, int count, st
   for (int i = 0; i < count; ++i) {
     const Eigen::VectorXd q = RandomConfiguration(model, &rng);
     list.push_back({{"joints", api::JointsToWire(model, q)},
-                    {"pose", api::ToJson(api::TransformToPose(ForwardKinematics(model, q)))}});
+                    {"pose", nlohmann::json(api::TransformToPose(ForwardKinematics(model, q)))}});
   }
   return {{"request_id", request_id}, {"measurements", list}};
 }

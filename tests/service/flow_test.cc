@@ -2,7 +2,9 @@
 // upload -> fit -> forward -> compensate -> evaluate, on the real SQLite storage (in memory).
 #include <gtest/gtest.h>
 
-#include "robocal/api/convert.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
+#include "robocal/api/plans.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 #include "test_server.h"
@@ -17,7 +19,7 @@ json Batch(const RobotModel& model, const std::vector<Measurement>& measurements
   json list = json::array();
   for (const Measurement& m : measurements) {
     list.push_back({{"joints", api::JointsToWire(model, m.joints)},
-                    {"pose", api::ToJson(api::TransformToPose(m.T_world_tool))}});
+                    {"pose", nlohmann::json(api::TransformToPose(m.T_world_tool))}});
   }
   return {{"request_id", request_id}, {"role", role}, {"measurements", list}};
 }

@@ -1,5 +1,5 @@
-// Accuracy statistics: hand-computed statistics, E_xyz, E_cos and E_tot for known poses, the table's units, and
-// rejected input.
+// Accuracy statistics: hand-computed statistics, E_xyz, E_cos and E_tot for known poses, the table's units,
+// rejected input, and improvement percentages.
 #include "robocal/core/accuracy.h"
 
 #include <gmock/gmock.h>
@@ -184,6 +184,49 @@ TEST(AccuracyTest, TableIsInMicrometresAndArcSeconds) {
   EXPECT_THAT(table, HasSubstr("1.0"));
   EXPECT_THAT(table, HasSubstr("E_tot um"));
   for (const char* column : {"mean", "std", "max", "RP"}) EXPECT_THAT(table, HasSubstr(column));
+}
+
+TEST(ImprovementTest, PercentOfTheBaselineMatchesHandComputedValues) {
+  // (8 - 6) / 8 = 25 %; (4 - 5) / 4 = -25 % (worse); (2 - 0) / 2 = 100 %; (0.03 - 0.0255) / 0.03 = 15 %.
+  EXPECT_DOUBLE_EQ(ImprovementPercent(8.0, 6.0), 25.0);
+  EXPECT_DOUBLE_EQ(ImprovementPercent(4.0, 5.0), -25.0);
+  EXPECT_DOUBLE_EQ(ImprovementPercent(2.0, 0.0), 100.0);
+  EXPECT_DOUBLE_EQ(ImprovementPercent(1.0, 1.0), 0.0);
+  EXPECT_NEAR(ImprovementPercent(0.03, 0.0255), 15.0, 1e-12);
+}
+
+TEST(ImprovementTest, NoBaselineOrNonFiniteValuesGiveNaN) {
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(std::isnan(ImprovementPercent(0.0, 0.0)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(0.0, 1.0)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(-1.0, 0.5)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(inf, 1.0)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(std::nan(""), 1.0)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(1.0, inf)));
+  EXPECT_TRUE(std::isnan(ImprovementPercent(1.0, std::nan(""))));
+  EXPECT_TRUE(std::isnan(AccuracyImprovement{}.e_tot_rp));
+}
+
+TEST(ImprovementTest, ReportsCompareEachErrorsMeanAndRp) {
+  // before: E_xyz 1 and 3 mm on the z axis (mean 2, std sqrt 2), after: 0.5 and 1.5 (mean 1, std sqrt 0.5):
+  // every position figure halves, 50 %. Orientation is exact in both: E_cos has no baseline, so E_tot is E_xyz.
+  const Transform target = Transform::Identity();
+  const auto at = [&](double z_mm) {
+    Transform t = target;
+    t.translation().z() = z_mm;
+    return t;
+  };
+  const AccuracyReport before = ComputeAccuracy({at(1.0), at(3.0)}, {target, target});
+  const AccuracyReport after = ComputeAccuracy({at(0.5), at(1.5)}, {target, target});
+  const AccuracyImprovement x = ComputeImprovement(before, after);
+  EXPECT_DOUBLE_EQ(x.e_xyz_mean, 50.0);
+  EXPECT_DOUBLE_EQ(x.e_xyz_rp, 50.0);
+  EXPECT_DOUBLE_EQ(x.e_tot_mean, 50.0);
+  EXPECT_DOUBLE_EQ(x.e_tot_rp, 50.0);
+  EXPECT_TRUE(std::isnan(x.e_cos_mean));
+  EXPECT_TRUE(std::isnan(x.e_cos_rp));
+  // The other way round: twice the error, -100 %.
+  EXPECT_DOUBLE_EQ(ComputeImprovement(after, before).e_xyz_mean, -100.0);
 }
 
 }  // namespace

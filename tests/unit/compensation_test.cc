@@ -98,6 +98,7 @@ TEST_P(CompensationPresetTest, CompensatedJointsBringTheTrueRobotOntoTheNominalT
 
     const CompensationResult r = CompensateJoints(calibration, nominal, q_nominal);
     ASSERT_TRUE(r.converged) << "trial " << trial << ": " << r.message;
+    EXPECT_EQ(r.termination, Termination::kConvergence);
     EXPECT_TRUE(r.message.empty());
     EXPECT_TRUE(nominal.WithinLimits(r.joints)) << r.joints.transpose();
     EXPECT_LE(r.position_error_mm, 1e-6);
@@ -143,6 +144,10 @@ TEST_P(CompensationPresetTest, UnreachableTargetFailsCleanlyWithinLimits) {
   target.translation() += Eigen::Vector3d(5000.0, 3000.0, -2000.0);
   const CompensationResult r = CompensatePose(calibration, target, TargetFrame::kBase, q);
   EXPECT_FALSE(r.converged);
+  // Written either way; DEGRADED exactly when a joint ends held at a limit (the grinder's slides do).
+  EXPECT_EQ(r.termination,
+            r.message.find(" at its ") != std::string::npos ? Termination::kDegraded : Termination::kNoConvergence)
+      << r.message;
   EXPECT_FALSE(r.message.empty());
   EXPECT_THAT(r.message, HasSubstr("remaining error"));
   EXPECT_TRUE(r.joints.allFinite());
@@ -293,11 +298,48 @@ TEST(CompensationTest, JointHeldAtItsLimitIsNamed) {
   target.translation().x() += 300.0;
   const CompensationResult r = CompensatePose(calibration, target, TargetFrame::kBase, q);
   EXPECT_FALSE(r.converged);
+  // The limit, not the solver, keeps it from the target: the best within the limits, weaker than asked.
+  EXPECT_EQ(r.termination, Termination::kDegraded);
   EXPECT_THAT(r.message, HasSubstr("joint 1 (X) at its upper limit 800"));
   EXPECT_DOUBLE_EQ(r.joints[0], 800.0);
   EXPECT_TRUE(nominal.WithinLimits(r.joints));
   // Tilting the A axis buys back part of the distance at the cost of tool-axis error: a compromise, not 0.
   EXPECT_GT(r.position_error_mm, 50.0);
+}
+
+// Termination for the three ends of the solver on a 6R arm whose limits (+-2 pi) do not bind: a reachable
+// target converges; one out of reach, or one the iteration budget is too small for, is NO_CONVERGENCE with the
+// best joints written. (A joint held at its limit, DEGRADED: JointHeldAtItsLimitIsNamed.)
+TEST(CompensationTest, TerminationSaysHowTheSolverEnded) {
+  const RobotModel nominal = Preset("ur5e");
+  const Calibration calibration = MakeCalibration("ur5e", 9);
+  Rng rng(13);
+  const Eigen::VectorXd q = WellConditionedConfiguration(nominal, &rng);
+  const Transform target = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
+
+  const CompensationResult reached = CompensatePose(calibration, target, TargetFrame::kBase, q);
+  EXPECT_EQ(reached.termination, Termination::kConvergence) << reached.message;
+  EXPECT_TRUE(reached.converged);
+
+  // 2 m further out along the arm's horizontal reach: the arm stretches towards it with no joint turned to a
+  // limit (a target off to the side can wind joint 1 to its limit: DEGRADED).
+  Transform far = target;
+  const Eigen::Vector3d outward(target.translation().x(), target.translation().y(), 0.0);
+  far.translation() += 2000.0 * outward.normalized();
+  const CompensationResult unreachable = CompensatePose(calibration, far, TargetFrame::kBase, q);
+  EXPECT_EQ(unreachable.termination, Termination::kNoConvergence) << unreachable.message;
+  EXPECT_FALSE(unreachable.converged);
+  EXPECT_THAT(unreachable.message, ::testing::Not(HasSubstr(" at its "))) << unreachable.message;
+  EXPECT_TRUE(unreachable.joints.allFinite());
+
+  CompensationOptions one_step;
+  one_step.max_iterations = 1;
+  const CompensationResult budget = CompensatePose(calibration, target, TargetFrame::kBase, q, one_step);
+  EXPECT_EQ(budget.termination, Termination::kNoConvergence) << budget.message;
+  EXPECT_FALSE(budget.converged);
+  EXPECT_THAT(budget.message, HasSubstr("max_iterations (1) reached"));
+
+  EXPECT_EQ(CompensationResult{}.termination, Termination::kFailure);
 }
 
 TEST(CompensationTest, StartOutsideTheLimitsIsProjectedInside) {

@@ -10,6 +10,7 @@
 
 #include "robocal/core/identification.h"
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 
@@ -128,7 +129,7 @@ TEST_P(NoiseFreeRecoveryTest, CalibratedModelPredictsTheTrueRobotOnFreshConfigur
   EXPECT_LT(s.after.rms_position_mm, 1e-8) << s.FullReport();
   EXPECT_GT(s.iterations, 0);
   EXPECT_GT(s.condition_number, 1.0);
-  EXPECT_THAT(s.scaling, HasSubstr("unit norm"));
+  EXPECT_EQ(s.scaling, DescribeScaling(IdentificationOptions{}.noise, ColumnScaling::kColumnNorm));
 
   // The effective frames: the nominal model with them and no base/tool errors predicts the same poses.
   RobotModelSpec spec = model.spec();
@@ -374,7 +375,7 @@ TEST(IdentificationTest, ReportsCarryTheParameterTableAndTheDroppedParameters) {
   EXPECT_THAT(full, HasSubstr(" rad\n"));
   ASSERT_FALSE(cal.summary.dropped.empty());
   EXPECT_THAT(full, HasSubstr(cal.summary.dropped.front().reason));
-  EXPECT_THAT(full, HasSubstr("columns to unit norm"));
+  EXPECT_THAT(full, HasSubstr("columns: column_norm"));
   // The estimated base and tool, as the issue asks of the report.
   EXPECT_THAT(full, HasSubstr("T_world_base : xyz"));
   EXPECT_THAT(full, HasSubstr("T_flange_tool: xyz"));

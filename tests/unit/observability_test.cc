@@ -162,6 +162,34 @@ TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
   EXPECT_EQ(PredictAccuracy(model, o, plan, RandomConfigurations(model, 5, &rng)).num_validation, 0);
 }
 
+// The one rank cut on a plan: unit columns and an SVD of the stack, whatever scaling the indices use.
+TEST(NumericalRankTest, CountsWhatTheSetDetermines) {
+  const RobotModel model = Preset("ur5e");
+  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const int l = static_cast<int>(o.parameters.size());
+  Rng rng(4);
+  const auto plan = RandomConfigurations(model, 12, &rng);
+  EXPECT_EQ(NumericalRank(model, plan, o), l);
+  EXPECT_LE(NumericalRank(model, RandomConfigurations(model, 2, &rng), o), 12);  // 12 rows
+  // One configuration twelve times: 6 independent rows. From the normal matrix's eigenvalues the lost
+  // directions come out at its round-off, sigma up to ~4e-8 sigma_1, right at the cut; the SVD of the stack
+  // puts them at ~1e-16.
+  const std::vector<Eigen::VectorXd> repeated(12, plan.front());
+  EXPECT_LE(NumericalRank(model, repeated, o), 6);
+  EXPECT_EQ(NumericalRank(model, {}, o), 0);
+  o.scaling = ColumnScaling::kNone;
+  EXPECT_EQ(NumericalRank(model, plan, o), l);
+  EXPECT_LE(NumericalRank(model, repeated, o), 6);
+}
+
+TEST(PredictedAccuracyTest, RepeatedConfigurationPredictsNothing) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(4);
+  const std::vector<Eigen::VectorXd> repeated(12, RandomConfigurations(model, 1, &rng).front());
+  EXPECT_EQ(PredictAccuracy(model, o, repeated, RandomConfigurations(model, 5, &rng)).num_validation, 0);
+}
+
 }  // namespace
 }  // namespace robocal
 
@@ -188,6 +216,30 @@ TEST(ColumnScalingTest, PivotRankCountsPivotsAboveTheTolerance) {
   EXPECT_EQ(PivotRank(Eigen::Vector3d(10.0, 1.0, 1e-5), 1e-6), 3);
   EXPECT_EQ(PivotRank(Eigen::Vector3d(0.0, 0.0, 0.0), 1e-6), 0);
   EXPECT_EQ(PivotRank(Eigen::VectorXd(), 1e-6), 0);
+}
+
+// One text for every Summary's scaling: identifiability and identification (unit columns) say what an
+// observability evaluation with kColumnNorm says.
+TEST(ColumnScalingTest, OneDescriptionOfTheScaling) {
+  MeasurementNoise noise;
+  noise.position_mm = 0.02;
+  noise.orientation_rad = 1.5e-4;
+  EXPECT_EQ(DescribeScaling(noise), "rows / noise (0.02 mm, 0.00015 rad); columns: column_norm");
+  EXPECT_EQ(DescribeScaling(noise, ColumnScaling::kNone), "rows / noise (0.02 mm, 0.00015 rad); columns: none");
+  EXPECT_EQ(DescribeScaling(noise, ColumnScaling::kExpectedDeviation, 0.2, 2e-3),
+            "rows / noise (0.02 mm, 0.00015 rad); columns: expected_deviation (0.2 mm, 0.002 rad)");
+
+  const RobotModel model = Preset("grinder5");
+  IdentifiabilityOptions identifiability;
+  identifiability.noise = noise;
+  const IdentifiabilitySummary s = FindIdentifiableParameters(model, MeasurementType::kPose, identifiability);
+  EXPECT_EQ(s.scaling, DescribeScaling(noise));
+  ObservabilityOptions o;
+  o.noise = noise;
+  o.parameters = s.identifiable;
+  EXPECT_EQ(o.ScalingDescription(), s.scaling);
+  Rng rng(5);
+  EXPECT_EQ(ComputeIndicesBySvd(model, RandomConfigurations(model, 10, &rng), o).scaling, s.scaling);
 }
 
 }  // namespace

@@ -29,6 +29,9 @@ enum class Status {
 const char* ToString(Status status);
 /// Inverse of ToString; false if unknown.
 bool ParseStatus(const std::string& text, Status* status);
+/// The HTTP status code of a canonical status: the one mapping, used by the server for every reply and by the
+/// services for the errors of operations.
+int HttpStatusOf(Status status);
 
 /// One problem with one field of a request, e.g. {"measurements[3].joints", "expected 6 values, got 5"}.
 struct FieldViolation {
@@ -48,6 +51,23 @@ class ApiError : public std::runtime_error {
   Status status_;
   std::vector<FieldViolation> details_;
 };
+
+void to_json(nlohmann::json& j, const FieldViolation& v);
+void from_json(const nlohmann::json& j, FieldViolation& v);
+
+/// The "error" object of an error body, and the error of a FAILED operation.
+struct ErrorInfo {
+  /// The HTTP status code.
+  int code = 0;
+  Status status = Status::kInternal;
+  std::string message;
+  std::vector<FieldViolation> details;
+};
+void to_json(nlohmann::json& j, const ErrorInfo& e);
+void from_json(const nlohmann::json& j, ErrorInfo& e);
+/// The ErrorInfo of `status`, with message, fields and reasons passed through SafeText (always serialisable).
+ErrorInfo MakeErrorInfo(Status status, int http_code, const std::string& message,
+                        const std::vector<FieldViolation>& details = {});
 
 /// {"error":{"code":http_code,"status":"...","message":"...","details":[{"field":"...","reason":"..."}]}}
 /// Message, fields and reasons pass through SafeText: the body can always be serialised.

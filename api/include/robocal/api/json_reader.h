@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/error.h"
+#include "robocal/api/wire.h"
 
 namespace robocal::api {
 
@@ -51,6 +52,13 @@ class ObjectReader {
   bool Int(const std::string& key, bool required, int* out, int min, int max);
   /// A string from `allowed`.
   bool Enum(const std::string& key, bool required, const std::vector<std::string>& allowed, std::string* out);
+  /// One of a wire enum's names (wire.h's table for E).
+  template <typename E>
+  bool Enum(const std::string& key, bool required, E* out) {
+    std::string text;
+    if (!Enum(key, required, WireNames<E>(), &text)) return false;
+    return FromWireName(text, out);
+  }
   /// An array of finite numbers with a size in [min_size, max_size].
   bool Numbers(const std::string& key, bool required, std::vector<double>* out, std::size_t min_size,
                std::size_t max_size);

@@ -1,18 +1,27 @@
 // robocal::Client: a thin C++ client over every endpoint of the robocal HTTP API (v1), for cell software.
-// Requests are the wire types of api/types.h, results the typed views of results.h. cpp-httplib stays
-// inside client.cc, so including this header pulls in no HTTP library.
+// Requests and results are the api's wire types (robocal/api/robots.h, plans.h, campaigns.h, calibration.h,
+// operations.h, error.h, health.h): the server writes them and the client reads them with the same strict
+// from_json, so a response missing a field is a ProtocolError naming it, never a silent default. cpp-httplib
+// stays inside client.cc, so including this header pulls in no HTTP library.
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "robocal/api/types.h"
-#include "robocal/client/results.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
+#include "robocal/api/error.h"
+#include "robocal/api/health.h"
+#include "robocal/api/operations.h"
+#include "robocal/api/plans.h"
+#include "robocal/api/robots.h"
 
 namespace robocal::client {
 
@@ -43,20 +52,22 @@ struct ClientOptions {
   bool IsValid(std::string* error) const;
 };
 
-/// The service answered with an error (HTTP 4xx / 5xx): its HTTP status, canonical status string
-/// ("INVALID_ARGUMENT", "NOT_FOUND", ...), message and per-field details.
+/// The service answered with an error (HTTP 4xx / 5xx): its HTTP status and the error body (canonical status,
+/// message and per-field details). An answer that is not the API's error body (a proxy in between) gets the
+/// status its HTTP code stands for (e.g. 503 kUnavailable, other codes kInternal) and the start of the body as
+/// its message.
 class ServiceError : public std::runtime_error {
  public:
-  ServiceError(int http_status, ErrorInfo info);
+  ServiceError(int http_status, api::ErrorInfo info);
   int http_status() const { return http_status_; }
-  const std::string& status() const { return info_.status; }
+  api::Status status() const { return info_.status; }
   const std::string& message() const { return info_.message; }
   const std::vector<api::FieldViolation>& details() const { return info_.details; }
-  const ErrorInfo& info() const { return info_; }
+  const api::ErrorInfo& info() const { return info_; }
 
  private:
   int http_status_;
-  ErrorInfo info_;
+  api::ErrorInfo info_;
 };
 
 /// The server could not be reached or the connection broke (after the retries allowed for the call).
@@ -65,15 +76,16 @@ class ConnectionError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The server answered something that is not the API's JSON (another service on that port, or a server of an
-/// incompatible version).
+/// The server answered something that is not the API's JSON (another service on that port), or JSON without
+/// the shape of the expected resource (a server of an incompatible version): what() names the response and
+/// the field, e.g. "unexpected campaign response: counts.calibration: required".
 class ProtocolError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
 
 /// Called while waiting for an operation, with its latest state. Return false to stop waiting.
-using OperationCallback = std::function<bool(const Operation&)>;
+using OperationCallback = std::function<bool(const api::Operation&)>;
 
 /// One connection's worth of client. Not safe to use from several threads at once; make one per thread.
 /// Every call throws ServiceError, ConnectionError or ProtocolError; std::invalid_argument for invalid
@@ -88,7 +100,7 @@ class Client {
   const ClientOptions& options() const { return options_; }
 
   // Service.
-  Health GetHealth();
+  api::Health GetHealth();
   /// The OpenAPI 3 document the server was built with.
   nlohmann::json GetOpenApi();
   /// Prometheus text.
@@ -96,56 +108,60 @@ class Client {
 
   // Robots.
   /// Every preset and registered robot, following the server's pages (`page_size` per request, 1..1000).
-  std::vector<RobotInfo> ListRobots(int page_size = 100);
-  RobotInfo GetRobot(const std::string& robot);
-  RobotInfo RegisterRobot(const api::RegisterRobotRequest& request);
+  std::vector<api::Robot> ListRobots(int page_size = 100);
+  api::Robot GetRobot(const std::string& robot);
+  api::Robot RegisterRobot(const api::RegisterRobotRequest& request);
   /// The body as read from a robot definition file (same fields as RegisterRobotRequest).
-  RobotInfo RegisterRobot(const nlohmann::json& body);
+  api::Robot RegisterRobot(const nlohmann::json& body);
   void DeleteRobot(const std::string& robot);
-  /// Nominal tool poses (world = nominal base frame) for joint vectors (deg / mm).
-  std::vector<api::PoseWire> RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints);
+  /// Nominal tool poses (frame "world (nominal base)") for joint vectors (deg / mm), one per vector in order.
+  api::ForwardResult RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints);
 
   // Plans.
   /// A plan computed while the call waits (request.async is ignored and sent as false).
-  PlanResult CreatePlan(const api::PlanRequest& request);
+  api::PlanResult CreatePlan(const api::PlanRequest& request);
   /// Starts the plan as a long-running operation (request.async is sent as true); see WaitOperation.
-  Operation StartPlan(const api::PlanRequest& request);
-  PlanResult GetPlan(const std::string& plan);
+  api::Operation StartPlan(const api::PlanRequest& request);
+  api::PlanResult GetPlan(const std::string& plan);
 
   // Campaigns.
-  Campaign CreateCampaign(const api::CreateCampaignRequest& request);
-  /// Every campaign, following the server's pages (`page_size` per request, 1..1000).
-  std::vector<Campaign> ListCampaigns(int page_size = 100);
-  Campaign GetCampaign(const std::string& campaign);
+  api::Campaign CreateCampaign(const api::CreateCampaignRequest& request);
+  /// Every campaign (with its measurement counts and whether it is calibrated), following the server's pages
+  /// (`page_size` per request, 1..1000).
+  std::vector<api::Campaign> ListCampaigns(int page_size = 100);
+  api::Campaign GetCampaign(const std::string& campaign);
   /// Uploads one batch. An empty request_id is filled with one derived from the batch's content (role and
   /// measurements), so that a retried or repeated upload of the same batch is stored once.
-  UploadResult UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch);
-  /// One page; role "" (all), "calibration" or "validation"; after: the sequence to continue after.
-  MeasurementPage ListMeasurements(const std::string& campaign, const std::string& role = "", std::int64_t after = 0,
-                                   int limit = 1000);
+  api::BatchResult UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch);
+  /// One page of at most `limit` measurements; `role` unset: both roles; after: the sequence to continue after
+  /// (the page's next_after).
+  api::MeasurementList ListMeasurements(const std::string& campaign,
+                                        std::optional<api::MeasurementRole> role = std::nullopt,
+                                        std::int64_t after = 0, int limit = 1000);
   /// A fit computed while the call waits (request.async is ignored and sent as false); stored as the
-  /// campaign's calibration unless it stopped at the server's request deadline (result.stored says).
-  CalibrationResult Fit(const std::string& campaign, const api::FitRequest& request = {});
+  /// campaign's calibration unless it stopped at the server's request deadline (result.stored and
+  /// result.summary.deadline_exceeded say).
+  api::CalibrationResult Fit(const std::string& campaign, const api::FitRequest& request = {});
   /// Starts the fit as a long-running operation (request.async is sent as true); see WaitOperation. The
   /// calibration is stored when the operation SUCCEEDS; Operation::fit holds the result.
-  Operation StartFit(const std::string& campaign, const api::FitRequest& request = {});
-  CalibrationResult GetCalibration(const std::string& campaign);
-  std::vector<Compensation> Compensate(const std::string& campaign, const api::CompensateRequest& request);
+  api::Operation StartFit(const std::string& campaign, const api::FitRequest& request = {});
+  api::CalibrationResult GetCalibration(const std::string& campaign);
+  /// One result per target, in order.
+  api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).
-  std::vector<Compensation> CompensateJoints(const std::string& campaign,
-                                             const std::vector<std::vector<double>>& nominal_joints);
-  /// Tool poses of the calibrated robot (tracker frame) for joint vectors.
-  std::vector<api::PoseWire> CampaignForward(const std::string& campaign,
-                                             const std::vector<std::vector<double>>& joints);
-  Evaluation Evaluate(const std::string& campaign, const api::EvaluateRequest& request = {});
+  api::CompensateResult CompensateJoints(const std::string& campaign,
+                                         const std::vector<std::vector<double>>& nominal_joints);
+  /// Tool poses of the calibrated robot (frame "tracker") for joint vectors.
+  api::ForwardResult CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints);
+  api::Evaluation Evaluate(const std::string& campaign, const api::EvaluateRequest& request = {});
 
   // Operations.
-  Operation GetOperation(const std::string& operation);
-  Operation CancelOperation(const std::string& operation);
+  api::Operation GetOperation(const std::string& operation);
+  api::Operation CancelOperation(const std::string& operation);
   /// Polls every `poll_interval` until the operation is done (or `callback` returns false); returns its last
   /// state. The callback sees every polled state, e.g. to draw progress.
-  Operation WaitOperation(const std::string& operation, const OperationCallback& callback = nullptr,
-                          std::chrono::milliseconds poll_interval = std::chrono::milliseconds(250));
+  api::Operation WaitOperation(const std::string& operation, const OperationCallback& callback = nullptr,
+                               std::chrono::milliseconds poll_interval = std::chrono::milliseconds(250));
 
   /// A raw call for endpoints or fields the typed API does not cover: returns the response JSON.
   /// `idempotent` allows retries.

@@ -8,18 +8,19 @@
 #include <string>
 #include <vector>
 
-#include "robocal/api/types.h"
-#include "robocal/client/results.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
+#include "robocal/api/robots.h"
 
 namespace robocal::client {
 
-/// "x_mm", "b_deg": a joint's column name (its name and unit).
-std::string JointColumn(const JointInfo& joint);
+/// "x_mm", "b_deg": a joint's column name (its name and unit), the joints being those of api::Robot.
+std::string JointColumn(const api::RobotJoint& joint);
 
 /// Joint vectors: header "<joint>_<unit>,..." then one row per configuration with num_joints values.
 /// Throws std::runtime_error ("line 4: expected 5 values, got 4") on malformed input.
 std::vector<std::vector<double>> ReadJointsCsv(std::istream& in, int num_joints);
-void WriteJointsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+void WriteJointsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                     const std::vector<std::vector<double>>& rows);
 
 /// Measurements: the joint columns, then x_mm,y_mm,z_mm (tool position, tracker frame) and optionally
@@ -27,12 +28,12 @@ void WriteJointsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
 /// row per tracker shot. Throws std::runtime_error on malformed input.
 std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_joints);
 /// Writes the quaternion columns only if every measurement has an orientation.
-void WriteMeasurementsCsv(std::ostream& out, const std::vector<JointInfo>& joints,
+void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                           const std::vector<api::MeasurementWire>& measurements);
 
 /// Compensation results: the compensated joint columns, then position_error_mm, orientation_error_deg,
 /// converged (0/1).
-void WriteCompensationCsv(std::ostream& out, const std::vector<JointInfo>& joints,
-                          const std::vector<Compensation>& results);
+void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
+                          const std::vector<api::Compensation>& results);
 
 }  // namespace robocal::client

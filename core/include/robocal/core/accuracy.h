@@ -1,7 +1,8 @@
 // Accuracy statistics as the paper reports them: E_xyz, E_cos, E_tot with mean, standard deviation, max and
-// RP = mean + 3 std, over validation poses.
+// RP = mean + 3 std, over validation poses; and the improvement of one report over another in percent.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,26 @@ struct AccuracyReport {
 /// Compares `reached` tool poses against `target` ones (same frame, same size >= 1). h_mm > 0.
 AccuracyReport ComputeAccuracy(const std::vector<Transform>& reached, const std::vector<Transform>& target,
                                double h_mm = 30.0);
+
+/// How much smaller `after` is than `before`, in percent of `before`: 100 (before - after) / before. Positive
+/// when `after` is better (smaller), 100 when it is 0, negative when it is worse. NaN when there is no relative
+/// improvement to speak of: `before` not finite or not positive (a zero baseline, e.g. a noise-free cell that
+/// already reaches round-off), or `after` not finite. Callers show NaN as "n/a" in text and null on the wire.
+double ImprovementPercent(double before, double after);
+
+/// ImprovementPercent of the mean and RP of each of the paper's three errors (NaN where it has none).
+struct AccuracyImprovement {
+  double e_xyz_mean = std::numeric_limits<double>::quiet_NaN();
+  double e_xyz_rp = std::numeric_limits<double>::quiet_NaN();
+  double e_cos_mean = std::numeric_limits<double>::quiet_NaN();
+  double e_cos_rp = std::numeric_limits<double>::quiet_NaN();
+  double e_tot_mean = std::numeric_limits<double>::quiet_NaN();
+  double e_tot_rp = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// The improvement of `after` over the reference `before` (e.g. nominal against calibrated commands, or random
+/// selection against a planned set): every field ImprovementPercent(before.x, after.x).
+AccuracyImprovement ComputeImprovement(const AccuracyReport& before, const AccuracyReport& after);
 
 /// The paper's table rows for one report, in micrometres: "E_xyz  mean std max RP" etc.
 std::string FormatAccuracyTable(const AccuracyReport& report, const std::string& title);

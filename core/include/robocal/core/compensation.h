@@ -54,6 +54,17 @@ struct CompensationResult {
   /// For robots with fewer than 6 joints: the rotation about the tool axis that was left free (rad, in
   /// (-pi, pi]): the angle about the reached tool axis from the target's x axis to the reached one. 0 otherwise.
   double free_rotation_rad = 0.0;
+  /// How the solver ended; `joints` are written unless kFailure.
+  /// - kConvergence: both tolerances met.
+  /// - kDegraded: not met, and a joint is held at a limit that the error pulls outward: the limits, not the
+  ///   solver, keep the robot from the target; `joints` are the closest it found within the limits.
+  /// - kNoConvergence: not met, with no joint held at a limit: max_iterations reached, or no step lowers the
+  ///   error any more (damping above max_damping: a target out of reach, or beyond a singularity's fold);
+  ///   `joints` are the best found.
+  /// - kFailure: no usable joints (not finite). Inputs that could lead there throw instead, so CompensatePose
+  ///   does not return it in practice; it is the value of a result not computed.
+  Termination termination = Termination::kFailure;
+  /// termination == kConvergence (kept for existing callers).
   bool converged = false;
   /// Joint Jacobian evaluations.
   int iterations = 0;
@@ -66,7 +77,8 @@ struct CompensationResult {
 /// joints cannot match an arbitrary 6-D pose: it matches the position and the tool (z) axis (the rows of
 /// MeasurementType::kPositionAxis), and the rotation about the tool axis is free (reported, not matched).
 /// kBase targets are placed in the world by calibration.T_world_base. Every step is kept within the joint
-/// limits; a joint at a limit that the error pulls outward is held there and named in the message.
+/// limits; a joint at a limit that the error pulls outward is held there and named in the message (and the
+/// result is kDegraded if it is still held at the end).
 /// Throws std::invalid_argument for invalid options, wrong sizes, a non-finite start or a non-rigid target.
 CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
                                   const Eigen::VectorXd& q_start, const CompensationOptions& options = {});

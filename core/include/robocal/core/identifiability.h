@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
@@ -23,7 +24,7 @@ struct IdentifiabilityOptions {
   MeasurementNoise noise;
   /// A parameter is kept while |R_kk| > rank_tolerance * |R_00| in the column-pivoted QR of the
   /// row-weighted, unit-column-norm Jacobian. Columns are unit norm, so the test is scale free.
-  double rank_tolerance = 1e-8;
+  double rank_tolerance = kRankTolerance;
   /// The rank decision is called clear when the smallest kept |R_kk| exceeds the largest dropped one by this
   /// factor; otherwise the result is DEGRADED.
   double min_rank_gap = 1e3;
@@ -55,7 +56,7 @@ struct IdentifiabilitySummary {
   double largest_dropped_pivot = 0.0;
   /// Condition number of the kept columns (row-weighted, unit column norm) over the probe configurations.
   double condition_number = 0.0;
-  /// Which scaling produced condition_number.
+  /// Which scaling produced condition_number (DescribeScaling of options.noise, ColumnScaling::kColumnNorm).
   std::string scaling;
 
   std::string BriefReport() const;

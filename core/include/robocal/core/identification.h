@@ -85,7 +85,8 @@ struct IdentificationSummary {
   /// Residuals of the nominal model (with the registered base) and of the calibrated model.
   ResidualStatistics before;
   ResidualStatistics after;
-  /// Condition number of the weighted, column-norm-scaled Jacobian at the solution, and its scaling.
+  /// Condition number of the weighted, column-norm-scaled Jacobian at the solution, and its scaling
+  /// (DescribeScaling of options.noise with ColumnScaling::kColumnNorm).
   double condition_number = 0.0;
   std::string scaling;
   /// The estimated tracker -> base and flange -> tool transforms (as Calibration::T_world_base and

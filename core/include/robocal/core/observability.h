@@ -7,23 +7,11 @@
 
 #include <Eigen/Core>
 
+#include "robocal/core/column_scaling.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal {
-
-/// How the columns of E* are scaled before its singular values are taken. Rows are always divided by the
-/// measurement noise (MeasurementNoise), so a row is in units of "noise sigmas".
-enum class ColumnScaling {
-  /// Each column divided by its norm over the configuration set (Hollerbach & Wampler's scaling): the index
-  /// then does not depend on the parameters' units.
-  kColumnNorm,
-  /// Each column multiplied by the parameter's expected deviation (expected_translation_mm,
-  /// expected_rotation_rad): E* then maps "typical error sizes" to noise sigmas.
-  kExpectedDeviation,
-  /// No column scaling: mixes mm and rad, reported for completeness.
-  kNone,
-};
 
 /// The observability indices (the first is the paper's objective).
 enum class ObservabilityIndex {
@@ -36,8 +24,6 @@ enum class ObservabilityIndex {
   kLogDet,           ///< log det(E*' E*) (D-optimality), maximised.
 };
 
-const char* ToString(ColumnScaling scaling);
-bool ParseColumnScaling(const std::string& text, ColumnScaling* scaling);
 /// "condition_number", "o1" .. "o5", "log_det".
 const char* ToString(ObservabilityIndex index);
 bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index);
@@ -54,7 +40,7 @@ struct ObservabilityOptions {
   std::vector<int> parameters;
 
   bool IsValid(const RobotModel& model, std::string* error) const;
-  /// E.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
+  /// DescribeScaling of these options, e.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
   std::string ScalingDescription() const;
 };
 
@@ -85,6 +71,13 @@ ObservabilityIndices IndicesFromSingularValues(const Eigen::VectorXd& singular_v
 /// Indices from the stacked matrix by a full SVD of the scaled E* (the reference computation; O(M) memory).
 ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
                                          const ObservabilityOptions& options);
+
+/// The numerical rank of E* for `configurations` by the library's one rank cut, whatever options.scaling says:
+/// columns to unit norm (UnitColumnFactors), singular values by SVD of the stack (not the normal matrix, whose
+/// squared condition number would hide the cut), PivotRank at kRankTolerance. options.parameters.size() when
+/// the set determines every parameter; 0 for no configurations.
+int NumericalRank(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
+                  const ObservabilityOptions& options);
 
 /// Keeps A = E*' W E* (unscaled, L x L) of a configuration set and each configuration's contribution, so that
 /// changing one configuration costs one Jacobian, a rank-r update of A and an L x L symmetric eigenproblem,
@@ -152,7 +145,8 @@ struct PredictedAccuracy {
 };
 
 /// Predicted accuracy after calibrating from `plan` (noise-only: unmodelled errors are not included).
-/// Returns num_validation = 0 and zeros if E*'WE* is singular.
+/// Returns num_validation = 0 and zeros if the plan does not determine every parameter (NumericalRank below
+/// the number of parameters).
 PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOptions& options,
                                   const std::vector<Eigen::VectorXd>& plan,
                                   const std::vector<Eigen::VectorXd>& validation);

@@ -14,8 +14,7 @@
 
 namespace robocal::server {
 
-/// The one place where API statuses become HTTP codes.
-int HttpStatusOf(api::Status status);
+using api::HttpStatusOf;
 
 /// A route as registered with the HTTP library and as documented in the OpenAPI spec.
 struct RouteInfo {

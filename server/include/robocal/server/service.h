@@ -1,22 +1,27 @@
-// The calibration service: what every endpoint does, between parsed JSON and the storage. Knows nothing of
-// HTTP; errors are api::ApiError (or StorageError), mapped to HTTP statuses by the server in one place.
+// The calibration service: what every endpoint does, between a parsed request body and the storage, returning
+// the typed wire shapes of api/ (the routes serialise them). Knows nothing of HTTP; errors are api::ApiError
+// (or StorageError), mapped to HTTP statuses in one place (api::HttpStatusOf). Its parts live in one file per
+// resource family: service_robots.cc, service_plans.cc, service_campaigns.cc, service_calibration.cc; long-running
+// and deadline-bound work in OperationRunner.
 #pragma once
 
-#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
-#include <map>
-#include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
+#include <variant>
 
 #include <nlohmann/json.hpp>
 
-#include "robocal/api/types.h"
+#include "robocal/api/calibration.h"
+#include "robocal/api/campaigns.h"
+#include "robocal/api/operations.h"
+#include "robocal/api/plans.h"
+#include "robocal/api/robots.h"
+#include "robocal/api/stored.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/server/memory_trimmer.h"
+#include "robocal/server/operation_runner.h"
 #include "server/storage/storage.h"
 
 namespace robocal::server {
@@ -25,8 +30,8 @@ struct ServiceOptions {
   api::Limits limits;
   /// Passed to Storage::AppendMeasurements.
   std::int64_t max_measurements_per_campaign = 100000;
-  /// A synchronous plan stops at this deadline with its best set so far (NO_CONVERGENCE, says so); longer
-  /// searches belong in `async: true`.
+  /// A synchronous plan or fit stops at this deadline with its best result so far (NO_CONVERGENCE, says so);
+  /// longer searches belong in `async: true`.
   std::chrono::milliseconds request_deadline{60000};
   /// Operations (async plans and fits) running at once; more is UNAVAILABLE.
   int max_running_operations = 2;
@@ -36,81 +41,82 @@ struct ServiceOptions {
   std::function<void()> on_fit_progress;
 };
 
+/// A plan computed while the request waits, or (async) the operation computing it.
+using PlanReply = std::variant<api::PlanResult, api::Operation>;
+/// A fit computed while the request waits, or (async) the operation computing it.
+using FitReply = std::variant<api::CalibrationResult, api::Operation>;
+
 class Service {
  public:
   Service(Storage* storage, ServiceOptions options);
-  /// Cancels running operations and waits for them (their documents end as CANCELLED).
+  /// Cancels running operations and waits for them.
   ~Service();
 
-  /// Marks operations left RUNNING by a previous process as FAILED ("aborted: the server stopped").
-  /// Returns how many were marked.
-  int RecoverOperations();
+  /// Marks operations left RUNNING by a previous process as FAILED. Returns how many were marked.
+  int RecoverOperations() { return operations_.Recover(); }
 
-  /// page_size: "" (default 100) or 1..1000; page_token: "" or the next_page_token of the previous page.
-  /// Presets come first, then registered robots in id order.
-  nlohmann::json ListRobots(const std::string& page_size = "", const std::string& page_token = "");
-  nlohmann::json CreateRobot(const nlohmann::json& body);
-  nlohmann::json GetRobot(const std::string& id);
+  // Robots (service_robots.cc). page_size: "" (default 100) or 1..1000; page_token: "" or the next_page_token
+  // of the previous page. Presets come first, then registered robots in id order.
+  api::RobotList ListRobots(const std::string& page_size = "", const std::string& page_token = "");
+  api::Robot CreateRobot(const nlohmann::json& body);
+  api::Robot GetRobot(const std::string& id);
   void DeleteRobot(const std::string& id);
-  nlohmann::json RobotForward(const std::string& id, const nlohmann::json& body);
+  api::ForwardResult RobotForward(const std::string& id, const nlohmann::json& body);
 
-  /// A plan, or (async) an operation whose result names the plan.
-  nlohmann::json CreatePlan(const nlohmann::json& body);
-  nlohmann::json GetPlan(const std::string& id);
+  // Plans (service_plans.cc).
+  PlanReply CreatePlan(const nlohmann::json& body);
+  api::PlanResult GetPlan(const std::string& id);
 
-  nlohmann::json CreateCampaign(const nlohmann::json& body);
-  /// Campaigns in id order, paged like ListRobots.
-  nlohmann::json ListCampaigns(const std::string& page_size = "", const std::string& page_token = "");
-  nlohmann::json GetCampaign(const std::string& id);
-  nlohmann::json AppendMeasurements(const std::string& campaign, const nlohmann::json& body);
+  // Campaigns and measurements (service_campaigns.cc). Campaigns are listed in id order, paged like robots.
+  api::Campaign CreateCampaign(const nlohmann::json& body);
+  api::CampaignList ListCampaigns(const std::string& page_size = "", const std::string& page_token = "");
+  api::Campaign GetCampaign(const std::string& id);
+  api::BatchResult AppendMeasurements(const std::string& campaign, const nlohmann::json& body);
   /// role: "" (all), calibration, validation; after: sequence to start after; limit: page size.
-  nlohmann::json ListMeasurements(const std::string& campaign, const std::string& role, const std::string& after,
-                                  const std::string& limit);
-  /// The fit, stored as the campaign's calibration unless it stopped at the request deadline (then returned
-  /// with summary.deadline_exceeded and stored: false); or (async) an operation whose result is the fit,
-  /// stored when the operation SUCCEEDS.
-  nlohmann::json Fit(const std::string& campaign, const nlohmann::json& body);
-  nlohmann::json GetCalibration(const std::string& campaign);
-  nlohmann::json Compensate(const std::string& campaign, const nlohmann::json& body);
-  nlohmann::json CampaignForward(const std::string& campaign, const nlohmann::json& body);
-  nlohmann::json Evaluate(const std::string& campaign, const nlohmann::json& body);
+  api::MeasurementList ListMeasurements(const std::string& campaign, const std::string& role,
+                                        const std::string& after, const std::string& limit);
 
-  nlohmann::json GetOperation(const std::string& id);
-  nlohmann::json CancelOperation(const std::string& id);
+  // Calibration (service_calibration.cc). The fit is stored as the campaign's calibration unless it stopped at
+  // the request deadline (then returned with summary.deadline_exceeded and stored: false); or (async) an
+  // operation whose result is the fit, stored when the operation SUCCEEDS.
+  FitReply Fit(const std::string& campaign, const nlohmann::json& body);
+  api::CalibrationResult GetCalibration(const std::string& campaign);
+  api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
+  api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
+  api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);
 
-  int running_operations();
+  // Operations.
+  api::Operation GetOperation(const std::string& id) { return operations_.Get(id); }
+  api::Operation CancelOperation(const std::string& id) { return operations_.Cancel(id); }
+  int running_operations() { return operations_.running(); }
+
   /// The request limits the service enforces (the routes apply max_array_length while parsing bodies).
   const api::Limits& limits() const { return options_.limits; }
   /// For /healthz and metrics.
   Storage* storage() { return storage_; }
 
  private:
-  struct RunningOperation {
-    std::atomic<double> progress{0.0};
-    std::atomic<bool> cancel{false};
-    std::thread thread;
+  /// A robot's model and definition (presets: {"id", "from_preset"}); NOT_FOUND for an unknown robot.
+  struct ResolvedRobot {
+    RobotModel model;
+    api::RegisterRobotRequest definition;
   };
-
-  /// The model of a preset or registered robot (NOT_FOUND otherwise) and its definition JSON.
-  RobotModel ResolveRobot(const std::string& id, nlohmann::json* definition);
-  nlohmann::json LoadCampaign(const std::string& id);
-  /// The work of an operation: gets a progress callback (false: stop) and returns the operation's result,
-  /// setting *cancelled if the callback stopped it. ApiErrors it throws become the operation's error.
-  using OperationWork = std::function<nlohmann::json(const std::function<bool(double)>& progress, bool* cancelled)>;
-  /// Creates the operation document of `kind` (with `fields` merged in) and runs `work` on its own thread;
-  /// UNAVAILABLE when max_running_operations are running. Returns the operation.
-  nlohmann::json StartOperation(const std::string& kind, const nlohmann::json& fields, OperationWork work);
-  /// Computes a plan for `model` (the resolved request.robot); `progress` may cancel it. Returns the stored plan
-  /// document.
-  nlohmann::json RunPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
-                         const std::function<bool(double)>& progress, bool* cancelled);
+  ResolvedRobot ResolveRobot(const std::string& id);
+  api::StoredCampaign LoadCampaign(const std::string& id);
+  /// The campaign resource of a stored campaign (counts and calibrated from the storage).
+  api::Campaign CampaignResource(const api::StoredCampaign& stored);
+  /// Computes a plan for `model` (the resolved request.robot) under `control`.
+  api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
+                          WorkControl& control);
+  /// A campaign's nominal model and stored calibration (FAILED_PRECONDITION if not calibrated yet).
+  struct Calibrated;
+  Calibrated LoadCalibrated(const std::string& campaign);
 
   Storage* storage_;
   ServiceOptions options_;
   /// Returns the memory of large requests to the system after them.
   MemoryTrimmer trimmer_;
-  std::mutex operations_mutex_;
-  std::map<std::string, std::unique_ptr<RunningOperation>> running_;
+  OperationRunner operations_;
 };
 
 /// Milliseconds since the Unix epoch.

@@ -1,0 +1,211 @@
+// Wire shapes of a campaign's calibration: the fit request and its mapping to the core's options, the
+// calibration (fit) resource, compensation, and the accuracy evaluation in the paper's form.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/robots.h"
+#include "robocal/api/wire.h"
+#include "robocal/core/accuracy.h"
+#include "robocal/core/compensation.h"
+#include "robocal/core/identification.h"
+
+namespace robocal::api {
+
+/// POST /v1/campaigns/{c}:fit.
+struct FitRequest {
+  /// Parameter names to estimate (e.g. "joint2.dz"); empty: the identifiable set.
+  std::vector<std::string> parameters;
+  bool register_base = true;
+  int max_iterations = 100;
+  /// Run as a long-running operation.
+  bool async = false;
+};
+FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+void to_json(nlohmann::json& j, const FitRequest& request);
+void from_json(const nlohmann::json& j, FitRequest& request);
+/// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
+/// empty). Parameters named in the request become sorted, unique indices.
+IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model,
+                                              MeasurementType type, const NoiseWire& noise);
+
+/// One identified parameter: value and standard deviation in `unit` (mm or deg).
+struct ParameterEstimate {
+  std::string name;
+  std::string unit;
+  double value = 0.0;
+  double std = 0.0;
+};
+void to_json(nlohmann::json& j, const ParameterEstimate& p);
+void from_json(const nlohmann::json& j, ParameterEstimate& p);
+
+/// Residuals of the calibration measurements against a model (mm and degrees).
+struct Residuals {
+  int num_measurements = 0;
+  double rms_position_mm = 0.0;
+  double max_position_mm = 0.0;
+  double rms_orientation_deg = 0.0;
+  double max_orientation_deg = 0.0;
+  double rms_weighted = 0.0;
+};
+void to_json(nlohmann::json& j, const Residuals& r);
+void from_json(const nlohmann::json& j, Residuals& r);
+Residuals ToWire(const ResidualStatistics& stats);
+
+/// How the fit ended.
+struct FitSummary {
+  Termination termination = Termination::kFailure;
+  std::string message;
+  MeasurementType measurement_type = MeasurementType::kPose;
+  int num_measurements = 0;
+  int num_poses = 0;
+  int num_parameters = 0;
+  int iterations = 0;
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  double sigma_hat = 0.0;
+  double seconds = 0.0;
+  std::string brief;
+  /// A synchronous fit stopped at the server's request deadline (returned, not stored).
+  bool deadline_exceeded = false;
+};
+void to_json(nlohmann::json& j, const FitSummary& s);
+void from_json(const nlohmann::json& j, FitSummary& s);
+
+/// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
+struct CalibrationResult {
+  std::string campaign;
+  std::string robot;
+  MeasurementType measurement_type = MeasurementType::kPose;
+  std::int64_t created_unix_ms = 0;
+  /// False if the fit stopped at the request deadline or was cancelled: returned, not stored.
+  bool stored = false;
+  std::vector<ParameterEstimate> parameters;
+  std::vector<DroppedParameterWire> dropped;
+  /// Calibrated tracker -> robot base (the frame of compensation targets with frame "base").
+  PoseWire base;
+  /// Calibrated flange -> tool.
+  PoseWire tool;
+  /// The base registration the fit started from (without the identified base errors).
+  PoseWire registered_base;
+  Residuals residuals_before;
+  Residuals residuals_after;
+  double condition_number = 0.0;
+  std::string scaling;
+  FitSummary summary;
+};
+void to_json(nlohmann::json& j, const CalibrationResult& c);
+void from_json(const nlohmann::json& j, CalibrationResult& c);
+/// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
+CalibrationResult ToWire(const Calibration& calibration);
+
+/// One compensation target: nominal joints ("joints"), or a pose ("pose", with "frame" tracker | base and
+/// optional "start_joints" for the solver).
+struct CompensationTargetWire {
+  std::vector<double> joints;
+  std::optional<PoseWire> pose;
+  TargetFrame frame = TargetFrame::kTracker;
+  std::vector<double> start_joints;
+};
+void to_json(nlohmann::json& j, const CompensationTargetWire& target);
+void from_json(const nlohmann::json& j, CompensationTargetWire& target);
+
+/// POST /v1/campaigns/{c}:compensate.
+struct CompensateRequest {
+  std::vector<CompensationTargetWire> targets;
+};
+CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+void to_json(nlohmann::json& j, const CompensateRequest& request);
+void from_json(const nlohmann::json& j, CompensateRequest& request);
+
+/// One result of :compensate.
+struct Compensation {
+  /// The joints to command (deg / mm); empty if the solver produced none.
+  std::vector<double> joints;
+  double position_error_mm = 0.0;
+  double orientation_error_deg = 0.0;
+  /// Robots with fewer than 6 joints: the rotation about the tool axis left free; 0 otherwise.
+  double free_rotation_deg = 0.0;
+  bool converged = false;
+  /// CONVERGENCE (converged), DEGRADED (a joint held at its limit), NO_CONVERGENCE (stopped with the error
+  /// left in position_error_mm / orientation_error_deg; message says why), FAILURE (no usable joints).
+  Termination termination = Termination::kFailure;
+  int iterations = 0;
+  std::string message;
+};
+void to_json(nlohmann::json& j, const Compensation& c);
+void from_json(const nlohmann::json& j, Compensation& c);
+Compensation ToWire(const RobotModel& model, const CompensationResult& result);
+
+/// The reply of :compensate, one result per target in order.
+struct CompensateResult {
+  std::string campaign;
+  std::vector<Compensation> results;
+};
+void to_json(nlohmann::json& j, const CompensateResult& r);
+void from_json(const nlohmann::json& j, CompensateResult& r);
+
+/// POST /v1/campaigns/{c}:evaluate.
+struct EvaluateRequest {
+  /// E_tot = E_xyz + h E_cos (E_cos in rad), mm.
+  double h_mm = 30.0;
+};
+EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body);
+void to_json(nlohmann::json& j, const EvaluateRequest& request);
+void from_json(const nlohmann::json& j, EvaluateRequest& request);
+
+/// mean, std (N-1), max and RP = mean + 3 std of one error, in the unit its owner's name gives.
+struct Statistics {
+  int count = 0;
+  double mean = 0.0;
+  double std = 0.0;
+  double max = 0.0;
+  double rp = 0.0;
+};
+void to_json(nlohmann::json& j, const Statistics& s);
+void from_json(const nlohmann::json& j, Statistics& s);
+
+/// The paper's three errors: E_xyz (mm), E_cos (deg), E_tot = E_xyz + h E_cos[rad] (mm).
+struct Accuracy {
+  double h_mm = 0.0;
+  Statistics e_xyz_mm;
+  Statistics e_cos_deg;
+  Statistics e_tot_mm;
+};
+void to_json(nlohmann::json& j, const Accuracy& a);
+void from_json(const nlohmann::json& j, Accuracy& a);
+Accuracy ToWire(const AccuracyReport& report);
+AccuracyReport ToCore(const Accuracy& accuracy);
+
+/// Improvement of a calibrated model over the nominal one, in percent (NaN / null where undefined).
+struct Improvement {
+  double e_xyz_mean = 0.0;
+  double e_xyz_rp = 0.0;
+  double e_tot_mean = 0.0;
+  double e_tot_rp = 0.0;
+};
+void to_json(nlohmann::json& j, const Improvement& i);
+void from_json(const nlohmann::json& j, Improvement& i);
+/// The core's ComputeImprovement of the statistics the wire reports (NaN where undefined).
+Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after);
+
+/// The reply of :evaluate.
+struct Evaluation {
+  std::string campaign;
+  int num_validation = 0;
+  double h_mm = 0.0;
+  Accuracy nominal;
+  Accuracy calibrated;
+  Improvement improvement_percent;
+  /// Set for position campaigns (no orientation measured).
+  std::optional<std::string> note;
+};
+void to_json(nlohmann::json& j, const Evaluation& e);
+void from_json(const nlohmann::json& j, Evaluation& e);
+
+}  // namespace robocal::api

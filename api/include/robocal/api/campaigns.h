@@ -1,0 +1,120 @@
+// Wire shapes of campaigns and their measurements: creating a campaign, the campaign resource (one shape for
+// GET and for the items of the list), uploading a batch and its result, the stored measurements.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/wire.h"
+#include "robocal/core/robot_model.h"
+
+namespace robocal::api {
+
+/// POST /v1/campaigns.
+struct CreateCampaignRequest {
+  std::string id;  // optional: generated when empty
+  std::string description;
+  std::string robot;
+  /// Unset: the plan's measurement type when a plan is given, else pose.
+  std::optional<MeasurementType> measurement_type;
+  std::string plan;  // optional plan id (its robot and measurement type must match)
+  NoiseWire noise;
+};
+CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
+void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
+void from_json(const nlohmann::json& j, CreateCampaignRequest& request);
+
+/// Stored measurements per role.
+struct MeasurementCounts {
+  std::int64_t calibration = 0;
+  std::int64_t validation = 0;
+};
+void to_json(nlohmann::json& j, const MeasurementCounts& counts);
+void from_json(const nlohmann::json& j, MeasurementCounts& counts);
+
+/// GET /v1/campaigns/{c}, the reply of POST /v1/campaigns, and each item of GET /v1/campaigns.
+struct Campaign {
+  std::string id;
+  std::string description;
+  std::string robot;
+  MeasurementType measurement_type = MeasurementType::kPose;
+  /// The linked plan (null on the wire when none).
+  std::optional<std::string> plan;
+  NoiseWire noise;
+  std::int64_t created_unix_ms = 0;
+  MeasurementCounts counts;
+  /// Whether the campaign has a stored calibration (a fit that finished).
+  bool calibrated = false;
+};
+void to_json(nlohmann::json& j, const Campaign& campaign);
+void from_json(const nlohmann::json& j, Campaign& campaign);
+
+/// GET /v1/campaigns: campaigns in id order; next_page_token when there are more.
+struct CampaignList {
+  std::vector<Campaign> campaigns;
+  std::optional<std::string> next_page_token;
+};
+void to_json(nlohmann::json& j, const CampaignList& list);
+void from_json(const nlohmann::json& j, CampaignList& list);
+
+/// One tracker shot on the wire: {"joints":[...], "pose":{...}} (joints deg / mm, pose in the tracker frame).
+/// Also the stored form of a measurement.
+struct MeasurementWire {
+  std::vector<double> joints;
+  PoseWire pose;
+};
+void to_json(nlohmann::json& j, const MeasurementWire& measurement);
+void from_json(const nlohmann::json& j, MeasurementWire& measurement);
+
+/// POST /v1/campaigns/{c}/measurements.
+struct MeasurementBatchRequest {
+  std::string request_id;
+  MeasurementRole role = MeasurementRole::kCalibration;
+  std::vector<MeasurementWire> measurements;
+};
+/// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
+/// position.
+MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
+                                                     MeasurementType type, const Limits& limits);
+void to_json(nlohmann::json& j, const MeasurementBatchRequest& request);
+void from_json(const nlohmann::json& j, MeasurementBatchRequest& request);
+
+/// The reply of POST /v1/campaigns/{c}/measurements.
+struct BatchResult {
+  std::string campaign;
+  std::string batch_id;
+  std::string request_id;
+  /// True if the server had this request_id with the same content already (nothing was written twice).
+  bool replayed = false;
+  std::int64_t first_sequence = 0;
+  std::int64_t count = 0;
+  std::int64_t campaign_total = 0;
+};
+void to_json(nlohmann::json& j, const BatchResult& result);
+void from_json(const nlohmann::json& j, BatchResult& result);
+
+/// One stored measurement of GET /v1/campaigns/{c}/measurements.
+struct StoredMeasurementWire {
+  std::int64_t sequence = 0;
+  std::string batch_id;
+  MeasurementRole role = MeasurementRole::kCalibration;
+  MeasurementWire measurement;  // "joints" and "pose" beside the fields above
+};
+void to_json(nlohmann::json& j, const StoredMeasurementWire& measurement);
+void from_json(const nlohmann::json& j, StoredMeasurementWire& measurement);
+
+/// GET /v1/campaigns/{c}/measurements: one page; next_after (the sequence to continue after) when there may be
+/// more.
+struct MeasurementList {
+  std::string campaign;
+  std::vector<StoredMeasurementWire> measurements;
+  std::optional<std::int64_t> next_after;
+};
+void to_json(nlohmann::json& j, const MeasurementList& list);
+void from_json(const nlohmann::json& j, MeasurementList& list);
+
+}  // namespace robocal::api

@@ -1,0 +1,132 @@
+// Wire shapes of plans: the plan request and its mapping to the core's optimiser options, and the plan resource
+// (configurations, observability indices, predicted accuracy, the random baseline, the search's summary).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/wire.h"
+#include "robocal/core/planning.h"
+
+namespace robocal::api {
+
+/// POST /v1/plans.
+struct PlanRequest {
+  std::string robot;
+  int num_configurations = 10;
+  MeasurementType measurement_type = MeasurementType::kPose;
+  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
+  Optimiser optimiser = Optimiser::kSolisWets;
+  ColumnScaling scaling = ColumnScaling::kColumnNorm;
+  NoiseWire noise;
+  std::uint64_t seed = 1;
+  /// Optimiser options ("options" object); unset ones keep the core's defaults (the paper's for solis_wets).
+  int k_max = 100, restarts = 0;                                 // solis_wets
+  double step_fraction = 0.1;                                    // solis_wets
+  int max_evaluations = 0;                                       // solis_wets, exchange (0: no cap)
+  int num_sets = 1;                                              // random
+  int num_candidates = 2000, screen = 16, max_iterations = 200;  // exchange
+  /// Random validation configurations for the predicted accuracy.
+  int num_validation = 100;
+  /// Run as a long-running operation.
+  bool async = false;
+};
+/// Validates a request; also refuses one whose work (MaxWork) exceeds the limits, naming the fields that set it.
+PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits);
+void to_json(nlohmann::json& j, const PlanRequest& request);
+/// Structural reading (the request as echoed in a plan or operation).
+void from_json(const nlohmann::json& j, PlanRequest& request);
+
+/// The core options of the request's optimiser, objective and seed included (progress left empty). One mapping
+/// for every optimiser; the values were validated by ParsePlanRequest.
+SolisWetsOptions ToSolisWetsOptions(const PlanRequest& request);
+RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& request);
+ExchangeOptions ToExchangeOptions(const PlanRequest& request);
+/// The observability options of the request (measurement type, noise, scaling); parameters left empty.
+ObservabilityOptions ToObservabilityOptions(const PlanRequest& request);
+/// The most work the request can cause: its optimiser's (MaxPlanWork), and the Jacobians of the predicted
+/// accuracy of the plan and of its random baseline (2 x num_validation).
+PlanWork MaxWork(const PlanRequest& request);
+
+/// Observability indices of a configuration set (non-finite values are null on the wire, NaN here).
+struct Indices {
+  int num_configurations = 0;
+  int num_parameters = 0;
+  double condition_number = 0.0;
+  double o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
+  double log_det = 0.0;
+  std::vector<double> singular_values;
+  std::string scaling;
+};
+void to_json(nlohmann::json& j, const Indices& indices);
+void from_json(const nlohmann::json& j, Indices& indices);
+Indices ToWire(const ObservabilityIndices& indices);
+
+/// Predicted accuracy on random validation configurations; rms_orientation_deg is NaN (null) for position-only
+/// measurements.
+struct PredictedAccuracyWire {
+  int num_validation = 0;
+  double rms_position_mm = 0.0;
+  double max_position_mm = 0.0;
+  double rms_orientation_deg = 0.0;
+};
+void to_json(nlohmann::json& j, const PredictedAccuracyWire& accuracy);
+void from_json(const nlohmann::json& j, PredictedAccuracyWire& accuracy);
+PredictedAccuracyWire ToWire(const PredictedAccuracy& accuracy);
+
+/// How the search ended.
+struct PlanSummaryWire {
+  Termination termination = Termination::kFailure;
+  std::string message;
+  std::string method;
+  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
+  int iterations = 0;
+  std::int64_t evaluations = 0;
+  double seconds = 0.0;
+  /// The indices of the starting set.
+  Indices initial;
+  std::string brief;
+  /// A synchronous plan stopped at the server's request deadline (termination NO_CONVERGENCE, best set so far).
+  bool deadline_exceeded = false;
+};
+void to_json(nlohmann::json& j, const PlanSummaryWire& summary);
+void from_json(const nlohmann::json& j, PlanSummaryWire& summary);
+PlanSummaryWire ToWire(const PlanSummary& summary);
+
+/// The paper's baseline: a random set of the same size.
+struct PlanBaseline {
+  std::vector<std::vector<double>> configurations;
+  Indices indices;
+  PredictedAccuracyWire predicted_accuracy;
+};
+void to_json(nlohmann::json& j, const PlanBaseline& baseline);
+void from_json(const nlohmann::json& j, PlanBaseline& baseline);
+
+/// POST /v1/plans (synchronous) and GET /v1/plans/{plan}.
+struct PlanResult {
+  std::string id;
+  std::string robot;
+  PlanRequest request;
+  MeasurementType measurement_type = MeasurementType::kPose;
+  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
+  Optimiser optimiser = Optimiser::kSolisWets;
+  /// Per joint "deg" or "mm".
+  std::vector<std::string> joint_units;
+  /// M configurations, each a joint vector in joint_units.
+  std::vector<std::vector<double>> configurations;
+  Indices indices;
+  PlanBaseline baseline;
+  std::vector<std::string> identifiable_parameters;
+  std::vector<DroppedParameterWire> dropped_parameters;
+  PredictedAccuracyWire predicted_accuracy;
+  PlanSummaryWire summary;
+  std::int64_t created_unix_ms = 0;
+};
+void to_json(nlohmann::json& j, const PlanResult& plan);
+void from_json(const nlohmann::json& j, PlanResult& plan);
+
+}  // namespace robocal::api

@@ -1,0 +1,117 @@
+// Wire shapes of the robot resources: registering a robot, the robot resource and its list, forward kinematics
+// (of a robot or of a calibrated campaign), and joint vectors between wire units (deg / mm) and the core's.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/wire.h"
+#include "robocal/core/robot_model.h"
+
+namespace robocal::api {
+
+/// One joint of a robot definition. Angles in degrees, lengths in mm. Limits are in the joint's unit:
+/// "min_deg"/"max_deg" for a revolute joint, "min_mm"/"max_mm" for a prismatic one. The geometry is the
+/// convention's: a dh / mdh row (mdh: alpha and a of the previous link, as in Craig's table), or for
+/// "transform" the fixed transform from the previous joint frame (xyz_mm, rpy_deg).
+struct JointWire {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  double a_mm = 0.0, alpha_deg = 0.0, d_mm = 0.0, theta_deg = 0.0;
+  std::array<double, 3> xyz_mm{0.0, 0.0, 0.0};
+  std::array<double, 3> rpy_deg{0.0, 0.0, 0.0};
+  double min = 0.0, max = 0.0;
+};
+
+/// POST /v1/robots, and the definition stored for a robot (and copied into each campaign). Either a full table
+/// (convention + joints) or `from_preset` (a preset's geometry, with base / tool optionally replaced).
+struct RegisterRobotRequest {
+  std::string id;
+  std::string description;
+  std::string from_preset;
+  GeometryConvention convention = GeometryConvention::kStandardDh;
+  std::vector<JointWire> joints;
+  std::optional<PoseWire> base;  // tracker (world) -> robot base
+  std::optional<PoseWire> tool;  // flange -> tool (measured point, z = tool axis)
+};
+/// Validates a request body (every problem with its field; the geometry through the core).
+RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
+/// The definition as a request body (joints written in the convention's fields only).
+void to_json(nlohmann::json& j, const RegisterRobotRequest& request);
+/// Structural reading of a definition (no range checks: stored definitions stay readable when request
+/// validation tightens).
+void from_json(const nlohmann::json& j, RegisterRobotRequest& request);
+/// The core spec of a definition.
+RobotModelSpec ToSpec(const RegisterRobotRequest& request);
+/// The model of a definition (throws ApiError kInvalidArgument naming the fields the core rejects).
+RobotModel BuildModel(const RegisterRobotRequest& request);
+
+/// One joint of the robot resource: the definition's fields (all geometry fields of the convention) plus its
+/// unit ("deg" or "mm", the unit of its limits and of joint values on the wire).
+struct RobotJoint {
+  JointWire joint;
+  std::string unit;
+};
+
+/// GET /v1/robots/{robot} (and the reply of POST /v1/robots).
+struct Robot {
+  std::string id;
+  bool preset = false;
+  std::string description;
+  GeometryConvention convention = GeometryConvention::kStandardDh;
+  int num_joints = 0;
+  std::vector<RobotJoint> joints;
+  PoseWire base;  // tracker (world) -> robot base
+  PoseWire tool;  // flange -> tool
+  std::vector<std::string> error_parameters;
+};
+void to_json(nlohmann::json& j, const Robot& robot);
+void from_json(const nlohmann::json& j, Robot& robot);
+/// The resource of a model.
+Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset, const std::string& description);
+
+/// GET /v1/robots: presets first, then registered robots in id order; next_page_token when there are more.
+struct RobotList {
+  std::vector<Robot> robots;
+  std::optional<std::string> next_page_token;
+};
+void to_json(nlohmann::json& j, const RobotList& list);
+void from_json(const nlohmann::json& j, RobotList& list);
+
+/// POST /v1/robots/{robot}:forward and /v1/campaigns/{c}:forward: {"joints": [[...], ...]} (deg / mm per joint).
+struct ForwardRequest {
+  std::vector<std::vector<double>> joints;
+};
+/// Validates sizes and joint limits against `model`.
+ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+void to_json(nlohmann::json& j, const ForwardRequest& request);
+void from_json(const nlohmann::json& j, ForwardRequest& request);
+
+/// The reply of both forward calls: a robot's nominal poses (robot set, frame "world (nominal base)") or a
+/// calibrated campaign's (campaign set, frame "tracker").
+struct ForwardResult {
+  std::optional<std::string> robot;
+  std::optional<std::string> campaign;
+  std::string frame;
+  std::vector<PoseWire> poses;
+};
+void to_json(nlohmann::json& j, const ForwardResult& result);
+void from_json(const nlohmann::json& j, ForwardResult& result);
+
+/// Joint values between the wire (deg / mm) and the core (rad / mm). Sizes must match the model.
+Eigen::VectorXd JointsToCore(const RobotModel& model, const std::vector<double>& wire);
+std::vector<double> JointsToWire(const RobotModel& model, const Eigen::VectorXd& q);
+/// "deg" or "mm": the wire unit of joint `joint`.
+const char* JointUnit(const RobotModel& model, int joint);
+
+/// Checks a wire joint vector against the model (size, limits) and records violations at `path`.
+bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const std::string& path,
+                 Problems* problems);
+/// Reads a joint vector of a request at `path` (numbers, then CheckJoints).
+bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model,
+                     Problems* problems, std::vector<double>* out);
+
+}  // namespace robocal::api

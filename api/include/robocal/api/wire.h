@@ -1,0 +1,360 @@
+// The building blocks every wire shape of the robocal HTTP API (v1) is made of: strict reading of responses and
+// stored documents (WireReader), one name table per enum, numbers that may be null, poses, identifiers, the
+// server's size limits. Wire units are mm and degrees; names carry their unit where a reader could guess wrong.
+//
+// Each resource family has its own header (robots.h, plans.h, campaigns.h, calibration.h, operations.h,
+// error.h, health.h) with, per shape, one struct and its to_json / from_json (found by nlohmann::json through
+// argument-dependent lookup, so `nlohmann::json(x)` and `j.get<T>()` work). Requests also have a validating
+// parser (`Parse*Request`) that collects every problem with its field; from_json is the strict structural
+// reader of what a server or a stored document wrote: a missing required field is an error naming it.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/error.h"
+#include "robocal/core/compensation.h"
+#include "robocal/core/error_model.h"
+#include "robocal/core/observability.h"
+#include "robocal/core/robot_model.h"
+#include "robocal/core/termination.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal::api {
+
+// ------------------------------------------------------------------------------------------------ enums
+
+/// The API's own enum-like fields (the core has no such enums).
+enum class Optimiser { kSolisWets, kRandom, kExchange };
+enum class MeasurementRole { kCalibration, kValidation };
+enum class OperationKind { kPlan, kFit };
+enum class OperationState { kRunning, kSucceeded, kFailed, kCancelled };
+
+/// The wire names of an enum: one table per enum, specialised below. Core enums take their names from the
+/// core's ToString, so that the wire and the core's reports agree.
+template <typename E>
+struct EnumTable;
+
+#define ROBOCAL_API_ENUM_TABLE(E, ...)                               \
+  template <>                                                        \
+  struct EnumTable<E> {                                              \
+    static constexpr auto values = std::to_array<E>({__VA_ARGS__}); \
+    static const char* Name(E value);                                \
+  }
+ROBOCAL_API_ENUM_TABLE(MeasurementType, MeasurementType::kPosition, MeasurementType::kPositionAxis,
+                       MeasurementType::kPose);
+ROBOCAL_API_ENUM_TABLE(Termination, Termination::kConvergence, Termination::kNoConvergence, Termination::kDegraded,
+                       Termination::kFailure);
+ROBOCAL_API_ENUM_TABLE(JointType, JointType::kRevolute, JointType::kPrismatic);
+ROBOCAL_API_ENUM_TABLE(GeometryConvention, GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh,
+                       GeometryConvention::kTransform);
+ROBOCAL_API_ENUM_TABLE(TargetFrame, TargetFrame::kTracker, TargetFrame::kBase);
+ROBOCAL_API_ENUM_TABLE(ColumnScaling, ColumnScaling::kColumnNorm, ColumnScaling::kExpectedDeviation,
+                       ColumnScaling::kNone);
+ROBOCAL_API_ENUM_TABLE(ObservabilityIndex, ObservabilityIndex::kConditionNumber, ObservabilityIndex::kO1,
+                       ObservabilityIndex::kO2, ObservabilityIndex::kO3, ObservabilityIndex::kO4,
+                       ObservabilityIndex::kO5, ObservabilityIndex::kLogDet);
+ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Optimiser::kExchange);
+ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
+ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
+ROBOCAL_API_ENUM_TABLE(OperationState, OperationState::kRunning, OperationState::kSucceeded, OperationState::kFailed,
+                       OperationState::kCancelled);
+ROBOCAL_API_ENUM_TABLE(Status, Status::kInvalidArgument, Status::kFailedPrecondition, Status::kNotFound,
+                       Status::kAlreadyExists, Status::kUnauthenticated, Status::kPermissionDenied,
+                       Status::kResourceExhausted, Status::kInternal, Status::kUnavailable, Status::kDeadlineExceeded);
+#undef ROBOCAL_API_ENUM_TABLE
+
+template <typename E, typename = void>
+inline constexpr bool kIsWireEnum = false;
+template <typename E>
+inline constexpr bool kIsWireEnum<E, std::void_t<decltype(EnumTable<E>::values)>> = true;
+
+/// The wire name of `value`.
+template <typename E>
+const char* WireName(E value) {
+  return EnumTable<E>::Name(value);
+}
+/// Every wire name of E, in table order (for ObjectReader::Enum and error messages).
+template <typename E>
+std::vector<std::string> WireNames() {
+  std::vector<std::string> names;
+  for (E v : EnumTable<E>::values) names.emplace_back(EnumTable<E>::Name(v));
+  return names;
+}
+/// The value named `text`; false if there is none.
+template <typename E>
+bool FromWireName(const std::string& text, E* out) {
+  for (E v : EnumTable<E>::values) {
+    if (text == EnumTable<E>::Name(v)) {
+      *out = v;
+      return true;
+    }
+  }
+  return false;
+}
+
+// ------------------------------------------------------------------------------------------------ reading
+
+/// A response or stored document that does not have the shape its type requires: `path` names the member
+/// ("summary.termination", "joints[2].min_deg"), `reason` what is wrong with it.
+class WireError : public std::runtime_error {
+ public:
+  WireError(std::string path, std::string reason);
+  const std::string& path() const { return path_; }
+  const std::string& reason() const { return reason_; }
+
+ private:
+  std::string path_;
+  std::string reason_;
+};
+
+/// "a" + "b" -> "a.b"; "a" + "[2].c" -> "a[2].c"; "" + "b" -> "b".
+std::string WirePath(const std::string& path, const std::string& member);
+
+/// Reads `value` at `path` into *out: numbers (null is NaN: non-finite numbers are written as null), integers
+/// (no fraction, within the type's range), strings, booleans, wire enums, vectors, fixed arrays, optionals (null
+/// or absent is nullopt) and every type with a from_json. Throws WireError naming the path.
+template <typename T>
+void ReadWire(const nlohmann::json& value, const std::string& path, T* out);
+
+/// Reads the members of one object of a response or stored document. Members it does not ask for are ignored
+/// (a newer server may add fields); asked-for members must have their type.
+class WireReader {
+ public:
+  /// Throws WireError if `value` is not an object.
+  WireReader(const nlohmann::json& value, std::string path = "");
+  /// The member `key`; WireError "required" if absent.
+  template <typename T>
+  void Required(const char* key, T* out) const {
+    ReadWire(Member(key), WirePath(path_, key), out);
+  }
+  /// The member `key` if present (and not null); false otherwise, *out untouched.
+  template <typename T>
+  bool Optional(const char* key, T* out) const {
+    const auto it = object_->find(key);
+    if (it == object_->end() || it->is_null()) return false;
+    ReadWire(*it, WirePath(path_, key), out);
+    return true;
+  }
+  bool Has(const char* key) const { return object_->contains(key); }
+  const nlohmann::json& Member(const char* key) const;
+  const std::string& path() const { return path_; }
+
+ private:
+  const nlohmann::json* object_;
+  std::string path_;
+};
+
+namespace detail {
+template <typename T>
+struct IsVector : std::false_type {};
+template <typename T>
+struct IsVector<std::vector<T>> : std::true_type {};
+template <typename T>
+struct IsOptional : std::false_type {};
+template <typename T>
+struct IsOptional<std::optional<T>> : std::true_type {};
+template <typename T>
+struct IsArray : std::false_type {};
+template <typename T, std::size_t N>
+struct IsArray<std::array<T, N>> : std::true_type {};
+[[noreturn]] void ThrowWire(const std::string& path, const std::string& reason);
+std::string IndexPathOf(const std::string& path, std::size_t index);
+}  // namespace detail
+
+template <typename T>
+void ReadWire(const nlohmann::json& value, const std::string& path, T* out) {
+  if constexpr (std::is_same_v<T, double>) {
+    if (value.is_null()) {
+      *out = std::numeric_limits<double>::quiet_NaN();
+    } else if (value.is_number()) {
+      *out = value.get<double>();
+    } else {
+      detail::ThrowWire(path, "expected a number");
+    }
+  } else if constexpr (std::is_same_v<T, bool>) {
+    if (!value.is_boolean()) detail::ThrowWire(path, "expected true or false");
+    *out = value.get<bool>();
+  } else if constexpr (std::is_integral_v<T>) {
+    if (!value.is_number_integer()) detail::ThrowWire(path, "expected an integer");
+    if (value.is_number_unsigned()) {
+      const auto v = value.get<std::uint64_t>();
+      if (v > static_cast<std::uint64_t>(std::numeric_limits<T>::max())) detail::ThrowWire(path, "out of range");
+      *out = static_cast<T>(v);
+    } else {
+      const auto v = value.get<std::int64_t>();
+      if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
+          (v > 0 && static_cast<std::uint64_t>(v) > static_cast<std::uint64_t>(std::numeric_limits<T>::max()))) {
+        detail::ThrowWire(path, "out of range");
+      }
+      *out = static_cast<T>(v);
+    }
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    if (!value.is_string()) detail::ThrowWire(path, "expected a string");
+    *out = value.get<std::string>();
+  } else if constexpr (kIsWireEnum<T>) {
+    if (!value.is_string()) detail::ThrowWire(path, "expected a string");
+    if (!FromWireName(value.get<std::string>(), out)) {
+      std::string names;
+      for (const std::string& n : WireNames<T>()) names += (names.empty() ? "" : ", ") + n;
+      detail::ThrowWire(path, "unknown value \"" + value.get<std::string>() + "\" (expected one of " + names + ")");
+    }
+  } else if constexpr (detail::IsOptional<T>::value) {
+    if (value.is_null()) {
+      out->reset();
+    } else {
+      typename T::value_type v{};
+      ReadWire(value, path, &v);
+      *out = std::move(v);
+    }
+  } else if constexpr (detail::IsVector<T>::value) {
+    if (!value.is_array()) detail::ThrowWire(path, "expected an array");
+    T list(value.size());
+    for (std::size_t i = 0; i < value.size(); ++i) ReadWire(value[i], detail::IndexPathOf(path, i), &list[i]);
+    *out = std::move(list);
+  } else if constexpr (detail::IsArray<T>::value) {
+    if (!value.is_array() || value.size() != std::tuple_size_v<T>) {
+      detail::ThrowWire(path, "expected an array of " + std::to_string(std::tuple_size_v<T>) + " values");
+    }
+    for (std::size_t i = 0; i < value.size(); ++i) ReadWire(value[i], detail::IndexPathOf(path, i), &(*out)[i]);
+  } else if constexpr (std::is_same_v<T, nlohmann::json>) {
+    *out = value;
+  } else {
+    // A struct: its from_json reports paths relative to `value`.
+    try {
+      from_json(value, *out);
+    } catch (const WireError& e) {
+      throw WireError(WirePath(path, e.path()), e.reason());
+    }
+  }
+}
+
+/// Reads a whole document of type T (a response body or a stored document).
+template <typename T>
+T FromWire(const nlohmann::json& value) {
+  T out{};
+  ReadWire(value, "", &out);
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------------ writing
+
+/// A number, or null if not finite (JSON has no Inf or NaN: an infinite condition number is written as null).
+nlohmann::json Num(double value);
+nlohmann::json Nums(const std::vector<double>& values);
+
+}  // namespace robocal::api
+
+// Wire enums serialise as their names wherever nlohmann::json meets them (reading goes through ReadWire, which
+// names the path of an unknown value).
+namespace nlohmann {
+template <typename E>
+struct adl_serializer<E, std::enable_if_t<robocal::api::kIsWireEnum<E>>> {
+  static void to_json(json& j, E value) { j = robocal::api::WireName(value); }
+  static void from_json(const json& j, E& value) { robocal::api::ReadWire(j, "", &value); }
+};
+}  // namespace nlohmann
+
+namespace robocal::api {
+
+// ------------------------------------------------------------------------------------------------ common
+
+/// Size and work limits applied while parsing, to each request's total before any work starts. The server
+/// fills them from its configuration; each bounds what its comment says.
+struct Limits {
+  /// Joint vectors / targets / measurements in one request.
+  std::size_t max_array_length = 10000;
+  /// Configurations of one plan (M).
+  int max_plan_configurations = 1000;
+  /// Objective evaluations of one plan at most (PlanWork::evaluations: all restarts, and the exchange
+  /// optimiser's screening of candidates).
+  std::int64_t max_plan_evaluations = 1000000;
+  /// Identification Jacobians of single configurations one plan computes at most (PlanWork::jacobians plus the
+  /// predicted accuracy's 2 x num_validation): the time of M x evaluations.
+  std::int64_t max_plan_jacobians = 10000000;
+  /// The exchange optimiser's candidate pool (its memory: rows x L + joints doubles per candidate, at most
+  /// 2.7 kB for 12 joints).
+  int max_plan_candidates = 20000;
+  /// Entries of a fit's Jacobian, rows per measurement x calibration measurements x parameters (the fit holds
+  /// a few copies of it, 8 bytes an entry).
+  std::int64_t max_fit_jacobian_entries = 2000000;
+};
+
+/// The reason given for a request value over one of the limits above: names the limit, so that a caller knows
+/// what bounds the request and an operator what to raise. E.g. "16200000 Jacobian entries (...) exceed the
+/// server's limit max_fit_jacobian_entries = 2000000".
+std::string OverLimit(std::int64_t value, const std::string& what, const std::string& limit_name, std::int64_t limit);
+
+/// Identifiers of robots, plans, campaigns, operations: [a-z0-9][a-z0-9_.-]{0,63}, so that they never
+/// collide with the ':' of custom methods or with path separators.
+bool IsValidId(const std::string& id);
+/// The reason given for an identifier IsValidId refuses.
+inline constexpr const char* kIdRule = "must match [a-z0-9][a-z0-9_.-]{0,63}";
+
+/// The content hash that makes measurement uploads idempotent: 16 hex digits of the 64-bit FNV-1a hash of
+/// `text`. Client (a request_id derived from a batch) and server (a batch's content) share it so that both
+/// agree on what "the same batch" means.
+std::string ContentHash(const std::string& text);
+
+/// A pose in the wire form {"position_mm":[x,y,z],"quaternion":[w,x,y,z]}. As request input, "rpy_deg":[r,p,y]
+/// (fixed-axis x-y-z, R = Rz(y) Ry(p) Rx(r)) may stand instead of "quaternion"; the quaternion is normalised
+/// (and rejected if its norm is far from 1). Orientation may be omitted only where the context allows it
+/// (position measurements); it is then the identity and has_orientation is false. Responses write poses with
+/// rpy_deg beside the quaternion (PoseResultJson), for people reading them.
+struct PoseWire {
+  std::array<double, 3> position_mm{0.0, 0.0, 0.0};
+  std::array<double, 4> quaternion{1.0, 0.0, 0.0, 0.0};
+  bool has_orientation = true;
+};
+/// Validates a request pose at `path`; false (with problems recorded) if invalid.
+bool ParsePose(const nlohmann::json& value, const std::string& path, bool orientation_required,
+               Problems* problems, PoseWire* out);
+/// {"position_mm", "quaternion"} (the quaternion left out without orientation): requests and stored documents.
+void to_json(nlohmann::json& j, const PoseWire& pose);
+/// position_mm required; quaternion optional (absent: has_orientation false); rpy_deg ignored (derived).
+void from_json(const nlohmann::json& j, PoseWire& pose);
+/// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
+nlohmann::json PoseResultJson(const PoseWire& pose);
+/// Reads a pose of a response (as PoseResultJson writes it: the quaternion required, rpy_deg derived): the
+/// object `pose`, or the member `key` of `parent`.
+void ReadResultPose(const WireReader& pose, PoseWire* out);
+void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out);
+Transform PoseToTransform(const PoseWire& pose);
+/// One sign per rotation (w >= 0), so that equal poses serialise equally.
+PoseWire TransformToPose(const Transform& pose);
+
+/// {"name", "reason"}: a parameter left out of a fit or plan, and why.
+struct DroppedParameterWire {
+  std::string name;
+  std::string reason;
+};
+void to_json(nlohmann::json& j, const DroppedParameterWire& d);
+void from_json(const nlohmann::json& j, DroppedParameterWire& d);
+std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dropped);
+
+/// Tracker noise on the wire (1-sigma): position per axis (mm) and orientation (deg).
+struct NoiseWire {
+  double position_mm = 0.015;
+  double orientation_deg = 0.0057295779513082;  // 1e-4 rad
+};
+void to_json(nlohmann::json& j, const NoiseWire& noise);
+void from_json(const nlohmann::json& j, NoiseWire& noise);
+/// Validates an optional request member "noise" (nullptr: absent, *out keeps its default).
+void ParseNoise(const nlohmann::json* value, const std::string& path, Problems* problems, NoiseWire* out);
+MeasurementNoise ToCore(const NoiseWire& noise);
+
+/// Degrees per radian and back, for the conversions between core (rad) and wire (deg).
+inline constexpr double kDegPerRad = 57.295779513082320876798154814105;
+inline constexpr double kRadPerDeg = 0.017453292519943295769236907684886;
+
+}  // namespace robocal::api

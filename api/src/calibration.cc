@@ -1,0 +1,416 @@
+// Calibration, compensation and evaluation on the wire.
+#include "robocal/api/calibration.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "robocal/api/json_reader.h"
+
+namespace robocal::api {
+
+// ---------------------------------------------------------------------------------------------- fit
+
+FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits&) {
+  Problems problems;
+  FitRequest req;
+  ObjectReader r(body, "", &problems);
+  if (const nlohmann::json* a = r.Array("parameters", false, 0, model.parameter_names().size())) {
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const nlohmann::json& v = (*a)[i];
+      if (!v.is_string()) {
+        problems.Add(IndexPath("parameters", i), "expected a parameter name");
+      } else if (model.ParameterIndex(v.get<std::string>()) < 0) {
+        problems.Add(IndexPath("parameters", i), "unknown parameter \"" + v.get<std::string>() +
+                                                     "\" (e.g. joint2.dz, base.rx, tool.dx)");
+      } else {
+        req.parameters.push_back(v.get<std::string>());
+      }
+    }
+  }
+  r.Bool("register_base", false, &req.register_base);
+  r.Int("max_iterations", false, &req.max_iterations, 1, 1000);
+  r.Bool("async", false, &req.async);
+  r.RejectUnknown({"parameters", "register_base", "max_iterations", "async"});
+  problems.ThrowIfAny("invalid fit request");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const FitRequest& req) {
+  j = {{"parameters", req.parameters},
+       {"register_base", req.register_base},
+       {"max_iterations", req.max_iterations},
+       {"async", req.async}};
+}
+
+void from_json(const nlohmann::json& j, FitRequest& req) {
+  const WireReader r(j);
+  r.Required("parameters", &req.parameters);
+  r.Required("register_base", &req.register_base);
+  r.Required("max_iterations", &req.max_iterations);
+  r.Required("async", &req.async);
+}
+
+IdentificationOptions ToIdentificationOptions(const FitRequest& req, const RobotModel& model, MeasurementType type,
+                                              const NoiseWire& noise) {
+  IdentificationOptions options;
+  options.measurement_type = type;
+  options.noise = ToCore(noise);
+  options.identifiability.noise = options.noise;
+  for (const std::string& name : req.parameters) options.parameters.push_back(model.ParameterIndex(name));
+  std::sort(options.parameters.begin(), options.parameters.end());
+  options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()),
+                           options.parameters.end());
+  options.register_base = req.register_base;
+  options.max_iterations = req.max_iterations;
+  return options;
+}
+
+void to_json(nlohmann::json& j, const ParameterEstimate& p) {
+  j = {{"name", p.name}, {"unit", p.unit}, {"value", Num(p.value)}, {"std", Num(p.std)}};
+}
+
+void from_json(const nlohmann::json& j, ParameterEstimate& p) {
+  const WireReader r(j);
+  r.Required("name", &p.name);
+  r.Required("unit", &p.unit);
+  r.Required("value", &p.value);
+  r.Required("std", &p.std);
+}
+
+void to_json(nlohmann::json& j, const Residuals& s) {
+  j = {{"num_measurements", s.num_measurements},
+       {"rms_position_mm", Num(s.rms_position_mm)},
+       {"max_position_mm", Num(s.max_position_mm)},
+       {"rms_orientation_deg", Num(s.rms_orientation_deg)},
+       {"max_orientation_deg", Num(s.max_orientation_deg)},
+       {"rms_weighted", Num(s.rms_weighted)}};
+}
+
+void from_json(const nlohmann::json& j, Residuals& s) {
+  const WireReader r(j);
+  r.Required("num_measurements", &s.num_measurements);
+  r.Required("rms_position_mm", &s.rms_position_mm);
+  r.Required("max_position_mm", &s.max_position_mm);
+  r.Required("rms_orientation_deg", &s.rms_orientation_deg);
+  r.Required("max_orientation_deg", &s.max_orientation_deg);
+  r.Required("rms_weighted", &s.rms_weighted);
+}
+
+Residuals ToWire(const ResidualStatistics& s) {
+  return {s.num_measurements,
+          s.rms_position_mm,
+          s.max_position_mm,
+          s.rms_orientation_rad * kDegPerRad,
+          s.max_orientation_rad * kDegPerRad,
+          s.rms_weighted};
+}
+
+void to_json(nlohmann::json& j, const FitSummary& s) {
+  j = {{"termination", s.termination},
+       {"message", s.message},
+       {"measurement_type", s.measurement_type},
+       {"num_measurements", s.num_measurements},
+       {"num_poses", s.num_poses},
+       {"num_parameters", s.num_parameters},
+       {"iterations", s.iterations},
+       {"initial_cost", Num(s.initial_cost)},
+       {"final_cost", Num(s.final_cost)},
+       {"sigma_hat", Num(s.sigma_hat)},
+       {"seconds", Num(s.seconds)},
+       {"brief", s.brief},
+       {"deadline_exceeded", s.deadline_exceeded}};
+}
+
+void from_json(const nlohmann::json& j, FitSummary& s) {
+  const WireReader r(j);
+  r.Required("termination", &s.termination);
+  r.Required("message", &s.message);
+  r.Required("measurement_type", &s.measurement_type);
+  r.Required("num_measurements", &s.num_measurements);
+  r.Required("num_poses", &s.num_poses);
+  r.Required("num_parameters", &s.num_parameters);
+  r.Required("iterations", &s.iterations);
+  r.Required("initial_cost", &s.initial_cost);
+  r.Required("final_cost", &s.final_cost);
+  r.Required("sigma_hat", &s.sigma_hat);
+  r.Required("seconds", &s.seconds);
+  r.Required("brief", &s.brief);
+  r.Required("deadline_exceeded", &s.deadline_exceeded);
+}
+
+void to_json(nlohmann::json& j, const CalibrationResult& c) {
+  j = {{"campaign", c.campaign},
+       {"robot", c.robot},
+       {"measurement_type", c.measurement_type},
+       {"created_unix_ms", c.created_unix_ms},
+       {"stored", c.stored},
+       {"parameters", c.parameters},
+       {"dropped", c.dropped},
+       {"base", PoseResultJson(c.base)},
+       {"tool", PoseResultJson(c.tool)},
+       {"registered_base", PoseResultJson(c.registered_base)},
+       {"residuals_before", c.residuals_before},
+       {"residuals_after", c.residuals_after},
+       {"condition_number", Num(c.condition_number)},
+       {"scaling", c.scaling},
+       {"summary", c.summary}};
+}
+
+void from_json(const nlohmann::json& j, CalibrationResult& c) {
+  const WireReader r(j);
+  r.Required("campaign", &c.campaign);
+  r.Required("robot", &c.robot);
+  r.Required("measurement_type", &c.measurement_type);
+  r.Required("created_unix_ms", &c.created_unix_ms);
+  r.Required("stored", &c.stored);
+  r.Required("parameters", &c.parameters);
+  r.Required("dropped", &c.dropped);
+  ReadResultPose(r, "base", &c.base);
+  ReadResultPose(r, "tool", &c.tool);
+  ReadResultPose(r, "registered_base", &c.registered_base);
+  r.Required("residuals_before", &c.residuals_before);
+  r.Required("residuals_after", &c.residuals_after);
+  r.Required("condition_number", &c.condition_number);
+  r.Required("scaling", &c.scaling);
+  r.Required("summary", &c.summary);
+}
+
+CalibrationResult ToWire(const Calibration& c) {
+  CalibrationResult w;
+  for (const IdentifiedParameter& p : c.parameters) {
+    const bool translation = RobotModel::IsTranslationParameter(p.index);
+    const double scale = translation ? 1.0 : kDegPerRad;
+    w.parameters.push_back({p.name, translation ? "mm" : "deg", p.value * scale, p.std * scale});
+  }
+  const IdentificationSummary& s = c.summary;
+  w.measurement_type = s.measurement_type;
+  w.dropped = ToWire(s.dropped);
+  w.base = TransformToPose(c.T_world_base);
+  w.tool = TransformToPose(c.T_flange_tool);
+  w.registered_base = TransformToPose(c.model.T_world_base());
+  w.residuals_before = ToWire(s.before);
+  w.residuals_after = ToWire(s.after);
+  w.condition_number = s.condition_number;
+  w.scaling = s.scaling;
+  w.summary.termination = s.termination;
+  w.summary.message = s.message;
+  w.summary.measurement_type = s.measurement_type;
+  w.summary.num_measurements = s.num_measurements;
+  w.summary.num_poses = s.num_poses;
+  w.summary.num_parameters = s.num_parameters;
+  w.summary.iterations = s.iterations;
+  w.summary.initial_cost = s.initial_cost;
+  w.summary.final_cost = s.final_cost;
+  w.summary.sigma_hat = s.sigma_hat;
+  w.summary.seconds = s.seconds;
+  w.summary.brief = s.BriefReport();
+  return w;
+}
+
+// ---------------------------------------------------------------------------------------------- compensation
+
+void to_json(nlohmann::json& j, const CompensationTargetWire& t) {
+  if (t.pose) {
+    j = {{"pose", *t.pose}, {"frame", t.frame}};
+    if (!t.start_joints.empty()) j["start_joints"] = t.start_joints;
+  } else {
+    j = {{"joints", t.joints}};
+  }
+}
+
+void from_json(const nlohmann::json& j, CompensationTargetWire& t) {
+  const WireReader r(j);
+  if (r.Optional("pose", &t.pose)) {
+    r.Optional("frame", &t.frame);
+    r.Optional("start_joints", &t.start_joints);
+  } else {
+    r.Required("joints", &t.joints);
+  }
+}
+
+CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model,
+                                         const Limits& limits) {
+  Problems problems;
+  CompensateRequest req;
+  ObjectReader r(body, "", &problems);
+  if (const nlohmann::json* a = r.Array("targets", true, 1, limits.max_array_length)) {
+    req.targets.resize(a->size());
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::string path = IndexPath("targets", i);
+      ObjectReader t((*a)[i], path, &problems);
+      CompensationTargetWire& w = req.targets[i];
+      const bool has_joints = t.Has("joints"), has_pose = t.Has("pose");
+      if (t.ok() && has_joints == has_pose) {
+        problems.Add(path, "give exactly one of joints (nominal joint command) or pose");
+      } else if (has_joints) {
+        ReadJointVector(*t.Get("joints"), JoinPath(path, "joints"), model, &problems, &w.joints);
+        if (t.Has("frame") || t.Has("start_joints")) {
+          problems.Add(path, "frame and start_joints apply to pose targets only");
+        }
+      } else if (has_pose) {
+        PoseWire p;
+        if (ParsePose(*t.Get("pose"), JoinPath(path, "pose"), true, &problems, &p)) w.pose = p;
+        t.Enum("frame", false, &w.frame);
+        if (const nlohmann::json* s = t.Get("start_joints")) {
+          ReadJointVector(*s, JoinPath(path, "start_joints"), model, &problems, &w.start_joints);
+        }
+      }
+      t.RejectUnknown({"joints", "pose", "frame", "start_joints"});
+      if (problems.size() > 100) break;
+    }
+  }
+  r.RejectUnknown({"targets"});
+  problems.ThrowIfAny("invalid compensation request");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const CompensateRequest& req) { j = {{"targets", req.targets}}; }
+
+void from_json(const nlohmann::json& j, CompensateRequest& req) { WireReader(j).Required("targets", &req.targets); }
+
+void to_json(nlohmann::json& j, const Compensation& c) {
+  j = {{"joints", Nums(c.joints)},
+       {"position_error_mm", Num(c.position_error_mm)},
+       {"orientation_error_deg", Num(c.orientation_error_deg)},
+       {"free_rotation_deg", Num(c.free_rotation_deg)},
+       {"converged", c.converged},
+       {"termination", c.termination},
+       {"iterations", c.iterations},
+       {"message", c.message}};
+}
+
+void from_json(const nlohmann::json& j, Compensation& c) {
+  const WireReader r(j);
+  r.Required("joints", &c.joints);
+  r.Required("position_error_mm", &c.position_error_mm);
+  r.Required("orientation_error_deg", &c.orientation_error_deg);
+  r.Required("free_rotation_deg", &c.free_rotation_deg);
+  r.Required("converged", &c.converged);
+  r.Required("termination", &c.termination);
+  r.Required("iterations", &c.iterations);
+  r.Required("message", &c.message);
+}
+
+Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
+  Compensation c;
+  if (r.joints.size() == model.num_joints()) c.joints = JointsToWire(model, r.joints);
+  c.position_error_mm = r.position_error_mm;
+  c.orientation_error_deg = r.orientation_error_rad * kDegPerRad;
+  c.free_rotation_deg = r.free_rotation_rad * kDegPerRad;
+  c.converged = r.converged;
+  c.termination = r.termination;
+  c.iterations = r.iterations;
+  c.message = r.message;
+  return c;
+}
+
+void to_json(nlohmann::json& j, const CompensateResult& r) { j = {{"campaign", r.campaign}, {"results", r.results}}; }
+
+void from_json(const nlohmann::json& j, CompensateResult& r) {
+  const WireReader reader(j);
+  reader.Required("campaign", &r.campaign);
+  reader.Required("results", &r.results);
+}
+
+// ---------------------------------------------------------------------------------------------- evaluation
+
+EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
+  Problems problems;
+  EvaluateRequest req;
+  ObjectReader r(body, "", &problems);
+  r.Number("h_mm", false, &req.h_mm, 1e-9, 1e6);
+  r.RejectUnknown({"h_mm"});
+  problems.ThrowIfAny("invalid evaluate request");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const EvaluateRequest& req) { j = {{"h_mm", req.h_mm}}; }
+
+void from_json(const nlohmann::json& j, EvaluateRequest& req) { WireReader(j).Required("h_mm", &req.h_mm); }
+
+void to_json(nlohmann::json& j, const Statistics& s) {
+  j = {{"count", s.count}, {"mean", Num(s.mean)}, {"std", Num(s.std)}, {"max", Num(s.max)}, {"rp", Num(s.rp)}};
+}
+
+void from_json(const nlohmann::json& j, Statistics& s) {
+  const WireReader r(j);
+  r.Required("count", &s.count);
+  r.Required("mean", &s.mean);
+  r.Required("std", &s.std);
+  r.Required("max", &s.max);
+  r.Required("rp", &s.rp);
+}
+
+namespace {
+Statistics Scaled(const ErrorStatistics& s, double scale) {
+  return {s.count, s.mean * scale, s.std * scale, s.max * scale, s.rp * scale};
+}
+ErrorStatistics Unscaled(const Statistics& s, double scale) {
+  return ErrorStatistics{s.count, s.mean * scale, s.std * scale, s.max * scale, s.rp * scale};
+}
+}  // namespace
+
+void to_json(nlohmann::json& j, const Accuracy& a) {
+  j = {{"h_mm", a.h_mm}, {"e_xyz_mm", a.e_xyz_mm}, {"e_cos_deg", a.e_cos_deg}, {"e_tot_mm", a.e_tot_mm}};
+}
+
+void from_json(const nlohmann::json& j, Accuracy& a) {
+  const WireReader r(j);
+  r.Required("h_mm", &a.h_mm);
+  r.Required("e_xyz_mm", &a.e_xyz_mm);
+  r.Required("e_cos_deg", &a.e_cos_deg);
+  r.Required("e_tot_mm", &a.e_tot_mm);
+}
+
+Accuracy ToWire(const AccuracyReport& r) {
+  return {r.h_mm, Scaled(r.e_xyz_mm, 1.0), Scaled(r.e_cos_rad, kDegPerRad), Scaled(r.e_tot_mm, 1.0)};
+}
+
+AccuracyReport ToCore(const Accuracy& a) {
+  AccuracyReport r;
+  r.h_mm = a.h_mm;
+  r.e_xyz_mm = Unscaled(a.e_xyz_mm, 1.0);
+  r.e_cos_rad = Unscaled(a.e_cos_deg, kRadPerDeg);
+  r.e_tot_mm = Unscaled(a.e_tot_mm, 1.0);
+  return r;
+}
+
+void to_json(nlohmann::json& j, const Improvement& i) {
+  j = {{"e_xyz_mean", Num(i.e_xyz_mean)},
+       {"e_xyz_rp", Num(i.e_xyz_rp)},
+       {"e_tot_mean", Num(i.e_tot_mean)},
+       {"e_tot_rp", Num(i.e_tot_rp)}};
+}
+
+void from_json(const nlohmann::json& j, Improvement& i) {
+  const WireReader r(j);
+  r.Required("e_xyz_mean", &i.e_xyz_mean);
+  r.Required("e_xyz_rp", &i.e_xyz_rp);
+  r.Required("e_tot_mean", &i.e_tot_mean);
+  r.Required("e_tot_rp", &i.e_tot_rp);
+}
+
+Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after) {
+  const AccuracyImprovement i = ComputeImprovement(before, after);
+  return {i.e_xyz_mean, i.e_xyz_rp, i.e_tot_mean, i.e_tot_rp};
+}
+
+void to_json(nlohmann::json& j, const Evaluation& e) {
+  j = {{"campaign", e.campaign},       {"num_validation", e.num_validation},
+       {"h_mm", e.h_mm},               {"nominal", e.nominal},
+       {"calibrated", e.calibrated},   {"improvement_percent", e.improvement_percent}};
+  if (e.note) j["note"] = *e.note;
+}
+
+void from_json(const nlohmann::json& j, Evaluation& e) {
+  const WireReader r(j);
+  r.Required("campaign", &e.campaign);
+  r.Required("num_validation", &e.num_validation);
+  r.Required("h_mm", &e.h_mm);
+  r.Required("nominal", &e.nominal);
+  r.Required("calibrated", &e.calibrated);
+  r.Required("improvement_percent", &e.improvement_percent);
+  r.Optional("note", &e.note);
+}
+
+}  // namespace robocal::api

@@ -1,0 +1,358 @@
+// Plans on the wire.
+#include "robocal/api/plans.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "robocal/api/json_reader.h"
+
+namespace robocal::api {
+namespace {
+
+constexpr int kMaxInt = std::numeric_limits<int>::max();
+
+// The request fields that set a plan's work, and how they add up to it, for the reasons of a refused plan.
+struct WorkTerms {
+  std::vector<std::string> evaluation_fields;
+  std::string evaluations;  // e.g. "(restarts + 1) x (2 k_max + 1)"
+  std::vector<std::string> jacobian_fields;
+  std::string jacobians;
+};
+
+WorkTerms WorkTermsOf(const PlanRequest& req) {
+  if (req.optimiser == Optimiser::kRandom) {
+    return {{"options.num_sets"},
+            "num_sets",
+            {"num_configurations", "options.num_sets", "num_validation"},
+            "num_sets x num_configurations + 2 x num_validation"};
+  }
+  if (req.optimiser == Optimiser::kExchange) {
+    return {{"options.max_iterations", "options.num_candidates", "options.screen"},
+            "max_iterations x (num_candidates + min(screen, num_candidates - num_configurations)) + 1",
+            {"options.num_candidates", "num_validation"},
+            "num_candidates + 2 x num_validation"};
+  }
+  // A set max_evaluations caps the evaluations within their limit (it is checked on its own), not the product.
+  std::vector<std::string> jacobian_fields = {"num_configurations", "options.k_max", "options.restarts"};
+  if (req.max_evaluations > 0) jacobian_fields.push_back("options.max_evaluations");
+  jacobian_fields.push_back("num_validation");
+  return {{"options.k_max", "options.restarts"},
+          "(restarts + 1) x (2 k_max + 1)",
+          jacobian_fields,
+          "evaluations x num_configurations + 2 x num_validation"};
+}
+
+// Refuses, before any work starts, a plan whose total work exceeds the limits, naming every field that sets it.
+void CheckPlanWork(const PlanRequest& req, const Limits& limits, Problems* problems) {
+  const PlanWork work = MaxWork(req);
+  const WorkTerms terms = WorkTermsOf(req);
+  if (work.evaluations > limits.max_plan_evaluations) {
+    const std::string reason = OverLimit(work.evaluations, "objective evaluations (" + terms.evaluations + ")",
+                                         "max_plan_evaluations", limits.max_plan_evaluations) +
+                               "; lower them, or cap the plan with options.max_evaluations";
+    for (const std::string& field : terms.evaluation_fields) problems->Add(field, reason);
+  }
+  if (work.jacobians > limits.max_plan_jacobians) {
+    const std::string reason = OverLimit(work.jacobians, "configuration Jacobians (" + terms.jacobians + ")",
+                                         "max_plan_jacobians", limits.max_plan_jacobians);
+    for (const std::string& field : terms.jacobian_fields) problems->Add(field, reason);
+  }
+}
+
+}  // namespace
+
+PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
+  Problems problems;
+  PlanRequest req;
+  ObjectReader r(body, "", &problems);
+  r.String("robot", true, &req.robot, 64);
+  if (r.Int("num_configurations", false, &req.num_configurations, 1, kMaxInt) &&
+      req.num_configurations > limits.max_plan_configurations) {
+    problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
+                                                 limits.max_plan_configurations));
+  }
+  r.Enum("measurement_type", false, &req.measurement_type);
+  r.Enum("objective", false, &req.objective);
+  r.Enum("optimiser", false, &req.optimiser);
+  r.Enum("scaling", false, &req.scaling);
+  ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
+  std::int64_t seed = 1;
+  if (r.Int("seed", false, &seed, 0, INT64_MAX)) req.seed = static_cast<std::uint64_t>(seed);
+  r.Int("num_validation", false, &req.num_validation, 1, 10000);
+  r.Bool("async", false, &req.async);
+  if (const nlohmann::json* o = r.Get("options")) {
+    ObjectReader opt(*o, "options", &problems);
+    // Each option within the core's own range; what they add up to is checked against the limits below.
+    opt.Int("k_max", false, &req.k_max, 1, 10000000);
+    opt.Int("restarts", false, &req.restarts, 0, 10000);
+    if (opt.Int("max_evaluations", false, &req.max_evaluations, 0, kMaxInt) &&
+        req.max_evaluations > limits.max_plan_evaluations) {
+      problems.Add("options.max_evaluations",
+                   OverLimit(req.max_evaluations, "evaluations", "max_plan_evaluations", limits.max_plan_evaluations));
+    }
+    opt.Number("step_fraction", false, &req.step_fraction, 1e-6, 1.0);
+    opt.Int("num_sets", false, &req.num_sets, 1, 10000000);
+    opt.Int("num_candidates", false, &req.num_candidates, 1, 1000000);
+    opt.Int("screen", false, &req.screen, 1, 1000000);
+    opt.Int("max_iterations", false, &req.max_iterations, 1, 10000000);
+    opt.RejectUnknown({"k_max", "restarts", "max_evaluations", "step_fraction", "num_sets", "num_candidates",
+                       "screen", "max_iterations"});
+  }
+  r.RejectUnknown({"robot", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
+                   "seed", "num_validation", "async", "options"});
+  // Only the chosen optimiser's options count (clients may send every option with its default).
+  if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
+    problems.Add("options.num_candidates",
+                 OverLimit(req.num_candidates, "candidates", "max_plan_candidates", limits.max_plan_candidates));
+  } else if (req.optimiser == Optimiser::kExchange && req.num_candidates < req.num_configurations) {
+    problems.Add("options.num_candidates", "the pool (" + std::to_string(req.num_candidates) +
+                                               ") must hold at least num_configurations (" +
+                                               std::to_string(req.num_configurations) + ")");
+  }
+  if (problems.empty()) CheckPlanWork(req, limits, &problems);
+  problems.ThrowIfAny("invalid plan request");
+  return req;
+}
+
+SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
+  SolisWetsOptions o = SolisWetsOptions::Paper();
+  o.k_max = req.k_max;
+  o.restarts = req.restarts;
+  o.max_evaluations = req.max_evaluations;
+  o.step_fraction = req.step_fraction;
+  o.objective = req.objective;
+  o.seed = req.seed;
+  return o;
+}
+
+RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& req) {
+  RandomSelectionOptions o;
+  o.num_sets = req.num_sets;
+  o.objective = req.objective;
+  o.seed = req.seed;
+  return o;
+}
+
+ExchangeOptions ToExchangeOptions(const PlanRequest& req) {
+  ExchangeOptions o;
+  o.num_candidates = req.num_candidates;
+  o.screen = req.screen;
+  o.max_iterations = req.max_iterations;
+  o.max_evaluations = req.max_evaluations;
+  o.objective = req.objective;
+  o.seed = req.seed;
+  return o;
+}
+
+PlanWork MaxWork(const PlanRequest& req) {
+  const int m = req.num_configurations;
+  PlanWork work = req.optimiser == Optimiser::kRandom     ? MaxPlanWork(m, ToRandomSelectionOptions(req))
+                  : req.optimiser == Optimiser::kExchange ? MaxPlanWork(m, ToExchangeOptions(req))
+                                                : MaxPlanWork(m, ToSolisWetsOptions(req));
+  work.jacobians = std::min(work.jacobians, std::numeric_limits<std::int64_t>::max() - 2 * req.num_validation) +
+                   2 * static_cast<std::int64_t>(req.num_validation);
+  return work;
+}
+
+ObservabilityOptions ToObservabilityOptions(const PlanRequest& req) {
+  ObservabilityOptions o;
+  o.measurement_type = req.measurement_type;
+  o.noise = ToCore(req.noise);
+  o.scaling = req.scaling;
+  return o;
+}
+
+void to_json(nlohmann::json& j, const PlanRequest& req) {
+  j = {{"robot", req.robot},
+       {"num_configurations", req.num_configurations},
+       {"measurement_type", req.measurement_type},
+       {"objective", req.objective},
+       {"optimiser", req.optimiser},
+       {"scaling", req.scaling},
+       {"noise", req.noise},
+       {"seed", req.seed},
+       {"num_validation", req.num_validation},
+       {"async", req.async},
+       {"options",
+        {{"k_max", req.k_max},
+         {"restarts", req.restarts},
+         {"max_evaluations", req.max_evaluations},
+         {"step_fraction", req.step_fraction},
+         {"num_sets", req.num_sets},
+         {"num_candidates", req.num_candidates},
+         {"screen", req.screen},
+         {"max_iterations", req.max_iterations}}}};
+}
+
+void from_json(const nlohmann::json& j, PlanRequest& req) {
+  const WireReader r(j);
+  r.Required("robot", &req.robot);
+  r.Required("num_configurations", &req.num_configurations);
+  r.Required("measurement_type", &req.measurement_type);
+  r.Required("objective", &req.objective);
+  r.Required("optimiser", &req.optimiser);
+  r.Required("scaling", &req.scaling);
+  r.Required("noise", &req.noise);
+  r.Required("seed", &req.seed);
+  r.Required("num_validation", &req.num_validation);
+  r.Required("async", &req.async);
+  const WireReader o(r.Member("options"), "options");
+  o.Required("k_max", &req.k_max);
+  o.Required("restarts", &req.restarts);
+  o.Required("max_evaluations", &req.max_evaluations);
+  o.Required("step_fraction", &req.step_fraction);
+  o.Required("num_sets", &req.num_sets);
+  o.Required("num_candidates", &req.num_candidates);
+  o.Required("screen", &req.screen);
+  o.Required("max_iterations", &req.max_iterations);
+}
+
+// ---------------------------------------------------------------------------------------------- the resource
+
+void to_json(nlohmann::json& j, const Indices& x) {
+  j = {{"num_configurations", x.num_configurations},
+       {"num_parameters", x.num_parameters},
+       {"condition_number", Num(x.condition_number)},
+       {"o1", Num(x.o1)},
+       {"o2", Num(x.o2)},
+       {"o3", Num(x.o3)},
+       {"o4", Num(x.o4)},
+       {"o5", Num(x.o5)},
+       {"log_det", Num(x.log_det)},
+       {"singular_values", Nums(x.singular_values)},
+       {"scaling", x.scaling}};
+}
+
+void from_json(const nlohmann::json& j, Indices& x) {
+  const WireReader r(j);
+  r.Required("num_configurations", &x.num_configurations);
+  r.Required("num_parameters", &x.num_parameters);
+  r.Required("condition_number", &x.condition_number);
+  r.Required("o1", &x.o1);
+  r.Required("o2", &x.o2);
+  r.Required("o3", &x.o3);
+  r.Required("o4", &x.o4);
+  r.Required("o5", &x.o5);
+  r.Required("log_det", &x.log_det);
+  r.Required("singular_values", &x.singular_values);
+  r.Required("scaling", &x.scaling);
+}
+
+Indices ToWire(const ObservabilityIndices& x) {
+  return {x.num_configurations,
+          x.num_parameters,
+          x.condition_number,
+          x.o1,
+          x.o2,
+          x.o3,
+          x.o4,
+          x.o5,
+          x.log_det,
+          std::vector<double>(x.singular_values.data(), x.singular_values.data() + x.singular_values.size()),
+          x.scaling};
+}
+
+void to_json(nlohmann::json& j, const PredictedAccuracyWire& a) {
+  j = {{"num_validation", a.num_validation},
+       {"rms_position_mm", Num(a.rms_position_mm)},
+       {"max_position_mm", Num(a.max_position_mm)},
+       {"rms_orientation_deg", Num(a.rms_orientation_deg)}};
+}
+
+void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
+  const WireReader r(j);
+  r.Required("num_validation", &a.num_validation);
+  r.Required("rms_position_mm", &a.rms_position_mm);
+  r.Required("max_position_mm", &a.max_position_mm);
+  r.Required("rms_orientation_deg", &a.rms_orientation_deg);
+}
+
+PredictedAccuracyWire ToWire(const PredictedAccuracy& a) {
+  return {a.num_validation, a.rms_position_mm, a.max_position_mm,
+          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN()};
+}
+
+void to_json(nlohmann::json& j, const PlanSummaryWire& s) {
+  j = {{"termination", s.termination}, {"message", s.message},         {"method", s.method},
+       {"objective", s.objective},     {"iterations", s.iterations},   {"evaluations", s.evaluations},
+       {"seconds", Num(s.seconds)},    {"initial", s.initial},         {"brief", s.brief},
+       {"deadline_exceeded", s.deadline_exceeded}};
+}
+
+void from_json(const nlohmann::json& j, PlanSummaryWire& s) {
+  const WireReader r(j);
+  r.Required("termination", &s.termination);
+  r.Required("message", &s.message);
+  r.Required("method", &s.method);
+  r.Required("objective", &s.objective);
+  r.Required("iterations", &s.iterations);
+  r.Required("evaluations", &s.evaluations);
+  r.Required("seconds", &s.seconds);
+  r.Required("initial", &s.initial);
+  r.Required("brief", &s.brief);
+  r.Required("deadline_exceeded", &s.deadline_exceeded);
+}
+
+PlanSummaryWire ToWire(const PlanSummary& s) {
+  PlanSummaryWire w;
+  w.termination = s.termination;
+  w.message = s.message;
+  w.method = s.method;
+  w.objective = s.objective;
+  w.iterations = s.iterations;
+  w.evaluations = s.evaluations;
+  w.seconds = s.seconds;
+  w.initial = ToWire(s.initial);
+  w.brief = s.BriefReport();
+  return w;
+}
+
+void to_json(nlohmann::json& j, const PlanBaseline& b) {
+  j = {{"configurations", b.configurations}, {"indices", b.indices}, {"predicted_accuracy", b.predicted_accuracy}};
+}
+
+void from_json(const nlohmann::json& j, PlanBaseline& b) {
+  const WireReader r(j);
+  r.Required("configurations", &b.configurations);
+  r.Required("indices", &b.indices);
+  r.Required("predicted_accuracy", &b.predicted_accuracy);
+}
+
+void to_json(nlohmann::json& j, const PlanResult& p) {
+  j = {{"id", p.id},
+       {"robot", p.robot},
+       {"request", p.request},
+       {"measurement_type", p.measurement_type},
+       {"objective", p.objective},
+       {"optimiser", p.optimiser},
+       {"joint_units", p.joint_units},
+       {"configurations", p.configurations},
+       {"indices", p.indices},
+       {"baseline", p.baseline},
+       {"identifiable_parameters", p.identifiable_parameters},
+       {"dropped_parameters", p.dropped_parameters},
+       {"predicted_accuracy", p.predicted_accuracy},
+       {"summary", p.summary},
+       {"created_unix_ms", p.created_unix_ms}};
+}
+
+void from_json(const nlohmann::json& j, PlanResult& p) {
+  const WireReader r(j);
+  r.Required("id", &p.id);
+  r.Required("robot", &p.robot);
+  r.Required("request", &p.request);
+  r.Required("measurement_type", &p.measurement_type);
+  r.Required("objective", &p.objective);
+  r.Required("optimiser", &p.optimiser);
+  r.Required("joint_units", &p.joint_units);
+  r.Required("configurations", &p.configurations);
+  r.Required("indices", &p.indices);
+  r.Required("baseline", &p.baseline);
+  r.Required("identifiable_parameters", &p.identifiable_parameters);
+  r.Required("dropped_parameters", &p.dropped_parameters);
+  r.Required("predicted_accuracy", &p.predicted_accuracy);
+  r.Required("summary", &p.summary);
+  r.Required("created_unix_ms", &p.created_unix_ms);
+}
+
+}  // namespace robocal::api

@@ -1,0 +1,385 @@
+// Robot resources on the wire.
+#include "robocal/api/robots.h"
+
+#include <algorithm>
+
+#include "robocal/api/json_reader.h"
+#include "robocal/core/presets.h"
+
+namespace robocal::api {
+namespace {
+
+// Values beyond these are typing mistakes, not geometry: 1000 km in mm, a million degrees.
+constexpr double kMaxLengthMm = 1e9;
+constexpr double kMaxAngleDeg = 1e6;
+
+const char* MinKey(JointType type) { return type == JointType::kRevolute ? "min_deg" : "min_mm"; }
+const char* MaxKey(JointType type) { return type == JointType::kRevolute ? "max_deg" : "max_mm"; }
+
+// One joint in the fields of its convention: the one shape of a joint in definitions and in the resource.
+nlohmann::json JointJson(const JointWire& jw, GeometryConvention convention) {
+  nlohmann::json o = {{"name", jw.name}, {"type", jw.type}};
+  if (convention == GeometryConvention::kTransform) {
+    o["xyz_mm"] = jw.xyz_mm;
+    o["rpy_deg"] = jw.rpy_deg;
+  } else {
+    o["a_mm"] = jw.a_mm;
+    o["alpha_deg"] = jw.alpha_deg;
+    o["d_mm"] = jw.d_mm;
+    o["theta_deg"] = jw.theta_deg;
+  }
+  o[MinKey(jw.type)] = jw.min;
+  o[MaxKey(jw.type)] = jw.max;
+  return o;
+}
+
+// The fields JointJson writes are required (a definition may leave the name out: the core names the joint).
+JointWire JointFromJson(const WireReader& r, GeometryConvention convention, bool name_required) {
+  JointWire jw;
+  if (name_required) {
+    r.Required("name", &jw.name);
+  } else {
+    r.Optional("name", &jw.name);
+  }
+  r.Required("type", &jw.type);
+  if (convention == GeometryConvention::kTransform) {
+    r.Required("xyz_mm", &jw.xyz_mm);
+    r.Required("rpy_deg", &jw.rpy_deg);
+  } else {
+    r.Required("a_mm", &jw.a_mm);
+    r.Required("alpha_deg", &jw.alpha_deg);
+    r.Required("d_mm", &jw.d_mm);
+    r.Required("theta_deg", &jw.theta_deg);
+  }
+  r.Required(MinKey(jw.type), &jw.min);
+  r.Required(MaxKey(jw.type), &jw.max);
+  return jw;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------- definitions
+
+RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits&) {
+  Problems problems;
+  RegisterRobotRequest req;
+  ObjectReader r(body, "", &problems);
+  if (r.String("id", true, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
+  r.String("description", false, &req.description, 1024);
+  PoseWire pose;
+  if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
+  if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
+  if (r.Has("from_preset")) {
+    r.Enum("from_preset", true, PresetNames(), &req.from_preset);
+    if (r.Has("joints")) problems.Add("joints", "give either from_preset or joints, not both");
+  } else {
+    r.Enum("convention", true, &req.convention);
+    if (const nlohmann::json* joints = r.Array("joints", true, 1, kMaxJoints)) {
+      for (std::size_t i = 0; i < joints->size(); ++i) {
+        const std::string path = IndexPath("joints", i);
+        ObjectReader jr((*joints)[i], path, &problems);
+        JointWire j;
+        jr.String("name", false, &j.name, 64);
+        jr.Enum("type", true, &j.type);
+        jr.Number("a_mm", false, &j.a_mm, -kMaxLengthMm, kMaxLengthMm);
+        jr.Number("alpha_deg", false, &j.alpha_deg, -360.0, 360.0);
+        jr.Number("d_mm", false, &j.d_mm, -kMaxLengthMm, kMaxLengthMm);
+        jr.Number("theta_deg", false, &j.theta_deg, -360.0, 360.0);
+        jr.FixedNumbers("xyz_mm", false, j.xyz_mm.data(), 3);
+        jr.FixedNumbers("rpy_deg", false, j.rpy_deg.data(), 3);
+        const bool revolute = j.type == JointType::kRevolute;
+        const double bound = revolute ? kMaxAngleDeg : kMaxLengthMm;
+        jr.Number(MinKey(j.type), true, &j.min, -bound, bound);
+        jr.Number(MaxKey(j.type), true, &j.max, -bound, bound);
+        const JointType other = revolute ? JointType::kPrismatic : JointType::kRevolute;
+        if (jr.ok() && (jr.Has(MinKey(other)) || jr.Has(MaxKey(other)))) {
+          problems.Add(path, std::string("limits of a ") + WireName(j.type) + " joint are given as " +
+                                 MinKey(j.type) + "/" + MaxKey(j.type));
+        }
+        jr.RejectUnknown({"name", "type", "a_mm", "alpha_deg", "d_mm", "theta_deg", "xyz_mm", "rpy_deg", "min_deg",
+                          "max_deg", "min_mm", "max_mm"});
+        req.joints.push_back(j);
+      }
+    }
+  }
+  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool"});
+  problems.ThrowIfAny("invalid robot");
+  (void)BuildModel(req);
+  return req;
+}
+
+void to_json(nlohmann::json& j, const RegisterRobotRequest& req) {
+  j = {{"id", req.id}};
+  if (!req.description.empty()) j["description"] = req.description;
+  if (!req.from_preset.empty()) {
+    j["from_preset"] = req.from_preset;
+  } else {
+    j["convention"] = req.convention;
+    nlohmann::json joints = nlohmann::json::array();
+    for (const JointWire& jw : req.joints) {
+      nlohmann::json o = JointJson(jw, req.convention);
+      if (jw.name.empty()) o.erase("name");
+      joints.push_back(std::move(o));
+    }
+    j["joints"] = std::move(joints);
+  }
+  if (req.base) j["base"] = *req.base;
+  if (req.tool) j["tool"] = *req.tool;
+}
+
+void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
+  const WireReader r(j);
+  r.Required("id", &req.id);
+  r.Optional("description", &req.description);
+  if (!r.Optional("from_preset", &req.from_preset)) {
+    r.Required("convention", &req.convention);
+    const nlohmann::json& joints = r.Member("joints");
+    if (!joints.is_array()) throw WireError("joints", "expected an array");
+    req.joints.clear();
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      try {
+        req.joints.push_back(JointFromJson(WireReader(joints[i]), req.convention, false));
+      } catch (const WireError& e) {
+        throw WireError(WirePath("joints[" + std::to_string(i) + "]", e.path()), e.reason());
+      }
+    }
+  }
+  std::optional<PoseWire> pose;
+  if (r.Optional("base", &pose)) req.base = pose;
+  if (r.Optional("tool", &pose)) req.tool = pose;
+}
+
+RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
+  RobotModelSpec spec;
+  if (!req.from_preset.empty()) {
+    spec = PresetSpec(req.from_preset);
+  } else {
+    spec.convention = req.convention;
+    for (std::size_t i = 0; i < req.joints.size(); ++i) {
+      const JointWire& jw = req.joints[i];
+      JointSpec js;
+      js.name = jw.name.empty() ? "joint" + std::to_string(i + 1) : jw.name;
+      js.type = jw.type;
+      js.a_mm = jw.a_mm;
+      js.alpha_rad = jw.alpha_deg * kRadPerDeg;
+      js.d_mm = jw.d_mm;
+      js.theta_rad = jw.theta_deg * kRadPerDeg;
+      js.xyz_mm = Eigen::Vector3d(jw.xyz_mm[0], jw.xyz_mm[1], jw.xyz_mm[2]);
+      js.rpy_rad = Eigen::Vector3d(jw.rpy_deg[0], jw.rpy_deg[1], jw.rpy_deg[2]) * kRadPerDeg;
+      const double scale = js.type == JointType::kRevolute ? kRadPerDeg : 1.0;
+      js.min = jw.min * scale;
+      js.max = jw.max * scale;
+      spec.joints.push_back(js);
+    }
+  }
+  spec.name = req.id;
+  if (req.base) spec.T_world_base = PoseToTransform(*req.base);
+  if (req.tool) spec.T_flange_tool = PoseToTransform(*req.tool);
+  return spec;
+}
+
+RobotModel BuildModel(const RegisterRobotRequest& req) {
+  // The core checks the geometry as a whole (limits ordered, transforms valid); its field names are ours.
+  try {
+    return RobotModel::Build(ToSpec(req));
+  } catch (const InvalidModelError& e) {
+    std::vector<FieldViolation> details;
+    for (const FieldError& f : e.errors()) details.push_back({f.field, f.reason});
+    throw ApiError(Status::kInvalidArgument, std::string("invalid robot: ") + e.what(), details);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------- the resource
+
+void to_json(nlohmann::json& j, const Robot& robot) {
+  nlohmann::json joints = nlohmann::json::array();
+  for (const RobotJoint& rj : robot.joints) {
+    nlohmann::json o = JointJson(rj.joint, robot.convention);
+    o["unit"] = rj.unit;
+    joints.push_back(std::move(o));
+  }
+  j = {{"id", robot.id},
+       {"preset", robot.preset},
+       {"description", robot.description},
+       {"convention", robot.convention},
+       {"num_joints", robot.num_joints},
+       {"joints", std::move(joints)},
+       {"base", PoseResultJson(robot.base)},
+       {"tool", PoseResultJson(robot.tool)},
+       {"error_parameters", robot.error_parameters}};
+}
+
+void from_json(const nlohmann::json& j, Robot& robot) {
+  const WireReader r(j);
+  r.Required("id", &robot.id);
+  r.Required("preset", &robot.preset);
+  r.Required("description", &robot.description);
+  r.Required("convention", &robot.convention);
+  r.Required("num_joints", &robot.num_joints);
+  const nlohmann::json& joints = r.Member("joints");
+  if (!joints.is_array()) throw WireError("joints", "expected an array");
+  robot.joints.clear();
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const std::string path = "joints[" + std::to_string(i) + "]";
+    try {
+      const WireReader jr(joints[i]);
+      RobotJoint rj{JointFromJson(jr, robot.convention, true), ""};
+      jr.Required("unit", &rj.unit);
+      robot.joints.push_back(std::move(rj));
+    } catch (const WireError& e) {
+      throw WireError(WirePath(path, e.path()), e.reason());
+    }
+  }
+  ReadResultPose(r, "base", &robot.base);
+  ReadResultPose(r, "tool", &robot.tool);
+  r.Required("error_parameters", &robot.error_parameters);
+}
+
+Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset, const std::string& description) {
+  const RobotModelSpec& spec = model.spec();
+  Robot robot;
+  robot.id = id;
+  robot.preset = preset;
+  robot.description = description;
+  robot.convention = spec.convention;
+  robot.num_joints = model.num_joints();
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const JointSpec& js = spec.joints[i];
+    const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
+    JointWire jw;
+    jw.name = js.name;
+    jw.type = js.type;
+    jw.a_mm = js.a_mm;
+    jw.alpha_deg = js.alpha_rad * kDegPerRad;
+    jw.d_mm = js.d_mm;
+    jw.theta_deg = js.theta_rad * kDegPerRad;
+    jw.xyz_mm = {js.xyz_mm.x(), js.xyz_mm.y(), js.xyz_mm.z()};
+    jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
+    jw.min = js.min * scale;
+    jw.max = js.max * scale;
+    robot.joints.push_back({jw, JointUnit(model, i)});
+  }
+  robot.base = TransformToPose(spec.T_world_base);
+  robot.tool = TransformToPose(spec.T_flange_tool);
+  robot.error_parameters = model.parameter_names();
+  return robot;
+}
+
+void to_json(nlohmann::json& j, const RobotList& list) {
+  j = {{"robots", list.robots}};
+  if (list.next_page_token) j["next_page_token"] = *list.next_page_token;
+}
+
+void from_json(const nlohmann::json& j, RobotList& list) {
+  const WireReader r(j);
+  r.Required("robots", &list.robots);
+  r.Optional("next_page_token", &list.next_page_token);
+}
+
+// ---------------------------------------------------------------------------------------------- forward
+
+ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
+  Problems problems;
+  ForwardRequest req;
+  ObjectReader r(body, "", &problems);
+  if (const nlohmann::json* a = r.Array("joints", true, 1, limits.max_array_length)) {
+    req.joints.resize(a->size());
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      ReadJointVector((*a)[i], IndexPath("joints", i), model, &problems, &req.joints[i]);
+    }
+  }
+  r.RejectUnknown({"joints"});
+  problems.ThrowIfAny("invalid forward request");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const ForwardRequest& req) { j = {{"joints", req.joints}}; }
+
+void from_json(const nlohmann::json& j, ForwardRequest& req) { WireReader(j).Required("joints", &req.joints); }
+
+void to_json(nlohmann::json& j, const ForwardResult& result) {
+  nlohmann::json poses = nlohmann::json::array();
+  for (const PoseWire& p : result.poses) poses.push_back(PoseResultJson(p));
+  j = nlohmann::json::object();
+  if (result.robot) j["robot"] = *result.robot;
+  if (result.campaign) j["campaign"] = *result.campaign;
+  j["frame"] = result.frame;
+  j["poses"] = std::move(poses);
+}
+
+void from_json(const nlohmann::json& j, ForwardResult& result) {
+  const WireReader r(j);
+  r.Optional("robot", &result.robot);
+  r.Optional("campaign", &result.campaign);
+  if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
+  r.Required("frame", &result.frame);
+  const nlohmann::json& poses = r.Member("poses");
+  if (!poses.is_array()) throw WireError("poses", "expected an array");
+  result.poses.resize(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    try {
+      ReadResultPose(WireReader(poses[i]), &result.poses[i]);
+    } catch (const WireError& e) {
+      throw WireError(WirePath("poses[" + std::to_string(i) + "]", e.path()), e.reason());
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------- joints
+
+Eigen::VectorXd JointsToCore(const RobotModel& model, const std::vector<double>& wire) {
+  if (static_cast<int>(wire.size()) != model.num_joints()) throw std::invalid_argument("JointsToCore: size");
+  Eigen::VectorXd q(model.num_joints());
+  for (int i = 0; i < model.num_joints(); ++i) {
+    q[i] = model.joint_type(i) == JointType::kRevolute ? wire[i] * kRadPerDeg : wire[i];
+  }
+  return q;
+}
+
+std::vector<double> JointsToWire(const RobotModel& model, const Eigen::VectorXd& q) {
+  std::vector<double> wire(q.size());
+  for (int i = 0; i < q.size(); ++i) {
+    wire[i] = model.joint_type(i) == JointType::kRevolute ? q[i] * kDegPerRad : q[i];
+  }
+  return wire;
+}
+
+const char* JointUnit(const RobotModel& model, int joint) {
+  return model.joint_type(joint) == JointType::kRevolute ? "deg" : "mm";
+}
+
+bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const std::string& path,
+                 Problems* problems) {
+  if (static_cast<int>(wire.size()) != model.num_joints()) {
+    problems->Add(path, "expected " + std::to_string(model.num_joints()) + " values, got " +
+                            std::to_string(wire.size()));
+    return false;
+  }
+  bool ok = true;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const double scale = model.joint_type(i) == JointType::kRevolute ? kDegPerRad : 1.0;
+    const double lo = model.lower_limits()[i] * scale, hi = model.upper_limits()[i] * scale;
+    // A hair of tolerance so that limits round-tripped through degrees are still inside.
+    const double tol = 1e-9 * std::max(1.0, hi - lo);
+    if (wire[i] < lo - tol || wire[i] > hi + tol) {
+      problems->Add(IndexPath(path, i), "joint " + std::to_string(i + 1) + " (" + model.joint_name(i) +
+                                            ") outside its limits [" + nlohmann::json(lo).dump() + ", " +
+                                            nlohmann::json(hi).dump() + "] " + JointUnit(model, i) + ": " +
+                                            nlohmann::json(wire[i]).dump());
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model,
+                     Problems* problems, std::vector<double>* out) {
+  std::vector<double> q;
+  // Size is checked by CheckJoints with a message naming the robot's joint count.
+  if (!ReadNumberArray(value, path, problems, &q, 0, 64)) return false;
+  if (!CheckJoints(model, q, path, problems)) return false;
+  *out = std::move(q);
+  return true;
+}
+
+}  // namespace robocal::api

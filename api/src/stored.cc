@@ -1,0 +1,144 @@
+// The stored documents and their versions.
+#include "robocal/api/stored.h"
+
+namespace robocal::api {
+namespace {
+
+constexpr const char* kVersionKey = "schema_version";
+
+nlohmann::json Versioned(nlohmann::json j) {
+  j[kVersionKey] = kStoredSchemaVersion;
+  return j;
+}
+
+// Version 1 wrote deadline_exceeded only when it was true.
+void DefaultFalse(nlohmann::json* object, const char* key) {
+  if (object->is_object() && !object->contains(key)) (*object)[key] = false;
+}
+
+}  // namespace
+
+int StoredSchemaVersion(const nlohmann::json& document) {
+  const WireReader r(document);
+  int version = 1;
+  r.Optional(kVersionKey, &version);
+  if (version < 1 || version > kStoredSchemaVersion) {
+    throw WireError(kVersionKey, "version " + std::to_string(version) + " is not one this server reads (1.." +
+                                     std::to_string(kStoredSchemaVersion) + ")");
+  }
+  return version;
+}
+
+void to_json(nlohmann::json& j, const StoredRobot& robot) { j = Versioned(robot.definition); }
+
+void from_json(const nlohmann::json& j, StoredRobot& robot) {
+  (void)StoredSchemaVersion(j);
+  from_json(j, robot.definition);
+}
+
+void to_json(nlohmann::json& j, const StoredCampaign& c) {
+  j = Versioned({{"id", c.id},
+                 {"description", c.description},
+                 {"robot", c.robot},
+                 {"robot_definition", c.robot_definition},
+                 {"measurement_type", c.measurement_type},
+                 {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
+                 {"noise", c.noise},
+                 {"created_unix_ms", c.created_unix_ms}});
+}
+
+void from_json(const nlohmann::json& j, StoredCampaign& c) {
+  (void)StoredSchemaVersion(j);
+  const WireReader r(j);
+  r.Required("id", &c.id);
+  r.Required("description", &c.description);
+  r.Required("robot", &c.robot);
+  r.Required("robot_definition", &c.robot_definition);
+  r.Required("measurement_type", &c.measurement_type);
+  r.Optional("plan", &c.plan);
+  r.Required("noise", &c.noise);
+  r.Required("created_unix_ms", &c.created_unix_ms);
+}
+
+void to_json(nlohmann::json& j, const StoredPlan& plan) { j = Versioned(plan.plan); }
+
+void from_json(const nlohmann::json& j, StoredPlan& plan) {
+  if (StoredSchemaVersion(j) == 1) {
+    nlohmann::json doc = j;
+    if (doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");
+    ReadWire(doc, "", &plan.plan);
+    return;
+  }
+  ReadWire(j, "", &plan.plan);
+}
+
+void to_json(nlohmann::json& j, const StoredCalibration& c) {
+  j = Versioned({{"result", c.result},
+                 {"state",
+                  {{"registered_base", c.registered_base},
+                   {"T_world_base", c.T_world_base},
+                   {"T_flange_tool", c.T_flange_tool},
+                   {"errors", c.errors}}}});
+}
+
+void from_json(const nlohmann::json& j, StoredCalibration& c) {
+  nlohmann::json doc = j;
+  if (StoredSchemaVersion(j) == 1 && doc.contains("result") && doc["result"].contains("summary")) {
+    DefaultFalse(&doc["result"]["summary"], "deadline_exceeded");
+  }
+  const WireReader r(doc);
+  r.Required("result", &c.result);
+  const WireReader state(r.Member("state"), "state");
+  ReadResultPose(state, "registered_base", &c.registered_base);
+  ReadResultPose(state, "T_world_base", &c.T_world_base);
+  ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
+  state.Required("errors", &c.errors);
+}
+
+StoredCalibration ToStored(const Calibration& calibration, const CalibrationResult& result) {
+  StoredCalibration s;
+  s.result = result;
+  s.registered_base = TransformToPose(calibration.model.T_world_base());
+  s.T_world_base = TransformToPose(calibration.T_world_base);
+  s.T_flange_tool = TransformToPose(calibration.T_flange_tool);
+  s.errors.assign(calibration.errors.data(), calibration.errors.data() + calibration.errors.size());
+  return s;
+}
+
+Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) {
+  if (static_cast<int>(stored.errors.size()) != nominal.num_error_parameters()) {
+    throw WireError("state.errors", "expected " + std::to_string(nominal.num_error_parameters()) +
+                                        " values for the campaign's robot, got " +
+                                        std::to_string(stored.errors.size()));
+  }
+  RobotModelSpec spec = nominal.spec();
+  spec.T_world_base = PoseToTransform(stored.registered_base);
+  Calibration c{RobotModel::Build(spec),
+                Eigen::Map<const Eigen::VectorXd>(stored.errors.data(), static_cast<Eigen::Index>(stored.errors.size())),
+                {},
+                {},
+                PoseToTransform(stored.T_world_base),
+                PoseToTransform(stored.T_flange_tool),
+                {}};
+  c.summary.termination = stored.result.summary.termination;
+  c.summary.message = stored.result.summary.message;
+  c.summary.measurement_type = stored.result.measurement_type;
+  return c;
+}
+
+void to_json(nlohmann::json& j, const StoredOperation& op) { j = Versioned(op.operation); }
+
+void from_json(const nlohmann::json& j, StoredOperation& op) {
+  if (StoredSchemaVersion(j) == 1) {
+    nlohmann::json doc = j;
+    DefaultFalse(&doc, "cancel_requested");
+    if (doc.contains("result") && doc["result"].contains("summary")) {
+      DefaultFalse(&doc["result"]["summary"], "deadline_exceeded");
+    }
+    ReadWire(doc, "", &op.operation);
+    return;
+  }
+  ReadWire(j, "", &op.operation);
+}
+
+}  // namespace robocal::api

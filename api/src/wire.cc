@@ -1,0 +1,274 @@
+// The building blocks of the wire shapes: strict reading, enum names, numbers, poses, identifiers.
+#include "robocal/api/wire.h"
+
+#include <cstdio>
+
+#include "robocal/api/json_reader.h"
+
+namespace robocal::api {
+
+// ------------------------------------------------------------------------------------------------ enums
+
+const char* EnumTable<MeasurementType>::Name(MeasurementType v) { return ToString(v); }
+const char* EnumTable<Termination>::Name(Termination v) { return ToString(v); }
+const char* EnumTable<JointType>::Name(JointType v) { return ToString(v); }
+const char* EnumTable<GeometryConvention>::Name(GeometryConvention v) { return ToString(v); }
+const char* EnumTable<TargetFrame>::Name(TargetFrame v) { return ToString(v); }
+const char* EnumTable<ColumnScaling>::Name(ColumnScaling v) { return ToString(v); }
+const char* EnumTable<ObservabilityIndex>::Name(ObservabilityIndex v) { return ToString(v); }
+const char* EnumTable<Status>::Name(Status v) { return ToString(v); }
+
+const char* EnumTable<Optimiser>::Name(Optimiser v) {
+  switch (v) {
+    case Optimiser::kSolisWets:
+      return "solis_wets";
+    case Optimiser::kRandom:
+      return "random";
+    case Optimiser::kExchange:
+      return "exchange";
+  }
+  return "?";
+}
+
+const char* EnumTable<MeasurementRole>::Name(MeasurementRole v) {
+  return v == MeasurementRole::kValidation ? "validation" : "calibration";
+}
+
+const char* EnumTable<OperationKind>::Name(OperationKind v) { return v == OperationKind::kFit ? "fit" : "plan"; }
+
+const char* EnumTable<OperationState>::Name(OperationState v) {
+  switch (v) {
+    case OperationState::kRunning:
+      return "RUNNING";
+    case OperationState::kSucceeded:
+      return "SUCCEEDED";
+    case OperationState::kFailed:
+      return "FAILED";
+    case OperationState::kCancelled:
+      return "CANCELLED";
+  }
+  return "?";
+}
+
+// ------------------------------------------------------------------------------------------------ reading
+
+WireError::WireError(std::string path, std::string reason)
+    : std::runtime_error((path.empty() ? std::string("document") : path) + ": " + reason),
+      path_(std::move(path)),
+      reason_(std::move(reason)) {}
+
+std::string WirePath(const std::string& path, const std::string& member) {
+  if (path.empty()) return member;
+  if (member.empty()) return path;
+  return member.front() == '[' ? path + member : path + "." + member;
+}
+
+namespace detail {
+void ThrowWire(const std::string& path, const std::string& reason) { throw WireError(path, reason); }
+std::string IndexPathOf(const std::string& path, std::size_t index) {
+  return path + "[" + std::to_string(index) + "]";
+}
+}  // namespace detail
+
+WireReader::WireReader(const nlohmann::json& value, std::string path) : object_(&value), path_(std::move(path)) {
+  if (!value.is_object()) throw WireError(path_, "expected an object");
+}
+
+const nlohmann::json& WireReader::Member(const char* key) const {
+  const auto it = object_->find(key);
+  if (it == object_->end()) throw WireError(WirePath(path_, key), "required");
+  return *it;
+}
+
+// ------------------------------------------------------------------------------------------------ writing
+
+nlohmann::json Num(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+
+nlohmann::json Nums(const std::vector<double>& values) {
+  nlohmann::json a = nlohmann::json::array();
+  for (double v : values) a.push_back(Num(v));
+  return a;
+}
+
+// ------------------------------------------------------------------------------------------------ common
+
+bool IsValidId(const std::string& id) {
+  if (id.empty() || id.size() > 64) return false;
+  for (std::size_t i = 0; i < id.size(); ++i) {
+    const char c = id[i];
+    const bool alnum = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9');
+    if (!(alnum || (i > 0 && (c == '_' || c == '-' || c == '.')))) return false;
+  }
+  return true;
+}
+
+std::string OverLimit(std::int64_t value, const std::string& what, const std::string& limit_name, std::int64_t limit) {
+  return std::to_string(value) + " " + what + " exceed the server's limit " + limit_name + " = " +
+         std::to_string(limit);
+}
+
+// FNV-1a (64 bit) rather than std::hash: it must give the same digits on every platform and in every run,
+// because the server stores it and compares a retried batch's hash with it. Not a security property: a
+// request_id is the caller's own.
+std::string ContentHash(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ULL;  // FNV-1a 64-bit offset basis
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;  // FNV-1a 64-bit prime
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+// ------------------------------------------------------------------------------------------------ poses
+
+namespace {
+// Values beyond this are typing mistakes, not geometry: 1000 km in mm.
+constexpr double kMaxLengthMm = 1e9;
+}  // namespace
+
+bool ParsePose(const nlohmann::json& value, const std::string& path, bool orientation_required,
+               Problems* problems, PoseWire* out) {
+  const std::size_t before = problems->size();
+  ObjectReader r(value, path, problems);
+  if (!r.ok()) return false;
+  PoseWire pose;
+  if (r.FixedNumbers("position_mm", true, pose.position_mm.data(), 3)) {
+    for (int i = 0; i < 3; ++i) {
+      if (std::abs(pose.position_mm[i]) > kMaxLengthMm) {
+        problems->Add(IndexPath(JoinPath(path, "position_mm"), i), "implausibly large (limit 1e9 mm)");
+      }
+    }
+  }
+  const bool has_q = r.Has("quaternion"), has_rpy = r.Has("rpy_deg");
+  if (has_q && has_rpy) {
+    problems->Add(JoinPath(path, "rpy_deg"), "give either quaternion or rpy_deg, not both");
+  } else if (has_q) {
+    std::array<double, 4> q{};
+    if (r.FixedNumbers("quaternion", true, q.data(), 4)) {
+      const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (!(std::abs(norm - 1.0) < 1e-3)) {
+        problems->Add(JoinPath(path, "quaternion"), "must be a unit quaternion [w,x,y,z] (norm " +
+                                                        nlohmann::json(norm).dump() + ")");
+      } else {
+        for (int i = 0; i < 4; ++i) pose.quaternion[i] = q[i] / norm;
+      }
+    }
+  } else if (has_rpy) {
+    std::array<double, 3> rpy{};
+    if (r.FixedNumbers("rpy_deg", true, rpy.data(), 3)) {
+      bool ok = true;
+      for (int i = 0; i < 3; ++i) {
+        if (std::abs(rpy[i]) > 360.0) {
+          problems->Add(IndexPath(JoinPath(path, "rpy_deg"), i), "must be in [-360, 360] degrees");
+          ok = false;
+        }
+      }
+      if (ok) {
+        const Eigen::Quaterniond q(RotationFromRpy(Eigen::Vector3d(rpy[0], rpy[1], rpy[2]) * kRadPerDeg));
+        pose.quaternion = {q.w(), q.x(), q.y(), q.z()};
+      }
+    }
+  } else if (orientation_required) {
+    problems->Add(JoinPath(path, "quaternion"), "required (or rpy_deg)");
+  } else {
+    pose.has_orientation = false;
+  }
+  r.RejectUnknown({"position_mm", "quaternion", "rpy_deg"});
+  if (problems->size() != before) return false;
+  *out = pose;
+  return true;
+}
+
+void to_json(nlohmann::json& j, const PoseWire& pose) {
+  j = {{"position_mm", pose.position_mm}};
+  if (pose.has_orientation) j["quaternion"] = pose.quaternion;
+}
+
+void from_json(const nlohmann::json& j, PoseWire& pose) {
+  const WireReader r(j);
+  r.Required("position_mm", &pose.position_mm);
+  pose.has_orientation = r.Optional("quaternion", &pose.quaternion);
+  if (!pose.has_orientation) pose.quaternion = {1.0, 0.0, 0.0, 0.0};
+}
+
+void ReadResultPose(const WireReader& pose, PoseWire* out) {
+  pose.Required("position_mm", &out->position_mm);
+  pose.Required("quaternion", &out->quaternion);
+  out->has_orientation = true;
+}
+
+void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out) {
+  const WireReader pose(parent.Member(key), WirePath(parent.path(), key));
+  ReadResultPose(pose, out);
+}
+
+nlohmann::json PoseResultJson(const PoseWire& pose) {
+  nlohmann::json j = pose;
+  if (pose.has_orientation) {
+    const Eigen::Vector3d rpy = RpyFromRotation(PoseToTransform(pose).linear()) * kDegPerRad;
+    j["rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
+  }
+  return j;
+}
+
+Transform PoseToTransform(const PoseWire& p) {
+  Transform t = Transform::Identity();
+  t.translation() = Eigen::Vector3d(p.position_mm[0], p.position_mm[1], p.position_mm[2]);
+  t.linear() = Eigen::Quaterniond(p.quaternion[0], p.quaternion[1], p.quaternion[2], p.quaternion[3])
+                   .normalized()
+                   .toRotationMatrix();
+  return t;
+}
+
+PoseWire TransformToPose(const Transform& pose) {
+  PoseWire p;
+  const Eigen::Vector3d t = pose.translation();
+  p.position_mm = {t.x(), t.y(), t.z()};
+  Eigen::Quaterniond q(pose.linear());
+  q.normalize();
+  if (q.w() < 0) q.coeffs() *= -1.0;
+  p.quaternion = {q.w(), q.x(), q.y(), q.z()};
+  return p;
+}
+
+// ------------------------------------------------------------------------------------------------ small shapes
+
+void to_json(nlohmann::json& j, const DroppedParameterWire& d) { j = {{"name", d.name}, {"reason", d.reason}}; }
+
+void from_json(const nlohmann::json& j, DroppedParameterWire& d) {
+  const WireReader r(j);
+  r.Required("name", &d.name);
+  r.Required("reason", &d.reason);
+}
+
+std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dropped) {
+  std::vector<DroppedParameterWire> out;
+  for (const DroppedParameter& d : dropped) out.push_back({d.name, d.reason});
+  return out;
+}
+
+void to_json(nlohmann::json& j, const NoiseWire& n) {
+  j = {{"position_mm", n.position_mm}, {"orientation_deg", n.orientation_deg}};
+}
+
+void from_json(const nlohmann::json& j, NoiseWire& n) {
+  const WireReader r(j);
+  r.Required("position_mm", &n.position_mm);
+  r.Required("orientation_deg", &n.orientation_deg);
+}
+
+void ParseNoise(const nlohmann::json* v, const std::string& path, Problems* problems, NoiseWire* out) {
+  if (v == nullptr) return;
+  ObjectReader n(*v, path, problems);
+  n.Number("position_mm", false, &out->position_mm, 1e-9, 1e3);
+  n.Number("orientation_deg", false, &out->orientation_deg, 1e-9, 90.0);
+  n.RejectUnknown({"position_mm", "orientation_deg"});
+}
+
+MeasurementNoise ToCore(const NoiseWire& noise) {
+  return MeasurementNoise{noise.position_mm, noise.orientation_deg * kRadPerDeg};
+}
+
+}  // namespace robocal::api

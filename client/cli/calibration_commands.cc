@@ -1,0 +1,92 @@
+// robocal fit, compensate, evaluate: a campaign's calibration.
+#include <iomanip>
+#include <limits>
+
+#include "cli.h"
+#include "command.h"
+#include "robocal/client/csv.h"
+#include "robocal/core/accuracy.h"
+#include "support.h"
+
+namespace robocal::cli {
+namespace {
+
+void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
+  out << std::left << std::setw(14) << "parameter" << std::right << std::setw(14) << "value" << std::setw(14) << "std"
+      << "  unit\n";
+  for (const api::ParameterEstimate& p : c.parameters) {
+    out << std::left << std::setw(14) << p.name << std::right << std::setw(14) << Fixed(p.value, 5) << std::setw(14)
+        << Fixed(p.std, 5) << "  " << p.unit << "\n";
+  }
+  if (!c.dropped.empty()) {
+    out << "not identifiable (left out):\n";
+    for (const api::DroppedParameterWire& d : c.dropped) out << "  " << d.name << ": " << d.reason << "\n";
+  }
+  out << "residuals rms position " << Fixed(c.residuals_before.rms_position_mm, 4) << " mm -> "
+      << Fixed(c.residuals_after.rms_position_mm, 4) << " mm, rms orientation "
+      << Fixed(c.residuals_before.rms_orientation_deg, 5) << " deg -> "
+      << Fixed(c.residuals_after.rms_orientation_deg, 5) << " deg\n";
+  out << "condition number " << Fixed(c.condition_number, 2) << "; " << api::WireName(c.summary.termination) << ": "
+      << c.summary.brief << "\n";
+  if (!c.stored) out << "NOT stored as the campaign's calibration: " << c.summary.message << "\n";
+}
+
+}  // namespace
+
+int Fit(Invocation& in) {
+  api::FitRequest request;
+  if (in.Has("--parameters")) request.parameters = tools::SplitList("--parameters", in.Option("--parameters"));
+  request.register_base = !in.Has("--no-register-base");
+  request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
+  api::CalibrationResult result;
+  if (in.Has("--async")) {
+    const api::Operation started = in.Client().StartFit(in.args[0], request);
+    in.err << "operation " << started.id << "\n";
+    const api::Operation done = WaitWithProgress(in, started.id);
+    if (done.state == api::OperationState::kFailed || !done.fit) return ReportUnfinished(done, in.err);
+    result = *done.fit;
+  } else {
+    result = in.Client().Fit(in.args[0], request);
+  }
+  if (in.json) {
+    PrintJson(in.out, result);
+  } else {
+    PrintCalibration(result, in.out);
+  }
+  return kExitOk;
+}
+
+int Compensate(Invocation& in) {
+  const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
+  const api::Robot robot = in.Client().GetRobot(campaign.robot);
+  const auto nominal = ReadJointsFile(in.args[1], robot);
+  const api::CompensateResult result = in.Client().CompensateJoints(campaign.id, nominal);
+  Output output(in.Option("--out"), in.out);
+  if (in.json) {
+    PrintJson(output.stream(), result);
+  } else {
+    client::WriteCompensationCsv(output.stream(), robot.joints, result.results);
+  }
+  return kExitOk;
+}
+
+int Evaluate(Invocation& in) {
+  api::EvaluateRequest request;
+  // Any number: the service says which it takes (its error names h_mm and the range).
+  request.h_mm = in.Number("--h-mm", request.h_mm, std::numeric_limits<double>::lowest());
+  const api::Evaluation e = in.Client().Evaluate(in.args[0], request);
+  if (in.json) {
+    PrintJson(in.out, e);
+    return kExitOk;
+  }
+  in.out << FormatAccuracyTable(api::ToCore(e.nominal),
+                                "nominal model, " + std::to_string(e.num_validation) + " validation measurements");
+  in.out << FormatAccuracyTable(api::ToCore(e.calibrated), "calibrated model");
+  const api::Improvement& i = e.improvement_percent;
+  in.out << "improvement: E_xyz mean " << Fixed(i.e_xyz_mean, 1) << " %, E_xyz RP " << Fixed(i.e_xyz_rp, 1)
+         << " %, E_tot mean " << Fixed(i.e_tot_mean, 1) << " %, E_tot RP " << Fixed(i.e_tot_rp, 1) << " %\n";
+  if (e.note) in.out << "note: " << *e.note << "\n";
+  return kExitOk;
+}
+
+}  // namespace robocal::cli

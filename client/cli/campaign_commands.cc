@@ -1,0 +1,162 @@
+// robocal campaign create | list | get | forward, upload, measurements.
+#include <algorithm>
+#include <cstdint>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "cli.h"
+#include "command.h"
+#include "robocal/client/csv.h"
+#include "support.h"
+
+namespace robocal::cli {
+namespace {
+
+int Show(Invocation& in, const api::Campaign& campaign) {
+  if (in.json) {
+    PrintJson(in.out, campaign);
+  } else {
+    in.out << campaign.id << "  robot " << campaign.robot << "  " << api::WireName(campaign.measurement_type)
+           << "  calibration " << campaign.counts.calibration << "  validation " << campaign.counts.validation
+           << (campaign.calibrated ? "  calibrated" : "  not calibrated") << "\n";
+  }
+  return kExitOk;
+}
+
+// A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or
+// just its array of measurements.
+api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text) {
+  api::MeasurementBatchRequest batch;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(text);
+    if (j.is_array()) {
+      api::ReadWire(j, "", &batch.measurements);
+    } else {
+      const api::WireReader r(j);
+      r.Required("measurements", &batch.measurements);
+      r.Optional("request_id", &batch.request_id);
+      r.Optional("role", &batch.role);
+    }
+  } catch (const std::exception& e) {  // not JSON (parse_error), or not a batch (api::WireError)
+    throw UsageError(path + ": not a measurement batch: " + e.what());
+  }
+  return batch;
+}
+
+}  // namespace
+
+int CampaignCreate(Invocation& in) {
+  api::CreateCampaignRequest request;
+  request.robot = in.args[0];
+  request.measurement_type = Invocation::ParseEnum<MeasurementType>("TYPE", in.args[1]);
+  request.plan = in.Option("--plan");
+  request.id = in.Option("--id");
+  request.description = in.Option("--description");
+  const api::Campaign campaign = in.Client().CreateCampaign(request);
+  if (in.json) return Show(in, campaign);
+  in.out << campaign.id << "\n";
+  return kExitOk;
+}
+
+int CampaignList(Invocation& in) {
+  api::CampaignList list;
+  list.campaigns = in.Client().ListCampaigns();
+  if (in.json) {
+    PrintJson(in.out, list);
+    return kExitOk;
+  }
+  std::size_t id_width = 8, robot_width = 5;
+  for (const api::Campaign& c : list.campaigns) {
+    id_width = std::max(id_width, c.id.size());
+    robot_width = std::max(robot_width, c.robot.size());
+  }
+  auto row = [&](const std::string& id, const std::string& robot, const std::string& type,
+                 const std::string& calibration, const std::string& validation, const std::string& calibrated) {
+    in.out << std::left << std::setw(static_cast<int>(id_width)) << id << "  "
+           << std::setw(static_cast<int>(robot_width)) << robot << "  " << std::setw(13) << type << std::right << "  "
+           << std::setw(11) << calibration << "  " << std::setw(10) << validation << "  " << calibrated << "\n";
+  };
+  row("campaign", "robot", "type", "calibration", "validation", "calibrated");
+  for (const api::Campaign& c : list.campaigns) {
+    row(c.id, c.robot, api::WireName(c.measurement_type), std::to_string(c.counts.calibration),
+        std::to_string(c.counts.validation), c.calibrated ? "yes" : "no");
+  }
+  return kExitOk;
+}
+
+int CampaignGet(Invocation& in) { return Show(in, in.Client().GetCampaign(in.args[0])); }
+
+int CampaignForward(Invocation& in) {
+  const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
+  const api::Robot robot = in.Client().GetRobot(campaign.robot);
+  const auto joints = ReadJointsFile(in.args[1], robot);
+  return WriteForward(in, robot, joints, in.Client().CampaignForward(campaign.id, joints));
+}
+
+int Upload(Invocation& in) {
+  const std::string& campaign_id = in.args[0];
+  const std::string& path = in.args[1];
+  const std::string text = ReadFile(path);
+  api::MeasurementBatchRequest batch;
+  if (EndsWith(path, ".csv")) {
+    const api::Campaign campaign = in.Client().GetCampaign(campaign_id);
+    const api::Robot robot = in.Client().GetRobot(campaign.robot);
+    std::istringstream csv(text);
+    try {
+      batch.measurements = client::ReadMeasurementsCsv(csv, static_cast<int>(robot.joints.size()));
+    } catch (const std::runtime_error& e) {
+      throw UsageError(path + ": " + e.what());
+    }
+  } else {
+    batch = ReadJsonBatch(path, text);
+  }
+  batch.role = in.Enum("--role", batch.role);
+  batch.request_id = in.Option("--request-id", batch.request_id);
+  const api::BatchResult r = in.Client().UploadMeasurements(campaign_id, batch);
+  if (in.json) {
+    PrintJson(in.out, r);
+  } else {
+    in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " " << api::WireName(batch.role)
+           << " measurements, batch " << r.batch_id << ", request id " << r.request_id << "; campaign total "
+           << r.campaign_total << "\n";
+  }
+  return kExitOk;
+}
+
+int Measurements(Invocation& in) {
+  std::optional<api::MeasurementRole> role;
+  if (in.Has("--role")) role = Invocation::ParseEnum<api::MeasurementRole>("--role", in.Option("--role"));
+  std::int64_t after = in.Integer("--after", 0, 0, std::numeric_limits<std::int64_t>::max());
+  const long long limit = in.Integer("--limit", std::numeric_limits<long long>::max(), 1,
+                                     std::numeric_limits<long long>::max());
+  const std::string out_file = in.Option("--out");
+  if (!out_file.empty() && !EndsWith(out_file, ".csv")) throw UsageError("--out takes FILE.csv");
+  const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
+  // Every page up to the limit, as one list; next_after is the last page's (set when there may be more).
+  api::MeasurementList all;
+  all.campaign = campaign.id;
+  for (;;) {
+    const long long left = limit - static_cast<long long>(all.measurements.size());
+    api::MeasurementList page =
+        in.Client().ListMeasurements(campaign.id, role, after, static_cast<int>(std::min<long long>(1000, left)));
+    for (auto& m : page.measurements) all.measurements.push_back(std::move(m));
+    all.next_after = page.next_after;
+    if (!page.next_after || static_cast<long long>(all.measurements.size()) >= limit || page.measurements.empty()) {
+      break;
+    }
+    after = *page.next_after;
+  }
+  Output target(out_file, in.out);
+  if (in.json) {
+    PrintJson(target.stream(), all);
+  } else {
+    std::vector<api::MeasurementWire> measurements;
+    for (const api::StoredMeasurementWire& m : all.measurements) measurements.push_back(m.measurement);
+    client::WriteMeasurementsCsv(target.stream(), in.Client().GetRobot(campaign.robot).joints, measurements);
+  }
+  in.err << all.measurements.size() << " measurements of campaign " << campaign.id << "\n";
+  return kExitOk;
+}
+
+}  // namespace robocal::cli

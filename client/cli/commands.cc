@@ -1,0 +1,92 @@
+// The `robocal` command table: one entry per command, declaring its words, positional arguments, options and
+// help. The parser (cli.cc) refuses any option an entry does not list; the usage lines are made from it.
+#include "command.h"
+#include "experiment_flags.h"
+
+namespace robocal::cli {
+
+const std::vector<Command>& Commands() {
+  static const std::vector<Command> commands = {
+      {"robots", {}, {}, &help::kRobots, Robots},
+      {"robot register", {"FILE.json"}, {}, &help::kRobotRegister, RobotRegister},
+      {"robot get", {"ROBOT"}, {}, &help::kRobotGet, RobotGet},
+      {"robot delete", {"ROBOT"}, {}, &help::kRobotDelete, RobotDelete},
+      {"robot forward", {"ROBOT", "IN.csv"}, {{"--out", "OUT.csv"}}, &help::kRobotForward, RobotForward},
+      {"plan",
+       {"ROBOT"},
+       {{"--count", "M"},
+        {"--type", "TYPE"},
+        {"--objective", "NAME"},
+        {"--optimiser", "NAME"},
+        {"--seed", "N"},
+        {"--async"},
+        {"--out", "FILE.csv|FILE.json"}},
+       &help::kPlan,
+       Plan},
+      {"plan get", {"PLAN"}, {{"--out", "FILE.csv|FILE.json"}}, &help::kPlanGet, PlanGet},
+      {"campaign create",
+       {"ROBOT", "TYPE"},
+       {{"--plan", "PLAN"}, {"--id", "ID"}, {"--description", "TEXT"}},
+       &help::kCampaignCreate,
+       CampaignCreate},
+      {"campaign list", {}, {}, &help::kCampaignList, CampaignList},
+      {"campaign get", {"CAMPAIGN"}, {}, &help::kCampaignGet, CampaignGet},
+      {"campaign forward", {"CAMPAIGN", "IN.csv"}, {{"--out", "OUT.csv"}}, &help::kCampaignForward, CampaignForward},
+      {"upload",
+       {"CAMPAIGN", "FILE"},
+       {{"--role", "calibration|validation"}, {"--request-id", "ID"}},
+       &help::kUpload,
+       Upload},
+      {"measurements",
+       {"CAMPAIGN"},
+       {{"--role", "calibration|validation"}, {"--after", "SEQ"}, {"--limit", "N"}, {"--out", "FILE.csv"}},
+       &help::kMeasurements,
+       Measurements},
+      {"fit",
+       {"CAMPAIGN"},
+       {{"--parameters", "a,b,..."}, {"--no-register-base"}, {"--max-iterations", "N"}, {"--async"}},
+       &help::kFit,
+       Fit},
+      {"compensate", {"CAMPAIGN", "IN.csv"}, {{"--out", "OUT.csv"}}, &help::kCompensate, Compensate},
+      {"evaluate", {"CAMPAIGN"}, {{"--h-mm", "H"}}, &help::kEvaluate, Evaluate},
+      {"operation wait", {"ID"}, {}, &help::kOperationWait, OperationWait},
+      {"operation get", {"ID"}, {}, &help::kOperationGet, OperationGet},
+      {"operation cancel", {"ID"}, {}, &help::kOperationCancel, OperationCancel},
+      {"experiment", {}, {}, &help::kExperiment, Experiment, /*local=*/true, &tools::kExperimentFlagsHelp},
+  };
+  return commands;
+}
+
+std::string CommandHelp(const Command& command) {
+  std::string usage = "Usage: robocal " + command.name;
+  for (const std::string& argument : command.arguments) usage += " " + argument;
+  if (command.local) usage += " [options]";
+  for (const OptionSpec& option : command.options) {
+    usage += std::string(" [") + option.name + (option.value ? std::string(" ") + option.value : "") + "]";
+  }
+  return usage + "\n" + command.help->text + (command.flags_help ? *command.flags_help : "");
+}
+
+std::string Invocation::Option(const std::string& option, const std::string& fallback) const {
+  const auto it = options.find(option);
+  return it == options.end() ? fallback : it->second;
+}
+
+long long Invocation::Integer(const std::string& option, long long fallback, long long min, long long max) const {
+  return Has(option) ? tools::ParseIntegerFlag(option, Option(option), min, max) : fallback;
+}
+
+double Invocation::Number(const std::string& option, double fallback, double min) const {
+  return Has(option) ? tools::ParseDoubleFlag(option, Option(option), min) : fallback;
+}
+
+std::uint64_t Invocation::Seed(const std::string& option, std::uint64_t fallback) const {
+  return Has(option) ? tools::ParseSeedFlag(option, Option(option)) : fallback;
+}
+
+client::Client& Invocation::Client() const {
+  if (!client) throw std::logic_error("robocal " + command.name + " runs without a server");
+  return *client;
+}
+
+}  // namespace robocal::cli

@@ -1,0 +1,165 @@
+// The help texts of `robocal` (see help.h). Usage lines come from the command table (commands.cc).
+#include "help.h"
+
+namespace robocal::cli::help {
+
+const char* const kIntro = R"(Usage: robocal [global options] COMMAND [arguments] [options]
+
+Command line client of the robocal calibration service. Wire units: mm and degrees (revolute joints in
+degrees, prismatic joints in mm).
+
+Commands:
+)";
+
+const char* const kGlobal = R"(
+Global options (anywhere on the line, valid for every command):
+  --server URL    service URL (default $ROBOCAL_SERVER, else http://127.0.0.1:8080)
+  --token TOKEN   bearer token (default $ROBOCAL_TOKEN)
+  --ca-cert FILE  https: trust the certificate authorities in FILE (PEM; default $ROBOCAL_CA_CERT, else the
+                  system's), e.g. a lab server's self-signed certificate itself
+  --insecure      https: do NOT verify the server's certificate. Anyone on the network path can then pose as
+                  the server and read the token. Only for a first test against a self-signed lab server;
+                  use --ca-cert instead.
+  --json          print the resource as the service's JSON instead of tables (for scripts)
+  --help          help for robocal, for a command family (robocal campaign --help) or for one command
+
+An option that a command does not take is a usage error naming it (robocal robots --count 3).
+
+Exit codes: 0 ok, 1 service error (HTTP 4xx/5xx; the error's status, message and fields go to stderr),
+2 usage error, 3 connection failure.
+)";
+
+const HelpText kRobots = {"list preset and registered robots", R"(
+Lists the preset and registered robots: id, preset or not, number of joints, description.
+--json: the robot list ({"robots": [...]}, every page).
+)"};
+
+const HelpText kRobotRegister = {"register a robot model (DH / MDH / transform table; see the API docs)", R"(
+FILE.json is the body of POST /v1/robots, e.g.
+  {"id": "cell7", "from_preset": "ur5e", "tool": {"position_mm": [0, 0, 120], "rpy_deg": [0, 0, 0]}}
+or a full table: {"id": ..., "convention": "dh"|"mdh"|"transform", "joints": [...], "base": ..., "tool": ...}.
+Prints the robot as `robot get` does.
+)"};
+
+const HelpText kRobotGet = {"one robot: its joints, limits and units", R"(
+Prints the robot's joints (type, limits in the joint's unit). --json: the robot resource.
+)"};
+
+const HelpText kRobotDelete = {"delete a registered robot (presets cannot be deleted)", R"(
+Campaigns keep their copy of the robot's definition. --json: the service's reply ({}).
+)"};
+
+const HelpText kRobotForward = {"nominal tool poses for joint vectors (CSV in, CSV out)", R"(
+IN.csv is a joints CSV (header, one row per configuration, degrees / mm); writes the nominal model's tool poses
+(world frame: the nominal base) as the joint columns, x_mm,y_mm,z_mm,qw,qx,qy,qz to OUT.csv or stdout.
+--json: the forward result (frame and poses).
+)"};
+
+const HelpText kPlan = {"optimal measurement configurations", R"(
+Asks the service for M measurement configurations that make the calibration well conditioned, and prints
+them (one row per configuration, in the joints' units) with their observability indices and predicted
+accuracy against a random set of the same size.
+
+  --count M            configurations (default 10)
+  --type TYPE          pose, position_axis or position (default pose)
+  --objective NAME     condition_number, o1, o2, o3, o4, o5, log_det (default condition_number)
+  --optimiser NAME     solis_wets, random or exchange (default solis_wets)
+  --seed N             seed of the search (default 1); the same seed gives the same plan
+  --async              run as a long-running operation and wait for it with a progress bar on stderr
+  --out FILE           also write the configurations: FILE.csv (joints CSV) or FILE.json (the plan)
+)"};
+
+const HelpText kPlanGet = {"a stored plan (configurations and indices)", R"(
+Prints a stored plan as `robocal plan` does (GET /v1/plans/{plan}); --out FILE.csv|FILE.json writes it like a
+new one. --json: the plan resource.
+)"};
+
+const HelpText kCampaignCreate = {"create a calibration campaign (TYPE: pose, position_axis, position)", R"(
+TYPE is what the tracker measures. --plan links a plan (same robot and type); --id names the campaign
+(generated otherwise); --description says what it is for. Prints the campaign id; --json: the campaign.
+)"};
+
+const HelpText kCampaignList = {"every campaign, with its measurement counts and whether it is calibrated", R"(
+One row per campaign: id, robot, measurement type, calibration and validation measurements stored, and
+whether the campaign is calibrated (has a stored fit). --json: the campaign list ({"campaigns": [...]},
+every page), each campaign as `campaign get --json` prints it.
+)"};
+
+const HelpText kCampaignGet = {"one campaign", R"(
+Prints the campaign's robot, measurement type, measurement counts and whether it is calibrated.
+--json: the campaign resource.
+)"};
+
+const HelpText kCampaignForward = {"tool poses of the calibrated robot (tracker frame), CSV in, CSV out", R"(
+IN.csv is a joints CSV; writes the calibrated robot's tool poses in the tracker frame (the joint columns, then
+x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit. --json: the forward result.
+)"};
+
+const HelpText kUpload = {"upload tracker measurements (CSV or JSON)", R"(
+FILE is CSV (*.csv) or JSON. CSV: a header, then one row per tracker shot: the joint columns (degrees for
+revolute, mm for prismatic joints, in joint order), x_mm,y_mm,z_mm (tool position, tracker frame) and
+qw,qx,qy,qz (tool orientation; may be left out for position campaigns). JSON: a batch
+{"request_id": ..., "role": ..., "measurements": [{"joints": [...], "pose": {...}}]}, or just the array.
+The upload is atomic and idempotent: the same request id with the same content is stored once, so a repeated
+upload is safe. Without --request-id (and none in the JSON) it is derived from the content.
+--role (calibration or validation) defaults to calibration (or the JSON's role). --json: the batch result.
+)"};
+
+const HelpText kMeasurements = {"the stored measurements as CSV (the upload format) or JSON", R"(
+The campaign's stored measurements in upload order, as the measurement CSV that `robocal upload` reads (the
+joint columns, x_mm,y_mm,z_mm, and qw,qx,qy,qz unless the campaign measures position only), to FILE.csv or
+stdout. --role: only one role, calibration or validation (default both); --after: continue after that
+sequence number; --limit: at most N measurements (default all). --json: the measurement list (every page
+up to --limit, with sequence, batch and role of each; next_after set when --limit stopped it).
+)"};
+
+const HelpText kFit = {"identify the parameters; prints the parameter table", R"(
+Identifies the error parameters from the calibration measurements and prints them (value and standard
+deviation, mm or degrees), the parameters left out as unidentifiable and why, and the residuals before and after.
+The fit is stored as the campaign's calibration, unless it stopped at the service's request deadline or was
+cancelled: then it is printed with "NOT stored". --json: the calibration (fit) resource.
+
+  --parameters a,b,... the parameters to estimate (default: the identifiable set)
+  --no-register-base   do not register the base (tracker -> base) before identifying
+  --max-iterations N   Levenberg-Marquardt iterations at most (default 100)
+  --async              run as a long-running operation and wait for it with a progress bar on stderr
+                       (robocal operation cancel ID stops it; a cancelled fit is not stored)
+)"};
+
+const HelpText kCompensate = {"compensated joints for nominal joint commands (CSV in, CSV out)", R"(
+IN.csv: nominal joint commands (a joints CSV: header, one row per configuration, degrees / mm). Writes the
+compensated joints that take the calibrated robot where the nominal model says the command goes, with
+position_error_mm, orientation_error_deg and converged (0/1) columns, to OUT.csv or stdout. --json: the
+compensation result (per target: joints, errors, free rotation, converged, iterations, message).
+)"};
+
+const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements", R"(
+The paper's accuracy table on the campaign's validation measurements, nominal model against calibrated
+model: E_xyz (position, um), E_cos (tool axis angle, urad shown as um at 1 m), E_tot = E_xyz + H E_cos;
+mean, std, max and RP = mean + 3 std. --h-mm H defaults to 30 mm. --json: the evaluation.
+)"};
+
+const HelpText kOperationWait = {"wait for an async plan or fit, drawing progress on stderr", R"(
+Polls until the operation is done; exit 1 if it failed. --json: the operation as it ended.
+)"};
+
+const HelpText kOperationGet = {"a long-running operation's state", R"(
+--json: the operation resource.
+)"};
+
+const HelpText kOperationCancel = {"cancel a long-running operation (a cancelled fit is not stored)", R"(
+Cancelling a finished operation changes nothing. --json: the operation resource.
+)"};
+
+const HelpText kExperiment = {"the paper's simulated experiment, run locally (no server)", R"(
+The paper's simulated experiment, run locally by the calibration core (no server involved): per trial, a
+robot with new hidden geometric errors; M configurations planned by Solis & Wets, by random selection and by
+exchange; each plan measured by a simulated laser tracker and identified; then random validation poses
+compensated on each calibration. Prints E_xyz, E_cos and E_tot (mean, std, max, RP = mean + 3 std) before and
+after calibration per method, and the improvement over random selection. Progress goes to stderr. --json
+prints the pooled results as JSON (the accuracies in the service's form). The same flags as
+robocal-experiment:
+
+)"};
+
+}  // namespace robocal::cli::help

@@ -1,0 +1,123 @@
+// robocal plan, plan get, and operation wait | get | cancel (the long-running form of plans and fits).
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+
+#include "cli.h"
+#include "command.h"
+#include "robocal/client/csv.h"
+#include "support.h"
+
+namespace robocal::cli {
+namespace {
+
+void PrintIndices(std::ostream& out, const char* label, const api::Indices& x, const api::PredictedAccuracyWire& a) {
+  out << std::left << std::setw(10) << label << std::right << "  cond " << std::setw(10) << Fixed(x.condition_number, 2)
+      << "  O1 " << std::setw(10) << Fixed(x.o1, 4) << "  O2 " << std::setw(10) << Fixed(x.o2, 4) << "  O3 "
+      << std::setw(10) << Fixed(x.o3, 6) << "  O4 " << std::setw(10) << Fixed(x.o4, 6) << "  O5 " << std::setw(10)
+      << Fixed(x.o5, 4) << "  predicted rms " << Fixed(a.rms_position_mm, 4) << " mm\n";
+}
+
+void PrintPlan(const api::PlanResult& plan, std::ostream& out) {
+  out << "plan " << plan.id << "  robot " << plan.robot << "  " << plan.configurations.size() << " "
+      << api::WireName(plan.measurement_type) << " configurations  (" << api::WireName(plan.optimiser)
+      << ", objective " << api::WireName(plan.objective) << ")\n";
+  out << std::setw(4) << "#";
+  for (std::size_t j = 0; j < plan.joint_units.size(); ++j) {
+    out << std::setw(12) << ("q" + std::to_string(j + 1) + "[" + plan.joint_units[j] + "]");
+  }
+  out << "\n";
+  for (std::size_t i = 0; i < plan.configurations.size(); ++i) {
+    out << std::setw(4) << i + 1;
+    for (double v : plan.configurations[i]) out << std::setw(12) << Fixed(v, 3);
+    out << "\n";
+  }
+  PrintIndices(out, "plan", plan.indices, plan.predicted_accuracy);
+  PrintIndices(out, "random", plan.baseline.indices, plan.baseline.predicted_accuracy);
+  out << plan.identifiable_parameters.size() << " identifiable parameters; " << plan.summary.brief << "\n";
+}
+
+std::string OutFile(const Invocation& in) {
+  const std::string out_file = in.Option("--out");
+  if (!out_file.empty() && !EndsWith(out_file, ".csv") && !EndsWith(out_file, ".json")) {
+    throw UsageError("--out takes FILE.csv or FILE.json");
+  }
+  return out_file;
+}
+
+void WritePlanFile(Invocation& in, const api::PlanResult& plan, const std::string& out_file) {
+  if (out_file.empty()) return;
+  if (EndsWith(out_file, ".csv")) {
+    const api::Robot robot = in.Client().GetRobot(plan.robot);
+    std::ofstream file(out_file);
+    client::WriteJointsCsv(file, robot.joints, plan.configurations);
+    if (!file) throw UsageError("cannot write " + out_file);
+  } else {
+    std::ofstream file(out_file);
+    PrintJson(file, plan);
+    if (!file) throw UsageError("cannot write " + out_file);
+  }
+}
+
+int Show(Invocation& in, const api::PlanResult& plan, const std::string& out_file) {
+  WritePlanFile(in, plan, out_file);
+  if (in.json) {
+    PrintJson(in.out, plan);
+  } else {
+    PrintPlan(plan, in.out);
+  }
+  return kExitOk;
+}
+
+int ShowOperation(Invocation& in, const api::Operation& op) {
+  if (in.json) {
+    PrintJson(in.out, op);
+    return kExitOk;
+  }
+  const double progress = std::isfinite(op.progress) ? op.progress : 0.0;
+  in.out << op.id << " " << api::WireName(op.state) << " " << std::lround(progress * 100) << "%";
+  if (op.plan) in.out << " plan " << *op.plan;
+  if (op.fit) {
+    in.out << " fit " << (op.fit->stored ? "stored" : "not stored") << " ("
+           << api::WireName(op.fit->summary.termination) << ")";
+  }
+  if (op.error) in.out << " " << api::WireName(op.error->status) << ": " << op.error->message;
+  in.out << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int Plan(Invocation& in) {
+  const std::string out_file = OutFile(in);
+  api::PlanRequest request;
+  request.robot = in.args[0];
+  request.num_configurations = static_cast<int>(in.Integer("--count", 10, 1, 100000));
+  request.measurement_type = in.Enum("--type", MeasurementType::kPose);
+  request.objective = in.Enum("--objective", ObservabilityIndex::kConditionNumber);
+  request.optimiser = in.Enum("--optimiser", api::Optimiser::kSolisWets);
+  request.seed = in.Seed("--seed", 1);
+  if (!in.Has("--async")) return Show(in, in.Client().CreatePlan(request), out_file);
+  const api::Operation started = in.Client().StartPlan(request);
+  in.err << "operation " << started.id << "\n";
+  const api::Operation done = WaitWithProgress(in, started.id);
+  if (done.state == api::OperationState::kFailed || !done.plan) return ReportUnfinished(done, in.err);
+  return Show(in, in.Client().GetPlan(*done.plan), out_file);
+}
+
+int PlanGet(Invocation& in) {
+  const std::string out_file = OutFile(in);
+  return Show(in, in.Client().GetPlan(in.args[0]), out_file);
+}
+
+int OperationWait(Invocation& in) {
+  const api::Operation op = WaitWithProgress(in, in.args[0]);
+  ShowOperation(in, op);
+  return op.state == api::OperationState::kFailed ? kExitServiceError : kExitOk;
+}
+
+int OperationGet(Invocation& in) { return ShowOperation(in, in.Client().GetOperation(in.args[0])); }
+
+int OperationCancel(Invocation& in) { return ShowOperation(in, in.Client().CancelOperation(in.args[0])); }
+
+}  // namespace robocal::cli

@@ -1,0 +1,73 @@
+// robocal robots, robot register | get | delete | forward.
+#include <iomanip>
+
+#include "cli.h"
+#include "command.h"
+#include "support.h"
+
+namespace robocal::cli {
+namespace {
+
+void PrintRobot(const api::Robot& robot, std::ostream& out) {
+  out << robot.id << ": " << robot.joints.size() << " joints (" << api::WireName(robot.convention) << "), "
+      << robot.error_parameters.size() << " error parameters\n";
+  for (const api::RobotJoint& j : robot.joints) {
+    out << "  " << std::left << std::setw(8) << j.joint.name << std::setw(10) << api::WireName(j.joint.type)
+        << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit << "\n";
+  }
+}
+
+int Show(Invocation& in, const api::Robot& robot) {
+  if (in.json) {
+    PrintJson(in.out, robot);
+  } else {
+    PrintRobot(robot, in.out);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int Robots(Invocation& in) {
+  api::RobotList list;
+  list.robots = in.Client().ListRobots();
+  if (in.json) {
+    PrintJson(in.out, list);
+    return kExitOk;
+  }
+  for (const api::Robot& r : list.robots) {
+    in.out << std::left << std::setw(16) << r.id << std::setw(8) << (r.preset ? "preset" : "") << r.joints.size()
+           << " joints  " << r.description << std::right << "\n";
+  }
+  return kExitOk;
+}
+
+int RobotRegister(Invocation& in) {
+  nlohmann::json body;
+  try {
+    body = nlohmann::json::parse(ReadFile(in.args[0]));
+  } catch (const nlohmann::json::parse_error& e) {
+    throw UsageError(in.args[0] + " is not JSON: " + e.what());
+  }
+  return Show(in, in.Client().RegisterRobot(body));
+}
+
+int RobotGet(Invocation& in) { return Show(in, in.Client().GetRobot(in.args[0])); }
+
+int RobotDelete(Invocation& in) {
+  in.Client().DeleteRobot(in.args[0]);
+  if (in.json) {
+    PrintJson(in.out, nlohmann::json::object());  // the service's reply: DELETE has no resource to return
+  } else {
+    in.out << "deleted " << in.args[0] << "\n";
+  }
+  return kExitOk;
+}
+
+int RobotForward(Invocation& in) {
+  const api::Robot robot = in.Client().GetRobot(in.args[0]);
+  const auto joints = ReadJointsFile(in.args[1], robot);
+  return WriteForward(in, robot, joints, in.Client().RobotForward(robot.id, joints));
+}
+
+}  // namespace robocal::cli

@@ -1,0 +1,94 @@
+// What several `robocal` commands share (see support.h).
+#include "support.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "cli.h"
+#include "robocal/client/csv.h"
+
+namespace robocal::cli {
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError("cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool EndsWith(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string Fixed(double v, int digits) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+Output::Output(const std::string& out_file, std::ostream& out) : out_(out) {
+  if (out_file.empty()) return;
+  file_.open(out_file);
+  if (!file_) throw UsageError("cannot write " + out_file);
+}
+
+std::vector<std::vector<double>> ReadJointsFile(const std::string& path, const api::Robot& robot) {
+  std::istringstream in(ReadFile(path));
+  std::vector<std::vector<double>> rows;
+  try {
+    rows = client::ReadJointsCsv(in, static_cast<int>(robot.joints.size()));
+  } catch (const std::runtime_error& e) {
+    throw UsageError(path + ": " + e.what());
+  }
+  if (rows.empty()) throw UsageError(path + ": no rows");
+  return rows;
+}
+
+int WriteForward(Invocation& in, const api::Robot& robot, const std::vector<std::vector<double>>& joints,
+                 const api::ForwardResult& result) {
+  Output target(in.Option("--out"), in.out);
+  if (in.json) {
+    PrintJson(target.stream(), result);
+    return kExitOk;
+  }
+  std::vector<api::MeasurementWire> rows;
+  for (std::size_t i = 0; i < joints.size() && i < result.poses.size(); ++i) rows.push_back({joints[i], result.poses[i]});
+  client::WriteMeasurementsCsv(target.stream(), robot.joints, rows);
+  return kExitOk;
+}
+
+namespace {
+
+void ProgressBar(std::ostream& err, const api::Operation& op) {
+  const int width = 30;
+  const double progress = std::isfinite(op.progress) ? std::clamp(op.progress, 0.0, 1.0) : 0.0;
+  const int filled = static_cast<int>(std::lround(progress * width));
+  err << "\r" << op.id << " [" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << std::setw(3)
+      << std::lround(progress * 100) << "% " << api::WireName(op.state) << std::flush;
+}
+
+}  // namespace
+
+api::Operation WaitWithProgress(Invocation& in, const std::string& id) {
+  std::ostream& err = in.err;
+  const api::Operation done = in.Client().WaitOperation(id, [&err](const api::Operation& op) {
+    ProgressBar(err, op);
+    return true;
+  });
+  err << "\n";
+  return done;
+}
+
+int ReportUnfinished(const api::Operation& done, std::ostream& err) {
+  const std::string state = api::WireName(done.state);
+  const std::string message =
+      done.error ? std::string(api::WireName(done.error->status)) + ": " + done.error->message : state;
+  err << "robocal: operation " << done.id << " " << state << ": " << message << "\n";
+  return kExitServiceError;
+}
+
+}  // namespace robocal::cli

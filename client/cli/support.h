@@ -1,0 +1,44 @@
+// What several `robocal` commands share: files in and out, number formatting, joints CSV input, forward
+// kinematics output, waiting for an operation with a progress bar.
+#pragma once
+
+#include <fstream>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "command.h"
+
+namespace robocal::cli {
+
+/// The whole file; a usage error if it cannot be read (the user's file, not the service).
+std::string ReadFile(const std::string& path);
+bool EndsWith(const std::string& text, const std::string& suffix);
+/// `v` with `digits` decimals; "-" if not finite.
+std::string Fixed(double v, int digits);
+
+/// `out_file` opened for writing, or `out` when it is empty.
+class Output {
+ public:
+  Output(const std::string& out_file, std::ostream& out);
+  std::ostream& stream() { return file_.is_open() ? file_ : out_; }
+
+ private:
+  std::ostream& out_;
+  std::ofstream file_;
+};
+
+/// The joints CSV at `path` for `robot`, as a usage error when malformed or empty.
+std::vector<std::vector<double>> ReadJointsFile(const std::string& path, const api::Robot& robot);
+
+/// robot forward / campaign forward: the poses of `joints` as the measurement CSV (or, with --json, the
+/// forward result) to --out or stdout.
+int WriteForward(Invocation& in, const api::Robot& robot, const std::vector<std::vector<double>>& joints,
+                 const api::ForwardResult& result);
+
+/// Waits for operation `id`, drawing its progress bar on in.err, and ends the bar's line.
+api::Operation WaitWithProgress(Invocation& in, const std::string& id);
+/// An async plan or fit that ended without its result: says why on err; the command's exit code.
+int ReportUnfinished(const api::Operation& done, std::ostream& err);
+
+}  // namespace robocal::cli

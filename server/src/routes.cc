@@ -1,0 +1,124 @@
+// The route table.
+#include "routes.h"
+
+#include "robocal/server/http_server.h"
+
+#include <regex>
+#include <variant>
+
+#include "robocal/api/json_reader.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+using nlohmann::json;
+
+// The pre-routing check has made sure a POST carries a body declared as JSON; an empty one is refused here.
+json Body(const Service& service, const httplib::Request& req) {
+  if (req.body.empty()) {
+    throw ApiError(Status::kInvalidArgument, "empty request body: send a JSON object ({} for the defaults)",
+                   {{"body", "must be a JSON object, got an empty body"}});
+  }
+  return api::ParseBody(req.body, service.limits().max_array_length);
+}
+// A typed reply as the response body; a plan or fit is either the result or (async) its operation.
+template <typename T>
+json Reply(const T& value) {
+  return json(value);
+}
+template <typename... T>
+json Reply(const std::variant<T...>& value) {
+  return std::visit([](const auto& v) { return json(v); }, value);
+}
+std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
+std::string Query(const httplib::Request& req, const char* key) {
+  return req.has_param(key) ? req.get_param_value(key) : "";
+}
+
+}  // namespace
+
+const std::vector<Route>& RouteTable() {
+  static const std::vector<Route> routes = {
+      {"GET", "/healthz", "/healthz", nullptr},
+      {"GET", "/metrics", "/metrics", nullptr},
+      {"GET", "/v1/openapi.json", "/v1/openapi.json", nullptr},
+      {"GET", "/v1/robots", "/v1/robots",
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.ListRobots(Query(r, "page_size"), Query(r, "page_token")));
+       }},
+      {"POST", "/v1/robots", "/v1/robots",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateRobot(Body(s, r))); }},
+      {"GET", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetRobot(Id(r))); }},
+      {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
+       [](Service& s, const httplib::Request& r) {
+         s.DeleteRobot(Id(r));
+         return json::object();
+       }},
+      {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
+       [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
+      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return Reply(s.CreatePlan(Body(s, r))); }},
+      {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetPlan(Id(r))); }},
+      {"GET", "/v1/campaigns", "/v1/campaigns",
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.ListCampaigns(Query(r, "page_size"), Query(r, "page_token")));
+       }},
+      {"POST", "/v1/campaigns", "/v1/campaigns",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateCampaign(Body(s, r))); }},
+      {"GET", R"(/v1/campaigns/([^/:]+))", "/v1/campaigns/{campaign}",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetCampaign(Id(r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
+       [](Service& s, const httplib::Request& r) { return Reply(s.AppendMeasurements(Id(r), Body(s, r))); }},
+      {"GET", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.ListMeasurements(Id(r), Query(r, "role"), Query(r, "after"), Query(r, "limit")));
+       }},
+      {"POST", R"(/v1/campaigns/([^/:]+):fit)", "/v1/campaigns/{campaign}:fit",
+       [](Service& s, const httplib::Request& r) { return Reply(s.Fit(Id(r), Body(s, r))); }},
+      {"GET", R"(/v1/campaigns/([^/:]+)/calibration)", "/v1/campaigns/{campaign}/calibration",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetCalibration(Id(r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
+       [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CampaignForward(Id(r), Body(s, r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+):evaluate)", "/v1/campaigns/{campaign}:evaluate",
+       [](Service& s, const httplib::Request& r) { return Reply(s.Evaluate(Id(r), Body(s, r))); }},
+      {"GET", R"(/v1/operations/([^/:]+))", "/v1/operations/{operation}",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetOperation(Id(r))); }},
+      {"POST", R"(/v1/operations/([^/:]+):cancel)", "/v1/operations/{operation}:cancel",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CancelOperation(Id(r))); }},
+  };
+  return routes;
+}
+
+std::string MethodLabel(const std::string& method) {
+  for (const char* known : {"GET", "POST", "DELETE", "PUT", "PATCH", "HEAD", "OPTIONS", "CONNECT", "TRACE"}) {
+    if (method == known) return method;
+  }
+  return "other";
+}
+
+std::string RouteLabel(const std::string& method, const std::string& path) {
+  // Compiled once: building a std::regex costs far more than matching one.
+  static const std::vector<std::regex> patterns = [] {
+    std::vector<std::regex> compiled;
+    for (const Route& r : RouteTable()) compiled.emplace_back(r.pattern);
+    return compiled;
+  }();
+  const auto& routes = RouteTable();
+  for (std::size_t i = 0; i < routes.size(); ++i) {
+    if (method == routes[i].method && std::regex_match(path, patterns[i])) return routes[i].openapi_path;
+  }
+  return "unmatched";
+}
+
+std::vector<RouteInfo> Routes() {
+  std::vector<RouteInfo> routes;
+  for (const Route& r : RouteTable()) routes.push_back({r.method, r.openapi_path});
+  return routes;
+}
+
+}  // namespace robocal::server

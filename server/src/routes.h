@@ -1,0 +1,37 @@
+// The route table of the HTTP API: each route's method, pattern, documented path and what it does (parse the
+// request, call the service, serialise the typed reply). Registration, the OpenAPI completeness test and the
+// /metrics labels all come from it.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/server/service.h"
+// After the service: the library's header must not come before Eigen's.
+#include <httplib.h>
+
+namespace robocal::server {
+
+// What a route does: parse path/query/body, call the service, return the response body.
+using RouteHandler = std::function<nlohmann::json(Service&, const httplib::Request&)>;
+
+struct Route {
+  const char* method;
+  const char* pattern;  // cpp-httplib regex; ids never contain '/' or ':'
+  const char* openapi_path;
+  RouteHandler handler;
+};
+
+/// Every route; /healthz, /metrics and the spec have no handler here (the server answers them itself).
+const std::vector<Route>& RouteTable();
+
+/// The method label for metrics: one of the methods HTTP defines, else "other" (a client may send any bytes as a
+/// method; each distinct one would otherwise become a series kept forever).
+std::string MethodLabel(const std::string& method);
+/// The route label of a request path for metrics and logs (bounded cardinality: never the raw path).
+std::string RouteLabel(const std::string& method, const std::string& path);
+
+}  // namespace robocal::server

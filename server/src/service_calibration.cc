@@ -1,0 +1,225 @@
+// The service's calibration: the fit, and what a stored calibration answers (compensation, forward kinematics
+// of the calibrated robot, accuracy on the validation measurements).
+#include <algorithm>
+
+#include "robocal/core/accuracy.h"
+#include "robocal/core/compensation.h"
+#include "robocal/core/identifiability.h"
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w) {
+  Measurement m;
+  m.joints = api::JointsToCore(model, w.joints);
+  m.T_world_tool = api::PoseToTransform(w.pose);
+  return m;
+}
+
+// Refuses, before any measurement is loaded, a fit whose Jacobian (rows x measurements x parameters) exceeds
+// max_fit_jacobian_entries: its size bounds the fit's memory and the time of each iteration.
+void CheckFitSize(const RobotModel& model, const IdentificationOptions& options, std::int64_t measurements,
+                  bool parameters_requested, const api::Limits& limits) {
+  const std::int64_t parameters =
+      parameters_requested ? static_cast<std::int64_t>(options.parameters.size())
+                           : static_cast<std::int64_t>(
+                                 FindIdentifiableParameters(model, options.measurement_type, options.identifiability)
+                                     .identifiable.size());
+  const std::int64_t rows = MeasurementRows(options.measurement_type);
+  const std::int64_t entries = rows * measurements * parameters;
+  if (entries <= limits.max_fit_jacobian_entries) return;
+  const std::int64_t most = limits.max_fit_jacobian_entries / std::max<std::int64_t>(1, rows * parameters);
+  const std::string reason =
+      api::OverLimit(entries,
+                     "Jacobian entries (" + std::to_string(rows) + " rows x " + std::to_string(measurements) +
+                         " calibration measurements x " + std::to_string(parameters) + " parameters)",
+                     "max_fit_jacobian_entries", limits.max_fit_jacobian_entries) +
+      "; this fit takes at most " + std::to_string(most) + " calibration measurements";
+  std::vector<api::FieldViolation> details = {{"measurements", reason}};
+  if (parameters_requested) details.push_back({"parameters", reason});
+  throw ApiError(Status::kFailedPrecondition, "the fit is too large: " + reason, details);
+}
+
+// Zero (the robot's home) where inside the limits, else the middle: the solver's start for a pose target
+// without start_joints.
+Eigen::VectorXd DefaultStart(const RobotModel& model) {
+  Eigen::VectorXd start = (model.lower_limits() + model.upper_limits()) / 2.0;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    if (model.lower_limits()[i] <= 0.0 && model.upper_limits()[i] >= 0.0) start[i] = 0.0;
+  }
+  return start;
+}
+
+}  // namespace
+
+struct Service::Calibrated {
+  api::StoredCampaign campaign;
+  RobotModel model;
+  Calibration calibration;
+};
+
+FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body) {
+  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits);
+  const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
+  if (count == 0) {
+    throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
+                   {{"measurements", "upload measurements with role calibration first"}});
+  }
+  const IdentificationOptions options =
+      api::ToIdentificationOptions(req, model, campaign.measurement_type, campaign.noise);
+  CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
+  auto measurements = std::make_shared<std::vector<Measurement>>();
+  measurements->reserve(static_cast<std::size_t>(count));
+  ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    measurements->push_back(ToCore(model, ReadMeasurement(s)));
+  });
+
+  // Identifies and returns the fit; stores it as the calibration only if `control` never stopped it: a fit cut
+  // short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
+  auto fit = [this, campaign, model, measurements, options](WorkControl& control) {
+    IdentificationOptions o = options;
+    o.progress = [this, &control](double fraction) {
+      if (options_.on_fit_progress) options_.on_fit_progress();
+      return control(fraction);
+    };
+    const Calibration calibration = Identify(model, *measurements, o);
+    if (calibration.summary.termination == Termination::kFailure) {
+      throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
+                     {{"measurements", calibration.summary.message}});
+    }
+    api::CalibrationResult result = api::ToWire(calibration);
+    result.campaign = campaign.id;
+    result.robot = campaign.robot;
+    result.measurement_type = campaign.measurement_type;
+    result.created_unix_ms = NowUnixMs();
+    result.stored = control.stop() == Stop::kNone;
+    if (result.stored) {
+      storage_->Put(kCalibrations, campaign.id, nlohmann::json(api::ToStored(calibration, result)).dump());
+    }
+    return result;
+  };
+
+  if (req.async) {
+    api::Operation op;
+    op.id = NewId("op");
+    op.kind = api::OperationKind::kFit;
+    op.campaign = campaign_id;
+    op.fit_request = req;
+    return operations_.Start(op, [fit](WorkControl& control, api::Operation* done) {
+      api::CalibrationResult result = fit(control);
+      if (control.stop() == Stop::kCancel) {
+        result.summary.message = "cancelled after " + std::to_string(result.summary.iterations) +
+                                 " iterations; the best parameters so far, not stored";
+      }
+      done->fit = std::move(result);
+    });
+  }
+  const TrimWhenDone trim(&trimmer_, true);
+  WorkControl control(std::chrono::steady_clock::now() + options_.request_deadline);
+  api::CalibrationResult result = fit(control);
+  if (control.stop() == Stop::kDeadline) {
+    DescribeDeadlineStop(options_.request_deadline, "the best parameters so far, not stored as the calibration",
+                         "use async: true for longer fits", &result.summary);
+  }
+  return result;
+}
+
+Service::Calibrated Service::LoadCalibrated(const std::string& campaign_id) {
+  api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  RobotModel model = api::BuildModel(campaign.robot_definition);
+  const auto doc = storage_->Get(kCalibrations, campaign_id);
+  if (!doc) {
+    throw ApiError(Status::kFailedPrecondition, "campaign \"" + campaign_id + "\" is not calibrated (POST :fit)",
+                   {{"campaign", "not calibrated"}});
+  }
+  const api::StoredCalibration stored = ReadStored<api::StoredCalibration>(*doc);
+  try {
+    Calibration calibration = api::Restore(model, stored);
+    return {std::move(campaign), std::move(model), std::move(calibration)};
+  } catch (const api::WireError& e) {
+    throw ApiError(Status::kInternal, "stored calibration of \"" + campaign_id + "\" is unreadable: " + e.what());
+  }
+}
+
+api::CalibrationResult Service::GetCalibration(const std::string& campaign_id) {
+  (void)LoadCampaign(campaign_id);
+  const auto doc = storage_->Get(kCalibrations, campaign_id);
+  if (!doc) throw ApiError(Status::kNotFound, "campaign \"" + campaign_id + "\" has no calibration yet (POST :fit)");
+  return ReadStored<api::StoredCalibration>(*doc).result;
+}
+
+api::ForwardResult Service::CampaignForward(const std::string& campaign_id, const nlohmann::json& body) {
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const api::ForwardRequest req = api::ParseForwardRequest(body, loaded.model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
+  api::ForwardResult result;
+  result.campaign = campaign_id;
+  result.frame = "tracker";
+  result.poses = ForwardPoses(loaded.calibration.model, loaded.calibration.errors, req);
+  return result;
+}
+
+api::CompensateResult Service::Compensate(const std::string& campaign_id, const nlohmann::json& body) {
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const RobotModel& model = loaded.model;
+  const api::CompensateRequest req = api::ParseCompensateRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.targets.size() >= kLargeRequest);
+  api::CompensateResult result;
+  result.campaign = campaign_id;
+  result.results.reserve(req.targets.size());
+  for (const api::CompensationTargetWire& t : req.targets) {
+    CompensationResult r;
+    if (t.pose) {
+      const Eigen::VectorXd start =
+          t.start_joints.empty() ? DefaultStart(model) : api::JointsToCore(model, t.start_joints);
+      r = CompensatePose(loaded.calibration, api::PoseToTransform(*t.pose), t.frame, start);
+    } else {
+      r = CompensateJoints(loaded.calibration, model, api::JointsToCore(model, t.joints));
+    }
+    result.results.push_back(api::ToWire(model, r));
+  }
+  return result;
+}
+
+api::Evaluation Service::Evaluate(const std::string& campaign_id, const nlohmann::json& body) {
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const Calibration& calibration = loaded.calibration;
+  const api::EvaluateRequest req = api::ParseEvaluateRequest(body);
+  const TrimWhenDone trim(&trimmer_, true);
+  std::vector<Transform> measured, nominal, calibrated;
+  KinematicsWorkspace ws(calibration.model);
+  ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {
+    const Measurement m = ToCore(loaded.model, ReadMeasurement(s));
+    measured.push_back(m.T_world_tool);
+    nominal.push_back(ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws));
+    calibrated.push_back(ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws));
+  });
+  if (measured.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "the campaign has no validation measurements",
+                   {{"measurements", "upload measurements with role validation first"}});
+  }
+  const AccuracyReport before = ComputeAccuracy(nominal, measured, req.h_mm);
+  const AccuracyReport after = ComputeAccuracy(calibrated, measured, req.h_mm);
+  api::Evaluation e;
+  e.campaign = campaign_id;
+  e.num_validation = static_cast<int>(measured.size());
+  e.h_mm = req.h_mm;
+  e.nominal = api::ToWire(before);
+  e.calibrated = api::ToWire(after);
+  e.improvement_percent = api::ImprovementOf(before, after);
+  if (loaded.campaign.measurement_type == MeasurementType::kPosition) {
+    e.note = "position measurements carry no orientation: E_cos and E_tot compare against identity";
+  }
+  return e;
+}
+
+}  // namespace robocal::server

@@ -1,0 +1,157 @@
+// The service's campaigns and their measurements.
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+// A query integer in [0, max] (problem recorded at `field` otherwise); `fallback` when empty.
+std::int64_t QueryInt(const std::string& text, const char* field, std::int64_t fallback, std::int64_t max,
+                      api::Problems* problems) {
+  if (text.empty()) return fallback;
+  try {
+    std::size_t used = 0;
+    const long long v = std::stoll(text, &used);
+    if (used == text.size() && v >= 0 && v <= max) return static_cast<std::int64_t>(v);
+  } catch (const std::exception&) {
+  }
+  problems->Add(field, "expected an integer in [0, " + std::to_string(max) + "]");
+  return fallback;
+}
+
+}  // namespace
+
+api::StoredCampaign Service::LoadCampaign(const std::string& id) {
+  CheckId(id, "campaign");
+  const auto doc = storage_->Get(kCampaigns, id);
+  if (!doc) throw ApiError(Status::kNotFound, "campaign \"" + id + "\" not found");
+  return ReadStored<api::StoredCampaign>(*doc);
+}
+
+api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
+  api::Campaign c;
+  c.id = s.id;
+  c.description = s.description;
+  c.robot = s.robot;
+  c.measurement_type = s.measurement_type;
+  c.plan = s.plan;
+  c.noise = s.noise;
+  c.created_unix_ms = s.created_unix_ms;
+  c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
+  c.counts.validation = storage_->CountMeasurements(s.id, "validation");
+  c.calibrated = storage_->Get(kCalibrations, s.id).has_value();
+  return c;
+}
+
+api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
+  const api::CreateCampaignRequest req = api::ParseCreateCampaignRequest(body);
+  api::StoredCampaign campaign;
+  campaign.robot_definition = ResolveRobot(req.robot).definition;
+  campaign.measurement_type = req.measurement_type.value_or(MeasurementType::kPose);
+  if (!req.plan.empty()) {
+    const api::PlanResult plan = GetPlan(req.plan);
+    if (plan.robot != req.robot) {
+      throw ApiError(Status::kFailedPrecondition, "plan \"" + req.plan + "\" is for robot " + plan.robot,
+                     {{"plan", "planned for another robot"}});
+    }
+    if (!req.measurement_type) campaign.measurement_type = plan.measurement_type;
+    campaign.plan = req.plan;
+  }
+  campaign.id = req.id.empty() ? NewId("c") : req.id;
+  campaign.description = req.description;
+  campaign.robot = req.robot;
+  campaign.noise = req.noise;
+  campaign.created_unix_ms = NowUnixMs();
+  try {
+    storage_->Create(kCampaigns, campaign.id, nlohmann::json(campaign).dump());
+  } catch (const StorageError& e) {
+    if (e.kind() == StorageError::Kind::kAlreadyExists) {
+      throw ApiError(Status::kAlreadyExists, "campaign \"" + campaign.id + "\" already exists",
+                     {{"id", "already exists"}});
+    }
+    throw;
+  }
+  return CampaignResource(campaign);
+}
+
+api::Campaign Service::GetCampaign(const std::string& id) { return CampaignResource(LoadCampaign(id)); }
+
+api::CampaignList Service::ListCampaigns(const std::string& page_size, const std::string& page_token) {
+  const PageRequest page = ParsePageRequest(kCampaigns, page_size, page_token);
+  auto docs = storage_->List(kCampaigns, page.token, static_cast<int>(page.size + 1));
+  const bool more = docs.size() > page.size;
+  if (more) docs.resize(page.size);
+  api::CampaignList list;
+  for (const Document& d : docs) list.campaigns.push_back(CampaignResource(ReadStored<api::StoredCampaign>(d)));
+  if (more) list.next_page_token = PageToken(kCampaigns, docs.back().id);
+  return list;
+}
+
+api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, const nlohmann::json& body) {
+  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  const api::MeasurementBatchRequest req =
+      api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
+  std::vector<std::string> texts;
+  texts.reserve(req.measurements.size());
+  const std::string role = api::WireName(req.role);
+  std::string all = role;
+  for (const auto& m : req.measurements) {
+    texts.push_back(nlohmann::json(m).dump());
+    all += "\n" + texts.back();
+  }
+  BatchResult r;
+  try {
+    r = storage_->AppendMeasurements(campaign_id, req.request_id, api::ContentHash(all), role, texts,
+                                     options_.max_measurements_per_campaign);
+  } catch (const StorageError& e) {
+    if (e.kind() == StorageError::Kind::kAlreadyExists) {
+      throw ApiError(Status::kAlreadyExists,
+                     "request_id \"" + req.request_id + "\" was used before with other content",
+                     {{"request_id", "reused with different content"}});
+    }
+    if (e.kind() == StorageError::Kind::kResourceExhausted) {
+      const std::string limit = std::to_string(options_.max_measurements_per_campaign);
+      throw ApiError(Status::kResourceExhausted,
+                     "the campaign would exceed max_measurements_per_campaign (" + limit + ")",
+                     {{"measurements", "limit max_measurements_per_campaign = " + limit}});
+    }
+    throw;
+  }
+  return {campaign_id, r.batch_id, r.request_id, r.replayed, r.first_sequence, r.count, r.campaign_total};
+}
+
+api::MeasurementList Service::ListMeasurements(const std::string& campaign_id, const std::string& role,
+                                               const std::string& after, const std::string& limit) {
+  (void)LoadCampaign(campaign_id);
+  api::Problems problems;
+  api::MeasurementRole parsed_role{};
+  if (!role.empty() && !api::FromWireName(role, &parsed_role)) {
+    problems.Add("role", "expected calibration or validation");
+  }
+  const std::int64_t after_seq = QueryInt(after, "after", 0, INT64_MAX, &problems);
+  const std::int64_t page =
+      QueryInt(limit, "limit", 1000, static_cast<std::int64_t>(options_.limits.max_array_length), &problems);
+  problems.ThrowIfAny("invalid query");
+  const auto stored = storage_->ListMeasurements(campaign_id, role, after_seq, static_cast<int>(page));
+  api::MeasurementList list;
+  list.campaign = campaign_id;
+  for (const StoredMeasurement& m : stored) {
+    api::StoredMeasurementWire w;
+    w.sequence = m.sequence;
+    w.batch_id = m.batch_id;
+    if (!api::FromWireName(m.role, &w.role)) {
+      throw ApiError(Status::kInternal, "stored measurement " + std::to_string(m.sequence) + " has role " + m.role);
+    }
+    w.measurement = ReadMeasurement(m);
+    list.measurements.push_back(std::move(w));
+  }
+  if (static_cast<std::int64_t>(stored.size()) == page && page > 0) list.next_after = stored.back().sequence;
+  return list;
+}
+
+}  // namespace robocal::server

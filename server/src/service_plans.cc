@@ -1,0 +1,126 @@
+// The service's plans: measurement configurations chosen by the requested optimiser.
+#include "robocal/core/identifiability.h"
+#include "robocal/core/observability.h"
+#include "robocal/core/planning.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations) {
+  std::vector<std::vector<double>> out;
+  out.reserve(configurations.size());
+  for (const auto& q : configurations) out.push_back(api::JointsToWire(model, q));
+  return out;
+}
+
+}  // namespace
+
+api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest& req, const std::string& plan_id,
+                                 WorkControl& control) {
+  IdentifiabilityOptions id_options;
+  id_options.noise = api::ToCore(req.noise);
+  id_options.seed = req.seed;
+  const IdentifiabilitySummary ident = FindIdentifiableParameters(model, req.measurement_type, id_options);
+  if (ident.termination == Termination::kFailure || ident.identifiable.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "no identifiable parameters: " + ident.message);
+  }
+  ObservabilityOptions obs = api::ToObservabilityOptions(req);
+  obs.parameters = ident.identifiable;
+  // ParsePlanRequest refused plans whose work exceeds max_plan_evaluations; the limit is also the optimiser's
+  // budget, so that no plan can count past it.
+  const int evaluation_limit =
+      static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
+  Plan plan;
+  switch (req.optimiser) {
+    case api::Optimiser::kRandom: {
+      RandomSelectionOptions o = api::ToRandomSelectionOptions(req);
+      o.progress = control.Callback();
+      plan = PlanRandom(model, req.num_configurations, obs, o);
+      break;
+    }
+    case api::Optimiser::kExchange: {
+      ExchangeOptions o = api::ToExchangeOptions(req);
+      if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
+      o.progress = control.Callback();
+      plan = PlanExchange(model, req.num_configurations, obs, o);
+      break;
+    }
+    case api::Optimiser::kSolisWets: {
+      SolisWetsOptions o = api::ToSolisWetsOptions(req);
+      if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
+      o.progress = control.Callback();
+      plan = PlanSolisWets(model, req.num_configurations, obs, o);
+      break;
+    }
+  }
+
+  // The paper's baseline: one random set of the same size (seeded from the plan's seed).
+  RandomSelectionOptions baseline_options;
+  baseline_options.seed = req.seed + 1000003;
+  baseline_options.objective = req.objective;
+  const Plan baseline = PlanRandom(model, req.num_configurations, obs, baseline_options);
+  Rng rng(req.seed + 2000003);
+  const auto validation = RandomConfigurations(model, req.num_validation, &rng);
+
+  api::PlanResult result;
+  result.id = plan_id;
+  result.robot = req.robot;
+  result.request = req;
+  result.measurement_type = req.measurement_type;
+  result.objective = req.objective;
+  result.optimiser = req.optimiser;
+  for (int i = 0; i < model.num_joints(); ++i) result.joint_units.emplace_back(api::JointUnit(model, i));
+  result.configurations = ToWire(model, plan.configurations);
+  result.indices = api::ToWire(plan.summary.final);
+  result.baseline.configurations = ToWire(model, baseline.configurations);
+  result.baseline.indices = api::ToWire(baseline.summary.final);
+  result.baseline.predicted_accuracy =
+      api::ToWire(PredictAccuracy(model, obs, baseline.configurations, validation));
+  result.identifiable_parameters = ident.identifiable_names;
+  result.dropped_parameters = api::ToWire(ident.dropped);
+  result.predicted_accuracy = api::ToWire(PredictAccuracy(model, obs, plan.configurations, validation));
+  result.summary = api::ToWire(plan.summary);
+  if (control.stop() != Stop::kNone) result.summary.message += "; stopped early with the best set so far";
+  result.created_unix_ms = NowUnixMs();
+  return result;
+}
+
+PlanReply Service::CreatePlan(const nlohmann::json& body) {
+  const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
+  const RobotModel model = ResolveRobot(req.robot).model;  // NOT_FOUND before any work or operation is created
+  const std::string plan_id = NewId("plan");
+  if (!req.async) {
+    const TrimWhenDone trim(&trimmer_, true);
+    WorkControl control(std::chrono::steady_clock::now() + options_.request_deadline);
+    api::PlanResult plan = RunPlan(model, req, plan_id, control);
+    if (control.stop() == Stop::kDeadline) {
+      DescribeDeadlineStop(options_.request_deadline, "the best set so far", "use async: true for longer searches",
+                           &plan.summary);
+    }
+    storage_->Create(kPlans, plan_id, nlohmann::json(api::StoredPlan{plan}).dump());
+    return plan;
+  }
+  api::Operation op;
+  op.id = NewId("op");
+  op.kind = api::OperationKind::kPlan;
+  op.plan_request = req;
+  return operations_.Start(op, [this, model, req, plan_id](WorkControl& control, api::Operation* done) {
+    const api::PlanResult plan = RunPlan(model, req, plan_id, control);
+    storage_->Create(kPlans, plan_id, nlohmann::json(api::StoredPlan{plan}).dump());
+    done->plan = plan_id;
+  });
+}
+
+api::PlanResult Service::GetPlan(const std::string& id) {
+  CheckId(id, "plan");
+  const auto doc = storage_->Get(kPlans, id);
+  if (!doc) throw ApiError(Status::kNotFound, "plan \"" + id + "\" not found");
+  return ReadStored<api::StoredPlan>(*doc).plan;
+}
+
+}  // namespace robocal::server

@@ -1,0 +1,118 @@
+// The service's robots: presets and registered robots, forward kinematics.
+#include <algorithm>
+
+#include "robocal/core/presets.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+bool IsPreset(const std::string& id) {
+  const auto names = PresetNames();
+  return std::find(names.begin(), names.end(), id) != names.end();
+}
+
+}  // namespace
+
+Service::Service(Storage* storage, ServiceOptions options)
+    : storage_(storage),
+      options_(std::move(options)),
+      operations_(storage, &trimmer_, OperationRunnerOptions{options_.max_running_operations}) {}
+
+Service::~Service() = default;
+
+Service::ResolvedRobot Service::ResolveRobot(const std::string& id) {
+  if (IsPreset(id)) {
+    api::RegisterRobotRequest definition;
+    definition.id = id;
+    definition.from_preset = id;
+    return {Preset(id), definition};
+  }
+  CheckId(id, "robot");
+  const auto doc = storage_->Get(kRobots, id);
+  if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
+  api::RegisterRobotRequest definition = ReadStored<api::StoredRobot>(*doc).definition;
+  return {api::BuildModel(definition), std::move(definition)};
+}
+
+api::RobotList Service::ListRobots(const std::string& page_size, const std::string& page_token) {
+  const PageRequest page = ParsePageRequest(kRobots, page_size, page_token);
+  // One ordering over presets then registered robots (whose ids never equal a preset's name), so a token is
+  // simply the last id returned.
+  const std::vector<std::string> presets = PresetNames();
+  auto preset = std::find(presets.begin(), presets.end(), page.token);
+  const bool in_presets = page.token.empty() || preset != presets.end();
+  api::RobotList list;
+  bool more = false;
+  if (in_presets) {
+    preset = page.token.empty() ? presets.begin() : std::next(preset);
+    for (; preset != presets.end(); ++preset) {
+      if (list.robots.size() == page.size) {
+        more = true;
+        break;
+      }
+      list.robots.push_back(api::RobotFromModel(*preset, Preset(*preset), true, PresetDescription(*preset)));
+    }
+  }
+  if (!more) {
+    const std::size_t room = page.size - list.robots.size();
+    auto docs = storage_->List(kRobots, in_presets ? "" : page.token, static_cast<int>(room + 1));
+    if (docs.size() > room) {
+      more = true;
+      docs.resize(room);
+    }
+    for (const Document& d : docs) {
+      const api::RegisterRobotRequest definition = ReadStored<api::StoredRobot>(d).definition;
+      list.robots.push_back(api::RobotFromModel(d.id, api::BuildModel(definition), false, definition.description));
+    }
+  }
+  if (more) list.next_page_token = PageToken(kRobots, list.robots.back().id);
+  return list;
+}
+
+api::Robot Service::CreateRobot(const nlohmann::json& body) {
+  const api::RegisterRobotRequest req = api::ParseRegisterRobotRequest(body, options_.limits);
+  if (IsPreset(req.id)) {
+    throw ApiError(Status::kAlreadyExists, "\"" + req.id + "\" is a preset", {{"id", "taken by a preset"}});
+  }
+  const RobotModel model = api::BuildModel(req);
+  try {
+    storage_->Create(kRobots, req.id, nlohmann::json(api::StoredRobot{req}).dump());
+  } catch (const StorageError& e) {
+    if (e.kind() == StorageError::Kind::kAlreadyExists) {
+      throw ApiError(Status::kAlreadyExists, "robot \"" + req.id + "\" already exists", {{"id", "already exists"}});
+    }
+    throw;
+  }
+  return api::RobotFromModel(req.id, model, false, req.description);
+}
+
+api::Robot Service::GetRobot(const std::string& id) {
+  const ResolvedRobot robot = ResolveRobot(id);
+  const bool preset = IsPreset(id);
+  return api::RobotFromModel(id, robot.model, preset, preset ? PresetDescription(id) : robot.definition.description);
+}
+
+void Service::DeleteRobot(const std::string& id) {
+  if (IsPreset(id)) throw ApiError(Status::kFailedPrecondition, "presets cannot be deleted", {{"robot", "a preset"}});
+  CheckId(id, "robot");
+  // Campaigns keep a copy of their robot's definition, so deleting a robot never breaks one.
+  if (!storage_->Delete(kRobots, id)) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found");
+}
+
+api::ForwardResult Service::RobotForward(const std::string& id, const nlohmann::json& body) {
+  const RobotModel model = ResolveRobot(id).model;
+  const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
+  api::ForwardResult result;
+  result.robot = id;
+  result.frame = "world (nominal base)";
+  result.poses = ForwardPoses(model, Eigen::VectorXd(), req);
+  return result;
+}
+
+}  // namespace robocal::server

@@ -1,0 +1,106 @@
+// What the service's parts share.
+#include "service_support.h"
+
+#include <mutex>
+#include <random>
+
+#include "robocal/core/kinematics.h"
+#include "robocal/server/service.h"
+
+namespace robocal::server {
+
+using api::ApiError;
+using api::Status;
+
+void CheckId(const std::string& id, const std::string& what) {
+  if (!api::IsValidId(id)) {
+    throw ApiError(Status::kInvalidArgument, "invalid " + what + " id \"" + id + "\"", {{what, api::kIdRule}});
+  }
+}
+
+namespace {
+constexpr std::int64_t kMaxPageSize = 1000;
+}  // namespace
+
+std::string PageToken(const std::string& list, const std::string& last_id) {
+  return last_id + "~" + api::ContentHash(list + "/" + last_id).substr(0, 8);
+}
+
+PageRequest ParsePageRequest(const std::string& list, const std::string& size_text, const std::string& token) {
+  api::Problems problems;
+  PageRequest page;
+  if (!size_text.empty()) {
+    std::size_t used = 0;
+    long long v = 0;
+    try {
+      v = std::stoll(size_text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != size_text.size() || v < 1 || v > kMaxPageSize) {
+      problems.Add("page_size", "expected an integer in [1, " + std::to_string(kMaxPageSize) + "], got \"" +
+                                    size_text.substr(0, 32) + "\"");
+    } else {
+      page.size = static_cast<std::size_t>(v);
+    }
+  }
+  if (!token.empty()) {
+    const std::size_t mark = token.rfind('~');
+    const std::string last = mark == std::string::npos ? "" : token.substr(0, mark);
+    if (!api::IsValidId(last) || PageToken(list, last) != token) {
+      problems.Add("page_token", "not a next_page_token of a previous page of this list");
+    } else {
+      page.token = last;
+    }
+  }
+  problems.ThrowIfAny("invalid query");
+  return page;
+}
+
+api::MeasurementWire ReadMeasurement(const StoredMeasurement& stored) {
+  try {
+    return api::FromWire<api::MeasurementWire>(nlohmann::json::parse(stored.json));
+  } catch (const std::exception& e) {
+    throw ApiError(Status::kInternal,
+                   "stored measurement " + std::to_string(stored.sequence) + " is unreadable: " + e.what());
+  }
+}
+
+void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const std::string& role,
+                        const std::function<void(const StoredMeasurement&)>& visit) {
+  constexpr int kPage = 1000;
+  std::int64_t after = 0;
+  for (;;) {
+    const std::vector<StoredMeasurement> page = storage->ListMeasurements(campaign_id, role, after, kPage);
+    for (const StoredMeasurement& m : page) visit(m);
+    if (static_cast<int>(page.size()) < kPage) return;
+    after = page.back().sequence;
+  }
+}
+
+std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
+                                        const api::ForwardRequest& req) {
+  KinematicsWorkspace ws(model);
+  std::vector<api::PoseWire> poses;
+  poses.reserve(req.joints.size());
+  for (const auto& q : req.joints) {
+    poses.push_back(api::TransformToPose(ForwardKinematics(model, api::JointsToCore(model, q), errors, &ws)));
+  }
+  return poses;
+}
+
+std::int64_t NowUnixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string NewId(const std::string& prefix) {
+  static std::mutex mutex;
+  static std::mt19937_64 engine{std::random_device{}()};
+  std::lock_guard lock(mutex);
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(engine()));
+  return prefix + "-" + buf;
+}
+
+}  // namespace robocal::server

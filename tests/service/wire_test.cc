@@ -1,0 +1,446 @@
+// The wire shapes of api/: every resource the service returns survives wire -> typed -> wire unchanged, every
+// required field is required by name, and stored documents of the previous schema version still load.
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "robocal/api/health.h"
+#include "robocal/api/stored.h"
+#include "robocal/core/presets.h"
+#include "robocal/core/virtual_cell.h"
+#include "robocal/server/service.h"
+
+namespace robocal::api {
+namespace {
+
+using nlohmann::json;
+using server::Service;
+using server::ServiceOptions;
+
+// A service on in-memory SQLite with a calibrated grinder5 campaign "w" (12 poses, validation 8) and an async
+// plan operation.
+class WireTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    storage_ = server::OpenSqliteStorage(":memory:").release();
+    service_ = new Service(storage_, ServiceOptions{});
+    const RobotModel model = Preset("grinder5");
+    plan_ = std::get<PlanResult>(service_->CreatePlan(
+        {{"robot", "grinder5"}, {"num_configurations", 12}, {"num_validation", 10}, {"options", {{"k_max", 10}}}}));
+    campaign_before_ = service_->CreateCampaign({{"id", "w"}, {"robot", "grinder5"}, {"plan", plan_.id}});
+    VirtualCellOptions cell_options;
+    cell_options.seed = 4;
+    VirtualCell cell(model, cell_options);
+    std::vector<Eigen::VectorXd> configurations;
+    for (const auto& q : plan_.configurations) configurations.push_back(JointsToCore(model, q));
+    batch_ = service_->AppendMeasurements("w", Batch(model, cell.MeasureAll(configurations, 1), "cal", "calibration"));
+    Rng rng(9);
+    (void)service_->AppendMeasurements(
+        "w", Batch(model, cell.MeasureAll(RandomConfigurations(model, 8, &rng), 1), "val", "validation"));
+    fit_ = std::get<CalibrationResult>(service_->Fit("w", json::object()));
+    operation_ = std::get<Operation>(service_->CreatePlan(
+        {{"robot", "ur5e"}, {"num_configurations", 8}, {"async", true}, {"options", {{"k_max", 5}}}}));
+    while (!service_->GetOperation(operation_.id).done) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    operation_ = service_->GetOperation(operation_.id);
+  }
+  static void TearDownTestSuite() {
+    delete service_;
+    delete storage_;
+  }
+
+  static json Batch(const RobotModel& model, const std::vector<Measurement>& measurements, const std::string& id,
+                    const std::string& role) {
+    json list = json::array();
+    for (const Measurement& m : measurements) {
+      list.push_back(MeasurementWire{JointsToWire(model, m.joints), TransformToPose(m.T_world_tool)});
+    }
+    return {{"request_id", id}, {"role", role}, {"measurements", list}};
+  }
+
+  static server::Storage* storage_;
+  static Service* service_;
+  static PlanResult plan_;
+  static Campaign campaign_before_;
+  static BatchResult batch_;
+  static CalibrationResult fit_;
+  static Operation operation_;
+};
+
+server::Storage* WireTest::storage_ = nullptr;
+Service* WireTest::service_ = nullptr;
+PlanResult WireTest::plan_;
+Campaign WireTest::campaign_before_;
+BatchResult WireTest::batch_;
+CalibrationResult WireTest::fit_;
+Operation WireTest::operation_;
+
+// wire -> typed -> wire, through the text the network carries: equal JSON.
+template <typename T>
+void ExpectRoundTrip(const T& value) {
+  const json wire = json(value);
+  const json again = json(FromWire<T>(json::parse(wire.dump())));
+  EXPECT_EQ(again, wire) << wire.dump(1);
+}
+
+// Every member path of `value` (objects, and the first element of arrays, as "a.b[0].c").
+void MemberPaths(const json& value, const std::string& path, std::vector<std::string>* out) {
+  if (value.is_object()) {
+    for (const auto& [key, member] : value.items()) {
+      const std::string p = path.empty() ? key : path + "." + key;
+      out->push_back(p);
+      MemberPaths(member, p, out);
+    }
+  } else if (value.is_array() && !value.empty()) {
+    MemberPaths(value[0], path + "[0]", out);
+  }
+}
+
+// `value` without the member at `path`.
+json Without(json value, const std::string& path) {
+  json* at = &value;
+  std::string rest = path;
+  for (;;) {
+    const std::size_t cut = rest.find_first_of(".[");
+    const std::string key = rest.substr(0, cut);
+    if (cut == std::string::npos) {
+      at->erase(key);
+      return value;
+    }
+    if (!key.empty()) at = &(*at)[key];
+    if (rest[cut] == '[') {
+      at = &(*at)[0];
+      rest = rest.substr(rest.find(']', cut) + 1);
+      if (!rest.empty() && rest[0] == '.') rest = rest.substr(1);
+    } else {
+      rest = rest.substr(cut + 1);
+    }
+  }
+}
+
+// Removing any member not in `optional` (paths as MemberPaths writes them) is an error naming that member.
+// `named`: members whose absence is reported under another name.
+template <typename T>
+void ExpectEveryFieldRequired(const T& value, const std::set<std::string>& optional,
+                              const std::map<std::string, std::string>& named = {}) {
+  const json wire = json(value);
+  std::vector<std::string> paths;
+  MemberPaths(wire, "", &paths);
+  int required = 0;
+  for (const std::string& path : paths) {
+    if (optional.count(path)) {
+      EXPECT_NO_THROW((void)FromWire<T>(Without(wire, path))) << path;
+      continue;
+    }
+    ++required;
+    try {
+      (void)FromWire<T>(Without(wire, path));
+      ADD_FAILURE() << "accepted without " << path;
+    } catch (const WireError& e) {
+      EXPECT_EQ(e.path(), named.count(path) ? named.at(path) : path) << e.what();
+      EXPECT_EQ(e.reason(), "required") << e.what();
+    }
+  }
+  EXPECT_GT(required, 0);
+}
+
+// The rpy_deg beside each quaternion of a reply is derived, not read.
+const std::set<std::string> kDerived = {"base.rpy_deg", "tool.rpy_deg", "registered_base.rpy_deg",
+                                        "robots[0].base.rpy_deg", "robots[0].tool.rpy_deg", "poses[0].rpy_deg",
+                                        "result.base.rpy_deg", "result.tool.rpy_deg",
+                                        "result.registered_base.rpy_deg"};
+
+std::set<std::string> With(std::set<std::string> a, const std::set<std::string>& b) {
+  a.insert(b.begin(), b.end());
+  return a;
+}
+
+TEST_F(WireTest, RobotsRoundTripAndRequireEveryField) {
+  const Robot robot = service_->GetRobot("grinder5");
+  EXPECT_EQ(robot.joints.size(), 5u);
+  ExpectRoundTrip(robot);
+  // A table robot with a prismatic joint, in the transform convention.
+  const Robot table = service_->CreateRobot(json::parse(R"({"id":"lin","convention":"transform","joints":[
+      {"type":"revolute","xyz_mm":[0,0,100],"rpy_deg":[0,0,0],"min_deg":-90,"max_deg":90},
+      {"type":"prismatic","xyz_mm":[200,0,0],"rpy_deg":[0,90,0],"min_mm":0,"max_mm":400}]})"));
+  ExpectRoundTrip(table);
+  EXPECT_EQ(json(table)["joints"][1].at("max_mm"), 400.0);
+  // Every joint field of the convention, the name included (optional in definitions only).
+  ExpectEveryFieldRequired(robot, kDerived);
+  ExpectEveryFieldRequired(table, kDerived);
+  const RobotList list = service_->ListRobots("2");
+  ASSERT_TRUE(list.next_page_token.has_value());
+  ExpectRoundTrip(list);
+  ExpectEveryFieldRequired(list, With(kDerived, {"next_page_token"}));
+  const ForwardResult fk = service_->RobotForward("grinder5", {{"joints", {{0, 0, 0, 0, 0}}}});
+  ExpectRoundTrip(fk);
+  // A forward reply names its robot or its campaign.
+  ExpectEveryFieldRequired(fk, kDerived, {{"robot", "robot or campaign"}});
+  ExpectRoundTrip(Health{"ok", "1.2.3"});
+  ExpectEveryFieldRequired(Health{"ok", "1.2.3"}, {});
+}
+
+TEST_F(WireTest, PlansAndOperationsRoundTripAndRequireEveryField) {
+  ExpectRoundTrip(plan_);
+  ExpectEveryFieldRequired(plan_, {});
+  EXPECT_EQ(service_->GetPlan(plan_.id).configurations, plan_.configurations);
+  ASSERT_EQ(operation_.state, OperationState::kSucceeded);
+  ASSERT_TRUE(operation_.plan.has_value());
+  ExpectRoundTrip(operation_);
+  ExpectEveryFieldRequired(operation_, {"request", "result", "campaign"});
+}
+
+TEST_F(WireTest, CampaignsAndMeasurementsRoundTripAndRequireEveryField) {
+  const Campaign campaign = service_->GetCampaign("w");
+  EXPECT_TRUE(campaign.calibrated);
+  EXPECT_EQ(campaign.counts.calibration, 12);
+  EXPECT_EQ(campaign.counts.validation, 8);
+  ExpectRoundTrip(campaign);
+  ExpectEveryFieldRequired(campaign, {});
+  ExpectRoundTrip(batch_);
+  ExpectEveryFieldRequired(batch_, {});
+  const MeasurementList page = service_->ListMeasurements("w", "validation", "", "3");
+  ASSERT_EQ(page.measurements.size(), 3u);
+  ASSERT_TRUE(page.next_after.has_value());
+  ExpectRoundTrip(page);
+  // A position campaign's measurements carry no quaternion.
+  ExpectEveryFieldRequired(page, {"next_after", "measurements[0].pose.quaternion"});
+}
+
+// GET /v1/campaigns items say which campaigns are calibrated (they used to carry neither counts nor
+// `calibrated`, so a client saw every campaign as uncalibrated).
+TEST_F(WireTest, CampaignListItemsSayWhichAreCalibrated) {
+  (void)service_->CreateCampaign({{"id", "w2"}, {"robot", "grinder5"}});
+  const CampaignList list = service_->ListCampaigns();
+  ASSERT_EQ(list.campaigns.size(), 2u);
+  EXPECT_EQ(list.campaigns[0].id, "w");
+  EXPECT_TRUE(list.campaigns[0].calibrated);
+  EXPECT_EQ(list.campaigns[0].counts.calibration, 12);
+  EXPECT_FALSE(list.campaigns[1].calibrated);
+  EXPECT_FALSE(campaign_before_.calibrated);
+  ExpectRoundTrip(list);
+  const json wire = json(list);
+  EXPECT_EQ(wire["campaigns"][0].at("calibrated"), true);
+  EXPECT_EQ(wire["campaigns"][0].at("counts").at("validation"), 8);
+}
+
+TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField) {
+  EXPECT_TRUE(fit_.stored);
+  EXPECT_FALSE(fit_.summary.deadline_exceeded);
+  ExpectRoundTrip(fit_);
+  ExpectEveryFieldRequired(fit_, kDerived);
+  EXPECT_EQ(json(service_->GetCalibration("w")), json(fit_));
+  const CompensateResult comp = service_->Compensate(
+      "w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
+                                      {"pose":{"position_mm":[400,0,300],"rpy_deg":[180,0,0]},"frame":"base"}]})"));
+  ASSERT_EQ(comp.results.size(), 2u);
+  ExpectRoundTrip(comp);
+  ExpectEveryFieldRequired(comp, {});
+  const Evaluation eval = service_->Evaluate("w", json::object());
+  EXPECT_EQ(eval.num_validation, 8);
+  ExpectRoundTrip(eval);
+  ExpectEveryFieldRequired(eval, {});
+  const ForwardResult fk = service_->CampaignForward("w", {{"joints", {{0, 0, 0, 0, 0}}}});
+  ExpectRoundTrip(fk);
+  ExpectEveryFieldRequired(fk, kDerived, {{"campaign", "robot or campaign"}});
+}
+
+TEST(WireRequestTest, RequestsRoundTrip) {
+  const RobotModel model = Preset("ur5e");
+  PlanRequest plan;
+  plan.robot = "ur5e";
+  plan.optimiser = Optimiser::kExchange;
+  plan.objective = ObservabilityIndex::kO3;
+  plan.measurement_type = MeasurementType::kPositionAxis;
+  plan.seed = 12345678901234ULL;
+  ExpectRoundTrip(plan);
+  EXPECT_EQ(json(ParsePlanRequest(json(plan), Limits{})), json(plan));
+  CreateCampaignRequest campaign;
+  campaign.robot = "ur5e";
+  campaign.measurement_type = MeasurementType::kPosition;
+  ExpectRoundTrip(campaign);
+  MeasurementBatchRequest batch;
+  batch.request_id = "b1";
+  batch.role = MeasurementRole::kValidation;
+  batch.measurements.push_back({{0, 0, 0, 0, 0, 0}, PoseWire{{1, 2, 3}, {1, 0, 0, 0}, true}});
+  ExpectRoundTrip(batch);
+  EXPECT_EQ(json(ParseMeasurementBatchRequest(json(batch), model, MeasurementType::kPose, Limits{})), json(batch));
+  FitRequest fit;
+  fit.parameters = {"joint2.dz"};
+  ExpectRoundTrip(fit);
+  CompensateRequest comp;
+  CompensationTargetWire target;
+  target.pose = PoseWire{{400, 0, 300}, {0, 1, 0, 0}, true};
+  target.frame = TargetFrame::kBase;
+  target.start_joints = {0, -90, 90, 0, 90, 0};
+  comp.targets = {target};
+  ExpectRoundTrip(comp);
+  EXPECT_EQ(json(ParseCompensateRequest(json(comp), model, Limits{})), json(comp));
+  ExpectRoundTrip(EvaluateRequest{12.5});
+  ExpectRoundTrip(ForwardRequest{{{0, 0, 0, 0, 0, 0}}});
+}
+
+TEST(WireEnumTest, EveryEnumHasOneNameEachAndUnknownNamesAreNamed) {
+  auto check = [](auto values) {
+    std::set<std::string> names;
+    for (auto v : values) {
+      const std::string name = WireName(v);
+      EXPECT_TRUE(names.insert(name).second) << name;
+      decltype(v) back{};
+      EXPECT_TRUE(FromWireName(name, &back));
+      EXPECT_EQ(back, v);
+    }
+  };
+  check(EnumTable<MeasurementType>::values);
+  check(EnumTable<Termination>::values);
+  check(EnumTable<ObservabilityIndex>::values);
+  check(EnumTable<Optimiser>::values);
+  check(EnumTable<OperationState>::values);
+  check(EnumTable<Status>::values);
+  check(EnumTable<GeometryConvention>::values);
+  json summary = json(PlanSummaryWire{});
+  summary["termination"] = "DONE";
+  try {
+    (void)FromWire<PlanSummaryWire>(summary);
+    FAIL();
+  } catch (const WireError& e) {
+    EXPECT_EQ(e.path(), "termination");
+    EXPECT_NE(e.reason().find("NO_CONVERGENCE"), std::string::npos) << e.reason();
+  }
+  // A number where a string belongs, a fraction where an integer belongs: named by path.
+  json indices = json(Indices{});
+  indices["num_parameters"] = 2.5;
+  try {
+    (void)FromWire<Indices>(indices);
+    FAIL();
+  } catch (const WireError& e) {
+    EXPECT_EQ(e.path(), "num_parameters");
+  }
+}
+
+// The spec's enum lists are the enum tables' names: a value added to an enum without the spec, or the other way
+// round, fails here.
+TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
+  std::ifstream in(ROBOCAL_OPENAPI_JSON);
+  ASSERT_TRUE(in) << ROBOCAL_OPENAPI_JSON;
+  const json spec = json::parse(in);
+  const std::map<std::string, std::vector<std::string>> tables = {
+      {"measurement_type", WireNames<MeasurementType>()}, {"termination", WireNames<Termination>()},
+      {"objective", WireNames<ObservabilityIndex>()},     {"optimiser", WireNames<Optimiser>()},
+      {"scaling", WireNames<ColumnScaling>()},            {"kind", WireNames<OperationKind>()},
+      {"state", WireNames<OperationState>()},             {"status", WireNames<Status>()},
+      {"convention", WireNames<GeometryConvention>()},    {"type", WireNames<JointType>()},
+      {"frame", WireNames<TargetFrame>()},                {"role", WireNames<MeasurementRole>()},
+      {"from_preset", PresetNames()}};
+  // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
+  const std::set<std::vector<std::string>> fixed = {
+      {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};
+  int checked = 0;
+  std::function<void(const json&, const std::string&)> walk = [&](const json& node, const std::string& path) {
+    if (node.is_object()) {
+      if (node.contains("properties")) {
+        for (const auto& [name, schema] : node["properties"].items()) {
+          if (!schema.is_object() || !schema.contains("enum")) continue;
+          const auto values = schema["enum"].get<std::vector<std::string>>();
+          if (fixed.count(values)) continue;
+          ASSERT_TRUE(tables.count(name)) << path << "." << name << " has an enum no table owns";
+          EXPECT_EQ(std::set<std::string>(values.begin(), values.end()),
+                    std::set<std::string>(tables.at(name).begin(), tables.at(name).end()))
+              << path << "." << name;
+          ++checked;
+        }
+      }
+      for (const auto& [key, child] : node.items()) walk(child, path + "/" + key);
+    } else if (node.is_array()) {
+      for (const json& child : node) walk(child, path);
+    }
+  };
+  walk(spec, "");
+  EXPECT_GT(checked, 12);
+}
+
+// ---------------------------------------------------------------------------------------------- stored documents
+
+// Documents as the server wrote them before stored documents had a schema version (copied from a database of
+// that version): they still load, including values the request validation of today refuses (a theta of 400 deg
+// and a description longer than 1024 characters would be refused as requests).
+TEST(StoredDocumentTest, PreviousSchemaVersionStillLoads) {
+  const std::string long_text(2000, 'x');
+  const json robot_v1 = {
+      {"id", "old"},
+      {"description", long_text},
+      {"convention", "mdh"},
+      {"joints",
+       {{{"type", "revolute"}, {"a_mm", 0}, {"alpha_deg", 0}, {"d_mm", 300}, {"theta_deg", 400}, {"min_deg", -170},
+         {"max_deg", 170}},
+        {{"name", "lift"}, {"type", "prismatic"}, {"a_mm", 50}, {"alpha_deg", -90}, {"d_mm", 0}, {"theta_deg", 0},
+         {"min_mm", 0}, {"max_mm", 800}}}},
+      {"tool", {{"position_mm", {0, 0, 120}}, {"quaternion", {1, 0, 0, 0}}}}};
+  EXPECT_THROW((void)ParseRegisterRobotRequest(robot_v1, Limits{}), ApiError);
+  const StoredRobot robot = FromWire<StoredRobot>(robot_v1);
+  EXPECT_EQ(robot.definition.description, long_text);
+  const RobotModel model = BuildModel(robot.definition);
+  EXPECT_EQ(model.num_joints(), 2);
+  EXPECT_EQ(model.joint_name(1), "lift");
+  // Written again, it carries the current version and reads back the same.
+  const json robot_v2 = json(robot);
+  EXPECT_EQ(robot_v2.at("schema_version"), kStoredSchemaVersion);
+  EXPECT_EQ(json(FromWire<StoredRobot>(robot_v2)), robot_v2);
+
+  const json campaign_v1 = {{"id", "c1"},
+                            {"description", ""},
+                            {"robot", "old"},
+                            {"robot_definition", robot_v1},
+                            {"measurement_type", "position"},
+                            {"plan", nullptr},
+                            {"noise", {{"position_mm", 0.015}, {"orientation_deg", 0.0057}}},
+                            {"created_unix_ms", 1700000000000}};
+  const StoredCampaign campaign = FromWire<StoredCampaign>(campaign_v1);
+  EXPECT_EQ(campaign.measurement_type, MeasurementType::kPosition);
+  EXPECT_FALSE(campaign.plan.has_value());
+
+  // A version-1 fit said nothing of a deadline (it was written only when true).
+  const Calibration identity{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {},
+                             Transform::Identity(), Transform::Identity(), {}};
+  CalibrationResult result = ToWire(identity);
+  result.campaign = "c1";
+  result.robot = "old";
+  result.stored = true;
+  json calibration_v1 = json(ToStored(identity, result));
+  calibration_v1.erase("schema_version");
+  calibration_v1["result"]["summary"].erase("deadline_exceeded");
+  const StoredCalibration stored = FromWire<StoredCalibration>(calibration_v1);
+  EXPECT_FALSE(stored.result.summary.deadline_exceeded);
+  EXPECT_EQ(stored.errors.size(), static_cast<std::size_t>(model.num_error_parameters()));
+
+  json future = robot_v2;
+  future["schema_version"] = kStoredSchemaVersion + 1;
+  try {
+    (void)FromWire<StoredRobot>(future);
+    FAIL() << "a newer version read as this one";
+  } catch (const WireError& e) {
+    EXPECT_EQ(e.path(), "schema_version");
+  }
+}
+
+// A stored fit that did not converge comes back as it was stored (it used to be restored as converged).
+TEST(StoredDocumentTest, RestoredCalibrationKeepsItsTermination) {
+  const RobotModel model = Preset("ur5e");
+  for (Termination t : {Termination::kNoConvergence, Termination::kDegraded, Termination::kConvergence}) {
+    Calibration c{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {}, Transform::Identity(),
+                  Transform::Identity(), {}};
+    c.summary.termination = t;
+    c.summary.message = "as stored";
+    CalibrationResult result = ToWire(c);
+    const StoredCalibration stored = FromWire<StoredCalibration>(json(ToStored(c, result)));
+    const Calibration restored = Restore(model, stored);
+    EXPECT_EQ(restored.summary.termination, t) << WireName(t);
+    EXPECT_EQ(restored.summary.message, "as stored");
+  }
+}
+
+}  // namespace
+}  // namespace robocal::api
