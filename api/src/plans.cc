@@ -66,6 +66,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   PlanRequest req;
   ObjectReader r(body, "", &problems);
   r.String("robot", true, &req.robot, 64);
+  if (r.String("cell", false, &req.cell, 64) && !IsValidId(req.cell)) problems.Add("cell", kIdRule);
   if (r.Int("num_configurations", false, &req.num_configurations, 1, kMaxInt) &&
       req.num_configurations > limits.max_plan_configurations) {
     problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
@@ -98,7 +99,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
     opt.RejectUnknown({"k_max", "restarts", "max_evaluations", "step_fraction", "num_sets", "num_candidates",
                        "screen", "max_iterations"});
   }
-  r.RejectUnknown({"robot", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
+  r.RejectUnknown({"robot", "cell", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
                    "seed", "num_validation", "async", "options"});
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
@@ -182,11 +183,13 @@ void to_json(nlohmann::json& j, const PlanRequest& req) {
          {"num_candidates", req.num_candidates},
          {"screen", req.screen},
          {"max_iterations", req.max_iterations}}}};
+  if (!req.cell.empty()) j["cell"] = req.cell;
 }
 
 void from_json(const nlohmann::json& j, PlanRequest& req) {
   const WireReader r(j);
   r.Required("robot", &req.robot);
+  r.Optional("cell", &req.cell);
   r.Required("num_configurations", &req.num_configurations);
   r.Required("measurement_type", &req.measurement_type);
   r.Required("objective", &req.objective);
@@ -333,7 +336,9 @@ void to_json(nlohmann::json& j, const PlanResult& p) {
        {"dropped_parameters", p.dropped_parameters},
        {"predicted_accuracy", p.predicted_accuracy},
        {"summary", p.summary},
-       {"created_unix_ms", p.created_unix_ms}};
+       {"created_unix_ms", p.created_unix_ms},
+       {"cell", p.cell ? nlohmann::json(*p.cell) : nlohmann::json()},
+       {"configuration_checks", p.configuration_checks}};
 }
 
 void from_json(const nlohmann::json& j, PlanResult& p) {
@@ -353,6 +358,8 @@ void from_json(const nlohmann::json& j, PlanResult& p) {
   r.Required("predicted_accuracy", &p.predicted_accuracy);
   r.Required("summary", &p.summary);
   r.Required("created_unix_ms", &p.created_unix_ms);
+  r.Required("cell", &p.cell);
+  r.Required("configuration_checks", &p.configuration_checks);
 }
 
 }  // namespace robocal::api

@@ -63,13 +63,17 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
 void to_json(nlohmann::json& j, const StoredPlan& plan) { j = Versioned(plan.plan); }
 
 void from_json(const nlohmann::json& j, StoredPlan& plan) {
-  if (StoredSchemaVersion(j) == 1) {
-    nlohmann::json doc = j;
-    if (doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");
-    ReadWire(doc, "", &plan.plan);
+  const int version = StoredSchemaVersion(j);
+  if (version >= 3) {
+    ReadWire(j, "", &plan.plan);
     return;
   }
-  ReadWire(j, "", &plan.plan);
+  // Plans before cells had neither a cell nor configuration checks.
+  nlohmann::json doc = j;
+  if (doc.is_object() && !doc.contains("cell")) doc["cell"] = nullptr;
+  if (doc.is_object() && !doc.contains("configuration_checks")) doc["configuration_checks"] = nlohmann::json::array();
+  if (version == 1 && doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");
+  ReadWire(doc, "", &plan.plan);
 }
 
 void to_json(nlohmann::json& j, const StoredCalibration& c) {
@@ -124,6 +128,17 @@ Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) 
   c.summary.message = stored.result.summary.message;
   c.summary.measurement_type = stored.result.measurement_type;
   return c;
+}
+
+void to_json(nlohmann::json& j, const StoredCell& c) {
+  j = Versioned({{"cell", c.cell}, {"robot_definition", c.robot_definition}});
+}
+
+void from_json(const nlohmann::json& j, StoredCell& c) {
+  (void)StoredSchemaVersion(j);
+  const WireReader r(j);
+  r.Required("cell", &c.cell);
+  r.Required("robot_definition", &c.robot_definition);
 }
 
 void to_json(nlohmann::json& j, const StoredOperation& op) { j = Versioned(op.operation); }

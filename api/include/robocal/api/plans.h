@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/cells.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/planning.h"
 
@@ -17,6 +18,8 @@ namespace robocal::api {
 /// POST /v1/plans.
 struct PlanRequest {
   std::string robot;
+  /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
+  std::string cell;
   int num_configurations = 10;
   MeasurementType measurement_type = MeasurementType::kPose;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
@@ -125,6 +128,10 @@ struct PlanResult {
   PredictedAccuracyWire predicted_accuracy;
   PlanSummaryWire summary;
   std::int64_t created_unix_ms = 0;
+  /// The cell the plan was made for (null on the wire when none), and each configuration's feasibility report
+  /// in it (one per configuration; empty without a cell).
+  std::optional<std::string> cell;
+  std::vector<ConfigurationCheckWire> configuration_checks;
 };
 void to_json(nlohmann::json& j, const PlanResult& plan);
 void from_json(const nlohmann::json& j, PlanResult& plan);
