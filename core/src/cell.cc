@@ -620,6 +620,11 @@ bool IsFeasible(const RobotModel& model, const Cell& cell, const Eigen::VectorXd
 FeasibilityCensus SampleFeasibility(const RobotModel& model, const Cell& cell, int samples, std::uint64_t seed) {
   if (samples <= 0) throw std::invalid_argument("SampleFeasibility: samples must be positive");
   const CellSpec& spec = cell.spec();
+  if (model.num_joints() != spec.joint_min.size()) {
+    throw std::invalid_argument("SampleFeasibility: the cell was built for a robot with " +
+                                std::to_string(spec.joint_min.size()) + " joints, '" + model.name() + "' has " +
+                                std::to_string(model.num_joints()));
+  }
   FeasibilityCensus census;
   census.samples = samples;
   int counts[kNumRules] = {};

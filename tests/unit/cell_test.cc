@@ -538,6 +538,8 @@ TEST(CellBuildTest, PlanningModelHasTheRanges) {
   EXPECT_THROW(cell.PlanningModel(Preset("ur5e")), std::invalid_argument);
   EXPECT_THROW(IsFeasible(Preset("ur5e"), cell, Eigen::VectorXd::Zero(6)), std::invalid_argument);
   EXPECT_THROW(CheckConfiguration(model, cell, Eigen::VectorXd::Zero(2)), std::invalid_argument);
+  EXPECT_THROW(SampleFeasibility(Preset("ur5e"), cell, 10, 1), std::invalid_argument);
+  EXPECT_THROW(SampleFeasibility(model, cell, 0, 1), std::invalid_argument);
 }
 
 TEST(CellBuildTest, RuleNames) {
