@@ -222,6 +222,7 @@ void to_json(nlohmann::json& j, const Indices& x) {
        {"o4", Num(x.o4)},
        {"o5", Num(x.o5)},
        {"log_det", Num(x.log_det)},
+       {"predicted_error_mm", Num(x.predicted_error_mm)},
        {"singular_values", Nums(x.singular_values)},
        {"scaling", x.scaling}};
 }
@@ -237,6 +238,7 @@ void from_json(const nlohmann::json& j, Indices& x) {
   r.Required("o4", &x.o4);
   r.Required("o5", &x.o5);
   r.Required("log_det", &x.log_det);
+  r.Required("predicted_error_mm", &x.predicted_error_mm);
   r.Required("singular_values", &x.singular_values);
   r.Required("scaling", &x.scaling);
 }
@@ -251,6 +253,7 @@ Indices ToWire(const ObservabilityIndices& x) {
           x.o4,
           x.o5,
           x.log_det,
+          x.predicted_error_mm,
           std::vector<double>(x.singular_values.data(), x.singular_values.data() + x.singular_values.size()),
           x.scaling};
 }
@@ -259,7 +262,8 @@ void to_json(nlohmann::json& j, const PredictedAccuracyWire& a) {
   j = {{"num_validation", a.num_validation},
        {"rms_position_mm", Num(a.rms_position_mm)},
        {"max_position_mm", Num(a.max_position_mm)},
-       {"rms_orientation_deg", Num(a.rms_orientation_deg)}};
+       {"rms_orientation_deg", Num(a.rms_orientation_deg)},
+       {"rms_error_mm", Num(a.rms_error_mm)}};
 }
 
 void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
@@ -268,11 +272,13 @@ void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
   r.Required("rms_position_mm", &a.rms_position_mm);
   r.Required("max_position_mm", &a.max_position_mm);
   r.Required("rms_orientation_deg", &a.rms_orientation_deg);
+  r.Required("rms_error_mm", &a.rms_error_mm);
 }
 
 PredictedAccuracyWire ToWire(const PredictedAccuracy& a) {
   return {a.num_validation, a.rms_position_mm, a.max_position_mm,
-          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN()};
+          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN(),
+          a.rms_error_mm};
 }
 
 void to_json(nlohmann::json& j, const PlanSummaryWire& s) {

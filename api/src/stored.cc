@@ -68,8 +68,14 @@ void from_json(const nlohmann::json& j, StoredPlan& plan) {
     ReadWire(j, "", &plan.plan);
     return;
   }
-  // Plans before cells had neither a cell nor configuration checks.
+  // Plans before cells had neither a cell nor configuration checks, nor the predicted_error figures.
   nlohmann::json doc = j;
+  for (nlohmann::json* indices : {&doc["indices"], &doc["baseline"]["indices"], &doc["summary"]["initial"]}) {
+    if (indices->is_object() && !indices->contains("predicted_error_mm")) (*indices)["predicted_error_mm"] = nullptr;
+  }
+  for (nlohmann::json* accuracy : {&doc["predicted_accuracy"], &doc["baseline"]["predicted_accuracy"]}) {
+    if (accuracy->is_object() && !accuracy->contains("rms_error_mm")) (*accuracy)["rms_error_mm"] = nullptr;
+  }
   if (doc.is_object() && !doc.contains("cell")) doc["cell"] = nullptr;
   if (doc.is_object() && !doc.contains("configuration_checks")) doc["configuration_checks"] = nlohmann::json::array();
   if (version == 1 && doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");

@@ -95,8 +95,16 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   baseline_options.objective = req.objective;
   baseline_options.feasible = feasible;
   const Plan baseline = PlanRandom(model, req.num_configurations, obs, baseline_options);
+  // The predicted accuracy's validation configurations: random, and in a cell feasible in it.
   Rng rng(req.seed + 2000003);
-  const auto validation = RandomConfigurations(model, req.num_validation, &rng);
+  std::vector<Eigen::VectorXd> validation;
+  if (feasible) {
+    FeasibleDraws draws;
+    draws.max_draws = 2000LL * std::max(1, req.num_validation);  // the census found at least 1 in 500 feasible
+    DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
+  } else {
+    validation = RandomConfigurations(model, req.num_validation, &rng);
+  }
 
   api::PlanResult result;
   result.id = plan_id;

@@ -62,6 +62,8 @@ struct Indices {
   double condition_number = 0.0;
   double o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
   double log_det = 0.0;
+  /// The predicted_error index (mm; null when the set was evaluated without a validation sample).
+  double predicted_error_mm = 0.0;
   std::vector<double> singular_values;
   std::string scaling;
 };
@@ -76,6 +78,9 @@ struct PredictedAccuracyWire {
   double rms_position_mm = 0.0;
   double max_position_mm = 0.0;
   double rms_orientation_deg = 0.0;
+  /// The predicted_error index at these configurations (mm): position and, for types that observe orientation,
+  /// orientation weighted by a length (docs/planning.md).
+  double rms_error_mm = 0.0;
 };
 void to_json(nlohmann::json& j, const PredictedAccuracyWire& accuracy);
 void from_json(const nlohmann::json& j, PredictedAccuracyWire& accuracy);

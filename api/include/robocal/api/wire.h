@@ -64,7 +64,7 @@ ROBOCAL_API_ENUM_TABLE(ColumnScaling, ColumnScaling::kColumnNorm, ColumnScaling:
                        ColumnScaling::kNone);
 ROBOCAL_API_ENUM_TABLE(ObservabilityIndex, ObservabilityIndex::kConditionNumber, ObservabilityIndex::kO1,
                        ObservabilityIndex::kO2, ObservabilityIndex::kO3, ObservabilityIndex::kO4,
-                       ObservabilityIndex::kO5, ObservabilityIndex::kLogDet);
+                       ObservabilityIndex::kO5, ObservabilityIndex::kLogDet, ObservabilityIndex::kPredictedError);
 ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Optimiser::kExchange);
 ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
 ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
