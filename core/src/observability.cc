@@ -217,8 +217,8 @@ ObservabilityIndices ObservabilityEvaluator::IndicesOf(const Eigen::MatrixXd& no
   const Eigen::VectorXd d = ColumnScale(options_, normal.diagonal().cwiseMax(0.0).cwiseSqrt());
   const Eigen::MatrixXd scaled = d.asDiagonal() * normal * d.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
-  ObservabilityIndices out = IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(),
-                                                       num_configurations, options_.ScalingDescription());
+  ObservabilityIndices out = IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(), num_configurations,
+                                                       options_.ScalingDescription());
   if (num_validation_ > 0) out.predicted_error_mm = PredictedError(normal);
   return out;
 }
@@ -255,7 +255,8 @@ double ObservabilityEvaluator::PredictedError(const Eigen::MatrixXd& normal) con
   if (ldlt.info() != Eigen::Success) return inf;
   const Eigen::VectorXd pivots = ldlt.vectorD();
   if (!(pivots.minCoeff() > kNormalPivotTolerance * pivots.maxCoeff())) return inf;
-  const double variance = ldlt.solve(d.asDiagonal() * validation_information_ * d.asDiagonal()).trace() / num_validation_;
+  const double variance =
+      ldlt.solve(d.asDiagonal() * validation_information_ * d.asDiagonal()).trace() / num_validation_;
   return variance >= 0.0 && std::isfinite(variance) ? std::sqrt(variance) : inf;
 }
 
@@ -346,8 +347,8 @@ PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOp
   if (out.num_validation > 0) {
     out.rms_position_mm = std::sqrt(sum_position / out.num_validation);
     if (out.has_orientation) out.rms_orientation_rad = std::sqrt(sum_orientation / out.num_validation);
-    out.rms_error_mm = std::sqrt((sum_position + h * h * (out.has_orientation ? sum_orientation : 0.0)) /
-                                 out.num_validation);
+    out.rms_error_mm =
+        std::sqrt((sum_position + h * h * (out.has_orientation ? sum_orientation : 0.0)) / out.num_validation);
   }
   return out;
 }

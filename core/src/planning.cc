@@ -163,7 +163,8 @@ void FailForFeasibility(Clock::time_point start_time, const FeasibleDraws& accou
   plan->configurations.clear();
   s.termination = Termination::kFailure;
   std::ostringstream share;
-  share << std::setprecision(3) << 100.0 * (account.draws - account.rejections) / std::max<std::int64_t>(1, account.draws);
+  share << std::setprecision(3)
+        << 100.0 * (account.draws - account.rejections) / std::max<std::int64_t>(1, account.draws);
   s.message = "too few feasible configurations: " + account.Describe() + " (" + share.str() + " %); the plan draws " +
               std::to_string(configurations) + " configurations, at most " +
               std::to_string(max_draws_per_configuration) + " draws each (max_draws_per_configuration)";
@@ -269,8 +270,8 @@ PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options) {
     // Rejection sampling of the starting sets and the validation sample, then M checks per candidate set. An
     // infeasible candidate costs no evaluation, so the candidates are bounded by the iterations, not the budget.
     const std::int64_t starts = SaturatingProduct(options.restarts + 1, num_configurations);
-    const std::int64_t candidates = SaturatingProduct(SaturatingProduct(options.restarts + 1, 2 * options.k_max),
-                                                      num_configurations);
+    const std::int64_t candidates =
+        SaturatingProduct(SaturatingProduct(options.restarts + 1, 2 * options.k_max), num_configurations);
     work.feasibility_checks = SaturatingSum(
         SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(starts, validation)), candidates);
   }
@@ -284,8 +285,7 @@ PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& optio
   work.evaluations = options.num_sets;
   work.jacobians = SaturatingSum(drawn, validation);
   if (options.feasible) {
-    work.feasibility_checks =
-        SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(drawn, validation));
+    work.feasibility_checks = SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(drawn, validation));
   }
   return work;
 }
@@ -746,7 +746,8 @@ std::string PlanSummary::FullReport() const {
   out << "  initial: " << IndicesLine(initial) << "\n";
   out << "  final:   " << IndicesLine(final) << "\n";
   out << "  iterations: " << iterations << ", evaluations: " << evaluations << "\n";
-  out << "  random configurations drawn: " << feasibility_draws << ", rejected as infeasible: " << feasibility_rejections
+  out << "  random configurations drawn: " << feasibility_draws
+      << ", rejected as infeasible: " << feasibility_rejections
       << "; infeasible candidate sets: " << infeasible_candidates << "\n";
   return out.str();
 }

@@ -403,7 +403,8 @@ std::string FormatPlanningStudy(const PlanningStudyResult& result) {
   out << Pad("robot", 10) << Pad("type", 15) << Pad("random", width);
   for (const ObjectivePlanResult& plan : result.rows.front().objectives) {
     const std::string method = plan.method == "exchange" ? "ex " : "sw ";
-    out << Pad(method + ToString(plan.objective), std::max<size_t>(width, 4 + std::string(ToString(plan.objective)).size()));
+    out << Pad(method + ToString(plan.objective),
+               std::max<size_t>(width, 4 + std::string(ToString(plan.objective)).size()));
   }
   out << "\n";
   for (const PlanningStudyRow& row : result.rows) {

@@ -127,7 +127,8 @@ int main(int argc, char** argv) {
   options.threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 256u));
   std::string error;
   try {
-    for (const auto& [flag, value] : robocal::tools::SplitFlags(args, {"--no-exchange", "--no-simulation"})) Apply(flag, value, &options);
+    const auto flags = robocal::tools::SplitFlags(args, {"--no-exchange", "--no-simulation"});
+    for (const auto& [flag, value] : flags) Apply(flag, value, &options);
     if (options.exchange && options.exchange_candidates < options.num_configurations) {
       throw robocal::tools::BadFlag("--exchange-candidates: " + std::to_string(options.exchange_candidates) +
                                     " candidates cannot give " + std::to_string(options.num_configurations) +

@@ -316,21 +316,18 @@ TEST(PlanningTest, ReportsNameMethodObjectiveAndScaling) {
 // predicate changes nothing; rejection sampling is bounded.
 
 // Run by the code before predicates existed (ur5e, pose, M = 10, seed 7): an empty predicate must reproduce it.
-constexpr double kPinnedSolisWets[2][6] = {
-    {0.26524225928015444, -1.7034847662914245, -0.16024860957340348, 2.0653732059241445, 3.4369600721341005,
-     0.35848615574811316},
-    {-1.4625925925839027, 2.6863237497073964, -2.3438024263082804, -1.0025049414205478, -2.2825550072915703,
-     5.9614053787328416}};
-constexpr double kPinnedRandom[2][6] = {
-    {5.2076850290709089, -5.0208585232311025, -4.5706102843616456, -2.2261238124197025, -0.60535356563469112,
-     -0.62540229324539087},
-    {0.26591847120072742, 5.6157580637623816, 1.9631098684038228, -3.2612161617383633, 3.247699111866277,
-     0.89769052820258288}};
-constexpr double kPinnedExchange[2][6] = {
-    {0.54672106544999632, -4.9543585375564207, 0.1261870655745172, -1.9482236425971919, -1.0252249856386921,
-     -5.2942427231112088},
-    {0.00081948969266054661, -6.0593478122617137, -2.8795640224227537, 2.5521054609181348, -0.83026610968335124,
-     5.0210705912195515}};
+constexpr double kPinnedSolisWets[2][6] = {{0.26524225928015444, -1.7034847662914245, -0.16024860957340348,
+                                            2.0653732059241445, 3.4369600721341005, 0.35848615574811316},
+                                           {-1.4625925925839027, 2.6863237497073964, -2.3438024263082804,
+                                            -1.0025049414205478, -2.2825550072915703, 5.9614053787328416}};
+constexpr double kPinnedRandom[2][6] = {{5.2076850290709089, -5.0208585232311025, -4.5706102843616456,
+                                         -2.2261238124197025, -0.60535356563469112, -0.62540229324539087},
+                                        {0.26591847120072742, 5.6157580637623816, 1.9631098684038228,
+                                         -3.2612161617383633, 3.247699111866277, 0.89769052820258288}};
+constexpr double kPinnedExchange[2][6] = {{0.54672106544999632, -4.9543585375564207, 0.1261870655745172,
+                                           -1.9482236425971919, -1.0252249856386921, -5.2942427231112088},
+                                          {0.00081948969266054661, -6.0593478122617137, -2.8795640224227537,
+                                           2.5521054609181348, -0.83026610968335124, 5.0210705912195515}};
 
 SolisWetsOptions PinnedSolisWets() {
   SolisWetsOptions s = SolisWetsOptions::Paper();
@@ -485,8 +482,9 @@ TEST(FeasibilityTest, RejectionSamplingIsBoundedAndFailsWithItsCounts) {
   const std::int64_t found = exchange.summary.feasibility_draws - exchange.summary.feasibility_rejections;
   EXPECT_GT(found, 0);
   EXPECT_LT(found, 200);
-  EXPECT_THAT(exchange.summary.message,
-              HasSubstr(std::to_string(found) + " of 20000 random configurations within the joint limits were feasible"));
+  EXPECT_THAT(
+      exchange.summary.message,
+      HasSubstr(std::to_string(found) + " of 20000 random configurations within the joint limits were feasible"));
   // More draws per configuration find them.
   e.max_draws_per_configuration = 2000;
   const Plan patient = PlanExchange(model, kM, o, e);
