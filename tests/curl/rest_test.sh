@@ -145,17 +145,21 @@ expect "a reflector normal that is not a unit vector -> field" \
       "reflectors": [{"id": "r", "position_mm": [0, 0, 100], "normal": [0, 0, 2]}]}' | jq -r '.error.details[0].field')" \
   "reflectors[0].normal"
 expect "... status 400" "$(status)" 400
-check=$(call POST /v1/cells/cell-a:check '{"joints": [[0, -60, 60, -90, -90, 0], [0, 90, 0, 0, 0, 0]]}')
-expect "POST /v1/cells/{cell}:check" "$(echo "$check" | jq -r '[.results[].feasible] | map(tostring) | join(",")')" \
-  "true,false"
-expect "... the arm pointing into the floor is named" \
-  "$(echo "$check" | jq -r '.results[1].failed_rules | index("obstacle") != null')" true
 call POST /v1/plans '{"robot": "ur5e", "cell": "cell-a", "num_configurations": 8, "seed": 2,
                       "num_validation": 20, "options": {"k_max": 20}}' >"$work/cell_plan.json"
 expect "POST /v1/plans with a cell" "$(status)" 200
 expect "... every configuration feasible in it" \
   "$(jq -r '[.configuration_checks[].feasible] | all' "$work/cell_plan.json")" true
 expect "... one check per configuration" "$(jq -r '.configuration_checks | length' "$work/cell_plan.json")" 8
+# A configuration the plan found measurable, and the arm pointing into the floor.
+feasible_q=$(jq -c '.configurations[0]' "$work/cell_plan.json")
+check=$(call POST /v1/cells/cell-a:check "{\"joints\": [$feasible_q, [0, 90, 0, 0, 0, 0]]}")
+expect "POST /v1/cells/{cell}:check" "$(echo "$check" | jq -r '[.results[].feasible] | map(tostring) | join(",")')" \
+  "true,false"
+expect "... the arm pointing into the floor is named" \
+  "$(echo "$check" | jq -r '.results[1].failed_rules | index("obstacle") != null')" true
+expect "... and the floor as what it comes closest to" \
+  "$(echo "$check" | jq -r '.results[1].clearance_pair | test("floor")')" true
 call POST /v1/cells '{"id": "walled-in", "robot": "ur5e", "tracker": {"position_mm": [2500, 0, 300]},
                       "obstacles": [{"id": "wall", "box": {"min_mm": [1000, -3000, -3000], "max_mm": [1100, 3000, 3000]}}]}' \
   >/dev/null
