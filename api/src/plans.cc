@@ -66,6 +66,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   PlanRequest req;
   ObjectReader r(body, "", &problems);
   r.String("robot", true, &req.robot, 64);
+  if (r.String("cell", false, &req.cell, 64) && !IsValidId(req.cell)) problems.Add("cell", kIdRule);
   if (r.Int("num_configurations", false, &req.num_configurations, 1, kMaxInt) &&
       req.num_configurations > limits.max_plan_configurations) {
     problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
@@ -98,7 +99,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
     opt.RejectUnknown({"k_max", "restarts", "max_evaluations", "step_fraction", "num_sets", "num_candidates",
                        "screen", "max_iterations"});
   }
-  r.RejectUnknown({"robot", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
+  r.RejectUnknown({"robot", "cell", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
                    "seed", "num_validation", "async", "options"});
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
@@ -182,11 +183,13 @@ void to_json(nlohmann::json& j, const PlanRequest& req) {
          {"num_candidates", req.num_candidates},
          {"screen", req.screen},
          {"max_iterations", req.max_iterations}}}};
+  if (!req.cell.empty()) j["cell"] = req.cell;
 }
 
 void from_json(const nlohmann::json& j, PlanRequest& req) {
   const WireReader r(j);
   r.Required("robot", &req.robot);
+  r.Optional("cell", &req.cell);
   r.Required("num_configurations", &req.num_configurations);
   r.Required("measurement_type", &req.measurement_type);
   r.Required("objective", &req.objective);
@@ -219,6 +222,7 @@ void to_json(nlohmann::json& j, const Indices& x) {
        {"o4", Num(x.o4)},
        {"o5", Num(x.o5)},
        {"log_det", Num(x.log_det)},
+       {"predicted_error_mm", Num(x.predicted_error_mm)},
        {"singular_values", Nums(x.singular_values)},
        {"scaling", x.scaling}};
 }
@@ -234,6 +238,7 @@ void from_json(const nlohmann::json& j, Indices& x) {
   r.Required("o4", &x.o4);
   r.Required("o5", &x.o5);
   r.Required("log_det", &x.log_det);
+  r.Required("predicted_error_mm", &x.predicted_error_mm);
   r.Required("singular_values", &x.singular_values);
   r.Required("scaling", &x.scaling);
 }
@@ -248,6 +253,7 @@ Indices ToWire(const ObservabilityIndices& x) {
           x.o4,
           x.o5,
           x.log_det,
+          x.predicted_error_mm,
           std::vector<double>(x.singular_values.data(), x.singular_values.data() + x.singular_values.size()),
           x.scaling};
 }
@@ -256,7 +262,8 @@ void to_json(nlohmann::json& j, const PredictedAccuracyWire& a) {
   j = {{"num_validation", a.num_validation},
        {"rms_position_mm", Num(a.rms_position_mm)},
        {"max_position_mm", Num(a.max_position_mm)},
-       {"rms_orientation_deg", Num(a.rms_orientation_deg)}};
+       {"rms_orientation_deg", Num(a.rms_orientation_deg)},
+       {"rms_error_mm", Num(a.rms_error_mm)}};
 }
 
 void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
@@ -265,11 +272,13 @@ void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
   r.Required("rms_position_mm", &a.rms_position_mm);
   r.Required("max_position_mm", &a.max_position_mm);
   r.Required("rms_orientation_deg", &a.rms_orientation_deg);
+  r.Required("rms_error_mm", &a.rms_error_mm);
 }
 
 PredictedAccuracyWire ToWire(const PredictedAccuracy& a) {
   return {a.num_validation, a.rms_position_mm, a.max_position_mm,
-          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN()};
+          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN(),
+          a.rms_error_mm};
 }
 
 void to_json(nlohmann::json& j, const PlanSummaryWire& s) {
@@ -333,7 +342,9 @@ void to_json(nlohmann::json& j, const PlanResult& p) {
        {"dropped_parameters", p.dropped_parameters},
        {"predicted_accuracy", p.predicted_accuracy},
        {"summary", p.summary},
-       {"created_unix_ms", p.created_unix_ms}};
+       {"created_unix_ms", p.created_unix_ms},
+       {"cell", p.cell ? nlohmann::json(*p.cell) : nlohmann::json()},
+       {"configuration_checks", p.configuration_checks}};
 }
 
 void from_json(const nlohmann::json& j, PlanResult& p) {
@@ -353,6 +364,8 @@ void from_json(const nlohmann::json& j, PlanResult& p) {
   r.Required("predicted_accuracy", &p.predicted_accuracy);
   r.Required("summary", &p.summary);
   r.Required("created_unix_ms", &p.created_unix_ms);
+  r.Required("cell", &p.cell);
+  r.Required("configuration_checks", &p.configuration_checks);
 }
 
 }  // namespace robocal::api

@@ -63,13 +63,23 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
 void to_json(nlohmann::json& j, const StoredPlan& plan) { j = Versioned(plan.plan); }
 
 void from_json(const nlohmann::json& j, StoredPlan& plan) {
-  if (StoredSchemaVersion(j) == 1) {
-    nlohmann::json doc = j;
-    if (doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");
-    ReadWire(doc, "", &plan.plan);
+  const int version = StoredSchemaVersion(j);
+  if (version >= 3) {
+    ReadWire(j, "", &plan.plan);
     return;
   }
-  ReadWire(j, "", &plan.plan);
+  // Plans before cells had neither a cell nor configuration checks, nor the predicted_error figures.
+  nlohmann::json doc = j;
+  for (nlohmann::json* indices : {&doc["indices"], &doc["baseline"]["indices"], &doc["summary"]["initial"]}) {
+    if (indices->is_object() && !indices->contains("predicted_error_mm")) (*indices)["predicted_error_mm"] = nullptr;
+  }
+  for (nlohmann::json* accuracy : {&doc["predicted_accuracy"], &doc["baseline"]["predicted_accuracy"]}) {
+    if (accuracy->is_object() && !accuracy->contains("rms_error_mm")) (*accuracy)["rms_error_mm"] = nullptr;
+  }
+  if (doc.is_object() && !doc.contains("cell")) doc["cell"] = nullptr;
+  if (doc.is_object() && !doc.contains("configuration_checks")) doc["configuration_checks"] = nlohmann::json::array();
+  if (version == 1 && doc.contains("summary")) DefaultFalse(&doc["summary"], "deadline_exceeded");
+  ReadWire(doc, "", &plan.plan);
 }
 
 void to_json(nlohmann::json& j, const StoredCalibration& c) {
@@ -124,6 +134,17 @@ Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) 
   c.summary.message = stored.result.summary.message;
   c.summary.measurement_type = stored.result.measurement_type;
   return c;
+}
+
+void to_json(nlohmann::json& j, const StoredCell& c) {
+  j = Versioned({{"cell", c.cell}, {"robot_definition", c.robot_definition}});
+}
+
+void from_json(const nlohmann::json& j, StoredCell& c) {
+  (void)StoredSchemaVersion(j);
+  const WireReader r(j);
+  r.Required("cell", &c.cell);
+  r.Required("robot_definition", &c.robot_definition);
 }
 
 void to_json(nlohmann::json& j, const StoredOperation& op) { j = Versioned(op.operation); }

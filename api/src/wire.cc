@@ -17,6 +17,7 @@ const char* EnumTable<TargetFrame>::Name(TargetFrame v) { return ToString(v); }
 const char* EnumTable<ColumnScaling>::Name(ColumnScaling v) { return ToString(v); }
 const char* EnumTable<ObservabilityIndex>::Name(ObservabilityIndex v) { return ToString(v); }
 const char* EnumTable<Status>::Name(Status v) { return ToString(v); }
+const char* EnumTable<CellRule>::Name(CellRule v) { return ToString(v); }
 
 const char* EnumTable<Optimiser>::Name(Optimiser v) {
   switch (v) {

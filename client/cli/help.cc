@@ -55,12 +55,46 @@ IN.csv is a joints CSV (header, one row per configuration, degrees / mm); writes
 --json: the forward result (frame and poses).
 )"};
 
+const HelpText kCellCreate = {"register a measurement cell (tracker, reflectors, obstacles; docs/cells.md)", R"(
+FILE.json is the body of POST /v1/cells, e.g.
+  {"id": "cell-a", "robot": "ur5e",
+   "tracker": {"position_mm": [2500, -800, 300], "min_distance_mm": 1500, "max_distance_mm": 15000},
+   "reflectors": [{"id": "smr1", "position_mm": [0, 0, 120], "normal": [0, 0, 1],
+                   "acceptance_half_angle_deg": 30}],
+   "obstacles": [{"id": "floor", "box": {"min_mm": [-3000, -3000, -500], "max_mm": [3000, 3000, -10]}}],
+   "clearance_mm": 20}
+Everything in the robot's base frame; reflectors in the flange frame. Prints the cell with every default
+filled in (--json: the cell resource).
+)"};
+
+const HelpText kCellList = {"list the cells", R"(
+One row per cell: id, robot, reflectors, obstacles, description. --json: GET /v1/cells, every page.
+)"};
+
+const HelpText kCellGet = {"one cell, with every default filled in", R"(
+--json: the cell resource.
+)"};
+
+const HelpText kCellDelete = {"delete a cell (plans made in it keep their configurations and checks)", R"(
+--json: the service's reply ({}).
+)"};
+
+const HelpText kCellCheck = {"which configurations a cell can measure (CSV in, CSV out)", R"(
+IN.csv is a joints CSV (header, one row per configuration, degrees / mm, within the robot's limits). Writes
+one row per configuration: row, feasible (1/0), min_clearance_mm and the pair that sets it, the measurable
+reflectors, and the reasons when infeasible, to OUT.csv or stdout; the count of feasible ones on stderr.
+--json: the check result (per configuration: feasible, per reflector incidence_deg, distance_mm and what
+blocks it, min_clearance_mm, failed_rules, reasons).
+)"};
+
 const HelpText kPlan = {"optimal measurement configurations", R"(
 Asks the service for M measurement configurations that make the calibration well conditioned, and prints
 them (one row per configuration, in the joints' units) with their observability indices and predicted
 accuracy against a random set of the same size.
 
   --count M            configurations (default 10)
+  --cell CELL          plan only configurations the cell can measure (robocal cell create); each planned
+                       configuration comes with its feasibility report (--json: configuration_checks)
   --type TYPE          pose, position_axis or position (default pose)
   --objective NAME     condition_number, o1, o2, o3, o4, o5, log_det (default condition_number)
   --optimiser NAME     solis_wets, random or exchange (default solis_wets)

@@ -92,6 +92,7 @@ int Plan(Invocation& in) {
   const std::string out_file = OutFile(in);
   api::PlanRequest request;
   request.robot = in.args[0];
+  request.cell = in.Option("--cell");
   request.num_configurations = static_cast<int>(in.Integer("--count", 10, 1, 100000));
   request.measurement_type = in.Enum("--type", MeasurementType::kPose);
   request.objective = in.Enum("--objective", ObservabilityIndex::kConditionNumber);

@@ -308,6 +308,29 @@ api::Robot Client::RegisterRobot(const json& body) {
 
 void Client::DeleteRobot(const std::string& robot) { Call("DELETE", "/v1/robots/" + Segment(robot), nullptr, false); }
 
+api::CellWire Client::CreateCell(const api::CellWire& request) { return CreateCell(json(request)); }
+
+api::CellWire Client::CreateCell(const json& body) {
+  return Parse<api::CellWire>(Call("POST", "/v1/cells", &body, false), "cell");
+}
+
+std::vector<api::CellWire> Client::ListCells(int page_size) {
+  return AllPages(*this, "/v1/cells", "cell list", page_size, &api::CellList::cells);
+}
+
+api::CellWire Client::GetCell(const std::string& cell) {
+  return Parse<api::CellWire>(Call("GET", "/v1/cells/" + Segment(cell), nullptr, true), "cell");
+}
+
+void Client::DeleteCell(const std::string& cell) { Call("DELETE", "/v1/cells/" + Segment(cell), nullptr, false); }
+
+api::CellCheckResult Client::CheckCell(const std::string& cell, const std::vector<std::vector<double>>& joints) {
+  const json body = JointsBody(joints);
+  // A check changes nothing on the server: safe to retry.
+  return Parse<api::CellCheckResult>(Call("POST", "/v1/cells/" + Segment(cell) + ":check", &body, true),
+                                     "cell check");
+}
+
 api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints) {
   const json body = JointsBody(joints);
   // Forward kinematics changes nothing on the server: safe to retry.

@@ -67,6 +67,18 @@ Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q) {
   return ForwardKinematics(model, q, Eigen::VectorXd(), &ws);
 }
 
+void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Transform* T_base_joint,
+                        Transform* T_base_flange) {
+  CheckSizes(model, q, Eigen::VectorXd());
+  Transform t = Transform::Identity();
+  for (int i = 0; i < model.num_joints(); ++i) {
+    t = t * model.fixed_transform(i);
+    T_base_joint[i] = t;
+    t = t * JointMotion(model.joint_type(i), q[i]);
+  }
+  *T_base_flange = t * model.T_lastjoint_flange();
+}
+
 Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng) {
   Eigen::VectorXd q(model.num_joints());
   for (int i = 0; i < model.num_joints(); ++i) q[i] = rng->Uniform(model.lower_limits()[i], model.upper_limits()[i]);

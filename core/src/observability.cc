@@ -20,6 +20,9 @@ namespace {
 // repeated add/subtract updates.
 constexpr int kRefreshInterval = 64;
 
+// The predicted error's singularity cut on the LDLT pivots of the unit-column normal matrix (see PredictedError).
+constexpr double kNormalPivotTolerance = 1e-12;
+
 Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::VectorXd& column_norms) {
   const int l = static_cast<int>(options.parameters.size());
   if (options.scaling == ColumnScaling::kColumnNorm) return UnitColumnFactors(column_norms);
@@ -86,12 +89,14 @@ const char* ToString(ObservabilityIndex index) {
       return "o5";
     case ObservabilityIndex::kLogDet:
       return "log_det";
+    case ObservabilityIndex::kPredictedError:
+      return "predicted_error";
   }
   return "?";
 }
 
 bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index) {
-  for (int i = 0; i <= static_cast<int>(ObservabilityIndex::kLogDet); ++i) {
+  for (int i = 0; i <= static_cast<int>(ObservabilityIndex::kPredictedError); ++i) {
     const auto candidate = static_cast<ObservabilityIndex>(i);
     if (text == ToString(candidate)) {
       *index = candidate;
@@ -126,6 +131,10 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
     *error = "expected_translation_mm and expected_rotation_rad must be positive and finite";
     return false;
   }
+  if (!(orientation_length_mm > 0.0) || !std::isfinite(orientation_length_mm)) {
+    *error = "orientation_length_mm must be positive and finite";
+    return false;
+  }
   return true;
 }
 
@@ -149,13 +158,16 @@ double ObservabilityIndices::Get(ObservabilityIndex index) const {
       return o5;
     case ObservabilityIndex::kLogDet:
       return log_det;
+    case ObservabilityIndex::kPredictedError:
+      return predicted_error_mm;
   }
   return 0.0;
 }
 
 double ObjectiveValue(const ObservabilityIndices& indices, ObservabilityIndex index) {
   const double value = indices.Get(index);
-  return index == ObservabilityIndex::kConditionNumber ? value : -value;
+  const bool minimised = index == ObservabilityIndex::kConditionNumber || index == ObservabilityIndex::kPredictedError;
+  return minimised ? value : -value;
 }
 
 ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations,
@@ -186,6 +198,7 @@ ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, Observab
   std::string error;
   if (!options_.IsValid(model_, &error)) throw std::invalid_argument("ObservabilityOptions: " + error);
   full_jacobian_.resize(MeasurementRows(options_.measurement_type), model_.num_error_parameters());
+  pose_jacobian_.resize(6, model_.num_error_parameters());
   row_weights_ = options_.noise.RowWeights(options_.measurement_type);
   const int l = static_cast<int>(options_.parameters.size());
   normal_ = Eigen::MatrixXd::Zero(l, l);
@@ -204,8 +217,47 @@ ObservabilityIndices ObservabilityEvaluator::IndicesOf(const Eigen::MatrixXd& no
   const Eigen::VectorXd d = ColumnScale(options_, normal.diagonal().cwiseMax(0.0).cwiseSqrt());
   const Eigen::MatrixXd scaled = d.asDiagonal() * normal * d.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
-  return IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(), num_configurations,
-                            options_.ScalingDescription());
+  ObservabilityIndices out = IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(), num_configurations,
+                                                       options_.ScalingDescription());
+  if (num_validation_ > 0) out.predicted_error_mm = PredictedError(normal);
+  return out;
+}
+
+Eigen::MatrixXd ObservabilityEvaluator::PoseJacobian(const Eigen::VectorXd& q) {
+  IdentificationJacobian(model_, q, Eigen::VectorXd(), MeasurementType::kPose, &ws_, pose_jacobian_);
+  const int l = static_cast<int>(options_.parameters.size());
+  Eigen::MatrixXd reduced(6, l);
+  for (int k = 0; k < l; ++k) reduced.col(k) = pose_jacobian_.col(options_.parameters[k]);
+  return reduced;
+}
+
+void ObservabilityEvaluator::SetValidation(const std::vector<Eigen::VectorXd>& validation) {
+  const int l = static_cast<int>(options_.parameters.size());
+  // Orientation rows count h times (variance h^2) for the types that observe orientation, not at all otherwise.
+  const double h = options_.measurement_type == MeasurementType::kPosition ? 0.0 : options_.orientation_length_mm;
+  validation_information_ = Eigen::MatrixXd::Zero(l, l);
+  for (const Eigen::VectorXd& q : validation) {
+    const Eigen::MatrixXd j = PoseJacobian(q);
+    validation_information_.noalias() += j.topRows<3>().transpose() * j.topRows<3>();
+    if (h > 0.0) validation_information_.noalias() += (h * h) * (j.bottomRows<3>().transpose() * j.bottomRows<3>());
+  }
+  num_validation_ = static_cast<int>(validation.size());
+  if (!configurations_.empty()) indices_ = IndicesOf(normal_, size());
+}
+
+double ObservabilityEvaluator::PredictedError(const Eigen::MatrixXd& normal) const {
+  if (num_validation_ == 0) return std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  // trace(A^-1 G) = trace(S^-1 D G D) with S = D A D, D scaling A's columns (of E*) to unit norm.
+  const Eigen::VectorXd d = UnitColumnFactors(normal.diagonal().cwiseMax(0.0).cwiseSqrt());
+  if ((d.array() == 0.0).any()) return inf;  // a parameter without effect on the set
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(d.asDiagonal() * normal * d.asDiagonal());
+  if (ldlt.info() != Eigen::Success) return inf;
+  const Eigen::VectorXd pivots = ldlt.vectorD();
+  if (!(pivots.minCoeff() > kNormalPivotTolerance * pivots.maxCoeff())) return inf;
+  const double variance =
+      ldlt.solve(d.asDiagonal() * validation_information_ * d.asDiagonal()).trace() / num_validation_;
+  return variance >= 0.0 && std::isfinite(variance) ? std::sqrt(variance) : inf;
 }
 
 void ObservabilityEvaluator::Refresh() {
@@ -281,13 +333,10 @@ PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOp
   if (ldlt.info() != Eigen::Success) return out;
   const Eigen::MatrixXd covariance = ldlt.solve(Eigen::MatrixXd::Identity(l, l));
   out.has_orientation = options.measurement_type != MeasurementType::kPosition;
-  KinematicsWorkspace ws(model);
-  Eigen::MatrixXd full(6, model.num_error_parameters());
-  Eigen::MatrixXd reduced(6, l);
+  const double h = out.has_orientation ? options.orientation_length_mm : 0.0;
   double sum_position = 0.0, sum_orientation = 0.0;
   for (const Eigen::VectorXd& q : validation) {
-    IdentificationJacobian(model, q, Eigen::VectorXd(), MeasurementType::kPose, &ws, full);
-    for (int k = 0; k < l; ++k) reduced.col(k) = full.col(options.parameters[k]);
+    const Eigen::MatrixXd reduced = evaluator.PoseJacobian(q);
     const Eigen::MatrixXd pose_covariance = reduced * covariance * reduced.transpose();
     const double position_var = pose_covariance.topLeftCorner<3, 3>().trace();
     sum_position += position_var;
@@ -298,6 +347,8 @@ PredictedAccuracy PredictAccuracy(const RobotModel& model, const ObservabilityOp
   if (out.num_validation > 0) {
     out.rms_position_mm = std::sqrt(sum_position / out.num_validation);
     if (out.has_orientation) out.rms_orientation_rad = std::sqrt(sum_orientation / out.num_validation);
+    out.rms_error_mm =
+        std::sqrt((sum_position + h * h * (out.has_orientation ? sum_orientation : 0.0)) / out.num_validation);
   }
   return out;
 }

@@ -29,6 +29,53 @@ double Finite(double value) {
   return std::isfinite(value) ? value : std::numeric_limits<double>::infinity();
 }
 
+// a x b and a + b for non-negative bounds, saturated rather than overflowing: bounds are only compared with
+// limits.
+std::int64_t SaturatingProduct(std::int64_t a, std::int64_t b) {
+  if (a == 0 || b == 0) return 0;
+  return a > std::numeric_limits<std::int64_t>::max() / b ? std::numeric_limits<std::int64_t>::max() : a * b;
+}
+
+std::int64_t SaturatingSum(std::int64_t a, std::int64_t b) {
+  return a > std::numeric_limits<std::int64_t>::max() - b ? std::numeric_limits<std::int64_t>::max() : a + b;
+}
+
+// Configurations the predicted_error objective draws for its validation sample (none for the other objectives).
+std::int64_t ValidationDraws(ObservabilityIndex objective, int num_validation) {
+  return objective == ObservabilityIndex::kPredictedError ? num_validation : 0;
+}
+
+// The rejection-sampling account of a plan that draws at most `configurations`.
+FeasibleDraws DrawBudget(int max_draws_per_configuration, std::int64_t configurations) {
+  FeasibleDraws account;
+  account.max_draws = SaturatingProduct(max_draws_per_configuration, configurations);
+  return account;
+}
+
+// Gives the evaluator the predicted_error objective's validation sample, drawn (feasible) from its own generator
+// so that the planner's draws do not depend on the objective. False when rejection sampling ran out.
+bool SetUpObjective(const RobotModel& model, ObservabilityIndex objective, int num_validation, std::uint64_t seed,
+                    const FeasibilityPredicate& feasible, FeasibleDraws* account, ObservabilityEvaluator* evaluator) {
+  if (objective != ObservabilityIndex::kPredictedError) return true;
+  Rng rng(seed + kPredictedErrorSeedOffset);
+  std::vector<Eigen::VectorXd> validation;
+  if (!DrawFeasibleConfigurations(model, num_validation, feasible, &rng, account, &validation)) return false;
+  evaluator->SetValidation(validation);
+  return true;
+}
+
+bool CheckDrawOptions(int max_draws_per_configuration, int num_validation, std::string* error) {
+  if (max_draws_per_configuration < 1 || max_draws_per_configuration > 1000000) {
+    *error = "max_draws_per_configuration must be in [1, 1000000]";
+    return false;
+  }
+  if (num_validation < 1 || num_validation > 100000) {
+    *error = "num_validation must be in [1, 100000]";
+    return false;
+  }
+  return true;
+}
+
 void CheckCommon(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
                  bool options_valid, const std::string& options_error) {
   if (num_configurations < 1) throw std::invalid_argument("num_configurations must be at least 1");
@@ -62,6 +109,9 @@ struct Normaliser {
     }
     return configurations;
   }
+
+  // A configuration as the search sees it after the trip through normalised coordinates (round-off only).
+  Eigen::VectorXd RoundTrip(const Eigen::VectorXd& q) const { return FromZ(ToZ({q})).front(); }
 };
 
 Eigen::VectorXd Project(Eigen::VectorXd z, LimitHandling handling) {
@@ -99,10 +149,34 @@ void FinishPlan(Clock::time_point start_time, const RobotModel& model, const Obs
   s.seconds = Seconds(start_time);
 }
 
+// The summary's record of rejection sampling.
+void RecordDraws(const FeasibleDraws& account, PlanSummary* s) {
+  s->feasibility_draws = account.draws;
+  s->feasibility_rejections = account.rejections;
+}
+
+// The end of a plan whose rejection sampling ran out of draws: FAILURE and no configurations (the cell leaves too
+// little of the joint ranges feasible; a caller can name the rule from a census of the cell).
+void FailForFeasibility(Clock::time_point start_time, const FeasibleDraws& account, std::int64_t configurations,
+                        int max_draws_per_configuration, Plan* plan) {
+  PlanSummary& s = plan->summary;
+  plan->configurations.clear();
+  s.termination = Termination::kFailure;
+  std::ostringstream share;
+  share << std::setprecision(3)
+        << 100.0 * (account.draws - account.rejections) / std::max<std::int64_t>(1, account.draws);
+  s.message = "too few feasible configurations: " + account.Describe() + " (" + share.str() + " %); the plan draws " +
+              std::to_string(configurations) + " configurations, at most " +
+              std::to_string(max_draws_per_configuration) + " draws each (max_draws_per_configuration)";
+  RecordDraws(account, &s);
+  s.seconds = Seconds(start_time);
+}
+
 std::string IndicesLine(const ObservabilityIndices& x) {
   std::ostringstream out;
   out << std::setprecision(5) << "cond " << x.condition_number << ", O1 " << x.o1 << ", O2 " << x.o2 << ", O3 "
       << x.o3 << ", O4 " << x.o4 << ", O5 " << x.o5 << ", log det " << x.log_det;
+  if (!std::isnan(x.predicted_error_mm)) out << ", predicted error " << x.predicted_error_mm << " mm";
   return out.str();
 }
 
@@ -148,7 +222,7 @@ bool SolisWetsOptions::IsValid(std::string* error) const {
   if (!(step_fraction > 0.0 && step_fraction <= 1.0)) return fail("step_fraction must be in (0, 1]");
   if (restarts < 0 || restarts > 10000) return fail("restarts must be in [0, 10000]");
   if (max_evaluations < 0) return fail("max_evaluations must be >= 0");
-  return true;
+  return CheckDrawOptions(max_draws_per_configuration, num_validation, error);
 }
 
 bool RandomSelectionOptions::IsValid(std::string* error) const {
@@ -156,7 +230,7 @@ bool RandomSelectionOptions::IsValid(std::string* error) const {
     *error = "num_sets must be in [1, 10000000]";
     return false;
   }
-  return true;
+  return CheckDrawOptions(max_draws_per_configuration, num_validation, error);
 }
 
 bool ExchangeOptions::IsValid(std::string* error) const {
@@ -176,16 +250,10 @@ bool ExchangeOptions::IsValid(std::string* error) const {
     *error = "max_evaluations must be >= 0";
     return false;
   }
-  return true;
+  return CheckDrawOptions(max_draws_per_configuration, num_validation, error);
 }
 
 namespace {
-// a x b for non-negative bounds, saturated rather than overflowing: bounds are only compared with limits.
-std::int64_t SaturatingProduct(std::int64_t a, std::int64_t b) {
-  if (a == 0 || b == 0) return 0;
-  return a > std::numeric_limits<std::int64_t>::max() / b ? std::numeric_limits<std::int64_t>::max() : a * b;
-}
-
 std::int64_t CappedBy(std::int64_t evaluations, int max_evaluations) {
   return max_evaluations > 0 ? std::min<std::int64_t>(evaluations, max_evaluations) : evaluations;
 }
@@ -194,14 +262,32 @@ std::int64_t CappedBy(std::int64_t evaluations, int max_evaluations) {
 PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options) {
   // Each run evaluates its starting set, then at most a forward and a reversed step per iteration.
   const std::int64_t per_run = 2 * static_cast<std::int64_t>(options.k_max) + 1;
+  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
   PlanWork work;
   work.evaluations = CappedBy(SaturatingProduct(options.restarts + 1, per_run), options.max_evaluations);
-  work.jacobians = SaturatingProduct(work.evaluations, num_configurations);
+  work.jacobians = SaturatingSum(SaturatingProduct(work.evaluations, num_configurations), validation);
+  if (options.feasible) {
+    // Rejection sampling of the starting sets and the validation sample, then M checks per candidate set. An
+    // infeasible candidate costs no evaluation, so the candidates are bounded by the iterations, not the budget.
+    const std::int64_t starts = SaturatingProduct(options.restarts + 1, num_configurations);
+    const std::int64_t candidates =
+        SaturatingProduct(SaturatingProduct(options.restarts + 1, 2 * options.k_max), num_configurations);
+    work.feasibility_checks = SaturatingSum(
+        SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(starts, validation)), candidates);
+  }
   return work;
 }
 
 PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& options) {
-  return {options.num_sets, SaturatingProduct(options.num_sets, num_configurations)};
+  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
+  const std::int64_t drawn = SaturatingProduct(options.num_sets, num_configurations);
+  PlanWork work;
+  work.evaluations = options.num_sets;
+  work.jacobians = SaturatingSum(drawn, validation);
+  if (options.feasible) {
+    work.feasibility_checks = SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(drawn, validation));
+  }
+  return work;
 }
 
 PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options) {
@@ -212,7 +298,12 @@ PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options) {
       std::min(SaturatingProduct(options.max_iterations, per_iteration), std::numeric_limits<std::int64_t>::max() - 1) +
           1,
       options.max_evaluations);
-  work.jacobians = options.num_candidates;
+  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
+  work.jacobians = SaturatingSum(options.num_candidates, validation);
+  if (options.feasible) {
+    work.feasibility_checks =
+        SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(options.num_candidates, validation));
+  }
   return work;
 }
 
@@ -223,11 +314,39 @@ std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int c
   return out;
 }
 
+std::string FeasibleDraws::Describe() const {
+  return std::to_string(draws - rejections) + " of " + std::to_string(draws) +
+         " random configurations within the joint limits were feasible";
+}
+
+bool DrawFeasibleConfiguration(const RobotModel& model, const FeasibilityPredicate& feasible, Rng* rng,
+                               FeasibleDraws* account, Eigen::VectorXd* q) {
+  while (account->draws < account->max_draws) {
+    *q = RandomConfiguration(model, rng);
+    ++account->draws;
+    if (!feasible || feasible(*q)) return true;
+    ++account->rejections;
+  }
+  return false;
+}
+
+bool DrawFeasibleConfigurations(const RobotModel& model, int count, const FeasibilityPredicate& feasible, Rng* rng,
+                                FeasibleDraws* account, std::vector<Eigen::VectorXd>* out) {
+  out->reserve(out->size() + std::max(count, 0));
+  Eigen::VectorXd q;
+  for (int i = 0; i < count; ++i) {
+    if (!DrawFeasibleConfiguration(model, feasible, rng, account, &q)) return false;
+    out->push_back(q);
+  }
+  return true;
+}
+
 Plan PlanSolisWets(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
                    const SolisWetsOptions& options, const std::vector<Eigen::VectorXd>& initial) {
   std::string error;
   const bool valid = options.IsValid(&error);
   CheckCommon(model, num_configurations, observability, valid, "SolisWetsOptions: " + error);
+  const Normaliser normaliser{model};
   if (!initial.empty()) {
     if (static_cast<int>(initial.size()) != num_configurations) {
       throw std::invalid_argument("initial set has " + std::to_string(initial.size()) + " configurations, expected " +
@@ -237,19 +356,46 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       if (!model.WithinLimits(initial[m])) {
         throw std::invalid_argument("initial[" + std::to_string(m) + "] is outside the joint limits");
       }
+      if (options.feasible && !options.feasible(normaliser.RoundTrip(initial[m]))) {
+        throw std::invalid_argument("initial[" + std::to_string(m) + "] is infeasible (options.feasible)");
+      }
     }
   }
   const auto start_time = Clock::now();
   Plan plan = StartPlan("solis_wets", options.objective);
   PlanSummary& s = plan.summary;
   ObservabilityEvaluator evaluator(model, observability);
-  const Normaliser normaliser{model};
   Rng rng(options.seed);
   const int total_iterations = options.k_max * (options.restarts + 1);
   bool stopped = false;
+  const std::int64_t drawn_sets = options.restarts + (initial.empty() ? 1 : 0);
+  const std::int64_t drawn = SaturatingSum(SaturatingProduct(drawn_sets, num_configurations),
+                                           ValidationDraws(options.objective, options.num_validation));
+  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
+  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
+                      &evaluator)) {
+    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+    return plan;
+  }
+  // The search runs in normalised coordinates: a starting configuration must be feasible after that round trip.
+  FeasibilityPredicate start_feasible;
+  if (options.feasible) {
+    start_feasible = [&](const Eigen::VectorXd& q) { return options.feasible(normaliser.RoundTrip(q)); };
+  }
 
-  auto evaluate = [&](const Eigen::VectorXd& z) {
-    evaluator.SetConfigurations(normaliser.FromZ(z));
+  // A candidate set with an infeasible configuration is not evaluated and ranks as +inf: a failed step. Starting
+  // sets are feasible by construction and need no check.
+  auto evaluate = [&](const Eigen::VectorXd& z, bool check) {
+    const std::vector<Eigen::VectorXd> configurations = normaliser.FromZ(z);
+    if (check && options.feasible) {
+      for (const Eigen::VectorXd& q : configurations) {
+        if (!options.feasible(q)) {
+          ++s.infeasible_candidates;
+          return std::numeric_limits<double>::infinity();
+        }
+      }
+    }
+    evaluator.SetConfigurations(configurations);
     ++s.evaluations;
     return Finite(ObjectiveValue(evaluator.indices(), options.objective));
   };
@@ -273,10 +419,15 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       stopped = true;
       break;
     }
-    Eigen::VectorXd x = normaliser.ToZ(run == 0 && !initial.empty()
-                                           ? initial
-                                           : RandomConfigurations(model, num_configurations, &rng));
-    double fx = evaluate(x);
+    std::vector<Eigen::VectorXd> start_set;
+    if (run == 0 && !initial.empty()) {
+      start_set = initial;
+    } else if (!DrawFeasibleConfigurations(model, num_configurations, start_feasible, &rng, &account, &start_set)) {
+      FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+      return plan;
+    }
+    Eigen::VectorXd x = normaliser.ToZ(start_set);
+    double fx = evaluate(x, false);
     ObservabilityIndices x_indices = evaluator.indices();
     if (run == 0) s.initial = x_indices;
     if (fx < best_f || best_z.size() == 0) {
@@ -308,7 +459,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       const Eigen::VectorXd xi = Project(x + options.step_fraction * d, options.limits);
       const Eigen::VectorXd d_taken = (xi - x) / options.step_fraction;
       // (3) forward step, then the reversed step.
-      const double f_xi = evaluate(xi);
+      const double f_xi = evaluate(xi, true);
       if (f_xi < fx) {
         x = xi;
         fx = f_xi;
@@ -318,7 +469,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
         fcent = 0;
       } else {
         const Eigen::VectorXd reverse = Project(2.0 * x - xi, options.limits);
-        const double f_reverse = budget_left() ? evaluate(reverse) : std::numeric_limits<double>::infinity();
+        const double f_reverse = budget_left() ? evaluate(reverse, true) : std::numeric_limits<double>::infinity();
         if (f_reverse < fx) {
           mu = mu - 0.4 * d_taken;
           x = reverse;
@@ -356,6 +507,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     s.termination = Termination::kConvergence;
     s.message = "completed " + std::to_string(s.iterations) + " iterations";
   }
+  RecordDraws(account, &s);
   FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
@@ -370,10 +522,22 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   PlanSummary& s = plan.summary;
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
+  const std::int64_t drawn = SaturatingSum(SaturatingProduct(options.num_sets, num_configurations),
+                                           ValidationDraws(options.objective, options.num_validation));
+  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
+  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
+                      &evaluator)) {
+    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+    return plan;
+  }
   double best_f = std::numeric_limits<double>::infinity();
   bool cancelled = false;
   for (int set = 0; set < options.num_sets; ++set) {
-    auto configurations = RandomConfigurations(model, num_configurations, &rng);
+    std::vector<Eigen::VectorXd> configurations;
+    if (!DrawFeasibleConfigurations(model, num_configurations, options.feasible, &rng, &account, &configurations)) {
+      FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+      return plan;
+    }
     evaluator.SetConfigurations(configurations);
     ++s.evaluations;
     if (set == 0) s.initial = evaluator.indices();
@@ -392,6 +556,7 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   }
   s.termination = cancelled ? Termination::kNoConvergence : Termination::kConvergence;
   s.message = cancelled ? "cancelled" : "best of " + std::to_string(s.evaluations) + " random sets";
+  RecordDraws(account, &s);
   FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
@@ -418,11 +583,23 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   // memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed
   // when needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored
   // (L^2 doubles per candidate, several times the blocks).
+  const std::int64_t drawn = SaturatingSum(count, ValidationDraws(options.objective, options.num_validation));
+  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
+  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
+                      &evaluator)) {
+    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+    return plan;
+  }
   Eigen::MatrixXd pool(model.num_joints(), count);
   Eigen::MatrixXd blocks(rows, static_cast<Eigen::Index>(count) * l);
+  Eigen::VectorXd q;
   for (int c = 0; c < count; ++c) {
-    pool.col(c) = RandomConfiguration(model, &rng);
-    blocks.middleCols(static_cast<Eigen::Index>(c) * l, l) = evaluator.Block(pool.col(c));
+    if (!DrawFeasibleConfiguration(model, options.feasible, &rng, &account, &q)) {
+      FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
+      return plan;
+    }
+    pool.col(c) = q;
+    blocks.middleCols(static_cast<Eigen::Index>(c) * l, l) = evaluator.Block(q);
   }
   auto block = [&](int c) { return blocks.middleCols(static_cast<Eigen::Index>(c) * l, l); };
   auto contribution = [&](int c) -> Eigen::MatrixXd { return block(c).transpose() * block(c); };
@@ -448,6 +625,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   s.initial = current_indices;
   double current = value(current_indices);
   const int outside = count - num_configurations;
+  const bool i_optimal = options.objective == ObservabilityIndex::kPredictedError;
   const std::int64_t per_iteration = static_cast<std::int64_t>(count) + std::min(options.screen, outside);
   bool cancelled = false, converged = false, budget_reached = false;
   while (s.iterations < options.max_iterations) {
@@ -456,16 +634,28 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
       break;
     }
     // Screen additions by the D-optimal gain log det(I + B A^-1 B') (a small ridge keeps A invertible while
-    // the set is still rank deficient), then evaluate the most promising exactly.
+    // the set is still rank deficient), then evaluate the most promising exactly. For predicted_error the gain is
+    // the objective's own: adding B lowers trace(A^-1 G) by trace((I + B A^-1 B')^-1 B A^-1 G A^-1 B')
+    // (Woodbury), with H = A^-1 G A^-1 formed once per iteration.
     const double ridge = 1e-9 * std::max(normal.trace() / l, 1e-300);
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(normal + ridge * Eigen::MatrixXd::Identity(l, l));
+    Eigen::MatrixXd h;
+    if (i_optimal) {
+      const Eigen::MatrixXd a_inv_g = ldlt.solve(evaluator.validation_information());
+      h = ldlt.solve(a_inv_g.transpose());
+    }
     std::vector<std::pair<double, int>> gains;
     gains.reserve(outside);
     for (int c = 0; c < count; ++c) {
       if (in_set[c]) continue;
-      const Eigen::MatrixXd m = Eigen::MatrixXd::Identity(rows, rows) + block(c) * ldlt.solve(block(c).transpose());
+      const Eigen::MatrixXd u = ldlt.solve(block(c).transpose());
+      const Eigen::MatrixXd m = Eigen::MatrixXd::Identity(rows, rows) + block(c) * u;
       ++s.evaluations;
-      gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).vectorD().array().log().sum(), c);
+      if (i_optimal) {
+        gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).solve(block(c) * h * block(c).transpose()).trace(), c);
+      } else {
+        gains.emplace_back(Eigen::LDLT<Eigen::MatrixXd>(m).vectorD().array().log().sum(), c);
+      }
     }
     const size_t screened = std::min<size_t>(options.screen, gains.size());
     std::partial_sort(gains.begin(), gains.begin() + screened, gains.end(), std::greater<>());
@@ -536,6 +726,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
     s.termination = Termination::kNoConvergence;
     s.message = "max_iterations reached";
   }
+  RecordDraws(account, &s);
   FinishPlan(start_time, model, observability, &plan);
   return plan;
 }
@@ -555,6 +746,9 @@ std::string PlanSummary::FullReport() const {
   out << "  initial: " << IndicesLine(initial) << "\n";
   out << "  final:   " << IndicesLine(final) << "\n";
   out << "  iterations: " << iterations << ", evaluations: " << evaluations << "\n";
+  out << "  random configurations drawn: " << feasibility_draws
+      << ", rejected as infeasible: " << feasibility_rejections
+      << "; infeasible candidate sets: " << infeasible_candidates << "\n";
   return out.str();
 }
 

@@ -16,9 +16,12 @@
 #include "robocal/core/accuracy.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/identifiability.h"
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/virtual_cell.h"
 
 namespace robocal {
 namespace {
@@ -31,42 +34,125 @@ struct Case {
   std::vector<Eigen::VectorXd> validation;
 };
 
-// Per seed of one case: condition numbers and predicted RMS position errors.
+// What the objective comparison records of one plan of one seed.
+struct Figures {
+  double cond = 0.0, predicted = 0.0, simulated = 0.0;
+};
+
+// Per seed of one case: condition numbers and predicted RMS position errors; the objective comparison.
 struct SeedResult {
   double start_cond = 0.0, start_rms = 0.0;
   std::vector<double> cond, rms;
   double exchange_cond = 0.0, exchange_rms = 0.0;
+  Figures start;
+  std::vector<Figures> objectives;  // solis_wets per objective, then exchange per objective
 };
+
+// The plan measured in seed's virtual cell (one shot per pose, the study's noise) and identified: the RMS error of
+// the calibrated model's tool pose against the true robot's at the validation configurations, weighted as the
+// predicted_error index weighs it. NaN when the identification fails.
+double SimulatedError(const Case& c, const PlanningStudyOptions& options, std::uint64_t seed,
+                      const std::vector<Eigen::VectorXd>& plan) {
+  VirtualCellOptions cell_options;
+  cell_options.seed = seed + kPlanningStudySimulationSeedOffset;
+  cell_options.noise = options.noise;
+  cell_options.shots_per_pose = 1;
+  VirtualCell cell(c.model, cell_options);
+  IdentificationOptions identification;
+  identification.measurement_type = c.type;
+  identification.noise = options.noise;
+  identification.parameters = c.observability.parameters;
+  const Calibration calibration = Identify(c.model, cell.MeasureAll(plan), identification);
+  if (calibration.summary.termination == Termination::kFailure) return std::nan("");
+  const double h = c.type == MeasurementType::kPosition ? 0.0 : c.observability.orientation_length_mm;
+  KinematicsWorkspace ws(calibration.model);
+  double sum = 0.0;
+  for (const Eigen::VectorXd& q : c.validation) {
+    const Transform predicted = ForwardKinematics(calibration.model, q, calibration.errors, &ws);
+    const Transform truth = cell.TruePose(q);
+    const double angle_rad = Eigen::AngleAxisd(truth.linear().transpose() * predicted.linear()).angle();
+    sum += (predicted.translation() - truth.translation()).squaredNorm() + h * h * angle_rad * angle_rad;
+  }
+  return std::sqrt(sum / static_cast<double>(c.validation.size()));
+}
 
 SeedResult RunSeed(const Case& c, const PlanningStudyOptions& options, std::uint64_t seed) {
   SeedResult r;
   // A plan that leaves E*'WE* singular predicts nothing (NaN, which the medians then show).
+  auto predict = [&](const std::vector<Eigen::VectorXd>& plan) {
+    return PredictAccuracy(c.model, c.observability, plan, c.validation);
+  };
   auto rms = [&](const std::vector<Eigen::VectorXd>& plan) {
-    const PredictedAccuracy predicted = PredictAccuracy(c.model, c.observability, plan, c.validation);
+    const PredictedAccuracy predicted = predict(plan);
     return predicted.num_validation > 0 ? predicted.rms_position_mm : std::nan("");
   };
+  auto judge = [&](const Plan& plan) {
+    Figures f;
+    f.cond = plan.summary.final.condition_number;
+    const PredictedAccuracy predicted = predict(plan.configurations);
+    f.predicted = predicted.num_validation > 0 ? predicted.rms_error_mm : std::nan("");
+    f.simulated = options.simulate ? SimulatedError(c, options, seed, plan.configurations) : std::nan("");
+    return f;
+  };
+  Plan paper;  // the first budget's plan: the paper preset with the condition number
   for (int k_max : options.budgets) {
     SolisWetsOptions sw = SolisWetsOptions::Paper();
     sw.k_max = k_max;
     sw.seed = seed;
-    const Plan plan = PlanSolisWets(c.model, options.num_configurations, c.observability, sw);
+    Plan plan = PlanSolisWets(c.model, options.num_configurations, c.observability, sw);
     if (r.cond.empty()) {
       // Same seed, same random starting set for every budget: the start is the first draw of the generator.
       r.start_cond = plan.summary.initial.condition_number;
       Rng rng(seed);
-      r.start_rms = rms(RandomConfigurations(c.model, options.num_configurations, &rng));
+      const auto start = RandomConfigurations(c.model, options.num_configurations, &rng);
+      r.start_rms = rms(start);
+      if (!options.objectives.empty()) {
+        Plan start_plan;
+        start_plan.configurations = start;
+        start_plan.summary.final.condition_number = r.start_cond;
+        r.start = judge(start_plan);
+      }
     }
     r.cond.push_back(plan.summary.final.condition_number);
     r.rms.push_back(rms(plan.configurations));
+    if (r.cond.size() == 1) paper = std::move(plan);
   }
+  Plan exchange_log_det;
   if (options.exchange) {
     ExchangeOptions ex;
     ex.objective = ObservabilityIndex::kLogDet;
     ex.num_candidates = options.exchange_candidates;
     ex.seed = seed;
-    const Plan plan = PlanExchange(c.model, options.num_configurations, c.observability, ex);
-    r.exchange_cond = plan.summary.final.condition_number;
-    r.exchange_rms = rms(plan.configurations);
+    exchange_log_det = PlanExchange(c.model, options.num_configurations, c.observability, ex);
+    r.exchange_cond = exchange_log_det.summary.final.condition_number;
+    r.exchange_rms = rms(exchange_log_det.configurations);
+  }
+  // The objective comparison; the plans above are reused where they are the same plan.
+  for (ObservabilityIndex objective : options.objectives) {
+    if (objective == ObservabilityIndex::kConditionNumber) {
+      r.objectives.push_back(judge(paper));
+      continue;
+    }
+    SolisWetsOptions sw = SolisWetsOptions::Paper();
+    sw.k_max = options.budgets.front();
+    sw.seed = seed;
+    sw.objective = objective;
+    sw.num_validation = options.objective_validation;
+    r.objectives.push_back(judge(PlanSolisWets(c.model, options.num_configurations, c.observability, sw)));
+  }
+  if (options.exchange) {
+    for (ObservabilityIndex objective : options.objectives) {
+      if (objective == ObservabilityIndex::kLogDet) {
+        r.objectives.push_back(judge(exchange_log_det));
+        continue;
+      }
+      ExchangeOptions ex;
+      ex.objective = objective;
+      ex.num_candidates = options.exchange_candidates;
+      ex.seed = seed;
+      ex.num_validation = options.objective_validation;
+      r.objectives.push_back(judge(PlanExchange(c.model, options.num_configurations, c.observability, ex)));
+    }
   }
   return r;
 }
@@ -131,6 +217,15 @@ bool PlanningStudyOptions::IsValid(std::string* error) const {
   if (exchange && (exchange_candidates < num_configurations || exchange_candidates > 1000000)) {
     return fail("exchange_candidates: " + std::to_string(exchange_candidates) + " must be in [num_configurations (" +
                 std::to_string(num_configurations) + "), 1000000]");
+  }
+  for (size_t i = 0; i < objectives.size(); ++i) {
+    const auto end = objectives.begin() + static_cast<std::ptrdiff_t>(i);
+    if (std::find(objectives.begin(), end, objectives[i]) != end) {
+      return fail("objectives[" + std::to_string(i) + "]: '" + ToString(objectives[i]) + "' is listed twice");
+    }
+  }
+  if (objective_validation < 1 || objective_validation > 100000) {
+    return fail("objective_validation must be in [1, 100000]");
   }
   if (threads < 1 || threads > 256) return fail("threads must be in [1, 256]");
   return true;
@@ -227,6 +322,20 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
       row.exchange_condition_number = median([](const SeedResult& r) { return r.exchange_cond; });
       row.exchange_rms_position_mm = median([](const SeedResult& r) { return r.exchange_rms; });
     }
+    if (!options.objectives.empty()) {
+      row.start_predicted_rms_error_mm = median([](const SeedResult& r) { return r.start.predicted; });
+      row.start_simulated_rms_error_mm = median([](const SeedResult& r) { return r.start.simulated; });
+    }
+    const size_t nobj = options.objectives.size();
+    for (size_t k = 0; k < nobj * (options.exchange ? 2 : 1); ++k) {
+      ObjectivePlanResult plan;
+      plan.objective = options.objectives[k % nobj];
+      plan.method = k < nobj ? "solis_wets" : "exchange";
+      plan.condition_number = median([k](const SeedResult& r) { return r.objectives[k].cond; });
+      plan.predicted_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].predicted; });
+      plan.simulated_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].simulated; });
+      row.objectives.push_back(std::move(plan));
+    }
     result.rows.push_back(std::move(row));
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
@@ -280,6 +389,41 @@ std::string FormatPlanningStudy(const PlanningStudyResult& result) {
     if (o.exchange) out << Pad(Fixed(1000.0 * row.exchange_rms_position_mm, 1), 10);
     out << "\n";
   }
+  if (o.objectives.empty()) return out.str();
+
+  // The objectives compared: "predicted / simulated" per plan, um.
+  auto um = [](double mm) { return std::isfinite(mm) ? Fixed(1000.0 * mm, 1) : std::string("-"); };
+  auto pair = [&](double predicted, double simulated) {
+    return o.simulate ? um(predicted) + " / " + um(simulated) : um(predicted);
+  };
+  const size_t width = o.simulate ? 15 : 9;
+  out << "\nObjectives compared: RMS error after calibration at the " << o.num_validation
+      << " validation configurations, um, " << (o.simulate ? "predicted / simulated" : "predicted")
+      << " (position; types that observe orientation add 30 mm x orientation)\n";
+  out << Pad("robot", 10) << Pad("type", 15) << Pad("random", width);
+  for (const ObjectivePlanResult& plan : result.rows.front().objectives) {
+    const std::string method = plan.method == "exchange" ? "ex " : "sw ";
+    out << Pad(method + ToString(plan.objective),
+               std::max<size_t>(width, 4 + std::string(ToString(plan.objective)).size()));
+  }
+  out << "\n";
+  for (const PlanningStudyRow& row : result.rows) {
+    out << Pad(row.robot, 10) << Pad(ToString(row.measurement_type), 15)
+        << Pad(pair(row.start_predicted_rms_error_mm, row.start_simulated_rms_error_mm), width);
+    for (const ObjectivePlanResult& plan : row.objectives) {
+      out << Pad(pair(plan.predicted_rms_error_mm, plan.simulated_rms_error_mm),
+                 std::max<size_t>(width, 4 + std::string(ToString(plan.objective)).size()));
+    }
+    out << "\n";
+  }
+  out << "sw: the paper preset (k_max " << o.budgets.front() << ") with that objective; ex: the exchange optimiser ("
+      << o.exchange_candidates << " candidates). predicted_error plans optimise " << o.objective_validation
+      << " validation configurations of their own.";
+  if (o.simulate) {
+    out << " Simulated: one virtual cell per seed, one shot per pose, the plan identified, the calibrated model against"
+           " the true robot.";
+  }
+  out << "\n";
   return out.str();
 }
 

@@ -22,7 +22,10 @@ seed; --configurations M), each optimised by the paper's Solis & Wets preset wit
 and (unless --no-exchange) a plan by the exchange optimiser with log det as objective. Prints the median
 condition numbers, the ratio random start / first budget, the gain share (the share of the best gain found,
 by the last budget, in ln(cond) that the first budget reaches), and the predicted RMS position error after
-calibration of each plan (tracker noise only). Same flags, same figures.
+calibration of each plan (tracker noise only). Then the objectives compared: per objective of --objectives a
+plan by the paper preset (k_max: the first budget) and one by exchange, each judged by its predicted and its
+simulated RMS error after calibration (measured in a virtual cell, identified, compared with the true robot).
+Same flags, same figures.
 
 options:
   --robots LIST             comma-separated presets (default grinder5,puma560,ur5e)
@@ -39,6 +42,10 @@ options:
   --validation N            validation configurations of the predicted accuracy (default 200)
   --exchange-candidates N   candidate pool of the exchange optimiser (default 2000)
   --no-exchange             skip the exchange optimiser
+  --objectives LIST         objectives compared: condition_number, o1..o5, log_det, predicted_error
+                            (default condition_number,log_det,predicted_error); "none" skips the comparison
+  --objective-validation N  validation configurations predicted_error plans optimise (default 50)
+  --no-simulation           compare the objectives on predicted accuracy only
   --threads N               worker threads, 1..256 (default: the machine's cores); results do not depend on it
   --help, -h                this text
 )";
@@ -85,6 +92,20 @@ void Apply(const std::string& flag, const std::string& value, robocal::PlanningS
     o->exchange_candidates = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000000));
   } else if (flag == "--no-exchange") {
     o->exchange = false;
+  } else if (flag == "--objectives") {
+    o->objectives.clear();
+    if (value == "none") return;
+    for (const std::string& item : SplitList(flag, value)) {
+      robocal::ObservabilityIndex index;
+      if (!robocal::ParseObservabilityIndex(item, &index)) {
+        throw BadFlag(flag + ": '" + item + "' is not condition_number, o1..o5, log_det or predicted_error");
+      }
+      o->objectives.push_back(index);
+    }
+  } else if (flag == "--objective-validation") {
+    o->objective_validation = static_cast<int>(ParseIntegerFlag(flag, value, 1, 100000));
+  } else if (flag == "--no-simulation") {
+    o->simulate = false;
   } else if (flag == "--threads") {
     o->threads = static_cast<int>(ParseIntegerFlag(flag, value, 1, 256));
   } else {
@@ -106,7 +127,8 @@ int main(int argc, char** argv) {
   options.threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 256u));
   std::string error;
   try {
-    for (const auto& [flag, value] : robocal::tools::SplitFlags(args, {"--no-exchange"})) Apply(flag, value, &options);
+    const auto flags = robocal::tools::SplitFlags(args, {"--no-exchange", "--no-simulation"});
+    for (const auto& [flag, value] : flags) Apply(flag, value, &options);
     if (options.exchange && options.exchange_candidates < options.num_configurations) {
       throw robocal::tools::BadFlag("--exchange-candidates: " + std::to_string(options.exchange_candidates) +
                                     " candidates cannot give " + std::to_string(options.num_configurations) +

@@ -59,6 +59,18 @@ const std::vector<Route>& RouteTable() {
        }},
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
        [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
+      {"GET", "/v1/cells", "/v1/cells",
+       [](Service& s, const httplib::Request& r) { return Reply(s.ListCells(Query(r, "page_size"), Query(r, "page_token"))); }},
+      {"POST", "/v1/cells", "/v1/cells", [](Service& s, const httplib::Request& r) { return Reply(s.CreateCell(Body(s, r))); }},
+      {"GET", R"(/v1/cells/([^/:]+))", "/v1/cells/{cell}",
+       [](Service& s, const httplib::Request& r) { return Reply(s.GetCell(Id(r))); }},
+      {"DELETE", R"(/v1/cells/([^/:]+))", "/v1/cells/{cell}",
+       [](Service& s, const httplib::Request& r) {
+         s.DeleteCell(Id(r));
+         return json::object();
+       }},
+      {"POST", R"(/v1/cells/([^/:]+):check)", "/v1/cells/{cell}:check",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CheckCell(Id(r), Body(s, r))); }},
       {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return Reply(s.CreatePlan(Body(s, r))); }},
       {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
        [](Service& s, const httplib::Request& r) { return Reply(s.GetPlan(Id(r))); }},

@@ -1,4 +1,8 @@
 // The service's plans: measurement configurations chosen by the requested optimiser.
+#include <cmath>
+#include <memory>
+
+#include "robocal/core/cell.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/observability.h"
 #include "robocal/core/planning.h"
@@ -20,8 +24,26 @@ std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vect
 
 }  // namespace
 
-api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest& req, const std::string& plan_id,
-                                 WorkControl& control) {
+// Refuses a cell that leaves (almost) nothing feasible before any search starts, naming the rule that rejects
+// most of a sample of configurations and its share.
+void Service::CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed) {
+  constexpr int kSamples = 2000;
+  constexpr double kMinFeasibleShare = 0.002;
+  const FeasibilityCensus census = SampleFeasibility(cell.model, cell.cell, kSamples, seed);
+  if (census.feasible >= kMinFeasibleShare * census.samples && census.feasible > 0) return;
+  const std::string reason = std::to_string(census.feasible) + " of " + std::to_string(census.samples) +
+                             " sampled configurations are feasible; " + ToString(census.dominant) + " rejects " +
+                             std::to_string(static_cast<int>(std::lround(100.0 * census.dominant_share))) + " %";
+  throw ApiError(Status::kFailedPrecondition, "cell \"" + cell.wire.id + "\" leaves almost nothing feasible: " + reason,
+                 {{"cell", reason}});
+}
+
+api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const std::string& plan_id,
+                                 WorkControl& control, const LoadedCell* cell) {
+  // In a cell: the joint limits narrowed to its ranges, and every configuration feasible in it.
+  const RobotModel model = cell ? cell->cell.PlanningModel(nominal) : nominal;
+  std::function<bool(const Eigen::VectorXd&)> feasible;
+  if (cell) feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   IdentifiabilityOptions id_options;
   id_options.noise = api::ToCore(req.noise);
   id_options.seed = req.seed;
@@ -40,6 +62,7 @@ api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest
     case api::Optimiser::kRandom: {
       RandomSelectionOptions o = api::ToRandomSelectionOptions(req);
       o.progress = control.Callback();
+      o.feasible = feasible;
       plan = PlanRandom(model, req.num_configurations, obs, o);
       break;
     }
@@ -47,6 +70,7 @@ api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest
       ExchangeOptions o = api::ToExchangeOptions(req);
       if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
       o.progress = control.Callback();
+      o.feasible = feasible;
       plan = PlanExchange(model, req.num_configurations, obs, o);
       break;
     }
@@ -54,18 +78,33 @@ api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest
       SolisWetsOptions o = api::ToSolisWetsOptions(req);
       if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
       o.progress = control.Callback();
+      o.feasible = feasible;
       plan = PlanSolisWets(model, req.num_configurations, obs, o);
       break;
     }
   }
 
-  // The paper's baseline: one random set of the same size (seeded from the plan's seed).
+  if (cell && plan.summary.termination == Termination::kFailure) {
+    throw ApiError(Status::kFailedPrecondition, "no plan within cell \"" + cell->wire.id + "\": " + plan.summary.message,
+                   {{"cell", plan.summary.message}});
+  }
+
+  // The paper's baseline: one random set of the same size (seeded from the plan's seed), in the same cell.
   RandomSelectionOptions baseline_options;
   baseline_options.seed = req.seed + 1000003;
   baseline_options.objective = req.objective;
+  baseline_options.feasible = feasible;
   const Plan baseline = PlanRandom(model, req.num_configurations, obs, baseline_options);
+  // The predicted accuracy's validation configurations: random, and in a cell feasible in it.
   Rng rng(req.seed + 2000003);
-  const auto validation = RandomConfigurations(model, req.num_validation, &rng);
+  std::vector<Eigen::VectorXd> validation;
+  if (feasible) {
+    FeasibleDraws draws;
+    draws.max_draws = 2000LL * std::max(1, req.num_validation);  // the census found at least 1 in 500 feasible
+    DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
+  } else {
+    validation = RandomConfigurations(model, req.num_validation, &rng);
+  }
 
   api::PlanResult result;
   result.id = plan_id;
@@ -87,17 +126,35 @@ api::PlanResult Service::RunPlan(const RobotModel& model, const api::PlanRequest
   result.summary = api::ToWire(plan.summary);
   if (control.stop() != Stop::kNone) result.summary.message += "; stopped early with the best set so far";
   result.created_unix_ms = NowUnixMs();
+  if (cell) {
+    result.cell = cell->wire.id;
+    for (const Eigen::VectorXd& q : plan.configurations) {
+      result.configuration_checks.push_back(api::ToWire(CheckConfiguration(cell->model, cell->cell, q)));
+    }
+  }
   return result;
 }
 
 PlanReply Service::CreatePlan(const nlohmann::json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
   const RobotModel model = ResolveRobot(req.robot).model;  // NOT_FOUND before any work or operation is created
+  std::shared_ptr<const LoadedCell> cell;
+  if (!req.cell.empty()) {
+    cell = std::make_shared<const LoadedCell>(LoadCell(req.cell));
+    if (cell->wire.robot != req.robot) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "cell \"" + req.cell + "\" is a cell of robot " + cell->wire.robot + ", not of " + req.robot,
+                     {{"cell", "a cell of another robot"}});
+    }
+    CheckCellLeavesRoom(*cell, req.seed);
+  }
+  // With a cell, the plan is made on the robot as the cell knows it (its copy of the robot's definition).
+  const RobotModel& planned = cell ? cell->model : model;
   const std::string plan_id = NewId("plan");
   if (!req.async) {
     const TrimWhenDone trim(&trimmer_, true);
     WorkControl control(std::chrono::steady_clock::now() + options_.request_deadline);
-    api::PlanResult plan = RunPlan(model, req, plan_id, control);
+    api::PlanResult plan = RunPlan(planned, req, plan_id, control, cell.get());
     if (control.stop() == Stop::kDeadline) {
       DescribeDeadlineStop(options_.request_deadline, "the best set so far", "use async: true for longer searches",
                            &plan.summary);
@@ -109,8 +166,8 @@ PlanReply Service::CreatePlan(const nlohmann::json& body) {
   op.id = NewId("op");
   op.kind = api::OperationKind::kPlan;
   op.plan_request = req;
-  return operations_.Start(op, [this, model, req, plan_id](WorkControl& control, api::Operation* done) {
-    const api::PlanResult plan = RunPlan(model, req, plan_id, control);
+  return operations_.Start(op, [this, planned, req, plan_id, cell](WorkControl& control, api::Operation* done) {
+    const api::PlanResult plan = RunPlan(planned, req, plan_id, control, cell.get());
     storage_->Create(kPlans, plan_id, nlohmann::json(api::StoredPlan{plan}).dump());
     done->plan = plan_id;
   });

@@ -23,6 +23,7 @@ inline constexpr const char* kPlans = "plans";
 inline constexpr const char* kCampaigns = "campaigns";
 inline constexpr const char* kCalibrations = "calibrations";
 inline constexpr const char* kOperations = "operations";
+inline constexpr const char* kCells = "cells";
 
 /// An id from a path that cannot name anything is the caller's mistake (400 naming `what`), not a missing
 /// resource (404).

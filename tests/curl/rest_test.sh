@@ -128,6 +128,47 @@ done
 expect "GET /v1/operations/{op}" "$(call GET "/v1/operations/$op" | jq -r .state)" SUCCEEDED
 expect "POST /v1/operations/{op}:cancel after done" "$(call POST "/v1/operations/$op:cancel" '{}' | jq -r .done)" true
 
+# ---- cells: where the tracker stands, what it can see, what the robot must not hit ------------------------------
+cell='{"id": "cell-a", "robot": "ur5e", "description": "tracker on the right, floor below",
+       "tracker": {"position_mm": [2500, -800, 300], "min_distance_mm": 1500, "max_distance_mm": 15000},
+       "reflectors": [{"id": "smr1", "position_mm": [0, 0, 120], "normal": [0, 0, 1], "acceptance_half_angle_deg": 30}],
+       "obstacles": [{"id": "floor", "box": {"min_mm": [-3000, -3000, -500], "max_mm": [3000, 3000, -10]}}],
+       "clearance_mm": 20}'
+expect "POST /v1/cells" "$(call POST /v1/cells "$cell" | jq -r '.link_radii_mm | length')" 6
+expect "... status 200" "$(status)" 200
+call POST /v1/cells "$cell" >/dev/null
+expect "POST /v1/cells twice -> 409" "$(status)" 409
+expect "GET /v1/cells/{cell}: defaults filled in" "$(call GET /v1/cells/cell-a | jq '.joint_ranges | length')" 6
+expect "GET /v1/cells" "$(call GET /v1/cells | jq -r '[.cells[].id] | join(",")')" cell-a
+expect "a reflector normal that is not a unit vector -> field" \
+  "$(call POST /v1/cells '{"id": "bad", "robot": "ur5e", "tracker": {"position_mm": [2500, 0, 300]},
+      "reflectors": [{"id": "r", "position_mm": [0, 0, 100], "normal": [0, 0, 2]}]}' | jq -r '.error.details[0].field')" \
+  "reflectors[0].normal"
+expect "... status 400" "$(status)" 400
+call POST /v1/plans '{"robot": "ur5e", "cell": "cell-a", "num_configurations": 8, "seed": 2,
+                      "num_validation": 20, "options": {"k_max": 20}}' >"$work/cell_plan.json"
+expect "POST /v1/plans with a cell" "$(status)" 200
+expect "... every configuration feasible in it" \
+  "$(jq -r '[.configuration_checks[].feasible] | all' "$work/cell_plan.json")" true
+expect "... one check per configuration" "$(jq -r '.configuration_checks | length' "$work/cell_plan.json")" 8
+# A configuration the plan found measurable, and the arm pointing into the floor.
+feasible_q=$(jq -c '.configurations[0]' "$work/cell_plan.json")
+check=$(call POST /v1/cells/cell-a:check "{\"joints\": [$feasible_q, [0, 90, 0, 0, 0, 0]]}")
+expect "POST /v1/cells/{cell}:check" "$(echo "$check" | jq -r '[.results[].feasible] | map(tostring) | join(",")')" \
+  "true,false"
+expect "... the arm pointing into the floor is named" \
+  "$(echo "$check" | jq -r '.results[1].failed_rules | index("obstacle") != null')" true
+expect "... and the floor as what it comes closest to" \
+  "$(echo "$check" | jq -r '.results[1].clearance_pair | test("floor")')" true
+call POST /v1/cells '{"id": "walled-in", "robot": "ur5e", "tracker": {"position_mm": [2500, 0, 300]},
+                      "obstacles": [{"id": "wall", "box": {"min_mm": [1000, -3000, -3000], "max_mm": [1100, 3000, 3000]}}]}' \
+  >/dev/null
+expect "a plan in a cell whose tracker sees nothing -> 400" \
+  "$(call POST /v1/plans '{"robot": "ur5e", "cell": "walled-in", "num_configurations": 8}' | jq -r .error.status)" \
+  FAILED_PRECONDITION
+expect "... naming the cell" "$(jq -r '.error.details[0].field' "$work/body")" cell
+expect "DELETE /v1/cells/{cell}" "$(call DELETE /v1/cells/walled-in >/dev/null; status)" 200
+
 # ---- campaign: measure, fit, compensate, evaluate ---------------------------------------------------------------
 campaign=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"pose\", \"plan\": \"$plan\"}" |
   jq -r .id)

@@ -248,6 +248,27 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectEveryFieldRequired(fk, kDerived, {{"campaign", "robot or campaign"}});
 }
 
+TEST_F(WireTest, CellsRoundTripAndRequireEveryField) {
+  const CellWire cell = service_->CreateCell(json::parse(R"({"id": "wc", "robot": "grinder5",
+      "tracker": {"position_mm": [2000, -500, 400], "min_distance_mm": 1000},
+      "obstacles": [{"id": "floor", "box": {"min_mm": [-3000, -3000, -500], "max_mm": [3000, 3000, -10]}}],
+      "clearance_mm": 10})"));
+  // Every default written out: one reflector at the tool point, a radius per link, the joint limits.
+  ASSERT_EQ(cell.reflectors.size(), 1u);
+  EXPECT_EQ(cell.link_radii_mm.size(), 5u);
+  EXPECT_EQ(cell.joint_ranges.size(), 5u);
+  ExpectRoundTrip(cell);
+  ExpectEveryFieldRequired(cell, {"tracker.max_distance_mm"});
+  CellList list;
+  list.cells = {cell};
+  list.next_page_token = "x";
+  ExpectRoundTrip(list);
+  const CellCheckResult check = service_->CheckCell("wc", {{"joints", {{0, 0, 0, 0, 0}, {0, 80, 0, 0, 0}}}});
+  ASSERT_EQ(check.results.size(), 2u);
+  ExpectRoundTrip(check);
+  ExpectEveryFieldRequired(check, {"results[0].reflectors[0].blocked_by"});
+}
+
 TEST(WireRequestTest, RequestsRoundTrip) {
   const RobotModel model = Preset("ur5e");
   PlanRequest plan;

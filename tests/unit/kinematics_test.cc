@@ -166,6 +166,30 @@ TEST(KinematicsTest, RandomConfigurationsAreWithinLimitsAndReproducible) {
   }
 }
 
+// The base-frame chain is ForwardKinematics without T_world_base and the tool, for every preset.
+TEST(KinematicsTest, NominalChainInBaseMatchesForwardKinematics) {
+  for (const std::string& name : PresetNames()) {
+    RobotModelSpec spec = PresetSpec(name);
+    spec.T_world_base = TransformFromXyzRpy({100, -200, 300}, {0.1, -0.2, 0.3});
+    const RobotModel model = RobotModel::Build(spec);
+    KinematicsWorkspace ws(model);
+    Rng rng(3);
+    for (int i = 0; i < 10; ++i) {
+      const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+      const Transform T_world_tool = ForwardKinematics(model, q, Eigen::VectorXd(), &ws);
+      std::vector<Transform> T_base_joint(model.num_joints());
+      Transform T_base_flange;
+      NominalChainInBase(model, q, T_base_joint.data(), &T_base_flange);
+      EXPECT_TRUE(T_world_tool.isApprox(model.T_world_base() * T_base_flange * model.T_flange_tool(), 1e-12)) << name;
+      for (int j = 0; j < model.num_joints(); ++j) {
+        EXPECT_TRUE(ws.T_world_joint[j].isApprox(model.T_world_base() * T_base_joint[j], 1e-12)) << name << j;
+      }
+    }
+  }
+  Transform frames[2], flange;
+  EXPECT_THROW(NominalChainInBase(Preset("ur5e"), Eigen::VectorXd::Zero(2), frames, &flange), std::invalid_argument);
+}
+
 TEST(TransformsTest, RpyRoundTripAndRotationVector) {
   Rng rng(9);
   for (int i = 0; i < 100; ++i) {

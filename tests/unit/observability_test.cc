@@ -2,10 +2,12 @@
 // predicted accuracy of a plan.
 #include <cmath>
 
+#include <Eigen/SVD>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "robocal/core/identifiability.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/observability.h"
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/planning.h"
@@ -240,6 +242,150 @@ TEST(ColumnScalingTest, OneDescriptionOfTheScaling) {
   EXPECT_EQ(o.ScalingDescription(), s.scaling);
   Rng rng(5);
   EXPECT_EQ(ComputeIndicesBySvd(model, RandomConfigurations(model, 10, &rng), o).scaling, s.scaling);
+}
+
+}  // namespace
+}  // namespace robocal
+
+// The predicted_error index (I-optimality).
+namespace robocal {
+namespace {
+
+ObservabilityOptions PredictedErrorOptions(const RobotModel& model, MeasurementType type) {
+  ObservabilityOptions o;
+  o.measurement_type = type;
+  o.parameters = FindIdentifiableParameters(model, type).identifiable;
+  return o;
+}
+
+// Assembled by hand: E* stacked from the Jacobians with rows divided by the noise, C = (E*'E*)^-1 by an SVD,
+// then sqrt(mean_v trace(J_pos C J_pos') + h^2 trace(J_rot C J_rot')) from each validation pose Jacobian.
+double HandPredictedError(const RobotModel& model, const ObservabilityOptions& o,
+                          const std::vector<Eigen::VectorXd>& plan, const std::vector<Eigen::VectorXd>& validation) {
+  const int rows = MeasurementRows(o.measurement_type);
+  const int l = static_cast<int>(o.parameters.size());
+  KinematicsWorkspace ws(model);
+  Eigen::MatrixXd full(rows, model.num_error_parameters());
+  Eigen::MatrixXd e(rows * plan.size(), l);
+  const Eigen::VectorXd w = o.noise.RowWeights(o.measurement_type);
+  for (size_t m = 0; m < plan.size(); ++m) {
+    IdentificationJacobian(model, plan[m], Eigen::VectorXd(), o.measurement_type, &ws, full);
+    for (int k = 0; k < l; ++k) e.block(m * rows, k, rows, 1) = w.cwiseProduct(full.col(o.parameters[k]));
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(e, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd s = svd.singularValues();
+  const Eigen::MatrixXd c = svd.matrixV() * s.cwiseInverse().cwiseAbs2().asDiagonal() * svd.matrixV().transpose();
+  const double h = o.measurement_type == MeasurementType::kPosition ? 0.0 : o.orientation_length_mm;
+  Eigen::MatrixXd pose(6, model.num_error_parameters());
+  double sum = 0.0;
+  for (const Eigen::VectorXd& q : validation) {
+    IdentificationJacobian(model, q, Eigen::VectorXd(), MeasurementType::kPose, &ws, pose);
+    Eigen::MatrixXd j(6, l);
+    for (int k = 0; k < l; ++k) j.col(k) = pose.col(o.parameters[k]);
+    const Eigen::MatrixXd jp = j.topRows(3), jr = j.bottomRows(3);
+    sum += (jp * c * jp.transpose()).trace() + h * h * (jr * c * jr.transpose()).trace();
+  }
+  return std::sqrt(sum / validation.size());
+}
+
+class PredictedErrorTest : public ::testing::TestWithParam<MeasurementType> {};
+
+TEST_P(PredictedErrorTest, EqualsAHandAssembledComputation) {
+  const RobotModel model = Preset("puma560");
+  const ObservabilityOptions o = PredictedErrorOptions(model, GetParam());
+  Rng rng(21);
+  const auto plan = RandomConfigurations(model, 12, &rng);
+  const auto validation = RandomConfigurations(model, 7, &rng);
+  const double reference = HandPredictedError(model, o, plan, validation);
+  ASSERT_GT(reference, 0.0);
+  ObservabilityEvaluator evaluator(model, o);
+  evaluator.SetConfigurations(plan);
+  EXPECT_TRUE(std::isnan(evaluator.indices().predicted_error_mm));  // no validation sample yet
+  evaluator.SetValidation(validation);
+  EXPECT_EQ(evaluator.num_validation(), 7);
+  EXPECT_NEAR(evaluator.indices().predicted_error_mm, reference, 1e-9 * reference);
+  EXPECT_DOUBLE_EQ(evaluator.indices().Get(ObservabilityIndex::kPredictedError),
+                   evaluator.indices().predicted_error_mm);
+  EXPECT_DOUBLE_EQ(ObjectiveValue(evaluator.indices(), ObservabilityIndex::kPredictedError),
+                   evaluator.indices().predicted_error_mm);  // minimised: not negated
+  // PredictAccuracy reports the same quantity, per configuration instead of through G.
+  const PredictedAccuracy predicted = PredictAccuracy(model, o, plan, validation);
+  EXPECT_NEAR(predicted.rms_error_mm, reference, 1e-9 * reference);
+  if (GetParam() == MeasurementType::kPosition) {
+    EXPECT_NEAR(predicted.rms_error_mm, predicted.rms_position_mm, 1e-12 * reference);
+  } else {
+    EXPECT_NEAR(predicted.rms_error_mm,
+                std::hypot(predicted.rms_position_mm, o.orientation_length_mm * predicted.rms_orientation_rad),
+                1e-9 * reference);
+  }
+  // The column scaling of the other indices does not change it: C does not depend on it.
+  ObservabilityOptions unscaled = o;
+  unscaled.scaling = ColumnScaling::kNone;
+  ObservabilityEvaluator other(model, unscaled);
+  other.SetValidation(validation);
+  other.SetConfigurations(plan);
+  EXPECT_NEAR(other.indices().predicted_error_mm, reference, 1e-9 * reference);
+  // Incremental updates carry it: replacing a configuration gives what a fresh evaluation gives.
+  const Eigen::VectorXd q = RandomConfigurations(model, 1, &rng).front();
+  const double replaced = evaluator.EvaluateReplacement(4, q).predicted_error_mm;
+  auto changed = plan;
+  changed[4] = q;
+  EXPECT_NEAR(replaced, HandPredictedError(model, o, changed, validation), 1e-9 * replaced);
+}
+
+INSTANTIATE_TEST_SUITE_P(Types, PredictedErrorTest,
+                         ::testing::Values(MeasurementType::kPosition, MeasurementType::kPositionAxis,
+                                           MeasurementType::kPose),
+                         [](const ::testing::TestParamInfo<MeasurementType>& info) { return ToString(info.param); });
+
+TEST(PredictedErrorIndexTest, SingularSetsAreInfinitelyBad) {
+  const RobotModel model = Preset("ur5e");
+  const ObservabilityOptions o = PredictedErrorOptions(model, MeasurementType::kPose);
+  Rng rng(4);
+  const auto validation = RandomConfigurations(model, 5, &rng);
+  ObservabilityEvaluator evaluator(model, o);
+  evaluator.SetValidation(validation);
+  evaluator.SetConfigurations(RandomConfigurations(model, 2, &rng));  // 12 rows for 30 parameters
+  EXPECT_TRUE(std::isinf(evaluator.indices().predicted_error_mm));
+  evaluator.SetConfigurations(std::vector<Eigen::VectorXd>(12, RandomConfigurations(model, 1, &rng).front()));
+  EXPECT_TRUE(std::isinf(evaluator.indices().predicted_error_mm));
+  EXPECT_TRUE(std::isinf(evaluator.PredictedError(Eigen::MatrixXd::Zero(30, 30))));
+  // Other ways to indices know no validation sample.
+  EXPECT_TRUE(std::isnan(ComputeIndicesBySvd(model, RandomConfigurations(model, 10, &rng), o).predicted_error_mm));
+}
+
+TEST(PredictedErrorIndexTest, NameParsesAndOrientationLengthIsValidated) {
+  ObservabilityIndex index = ObservabilityIndex::kO1;
+  EXPECT_STREQ(ToString(ObservabilityIndex::kPredictedError), "predicted_error");
+  ASSERT_TRUE(ParseObservabilityIndex("predicted_error", &index));
+  EXPECT_EQ(index, ObservabilityIndex::kPredictedError);
+  ASSERT_TRUE(ParseObservabilityIndex("log_det", &index));
+  EXPECT_EQ(index, ObservabilityIndex::kLogDet);
+  const RobotModel model = Preset("grinder5");
+  ObservabilityOptions o = PredictedErrorOptions(model, MeasurementType::kPose);
+  o.orientation_length_mm = 0.0;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(model, &error));
+  EXPECT_THAT(error, HasSubstr("orientation_length_mm"));
+}
+
+// A longer lever arm weighs the orientation more; position-only types ignore it.
+TEST(PredictedErrorIndexTest, OrientationLengthWeighsOrientationOnly) {
+  const RobotModel model = Preset("grinder5");
+  Rng rng(8);
+  const auto plan = RandomConfigurations(model, 10, &rng);
+  const auto validation = RandomConfigurations(model, 9, &rng);
+  for (MeasurementType type : {MeasurementType::kPosition, MeasurementType::kPose}) {
+    ObservabilityOptions o = PredictedErrorOptions(model, type);
+    const double base = PredictAccuracy(model, o, plan, validation).rms_error_mm;
+    o.orientation_length_mm = 300.0;
+    const double longer = PredictAccuracy(model, o, plan, validation).rms_error_mm;
+    if (type == MeasurementType::kPosition) {
+      EXPECT_DOUBLE_EQ(longer, base);
+    } else {
+      EXPECT_GT(longer, base);
+    }
+  }
 }
 
 }  // namespace

@@ -10,16 +10,20 @@
 
 #include "robocal/core/accuracy.h"
 #include "robocal/core/identifiability.h"
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/planning_study.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/virtual_cell.h"
 
 namespace robocal {
 namespace {
 
 using ::testing::ContainsRegex;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // Two robots x two types, so that rows map to the right robot and type.
 PlanningStudyOptions SmallStudy() {
@@ -132,6 +136,12 @@ TEST(PlanningStudy, ThreadsDoNotChangeTheResult) {
     EXPECT_EQ(a.start_rms_position_mm, b.start_rms_position_mm);
     EXPECT_EQ(a.rms_position_mm, b.rms_position_mm);
     EXPECT_EQ(a.exchange_rms_position_mm, b.exchange_rms_position_mm);
+    EXPECT_EQ(a.start_simulated_rms_error_mm, b.start_simulated_rms_error_mm);
+    ASSERT_EQ(a.objectives.size(), b.objectives.size());
+    for (size_t k = 0; k < a.objectives.size(); ++k) {
+      EXPECT_EQ(a.objectives[k].predicted_rms_error_mm, b.objectives[k].predicted_rms_error_mm);
+      EXPECT_EQ(a.objectives[k].simulated_rms_error_mm, b.objectives[k].simulated_rms_error_mm);
+    }
   }
   EXPECT_EQ(FormatPlanningStudy(one), FormatPlanningStudy(three));
 }
@@ -228,6 +238,11 @@ TEST(PlanningStudy, BadOptionsAreNamed) {
       {[](PlanningStudyOptions* o) { o->exchange_candidates = 5; },
        "exchange_candidates: 5 must be in [num_configurations (10), 1000000]"},
       {[](PlanningStudyOptions* o) { o->threads = 0; }, "threads must be in [1, 256]"},
+      {[](PlanningStudyOptions* o) {
+         o->objectives = {ObservabilityIndex::kLogDet, ObservabilityIndex::kO1, ObservabilityIndex::kLogDet};
+       },
+       "objectives[2]: 'log_det' is listed twice"},
+      {[](PlanningStudyOptions* o) { o->objective_validation = 0; }, "objective_validation must be in"},
   };
   for (const Bad& b : bad) {
     PlanningStudyOptions o = SmallStudy();
@@ -242,6 +257,114 @@ TEST(PlanningStudy, BadOptionsAreNamed) {
       EXPECT_THAT(e.what(), HasSubstr(b.message));
     }
   }
+}
+
+// The objective comparison, recomputed by hand for one case: every objective's plan by the paper preset and by
+// exchange, judged by PredictAccuracy and by a calibration in the seed's virtual cell.
+TEST(PlanningStudy, ObjectiveComparisonIsThatOfThePlannersRunByHand) {
+  PlanningStudyOptions o;
+  o.robots = {"grinder5"};
+  o.measurement_types = {MeasurementType::kPose};
+  o.seeds = 3;
+  o.first_seed = 5;
+  o.budgets = {15, 30};
+  o.num_validation = 12;
+  o.exchange_candidates = 60;
+  o.objective_validation = 9;
+  const PlanningStudyResult result = RunPlanningStudy(o);
+  ASSERT_EQ(result.rows.size(), 1u);
+  const PlanningStudyRow& row = result.rows.front();
+  ASSERT_EQ(row.objectives.size(), 6u);
+
+  const RobotModel model = Preset("grinder5");
+  ObservabilityOptions obs;
+  obs.measurement_type = MeasurementType::kPose;
+  obs.parameters = FindIdentifiableParameters(model, obs.measurement_type).identifiable;
+  Rng validation_rng(o.first_seed + kPlanningStudyValidationSeedOffset);
+  const auto validation = RandomConfigurations(model, o.num_validation, &validation_rng);
+  // The simulated error by hand: one shot per pose in the seed's cell, identified, compared with the truth.
+  auto simulated = [&](std::uint64_t seed, const std::vector<Eigen::VectorXd>& plan) {
+    VirtualCellOptions cell_options;
+    cell_options.seed = seed + kPlanningStudySimulationSeedOffset;
+    cell_options.shots_per_pose = 1;
+    VirtualCell cell(model, cell_options);
+    IdentificationOptions id;
+    id.measurement_type = obs.measurement_type;
+    id.parameters = obs.parameters;
+    const Calibration cal = Identify(model, cell.MeasureAll(plan), id);
+    EXPECT_NE(cal.summary.termination, Termination::kFailure);
+    KinematicsWorkspace ws(cal.model);
+    double sum = 0.0;
+    for (const Eigen::VectorXd& q : validation) {
+      const Transform predicted = ForwardKinematics(cal.model, q, cal.errors, &ws);
+      const Transform truth = cell.TruePose(q);
+      const double angle = Eigen::AngleAxisd(truth.linear().transpose() * predicted.linear()).angle();
+      sum += (predicted.translation() - truth.translation()).squaredNorm() + 30.0 * 30.0 * angle * angle;
+    }
+    return std::sqrt(sum / validation.size());
+  };
+  std::vector<double> start_predicted, start_simulated;
+  std::vector<std::vector<double>> predicted(6), simulation(6), cond(6);
+  for (int s = 0; s < o.seeds; ++s) {
+    const std::uint64_t seed = o.first_seed + s;
+    Rng start_rng(seed);
+    const auto start = RandomConfigurations(model, o.num_configurations, &start_rng);
+    start_predicted.push_back(PredictAccuracy(model, obs, start, validation).rms_error_mm);
+    start_simulated.push_back(simulated(seed, start));
+    for (size_t k = 0; k < 6; ++k) {
+      const ObservabilityIndex objective = o.objectives[k % 3];
+      Plan plan;
+      if (k < 3) {
+        SolisWetsOptions sw = SolisWetsOptions::Paper();
+        sw.k_max = o.budgets.front();
+        sw.seed = seed;
+        sw.objective = objective;
+        sw.num_validation = o.objective_validation;
+        plan = PlanSolisWets(model, o.num_configurations, obs, sw);
+      } else {
+        ExchangeOptions ex;
+        ex.num_candidates = o.exchange_candidates;
+        ex.seed = seed;
+        ex.objective = objective;
+        ex.num_validation = o.objective_validation;
+        plan = PlanExchange(model, o.num_configurations, obs, ex);
+      }
+      cond[k].push_back(plan.summary.final.condition_number);
+      predicted[k].push_back(PredictAccuracy(model, obs, plan.configurations, validation).rms_error_mm);
+      simulation[k].push_back(simulated(seed, plan.configurations));
+    }
+  }
+  EXPECT_DOUBLE_EQ(row.start_predicted_rms_error_mm, Median(start_predicted));
+  EXPECT_DOUBLE_EQ(row.start_simulated_rms_error_mm, Median(start_simulated));
+  for (size_t k = 0; k < 6; ++k) {
+    const ObjectivePlanResult& plan = row.objectives[k];
+    SCOPED_TRACE(plan.method + " " + ToString(plan.objective));
+    EXPECT_EQ(plan.objective, o.objectives[k % 3]);
+    EXPECT_EQ(plan.method, k < 3 ? "solis_wets" : "exchange");
+    EXPECT_DOUBLE_EQ(plan.condition_number, Median(cond[k]));
+    EXPECT_DOUBLE_EQ(plan.predicted_rms_error_mm, Median(predicted[k]));
+    EXPECT_DOUBLE_EQ(plan.simulated_rms_error_mm, Median(simulation[k]));
+    // Calibrating from any of these plans leaves errors of the order predicted (tens of um), far below the
+    // robot's uncalibrated millimetres.
+    EXPECT_LT(plan.simulated_rms_error_mm, 3.0 * plan.predicted_rms_error_mm);
+  }
+  // The paper preset with the condition number is the first budget's plan of the first table.
+  EXPECT_DOUBLE_EQ(row.objectives[0].condition_number, row.condition_number[0]);
+  const std::string text = FormatPlanningStudy(result);
+  EXPECT_THAT(text, HasSubstr("Objectives compared"));
+  EXPECT_THAT(text, HasSubstr("sw predicted_error"));
+  EXPECT_THAT(text, HasSubstr("ex log_det"));
+
+  // Without simulation the comparison is predicted only; with no objectives there is none.
+  o.simulate = false;
+  const PlanningStudyResult predicted_only = RunPlanningStudy(o);
+  EXPECT_TRUE(std::isnan(predicted_only.rows.front().objectives.front().simulated_rms_error_mm));
+  EXPECT_DOUBLE_EQ(predicted_only.rows.front().objectives.front().predicted_rms_error_mm,
+                   row.objectives.front().predicted_rms_error_mm);
+  o.objectives.clear();
+  const PlanningStudyResult none = RunPlanningStudy(o);
+  EXPECT_TRUE(none.rows.front().objectives.empty());
+  EXPECT_THAT(FormatPlanningStudy(none), Not(HasSubstr("Objectives compared")));
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/cells.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/planning.h"
 
@@ -17,6 +18,8 @@ namespace robocal::api {
 /// POST /v1/plans.
 struct PlanRequest {
   std::string robot;
+  /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
+  std::string cell;
   int num_configurations = 10;
   MeasurementType measurement_type = MeasurementType::kPose;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
@@ -59,6 +62,8 @@ struct Indices {
   double condition_number = 0.0;
   double o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
   double log_det = 0.0;
+  /// The predicted_error index (mm; null when the set was evaluated without a validation sample).
+  double predicted_error_mm = 0.0;
   std::vector<double> singular_values;
   std::string scaling;
 };
@@ -73,6 +78,9 @@ struct PredictedAccuracyWire {
   double rms_position_mm = 0.0;
   double max_position_mm = 0.0;
   double rms_orientation_deg = 0.0;
+  /// The predicted_error index at these configurations (mm): position and, for types that observe orientation,
+  /// orientation weighted by a length (docs/planning.md).
+  double rms_error_mm = 0.0;
 };
 void to_json(nlohmann::json& j, const PredictedAccuracyWire& accuracy);
 void from_json(const nlohmann::json& j, PredictedAccuracyWire& accuracy);
@@ -125,6 +133,10 @@ struct PlanResult {
   PredictedAccuracyWire predicted_accuracy;
   PlanSummaryWire summary;
   std::int64_t created_unix_ms = 0;
+  /// The cell the plan was made for (null on the wire when none), and each configuration's feasibility report
+  /// in it (one per configuration; empty without a cell).
+  std::optional<std::string> cell;
+  std::vector<ConfigurationCheckWire> configuration_checks;
 };
 void to_json(nlohmann::json& j, const PlanResult& plan);
 void from_json(const nlohmann::json& j, PlanResult& plan);

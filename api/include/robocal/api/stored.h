@@ -3,9 +3,9 @@
 // validation must not make stored robots, plans, campaigns or calibrations unreadable.
 //
 // Versions: 1 is every document written before the field "schema_version" existed (the same members as version
-// 2, without it; plans and fits did not yet record deadline_exceeded, calibrations not their termination in
-// "state"); 2 adds "schema_version". A document of a version newer than kStoredSchemaVersion is refused by
-// name rather than misread.
+// 2, without it; plans and fits recorded deadline_exceeded only when true); 2 adds "schema_version"; 3 adds
+// cells, and plans gain "cell" and "configuration_checks". A document of a version newer than
+// kStoredSchemaVersion is refused by name rather than misread.
 #pragma once
 
 #include <cstdint>
@@ -17,6 +17,7 @@
 
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
+#include "robocal/api/cells.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
@@ -24,7 +25,7 @@
 
 namespace robocal::api {
 
-inline constexpr int kStoredSchemaVersion = 2;
+inline constexpr int kStoredSchemaVersion = 3;
 
 /// The schema version of a stored document (1 when it has none); WireError if newer than this server reads.
 int StoredSchemaVersion(const nlohmann::json& document);
@@ -77,6 +78,15 @@ StoredCalibration ToStored(const Calibration& calibration, const CalibrationResu
 /// The core Calibration back from its stored form, on the campaign's nominal model; its summary keeps the
 /// stored fit's termination and message.
 Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored);
+
+/// A cell: the resource as returned (every default filled in), with a copy of its robot's definition, so that
+/// re-registering the robot never changes what the cell means.
+struct StoredCell {
+  CellWire cell;
+  RegisterRobotRequest robot_definition;
+};
+void to_json(nlohmann::json& j, const StoredCell& cell);
+void from_json(const nlohmann::json& j, StoredCell& cell);
 
 /// An operation: the resource as last written.
 struct StoredOperation {

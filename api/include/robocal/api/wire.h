@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/error.h"
+#include "robocal/core/cell.h"
 #include "robocal/core/compensation.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/observability.h"
@@ -63,12 +64,14 @@ ROBOCAL_API_ENUM_TABLE(ColumnScaling, ColumnScaling::kColumnNorm, ColumnScaling:
                        ColumnScaling::kNone);
 ROBOCAL_API_ENUM_TABLE(ObservabilityIndex, ObservabilityIndex::kConditionNumber, ObservabilityIndex::kO1,
                        ObservabilityIndex::kO2, ObservabilityIndex::kO3, ObservabilityIndex::kO4,
-                       ObservabilityIndex::kO5, ObservabilityIndex::kLogDet);
+                       ObservabilityIndex::kO5, ObservabilityIndex::kLogDet, ObservabilityIndex::kPredictedError);
 ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Optimiser::kExchange);
 ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
 ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
 ROBOCAL_API_ENUM_TABLE(OperationState, OperationState::kRunning, OperationState::kSucceeded, OperationState::kFailed,
                        OperationState::kCancelled);
+ROBOCAL_API_ENUM_TABLE(CellRule, CellRule::kJointRange, CellRule::kObstacle, CellRule::kSelfCollision,
+                       CellRule::kDistance, CellRule::kIncidence, CellRule::kBeam);
 ROBOCAL_API_ENUM_TABLE(Status, Status::kInvalidArgument, Status::kFailedPrecondition, Status::kNotFound,
                        Status::kAlreadyExists, Status::kUnauthenticated, Status::kPermissionDenied,
                        Status::kResourceExhausted, Status::kInternal, Status::kUnavailable, Status::kDeadlineExceeded);

@@ -17,6 +17,7 @@
 
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
+#include "robocal/api/cells.h"
 #include "robocal/api/error.h"
 #include "robocal/api/health.h"
 #include "robocal/api/operations.h"
@@ -116,6 +117,17 @@ class Client {
   void DeleteRobot(const std::string& robot);
   /// Nominal tool poses (frame "world (nominal base)") for joint vectors (deg / mm), one per vector in order.
   api::ForwardResult RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints);
+
+  // Cells.
+  api::CellWire CreateCell(const api::CellWire& request);
+  /// The body as read from a cell file (same fields as CellWire).
+  api::CellWire CreateCell(const nlohmann::json& body);
+  /// Every cell, following the server's pages (`page_size` per request, 1..1000).
+  std::vector<api::CellWire> ListCells(int page_size = 100);
+  api::CellWire GetCell(const std::string& cell);
+  void DeleteCell(const std::string& cell);
+  /// The feasibility report of each joint vector (deg / mm, within the robot's limits) in the cell.
+  api::CellCheckResult CheckCell(const std::string& cell, const std::vector<std::vector<double>>& joints);
 
   // Plans.
   /// A plan computed while the call waits (request.async is ignored and sent as false).

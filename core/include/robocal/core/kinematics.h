@@ -36,6 +36,13 @@ const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorX
 /// Nominal tool pose (no errors), convenience form that allocates its own workspace.
 Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q);
 
+/// The nominal chain in the robot's BASE frame (no T_world_base, no error parameters), allocating nothing (the
+/// cell's per-candidate checks): T_base_joint[i], i < num_joints, is joint i's frame before its motion (as
+/// T_world_joint of ForwardKinematics), *T_base_flange the flange (before T_flange_tool). `T_base_joint` points
+/// at num_joints transforms. Throws std::invalid_argument if q does not have num_joints values.
+void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Transform* T_base_joint,
+                        Transform* T_base_flange);
+
 /// Uniformly random joint values within the model's limits.
 Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng);
 

@@ -2,6 +2,7 @@
 // singular values and the indices built from them, evaluated incrementally when one configuration changes.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -22,9 +23,12 @@ enum class ObservabilityIndex {
   kO4,               ///< sigma_L^2 / sigma_1 (noise amplification, Nahvi & Hollerbach), maximised.
   kO5,               ///< 1 / sum(1 / sigma_i) (Sun & Hollerbach), maximised.
   kLogDet,           ///< log det(E*' E*) (D-optimality), maximised.
+  /// RMS predicted pose error over fixed validation configurations (I-optimality; ObservabilityIndices::
+  /// predicted_error_mm), minimised. Needs the evaluator's validation sample (SetValidation).
+  kPredictedError,
 };
 
-/// "condition_number", "o1" .. "o5", "log_det".
+/// "condition_number", "o1" .. "o5", "log_det", "predicted_error".
 const char* ToString(ObservabilityIndex index);
 bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index);
 
@@ -35,6 +39,10 @@ struct ObservabilityOptions {
   /// Expected size of the geometric errors, used by kExpectedDeviation (and nothing else).
   double expected_translation_mm = 0.1;
   double expected_rotation_rad = 1e-3;
+  /// predicted_error only, and only for measurement types that observe orientation: orientation errors count as
+  /// the position error they cause this far from the tool point (mm per rad), the h of E_tot = E_xyz + h E_cos
+  /// in accuracy.h (30 mm there too).
+  double orientation_length_mm = 30.0;
   /// The parameters kept in E* (indices into the model's error parameters), normally
   /// FindIdentifiableParameters(...).identifiable. Must be non-empty, ascending, in range.
   std::vector<int> parameters;
@@ -53,13 +61,21 @@ struct ObservabilityIndices {
   double condition_number = 0.0;
   double o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;
   double log_det = 0.0;
+  /// The predicted_error index (mm): with C = (E*' W E*)^-1 the parameter covariance of the set (rows weighted by
+  /// the noise, so C is in parameter units for that noise) and J_v the tool's pose Jacobian at validation
+  /// configuration v (reduced to the parameters), sqrt(mean_v [trace(J_pos C J_pos') + h^2 trace(J_rot C J_rot')]),
+  /// h = orientation_length_mm for types that observe orientation and 0 for kPosition. +inf for a set that does
+  /// not determine every parameter; NaN when no validation sample was given (ComputeIndicesBySvd,
+  /// IndicesFromSingularValues, an evaluator without SetValidation).
+  double predicted_error_mm = std::numeric_limits<double>::quiet_NaN();
   /// Which scaling produced these numbers.
   std::string scaling;
 
   double Get(ObservabilityIndex index) const;
 };
 
-/// The value an optimiser minimises for `index`: the condition number itself, or minus a maximised index.
+/// The value an optimiser minimises for `index`: the condition number or the predicted error itself, or minus a
+/// maximised index.
 double ObjectiveValue(const ObservabilityIndices& indices, ObservabilityIndex index);
 
 /// The indices from singular values (any order; sorted descending in the result) of a set of
@@ -112,6 +128,26 @@ class ObservabilityEvaluator {
   /// Indices of an arbitrary normal matrix standing for `num_configurations` configurations.
   ObservabilityIndices IndicesOf(const Eigen::MatrixXd& normal, int num_configurations) const;
 
+  /// Fixes the validation configurations of the predicted_error index: from now on every set's indices carry
+  /// predicted_error_mm. Computes their pose Jacobians once, summed into G = sum_v J_pos'J_pos + h^2 J_rot'J_rot
+  /// (L x L), so that the mean predicted variance is trace(C G) / V and an evaluation costs an L x L LDLT and
+  /// solve on top of the eigenproblem, whatever V. Recomputes the current set's indices. Empty: no predicted
+  /// error (NaN).
+  void SetValidation(const std::vector<Eigen::VectorXd>& validation);
+  int num_validation() const { return num_validation_; }
+  /// G of SetValidation (L x L, unweighted: mm^2 per squared parameter unit).
+  const Eigen::MatrixXd& validation_information() const { return validation_information_; }
+  /// The predicted_error index of a normal matrix A = E*' W E* (as ObservabilityIndices::predicted_error_mm):
+  /// sqrt(trace(A^-1 G) / V), with A^-1 from an LDLT of the unit-column-scaled A (C does not depend on the
+  /// scaling; the unit columns keep the factorisation accurate). +inf when the LDLT fails or its smallest pivot
+  /// is at most 1e-12 of its largest: the normal matrix resolves no finer (cond(E*) ~1e6), and such a set
+  /// predicts errors ~10^6 times the noise. NaN without a validation sample.
+  double PredictedError(const Eigen::MatrixXd& normal) const;
+
+  /// The tool's pose Jacobian at q (6 x L: position rows mm, orientation rows rad; unweighted, reduced to the
+  /// parameters), the validation Jacobian of PredictAccuracy and predicted_error.
+  Eigen::MatrixXd PoseJacobian(const Eigen::VectorXd& q);
+
   const Eigen::MatrixXd& normal() const { return normal_; }
   const ObservabilityOptions& options() const { return options_; }
   const RobotModel& model() const { return model_; }
@@ -129,6 +165,9 @@ class ObservabilityEvaluator {
   Eigen::MatrixXd normal_;
   ObservabilityIndices indices_;
   int updates_since_refresh_ = 0;
+  Eigen::MatrixXd pose_jacobian_;
+  Eigen::MatrixXd validation_information_;
+  int num_validation_ = 0;
 };
 
 /// What a plan buys before anything is measured: propagating the tracker noise through the identification,
@@ -142,6 +181,10 @@ struct PredictedAccuracy {
   /// Same for the tool orientation (rad); only when the measurement type observes orientation.
   bool has_orientation = false;
   double rms_orientation_rad = 0.0;
+  /// The predicted_error index of the plan at these validation configurations (mm): position and, when the type
+  /// observes orientation, orientation weighted by options.orientation_length_mm; the quantity a plan with
+  /// predicted_error as objective minimises.
+  double rms_error_mm = 0.0;
 };
 
 /// Predicted accuracy after calibrating from `plan` (noise-only: unmodelled errors are not included).

@@ -4,16 +4,52 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "robocal/core/observability.h"
+#include "robocal/core/random.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 
 namespace robocal {
+
+/// Whether a configuration (rad / mm per joint, within the model's limits) can be measured and reached safely in
+/// the cell, e.g. IsFeasible(model, cell, q) of cell.h. Empty: every configuration is feasible (the planners then
+/// behave exactly as without one). Planners call it from their own thread, many times per plan: it must be cheap,
+/// deterministic and must not throw.
+using FeasibilityPredicate = std::function<bool(const Eigen::VectorXd& q)>;
+
+/// The default of every planner's max_draws_per_configuration: a cell must leave about 1 % of the joint ranges
+/// feasible for rejection sampling to find its configurations.
+inline constexpr int kDefaultMaxDrawsPerConfiguration = 100;
+
+/// The predicted_error objective's validation sample is drawn from Rng(seed + kPredictedErrorSeedOffset), apart
+/// from the planner's own draws: planners given the same seed optimise the same sample.
+inline constexpr std::uint64_t kPredictedErrorSeedOffset = 0x9A11DA7EULL;
+
+/// The account of rejection sampling: configurations drawn uniformly within the limits, how many the predicate
+/// rejected, and the most draws allowed.
+struct FeasibleDraws {
+  std::int64_t max_draws = std::numeric_limits<std::int64_t>::max();
+  std::int64_t draws = 0;
+  std::int64_t rejections = 0;
+  /// "37 of 2000 random configurations within the joint limits were feasible".
+  std::string Describe() const;
+};
+
+/// Draws uniformly within the model's limits (RandomConfiguration) until a configuration satisfies `feasible`
+/// (the first draw when it is empty: then exactly RandomConfiguration), counting in *account. Returns false, with
+/// *q unspecified, when account->draws has reached account->max_draws first.
+bool DrawFeasibleConfiguration(const RobotModel& model, const FeasibilityPredicate& feasible, Rng* rng,
+                               FeasibleDraws* account, Eigen::VectorXd* q);
+/// Appends `count` such configurations to *out (with an empty predicate exactly RandomConfigurations). Returns
+/// false when the draws ran out first; *out then holds the feasible ones found.
+bool DrawFeasibleConfigurations(const RobotModel& model, int count, const FeasibilityPredicate& feasible, Rng* rng,
+                                FeasibleDraws* account, std::vector<Eigen::VectorXd>* out);
 
 /// Called after every iteration with the fraction done (0..1); return false to cancel the optimisation (it
 /// then stops with NO_CONVERGENCE and the best set so far).
@@ -62,6 +98,20 @@ struct SolisWetsOptions {
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
   PlanProgressCallback progress;
+  /// Feasibility in a cell (empty: everything). Starting sets are drawn from feasible configurations; a candidate
+  /// set (forward or reversed step) with an infeasible configuration is not evaluated and counts as a failed
+  /// step, as if its objective were +inf. So an infeasible forward step is followed by the reversed step, and
+  /// when that fails too the iteration is a failure: mu halves, fcent counts it and scent restarts, so that
+  /// infeasibility contracts sigma (shorter steps near the feasible region's boundary) and never expands it.
+  /// A given initial set must be feasible.
+  FeasibilityPredicate feasible;
+  /// Rejection sampling stops, and the plan fails (FAILURE, no configurations), after this many draws per
+  /// configuration the plan draws: (restarts + 1) x M starting configurations (M fewer with a given initial set),
+  /// plus num_validation for predicted_error.
+  int max_draws_per_configuration = kDefaultMaxDrawsPerConfiguration;
+  /// Validation configurations of the predicted_error objective (drawn once, feasible, from
+  /// Rng(seed + kPredictedErrorSeedOffset)); unused by the other objectives.
+  int num_validation = 50;
 
   /// The paper's settings: k_max 100, Scent 5, Fcent 3, sigma_0 1, sigma_ub 3, sigma_lb 0.1, ex 2, ct 0.5,
   /// mu_0 0, objective the condition number.
@@ -70,19 +120,28 @@ struct SolisWetsOptions {
 };
 
 /// Random selection: the best of `num_sets` sets of M configurations drawn uniformly within the limits
-/// (num_sets = 1 is the paper's random baseline).
+/// (num_sets = 1 is the paper's random baseline); with a predicate, from the feasible configurations.
 struct RandomSelectionOptions {
   int num_sets = 1;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
   PlanProgressCallback progress;
+  /// Feasibility in a cell (empty: everything): every set is drawn from feasible configurations.
+  FeasibilityPredicate feasible;
+  /// Rejection sampling stops, and the plan fails, after this many draws per configuration the plan draws:
+  /// num_sets x M, plus num_validation for predicted_error.
+  int max_draws_per_configuration = kDefaultMaxDrawsPerConfiguration;
+  /// Validation configurations of the predicted_error objective (as SolisWetsOptions::num_validation).
+  int num_validation = 50;
   bool IsValid(std::string* error) const;
 };
 
 /// Exchange (DETMAX-style, Mitchell 1974): from a seeded random candidate pool, start with M random
 /// candidates; each iteration adds the candidate that most improves the objective (screened by the
 /// D-optimal gain det(I + B A^-1 B'), the top `screen` then evaluated exactly) and removes the configuration
-/// whose removal leaves the best objective; stops when an exchange no longer improves it.
+/// whose removal leaves the best objective; stops when an exchange no longer improves it. With predicted_error as
+/// objective the screening gain is instead the exact decrease of trace(A^-1 G) that adding the candidate brings
+/// (G: the validation sample's information, see ObservabilityEvaluator::SetValidation), by the Woodbury identity.
 ///
 /// One iteration costs num_candidates + min(screen, num_candidates - M) evaluations: a screening gain for each
 /// candidate outside the set, the screened ones exactly, and one removal per member. The pool's blocks are
@@ -99,6 +158,13 @@ struct ExchangeOptions {
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
   PlanProgressCallback progress;
+  /// Feasibility in a cell (empty: everything): the candidate pool is drawn from feasible configurations.
+  FeasibilityPredicate feasible;
+  /// Rejection sampling stops, and the plan fails, after this many draws per configuration the plan draws:
+  /// num_candidates, plus num_validation for predicted_error.
+  int max_draws_per_configuration = kDefaultMaxDrawsPerConfiguration;
+  /// Validation configurations of the predicted_error objective (as SolisWetsOptions::num_validation).
+  int num_validation = 50;
   bool IsValid(std::string* error) const;
 };
 
@@ -114,6 +180,14 @@ struct PlanSummary {
   int evaluations = 0;
   /// Objective value (ObjectiveValue: the index, negated if maximised) of the best set after each iteration.
   std::vector<double> objective_trace;
+  /// Rejection sampling (starting sets, random sets, the exchange pool, the predicted_error validation sample):
+  /// configurations drawn and how many of them the feasibility predicate rejected (0 without one). FAILURE with
+  /// a message "... N of D random configurations within the joint limits were feasible ..." when the draws ran
+  /// out.
+  std::int64_t feasibility_draws = 0;
+  std::int64_t feasibility_rejections = 0;
+  /// Solis & Wets: candidate sets not evaluated because a configuration was infeasible.
+  int infeasible_candidates = 0;
   double seconds = 0.0;
   /// Indices of the starting set and of the result.
   ObservabilityIndices initial;
@@ -138,14 +212,22 @@ struct PlanWork {
   std::int64_t evaluations = 0;
   /// Identification Jacobians of single configurations: an evaluation of a whole set computes M of them (Solis &
   /// Wets, random selection); the exchange optimiser computes one per candidate, once.
+  /// The predicted_error objective adds its num_validation validation Jacobians, computed once.
   std::int64_t jacobians = 0;
+  /// Calls of the feasibility predicate (0 without one): max_draws_per_configuration x the configurations the
+  /// plan draws, and for Solis & Wets M per candidate set, 2 k_max per run. Not folded into `evaluations`: a
+  /// cell's check (a few microseconds) costs about one Jacobian and far less than an evaluation, so a caller
+  /// bounding work by evaluations and Jacobians may bound these separately, or not at all.
+  std::int64_t feasibility_checks = 0;
 };
 PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options);
 PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& options);
 PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options);
 
-/// Solis & Wets from `initial` (M configurations within limits) or, if empty, from a random set.
-/// Throws std::invalid_argument for invalid options, M < 1 or a wrongly sized initial set.
+/// Solis & Wets from `initial` (M configurations within limits, feasible) or, if empty, from a random set.
+/// Throws std::invalid_argument for invalid options, M < 1 or a wrongly sized, out-of-limits or infeasible initial
+/// set. Every planner returns FAILURE with no configurations when rejection sampling runs out of draws (the cell
+/// leaves too little feasible), and only configurations satisfying options.feasible otherwise.
 Plan PlanSolisWets(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
                    const SolisWetsOptions& options, const std::vector<Eigen::VectorXd>& initial = {});
 
@@ -155,7 +237,7 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
 Plan PlanExchange(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
                   const ExchangeOptions& options);
 
-/// M configurations drawn uniformly within the joint limits.
+/// M configurations drawn uniformly within the joint limits (DrawFeasibleConfigurations for a cell).
 std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, Rng* rng);
 
 }  // namespace robocal

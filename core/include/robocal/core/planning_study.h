@@ -1,6 +1,8 @@
 // A reproducible study of the planners: how far the paper's Solis & Wets preset lowers the condition number
-// below random starting sets, how much of the best gain found by longer budgets it reaches, and what each plan
-// buys in predicted accuracy. The planning figures of docs/planning.md come from it (`robocal-plan-study`).
+// below random starting sets, how much of the best gain found by longer budgets it reaches, what each plan buys
+// in predicted accuracy, and how plans by different objectives (condition number, log det, predicted error)
+// compare on predicted and on simulated accuracy. The planning figures of docs/planning.md come from it
+// (`robocal-plan-study`).
 #pragma once
 
 #include <cstdint>
@@ -14,6 +16,8 @@
 namespace robocal {
 
 constexpr std::uint64_t kPlanningStudyValidationSeedOffset = 0x5EED0000ULL;
+/// The virtual cell of seed s's simulated accuracy is seeded s + kPlanningStudySimulationSeedOffset.
+constexpr std::uint64_t kPlanningStudySimulationSeedOffset = 0x51AA0000ULL;
 
 struct PlanningStudyOptions {
   /// Robot presets (presets.h) and measurement types; the study runs every pair.
@@ -41,6 +45,20 @@ struct PlanningStudyOptions {
   /// Also run the exchange optimiser with log det (D-optimality) as objective, for contrast.
   bool exchange = true;
   int exchange_candidates = 2000;
+  /// The objectives compared (the third table): per seed, a plan by the paper preset with k_max = budgets.front()
+  /// and (with `exchange`) one by the exchange optimiser for each, from the seed's generator. predicted_error
+  /// plans optimise their own `objective_validation` configurations (the planners' num_validation, drawn from
+  /// Rng(seed + kPredictedErrorSeedOffset)); the study judges every plan at its own validation configurations.
+  std::vector<ObservabilityIndex> objectives = {ObservabilityIndex::kConditionNumber, ObservabilityIndex::kLogDet,
+                                                ObservabilityIndex::kPredictedError};
+  int objective_validation = 50;
+  /// Simulated accuracy of the third table's plans and of the random starting sets: each plan measured in a
+  /// virtual cell (one per seed: hidden errors and tracker placement from seed + kPlanningStudySimulationSeedOffset,
+  /// VirtualCellOptions' defaults otherwise, `noise`, one shot per pose: the noise the prediction assumes; every
+  /// plan of a seed sees the same cell and the same noise draws), identified (Identify, the identifiable
+  /// parameters); the error is the calibrated model's tool pose against the true robot's at the validation
+  /// configurations, as the predicted_error index weighs it.
+  bool simulate = true;
   /// Worker threads (>= 1). Results do not depend on it: every run has its own seeded generator.
   int threads = 1;
   /// Called after each finished run with (runs done, runs in all); may be called from any worker thread,
@@ -48,6 +66,20 @@ struct PlanningStudyOptions {
   std::function<void(int, int)> progress;
 
   bool IsValid(std::string* error) const;
+};
+
+/// One plan of the objective comparison: medians over the seeds.
+struct ObjectivePlanResult {
+  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
+  /// "solis_wets" (the paper preset, k_max = budgets.front()) or "exchange".
+  std::string method;
+  double condition_number = 0.0;
+  /// Predicted RMS error after calibration at the study's validation configurations (PredictAccuracy,
+  /// rms_error_mm: position, and for types that observe orientation the orientation times 30 mm), mm.
+  double predicted_rms_error_mm = 0.0;
+  /// The same error simulated (see PlanningStudyOptions::simulate), mm; NaN without simulation or when an
+  /// identification failed.
+  double simulated_rms_error_mm = 0.0;
 };
 
 /// One robot and measurement type: medians over the seeds.
@@ -64,6 +96,11 @@ struct PlanningStudyRow {
   double start_rms_position_mm = 0.0;
   std::vector<double> rms_position_mm;
   double exchange_rms_position_mm = 0.0;
+  /// The objective comparison: the random starting sets (predicted and simulated, as ObjectivePlanResult), then
+  /// the paper preset for each objective, then exchange for each.
+  double start_predicted_rms_error_mm = 0.0;
+  double start_simulated_rms_error_mm = 0.0;
+  std::vector<ObjectivePlanResult> objectives;
 
   /// start / budget b (medians).
   double Ratio(int b) const;
@@ -82,7 +119,8 @@ struct PlanningStudyResult {
 /// configurations for a case's parameters; rethrows the first exception of a run (after stopping the others).
 PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options);
 
-/// The study as two tables (condition numbers with ratio and headroom; predicted accuracy), plain text.
+/// The study as three tables (condition numbers with ratio and headroom; predicted accuracy; the objectives
+/// compared on predicted and simulated accuracy), plain text.
 std::string FormatPlanningStudy(const PlanningStudyResult& result);
 
 }  // namespace robocal

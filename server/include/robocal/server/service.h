@@ -15,6 +15,7 @@
 
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
+#include "robocal/api/cells.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
@@ -63,6 +64,13 @@ class Service {
   void DeleteRobot(const std::string& id);
   api::ForwardResult RobotForward(const std::string& id, const nlohmann::json& body);
 
+  // Cells (service_cells.cc): paged like robots. CheckCell takes {"joints": [[...]]} within the robot's limits.
+  api::CellWire CreateCell(const nlohmann::json& body);
+  api::CellList ListCells(const std::string& page_size = "", const std::string& page_token = "");
+  api::CellWire GetCell(const std::string& id);
+  void DeleteCell(const std::string& id);
+  api::CellCheckResult CheckCell(const std::string& id, const nlohmann::json& body);
+
   // Plans (service_plans.cc).
   PlanReply CreatePlan(const nlohmann::json& body);
   api::PlanResult GetPlan(const std::string& id);
@@ -103,11 +111,20 @@ class Service {
   };
   ResolvedRobot ResolveRobot(const std::string& id);
   api::StoredCampaign LoadCampaign(const std::string& id);
+  /// A stored cell with the model of its robot's stored definition (NOT_FOUND for an unknown cell).
+  struct LoadedCell {
+    api::CellWire wire;
+    RobotModel model;
+    Cell cell;
+  };
+  LoadedCell LoadCell(const std::string& id);
   /// The campaign resource of a stored campaign (counts and calibrated from the storage).
   api::Campaign CampaignResource(const api::StoredCampaign& stored);
-  /// Computes a plan for `model` (the resolved request.robot) under `control`.
+  /// Computes a plan for `model` (the resolved request.robot) under `control`, feasible in `cell` if given.
   api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
-                          WorkControl& control);
+                          WorkControl& control, const LoadedCell* cell);
+  /// FAILED_PRECONDITION when a sample of the cell's joint ranges finds (almost) nothing feasible.
+  void CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed);
   /// A campaign's nominal model and stored calibration (FAILED_PRECONDITION if not calibrated yet).
   struct Calibrated;
   Calibrated LoadCalibrated(const std::string& campaign);

@@ -1,0 +1,117 @@
+// Wire shapes of cells: the tracker, reflectors, obstacles and capsules of a measurement cell (the request and
+// the resource), their mapping to the core's CellSpec, and the feasibility report of configurations.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/wire.h"
+#include "robocal/core/cell.h"
+#include "robocal/core/robot_model.h"
+
+namespace robocal::api {
+
+struct TrackerWire {
+  std::array<double, 3> position_mm{0.0, 0.0, 0.0};
+  double min_distance_mm = 0.0;
+  /// Unset: no upper bound.
+  std::optional<double> max_distance_mm;
+};
+
+/// Position and facing direction (unit vector) in the flange frame.
+struct ReflectorWire {
+  std::string id;
+  std::array<double, 3> position_mm{0.0, 0.0, 0.0};
+  std::array<double, 3> normal{0.0, 0.0, 1.0};
+  double acceptance_half_angle_deg = 30.0;
+};
+
+/// An axis-aligned box in the robot's base frame.
+struct ObstacleWire {
+  std::string id;
+  std::array<double, 3> min_mm{0.0, 0.0, 0.0};
+  std::array<double, 3> max_mm{0.0, 0.0, 0.0};
+};
+
+/// A joint range in the joint's wire unit (deg or mm).
+struct JointRangeWire {
+  double min = 0.0;
+  double max = 0.0;
+};
+
+void from_json(const nlohmann::json& j, TrackerWire& tracker);
+void from_json(const nlohmann::json& j, ReflectorWire& reflector);
+void from_json(const nlohmann::json& j, ObstacleWire& obstacle);
+void from_json(const nlohmann::json& j, JointRangeWire& range);
+
+/// POST /v1/cells, and the cell resource (which has every default filled in: reflectors, link radii, tool
+/// radius, joint ranges).
+struct CellWire {
+  std::string id;
+  std::string description;
+  std::string robot;
+  TrackerWire tracker;
+  std::vector<ReflectorWire> reflectors;
+  std::vector<ObstacleWire> obstacles;
+  std::vector<double> link_radii_mm;
+  std::optional<double> tool_radius_mm;
+  double clearance_mm = 0.0;
+  std::vector<JointRangeWire> joint_ranges;
+};
+/// Validates a request body's fields (types, finiteness, sizes against `model`); the geometry is then checked by
+/// ToCell.
+CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+void to_json(nlohmann::json& j, const CellWire& cell);
+void from_json(const nlohmann::json& j, CellWire& cell);
+/// The core cell (throws ApiError kInvalidArgument naming the fields the core rejects).
+Cell ToCell(const CellWire& cell, const RobotModel& model);
+/// The resource of a validated cell: every default the core filled in written out.
+CellWire CellResource(const CellWire& request, const Cell& cell, const RobotModel& model);
+
+/// GET /v1/cells: cells in id order; next_page_token when there are more.
+struct CellList {
+  std::vector<CellWire> cells;
+  std::optional<std::string> next_page_token;
+};
+void to_json(nlohmann::json& j, const CellList& list);
+void from_json(const nlohmann::json& j, CellList& list);
+
+/// One reflector of a configuration's report.
+struct ReflectorCheckWire {
+  std::string id;
+  bool measurable = false;
+  double incidence_deg = 0.0;
+  double distance_mm = 0.0;
+  /// What blocks the beam ("link 3", "tool smr1", an obstacle's id); absent if nothing does.
+  std::optional<std::string> blocked_by;
+};
+
+void from_json(const nlohmann::json& j, ReflectorCheckWire& check);
+
+/// The feasibility report of one configuration.
+struct ConfigurationCheckWire {
+  bool feasible = false;
+  std::vector<ReflectorCheckWire> reflectors;
+  /// Null when the cell has nothing to collide with.
+  double min_clearance_mm = 0.0;
+  std::string clearance_pair;
+  std::vector<CellRule> failed_rules;
+  std::vector<std::string> reasons;
+};
+void to_json(nlohmann::json& j, const ConfigurationCheckWire& check);
+void from_json(const nlohmann::json& j, ConfigurationCheckWire& check);
+ConfigurationCheckWire ToWire(const ConfigurationCheck& check);
+
+/// The reply of POST /v1/cells/{cell}:check (the request is a ForwardRequest: {"joints": [[...]]}).
+struct CellCheckResult {
+  std::string cell;
+  std::vector<ConfigurationCheckWire> results;
+};
+void to_json(nlohmann::json& j, const CellCheckResult& result);
+void from_json(const nlohmann::json& j, CellCheckResult& result);
+
+}  // namespace robocal::api

@@ -1,0 +1,311 @@
+// Cells on the wire.
+#include "robocal/api/cells.h"
+
+#include <set>
+
+#include "robocal/api/json_reader.h"
+#include "robocal/api/robots.h"
+
+namespace robocal::api {
+namespace {
+
+// Beyond these a value is a typing mistake, not a cell: 1000 km; more reflectors than any tool carries.
+constexpr double kMaxLengthMm = 1e9;
+constexpr std::size_t kMaxReflectors = 16;
+
+Eigen::Vector3d Vec(const std::array<double, 3>& a) { return Eigen::Vector3d(a[0], a[1], a[2]); }
+std::array<double, 3> Arr(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+// Reads a named list of objects at `key` with `read` for each element.
+template <typename T, typename Read>
+void ReadList(ObjectReader& r, const char* key, std::size_t max_size, Problems* problems, std::vector<T>* out,
+              Read read) {
+  if (const nlohmann::json* a = r.Array(key, false, 0, max_size)) {
+    out->resize(a->size());
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      ObjectReader item((*a)[i], IndexPath(key, i), problems);
+      read(item, &(*out)[i]);
+    }
+  }
+}
+
+void CheckUniqueIds(const std::vector<std::string>& ids, const char* list, Problems* problems) {
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (!seen.insert(ids[i]).second) {
+      problems->Add(JoinPath(IndexPath(list, i), "id"), "\"" + ids[i] + "\" is used twice");
+    }
+  }
+}
+
+}  // namespace
+
+CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
+  Problems problems;
+  CellWire cell;
+  ObjectReader r(body, "", &problems);
+  if (r.String("id", true, &cell.id) && !IsValidId(cell.id)) problems.Add("id", kIdRule);
+  r.String("description", false, &cell.description, 1024);
+  r.String("robot", true, &cell.robot, 64);
+  if (const nlohmann::json* t = r.Get("tracker")) {
+    ObjectReader tr(*t, "tracker", &problems);
+    tr.FixedNumbers("position_mm", true, cell.tracker.position_mm.data(), 3);
+    tr.Number("min_distance_mm", false, &cell.tracker.min_distance_mm, 0.0, kMaxLengthMm);
+    double max = 0.0;
+    if (tr.Number("max_distance_mm", false, &max, 0.0, kMaxLengthMm)) cell.tracker.max_distance_mm = max;
+    tr.RejectUnknown({"position_mm", "min_distance_mm", "max_distance_mm"});
+  } else if (r.ok()) {
+    problems.Add("tracker", "required");
+  }
+  ReadList(r, "reflectors", kMaxReflectors, &problems, &cell.reflectors, [](ObjectReader& item, ReflectorWire* w) {
+    item.String("id", true, &w->id, 64);
+    item.FixedNumbers("position_mm", true, w->position_mm.data(), 3);
+    item.FixedNumbers("normal", true, w->normal.data(), 3);
+    item.Number("acceptance_half_angle_deg", false, &w->acceptance_half_angle_deg, 0.0, 90.0);
+    item.RejectUnknown({"id", "position_mm", "normal", "acceptance_half_angle_deg"});
+  });
+  ReadList(r, "obstacles", limits.max_array_length, &problems, &cell.obstacles,
+           [&problems](ObjectReader& item, ObstacleWire* w) {
+             item.String("id", true, &w->id, 64);
+             if (const nlohmann::json* b = item.Get("box")) {
+               ObjectReader box(*b, JoinPath(item.path(), "box"), &problems);
+               box.FixedNumbers("min_mm", true, w->min_mm.data(), 3);
+               box.FixedNumbers("max_mm", true, w->max_mm.data(), 3);
+               box.RejectUnknown({"min_mm", "max_mm"});
+             } else if (item.ok()) {
+               problems.Add(JoinPath(item.path(), "box"), "required");
+             }
+             item.RejectUnknown({"id", "box"});
+           });
+  const std::size_t joints = static_cast<std::size_t>(model.num_joints());
+  if (r.Numbers("link_radii_mm", false, &cell.link_radii_mm, joints, joints)) {
+    for (std::size_t i = 0; i < cell.link_radii_mm.size(); ++i) {
+      if (cell.link_radii_mm[i] < 0.0 || cell.link_radii_mm[i] > kMaxLengthMm) {
+        problems.Add(IndexPath("link_radii_mm", i), "must be in [0, 1e9] mm");
+      }
+    }
+  }
+  double tool_radius = 0.0;
+  if (r.Number("tool_radius_mm", false, &tool_radius, 0.0, kMaxLengthMm)) cell.tool_radius_mm = tool_radius;
+  r.Number("clearance_mm", false, &cell.clearance_mm, 0.0, kMaxLengthMm);
+  if (const nlohmann::json* a = r.Array("joint_ranges", false, joints, joints)) {
+    cell.joint_ranges.resize(a->size());
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      ObjectReader range((*a)[i], IndexPath("joint_ranges", i), &problems);
+      range.Number("min", true, &cell.joint_ranges[i].min);
+      range.Number("max", true, &cell.joint_ranges[i].max);
+      range.RejectUnknown({"min", "max"});
+    }
+  }
+  r.RejectUnknown({"id", "description", "robot", "tracker", "reflectors", "obstacles", "link_radii_mm",
+                   "tool_radius_mm", "clearance_mm", "joint_ranges"});
+  std::vector<std::string> ids;
+  for (const ReflectorWire& w : cell.reflectors) ids.push_back(w.id);
+  CheckUniqueIds(ids, "reflectors", &problems);
+  ids.clear();
+  for (const ObstacleWire& w : cell.obstacles) ids.push_back(w.id);
+  CheckUniqueIds(ids, "obstacles", &problems);
+  problems.ThrowIfAny("invalid cell");
+  (void)ToCell(cell, model);
+  return cell;
+}
+
+Cell ToCell(const CellWire& w, const RobotModel& model) {
+  CellSpec spec;
+  spec.tracker.position_mm = Vec(w.tracker.position_mm);
+  spec.tracker.min_distance_mm = w.tracker.min_distance_mm;
+  if (w.tracker.max_distance_mm) spec.tracker.max_distance_mm = *w.tracker.max_distance_mm;
+  for (const ReflectorWire& r : w.reflectors) {
+    spec.reflectors.push_back({r.id, Vec(r.position_mm), Vec(r.normal), r.acceptance_half_angle_deg * kRadPerDeg});
+  }
+  for (const ObstacleWire& o : w.obstacles) spec.obstacles.push_back({o.id, Vec(o.min_mm), Vec(o.max_mm)});
+  spec.link_radii_mm = w.link_radii_mm;
+  spec.tool_radius_mm = w.tool_radius_mm.value_or(0.0);
+  spec.clearance_mm = w.clearance_mm;
+  if (!w.joint_ranges.empty()) {
+    std::vector<double> lo, hi;
+    for (const JointRangeWire& range : w.joint_ranges) {
+      lo.push_back(range.min);
+      hi.push_back(range.max);
+    }
+    spec.joint_min = JointsToCore(model, lo);
+    spec.joint_max = JointsToCore(model, hi);
+  }
+  try {
+    return Cell::Build(model, std::move(spec));
+  } catch (const InvalidModelError& e) {
+    std::vector<FieldViolation> details;
+    for (const FieldError& f : e.errors()) details.push_back({f.field, f.reason});
+    throw ApiError(Status::kInvalidArgument, std::string("invalid cell: ") + e.what(), details);
+  }
+}
+
+CellWire CellResource(const CellWire& request, const Cell& cell, const RobotModel& model) {
+  const CellSpec& spec = cell.spec();
+  CellWire w = request;
+  w.reflectors.clear();
+  if (spec.reflectors.empty()) {
+    // The default: one reflector at the tool point, facing along the tool z axis.
+    const Transform& tool = model.spec().T_flange_tool;
+    w.reflectors.push_back({"tool", Arr(tool.translation()), Arr(tool.linear().col(2)), 30.0});
+  }
+  for (const ReflectorSpec& r : spec.reflectors) {
+    w.reflectors.push_back({r.id, Arr(r.position_mm), Arr(r.normal), r.acceptance_half_angle_rad * kDegPerRad});
+  }
+  w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
+  w.tool_radius_mm = spec.tool_radius_mm > 0.0 ? spec.tool_radius_mm : w.link_radii_mm.back();
+  w.joint_ranges.clear();
+  const Eigen::VectorXd lo = spec.joint_min.size() == model.num_joints() ? spec.joint_min : model.lower_limits();
+  const Eigen::VectorXd hi = spec.joint_max.size() == model.num_joints() ? spec.joint_max : model.upper_limits();
+  const std::vector<double> lo_wire = JointsToWire(model, lo), hi_wire = JointsToWire(model, hi);
+  for (int i = 0; i < model.num_joints(); ++i) w.joint_ranges.push_back({lo_wire[i], hi_wire[i]});
+  return w;
+}
+
+// ---------------------------------------------------------------------------------------------- json
+
+void to_json(nlohmann::json& j, const CellWire& c) {
+  nlohmann::json tracker = {{"position_mm", c.tracker.position_mm}, {"min_distance_mm", c.tracker.min_distance_mm}};
+  if (c.tracker.max_distance_mm) tracker["max_distance_mm"] = *c.tracker.max_distance_mm;
+  nlohmann::json reflectors = nlohmann::json::array();
+  for (const ReflectorWire& r : c.reflectors) {
+    reflectors.push_back({{"id", r.id},
+                          {"position_mm", r.position_mm},
+                          {"normal", r.normal},
+                          {"acceptance_half_angle_deg", r.acceptance_half_angle_deg}});
+  }
+  nlohmann::json obstacles = nlohmann::json::array();
+  for (const ObstacleWire& o : c.obstacles) {
+    obstacles.push_back({{"id", o.id}, {"box", {{"min_mm", o.min_mm}, {"max_mm", o.max_mm}}}});
+  }
+  nlohmann::json ranges = nlohmann::json::array();
+  for (const JointRangeWire& r : c.joint_ranges) ranges.push_back({{"min", r.min}, {"max", r.max}});
+  j = {{"id", c.id},
+       {"description", c.description},
+       {"robot", c.robot},
+       {"tracker", std::move(tracker)},
+       {"reflectors", std::move(reflectors)},
+       {"obstacles", std::move(obstacles)},
+       {"link_radii_mm", c.link_radii_mm},
+       {"clearance_mm", c.clearance_mm},
+       {"joint_ranges", std::move(ranges)}};
+  if (c.tool_radius_mm) j["tool_radius_mm"] = *c.tool_radius_mm;
+}
+
+// The parts of a cell (found by ReadWire through argument-dependent lookup, so not in an unnamed namespace).
+void from_json(const nlohmann::json& j, TrackerWire& t) {
+  const WireReader r(j);
+  r.Required("position_mm", &t.position_mm);
+  r.Required("min_distance_mm", &t.min_distance_mm);
+  r.Optional("max_distance_mm", &t.max_distance_mm);
+}
+void from_json(const nlohmann::json& j, ReflectorWire& w) {
+  const WireReader r(j);
+  r.Required("id", &w.id);
+  r.Required("position_mm", &w.position_mm);
+  r.Required("normal", &w.normal);
+  r.Required("acceptance_half_angle_deg", &w.acceptance_half_angle_deg);
+}
+void from_json(const nlohmann::json& j, ObstacleWire& w) {
+  const WireReader r(j);
+  r.Required("id", &w.id);
+  const WireReader box(r.Member("box"), "box");
+  box.Required("min_mm", &w.min_mm);
+  box.Required("max_mm", &w.max_mm);
+}
+void from_json(const nlohmann::json& j, JointRangeWire& w) {
+  const WireReader r(j);
+  r.Required("min", &w.min);
+  r.Required("max", &w.max);
+}
+
+void from_json(const nlohmann::json& j, CellWire& c) {
+  const WireReader r(j);
+  r.Required("id", &c.id);
+  r.Required("description", &c.description);
+  r.Required("robot", &c.robot);
+  r.Required("tracker", &c.tracker);
+  r.Required("reflectors", &c.reflectors);
+  r.Required("obstacles", &c.obstacles);
+  r.Required("link_radii_mm", &c.link_radii_mm);
+  double tool_radius = 0.0;
+  r.Required("tool_radius_mm", &tool_radius);
+  c.tool_radius_mm = tool_radius;
+  r.Required("clearance_mm", &c.clearance_mm);
+  r.Required("joint_ranges", &c.joint_ranges);
+}
+
+void to_json(nlohmann::json& j, const CellList& list) {
+  j = {{"cells", list.cells}};
+  if (list.next_page_token) j["next_page_token"] = *list.next_page_token;
+}
+
+void from_json(const nlohmann::json& j, CellList& list) {
+  const WireReader r(j);
+  r.Required("cells", &list.cells);
+  r.Optional("next_page_token", &list.next_page_token);
+}
+
+// ---------------------------------------------------------------------------------------------- checks
+
+void to_json(nlohmann::json& j, const ConfigurationCheckWire& c) {
+  nlohmann::json reflectors = nlohmann::json::array();
+  for (const ReflectorCheckWire& r : c.reflectors) {
+    nlohmann::json o = {{"id", r.id},
+                        {"measurable", r.measurable},
+                        {"incidence_deg", Num(r.incidence_deg)},
+                        {"distance_mm", Num(r.distance_mm)}};
+    if (r.blocked_by) o["blocked_by"] = *r.blocked_by;
+    reflectors.push_back(std::move(o));
+  }
+  j = {{"feasible", c.feasible},
+       {"reflectors", std::move(reflectors)},
+       {"min_clearance_mm", Num(c.min_clearance_mm)},
+       {"clearance_pair", c.clearance_pair},
+       {"failed_rules", c.failed_rules},
+       {"reasons", c.reasons}};
+}
+
+void from_json(const nlohmann::json& j, ReflectorCheckWire& w) {
+  const WireReader r(j);
+  r.Required("id", &w.id);
+  r.Required("measurable", &w.measurable);
+  r.Required("incidence_deg", &w.incidence_deg);
+  r.Required("distance_mm", &w.distance_mm);
+  r.Optional("blocked_by", &w.blocked_by);
+}
+
+void from_json(const nlohmann::json& j, ConfigurationCheckWire& c) {
+  const WireReader r(j);
+  r.Required("feasible", &c.feasible);
+  r.Required("reflectors", &c.reflectors);
+  r.Required("min_clearance_mm", &c.min_clearance_mm);
+  r.Required("clearance_pair", &c.clearance_pair);
+  r.Required("failed_rules", &c.failed_rules);
+  r.Required("reasons", &c.reasons);
+}
+
+ConfigurationCheckWire ToWire(const ConfigurationCheck& c) {
+  ConfigurationCheckWire w;
+  w.feasible = c.feasible;
+  for (const ReflectorCheck& r : c.reflectors) {
+    ReflectorCheckWire rw{r.id, r.measurable, r.incidence_rad * kDegPerRad, r.distance_mm, std::nullopt};
+    if (!r.blocked_by.empty()) rw.blocked_by = r.blocked_by;
+    w.reflectors.push_back(std::move(rw));
+  }
+  w.min_clearance_mm = c.min_clearance_mm;
+  w.clearance_pair = c.clearance_pair;
+  w.failed_rules = c.failed_rules;
+  w.reasons = c.reasons;
+  return w;
+}
+
+void to_json(nlohmann::json& j, const CellCheckResult& r) { j = {{"cell", r.cell}, {"results", r.results}}; }
+
+void from_json(const nlohmann::json& j, CellCheckResult& r) {
+  const WireReader reader(j);
+  reader.Required("cell", &r.cell);
+  reader.Required("results", &r.results);
+}
+
+}  // namespace robocal::api
