@@ -1,7 +1,9 @@
 // Planning: one index evaluation after a single-configuration change (M = 10 and 200), the paper's Solis &
-// Wets preset on grinder5, and exchange selecting 50 of 5,000 candidates on ur5e.
+// Wets preset on grinder5, and exchange selecting 50 of 5,000 candidates on ur5e; the paper preset and the
+// exchange optimiser in a cell.
 #include <benchmark/benchmark.h>
 
+#include "robocal/core/cell.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
@@ -73,6 +75,60 @@ void BM_ExchangeUr5e(benchmark::State& state) {
   state.SetLabel("ur5e pose M=50 of 5000");
 }
 BENCHMARK(BM_ExchangeUr5e)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// A cell around ur5e: tracker 2.6 m away, a floor, a table and a wall, one reflector on the tool.
+Cell BenchCell(const RobotModel& model) {
+  CellSpec spec;
+  spec.tracker.position_mm = Eigen::Vector3d(2500, -800, 300);
+  spec.tracker.min_distance_mm = 1500;
+  spec.tracker.max_distance_mm = 15000;
+  spec.reflectors.push_back({"smr1", Eigen::Vector3d(0, 0, 120), Eigen::Vector3d::UnitZ(), 0.5235987755982988});
+  spec.obstacles.push_back({"floor", Eigen::Vector3d(-3000, -3000, -500), Eigen::Vector3d(3000, 3000, -10)});
+  spec.obstacles.push_back({"table", Eigen::Vector3d(300, 400, -10), Eigen::Vector3d(900, 1000, 200)});
+  spec.obstacles.push_back({"wall", Eigen::Vector3d(-1500, -3000, -500), Eigen::Vector3d(-1400, 3000, 2500)});
+  spec.clearance_mm = 20;
+  return Cell::Build(model, spec);
+}
+
+// The paper preset (Solis & Wets, M = 10, pose) on ur5e without and with a cell (Arg 1): the cell's cost is its
+// feasibility checks and the shorter steps near the feasible region's boundary.
+void BM_SolisWetsPaperInCell(benchmark::State& state) {
+  const RobotModel nominal = Preset("ur5e");
+  const Cell cell = BenchCell(nominal);
+  const bool in_cell = state.range(0) != 0;
+  const RobotModel model = in_cell ? cell.PlanningModel(nominal) : nominal;
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  std::uint64_t seed = 1;
+  for (auto _ : state) {
+    SolisWetsOptions options = SolisWetsOptions::Paper();
+    options.seed = seed++;
+    if (in_cell) options.feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, cell, q); };
+    const Plan plan = PlanSolisWets(model, 10, o, options);
+    state.counters["cond"] = plan.summary.final.condition_number;
+    state.counters["evaluations"] = static_cast<double>(plan.summary.evaluations);
+    state.counters["infeasible"] = static_cast<double>(plan.summary.infeasible_candidates);
+  }
+  state.SetLabel(in_cell ? "ur5e pose M=10 in a cell" : "ur5e pose M=10");
+}
+BENCHMARK(BM_SolisWetsPaperInCell)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The exchange optimiser over 5,000 candidates that are all feasible in the cell.
+void BM_ExchangeUr5eInCell(benchmark::State& state) {
+  const RobotModel nominal = Preset("ur5e");
+  const Cell cell = BenchCell(nominal);
+  const RobotModel model = cell.PlanningModel(nominal);
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  for (auto _ : state) {
+    ExchangeOptions options;
+    options.num_candidates = 5000;
+    options.feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, cell, q); };
+    const Plan plan = PlanExchange(model, 50, o, options);
+    state.counters["iterations"] = plan.summary.iterations;
+    state.counters["draws"] = static_cast<double>(plan.summary.feasibility_draws);
+  }
+  state.SetLabel("ur5e pose M=50 of 5000 feasible");
+}
+BENCHMARK(BM_ExchangeUr5eInCell)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 }  // namespace robocal

@@ -197,6 +197,49 @@ TEST_F(CliTest, WholeFlow) {
   EXPECT_EQ(RunCli(server + " operation get op-0000000000000000").exit_code, 1);
 }
 
+// A cell: created from a file, listed, planned in (every configuration feasible, checked by the cell itself
+// through `cell check`), and a configuration into the floor named as such.
+TEST_F(CliTest, CellCreateCheckAndPlanInIt) {
+  const std::string server = "--server " + server_.url();
+  std::ofstream(Path("cell.json")) << R"({"id": "bench", "robot": "ur5e",
+      "tracker": {"position_mm": [2500, -800, 300], "min_distance_mm": 1500, "max_distance_mm": 15000},
+      "reflectors": [{"id": "smr1", "position_mm": [0, 0, 120], "normal": [0, 0, 1]}],
+      "obstacles": [{"id": "floor", "box": {"min_mm": [-3000, -3000, -500], "max_mm": [3000, 3000, -10]}}],
+      "clearance_mm": 20})";
+  const Result created = RunCli(server + " cell create " + Path("cell.json"));
+  ASSERT_EQ(created.exit_code, 0);
+  EXPECT_NE(created.out.find("bench: robot ur5e"), std::string::npos) << created.out;
+  EXPECT_NE(RunCli(server + " cell list").out.find("bench"), std::string::npos);
+  const nlohmann::json cell = nlohmann::json::parse(RunCli(server + " cell get bench --json").out);
+  EXPECT_EQ(cell.at("link_radii_mm").size(), 6u);
+  // An option `cell get` does not take is a usage error naming it.
+  EXPECT_EQ(RunCli(server + " cell get bench --count 3").exit_code, 2);
+
+  const Result plan = RunCli(server + " plan ur5e --cell bench --count 6 --seed 3 --out " + Path("plan.csv") +
+                             " --json");
+  ASSERT_EQ(plan.exit_code, 0) << plan.out;
+  const nlohmann::json planned = nlohmann::json::parse(plan.out);
+  ASSERT_EQ(planned.at("configuration_checks").size(), 6u);
+  EXPECT_EQ(planned.at("cell"), "bench");
+  // The planned configurations, checked again by the cell: every one feasible.
+  const Result check = RunCli(server + " cell check bench " + Path("plan.csv"));
+  ASSERT_EQ(check.exit_code, 0);
+  std::istringstream rows(check.out);
+  std::string line;
+  std::getline(rows, line);
+  EXPECT_EQ(line, "row,feasible,min_clearance_mm,clearance_pair,measurable,reasons");
+  int feasible = 0;
+  while (std::getline(rows, line)) feasible += line.find(",1,") != std::string::npos ? 1 : 0;
+  EXPECT_EQ(feasible, 6) << check.out;
+  // The arm straight down into the floor.
+  std::ofstream(Path("down.csv")) << "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n0,90,0,0,0,0\n";
+  const nlohmann::json down = nlohmann::json::parse(RunCli(server + " cell check bench " + Path("down.csv") + " --json").out);
+  EXPECT_FALSE(down.at("results")[0].at("feasible").get<bool>());
+  EXPECT_NE(down.at("results")[0].at("clearance_pair").get<std::string>().find("floor"), std::string::npos);
+  EXPECT_EQ(RunCli(server + " cell delete bench").exit_code, 0);
+  EXPECT_EQ(RunCli(server + " cell get bench").exit_code, 1);
+}
+
 TEST_F(CliTest, PlanGetMeasurementsAndForward) {
   const std::string server = "--server " + server_.url();
   const Result created = RunCli(server + " plan grinder5 --count 8 --seed 4 --json");
