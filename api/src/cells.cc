@@ -1,6 +1,8 @@
 // Cells on the wire.
 #include "robocal/api/cells.h"
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "robocal/api/json_reader.h"
@@ -12,6 +14,17 @@ namespace {
 // Beyond these a value is a typing mistake, not a cell: 1000 km; more reflectors than any tool carries.
 constexpr double kMaxLengthMm = 1e9;
 constexpr std::size_t kMaxReflectors = 16;
+// A cell's boxes: floor, tables, fixtures, fences. The bound keeps one configuration's check (every capsule and
+// beam against every box) within tens of microseconds, so a :check of max_array_length configurations stays
+// well under a second.
+constexpr std::size_t kMaxObstacles = 128;
+
+// Records a problem for each coordinate of `v` beyond the plausible length.
+void CheckLengths(const std::array<double, 3>& v, const std::string& path, Problems* problems) {
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (std::abs(v[i]) > kMaxLengthMm) problems->Add(IndexPath(path, i), "implausibly large (limit 1e9 mm)");
+  }
+}
 
 Eigen::Vector3d Vec(const std::array<double, 3>& a) { return Eigen::Vector3d(a[0], a[1], a[2]); }
 std::array<double, 3> Arr(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
@@ -49,7 +62,9 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
   r.String("robot", true, &cell.robot, 64);
   if (const nlohmann::json* t = r.Get("tracker")) {
     ObjectReader tr(*t, "tracker", &problems);
-    tr.FixedNumbers("position_mm", true, cell.tracker.position_mm.data(), 3);
+    if (tr.FixedNumbers("position_mm", true, cell.tracker.position_mm.data(), 3)) {
+      CheckLengths(cell.tracker.position_mm, "tracker.position_mm", &problems);
+    }
     tr.Number("min_distance_mm", false, &cell.tracker.min_distance_mm, 0.0, kMaxLengthMm);
     double max = 0.0;
     if (tr.Number("max_distance_mm", false, &max, 0.0, kMaxLengthMm)) cell.tracker.max_distance_mm = max;
@@ -57,20 +72,28 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
   } else if (r.ok()) {
     problems.Add("tracker", "required");
   }
-  ReadList(r, "reflectors", kMaxReflectors, &problems, &cell.reflectors, [](ObjectReader& item, ReflectorWire* w) {
+  ReadList(r, "reflectors", kMaxReflectors, &problems, &cell.reflectors,
+           [&problems](ObjectReader& item, ReflectorWire* w) {
     item.String("id", true, &w->id, 64);
-    item.FixedNumbers("position_mm", true, w->position_mm.data(), 3);
+    if (item.FixedNumbers("position_mm", true, w->position_mm.data(), 3)) {
+      CheckLengths(w->position_mm, JoinPath(item.path(), "position_mm"), &problems);
+    }
     item.FixedNumbers("normal", true, w->normal.data(), 3);
-    item.Number("acceptance_half_angle_deg", false, &w->acceptance_half_angle_deg, 0.0, 90.0);
+    // The core refuses 0 with its reason; (0, 180] as the core and docs/cells.md say.
+    item.Number("acceptance_half_angle_deg", false, &w->acceptance_half_angle_deg, 0.0, 180.0);
     item.RejectUnknown({"id", "position_mm", "normal", "acceptance_half_angle_deg"});
   });
-  ReadList(r, "obstacles", limits.max_array_length, &problems, &cell.obstacles,
+  ReadList(r, "obstacles", std::min(kMaxObstacles, limits.max_array_length), &problems, &cell.obstacles,
            [&problems](ObjectReader& item, ObstacleWire* w) {
              item.String("id", true, &w->id, 64);
              if (const nlohmann::json* b = item.Get("box")) {
                ObjectReader box(*b, JoinPath(item.path(), "box"), &problems);
-               box.FixedNumbers("min_mm", true, w->min_mm.data(), 3);
-               box.FixedNumbers("max_mm", true, w->max_mm.data(), 3);
+               if (box.FixedNumbers("min_mm", true, w->min_mm.data(), 3)) {
+                 CheckLengths(w->min_mm, JoinPath(box.path(), "min_mm"), &problems);
+               }
+               if (box.FixedNumbers("max_mm", true, w->max_mm.data(), 3)) {
+                 CheckLengths(w->max_mm, JoinPath(box.path(), "max_mm"), &problems);
+               }
                box.RejectUnknown({"min_mm", "max_mm"});
              } else if (item.ok()) {
                problems.Add(JoinPath(item.path(), "box"), "required");

@@ -15,7 +15,7 @@ Service::LoadedCell Service::LoadCell(const std::string& id) {
   api::StoredCell stored = ReadStored<api::StoredCell>(*doc);
   RobotModel model = api::BuildModel(stored.robot_definition);
   Cell cell = api::ToCell(stored.cell, model);
-  return {std::move(stored.cell), std::move(model), std::move(cell)};
+  return {std::move(stored.cell), std::move(model), std::move(cell), std::move(stored.robot_definition)};
 }
 
 api::CellWire Service::CreateCell(const nlohmann::json& body) {

@@ -28,7 +28,9 @@ std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vect
 // most of a sample of configurations and its share.
 void Service::CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed) {
   constexpr int kSamples = 2000;
-  constexpr double kMinFeasibleShare = 0.002;
+  // The planners draw at most 100 configurations per configuration they need (max_draws_per_configuration):
+  // a cell must leave at least 1 in 100 feasible.
+  constexpr double kMinFeasibleShare = 0.01;
   const FeasibilityCensus census = SampleFeasibility(cell.model, cell.cell, kSamples, seed);
   if (census.feasible >= kMinFeasibleShare * census.samples && census.feasible > 0) return;
   const std::string reason = std::to_string(census.feasible) + " of " + std::to_string(census.samples) +
@@ -100,7 +102,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   std::vector<Eigen::VectorXd> validation;
   if (feasible) {
     FeasibleDraws draws;
-    draws.max_draws = 2000LL * std::max(1, req.num_validation);  // the census found at least 1 in 500 feasible
+    draws.max_draws = 500LL * std::max(1, req.num_validation);  // the census found at least 1 in 100 feasible
     DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
   } else {
     validation = RandomConfigurations(model, req.num_validation, &rng);
@@ -145,6 +147,13 @@ PlanReply Service::CreatePlan(const nlohmann::json& body) {
       throw ApiError(Status::kFailedPrecondition,
                      "cell \"" + req.cell + "\" is a cell of robot " + cell->wire.robot + ", not of " + req.robot,
                      {{"cell", "a cell of another robot"}});
+    }
+    // The cell was validated against its copy of the robot; a robot re-registered since is another robot.
+    if (nlohmann::json(cell->robot_definition) != nlohmann::json(ResolveRobot(req.robot).definition)) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "cell \"" + req.cell + "\" was made for an earlier definition of robot " + req.robot +
+                         "; create the cell again for the robot as it is registered now",
+                     {{"cell", "made for another definition of the robot"}});
     }
     CheckCellLeavesRoom(*cell, req.seed);
   }

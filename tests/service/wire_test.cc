@@ -269,6 +269,35 @@ TEST_F(WireTest, CellsRoundTripAndRequireEveryField) {
   ExpectEveryFieldRequired(check, {"results[0].reflectors[0].blocked_by"});
 }
 
+// A cell is made for its robot as registered then: a plan in it for a robot re-registered since is refused
+// (it would hold the old robot's joints under the new robot's name), and a cell of more boxes than a check can
+// afford is refused by name.
+TEST_F(WireTest, CellsKeepToTheRobotTheyWereMadeFor) {
+  (void)service_->CreateRobot({{"id", "myrob"}, {"from_preset", "ur5e"}});
+  (void)service_->CreateCell({{"id", "cr"}, {"robot", "myrob"}, {"tracker", {{"position_mm", {2500, -800, 300}}}}});
+  service_->DeleteRobot("myrob");
+  (void)service_->CreateRobot({{"id", "myrob"}, {"from_preset", "puma560"}});
+  try {
+    (void)service_->CreatePlan({{"robot", "myrob"}, {"cell", "cr"}, {"num_configurations", 8}});
+    FAIL() << "planned in a cell made for another definition of the robot";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.status(), Status::kFailedPrecondition);
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "cell");
+  }
+  json many = {{"id", "boxes"}, {"robot", "ur5e"}, {"tracker", {{"position_mm", {2500, -800, 300}}}}};
+  for (int i = 0; i < 129; ++i) {
+    many["obstacles"].push_back({{"id", "b" + std::to_string(i)},
+                                 {"box", {{"min_mm", {3000 + 10 * i, 0, 0}}, {"max_mm", {3005 + 10 * i, 5, 5}}}}});
+  }
+  try {
+    (void)service_->CreateCell(many);
+    FAIL() << "129 obstacles accepted";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.details().at(0).field, "obstacles");
+  }
+}
+
 TEST(WireRequestTest, RequestsRoundTrip) {
   const RobotModel model = Preset("ur5e");
   PlanRequest plan;

@@ -116,6 +116,8 @@ class Service {
     api::CellWire wire;
     RobotModel model;
     Cell cell;
+    /// The copy of the robot's definition the cell was made for.
+    api::RegisterRobotRequest robot_definition;
   };
   LoadedCell LoadCell(const std::string& id);
   /// The campaign resource of a stored campaign (counts and calibrated from the storage).
