@@ -37,6 +37,9 @@ Options:
   --validation N        random validation poses within the joint limits (default 36)
   --h-mm H              E_tot = E_xyz + H * E_cos[rad] (default 30)
   --compare random      also calibrate from random configurations and print the improvement in percent
+  --cell CELL|preset    measure in a cell: the id of a cell on the server, or "preset" for the robot's preset
+                        cell (created as preset-<robot> if absent). Plans are made in it, the tracker
+                        measures only the poses it can see, and the report says how many it could not
   --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
                         from seed + trial; validation errors pooled (default 1; one trial of 10
                         configurations is a noisy comparison)
@@ -87,7 +90,7 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
   } else {
     robocal::mock::MockTrackerOptions o = options;
     o.num_validation = random;
-    for (const auto& q : robocal::mock::ValidationConfigurations(model, o)) {
+    for (const auto& q : robocal::mock::ValidationConfigurations(cell, o)) {
       wire.push_back(robocal::api::JointsToWire(model, q));
     }
   }
@@ -152,6 +155,9 @@ int main(int argc, char** argv) {
         options.seed = tools::ParseSeedFlag(flag, v);
       } else if (flag == "--shots") {
         options.shots_per_pose = integer(flag, v);
+      } else if (flag == "--cell") {
+        if (v.empty()) return Usage("--cell takes a cell id or 'preset'");
+        options.cell = v;
       } else if (flag == "--trials") {
         options.trials = integer(flag, v);
       } else if (flag == "--validation") {

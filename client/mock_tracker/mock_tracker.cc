@@ -6,6 +6,7 @@
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
 #include "robocal/api/calibration.h"
 #include "robocal/api/robots.h"
@@ -34,8 +35,8 @@ std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vect
   return wire;
 }
 
-CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const MockTrackerOptions& options,
-                            api::Optimiser optimiser, std::uint64_t plan_seed,
+CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std::string* cell_id,
+                            const MockTrackerOptions& options, api::Optimiser optimiser, std::uint64_t plan_seed,
                             const std::vector<Eigen::VectorXd>& validation, std::ostream* log) {
   const RobotModel& nominal = cell->nominal();
   CampaignOutcome out;
@@ -47,6 +48,7 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
   plan_request.objective = options.objective;
   plan_request.optimiser = optimiser;
   plan_request.seed = plan_seed;
+  if (cell_id != nullptr) plan_request.cell = *cell_id;
   plan_request.noise.position_mm = cell->options().noise.position_mm;
   plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * api::kDegPerRad;
   out.plan = client.CreatePlan(plan_request);
@@ -62,9 +64,16 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
   out.campaign = client.CreateCampaign(campaign_request);
   Log(log, "campaign " + out.campaign.id);
 
-  // "Move" the robot to each planned configuration and shoot it with the tracker.
-  const api::BatchResult uploaded = client.UploadMeasurements(
-      out.campaign.id, MeasurementBatch(cell, out.plan.configurations, api::MeasurementRole::kCalibration, options));
+  // "Move" the robot to each planned configuration and shoot it with the tracker (when it can see it).
+  const int unmeasured_before = cell->unmeasured();
+  const api::MeasurementBatchRequest batch =
+      MeasurementBatch(cell, out.plan.configurations, api::MeasurementRole::kCalibration, options);
+  out.unmeasured_poses = cell->unmeasured() - unmeasured_before;
+  if (out.unmeasured_poses > 0) {
+    Log(log, std::to_string(out.unmeasured_poses) + " of " + std::to_string(out.plan.configurations.size()) +
+                 " planned poses could not be measured");
+  }
+  const api::BatchResult uploaded = client.UploadMeasurements(out.campaign.id, batch);
   Log(log, "uploaded " + std::to_string(uploaded.count) + " calibration shots");
 
   out.calibration = client.Fit(out.campaign.id);
@@ -100,6 +109,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const Moc
 json OutcomeJson(const CampaignOutcome& o) {
   return {{"plan", o.plan.id},
           {"campaign", o.campaign.id},
+          {"planned_poses", o.plan.configurations.size()},
+          {"unmeasured_poses", o.unmeasured_poses},
           {"condition_number", api::Num(o.plan.indices.condition_number)},
           {"fit", o.calibration.summary.brief},
           {"before", api::ToWire(o.before)},
@@ -139,16 +150,77 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
   return true;
 }
 
-VirtualCell MakeCell(const MockTrackerOptions& options) {
+VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<ResolvedCell>& cell) {
   VirtualCellOptions cell_options;
   cell_options.seed = options.seed;
   cell_options.shots_per_pose = options.shots_per_pose;
+  if (cell) cell_options.measurement_cell = cell->spec;
   return VirtualCell(Preset(options.robot), cell_options);
 }
 
-std::vector<Eigen::VectorXd> ValidationConfigurations(const RobotModel& model, const MockTrackerOptions& options) {
+std::vector<Eigen::VectorXd> ValidationConfigurations(const VirtualCell& cell, const MockTrackerOptions& options) {
   Rng rng(options.seed + kValidationSeedOffset);
-  return RandomConfigurations(model, options.num_validation, &rng);
+  const Cell* measurement_cell = cell.measurement_cell();
+  if (measurement_cell == nullptr) return RandomConfigurations(cell.nominal(), options.num_validation, &rng);
+  // Poses the tracker can see, so that the service's evaluation has its validation shots.
+  const RobotModel planning = measurement_cell->PlanningModel(cell.nominal());
+  FeasibleDraws account;
+  account.max_draws = static_cast<std::int64_t>(kDefaultMaxDrawsPerConfiguration) * options.num_validation;
+  std::vector<Eigen::VectorXd> out;
+  if (!DrawFeasibleConfigurations(
+          planning, options.num_validation, [&](const Eigen::VectorXd& q) { return cell.Measurable(q); }, &rng,
+          &account, &out)) {
+    throw std::runtime_error("validation poses: the cell leaves too little feasible: " + account.Describe());
+  }
+  return out;
+}
+
+// The wire request of a core cell spec (the inverse of api::ToCell for what a spec sets): the tracker, the
+// obstacles, the clearance, the joint ranges and the link radii (the wire writes them, so their defaults
+// are written out); reflectors and the tool radius stay the server's defaults when the spec leaves them so.
+api::CellWire CellRequest(const std::string& id, const std::string& robot, const CellSpec& spec,
+                          const RobotModel& model) {
+  const auto arr = [](const Eigen::Vector3d& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };
+  api::CellWire w;
+  w.id = id;
+  w.robot = robot;
+  w.description = "the preset cell of " + robot + " (docs/cells.md)";
+  w.tracker.position_mm = arr(spec.tracker.position_mm);
+  w.tracker.min_distance_mm = spec.tracker.min_distance_mm;
+  if (std::isfinite(spec.tracker.max_distance_mm)) w.tracker.max_distance_mm = spec.tracker.max_distance_mm;
+  for (const ReflectorSpec& r : spec.reflectors) {
+    w.reflectors.push_back({r.id, arr(r.position_mm), arr(r.normal), r.acceptance_half_angle_rad * api::kDegPerRad});
+  }
+  for (const BoxObstacle& box : spec.obstacles) w.obstacles.push_back({box.id, arr(box.min_mm), arr(box.max_mm)});
+  w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
+  if (spec.tool_radius_mm > 0.0) w.tool_radius_mm = spec.tool_radius_mm;
+  w.clearance_mm = spec.clearance_mm;
+  const bool ranges = spec.joint_min.size() == model.num_joints();
+  const std::vector<double> lo = api::JointsToWire(model, ranges ? spec.joint_min : model.lower_limits());
+  const std::vector<double> hi = api::JointsToWire(model, ranges ? spec.joint_max : model.upper_limits());
+  for (int i = 0; i < model.num_joints(); ++i) w.joint_ranges.push_back({lo[i], hi[i]});
+  return w;
+}
+
+std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTrackerOptions& options) {
+  if (options.cell.empty()) return std::nullopt;
+  const RobotModel model = Preset(options.robot);
+  api::CellWire wire;
+  if (options.cell == "preset") {
+    const std::string id = "preset-" + options.robot;
+    try {
+      wire = client.CreateCell(CellRequest(id, options.robot, PresetCellSpec(options.robot), model));
+    } catch (const client::ServiceError& e) {
+      if (e.status() != api::Status::kAlreadyExists) throw;
+      wire = client.GetCell(id);  // made by an earlier run
+    }
+  } else {
+    wire = client.GetCell(options.cell);
+  }
+  if (wire.robot != options.robot) {
+    throw std::invalid_argument("cell '" + wire.id + "' is for robot '" + wire.robot + "', not '" + options.robot + "'");
+  }
+  return ResolvedCell{wire.id, api::ToCell(wire, model).spec()};
 }
 
 api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
@@ -171,23 +243,27 @@ MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOption
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument(error);
   MockTrackerReport report;
+  const std::optional<ResolvedCell> resolved = ResolveCell(client, options);
+  const std::string* cell_id = resolved ? &resolved->id : nullptr;
+  if (resolved) Log(log, "cell " + resolved->id);
   std::vector<const CampaignOutcome*> planned, random;
   for (int t = 0; t < options.trials; ++t) {
     // Trial t is the one-trial run of seed + t: a new cell, plan and validation poses.
     MockTrackerOptions trial_options = options;
     trial_options.seed = options.seed + static_cast<std::uint64_t>(t);
     if (options.trials > 1) Log(log, "trial " + std::to_string(t + 1) + " of " + std::to_string(options.trials));
-    VirtualCell cell = MakeCell(trial_options);
-    const std::vector<Eigen::VectorXd> validation = ValidationConfigurations(cell.nominal(), trial_options);
+    VirtualCell cell = MakeCell(trial_options, resolved);
+    const std::vector<Eigen::VectorXd> validation = ValidationConfigurations(cell, trial_options);
     TrialOutcome trial;
     trial.seed = trial_options.seed;
-    trial.planned = RunCampaign(client, &cell, trial_options, options.optimiser, trial_options.seed, validation, log);
+    trial.planned =
+        RunCampaign(client, &cell, cell_id, trial_options, options.optimiser, trial_options.seed, validation, log);
     if (options.compare_random) {
       // The same cell (same hidden errors), calibrated from random configurations: the paper's comparison.
       MockTrackerOptions random_options = trial_options;
       random_options.seed = trial_options.seed + kRandomPlanSeedOffset;  // distinct request ids for this campaign
       trial.random =
-          RunCampaign(client, &cell, random_options, api::Optimiser::kRandom, random_options.seed, validation, log);
+          RunCampaign(client, &cell, cell_id, random_options, api::Optimiser::kRandom, random_options.seed, validation, log);
     }
     report.trials.push_back(std::move(trial));
   }
@@ -212,6 +288,10 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
       out << (report.trials.size() > 1 ? "\n  trial seed " + std::to_string(t.seed) + ":" : "") << " plan " << o.plan.id
           << " (condition number " << std::setprecision(4) << o.plan.indices.condition_number << "), campaign "
           << o.campaign.id;
+      if (!options.cell.empty()) {
+        out << ", " << o.unmeasured_poses << " of " << o.plan.configurations.size()
+            << " planned poses could not be measured";
+      }
     }
     out << "\n";
     out << FormatAccuracyTable(
@@ -226,7 +306,10 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
   };
   out << "robot " << options.robot << ", " << options.count << " " << api::WireName(options.measurement_type)
       << " configurations, seed " << options.seed << ", " << report.trials.size() << " trial"
-      << (report.trials.size() > 1 ? "s" : "") << ", h = " << options.h_mm << " mm\n";
+      << (report.trials.size() > 1 ? "s" : "") << ", h = " << options.h_mm << " mm"
+      << (options.cell.empty() ? "" : ", measured in cell " + (options.cell == "preset" ? "preset-" + options.robot
+                                                                                          : options.cell))
+      << "\n";
   tables(report.planned, api::WireName(options.optimiser), false);
   if (report.random) {
     tables(*report.random, "random", true);

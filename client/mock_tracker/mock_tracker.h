@@ -13,6 +13,7 @@
 #include "robocal/api/campaigns.h"
 #include "robocal/client/client.h"
 #include "robocal/core/accuracy.h"
+#include "robocal/core/cell.h"
 #include "robocal/core/transforms.h"
 #include "robocal/core/virtual_cell.h"
 
@@ -37,6 +38,11 @@ struct MockTrackerOptions {
   /// plan and validation seeds, all from seed + t; the validation errors are pooled over the trials. One trial
   /// of 10 configurations and 36 validation poses is a noisy comparison of two selection methods.
   int trials = 1;
+  /// The measurement cell: "" none (every configuration is measured); "preset": the robot's preset cell
+  /// (docs/cells.md), created on the server as "preset-<robot>" unless it is there already; else the id of a
+  /// cell on the server. With a cell, plans are made in it (PlanRequest::cell), the virtual cell's tracker
+  /// measures only the poses the cell finds feasible, and validation poses are drawn feasible.
+  std::string cell;
 
   bool IsValid(std::string* error) const;
 };
@@ -44,6 +50,8 @@ struct MockTrackerOptions {
 /// One calibration run and how the robot does on the validation poses before and after it.
 struct CampaignOutcome {
   api::PlanResult plan;
+  /// Planned poses the tracker could not measure (no shot uploaded): 0 expected for a plan made in the cell.
+  int unmeasured_poses = 0;
   api::Campaign campaign;
   api::CalibrationResult calibration;
   /// Nominal joints commanded: the nominal model's accuracy (with the calibrated base registration).
@@ -56,6 +64,14 @@ struct CampaignOutcome {
   /// (tracker frame); kept for pooling over trials.
   std::vector<Transform> targets, reached_nominal, reached_compensated;
 };
+
+/// The cell a run measures in (MockTrackerOptions::cell), resolved on the server: its id and its core spec.
+struct ResolvedCell {
+  std::string id;
+  CellSpec spec;
+};
+/// Resolves options.cell: nullopt for "", the preset cell (created if absent) for "preset", else GetCell.
+std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTrackerOptions& options);
 
 /// One trial: a cell of its own, calibrated from the plan and (with compare_random) from random configurations.
 struct TrialOutcome {
@@ -80,11 +96,12 @@ struct MockTrackerReport {
 };
 
 /// The simulated cell of these options (preset robot, hidden errors and noise seeded from options.seed, shots
-/// per pose). Trial t of a run uses the cell of options.seed + t.
-VirtualCell MakeCell(const MockTrackerOptions& options);
+/// per pose; measuring in `cell` if given). Trial t of a run uses the cell of options.seed + t.
+VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<ResolvedCell>& cell = std::nullopt);
 
-/// `count` validation configurations drawn uniformly within the limits, seeded from options.seed.
-std::vector<Eigen::VectorXd> ValidationConfigurations(const RobotModel& model, const MockTrackerOptions& options);
+/// `count` validation configurations drawn uniformly within the limits (feasible ones, within its joint ranges,
+/// when the virtual cell has a measurement cell), seeded from options.seed.
+std::vector<Eigen::VectorXd> ValidationConfigurations(const VirtualCell& cell, const MockTrackerOptions& options);
 
 /// Runs the workflow; progress lines go to `log` (may be null). Throws what the client throws.
 MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOptions& options, std::ostream* log);
@@ -97,7 +114,8 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
 nlohmann::json ReportToJson(const MockTrackerReport& report);
 
 /// The measurement batch (POST /v1/campaigns/{c}/measurements) of the cell measuring `configurations` (wire
-/// joints: deg / mm): the cell's shots per pose for calibration, one shot per pose for validation; request_id
+/// joints: deg / mm): the cell's shots per pose for calibration, one shot per pose for validation, none for a
+/// configuration its measurement cell finds unmeasurable (cell->unmeasured() counts them); request_id
 /// "mock-<seed>-<role>".
 api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
                                              api::MeasurementRole role, const MockTrackerOptions& options);

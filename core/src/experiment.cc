@@ -6,9 +6,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
+#include "robocal/core/cell.h"
 #include "robocal/core/compensation.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
@@ -29,12 +31,35 @@ std::uint64_t DeriveSeed(std::uint64_t seed, int trial, int purpose) {
 
 enum Purpose { kCell = 0, kRandomPlan = 1, kSolisWets = 2, kExchange = 3, kValidation = 4 };
 
+// A selection method: how it plans and what it minimises.
+enum class Planner { kSolisWets, kRandom, kExchange, kRandomIgnoringCell };
+struct Method {
+  const char* name;
+  Planner planner;
+  ObservabilityIndex objective;
+};
+// The paper's three first (the order of the report and of MethodResult without a cell), then the cell's.
+constexpr Method kMethods[] = {
+    {"solis_wets", Planner::kSolisWets, ObservabilityIndex::kConditionNumber},
+    {"random", Planner::kRandom, ObservabilityIndex::kConditionNumber},
+    {"exchange", Planner::kExchange, ObservabilityIndex::kConditionNumber},
+    {"random_ignoring_cell", Planner::kRandomIgnoringCell, ObservabilityIndex::kConditionNumber},
+    {"solis_wets_log_det", Planner::kSolisWets, ObservabilityIndex::kLogDet},
+    {"solis_wets_predicted_error", Planner::kSolisWets, ObservabilityIndex::kPredictedError},
+    {"exchange_log_det", Planner::kExchange, ObservabilityIndex::kLogDet},
+    {"exchange_predicted_error", Planner::kExchange, ObservabilityIndex::kPredictedError},
+};
+constexpr int kPaperMethods = 3;
+constexpr int kAllMethods = sizeof(kMethods) / sizeof(kMethods[0]);
+
 // Per-method pools over all trials.
 struct Pool {
   std::vector<Transform> reached, target;
   std::vector<double> condition_numbers;
   int failed_trials = 0;
   int unconverged_targets = 0;
+  int planned_poses = 0;
+  int unmeasured_poses = 0;
 };
 
 // One improvement (ImprovementPercent) as the table shows it: "n/a" where there is none (a zero baseline, e.g. a
@@ -81,6 +106,13 @@ bool ExperimentOptions::IsValid(std::string* error) const {
   if (!(h_mm > 0.0) || !std::isfinite(h_mm)) return fail("h_mm must be positive and finite");
   std::string sub;
   if (!cell.IsValid(&sub)) return fail("cell." + sub);
+  if (cell.measurement_cell) {
+    try {
+      Cell::Build(Preset(robot), *cell.measurement_cell);
+    } catch (const std::invalid_argument& e) {
+      return fail(std::string("cell.measurement_cell: ") + e.what());
+    }
+  }
   return true;
 }
 
@@ -107,8 +139,17 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   identification.noise = weights;
   identification.parameters = identifiable.identifiable;
 
-  const char* names[] = {"solis_wets", "random", "exchange"};
-  Pool pools[3];
+  // In a measurement cell the planners sample its joint ranges and keep only feasible configurations.
+  std::optional<Cell> measurement_cell;
+  if (options.cell.measurement_cell) measurement_cell = Cell::Build(nominal, *options.cell.measurement_cell);
+  const RobotModel planning = measurement_cell ? measurement_cell->PlanningModel(nominal) : nominal;
+  FeasibilityPredicate feasible;
+  if (measurement_cell) {
+    feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, *measurement_cell, q); };
+  }
+  const int num_methods = measurement_cell ? kAllMethods : kPaperMethods;
+
+  Pool pools[kAllMethods];
   std::vector<Transform> before_reached, before_target;
 
   for (int trial = 0; trial < options.trials; ++trial) {
@@ -117,24 +158,59 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
     VirtualCell cell(nominal, cell_options);
 
     // The paper's baseline is one random set; Solis & Wets starts from that same set, so the two differ only by
-    // the search.
+    // the search. Each objective's planner gets the same seed.
     RandomSelectionOptions random_options;
     random_options.seed = DeriveSeed(options.seed, trial, kRandomPlan);
-    const Plan random = PlanRandom(nominal, m, observability, random_options);
-    SolisWetsOptions solis_wets_options = SolisWetsOptions::Paper();
-    solis_wets_options.seed = DeriveSeed(options.seed, trial, kSolisWets);
-    const Plan solis_wets = PlanSolisWets(nominal, m, observability, solis_wets_options, random.configurations);
-    ExchangeOptions exchange_options;
-    exchange_options.seed = DeriveSeed(options.seed, trial, kExchange);
-    const Plan exchange = PlanExchange(nominal, m, observability, exchange_options);
-    const Plan* plans[3] = {&solis_wets, &random, &exchange};
+    random_options.feasible = feasible;
+    const Plan random = PlanRandom(planning, m, observability, random_options);
+    std::vector<Plan> plans;
+    for (int k = 0; k < num_methods; ++k) {
+      const Method& method = kMethods[k];
+      switch (method.planner) {
+        case Planner::kRandom:
+          plans.push_back(random);
+          break;
+        case Planner::kRandomIgnoringCell: {
+          RandomSelectionOptions ignoring = random_options;
+          ignoring.feasible = nullptr;
+          plans.push_back(PlanRandom(planning, m, observability, ignoring));
+          break;
+        }
+        case Planner::kSolisWets: {
+          SolisWetsOptions solis_wets_options = SolisWetsOptions::Paper();
+          solis_wets_options.seed = DeriveSeed(options.seed, trial, kSolisWets);
+          solis_wets_options.objective = method.objective;
+          solis_wets_options.feasible = feasible;
+          // A failed random plan has no set to start from: Solis & Wets then draws its own.
+          plans.push_back(PlanSolisWets(planning, m, observability, solis_wets_options, random.configurations));
+          break;
+        }
+        case Planner::kExchange: {
+          ExchangeOptions exchange_options;
+          exchange_options.seed = DeriveSeed(options.seed, trial, kExchange);
+          exchange_options.objective = method.objective;
+          exchange_options.feasible = feasible;
+          plans.push_back(PlanExchange(planning, m, observability, exchange_options));
+          break;
+        }
+      }
+    }
 
-    Calibration* calibrations[3] = {nullptr, nullptr, nullptr};
+    std::vector<const Calibration*> calibrations(num_methods, nullptr);
     std::vector<Calibration> storage;
-    storage.reserve(3);
-    for (int k = 0; k < 3; ++k) {
-      pools[k].condition_numbers.push_back(plans[k]->summary.final.condition_number);
-      storage.push_back(Identify(nominal, cell.MeasureAll(plans[k]->configurations), identification));
+    storage.reserve(num_methods);
+    for (int k = 0; k < num_methods; ++k) {
+      const Plan& plan = plans[k];
+      pools[k].planned_poses += m;
+      if (plan.summary.termination == Termination::kFailure) {
+        ++pools[k].failed_trials;
+        continue;
+      }
+      pools[k].condition_numbers.push_back(plan.summary.final.condition_number);
+      std::vector<int> lost;
+      const std::vector<Measurement> measurements = cell.MeasureAll(plan.configurations, 0, &lost);
+      pools[k].unmeasured_poses += static_cast<int>(lost.size());
+      storage.push_back(Identify(nominal, measurements, identification));
       if (storage.back().summary.termination == Termination::kFailure) {
         ++pools[k].failed_trials;
       } else {
@@ -150,11 +226,11 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
     const Transform T_world_true_base = cell.true_model().T_world_base() * ErrorTransform(cell.true_errors().data());
     Rng validation_rng(DeriveSeed(options.seed, trial, kValidation));
     for (int v = 0; v < options.num_validation; ++v) {
-      const Eigen::VectorXd q = RandomConfiguration(nominal, &validation_rng);
+      const Eigen::VectorXd q = RandomConfiguration(planning, &validation_rng);
       const Transform target = T_world_true_base * nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
       before_reached.push_back(cell.TruePose(q));
       before_target.push_back(target);
-      for (int k = 0; k < 3; ++k) {
+      for (int k = 0; k < num_methods; ++k) {
         if (calibrations[k] == nullptr) continue;
         const CompensationResult r = CompensatePose(*calibrations[k], target, TargetFrame::kTracker, q);
         // Not converged (a target beyond a singularity's fold, or a joint at its limit): the robot is still sent
@@ -171,9 +247,11 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   result.options = options;
   result.options.progress = nullptr;
   result.before = ComputeAccuracy(before_reached, before_target, options.h_mm);
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < num_methods; ++k) {
     MethodResult method;
-    method.method = names[k];
+    method.method = kMethods[k].name;
+    method.planned_poses = pools[k].planned_poses;
+    method.unmeasured_poses = pools[k].unmeasured_poses;
     method.median_condition_number = Median(pools[k].condition_numbers);
     method.failed_trials = pools[k].failed_trials;
     method.unconverged_targets = pools[k].unconverged_targets;
@@ -195,6 +273,15 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                 static_cast<unsigned long long>(o.seed), o.cell.noise.position_mm, o.cell.noise.orientation_rad,
                 o.cell.shots_per_pose, o.h_mm);
   out << line;
+  if (o.cell.measurement_cell) {
+    const TrackerSpec& tracker = o.cell.measurement_cell->tracker;
+    std::snprintf(line, sizeof(line),
+                  "in a measurement cell: tracker at (%.0f, %.0f, %.0f) mm, %zu obstacles; every planner but "
+                  "random_ignoring_cell plans in it\n\n",
+                  tracker.position_mm.x(), tracker.position_mm.y(), tracker.position_mm.z(),
+                  o.cell.measurement_cell->obstacles.size());
+    out << line;
+  }
   out << FormatAccuracyTable(result.before, "Before calibration, nominal commands") << "\n";
   const MethodResult* solis_wets = nullptr;
   const MethodResult* random = nullptr;
@@ -204,6 +291,11 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
     if (m.method == "random") random = &m;
     if (m.method == "exchange") exchange = &m;
     std::string title = "After calibration, " + m.method + " configurations";
+    if (o.cell.measurement_cell) {
+      std::snprintf(line, sizeof(line), "%s: %d of %d planned poses could not be measured\n", m.method.c_str(),
+                    m.unmeasured_poses, m.planned_poses);
+      out << line;
+    }
     if (m.after.e_xyz_mm.count == 0) {
       out << title << ": every identification failed\n\n";
       continue;

@@ -1,4 +1,5 @@
-// The virtual cell: hidden tracker placement and geometric errors drawn from a seed, and noisy tracker shots.
+// The virtual cell: hidden tracker placement and geometric errors drawn from a seed, and noisy tracker shots of
+// the configurations its measurement cell (if any) lets the tracker see.
 #include "robocal/core/virtual_cell.h"
 
 #include <cmath>
@@ -86,7 +87,12 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
   if (!options.IsValid(&error)) throw std::invalid_argument("VirtualCellOptions: " + error);
   // Draw order is fixed (placement, then errors site by site), so the hidden robot depends on the seed and
   // the magnitudes only, not on the noise settings: a noise-free and a noisy cell with one seed share it.
-  const Transform T_base_tracker = DrawTrackerInBase(options, &rng_);
+  Transform T_base_tracker = DrawTrackerInBase(options, &rng_);
+  if (options.measurement_cell) {
+    cell_ = Cell::Build(nominal, *options.measurement_cell);
+    // The placement is drawn in the nominal world frame (the base for the presets); the cell is in the base frame.
+    T_base_tracker.translation() = nominal.T_world_base() * cell_->spec().tracker.position_mm;
+  }
   RobotModelSpec spec = nominal.spec();
   // The nominal world frame is where the robot's program thinks the base stands; the tracker replaces it.
   spec.T_world_base = T_base_tracker.inverse() * nominal.T_world_base();
@@ -114,8 +120,20 @@ Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
   return ForwardKinematics(true_model_, q, true_errors_, &ws);
 }
 
+bool VirtualCell::Measurable(const Eigen::VectorXd& q) const {
+  if (!cell_) {
+    if (q.size() != nominal_.num_joints()) throw std::invalid_argument("VirtualCell: q has the wrong size");
+    return true;
+  }
+  return IsFeasible(nominal_, *cell_, q);
+}
+
 std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shots) {
   const Transform truth = TruePose(q);
+  if (!Measurable(q)) {
+    ++unmeasured_;
+    return {};
+  }
   const int count = shots > 0 ? shots : options_.shots_per_pose;
   std::vector<Measurement> out;
   out.reserve(count);
@@ -134,10 +152,15 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
   return out;
 }
 
-std::vector<Measurement> VirtualCell::MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots) {
+std::vector<Measurement> VirtualCell::MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots,
+                                                 std::vector<int>* lost) {
   std::vector<Measurement> out;
-  for (const Eigen::VectorXd& q : configurations) {
+  if (lost != nullptr) lost->clear();
+  for (size_t i = 0; i < configurations.size(); ++i) {
+    const Eigen::VectorXd& q = configurations[i];
+    const int before = unmeasured_;
     std::vector<Measurement> shots_at_q = Measure(q, shots);
+    if (lost != nullptr && unmeasured_ > before) lost->push_back(static_cast<int>(i));
     out.insert(out.end(), std::make_move_iterator(shots_at_q.begin()), std::make_move_iterator(shots_at_q.end()));
   }
   return out;

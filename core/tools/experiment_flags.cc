@@ -2,6 +2,9 @@
 #include "experiment_flags.h"
 
 #include <numbers>
+#include <stdexcept>
+
+#include "robocal/core/cell.h"
 
 #include "flags.h"
 
@@ -29,6 +32,11 @@ void Apply(const std::string& flag, const std::string& value, ExperimentOptions*
     options->cell.noise.position_mm = ParseDoubleFlag(flag, value, 0.0);
   } else if (flag == "--noise-deg") {
     options->cell.noise.orientation_rad = ParseDoubleFlag(flag, value, 0.0) * std::numbers::pi / 180.0;
+  } else if (flag == "--cell") {
+    // Resolved after every flag is read, when the robot is known.
+    if (value != "preset" && value != "none") throw BadFlag("--cell: '" + value + "' is not preset or none");
+    options->cell.measurement_cell.reset();
+    if (value == "preset") options->cell.measurement_cell = CellSpec{};
   } else if (flag == "--shots") {
     options->cell.shots_per_pose = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000));
   } else {
@@ -48,6 +56,9 @@ const char* const kExperimentFlagsHelp = R"(  --robot NAME           grinder5 (d
   --noise-mm SIGMA       tracker position noise per axis, 1-sigma, mm (default 0.015)
   --noise-deg SIGMA      tracker orientation noise per axis, 1-sigma, degrees (default 0.0057)
   --shots N              tracker shots per pose (default 10, the paper's)
+  --cell preset|none     measure in the robot's preset cell (docs/cells.md): plans in the cell, random poses
+                         that ignore it (and the poses the tracker loses), every planner with every objective
+                         (default none: the paper's three methods, everything measurable)
 )";
 
 std::string ParseExperimentFlags(const std::vector<std::string>& args, ExperimentOptions* options) {
@@ -62,6 +73,14 @@ std::string ApplyExperimentFlags(const std::vector<std::pair<std::string, std::s
                                  ExperimentOptions* options) {
   try {
     for (const auto& [flag, value] : flags) Apply(flag, value, options);
+    if (options->cell.measurement_cell) {
+      // --cell preset: the robot's preset cell (docs/cells.md), named by --robot wherever it stands.
+      try {
+        options->cell.measurement_cell = PresetCellSpec(options->robot);
+      } catch (const std::invalid_argument&) {
+        throw BadFlag("--cell preset: robot '" + options->robot + "' has no preset cell");
+      }
+    }
   } catch (const BadFlag& e) {
     return e.what();
   }

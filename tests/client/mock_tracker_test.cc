@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "robocal/api/calibration.h"
+#include "robocal/core/cell.h"
+#include "robocal/core/presets.h"
 #include "test_server.h"
 
 namespace robocal {
@@ -102,6 +104,62 @@ TEST_F(MockTrackerTest, TrialsArePooled) {
   const mock::MockTrackerReport alone = mock::RunMockTracker(client, second, nullptr);
   EXPECT_EQ(alone.trials[0].planned.plan.configurations, report.trials[1].planned.plan.configurations);
   EXPECT_DOUBLE_EQ(alone.planned.after.e_xyz_mm.mean, report.trials[1].planned.after.e_xyz_mm.mean);
+}
+
+// End to end over HTTP in the preset cell: the cell is created on the server, the plan is made in it, the mock
+// tracker measures every planned pose (none lost), the fit succeeds and calibration helps.
+TEST_F(MockTrackerTest, InThePresetCellEveryPlannedPoseIsMeasured) {
+  mock::MockTrackerOptions options;
+  options.robot = "ur5e";
+  options.cell = "preset";
+  options.compare_random = true;
+  options.shots_per_pose = 2;
+  options.num_validation = 12;
+  const mock::MockTrackerReport report = mock::RunMockTracker(client, options, nullptr);
+  ASSERT_EQ(report.trials.size(), 1u);
+  const Cell reference = Cell::Build(Preset("ur5e"), PresetCellSpec("ur5e"));
+  for (const mock::CampaignOutcome* o : {&report.trials[0].planned, &*report.trials[0].random}) {
+    EXPECT_EQ(o->plan.cell, std::optional<std::string>("preset-ur5e"));
+    EXPECT_EQ(o->unmeasured_poses, 0);
+    // Re-checked here against a cell built from the spec: every planned pose is feasible in it.
+    for (const auto& wire_q : o->plan.configurations) {
+      EXPECT_TRUE(IsFeasible(Preset("ur5e"), reference, api::JointsToCore(Preset("ur5e"), wire_q)));
+    }
+    EXPECT_EQ(o->calibration.summary.termination, Termination::kConvergence) << o->calibration.summary.brief;
+  }
+  EXPECT_TRUE(report.improved);
+  EXPECT_LT(report.planned.after.e_xyz_mm.mean, 0.5 * report.planned.before.e_xyz_mm.mean);
+  const std::string text = mock::FormatReport(report, options);
+  EXPECT_NE(text.find("measured in cell preset-ur5e"), std::string::npos) << text;
+  EXPECT_NE(text.find("0 of 10 planned poses could not be measured"), std::string::npos) << text;
+  EXPECT_EQ(mock::ReportToJson(report).at("trials")[0].at("planned").at("unmeasured_poses"), 0);
+
+  // A second run finds the preset cell on the server, and a cell named by id works the same way.
+  options.compare_random = false;
+  EXPECT_EQ(mock::ResolveCell(client, options)->id, "preset-ur5e");
+  options.cell = "preset-ur5e";
+  EXPECT_EQ(mock::RunMockTracker(client, options, nullptr).trials[0].planned.unmeasured_poses, 0);
+  // A cell of another robot is refused.
+  options.robot = "puma560";
+  EXPECT_THROW(mock::ResolveCell(client, options), std::invalid_argument);
+}
+
+// Without planning in the cell, the tracker loses the poses it cannot see: measured in the preset cell, a plan
+// made for the whole joint space loses most of them.
+TEST_F(MockTrackerTest, APlanThatIgnoresTheCellLosesPoses) {
+  mock::MockTrackerOptions options;
+  options.robot = "puma560";
+  api::PlanRequest request;
+  request.robot = "puma560";
+  request.num_configurations = 20;
+  request.optimiser = api::Optimiser::kRandom;
+  const api::PlanResult plan = client.CreatePlan(request);
+  options.cell = "preset";
+  VirtualCell cell = mock::MakeCell(options, mock::ResolveCell(client, options));
+  const api::MeasurementBatchRequest batch =
+      mock::MeasurementBatch(&cell, plan.configurations, api::MeasurementRole::kCalibration, options);
+  EXPECT_GT(cell.unmeasured(), 10);
+  EXPECT_EQ(static_cast<int>(batch.measurements.size()), options.shots_per_pose * (20 - cell.unmeasured()));
 }
 
 }  // namespace

@@ -9,7 +9,9 @@
 
 #include "robocal/core/cell.h"
 #include "robocal/core/geometry.h"
+#include "robocal/core/identifiability.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
 
@@ -550,6 +552,52 @@ TEST(CellBuildTest, RuleNames) {
   EXPECT_STREQ(ToString(CellRule::kIncidence), "incidence");
   EXPECT_STREQ(ToString(CellRule::kBeam), "beam");
 }
+
+// ---- Preset cells -------------------------------------------------------------------------------------
+
+// docs/cells.md's band: each preset cell leaves 3 % .. 7 % of its joint ranges feasible (the 30 degree
+// acceptance cone is 6.7 % of all directions, the ceiling for a reflector whose normal the joints spread evenly).
+class PresetCellTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PresetCellTest, LeavesADocumentedShareFeasible) {
+  const RobotModel model = Preset(GetParam());
+  const Cell cell = Cell::Build(model, PresetCellSpec(GetParam()));
+  const FeasibilityCensus census = SampleFeasibility(model, cell, 4000, 11);
+  const double share = static_cast<double>(census.feasible) / census.samples;
+  EXPECT_GE(share, 0.03) << GetParam();
+  EXPECT_LE(share, 0.07) << GetParam();
+  // The tracker is placed so that its distance window never rejects: the reach stays beyond 1.5 m.
+  EXPECT_EQ(census.rejected_by[static_cast<int>(CellRule::kDistance)].second, 0);
+  // Every obstacle and the default reflector are there.
+  EXPECT_EQ(cell.spec().obstacles.front().id, "floor");
+  ASSERT_EQ(cell.spec().reflectors.size(), 1u);
+  EXPECT_EQ(cell.spec().reflectors[0].id, "tool");
+}
+
+TEST_P(PresetCellTest, PlannersFindFeasiblePlans) {
+  const RobotModel nominal = Preset(GetParam());
+  const Cell cell = Cell::Build(nominal, PresetCellSpec(GetParam()));
+  const RobotModel model = cell.PlanningModel(nominal);
+  ObservabilityOptions o;
+  o.measurement_type = MeasurementType::kPose;
+  o.parameters = FindIdentifiableParameters(model, o.measurement_type).identifiable;
+  const FeasibilityPredicate feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, cell, q); };
+  SolisWetsOptions s = SolisWetsOptions::Paper();
+  s.feasible = feasible;
+  ExchangeOptions e;
+  e.num_candidates = 200;
+  e.feasible = feasible;
+  for (const Plan& plan : {PlanSolisWets(model, 10, o, s), PlanExchange(model, 10, o, e)}) {
+    EXPECT_NE(plan.summary.termination, Termination::kFailure) << plan.summary.message;
+    ASSERT_EQ(plan.configurations.size(), 10u);
+    // Re-checked with the full report rather than the predicate the planner used.
+    for (const Eigen::VectorXd& q : plan.configurations) EXPECT_TRUE(CheckConfiguration(nominal, cell, q).feasible);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Presets, PresetCellTest, ::testing::Values("grinder5", "puma560", "ur5e"));
+
+TEST(PresetCellSpecTest, UnknownRobotThrows) { EXPECT_THROW(PresetCellSpec("nope"), std::invalid_argument); }
 
 }  // namespace
 }  // namespace robocal

@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "robocal/core/cell.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 
@@ -201,6 +202,88 @@ TEST(VirtualCellTest, InvalidOptionsAreRejectedByName) {
   o = {};
   o.joint_rotation_sigma_rad = 0.5;
   expect_rejected(o, "joint_rotation_sigma_rad");
+}
+
+// ---- With a measurement cell ----------------------------------------------------------------------------
+
+VirtualCellOptions InPresetCell(const std::string& robot, std::uint64_t seed) {
+  VirtualCellOptions o;
+  o.seed = seed;
+  o.measurement_cell = PresetCellSpec(robot);
+  return o;
+}
+
+TEST(VirtualCellInACellTest, MeasuresOnlyFeasibleConfigurationsAndCountsTheOthers) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCell cell(model, InPresetCell("ur5e", 3));
+  ASSERT_NE(cell.measurement_cell(), nullptr);
+  // An independent cell built from the same spec decides.
+  const Cell reference = Cell::Build(model, PresetCellSpec("ur5e"));
+  const RobotModel planning = reference.PlanningModel(model);
+  int feasible = 0;
+  for (std::uint64_t seed = 1; seed <= 300; ++seed) {
+    const Eigen::VectorXd q = Config(planning, seed);
+    const bool expected = CheckConfiguration(model, reference, q).feasible;
+    EXPECT_EQ(cell.Measurable(q), expected) << seed;
+    EXPECT_EQ(cell.Measure(q, 2).size(), expected ? 2u : 0u) << seed;
+    feasible += expected;
+  }
+  EXPECT_GT(feasible, 0);  // both outcomes seen
+  EXPECT_EQ(cell.unmeasured(), 300 - feasible);
+}
+
+TEST(VirtualCellInACellTest, MeasureAllReportsTheLostConfigurations) {
+  const RobotModel model = Preset("puma560");
+  VirtualCell cell(model, InPresetCell("puma560", 5));
+  const Cell reference = Cell::Build(model, PresetCellSpec("puma560"));
+  std::vector<Eigen::VectorXd> configurations;
+  std::vector<int> expected_lost;
+  Rng rng(17);
+  for (int i = 0; i < 60; ++i) {
+    configurations.push_back(RandomConfiguration(model, &rng));
+    if (!IsFeasible(model, reference, configurations.back())) expected_lost.push_back(i);
+  }
+  ASSERT_FALSE(expected_lost.empty());
+  ASSERT_LT(expected_lost.size(), configurations.size());
+  std::vector<int> lost = {99};  // replaced, not appended to
+  const std::vector<Measurement> shots = cell.MeasureAll(configurations, 3, &lost);
+  EXPECT_EQ(lost, expected_lost);
+  EXPECT_EQ(shots.size(), 3 * (configurations.size() - lost.size()));
+  EXPECT_EQ(cell.unmeasured(), static_cast<int>(lost.size()));
+  // Shots come in order, only of the measurable configurations.
+  size_t next = 0;
+  for (size_t i = 0, k = 0; i < configurations.size(); ++i) {
+    if (k < lost.size() && lost[k] == static_cast<int>(i)) {
+      ++k;
+      continue;
+    }
+    EXPECT_EQ(shots[next].joints, configurations[i]);
+    next += 3;
+  }
+}
+
+TEST(VirtualCellInACellTest, TheTrackerStandsWhereTheCellSaysAndTheHiddenRobotIsKept) {
+  const RobotModel model = Preset("grinder5");
+  VirtualCellOptions no_cell = InPresetCell("grinder5", 9);
+  no_cell.measurement_cell.reset();
+  const VirtualCell in_cell(model, InPresetCell("grinder5", 9)), anywhere(model, no_cell);
+  EXPECT_EQ(in_cell.true_errors(), anywhere.true_errors());
+  // The tracker's origin, seen from the base, is the cell's tracker position; its orientation is the drawn one.
+  const Transform T_base_tracker = in_cell.true_model().T_world_base().inverse();
+  EXPECT_TRUE(T_base_tracker.translation().isApprox(PresetCellSpec("grinder5").tracker.position_mm, 1e-12));
+  EXPECT_TRUE(T_base_tracker.linear().isApprox(anywhere.true_model().T_world_base().inverse().linear(), 1e-12));
+  // Without a cell everything is measured.
+  EXPECT_EQ(anywhere.measurement_cell(), nullptr);
+  VirtualCell counting(model, no_cell);
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) EXPECT_TRUE(counting.Measurable(Config(model, seed)));
+  EXPECT_EQ(counting.MeasureAll({Config(model, 1), Config(model, 2)}, 1).size(), 2u);
+  EXPECT_EQ(counting.unmeasured(), 0);
+}
+
+TEST(VirtualCellInACellTest, AnInvalidCellIsRejected) {
+  VirtualCellOptions o = InPresetCell("ur5e", 1);
+  o.measurement_cell->clearance_mm = -1.0;
+  EXPECT_THROW(VirtualCell(Preset("ur5e"), o), std::invalid_argument);
 }
 
 }  // namespace

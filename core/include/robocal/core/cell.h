@@ -179,4 +179,11 @@ struct FeasibilityCensus {
 };
 FeasibilityCensus SampleFeasibility(const RobotModel& model, const Cell& cell, int samples, std::uint64_t seed);
 
+/// The preset cell of a robot preset (docs/cells.md, "Preset cells"): a laser tracker a few metres away at a
+/// tripod's height with a 1.5 .. 15 m window, the floor and a table as boxes, the default reflector (at the
+/// tool point, facing along the tool's z axis, +-30 degrees), the default link radii, a 20 mm clearance and
+/// the robot's full joint ranges. Build it with the preset's model. Throws std::invalid_argument when `robot`
+/// is not a preset.
+CellSpec PresetCellSpec(const std::string& robot);
+
 }  // namespace robocal

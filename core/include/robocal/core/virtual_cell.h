@@ -1,13 +1,16 @@
 // The virtual cell: a simulated "true" robot with hidden geometric errors and a laser tracker measuring it.
-// Used by the tests, the experiment command and the mock-tracker client.
+// Used by the tests, the experiment command and the mock-tracker client. Given a measurement cell, it measures
+// only the configurations whose reflector the tracker can see, as a real tracker does (no beam, no point).
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "robocal/core/cell.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/measurement.h"
 #include "robocal/core/random.h"
@@ -36,6 +39,14 @@ struct VirtualCellOptions {
   MeasurementNoise noise{0.015, 1e-4};
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
+  /// The measurement cell (cell.h, in the robot's base frame), e.g. PresetCellSpec(robot); unset: every
+  /// configuration is measured and the tracker stands as drawn above. Set: the tracker's origin stands at the
+  /// cell's tracker position instead (tracker_distance_mm is unused; bearing, yaw and tilt are drawn as before,
+  /// so the hidden errors of a seed are those of the cell-less virtual cell), and a configuration is measured
+  /// only when the cell finds it feasible (IsFeasible with the NOMINAL model: the geometry the planner saw; the
+  /// hidden errors move the reflector by tenths of a mm, far below the clearances and angles that decide).
+  /// The constructor builds it and throws std::invalid_argument (InvalidModelError) if it is invalid.
+  std::optional<CellSpec> measurement_cell;
 
   bool IsValid(std::string* error) const;
 };
@@ -59,12 +70,24 @@ class VirtualCell {
   /// the wrong size or with a non-finite value (Measure too).
   Transform TruePose(const Eigen::VectorXd& q) const;
 
-  /// `shots` noisy tracker shots of the tool at joints q (shots <= 0 means options.shots_per_pose).
-  /// Noise is drawn from the cell's own generator, so a sequence of calls is reproducible from the seed.
+  /// The built measurement cell, or nullptr when options.measurement_cell is unset.
+  const Cell* measurement_cell() const { return cell_ ? &*cell_ : nullptr; }
+  /// Whether the tracker can measure the tool at joints q: always without a measurement cell, else
+  /// IsFeasible(nominal, cell, q). Throws std::invalid_argument for a q of the wrong size.
+  bool Measurable(const Eigen::VectorXd& q) const;
+
+  /// `shots` noisy tracker shots of the tool at joints q (shots <= 0 means options.shots_per_pose); none, and
+  /// unmeasured() counts one more, when q is not Measurable. Noise is drawn from the cell's own generator, so a
+  /// sequence of calls is reproducible from the seed (an unmeasured configuration draws nothing).
   std::vector<Measurement> Measure(const Eigen::VectorXd& q, int shots = 0);
 
-  /// Measure() for every configuration, concatenated in order.
-  std::vector<Measurement> MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots = 0);
+  /// Measure() for every configuration, concatenated in order. If `lost` is given, it receives the indices of
+  /// the configurations that were not measurable (in order; empty when all were).
+  std::vector<Measurement> MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots = 0,
+                                      std::vector<int>* lost = nullptr);
+
+  /// Configurations Measure() was asked for and could not measure, since construction.
+  int unmeasured() const { return unmeasured_; }
 
  private:
   RobotModel nominal_;
@@ -72,6 +95,8 @@ class VirtualCell {
   Eigen::VectorXd true_errors_;
   VirtualCellOptions options_;
   Rng rng_;
+  std::optional<Cell> cell_;
+  int unmeasured_ = 0;
 };
 
 }  // namespace robocal
