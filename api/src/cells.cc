@@ -163,6 +163,28 @@ Cell ToCell(const CellWire& w, const RobotModel& model) {
   }
 }
 
+namespace {
+
+std::vector<ReflectorWire> ReflectorsOf(const CellSpec& spec) {
+  std::vector<ReflectorWire> out;
+  for (const ReflectorSpec& r : spec.reflectors) {
+    out.push_back({r.id, Arr(r.position_mm), Arr(r.normal), r.acceptance_half_angle_rad * kDegPerRad});
+  }
+  return out;
+}
+
+// The spec's joint ranges in wire units; the robot's limits where the spec narrows none.
+std::vector<JointRangeWire> JointRangesOf(const CellSpec& spec, const RobotModel& model) {
+  const bool narrowed = spec.joint_min.size() == model.num_joints();
+  const std::vector<double> lo = JointsToWire(model, narrowed ? spec.joint_min : model.lower_limits());
+  const std::vector<double> hi = JointsToWire(model, narrowed ? spec.joint_max : model.upper_limits());
+  std::vector<JointRangeWire> out;
+  for (int i = 0; i < model.num_joints(); ++i) out.push_back({lo[i], hi[i]});
+  return out;
+}
+
+}  // namespace
+
 CellWire CellResource(const CellWire& request, const Cell& cell, const RobotModel& model) {
   const CellSpec& spec = cell.spec();
   CellWire w = request;
@@ -172,16 +194,27 @@ CellWire CellResource(const CellWire& request, const Cell& cell, const RobotMode
     const Transform& tool = model.spec().T_flange_tool;
     w.reflectors.push_back({"tool", Arr(tool.translation()), Arr(tool.linear().col(2)), 30.0});
   }
-  for (const ReflectorSpec& r : spec.reflectors) {
-    w.reflectors.push_back({r.id, Arr(r.position_mm), Arr(r.normal), r.acceptance_half_angle_rad * kDegPerRad});
-  }
+  for (const ReflectorWire& r : ReflectorsOf(spec)) w.reflectors.push_back(r);
   w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
   w.tool_radius_mm = spec.tool_radius_mm > 0.0 ? spec.tool_radius_mm : w.link_radii_mm.back();
-  w.joint_ranges.clear();
-  const Eigen::VectorXd lo = spec.joint_min.size() == model.num_joints() ? spec.joint_min : model.lower_limits();
-  const Eigen::VectorXd hi = spec.joint_max.size() == model.num_joints() ? spec.joint_max : model.upper_limits();
-  const std::vector<double> lo_wire = JointsToWire(model, lo), hi_wire = JointsToWire(model, hi);
-  for (int i = 0; i < model.num_joints(); ++i) w.joint_ranges.push_back({lo_wire[i], hi_wire[i]});
+  w.joint_ranges = JointRangesOf(spec, model);
+  return w;
+}
+
+CellWire CellRequestOf(const std::string& id, const std::string& robot, const CellSpec& spec,
+                       const RobotModel& model) {
+  CellWire w;
+  w.id = id;
+  w.robot = robot;
+  w.tracker.position_mm = Arr(spec.tracker.position_mm);
+  w.tracker.min_distance_mm = spec.tracker.min_distance_mm;
+  if (std::isfinite(spec.tracker.max_distance_mm)) w.tracker.max_distance_mm = spec.tracker.max_distance_mm;
+  w.reflectors = ReflectorsOf(spec);
+  for (const BoxObstacle& box : spec.obstacles) w.obstacles.push_back({box.id, Arr(box.min_mm), Arr(box.max_mm)});
+  w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
+  if (spec.tool_radius_mm > 0.0) w.tool_radius_mm = spec.tool_radius_mm;
+  w.clearance_mm = spec.clearance_mm;
+  w.joint_ranges = JointRangesOf(spec, model);
   return w;
 }
 
@@ -209,9 +242,10 @@ void to_json(nlohmann::json& j, const CellWire& c) {
        {"tracker", std::move(tracker)},
        {"reflectors", std::move(reflectors)},
        {"obstacles", std::move(obstacles)},
-       {"link_radii_mm", c.link_radii_mm},
-       {"clearance_mm", c.clearance_mm},
-       {"joint_ranges", std::move(ranges)}};
+       {"clearance_mm", c.clearance_mm}};
+  // A request may leave the radii and ranges to the server (empty here); a resource always has them.
+  if (!c.link_radii_mm.empty()) j["link_radii_mm"] = c.link_radii_mm;
+  if (!c.joint_ranges.empty()) j["joint_ranges"] = std::move(ranges);
   if (c.tool_radius_mm) j["tool_radius_mm"] = *c.tool_radius_mm;
 }
 

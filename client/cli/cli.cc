@@ -119,16 +119,14 @@ Invocation Resolve(const tools::CommandLine& line, std::ostream& out, std::ostre
                      (line.positional.size() > 1 ? line.positional[1] : "") + " (" + line.positional[0] +
                      " commands: " + family + ")");
   }
-  const std::size_t words = Words(command->name).size();
-  if (line.positional.size() != words + command->arguments.size()) {
-    throw UsageError("expected: " + Usage(*command).substr(std::string("Usage: ").size()));
-  }
-  Invocation in{*command, {line.positional.begin() + static_cast<long>(words), line.positional.end()}, {}, {},
-                false, nullptr, out, err};
+  // Options first: an option the command does not take has taken the next argument as its value, so the
+  // argument count would be wrong too, and the option is what to name.
+  std::vector<std::pair<std::string, std::string>> own_flags;
+  std::map<std::string, std::string> options;
   for (const auto& [flag, value] : line.flags) {
     if (IsGlobal(flag)) continue;
     if (command->local) {
-      in.own_flags.emplace_back(flag, value);
+      own_flags.emplace_back(flag, value);
       continue;
     }
     bool allowed = false;
@@ -142,8 +140,16 @@ Invocation Resolve(const tools::CommandLine& line, std::ostream& out, std::ostre
       throw UsageError(command->name + " does not take the option " + flag +
                        (names.empty() ? " (it takes only the global options)" : " (its options: " + names + ")"));
     }
-    in.options[flag] = value;
+    options[flag] = value;
   }
+  const std::size_t words = Words(command->name).size();
+  if (line.positional.size() != words + command->arguments.size()) {
+    throw UsageError("expected: " + Usage(*command).substr(std::string("Usage: ").size()));
+  }
+  Invocation in{*command, {line.positional.begin() + static_cast<long>(words), line.positional.end()}, {}, {},
+                false, nullptr, out, err};
+  in.own_flags = std::move(own_flags);
+  in.options = std::move(options);
   return in;
 }
 

@@ -175,33 +175,6 @@ std::vector<Eigen::VectorXd> ValidationConfigurations(const VirtualCell& cell, c
   return out;
 }
 
-// The wire request of a core cell spec (the inverse of api::ToCell for what a spec sets): the tracker, the
-// obstacles, the clearance, the joint ranges and the link radii (the wire writes them, so their defaults
-// are written out); reflectors and the tool radius stay the server's defaults when the spec leaves them so.
-api::CellWire CellRequest(const std::string& id, const std::string& robot, const CellSpec& spec,
-                          const RobotModel& model) {
-  const auto arr = [](const Eigen::Vector3d& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };
-  api::CellWire w;
-  w.id = id;
-  w.robot = robot;
-  w.description = "the preset cell of " + robot + " (docs/cells.md)";
-  w.tracker.position_mm = arr(spec.tracker.position_mm);
-  w.tracker.min_distance_mm = spec.tracker.min_distance_mm;
-  if (std::isfinite(spec.tracker.max_distance_mm)) w.tracker.max_distance_mm = spec.tracker.max_distance_mm;
-  for (const ReflectorSpec& r : spec.reflectors) {
-    w.reflectors.push_back({r.id, arr(r.position_mm), arr(r.normal), r.acceptance_half_angle_rad * api::kDegPerRad});
-  }
-  for (const BoxObstacle& box : spec.obstacles) w.obstacles.push_back({box.id, arr(box.min_mm), arr(box.max_mm)});
-  w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
-  if (spec.tool_radius_mm > 0.0) w.tool_radius_mm = spec.tool_radius_mm;
-  w.clearance_mm = spec.clearance_mm;
-  const bool ranges = spec.joint_min.size() == model.num_joints();
-  const std::vector<double> lo = api::JointsToWire(model, ranges ? spec.joint_min : model.lower_limits());
-  const std::vector<double> hi = api::JointsToWire(model, ranges ? spec.joint_max : model.upper_limits());
-  for (int i = 0; i < model.num_joints(); ++i) w.joint_ranges.push_back({lo[i], hi[i]});
-  return w;
-}
-
 std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTrackerOptions& options) {
   if (options.cell.empty()) return std::nullopt;
   const RobotModel model = Preset(options.robot);
@@ -209,7 +182,9 @@ std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTracke
   if (options.cell == "preset") {
     const std::string id = "preset-" + options.robot;
     try {
-      wire = client.CreateCell(CellRequest(id, options.robot, PresetCellSpec(options.robot), model));
+      api::CellWire request = api::CellRequestOf(id, options.robot, PresetCellSpec(options.robot), model);
+      request.description = "the preset cell of " + options.robot + " (docs/cells.md)";
+      wire = client.CreateCell(request);
     } catch (const client::ServiceError& e) {
       if (e.status() != api::Status::kAlreadyExists) throw;
       wire = client.GetCell(id);  // made by an earlier run

@@ -87,7 +87,11 @@ class Metrics {
 
 
 const std::string& OpenApiSpec() {
-  static const std::string spec(kOpenApiJson);
+  static const std::string spec = [] {
+    std::string text;
+    for (const char* part : kOpenApiJsonParts) text += part;
+    return text;
+  }();
   return spec;
 }
 

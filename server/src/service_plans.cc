@@ -59,31 +59,26 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   // budget, so that no plan can count past it.
   const int evaluation_limit =
       static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
+  // What every optimiser shares: the request's progress and stop, the cell, and the evaluation budget.
+  const auto common = [&](auto options) {
+    if constexpr (requires { options.max_evaluations; }) {
+      if (options.max_evaluations == 0) options.max_evaluations = evaluation_limit;
+    }
+    options.progress = control.Callback();
+    options.feasible = feasible;
+    return options;
+  };
   Plan plan;
   switch (req.optimiser) {
-    case api::Optimiser::kRandom: {
-      RandomSelectionOptions o = api::ToRandomSelectionOptions(req);
-      o.progress = control.Callback();
-      o.feasible = feasible;
-      plan = PlanRandom(model, req.num_configurations, obs, o);
+    case api::Optimiser::kRandom:
+      plan = PlanRandom(model, req.num_configurations, obs, common(api::ToRandomSelectionOptions(req)));
       break;
-    }
-    case api::Optimiser::kExchange: {
-      ExchangeOptions o = api::ToExchangeOptions(req);
-      if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
-      o.progress = control.Callback();
-      o.feasible = feasible;
-      plan = PlanExchange(model, req.num_configurations, obs, o);
+    case api::Optimiser::kExchange:
+      plan = PlanExchange(model, req.num_configurations, obs, common(api::ToExchangeOptions(req)));
       break;
-    }
-    case api::Optimiser::kSolisWets: {
-      SolisWetsOptions o = api::ToSolisWetsOptions(req);
-      if (o.max_evaluations == 0) o.max_evaluations = evaluation_limit;
-      o.progress = control.Callback();
-      o.feasible = feasible;
-      plan = PlanSolisWets(model, req.num_configurations, obs, o);
+    case api::Optimiser::kSolisWets:
+      plan = PlanSolisWets(model, req.num_configurations, obs, common(api::ToSolisWetsOptions(req)));
       break;
-    }
   }
 
   if (cell && plan.summary.termination == Termination::kFailure) {

@@ -80,7 +80,7 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, HelpOnEveryLevel) {
   for (const char* command : {"", "robots", "plan", "robot", "campaign", "upload", "measurements", "fit", "compensate",
-                              "evaluate", "operation", "experiment"}) {
+                              "evaluate", "operation", "experiment", "cell"}) {
     const Result r = RunCli(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("Usage: robocal " + std::string(command)), std::string::npos) << command;
@@ -88,15 +88,17 @@ TEST_F(CliTest, HelpOnEveryLevel) {
   const std::string main_help = RunCli("--help").out;
   EXPECT_NE(main_help.find("Exit codes"), std::string::npos);
   for (const char* mention :
-       {"plan get", "robot forward", "campaign forward", "measurements", "experiment", "--ca-cert", "--insecure"}) {
+       {"plan get", "robot forward", "campaign forward", "measurements", "experiment", "cell create", "cell check",
+        "--ca-cert", "--insecure"}) {
     EXPECT_NE(main_help.find(mention), std::string::npos) << mention;
   }
   // robocal experiment takes robocal-experiment's flags, listed in its help.
   const std::string experiment_help = RunCli("experiment --help").out;
   for (const char* flag : {"--robot", "--type", "--configurations", "--trials", "--validation", "--h-mm", "--seed",
-                           "--noise-mm", "--noise-deg", "--shots"}) {
+                           "--noise-mm", "--noise-deg", "--shots", "--cell"}) {
     EXPECT_NE(experiment_help.find(flag), std::string::npos) << flag;
   }
+  EXPECT_NE(RunCli("plan --help").out.find("--cell"), std::string::npos);
 }
 
 TEST_F(CliTest, ExitCodes) {
@@ -366,6 +368,11 @@ TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
   EXPECT_NE(fit.err.find("fit does not take the option --out (its options: --parameters"), std::string::npos)
       << fit.err;
   EXPECT_EQ(RunInProcess({"--server", url, "plan", "get", "p1", "--count", "3"}).exit_code, 2);
+  // An option the command does not take, written as a switch before an argument, takes that argument as its
+  // value: the option is named, not the argument count.
+  const InProcess swallowed = RunInProcess({"--server", url, "cell", "get", "--verbose", "bench"});
+  EXPECT_EQ(swallowed.exit_code, 2);
+  EXPECT_NE(swallowed.err.find("cell get does not take the option --verbose"), std::string::npos) << swallowed.err;
   // The global options stay valid everywhere, before or after the command.
   EXPECT_EQ(RunInProcess({"robots", "--json", "--server", url}).exit_code, 0);
   EXPECT_EQ(RunInProcess({"--json", "--server=" + url, "campaign", "list"}).exit_code, 0);

@@ -98,6 +98,11 @@ TEST(ServerTest, HealthzAndSpecAndUnknownEndpoint) {
   const Reply spec = s.Get("/v1/openapi.json");
   EXPECT_EQ(spec.status, 200);
   EXPECT_TRUE(spec.body.contains("openapi"));
+  // Served exactly as api/openapi.json (embedded in parts at build time and joined).
+  std::ifstream file(ROBOCAL_SOURCE_DIR "/api/openapi.json", std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  ASSERT_GT(text.size(), 65536u);
+  EXPECT_EQ(spec.text, text);
   const Reply missing = s.Get("/v1/nothing");
   EXPECT_EQ(missing.status, 404);
   EXPECT_EQ(missing.body["error"]["status"], "NOT_FOUND");

@@ -9,7 +9,10 @@
 #include <gtest/gtest.h>
 
 #include "robocal/api/health.h"
+#include "robocal/api/cells.h"
 #include "robocal/api/stored.h"
+#include "robocal/core/cell.h"
+#include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 #include "robocal/server/service.h"
@@ -267,6 +270,38 @@ TEST_F(WireTest, CellsRoundTripAndRequireEveryField) {
   ASSERT_EQ(check.results.size(), 2u);
   ExpectRoundTrip(check);
   ExpectEveryFieldRequired(check, {"results[0].reflectors[0].blocked_by"});
+}
+
+// The request a client writes for a core cell spec (the mock tracker's preset cells) is accepted by the server
+// and builds the same cell: every feasibility verdict agrees with the core cell over sampled configurations.
+TEST_F(WireTest, PresetCellRequestsBuildThePresetCells) {
+  for (const std::string robot : {"grinder5", "puma560", "ur5e"}) {
+    const RobotModel model = Preset(robot);
+    const CellSpec spec = PresetCellSpec(robot);
+    const CellWire request = CellRequestOf("preset-" + robot, robot, spec, model);
+    const CellWire created = service_->CreateCell(json(request));
+    EXPECT_EQ(created.obstacles.size(), spec.obstacles.size()) << robot;
+    const Cell core = Cell::Build(model, spec);
+    const Cell back = ToCell(created, model);
+    Rng rng(11);
+    int feasible = 0;
+    for (const Eigen::VectorXd& q : RandomConfigurations(model, 400, &rng)) {
+      const bool expected = IsFeasible(model, core, q);
+      EXPECT_EQ(IsFeasible(model, back, q), expected) << robot;
+      feasible += expected ? 1 : 0;
+    }
+    EXPECT_GT(feasible, 0) << robot << ": the comparison saw no feasible configuration";
+  }
+  // A request that leaves radii, ranges and reflectors to the server is written without them (an empty list
+  // would be refused for its size) and gets the defaults.
+  CellWire minimal;
+  minimal.id = "minimal";
+  minimal.robot = "ur5e";
+  minimal.tracker.position_mm = {2500, -800, 300};
+  const CellWire created = service_->CreateCell(json(minimal));
+  EXPECT_EQ(created.link_radii_mm, DefaultLinkRadii(Preset("ur5e")));
+  EXPECT_EQ(created.joint_ranges.size(), 6u);
+  EXPECT_EQ(created.reflectors.size(), 1u);
 }
 
 // A cell is made for its robot as registered then: a plan in it for a robot re-registered since is refused

@@ -71,6 +71,11 @@ void from_json(const nlohmann::json& j, CellWire& cell);
 Cell ToCell(const CellWire& cell, const RobotModel& model);
 /// The resource of a validated cell: every default the core filled in written out.
 CellWire CellResource(const CellWire& request, const Cell& cell, const RobotModel& model);
+/// The request that creates the cell of a core spec (the inverse of ToCell for what a spec sets): tracker,
+/// obstacles, clearance, joint ranges and link radii written out (defaults included); reflectors and the tool
+/// radius left to the server's defaults where the spec leaves them so. No description.
+CellWire CellRequestOf(const std::string& id, const std::string& robot, const CellSpec& spec,
+                       const RobotModel& model);
 
 /// GET /v1/cells: cells in id order; next_page_token when there are more.
 struct CellList {
