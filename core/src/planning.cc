@@ -383,11 +383,13 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     start_feasible = [&](const Eigen::VectorXd& q) { return options.feasible(normaliser.RoundTrip(q)); };
   }
 
-  // A candidate set with an infeasible configuration is not evaluated and ranks as +inf: a failed step. Starting
-  // sets are feasible by construction and need no check.
+  // kWholeSet: a candidate set with an infeasible configuration is not evaluated and ranks as +inf, a failed
+  // step. Starting sets and candidates restricted by HoldInfeasible are feasible by construction and need no
+  // check.
+  const bool whole_set = options.cell_step == SolisWetsOptions::CellStep::kWholeSet;
   auto evaluate = [&](const Eigen::VectorXd& z, bool check) {
     const std::vector<Eigen::VectorXd> configurations = normaliser.FromZ(z);
-    if (check && options.feasible) {
+    if (check && options.feasible && whole_set) {
       for (const Eigen::VectorXd& q : configurations) {
         if (!options.feasible(q)) {
           ++s.infeasible_candidates;
@@ -398,6 +400,29 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
     evaluator.SetConfigurations(configurations);
     ++s.evaluations;
     return Finite(ObjectiveValue(evaluator.indices(), options.objective));
+  };
+  // kFeasibleConfigurations: the candidate `to` with every configuration whose move from `from` (a feasible
+  // set) would be infeasible held at its place in `from`. Sets *moved to whether any configuration moved.
+  const int n = model.num_joints();
+  auto hold_infeasible = [&](const Eigen::VectorXd& from, Eigen::VectorXd to, bool* moved) {
+    const std::vector<Eigen::VectorXd> configurations = normaliser.FromZ(to);
+    bool held = false;
+    *moved = false;
+    for (size_t m = 0; m < configurations.size(); ++m) {
+      if (options.feasible(configurations[m])) {
+        *moved = *moved || to.segment(m * n, n) != from.segment(m * n, n);
+      } else {
+        to.segment(m * n, n) = from.segment(m * n, n);
+        held = true;
+      }
+    }
+    if (held) ++s.infeasible_candidates;
+    return to;
+  };
+  const bool hold = options.feasible && !whole_set;
+  // A step's objective: +inf (a failed step, no evaluation) when holding back left nothing to move.
+  auto evaluate_step = [&](const Eigen::VectorXd& z, bool moved) {
+    return hold && !moved ? std::numeric_limits<double>::infinity() : evaluate(z, true);
   };
   auto budget_left = [&] { return options.max_evaluations == 0 || s.evaluations < options.max_evaluations; };
 
@@ -456,10 +481,12 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
       // (2) Gaussian step d ~ N(mu, sigma^2 I), in sigma units; one unit is step_fraction of a joint range.
       Eigen::VectorXd d(x.size());
       for (Eigen::Index i = 0; i < d.size(); ++i) d[i] = mu[i] + sigma * rng.Normal();
-      const Eigen::VectorXd xi = Project(x + options.step_fraction * d, options.limits);
+      bool moved = true;
+      Eigen::VectorXd xi = Project(x + options.step_fraction * d, options.limits);
+      if (hold) xi = hold_infeasible(x, xi, &moved);
       const Eigen::VectorXd d_taken = (xi - x) / options.step_fraction;
       // (3) forward step, then the reversed step.
-      const double f_xi = evaluate(xi, true);
+      const double f_xi = evaluate_step(xi, moved);
       if (f_xi < fx) {
         x = xi;
         fx = f_xi;
@@ -468,8 +495,11 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
         ++scent;
         fcent = 0;
       } else {
-        const Eigen::VectorXd reverse = Project(2.0 * x - xi, options.limits);
-        const double f_reverse = budget_left() ? evaluate(reverse, true) : std::numeric_limits<double>::infinity();
+        Eigen::VectorXd reverse = Project(2.0 * x - xi, options.limits);
+        bool reverse_moved = true;
+        if (hold) reverse = hold_infeasible(x, reverse, &reverse_moved);
+        const double f_reverse =
+            budget_left() ? evaluate_step(reverse, reverse_moved) : std::numeric_limits<double>::infinity();
         if (f_reverse < fx) {
           mu = mu - 0.4 * d_taken;
           x = reverse;

@@ -98,13 +98,20 @@ struct SolisWetsOptions {
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
   std::uint64_t seed = 1;
   PlanProgressCallback progress;
-  /// Feasibility in a cell (empty: everything). Starting sets are drawn from feasible configurations; a candidate
-  /// set (forward or reversed step) with an infeasible configuration is not evaluated and counts as a failed
-  /// step, as if its objective were +inf. So an infeasible forward step is followed by the reversed step, and
-  /// when that fails too the iteration is a failure: mu halves, fcent counts it and scent restarts, so that
-  /// infeasibility contracts sigma (shorter steps near the feasible region's boundary) and never expands it.
-  /// A given initial set must be feasible.
+  /// Feasibility in a cell (empty: everything). Starting sets are drawn from feasible configurations; a given
+  /// initial set must be feasible. What a step does with configurations it would make infeasible: `cell_step`.
   FeasibilityPredicate feasible;
+  /// How a step (forward or reversed) treats a candidate set in which some configurations are infeasible.
+  /// kFeasibleConfigurations (the default): the configurations whose move stays feasible move, the others stay
+  /// where they are; a candidate in which none moves is a failed step without an evaluation. kWholeSet: the
+  /// candidate is not evaluated and counts as a failed step, as if its objective were +inf. In both, a failed
+  /// forward step is followed by the reversed step, and when that fails too the iteration is a failure (mu
+  /// halves, fcent counts it, scent restarts), so infeasibility contracts sigma and never expands it. In a cell
+  /// that leaves a share p of the joint space feasible, a whole-set step of M configurations survives with
+  /// probability about p^M: with M = 10 and p of a few percent, never (docs/planning.md, "Solis & Wets in a
+  /// cell").
+  enum class CellStep { kFeasibleConfigurations, kWholeSet };
+  CellStep cell_step = CellStep::kFeasibleConfigurations;
   /// Rejection sampling stops, and the plan fails (FAILURE, no configurations), after this many draws per
   /// configuration the plan draws: (restarts + 1) x M starting configurations (M fewer with a given initial set),
   /// plus num_validation for predicted_error.
@@ -186,7 +193,8 @@ struct PlanSummary {
   /// out.
   std::int64_t feasibility_draws = 0;
   std::int64_t feasibility_rejections = 0;
-  /// Solis & Wets: candidate sets not evaluated because a configuration was infeasible.
+  /// Solis & Wets in a cell: candidate sets with an infeasible configuration (kWholeSet: not evaluated;
+  /// kFeasibleConfigurations: those configurations held back).
   int infeasible_candidates = 0;
   double seconds = 0.0;
   /// Indices of the starting set and of the result.
