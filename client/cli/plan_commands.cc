@@ -22,14 +22,26 @@ void PrintPlan(const api::PlanResult& plan, std::ostream& out) {
   out << "plan " << plan.id << "  robot " << plan.robot << "  " << plan.configurations.size() << " "
       << api::WireName(plan.measurement_type) << " configurations  (" << api::WireName(plan.optimiser)
       << ", objective " << api::WireName(plan.objective) << ")\n";
+  // In a cell, each configuration's check: its minimum clearance and the reflectors the tracker sees, each
+  // with the incidence angle and distance ("smr1 12.3deg 2650mm").
+  const bool checks = plan.cell && plan.configuration_checks.size() == plan.configurations.size();
+  if (plan.cell) out << "in cell " << *plan.cell << "\n";
   out << std::setw(4) << "#";
   for (std::size_t j = 0; j < plan.joint_units.size(); ++j) {
     out << std::setw(12) << ("q" + std::to_string(j + 1) + "[" + plan.joint_units[j] + "]");
   }
+  if (checks) out << std::setw(16) << "clearance[mm]" << "  measurable reflectors";
   out << "\n";
   for (std::size_t i = 0; i < plan.configurations.size(); ++i) {
     out << std::setw(4) << i + 1;
     for (double v : plan.configurations[i]) out << std::setw(12) << Fixed(v, 3);
+    if (checks) {
+      const api::ConfigurationCheckWire& check = plan.configuration_checks[i];
+      out << std::setw(16) << Fixed(check.min_clearance_mm, 1) << " ";
+      for (const api::ReflectorCheckWire& r : check.reflectors) {
+        if (r.measurable) out << " " << r.id << " " << Fixed(r.incidence_deg, 1) << "deg " << Fixed(r.distance_mm, 0) << "mm";
+      }
+    }
     out << "\n";
   }
   PrintIndices(out, "plan", plan.indices, plan.predicted_accuracy);

@@ -223,6 +223,14 @@ TEST_F(CliTest, CellCreateCheckAndPlanInIt) {
   const nlohmann::json planned = nlohmann::json::parse(plan.out);
   ASSERT_EQ(planned.at("configuration_checks").size(), 6u);
   EXPECT_EQ(planned.at("cell"), "bench");
+  // The table shows each configuration's clearance and the reflector the tracker sees there.
+  const Result table = RunCli(server + " plan get " + planned.at("id").get<std::string>());
+  ASSERT_EQ(table.exit_code, 0) << table.out;
+  EXPECT_NE(table.out.find("in cell bench"), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("measurable reflectors"), std::string::npos) << table.out;
+  std::size_t seen = 0;
+  for (std::size_t at = table.out.find(" smr1 "); at != std::string::npos; at = table.out.find(" smr1 ", at + 1)) ++seen;
+  EXPECT_EQ(seen, 6u) << table.out;
   // The planned configurations, checked again by the cell: every one feasible.
   const Result check = RunCli(server + " cell check bench " + Path("plan.csv"));
   ASSERT_EQ(check.exit_code, 0);
