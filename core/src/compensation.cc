@@ -2,9 +2,12 @@
 #include "robocal/core/compensation.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <stdexcept>
 
 #include "robocal/core/error_model.h"
@@ -16,6 +19,7 @@ namespace {
 // Damping never goes below this: a singular J'J (e.g. the 5-axis robot's C axis parallel to the tool axis) must
 // still give a finite step.
 constexpr double kMinDamping = 1e-9;
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 // Rows matched: the full pose for 6 or more joints; position and tool axis for fewer, since a 5-joint robot
 // cannot reach an arbitrary 6-D pose (the rotation about the tool axis is then free).
@@ -123,6 +127,160 @@ std::string Number(double value) {
   return text;
 }
 
+// Damped least squares on the calibrated model, within the joint limits.
+class Solver {
+ public:
+  struct Outcome {
+    Eigen::VectorXd q;
+    double cost = HUGE_VAL;
+    int iterations = 0;
+    bool converged = false;
+    /// No step lowered the error any more (as opposed to running out of iterations).
+    bool stalled = false;
+  };
+  Solver(const Calibration& calibration, MeasurementType type, const CompensationOptions& options)
+      : calibration_(calibration),
+        model_(calibration.model),
+        type_(type),
+        options_(options),
+        ws_(model_),
+        twists_(6, model_.num_joints()) {}
+
+  Transform Reached(const Eigen::VectorXd& q) { return ForwardKinematics(model_, q, calibration_.errors, &ws_); }
+
+  // Levenberg-Marquardt with the gain-ratio damping schedule of Nielsen (1999), as given by Madsen, Nielsen &
+  // Tingleff, "Methods for non-linear least squares problems" (2004), section 3.2: mu starts at 1e-6 x the
+  // largest diagonal element of J'J, shrinks by max(1/3, 1 - (2 rho - 1)^3) after a step that lowers the error
+  // (rho: actual over predicted decrease), and grows by nu (doubling each time) after one that does not. A
+  // joint at a limit whose descent direction points out of the range is held there (an active set), so the
+  // other joints still make the progress they can.
+  Outcome Solve(const Transform& T_world_target, const Eigen::VectorXd& q0, int max_iterations) {
+    const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
+    const int n = model_.num_joints();
+    const Eigen::VectorXd& lower = model_.lower_limits();
+    const Eigen::VectorXd& upper = model_.upper_limits();
+    Eigen::MatrixXd jacobian(rows.size(), n);
+    Eigen::VectorXd residual(rows.size()), trial_residual(rows.size());
+    auto cost_at = [&](const Eigen::VectorXd& joints, Eigen::VectorXd* r) {
+      rows.Residual(Reached(joints), r);
+      return r->squaredNorm();
+    };
+    Outcome out;
+    out.q = q0;
+    out.cost = cost_at(out.q, &residual);
+    double mu = -1.0, nu = 2.0;
+    for (;; ++out.iterations) {
+      const Errors e = MatchedErrors(type_, ws_.T_world_tool, T_world_target);
+      if (e.position_mm < options_.position_tolerance_mm && e.orientation_rad < options_.orientation_tolerance_rad) {
+        out.converged = true;
+        return out;
+      }
+      if (out.iterations >= max_iterations) return out;
+      JointJacobian(model_, out.q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
+      rows.Jacobian(ws_.T_world_tool, residual, twists_, &jacobian);
+      const Eigen::VectorXd gradient = jacobian.transpose() * residual;
+      std::vector<bool> held(n, false);
+      for (int i = 0; i < n; ++i) {
+        held[i] = (out.q[i] <= lower[i] && gradient[i] < 0.0) || (out.q[i] >= upper[i] && gradient[i] > 0.0);
+      }
+      const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+      if (mu < 0.0) mu = std::max(options_.initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
+      bool accepted = false;
+      while (!accepted) {
+        Eigen::MatrixXd a = normal;
+        a.diagonal().array() += mu;
+        Eigen::VectorXd b = gradient;
+        for (int i = 0; i < n; ++i) {
+          if (!held[i]) continue;
+          a.row(i).setZero();
+          a.col(i).setZero();
+          a(i, i) = 1.0;
+          b[i] = 0.0;
+        }
+        const Eigen::VectorXd dq = a.ldlt().solve(b);
+        const Eigen::VectorXd q_trial = (out.q + dq).cwiseMax(lower).cwiseMin(upper);
+        const double trial_cost = dq.allFinite() ? cost_at(q_trial, &trial_residual) : HUGE_VAL;
+        const Eigen::VectorXd step = q_trial - out.q;
+        // The decrease the linear model predicts: |r|^2 - |r - J s|^2 = 2 s'J'r - s'J'J s.
+        const double predicted = 2.0 * step.dot(gradient) - step.dot(normal * step);
+        if (trial_cost < out.cost) {
+          const double rho = predicted > 0.0 ? (out.cost - trial_cost) / predicted : 1.0;
+          out.q = q_trial;
+          out.cost = trial_cost;
+          residual = trial_residual;
+          mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)), kMinDamping);
+          nu = 2.0;
+          accepted = true;
+        } else {
+          mu *= nu;
+          nu *= 2.0;
+          if (mu > options_.max_damping * options_.max_damping) break;
+        }
+      }
+      if (!accepted) {
+        Reached(out.q);  // leave the workspace at the best point
+        out.stalled = true;
+        ++out.iterations;
+        return out;
+      }
+    }
+  }
+
+  // Whether a joint is held at a limit that the error at q pulls outward, and the message naming them.
+  std::string HeldLimits(const Transform& T_world_target, const Eigen::VectorXd& q) {
+    const Eigen::VectorXd gradient = Gradient(T_world_target, q);
+    std::string limits;
+    for (int i = 0; i < model_.num_joints(); ++i) {
+      const bool at_lower = q[i] <= model_.lower_limits()[i] && gradient[i] < 0.0;
+      const bool at_upper = q[i] >= model_.upper_limits()[i] && gradient[i] > 0.0;
+      if (!at_lower && !at_upper) continue;
+      limits += "joint " + std::to_string(i + 1) + " (" + model_.joint_name(i) + ") at its " +
+                (at_lower ? "lower limit " + LimitText(i, model_.lower_limits()[i])
+                          : "upper limit " + LimitText(i, model_.upper_limits()[i])) +
+                "; ";
+    }
+    return limits;
+  }
+  bool AnyHeld(const Transform& T_world_target, const Eigen::VectorXd& q) {
+    return !HeldLimits(T_world_target, q).empty();
+  }
+
+  // The singular values of the matched Jacobian at q (mm/rad, orientation rows weighted).
+  Eigen::VectorXd SingularValues(const Transform& T_world_target, const Eigen::VectorXd& q) {
+    const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
+    Eigen::VectorXd r(rows.size());
+    rows.Residual(Reached(q), &r);
+    Eigen::MatrixXd jacobian(rows.size(), model_.num_joints());
+    JointJacobian(model_, q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
+    rows.Jacobian(ws_.T_world_tool, r, twists_, &jacobian);
+    return Eigen::JacobiSVD<Eigen::MatrixXd>(jacobian).singularValues();
+  }
+
+ private:
+  Eigen::VectorXd Gradient(const Transform& T_world_target, const Eigen::VectorXd& q) {
+    const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
+    Eigen::VectorXd r(rows.size());
+    rows.Residual(Reached(q), &r);
+    Eigen::MatrixXd jacobian(rows.size(), model_.num_joints());
+    JointJacobian(model_, q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
+    rows.Jacobian(ws_.T_world_tool, r, twists_, &jacobian);
+    return jacobian.transpose() * r;
+  }
+
+  // A limit in the joint's wire unit (deg for revolute joints, mm for prismatic ones).
+  std::string LimitText(int joint, double value) const {
+    return model_.joint_type(joint) == JointType::kRevolute ? Number(value * kDegPerRad) + " deg"
+                                                            : Number(value) + " mm";
+  }
+
+  const Calibration& calibration_;
+  const RobotModel& model_;
+  MeasurementType type_;
+  const CompensationOptions& options_;
+  KinematicsWorkspace ws_;
+  Eigen::MatrixXd twists_;
+};
+
 }  // namespace
 
 const char* ToString(TargetFrame frame) { return frame == TargetFrame::kBase ? "base" : "tracker"; }
@@ -187,85 +345,16 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
 
   const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
   const MeasurementType type = MatchedRows(model);
-  const Rows rows(type, T_world_target, options.orientation_weight_mm_per_rad);
-  const Eigen::VectorXd& lower = model.lower_limits();
-  const Eigen::VectorXd& upper = model.upper_limits();
-  KinematicsWorkspace ws(model);
-  Eigen::MatrixXd twist_jacobian(6, n);
-  Eigen::MatrixXd jacobian(rows.size(), n);
-  Eigen::VectorXd residual(rows.size()), trial_residual(rows.size());
-
+  Solver solver(calibration, type, options);
   CompensationResult result;
   // A start outside the limits (e.g. a nominal command at a limit plus round-off) is projected inside.
-  Eigen::VectorXd q = q_start.cwiseMax(lower).cwiseMin(upper);
-  auto cost_at = [&](const Eigen::VectorXd& joints, Eigen::VectorXd* r) {
-    rows.Residual(ForwardKinematics(model, joints, calibration.errors, &ws), r);
-    return r->squaredNorm();
-  };
-
-  double cost = cost_at(q, &residual);
-  double damping = options.initial_damping;
-  bool stalled = false;
-  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(n);
-  int iteration = 0;
-  for (;; ++iteration) {
-    const Errors e = MatchedErrors(type, ws.T_world_tool, T_world_target);
-    if (e.position_mm < options.position_tolerance_mm && e.orientation_rad < options.orientation_tolerance_rad) {
-      result.converged = true;
-      break;
-    }
-    if (iteration == options.max_iterations) break;
-
-    // residual(q + dq) ~= residual(q) - J dq: solve min |r - J dq|^2 + lambda^2 |dq|^2 (rows weighted).
-    JointJacobian(model, q, calibration.errors, MeasurementType::kPose, &ws, twist_jacobian);
-    rows.Jacobian(ws.T_world_tool, residual, twist_jacobian, &jacobian);
-    gradient = jacobian.transpose() * residual;  // the descent direction of the cost, up to a factor
-    // Active set: a joint at a limit whose descent direction points out of the range is held there, so the
-    // other joints still make the progress they can (a plain clamp of the full step can stall).
-    std::vector<bool> held(n, false);
-    for (int i = 0; i < n; ++i) {
-      held[i] = (q[i] <= lower[i] && gradient[i] < 0.0) || (q[i] >= upper[i] && gradient[i] > 0.0);
-    }
-    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
-    bool accepted = false;
-    while (!accepted) {
-      Eigen::MatrixXd a = normal;
-      a.diagonal().array() += damping * damping;
-      Eigen::VectorXd b = gradient;
-      for (int i = 0; i < n; ++i) {
-        if (!held[i]) continue;
-        a.row(i).setZero();
-        a.col(i).setZero();
-        a(i, i) = 1.0;
-        b[i] = 0.0;
-      }
-      const Eigen::VectorXd dq = a.ldlt().solve(b);
-      const Eigen::VectorXd q_trial = (q + dq).cwiseMax(lower).cwiseMin(upper);
-      const double trial_cost = dq.allFinite() ? cost_at(q_trial, &trial_residual) : HUGE_VAL;
-      if (trial_cost < cost) {
-        q = q_trial;
-        cost = trial_cost;
-        residual = trial_residual;
-        damping = std::max(damping / 10.0, kMinDamping);
-        accepted = true;
-      } else {
-        damping *= 10.0;
-        if (damping > options.max_damping) break;
-      }
-    }
-    if (!accepted) {
-      // Leave the workspace at the best point for the final errors below.
-      cost_at(q, &residual);
-      stalled = true;
-      ++iteration;
-      break;
-    }
-  }
-
+  const Eigen::VectorXd start = q_start.cwiseMax(model.lower_limits()).cwiseMin(model.upper_limits());
+  const Solver::Outcome outcome = solver.Solve(T_world_target, start, options.max_iterations);
+  const Eigen::VectorXd& q = outcome.q;
+  result.converged = outcome.converged;
   result.joints = q;
-  result.iterations = iteration;
-  // Every exit from the loop leaves the workspace at q (the last cost_at call was at q).
-  const Transform& reached = ws.T_world_tool;
+  result.iterations = outcome.iterations;
+  const Transform reached = solver.Reached(q);
   const Errors e = MatchedErrors(type, reached, T_world_target);
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;
@@ -283,22 +372,18 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
   }
 
   // Say why: joints held at a limit first, then whether the solver ran out of iterations or of descent.
-  JointJacobian(model, q, calibration.errors, MeasurementType::kPose, &ws, twist_jacobian);
-  rows.Jacobian(ws.T_world_tool, residual, twist_jacobian, &jacobian);
-  gradient = jacobian.transpose() * residual;
-  std::string limits;
-  for (int i = 0; i < n; ++i) {
-    const bool at_lower = q[i] <= lower[i] && gradient[i] < 0.0;
-    const bool at_upper = q[i] >= upper[i] && gradient[i] > 0.0;
-    if (!at_lower && !at_upper) continue;
-    limits += "joint " + std::to_string(i + 1) + " (" + model.joint_name(i) + ") at its " +
-              (at_lower ? "lower limit " + Number(lower[i]) : "upper limit " + Number(upper[i])) + "; ";
-  }
+  const std::string limits = solver.HeldLimits(T_world_target, q);
   // A joint held at a limit is what keeps the robot from the target: weaker than asked, whatever stopped the loop.
   result.termination = limits.empty() ? Termination::kNoConvergence : Termination::kDegraded;
-  result.message = limits + (stalled ? "no step lowers the error (target out of reach, or a singularity)"
-                                     : "max_iterations (" + std::to_string(options.max_iterations) + ") reached");
-  result.message += "; remaining error " + Number(e.position_mm) + " mm, " + Number(e.orientation_rad) + " rad";
+  result.message = limits + (outcome.stalled ? "no step lowers the error (target out of reach, or a singularity)"
+                                             : "max_iterations (" + std::to_string(options.max_iterations) + ") reached");
+  // How close to a singularity it ended: the smallest singular value of the matched Jacobian (orientation rows
+  // weighted), against the largest.
+  const Eigen::VectorXd sigma = solver.SingularValues(T_world_target, q);
+  result.message += "; singular values of the Jacobian there " + Number(sigma.minCoeff()) + " to " +
+                    Number(sigma.maxCoeff()) + " mm/rad";
+  result.message += "; remaining error " + Number(e.position_mm) + " mm, " + Number(e.orientation_rad * kDegPerRad) +
+                    " deg";
   return result;
 }
 

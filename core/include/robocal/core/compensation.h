@@ -25,11 +25,11 @@ const char* ToString(TargetFrame frame);
 bool ParseTargetFrame(const std::string& text, TargetFrame* frame);
 
 struct CompensationOptions {
-  /// Damped least squares: dq = J' (J J' + lambda^2 I)^-1 e (rows weighted, see below), with lambda adapted
-  /// Levenberg-style: a step that lowers the weighted error is taken and lambda divided by 10; otherwise lambda
-  /// is multiplied by 10 and the step recomputed. lambda starts at `initial_damping`; when it would exceed
-  /// `max_damping` no step lowers the error any more and the solver stops (not converged).
-  double initial_damping = 1e-3;
+  /// Levenberg-Marquardt: dq = (J'J + mu I)^-1 J'r (rows weighted, see below) with the gain-ratio damping
+  /// schedule of Nielsen (docs/compensation.md). mu starts at initial_damping x the largest diagonal element
+  /// of J'J (a scale-free start); when it would exceed max_damping^2 no step lowers the error any more and
+  /// the first phase stops (not converged).
+  double initial_damping = 1e-9;
   double max_damping = 1e6;
   int max_iterations = 100;
   /// Converged when the position error < position_tolerance_mm and the matched orientation error <
@@ -60,7 +60,7 @@ struct CompensationResult {
   ///   solver, keep the robot from the target; `joints` are the closest it found within the limits.
   /// - kNoConvergence: not met, with no joint held at a limit: max_iterations reached, or no step lowers the
   ///   error any more (damping above max_damping: a target out of reach, or beyond a singularity's fold);
-  ///   `joints` are the best found.
+  ///   `joints` are the best found, and the message gives the Jacobian's singular values there.
   /// - kFailure: no usable joints (not finite). Inputs that could lead there throw instead, so CompensatePose
   ///   does not return it in practice; it is the value of a result not computed.
   Termination termination = Termination::kFailure;
