@@ -74,7 +74,8 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
   }
   ReadList(r, "reflectors", kMaxReflectors, &problems, &cell.reflectors,
            [&problems](ObjectReader& item, ReflectorWire* w) {
-    item.String("id", true, &w->id, 64);
+    // Ids as the service's own (no commas, quotes or spaces: they appear in CSV columns and in blocked_by).
+    if (item.String("id", true, &w->id, 64) && !IsValidId(w->id)) problems.Add(JoinPath(item.path(), "id"), kIdRule);
     if (item.FixedNumbers("position_mm", true, w->position_mm.data(), 3)) {
       CheckLengths(w->position_mm, JoinPath(item.path(), "position_mm"), &problems);
     }
@@ -85,7 +86,9 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
   });
   ReadList(r, "obstacles", std::min(kMaxObstacles, limits.max_array_length), &problems, &cell.obstacles,
            [&problems](ObjectReader& item, ObstacleWire* w) {
-             item.String("id", true, &w->id, 64);
+             if (item.String("id", true, &w->id, 64) && !IsValidId(w->id)) {
+               problems.Add(JoinPath(item.path(), "id"), kIdRule);
+             }
              if (const nlohmann::json* b = item.Get("box")) {
                ObjectReader box(*b, JoinPath(item.path(), "box"), &problems);
                if (box.FixedNumbers("min_mm", true, w->min_mm.data(), 3)) {
@@ -109,7 +112,14 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
     }
   }
   double tool_radius = 0.0;
-  if (r.Number("tool_radius_mm", false, &tool_radius, 0.0, kMaxLengthMm)) cell.tool_radius_mm = tool_radius;
+  if (r.Number("tool_radius_mm", false, &tool_radius, 0.0, kMaxLengthMm)) {
+    // Absent means the last link's radius; a given radius must be one.
+    if (tool_radius > 0.0) {
+      cell.tool_radius_mm = tool_radius;
+    } else {
+      problems.Add("tool_radius_mm", "must be > 0 mm (leave it out for the last link's radius)");
+    }
+  }
   r.Number("clearance_mm", false, &cell.clearance_mm, 0.0, kMaxLengthMm);
   if (const nlohmann::json* a = r.Array("joint_ranges", false, joints, joints)) {
     cell.joint_ranges.resize(a->size());
@@ -158,8 +168,12 @@ Cell ToCell(const CellWire& w, const RobotModel& model) {
     return Cell::Build(model, std::move(spec));
   } catch (const InvalidModelError& e) {
     std::vector<FieldViolation> details;
-    for (const FieldError& f : e.errors()) details.push_back({f.field, f.reason});
-    throw ApiError(Status::kInvalidArgument, std::string("invalid cell: ") + e.what(), details);
+    std::string message = "invalid cell";
+    for (const FieldError& f : e.errors()) {
+      details.push_back({f.field, f.reason});
+      message += "; " + f.field + ": " + f.reason;
+    }
+    throw ApiError(Status::kInvalidArgument, message, details);
   }
 }
 
@@ -188,13 +202,12 @@ std::vector<JointRangeWire> JointRangesOf(const CellSpec& spec, const RobotModel
 CellWire CellResource(const CellWire& request, const Cell& cell, const RobotModel& model) {
   const CellSpec& spec = cell.spec();
   CellWire w = request;
-  w.reflectors.clear();
-  if (spec.reflectors.empty()) {
-    // The default: one reflector at the tool point, facing along the tool z axis.
+  if (w.reflectors.empty()) {
+    // The default: one reflector at the tool point, facing along the tool z axis. (Given reflectors stay as
+    // sent: a trip through radians would change their last digits.)
     const Transform& tool = model.spec().T_flange_tool;
     w.reflectors.push_back({"tool", Arr(tool.translation()), Arr(tool.linear().col(2)), 30.0});
   }
-  for (const ReflectorWire& r : ReflectorsOf(spec)) w.reflectors.push_back(r);
   w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
   w.tool_radius_mm = spec.tool_radius_mm > 0.0 ? spec.tool_radius_mm : w.link_radii_mm.back();
   w.joint_ranges = JointRangesOf(spec, model);
@@ -363,6 +376,21 @@ void from_json(const nlohmann::json& j, CellCheckResult& r) {
   const WireReader reader(j);
   reader.Required("cell", &r.cell);
   reader.Required("results", &r.results);
+}
+
+ForwardRequest ParseCellCheckRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
+  Problems problems;
+  ForwardRequest req;
+  ObjectReader r(body, "", &problems);
+  if (const nlohmann::json* a = r.Array("joints", true, 1, std::min(kMaxCheckConfigurations, limits.max_array_length))) {
+    req.joints.resize(a->size());
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      ReadJointVector((*a)[i], IndexPath("joints", i), model, &problems, &req.joints[i]);
+    }
+  }
+  r.RejectUnknown({"joints"});
+  problems.ThrowIfAny("invalid check request");
+  return req;
 }
 
 }  // namespace robocal::api

@@ -325,10 +325,22 @@ api::CellWire Client::GetCell(const std::string& cell) {
 void Client::DeleteCell(const std::string& cell) { Call("DELETE", "/v1/cells/" + Segment(cell), nullptr, false); }
 
 api::CellCheckResult Client::CheckCell(const std::string& cell, const std::vector<std::vector<double>>& joints) {
-  const json body = JointsBody(joints);
-  // A check changes nothing on the server: safe to retry.
-  return Parse<api::CellCheckResult>(Call("POST", "/v1/cells/" + Segment(cell) + ":check", &body, true),
-                                     "cell check");
+  // The server checks at most kMaxCheckConfigurations per request: longer lists go in consecutive requests,
+  // their results concatenated in order. A check changes nothing on the server: safe to retry.
+  api::CellCheckResult result;
+  result.cell = cell;
+  std::size_t first = 0;
+  do {
+    const std::size_t count = std::min(api::kMaxCheckConfigurations, joints.size() - first);
+    const json body = JointsBody({joints.begin() + static_cast<long>(first),
+                                  joints.begin() + static_cast<long>(first + count)});
+    api::CellCheckResult part = Parse<api::CellCheckResult>(
+        Call("POST", "/v1/cells/" + Segment(cell) + ":check", &body, true), "cell check");
+    result.cell = part.cell;
+    for (api::ConfigurationCheckWire& c : part.results) result.results.push_back(std::move(c));
+    first += count;
+  } while (first < joints.size());
+  return result;
 }
 
 api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints) {

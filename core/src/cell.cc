@@ -15,6 +15,10 @@
 namespace robocal {
 namespace {
 
+// Closer to the tracker than this, a reflector is "at the tracker": not measured.
+constexpr double kAtTrackerMm = 1e-3;
+
+
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr int kNumRules = 6;
 constexpr CellRule kRules[kNumRules] = {CellRule::kJointRange, CellRule::kObstacle,  CellRule::kSelfCollision,
@@ -111,9 +115,12 @@ struct CellKernel {
     const TrackerSpec& tracker = cell.spec_.tracker;
     const Eigen::Vector3d to_tracker = tracker.position_mm - scene.reflector[t];
     sight->distance_mm = to_tracker.norm();
-    sight->in_window = sight->distance_mm >= tracker.min_distance_mm && sight->distance_mm <= tracker.max_distance_mm;
+    // A reflector at the tracker itself (within a micrometre) is not measured, nor has it a direction to face.
+    sight->in_window = sight->distance_mm > kAtTrackerMm && sight->distance_mm >= tracker.min_distance_mm &&
+                       sight->distance_mm <= tracker.max_distance_mm;
     // angle <= half angle  <=>  cos(angle) >= cos(half angle), without an acos per reflector.
-    sight->facing = scene.normal[t].dot(to_tracker) >= cell.cos_half_angle_[t] * sight->distance_mm;
+    sight->facing = sight->distance_mm > kAtTrackerMm &&
+                    scene.normal[t].dot(to_tracker) >= cell.cos_half_angle_[t] * sight->distance_mm;
   }
 
   // What the beam tracker -> reflector t passes through first in the order links, tool capsules, obstacles;
@@ -325,8 +332,9 @@ ConfigurationCheck CellKernel::Check(const RobotModel& model, const Cell& cell, 
           "[" + Fixed(spec.tracker.min_distance_mm) + ", " +
           (std::isinf(spec.tracker.max_distance_mm) ? std::string("inf") : Fixed(spec.tracker.max_distance_mm)) +
           "] mm";
-      add(CellRule::kDistance,
-          reflector.id + " is " + Fixed(r.distance_mm) + " mm from the tracker, outside its window " + window);
+      add(CellRule::kDistance, r.distance_mm > kAtTrackerMm ? reflector.id + " is " + Fixed(r.distance_mm) +
+                                                         " mm from the tracker, outside its window " + window
+                                                   : reflector.id + " is at the tracker itself");
     }
     if (!sights[t].facing) {
       add(CellRule::kIncidence, reflector.id + " faces " + Fixed(r.incidence_rad * kRadToDeg) +

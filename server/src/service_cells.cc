@@ -62,7 +62,7 @@ void Service::DeleteCell(const std::string& id) {
 api::CellCheckResult Service::CheckCell(const std::string& id, const nlohmann::json& body) {
   const LoadedCell loaded = LoadCell(id);
   // Joints outside the robot's limits are refused; inside them but outside the cell's ranges, reported.
-  const api::ForwardRequest req = api::ParseForwardRequest(body, loaded.model, options_.limits);
+  const api::ForwardRequest req = api::ParseCellCheckRequest(body, loaded.model, options_.limits);
   const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   api::CellCheckResult result;
   result.cell = id;

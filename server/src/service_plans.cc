@@ -91,16 +91,28 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   baseline_options.seed = req.seed + 1000003;
   baseline_options.objective = req.objective;
   baseline_options.feasible = feasible;
+  // The census found at least 1 in 100 feasible: 500 draws per configuration leave a wide margin.
+  constexpr int kDrawsPerConfiguration = 500;
+  baseline_options.max_draws_per_configuration = kDrawsPerConfiguration;
   const Plan baseline = PlanRandom(model, req.num_configurations, obs, baseline_options);
   // The predicted accuracy's validation configurations: random, and in a cell feasible in it.
   Rng rng(req.seed + 2000003);
   std::vector<Eigen::VectorXd> validation;
+  bool validation_drawn = true;
   if (feasible) {
     FeasibleDraws draws;
-    draws.max_draws = 500LL * std::max(1, req.num_validation);  // the census found at least 1 in 100 feasible
-    DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
+    draws.max_draws = static_cast<std::int64_t>(kDrawsPerConfiguration) * std::max(1, req.num_validation);
+    validation_drawn = DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
   } else {
     validation = RandomConfigurations(model, req.num_validation, &rng);
+  }
+  // A plan is never returned without its baseline or its validation sample.
+  if (cell && (baseline.summary.termination == Termination::kFailure || !validation_drawn)) {
+    const std::string what = !validation_drawn ? "the validation sample" : "the random baseline";
+    throw ApiError(Status::kFailedPrecondition,
+                   "cell \"" + cell->wire.id + "\" leaves too little feasible for " + what + ": " +
+                       (validation_drawn ? baseline.summary.message : std::string("too few feasible draws")),
+                   {{"cell", "too little feasible for " + what}});
   }
 
   api::PlanResult result;

@@ -62,6 +62,30 @@ TEST(ClientTest, ServiceEndpoints) {
   EXPECT_NE(c.GetMetrics().find("robocal_http_requests_total"), std::string::npos);
 }
 
+// A check of more configurations than the server takes at once goes in consecutive requests, its results in
+// order: configuration i gets its own report (every one is q1 = i, checked against the distance each gives).
+TEST(ClientTest, CellChecksLongerThanARequestArePaged) {
+  testing::TestServer server;
+  Client c(Options(server.url()));
+  api::CellWire request;
+  request.id = "paged";
+  request.robot = "ur5e";
+  request.tracker.position_mm = {2500, -800, 300};
+  (void)c.CreateCell(request);
+  const std::size_t n = 2 * api::kMaxCheckConfigurations + 17;
+  std::vector<std::vector<double>> joints;
+  for (std::size_t i = 0; i < n; ++i) joints.push_back({-180.0 + 360.0 * i / n, -90, 90, 0, 90, 0});
+  const api::CellCheckResult all = c.CheckCell("paged", joints);
+  ASSERT_EQ(all.results.size(), n);
+  EXPECT_EQ(all.cell, "paged");
+  // The same answers as checking a few of them one by one.
+  for (const std::size_t i : {std::size_t{0}, api::kMaxCheckConfigurations, n - 1}) {
+    const api::CellCheckResult one = c.CheckCell("paged", {joints[i]});
+    ASSERT_EQ(one.results.size(), 1u);
+    EXPECT_EQ(one.results[0].reflectors[0].distance_mm, all.results[i].reflectors[0].distance_mm) << i;
+  }
+}
+
 TEST(ClientTest, Robots) {
   testing::TestServer server;
   Client c(Options(server.url()));

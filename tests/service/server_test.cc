@@ -575,6 +575,10 @@ TEST(ServerTest, SynchronousPlanStopsAtTheRequestDeadlineAndSaysSo) {
   EXPECT_TRUE(summary.at("deadline_exceeded").get<bool>()) << summary.dump();
   EXPECT_EQ(summary["termination"], "NO_CONVERGENCE");
   EXPECT_NE(summary["message"].get<std::string>().find("request deadline"), std::string::npos) << summary.dump();
+  // The brief names the deadline too, not a cancel nobody asked for.
+  EXPECT_NE(summary["brief"].get<std::string>().find("stopped at the request deadline"), std::string::npos)
+      << summary.dump();
+  EXPECT_EQ(summary["brief"].get<std::string>().find("cancelled"), std::string::npos) << summary.dump();
   EXPECT_LT(summary["evaluations"].get<int>(), 400000);  // the deadline stopped it, not the budget
   EXPECT_EQ(s.Get("/v1/plans/" + plan.body["id"].get<std::string>()).status, 200);
   // A plan within its deadline does not claim otherwise.

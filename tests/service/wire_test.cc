@@ -304,6 +304,76 @@ TEST_F(WireTest, PresetCellRequestsBuildThePresetCells) {
   EXPECT_EQ(created.reflectors.size(), 1u);
 }
 
+// In a cell that leaves about 1 % feasible, a plan either comes with its whole random baseline (drawn in the
+// same cell) or is refused as FAILED_PRECONDITION naming the cell: never a plan with an empty baseline (seeds 5
+// and 6 once returned one).
+TEST_F(WireTest, PlansInATightCellHaveTheirBaseline) {
+  (void)service_->CreateCell(json::parse(R"({"id": "tight", "robot": "ur5e",
+      "tracker": {"position_mm": [2300, -1400, 1400]},
+      "reflectors": [{"id": "s", "position_mm": [0, 0, 100], "normal": [0, 0, 1], "acceptance_half_angle_deg": 20}],
+      "obstacles": [{"id": "floor", "box": {"min_mm": [-3000, -3000, -500], "max_mm": [3000, 3000, -10]}}],
+      "clearance_mm": 10})"));
+  int planned = 0;
+  for (int seed = 1; seed <= 8; ++seed) {
+    try {
+      const server::PlanReply reply = service_->CreatePlan(
+          {{"robot", "ur5e"}, {"cell", "tight"}, {"optimiser", "random"}, {"num_configurations", 50}, {"seed", seed}});
+      const PlanResult& plan = std::get<PlanResult>(reply);
+      EXPECT_EQ(plan.configurations.size(), 50u) << seed;
+      EXPECT_EQ(plan.baseline.configurations.size(), 50u) << seed;
+      EXPECT_GT(plan.baseline.predicted_accuracy.num_validation, 0) << seed;
+      ++planned;
+    } catch (const ApiError& e) {
+      EXPECT_EQ(e.status(), Status::kFailedPrecondition) << seed << ": " << e.what();
+      ASSERT_FALSE(e.details().empty());
+      EXPECT_EQ(e.details()[0].field, "cell");
+    }
+  }
+  EXPECT_GE(planned, 5);
+}
+
+// What the review of cells found: ids that would break CSV columns and blocked_by, a tool radius of 0 that
+// silently meant the default, checks larger than a reply should be; each refused naming the field.
+TEST_F(WireTest, CellRequestsRefuseIdsAndSizesThatBreakReports) {
+  const auto refused_field = [&](const json& body) {
+    try {
+      (void)service_->CreateCell(body);
+    } catch (const ApiError& e) {
+      EXPECT_EQ(e.status(), Status::kInvalidArgument);
+      EXPECT_EQ(std::string(e.what()).find("robot model"), std::string::npos) << e.what();
+      return e.details().empty() ? std::string() : e.details()[0].field;
+    }
+    return std::string("accepted");
+  };
+  const json base = {{"id", "ok"}, {"robot", "ur5e"}, {"tracker", {{"position_mm", {2500, -800, 300}}}}};
+  json comma = base;
+  comma["reflectors"] = {{{"id", "a,b"}, {"position_mm", {0, 0, 100}}, {"normal", {0, 0, 1}}}};
+  EXPECT_EQ(refused_field(comma), "reflectors[0].id");
+  json named_like_a_link = base;
+  named_like_a_link["obstacles"] = {{{"id", "link 1"}, {"box", {{"min_mm", {3000, 0, 0}}, {"max_mm", {3100, 50, 50}}}}}};
+  EXPECT_EQ(refused_field(named_like_a_link), "obstacles[0].id");
+  json zero_tool = base;
+  zero_tool["tool_radius_mm"] = 0;
+  EXPECT_EQ(refused_field(zero_tool), "tool_radius_mm");
+  json inside = base;
+  inside["tracker"]["position_mm"] = {0, 0, 0};
+  inside["obstacles"] = {{{"id", "b"}, {"box", {{"min_mm", {-10, -10, -10}}, {"max_mm", {10, 10, 10}}}}}};
+  EXPECT_EQ(refused_field(inside), "tracker.position_mm");
+
+  (void)service_->CreateCell(base);
+  json many = {{"joints", json::array()}};
+  for (std::size_t i = 0; i <= kMaxCheckConfigurations; ++i) many["joints"].push_back({0, -90, 90, 0, 90, 0});
+  try {
+    (void)service_->CheckCell("ok", many);
+    FAIL() << "a check of " << many["joints"].size() << " configurations accepted";
+  } catch (const ApiError& e) {
+    EXPECT_EQ(e.details().at(0).field, "joints");
+    EXPECT_NE(std::string(e.what()).find("invalid check request"), std::string::npos) << e.what();
+  }
+  many["joints"].erase(many["joints"].begin());
+  EXPECT_EQ(service_->CheckCell("ok", many).results.size(), kMaxCheckConfigurations);
+}
+
 // A cell is made for its robot as registered then: a plan in it for a robot re-registered since is refused
 // (it would hold the old robot's joints under the new robot's name), and a cell of more boxes than a check can
 // afford is refused by name.

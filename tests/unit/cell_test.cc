@@ -18,6 +18,7 @@
 namespace robocal {
 namespace {
 
+using ::testing::Contains;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::UnorderedElementsAreArray;
@@ -251,6 +252,25 @@ TEST(CellTest, DistanceWindowAloneRejects) {
   const ConfigurationCheck check = CheckConfiguration(model, Cell::Build(model, spec), kZero);
   EXPECT_NEAR(check.reflectors[0].distance_mm, 1000.0, 1e-9);
   EXPECT_EQ(check.reasons[0], "smr1 is 1000.0 mm from the tracker, outside its window [900.0, 950.0] mm");
+}
+
+// A reflector at the tracker itself is not measurable (no distance, no direction to face), even with no
+// minimum distance.
+TEST(CellTest, AReflectorAtTheTrackerIsNotMeasured) {
+  const RobotModel model = Arm();
+  CellSpec spec = ArmCell();
+  spec.tracker.min_distance_mm = 0.0;
+  const Transform flange = model.T_world_base().inverse() * ForwardKinematics(model, kZero) *
+                           model.T_flange_tool().inverse();
+  spec.tracker.position_mm = flange * V(0, 0, 100);
+  const Cell cell = Cell::Build(model, spec);
+  const ConfigurationCheck check = CheckConfiguration(model, cell, kZero);
+  EXPECT_FALSE(check.feasible);
+  EXPECT_FALSE(check.reflectors[0].measurable);
+  EXPECT_NEAR(check.reflectors[0].distance_mm, 0.0, 1e-9);
+  EXPECT_THAT(check.failed_rules, Contains(CellRule::kDistance));
+  EXPECT_THAT(check.reasons, Contains("smr1 is at the tracker itself"));
+  EXPECT_FALSE(IsFeasible(model, cell, kZero));
 }
 
 TEST(CellTest, IncidenceAloneRejects) {

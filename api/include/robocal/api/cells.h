@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/robots.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/robot_model.h"
@@ -111,7 +112,14 @@ void to_json(nlohmann::json& j, const ConfigurationCheckWire& check);
 void from_json(const nlohmann::json& j, ConfigurationCheckWire& check);
 ConfigurationCheckWire ToWire(const ConfigurationCheck& check);
 
-/// The reply of POST /v1/cells/{cell}:check (the request is a ForwardRequest: {"joints": [[...]]}).
+/// Configurations one :check takes: in the largest cell (16 reflectors, 128 obstacles) a check of 1000 takes
+/// 0.14 to 0.27 s and its reply 3.4 MB (docs/cells.md).
+inline constexpr std::size_t kMaxCheckConfigurations = 1000;
+/// The body of POST /v1/cells/{cell}:check, {"joints": [[...]]}: 1 to min(kMaxCheckConfigurations,
+/// max_array_length) vectors within the robot's limits (a ForwardRequest).
+ForwardRequest ParseCellCheckRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+
+/// The reply of POST /v1/cells/{cell}:check.
 struct CellCheckResult {
   std::string cell;
   std::vector<ConfigurationCheckWire> results;

@@ -126,7 +126,8 @@ class Client {
   std::vector<api::CellWire> ListCells(int page_size = 100);
   api::CellWire GetCell(const std::string& cell);
   void DeleteCell(const std::string& cell);
-  /// The feasibility report of each joint vector (deg / mm, within the robot's limits) in the cell.
+  /// The feasibility report of each joint vector (deg / mm, within the robot's limits) in the cell; more than
+  /// api::kMaxCheckConfigurations go in consecutive requests.
   api::CellCheckResult CheckCell(const std::string& cell, const std::vector<std::vector<double>>& joints);
 
   // Plans.

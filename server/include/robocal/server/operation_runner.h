@@ -56,6 +56,11 @@ void DescribeDeadlineStop(std::chrono::milliseconds deadline, const std::string&
   summary->message = "stopped at the request deadline (" + std::to_string(deadline.count()) +
                      " ms, request_timeout_s) after " + std::to_string(summary->iterations) + " iterations with " +
                      kept + "; " + advice;
+  // The core's brief says "cancelled" for any stop its caller asked for; here the caller was the deadline.
+  if constexpr (requires { summary->brief; }) {
+    const std::size_t at = summary->brief.find("cancelled");
+    if (at != std::string::npos) summary->brief.replace(at, 9, "stopped at the request deadline");
+  }
 }
 
 struct OperationRunnerOptions {
