@@ -259,14 +259,25 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
       if (problems.size() > 100) break;
     }
   }
-  r.RejectUnknown({"targets"});
+  r.Bool("sequence", false, &req.sequence);
+  if (r.Number("max_joint_jump_deg", false, &req.max_joint_jump_deg, 0.0, 720.0) && !(req.max_joint_jump_deg > 0.0)) {
+    problems.Add("max_joint_jump_deg", "must be > 0 deg");
+  }
+  r.RejectUnknown({"targets", "sequence", "max_joint_jump_deg"});
   problems.ThrowIfAny("invalid compensation request");
   return req;
 }
 
-void to_json(nlohmann::json& j, const CompensateRequest& req) { j = {{"targets", req.targets}}; }
+void to_json(nlohmann::json& j, const CompensateRequest& req) {
+  j = {{"targets", req.targets}, {"sequence", req.sequence}, {"max_joint_jump_deg", req.max_joint_jump_deg}};
+}
 
-void from_json(const nlohmann::json& j, CompensateRequest& req) { WireReader(j).Required("targets", &req.targets); }
+void from_json(const nlohmann::json& j, CompensateRequest& req) {
+  const WireReader r(j);
+  r.Required("targets", &req.targets);
+  r.Required("sequence", &req.sequence);
+  r.Required("max_joint_jump_deg", &req.max_joint_jump_deg);
+}
 
 void to_json(nlohmann::json& j, const Compensation& c) {
   j = {{"joints", Nums(c.joints)},
@@ -276,7 +287,9 @@ void to_json(nlohmann::json& j, const Compensation& c) {
        {"converged", c.converged},
        {"termination", c.termination},
        {"iterations", c.iterations},
-       {"message", c.message}};
+       {"message", c.message},
+       {"joint_jump_deg", Num(c.joint_jump_deg)},
+       {"joint_jump", c.joint_jump}};
 }
 
 void from_json(const nlohmann::json& j, Compensation& c) {
@@ -289,6 +302,8 @@ void from_json(const nlohmann::json& j, Compensation& c) {
   r.Required("termination", &c.termination);
   r.Required("iterations", &c.iterations);
   r.Required("message", &c.message);
+  r.Required("joint_jump_deg", &c.joint_jump_deg);
+  r.Required("joint_jump", &c.joint_jump);
 }
 
 Compensation ToWire(const RobotModel& model, const CompensationResult& r) {

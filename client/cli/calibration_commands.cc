@@ -60,12 +60,22 @@ int Compensate(Invocation& in) {
   const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
   const api::Robot robot = in.Client().GetRobot(campaign.robot);
   const auto nominal = ReadJointsFile(in.args[1], robot);
-  const api::CompensateResult result = in.Client().CompensateJoints(campaign.id, nominal);
+  api::CompensateRequest request;
+  for (const auto& q : nominal) {
+    api::CompensationTargetWire target;
+    target.joints = q;
+    request.targets.push_back(std::move(target));
+  }
+  // Any positive number: the service says which it takes (its error names max_joint_jump_deg).
+  request.sequence = in.Has("--sequence");
+  request.max_joint_jump_deg = in.Number("--max-jump", request.max_joint_jump_deg, 0.0);
+  if (in.Has("--max-jump") && !request.sequence) throw UsageError("--max-jump applies with --sequence only");
+  const api::CompensateResult result = in.Client().Compensate(campaign.id, request);
   Output output(in.Option("--out"), in.out);
   if (in.json) {
     PrintJson(output.stream(), result);
   } else {
-    client::WriteCompensationCsv(output.stream(), robot.joints, result.results);
+    client::WriteCompensationCsv(output.stream(), robot.joints, result.results, request.sequence);
   }
   return kExitOk;
 }

@@ -165,6 +165,9 @@ IN.csv: nominal joint commands (a joints CSV: header, one row per configuration,
 compensated joints that take the calibrated robot where the nominal model says the command goes, with
 position_error_mm, orientation_error_deg and converged (0/1) columns, to OUT.csv or stdout. --json: the
 compensation result (per target: joints, errors, free rotation, converged, iterations, message).
+--sequence: the rows are one program, in order: two more columns, joint_jump_deg (the largest revolute joint
+move from the previous row's result, deg; empty on the first row) and joint_jump (1 when it exceeds
+--max-jump DEG, default 30), so that you see where the compensated program would swing the robot.
 )"};
 
 const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements", R"(

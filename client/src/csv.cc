@@ -147,9 +147,11 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
 }
 
 void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
-                          const std::vector<api::Compensation>& results) {
+                          const std::vector<api::Compensation>& results, bool sequence) {
   for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
-  out << "position_error_mm,orientation_error_deg,converged\n";
+  out << "position_error_mm,orientation_error_deg,converged";
+  if (sequence) out << ",joint_jump_deg,joint_jump";
+  out << "\n";
   for (const api::Compensation& r : results) {
     for (std::size_t i = 0; i < joints.size(); ++i) {
       WriteValue(out, i < r.joints.size() ? r.joints[i] : std::nan(""));
@@ -158,7 +160,13 @@ void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>&
     WriteValue(out, r.position_error_mm);
     out << ",";
     WriteValue(out, r.orientation_error_deg);
-    out << "," << (r.converged ? 1 : 0) << "\n";
+    out << "," << (r.converged ? 1 : 0);
+    if (sequence) {
+      out << ",";
+      if (std::isfinite(r.joint_jump_deg)) WriteValue(out, r.joint_jump_deg);  // empty on the first row
+      out << "," << (r.joint_jump ? 1 : 0);
+    }
+    out << "\n";
   }
 }
 

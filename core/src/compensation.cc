@@ -8,7 +8,10 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <atomic>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/kinematics.h"
@@ -402,6 +405,43 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
   // Where the program expects the tool, relative to the robot base: independent of where the tracker stands.
   const Transform T_base_tool = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q_nominal);
   return CompensatePose(calibration, T_base_tool, TargetFrame::kBase, q_nominal, options);
+}
+
+std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
+                                              const std::vector<CompensationTarget>& targets,
+                                              const CompensationOptions& options, int threads) {
+  if (threads < 0) throw std::invalid_argument("CompensateAll: threads must be >= 0");
+  std::vector<CompensationResult> results(targets.size());
+  std::vector<std::exception_ptr> errors(targets.size());
+  auto solve = [&](std::size_t i) {
+    try {
+      const CompensationTarget& t = targets[i];
+      results[i] = t.pose ? CompensatePose(calibration, *t.pose, t.frame, t.start, options)
+                          : CompensateJoints(calibration, nominal, t.joints, options);
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  };
+  // Targets are handed out in chunks from a shared counter; each result goes to its own slot, so the order
+  // of the results is the order of the targets whatever thread solved them.
+  constexpr std::size_t kChunk = 16;
+  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t wanted = threads == 0 ? hardware : static_cast<std::size_t>(threads);
+  const std::size_t workers = std::min(wanted, (targets.size() + kChunk - 1) / kChunk);
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t begin = next.fetch_add(kChunk); begin < targets.size(); begin = next.fetch_add(kChunk)) {
+      for (std::size_t i = begin; i < std::min(begin + kChunk, targets.size()); ++i) solve(i);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return results;
 }
 
 }  // namespace robocal

@@ -1,6 +1,7 @@
 // The service's calibration: the fit, and what a stored calibration answers (compensation, forward kinematics
 // of the calibrated robot, accuracy on the validation measurements).
 #include <algorithm>
+#include <cmath>
 
 #include "robocal/core/accuracy.h"
 #include "robocal/core/compensation.h"
@@ -175,17 +176,54 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
   const TrimWhenDone trim(&trimmer_, req.targets.size() >= kLargeRequest);
   api::CompensateResult result;
   result.campaign = campaign_id;
-  result.results.reserve(req.targets.size());
+  std::vector<CompensationTarget> targets;
+  targets.reserve(req.targets.size());
   for (const api::CompensationTargetWire& t : req.targets) {
-    CompensationResult r;
+    CompensationTarget target;
     if (t.pose) {
-      const Eigen::VectorXd start =
-          t.start_joints.empty() ? DefaultStart(model) : api::JointsToCore(model, t.start_joints);
-      r = CompensatePose(loaded.calibration, api::PoseToTransform(*t.pose), t.frame, start);
+      target.pose = api::PoseToTransform(*t.pose);
+      target.frame = t.frame;
+      target.start = t.start_joints.empty() ? DefaultStart(model) : api::JointsToCore(model, t.start_joints);
     } else {
-      r = CompensateJoints(loaded.calibration, model, api::JointsToCore(model, t.joints));
+      target.joints = api::JointsToCore(model, t.joints);
     }
-    result.results.push_back(api::ToWire(model, r));
+    targets.push_back(std::move(target));
+  }
+  // A program (sequence): a pose target without start_joints starts where the previous target's result left
+  // the robot, so those are solved in order; everything else is independent and solved on all threads.
+  bool chained = false;
+  for (std::size_t i = 1; req.sequence && i < targets.size(); ++i) {
+    chained = chained || (req.targets[i].pose && req.targets[i].start_joints.empty());
+  }
+  std::vector<CompensationResult> solved;
+  if (!chained) {
+    solved = CompensateAll(loaded.calibration, model, targets, {}, options_.compensation_threads);
+  } else {
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      CompensationTarget& t = targets[i];
+      if (i > 0 && t.pose && req.targets[i].start_joints.empty() && solved.back().joints.size() == model.num_joints()) {
+        t.start = solved.back().joints;
+      }
+      solved.push_back(CompensateAll(loaded.calibration, model, {t}, {}, 1).front());
+    }
+  }
+  result.results.reserve(solved.size());
+  for (std::size_t i = 0; i < solved.size(); ++i) {
+    api::Compensation c = api::ToWire(model, solved[i]);
+    if (req.sequence && i > 0 && solved[i].joints.size() == model.num_joints() &&
+        solved[i - 1].joints.size() == model.num_joints()) {
+      // The largest revolute joint move from the previous result (prismatic axes are not compared in deg).
+      double jump = -1.0;
+      for (int k = 0; k < model.num_joints(); ++k) {
+        if (model.joint_type(k) != JointType::kRevolute) continue;
+        jump = std::max(jump, std::abs(solved[i].joints[k] - solved[i - 1].joints[k]) * api::kDegPerRad);
+      }
+      if (jump >= 0.0) {
+        c.joint_jump_deg = jump;
+        c.joint_jump = jump > req.max_joint_jump_deg;
+      }
+    }
+    result.results.push_back(std::move(c));
   }
   return result;
 }

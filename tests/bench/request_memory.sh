@@ -19,24 +19,11 @@ done
 [ -r /proc/self/status ] || { echo "request_memory: needs /proc (Linux)" >&2; exit 2; }
 
 work=$(mktemp -d)
-server_pid=
-url=
-stop_server() {
-  if [ -n "$server_pid" ]; then kill -TERM "$server_pid" 2>/dev/null || true; wait "$server_pid" 2>/dev/null || true; fi
-  server_pid=
-}
+# shellcheck source=bench_server.sh
+source "$(dirname "$0")/bench_server.sh"
+stop_server() { bench_stop_server; }
 trap 'stop_server; rm -rf "$work"' EXIT
-
-start_server() {
-  "$server" --port 0 --db "$work/robocal.db" --log-level warn >"$work/stdout" 2>"$work/stderr" &
-  server_pid=$!
-  for _ in $(seq 100); do
-    grep -q 'listening on' "$work/stdout" 2>/dev/null && break
-    sleep 0.1
-  done
-  url=$(sed -n 's/.*listening on \(http[^ ]*\).*/\1/p' "$work/stdout")
-  [ -n "$url" ] || { echo "request_memory: the server did not start" >&2; cat "$work/stderr" >&2; exit 1; }
-}
+start_server() { bench_start_server request_memory "$server"; }
 
 # VmRSS or VmHWM of the server, MB.
 mb() { awk -v key="$1:" '$1 == key { printf "%d", $2 / 1024 }' "/proc/$server_pid/status"; }

@@ -15,23 +15,10 @@ command -v wrk >/dev/null || { echo "service_load: wrk is not installed (Debian 
 [ -x "$server" ] || { echo "service_load: no server binary at $server" >&2; exit 2; }
 
 work=$(mktemp -d)
-server_pid=
-cleanup() {
-  if [ -n "$server_pid" ]; then kill -TERM "$server_pid" 2>/dev/null || true; wait "$server_pid" 2>/dev/null || true; fi
-  rm -rf "$work"
-}
-trap cleanup EXIT
-
-# Port 0: the server picks a free port and names it on its first line.
-"$server" --port 0 --db "$work/robocal.db" --log-level warn --threads 8 \
-  --max-measurements-per-campaign 100000000 >"$work/stdout" 2>"$work/stderr" &
-server_pid=$!
-for _ in $(seq 100); do
-  grep -q 'listening on' "$work/stdout" 2>/dev/null && break
-  sleep 0.1
-done
-url=$(sed -n 's/.*listening on \(http[^ ]*\).*/\1/p' "$work/stdout")
-[ -n "$url" ] || { echo "service_load: the server did not start" >&2; cat "$work/stderr" >&2; exit 1; }
+# shellcheck source=bench_server.sh
+source "$(dirname "$0")/bench_server.sh"
+trap 'bench_stop_server; rm -rf "$work"' EXIT
+bench_start_server service_load "$server" --threads 8 --max-measurements-per-campaign 100000000
 echo "server: $server at $url; wrk $wrk_args; $(nproc) cores"
 
 curl -sf -XPOST "$url/v1/campaigns" -H 'Content-Type: application/json' \

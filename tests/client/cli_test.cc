@@ -184,6 +184,21 @@ TEST_F(CliTest, WholeFlow) {
   ASSERT_EQ(compensation.results.size(), 10u);
   EXPECT_GT(compensation.results[0].iterations, 0);
   EXPECT_TRUE(nlohmann::json::parse(compensated_json.out).at("results")[0].contains("free_rotation_deg"));
+  // --sequence: the rows are one program; the jump columns say how far the revolute joints move from the
+  // previous row (empty on the first), flagged over --max-jump. The planned configurations are far apart.
+  const Result program =
+      RunCli(server + " compensate " + campaign + " " + Path("plan.csv") + " --sequence --max-jump 0.001");
+  ASSERT_EQ(program.exit_code, 0);
+  std::istringstream program_rows(program.out);
+  std::string row;
+  std::getline(program_rows, row);
+  EXPECT_NE(row.find(",converged,joint_jump_deg,joint_jump"), std::string::npos) << row;
+  std::getline(program_rows, row);
+  EXPECT_EQ(row.substr(row.size() - 3), ",,0") << row;  // the first row: no jump
+  int flagged = 0;
+  while (std::getline(program_rows, row)) flagged += row.back() == '1' ? 1 : 0;
+  EXPECT_EQ(flagged, 9) << program.out;
+  EXPECT_EQ(RunCli(server + " compensate " + campaign + " " + Path("plan.csv") + " --max-jump 5").exit_code, 2);
 
   const Result evaluated = RunCli(server + " evaluate " + campaign);
   ASSERT_EQ(evaluated.exit_code, 0);

@@ -215,6 +215,16 @@ expect "... its result is the stored calibration" \
 targets=$(jq -c '{targets: [.configurations[:3][] | {joints: .}]}' "$work/plan.json")
 expect "POST :compensate" "$(call POST "/v1/campaigns/$campaign:compensate" "$targets" |
   jq '[.results[].converged] | all')" true
+# As one program: the first result has no jump, the others say how far the joints move; a threshold of 0.001
+# deg flags every move between planned configurations.
+sequence=$(jq -c '{targets: [.configurations[:3][] | {joints: .}], sequence: true, max_joint_jump_deg: 0.001}' \
+  "$work/plan.json")
+expect "POST :compensate sequence: jumps after the first, flagged over the threshold" \
+  "$(call POST "/v1/campaigns/$campaign:compensate" "$sequence" |
+    jq -c '[.results[] | [(.joint_jump_deg != null), .joint_jump]]')" '[[false,false],[true,true],[true,true]]'
+call POST "/v1/campaigns/$campaign:compensate" '{"targets": [{"joints": [400, 300, 200, 0, 0]}], "max_joint_jump_deg": 0}' >/dev/null
+expect "POST :compensate max_joint_jump_deg 0 -> 400" "$(status)" 400
+expect "... naming max_joint_jump_deg" "$(jq -r '.error.details[0].field' "$work/body")" max_joint_jump_deg
 expect "POST :forward (calibrated)" \
   "$(call POST "/v1/campaigns/$campaign:forward" '{"joints": [[400, 300, 200, 0, 0]]}' | jq '.poses | length')" 1
 call POST "/v1/campaigns/$campaign:evaluate" '{"h_mm": 30}' >"$work/evaluate.json"

@@ -102,7 +102,7 @@ TEST(ServerTest, HealthzAndSpecAndUnknownEndpoint) {
   std::ifstream file(ROBOCAL_SOURCE_DIR "/api/openapi.json", std::ios::binary);
   const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
   ASSERT_GT(text.size(), 65536u);
-  EXPECT_EQ(spec.text, text);
+  EXPECT_TRUE(spec.text == text) << "served " << spec.text.size() << " bytes, api/openapi.json " << text.size();
   const Reply missing = s.Get("/v1/nothing");
   EXPECT_EQ(missing.status, 404);
   EXPECT_EQ(missing.body["error"]["status"], "NOT_FOUND");

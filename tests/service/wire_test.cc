@@ -251,6 +251,57 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectEveryFieldRequired(fk, kDerived, {{"campaign", "robot or campaign"}});
 }
 
+// A program (sequence): pose targets along a smooth path, each solved from the previous result, converge with
+// small joint moves between them; the jumps are on the wire, flagged over the threshold, and round-trip. A path
+// through the singularity (A = 0, where the C axis is parallel to the tool axis) is flagged where C swings.
+TEST_F(WireTest, CompensationSequenceFollowsTheProgram) {
+  const RobotModel model = Preset("grinder5");
+  constexpr int kSteps = 40;
+  const auto program_of = [&](const std::vector<double>& from_wire, const std::vector<double>& to_wire) {
+    const Eigen::VectorXd from = JointsToCore(model, from_wire), to = JointsToCore(model, to_wire);
+    json targets = json::array();
+    for (int i = 0; i <= kSteps; ++i) {
+      const Eigen::VectorXd q = from + (to - from) * i / kSteps;
+      const Transform T_base_tool = model.T_world_base().inverse() * ForwardKinematics(model, q);
+      targets.push_back({{"pose", TransformToPose(T_base_tool)}, {"frame", "base"}});
+    }
+    // The program's first point says where the robot starts (from the default start the solver can wind C to
+    // its limit on the other branch); every later one starts from the result before it.
+    targets[0]["start_joints"] = from_wire;
+    return targets;
+  };
+  // C 20 -> 60 deg, A 30 -> 100 deg: 1 and 1.75 deg per step, away from A = 0.
+  const json smooth = program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, 100});
+  const CompensateResult program =
+      service_->Compensate("w", {{"targets", smooth}, {"sequence", true}, {"max_joint_jump_deg", 5}});
+  ASSERT_EQ(program.results.size(), static_cast<std::size_t>(kSteps + 1));
+  EXPECT_TRUE(std::isnan(program.results[0].joint_jump_deg));
+  for (std::size_t i = 0; i < program.results.size(); ++i) {
+    EXPECT_TRUE(program.results[i].converged) << i << ": " << program.results[i].message;
+    if (i == 0) continue;
+    EXPECT_NEAR(program.results[i].joint_jump_deg, 1.75, 0.1) << i;
+    EXPECT_FALSE(program.results[i].joint_jump) << i;
+  }
+  ExpectRoundTrip(program);
+  // The same program with a threshold below the step flags every move after the first.
+  const CompensateResult tight =
+      service_->Compensate("w", {{"targets", smooth}, {"sequence", true}, {"max_joint_jump_deg", 1}});
+  for (std::size_t i = 1; i < tight.results.size(); ++i) EXPECT_TRUE(tight.results[i].joint_jump) << i;
+  // Without sequence no jumps are reported.
+  const CompensateResult apart = service_->Compensate("w", {{"targets", smooth}});
+  for (const Compensation& c : apart.results) EXPECT_TRUE(std::isnan(c.joint_jump_deg));
+  // A 30 -> -40 deg passes A = 0 between steps 17 and 18: C swings there, and only there.
+  const CompensateResult through = service_->Compensate(
+      "w", {{"targets", program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, -40})}, {"sequence", true},
+            {"max_joint_jump_deg", 5}});
+  std::vector<std::size_t> flagged;
+  for (std::size_t i = 0; i < through.results.size(); ++i) {
+    EXPECT_TRUE(through.results[i].converged) << i << ": " << through.results[i].message;
+    if (through.results[i].joint_jump) flagged.push_back(i);
+  }
+  EXPECT_EQ(flagged, std::vector<std::size_t>{18});
+}
+
 TEST_F(WireTest, CellsRoundTripAndRequireEveryField) {
   const CellWire cell = service_->CreateCell(json::parse(R"({"id": "wc", "robot": "grinder5",
       "tracker": {"position_mm": [2000, -500, 400], "min_distance_mm": 1000},

@@ -342,6 +342,42 @@ TEST(CompensationTest, TerminationSaysHowTheSolverEnded) {
   EXPECT_EQ(CompensationResult{}.termination, Termination::kFailure);
 }
 
+// CompensateAll: every result is the single-target function's, bit for bit, in target order, whatever the
+// thread count; joint and pose targets mixed; a target that throws is rethrown.
+TEST(CompensationTest, CompensateAllIsTheSameOnAnyNumberOfThreads) {
+  const RobotModel nominal = Preset("ur5e");
+  const Calibration calibration = MakeCalibration("ur5e", 9);
+  Rng rng(21);
+  std::vector<CompensationTarget> targets;
+  for (int i = 0; i < 203; ++i) {
+    CompensationTarget t;
+    t.joints = RandomConfiguration(nominal, &rng);
+    if (i % 3 == 0) {
+      t.pose = ForwardKinematics(nominal, RandomConfiguration(nominal, &rng));
+      t.frame = TargetFrame::kTracker;
+      t.start = t.joints;
+    }
+    targets.push_back(t);
+  }
+  std::vector<CompensationResult> single;
+  for (const CompensationTarget& t : targets) {
+    single.push_back(t.pose ? CompensatePose(calibration, *t.pose, t.frame, t.start)
+                            : CompensateJoints(calibration, nominal, t.joints));
+  }
+  for (const int threads : {1, 2, 5, 0}) {
+    const std::vector<CompensationResult> all = CompensateAll(calibration, nominal, targets, {}, threads);
+    ASSERT_EQ(all.size(), targets.size());
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      EXPECT_EQ(all[i].joints, single[i].joints) << threads << " threads, target " << i;
+      EXPECT_EQ(all[i].termination, single[i].termination);
+      EXPECT_EQ(all[i].message, single[i].message);
+    }
+  }
+  targets[151].joints = Eigen::VectorXd::Constant(6, std::nan(""));  // a joint target (151 % 3 != 0)
+  EXPECT_THROW(CompensateAll(calibration, nominal, targets, {}, 2), std::invalid_argument);
+  EXPECT_TRUE(CompensateAll(calibration, nominal, {}, {}, 2).empty());
+}
+
 TEST(CompensationTest, StartOutsideTheLimitsIsProjectedInside) {
   const RobotModel nominal = Preset("ur5e");
   const Calibration calibration = MakeCalibration("ur5e", 41);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -118,6 +119,12 @@ void from_json(const nlohmann::json& j, CompensationTargetWire& target);
 /// POST /v1/campaigns/{c}:compensate.
 struct CompensateRequest {
   std::vector<CompensationTargetWire> targets;
+  /// The targets are one program, in order: a pose target without start_joints starts from the previous
+  /// target's result (the first from the robot's default start), and each result after the first says how far
+  /// the joints move from the previous one (joint_jump_deg; joint_jump when more than max_joint_jump_deg).
+  bool sequence = false;
+  /// Threshold of joint_jump, deg (> 0, <= 720).
+  double max_joint_jump_deg = 30.0;
 };
 CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
 void to_json(nlohmann::json& j, const CompensateRequest& request);
@@ -137,6 +144,11 @@ struct Compensation {
   Termination termination = Termination::kFailure;
   int iterations = 0;
   std::string message;
+  /// With sequence: the largest change of a revolute joint from the previous target's result (deg; NaN / null
+  /// for the first target, without sequence, and for a robot without revolute joints), and whether it exceeds
+  /// max_joint_jump_deg.
+  double joint_jump_deg = std::numeric_limits<double>::quiet_NaN();
+  bool joint_jump = false;
 };
 void to_json(nlohmann::json& j, const Compensation& c);
 void from_json(const nlohmann::json& j, Compensation& c);

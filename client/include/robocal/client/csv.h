@@ -32,8 +32,8 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
                           const std::vector<api::MeasurementWire>& measurements);
 
 /// Compensation results: the compensated joint columns, then position_error_mm, orientation_error_deg,
-/// converged (0/1).
+/// converged (0/1); with `sequence` also joint_jump_deg (empty on the first row) and joint_jump (0/1).
 void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
-                          const std::vector<api::Compensation>& results);
+                          const std::vector<api::Compensation>& results, bool sequence = false);
 
 }  // namespace robocal::client

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -87,5 +88,22 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
 /// frame, and the answer is the joints that take the calibrated robot there.
 CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
                                     const Eigen::VectorXd& q_nominal, const CompensationOptions& options = {});
+
+/// One target of CompensateAll: a nominal joint command (as CompensateJoints) unless `pose` is set, then a pose
+/// in `frame` solved from `start` (as CompensatePose).
+struct CompensationTarget {
+  Eigen::VectorXd joints;
+  std::optional<Transform> pose;
+  TargetFrame frame = TargetFrame::kTracker;
+  Eigen::VectorXd start;
+};
+
+/// Compensates every target on its own, on `threads` threads (0: as many as the hardware runs at once), and
+/// returns the results in target order. Each result is exactly what CompensateJoints / CompensatePose returns
+/// for that target alone, so neither the results nor their order depend on the thread count. Throws what the
+/// single-target functions throw, for the first target (in order) that throws.
+std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
+                                              const std::vector<CompensationTarget>& targets,
+                                              const CompensationOptions& options = {}, int threads = 0);
 
 }  // namespace robocal

@@ -36,6 +36,9 @@ struct ServiceOptions {
   std::chrono::milliseconds request_deadline{60000};
   /// Operations (async plans and fits) running at once; more is UNAVAILABLE.
   int max_running_operations = 2;
+  /// Threads that solve the targets of one :compensate (0: as many as the hardware runs at once). The results
+  /// do not depend on it.
+  int compensation_threads = 0;
   /// For tests: called in every fit's progress callback (once per iteration) before the deadline and the
   /// cancel flag are checked, so that a test can hold a fit at a known point instead of racing it. Empty in
   /// the server.
