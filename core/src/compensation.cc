@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -181,18 +182,20 @@ class Solver {
       if (out.iterations >= max_iterations) return out;
       JointJacobian(model_, out.q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
       rows.Jacobian(ws_.T_world_tool, residual, twists_, &jacobian);
-      const Eigen::VectorXd gradient = jacobian.transpose() * residual;
-      std::vector<bool> held(n, false);
+      // The joint-sized work is in matrices of at most kMaxJoints rows on the stack: no allocation per
+      // iteration (the solver runs for every target of a request).
+      const JointVector gradient = jacobian.transpose() * residual;
+      std::array<bool, kMaxJoints> held{};
       for (int i = 0; i < n; ++i) {
         held[i] = (out.q[i] <= lower[i] && gradient[i] < 0.0) || (out.q[i] >= upper[i] && gradient[i] > 0.0);
       }
-      const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+      const JointMatrix normal = jacobian.transpose() * jacobian;
       if (mu < 0.0) mu = std::max(options_.initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
       bool accepted = false;
       while (!accepted) {
-        Eigen::MatrixXd a = normal;
+        JointMatrix a = normal;
         a.diagonal().array() += mu;
-        Eigen::VectorXd b = gradient;
+        JointVector b = gradient;
         for (int i = 0; i < n; ++i) {
           if (!held[i]) continue;
           a.row(i).setZero();
@@ -200,15 +203,16 @@ class Solver {
           a(i, i) = 1.0;
           b[i] = 0.0;
         }
-        const Eigen::VectorXd dq = a.ldlt().solve(b);
-        const Eigen::VectorXd q_trial = (out.q + dq).cwiseMax(lower).cwiseMin(upper);
-        const double trial_cost = dq.allFinite() ? cost_at(q_trial, &trial_residual) : HUGE_VAL;
-        const Eigen::VectorXd step = q_trial - out.q;
+        ldlt_.compute(a);
+        const JointVector dq = ldlt_.solve(b);
+        q_trial_ = (out.q + dq).cwiseMax(lower).cwiseMin(upper);
+        const double trial_cost = dq.allFinite() ? cost_at(q_trial_, &trial_residual) : HUGE_VAL;
+        const JointVector step = q_trial_ - out.q;
         // The decrease the linear model predicts: |r|^2 - |r - J s|^2 = 2 s'J'r - s'J'J s.
         const double predicted = 2.0 * step.dot(gradient) - step.dot(normal * step);
         if (trial_cost < out.cost) {
           const double rho = predicted > 0.0 ? (out.cost - trial_cost) / predicted : 1.0;
-          out.q = q_trial;
+          out.q = q_trial_;
           out.cost = trial_cost;
           residual = trial_residual;
           mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)), kMinDamping);
@@ -276,12 +280,17 @@ class Solver {
                                                             : Number(value) + " mm";
   }
 
+  using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxJoints, 1>;
+  using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxJoints, kMaxJoints>;
+
   const Calibration& calibration_;
   const RobotModel& model_;
   MeasurementType type_;
   const CompensationOptions& options_;
   KinematicsWorkspace ws_;
   Eigen::MatrixXd twists_;
+  Eigen::LDLT<JointMatrix> ldlt_;
+  Eigen::VectorXd q_trial_;
 };
 
 }  // namespace

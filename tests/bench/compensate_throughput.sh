@@ -43,8 +43,12 @@ end=$(date +%s.%N)
 echo "one client:  $rounds x $targets targets: $(python3 -c "print(round($rounds * $targets / ($end - $start)))") targets/s"
 
 start=$(date +%s.%N)
-for _ in $(seq "$clients"); do (for _ in $(seq "$rounds"); do post; done) & done
-wait
+pids=()
+for _ in $(seq "$clients"); do
+  (for _ in $(seq "$rounds"); do post; done) &
+  pids+=($!)
+done
+wait "${pids[@]}"  # not the server, which runs in the background too
 end=$(date +%s.%N)
 echo "$clients clients: $((clients * rounds)) x $targets targets: $(python3 -c "print(round($clients * $rounds * $targets / ($end - $start)))") targets/s"
 echo "($(nproc) cores, server $server)"
