@@ -379,18 +379,8 @@ void from_json(const nlohmann::json& j, CellCheckResult& r) {
 }
 
 ForwardRequest ParseCellCheckRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
-  Problems problems;
-  ForwardRequest req;
-  ObjectReader r(body, "", &problems);
-  if (const nlohmann::json* a = r.Array("joints", true, 1, std::min(kMaxCheckConfigurations, limits.max_array_length))) {
-    req.joints.resize(a->size());
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      ReadJointVector((*a)[i], IndexPath("joints", i), model, &problems, &req.joints[i]);
-    }
-  }
-  r.RejectUnknown({"joints"});
-  problems.ThrowIfAny("invalid check request");
-  return req;
+  return ParseJointsRequest(body, model, std::min(kMaxCheckConfigurations, limits.max_array_length),
+                            "invalid check request");
 }
 
 }  // namespace robocal::api

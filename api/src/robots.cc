@@ -279,17 +279,22 @@ void from_json(const nlohmann::json& j, RobotList& list) {
 // ---------------------------------------------------------------------------------------------- forward
 
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
+  return ParseJointsRequest(body, model, limits.max_array_length, "invalid forward request");
+}
+
+ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& model, std::size_t max_vectors,
+                                  const char* refusal) {
   Problems problems;
   ForwardRequest req;
   ObjectReader r(body, "", &problems);
-  if (const nlohmann::json* a = r.Array("joints", true, 1, limits.max_array_length)) {
+  if (const nlohmann::json* a = r.Array("joints", true, 1, max_vectors)) {
     req.joints.resize(a->size());
     for (std::size_t i = 0; i < a->size(); ++i) {
       ReadJointVector((*a)[i], IndexPath("joints", i), model, &problems, &req.joints[i]);
     }
   }
   r.RejectUnknown({"joints"});
-  problems.ThrowIfAny("invalid forward request");
+  problems.ThrowIfAny(refusal);
   return req;
 }
 

@@ -186,9 +186,7 @@ class Solver {
       // iteration (the solver runs for every target of a request).
       const JointVector gradient = jacobian.transpose() * residual;
       std::array<bool, kMaxJoints> held{};
-      for (int i = 0; i < n; ++i) {
-        held[i] = (out.q[i] <= lower[i] && gradient[i] < 0.0) || (out.q[i] >= upper[i] && gradient[i] > 0.0);
-      }
+      for (int i = 0; i < n; ++i) held[i] = AtLowerLimit(out.q, gradient, i) || AtUpperLimit(out.q, gradient, i);
       const JointMatrix normal = jacobian.transpose() * jacobian;
       if (mu < 0.0) mu = std::max(options_.initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
       bool accepted = false;
@@ -235,12 +233,13 @@ class Solver {
 
   // Whether a joint is held at a limit that the error at q pulls outward, and the message naming them.
   std::string HeldLimits(const Transform& T_world_target, const Eigen::VectorXd& q) {
-    const Eigen::VectorXd gradient = Gradient(T_world_target, q);
+    Eigen::VectorXd r;
+    const Eigen::MatrixXd jacobian = MatchedJacobian(T_world_target, q, &r);
+    const Eigen::VectorXd gradient = jacobian.transpose() * r;
     std::string limits;
     for (int i = 0; i < model_.num_joints(); ++i) {
-      const bool at_lower = q[i] <= model_.lower_limits()[i] && gradient[i] < 0.0;
-      const bool at_upper = q[i] >= model_.upper_limits()[i] && gradient[i] > 0.0;
-      if (!at_lower && !at_upper) continue;
+      const bool at_lower = AtLowerLimit(q, gradient, i);
+      if (!at_lower && !AtUpperLimit(q, gradient, i)) continue;
       limits += "joint " + std::to_string(i + 1) + " (" + model_.joint_name(i) + ") at its " +
                 (at_lower ? "lower limit " + LimitText(i, model_.lower_limits()[i])
                           : "upper limit " + LimitText(i, model_.upper_limits()[i])) +
@@ -248,30 +247,33 @@ class Solver {
     }
     return limits;
   }
-  bool AnyHeld(const Transform& T_world_target, const Eigen::VectorXd& q) {
-    return !HeldLimits(T_world_target, q).empty();
-  }
 
   // The singular values of the matched Jacobian at q (mm/rad, orientation rows weighted).
   Eigen::VectorXd SingularValues(const Transform& T_world_target, const Eigen::VectorXd& q) {
-    const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
-    Eigen::VectorXd r(rows.size());
-    rows.Residual(Reached(q), &r);
-    Eigen::MatrixXd jacobian(rows.size(), model_.num_joints());
-    JointJacobian(model_, q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
-    rows.Jacobian(ws_.T_world_tool, r, twists_, &jacobian);
-    return Eigen::JacobiSVD<Eigen::MatrixXd>(jacobian).singularValues();
+    Eigen::VectorXd r;
+    return Eigen::JacobiSVD<Eigen::MatrixXd>(MatchedJacobian(T_world_target, q, &r)).singularValues();
   }
 
  private:
-  Eigen::VectorXd Gradient(const Transform& T_world_target, const Eigen::VectorXd& q) {
+  // The solver's rows at q: the residual *r against the target and its Jacobian.
+  Eigen::MatrixXd MatchedJacobian(const Transform& T_world_target, const Eigen::VectorXd& q, Eigen::VectorXd* r) {
     const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
-    Eigen::VectorXd r(rows.size());
-    rows.Residual(Reached(q), &r);
+    r->resize(rows.size());
+    rows.Residual(Reached(q), r);
     Eigen::MatrixXd jacobian(rows.size(), model_.num_joints());
     JointJacobian(model_, q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
-    rows.Jacobian(ws_.T_world_tool, r, twists_, &jacobian);
-    return jacobian.transpose() * r;
+    rows.Jacobian(ws_.T_world_tool, *r, twists_, &jacobian);
+    return jacobian;
+  }
+
+  // Joint i sits at a limit that the descent direction (gradient = J'r) pulls it out of.
+  template <typename Gradient>
+  bool AtLowerLimit(const Eigen::VectorXd& q, const Gradient& gradient, int i) const {
+    return q[i] <= model_.lower_limits()[i] && gradient[i] < 0.0;
+  }
+  template <typename Gradient>
+  bool AtUpperLimit(const Eigen::VectorXd& q, const Gradient& gradient, int i) const {
+    return q[i] >= model_.upper_limits()[i] && gradient[i] > 0.0;
   }
 
   // A limit in the joint's wire unit (deg for revolute joints, mm for prismatic ones).
@@ -416,6 +418,12 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
   return CompensatePose(calibration, T_base_tool, TargetFrame::kBase, q_nominal, options);
 }
 
+CompensationResult Compensate(const Calibration& calibration, const RobotModel& nominal,
+                              const CompensationTarget& target, const CompensationOptions& options) {
+  return target.pose ? CompensatePose(calibration, *target.pose, target.frame, target.start, options)
+                     : CompensateJoints(calibration, nominal, target.joints, options);
+}
+
 std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
                                               const std::vector<CompensationTarget>& targets,
                                               const CompensationOptions& options, int threads) {
@@ -424,9 +432,7 @@ std::vector<CompensationResult> CompensateAll(const Calibration& calibration, co
   std::vector<std::exception_ptr> errors(targets.size());
   auto solve = [&](std::size_t i) {
     try {
-      const CompensationTarget& t = targets[i];
-      results[i] = t.pose ? CompensatePose(calibration, *t.pose, t.frame, t.start, options)
-                          : CompensateJoints(calibration, nominal, t.joints, options);
+      results[i] = Compensate(calibration, nominal, targets[i], options);
     } catch (...) {
       errors[i] = std::current_exception();
     }

@@ -191,20 +191,19 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
   }
   // A program (sequence): a pose target without start_joints starts where the previous target's result left
   // the robot, so those are solved in order; everything else is independent and solved on all threads.
+  const auto starts_from_previous = [&](std::size_t i) {
+    return req.sequence && i > 0 && req.targets[i].pose && req.targets[i].start_joints.empty();
+  };
   bool chained = false;
-  for (std::size_t i = 1; req.sequence && i < targets.size(); ++i) {
-    chained = chained || (req.targets[i].pose && req.targets[i].start_joints.empty());
-  }
+  for (std::size_t i = 0; i < targets.size(); ++i) chained = chained || starts_from_previous(i);
   std::vector<CompensationResult> solved;
   if (!chained) {
     solved = CompensateAll(loaded.calibration, model, targets, {}, options_.compensation_threads);
   } else {
     for (std::size_t i = 0; i < targets.size(); ++i) {
       CompensationTarget& t = targets[i];
-      if (i > 0 && t.pose && req.targets[i].start_joints.empty() && solved.back().joints.size() == model.num_joints()) {
-        t.start = solved.back().joints;
-      }
-      solved.push_back(CompensateAll(loaded.calibration, model, {t}, {}, 1).front());
+      if (starts_from_previous(i) && solved.back().joints.size() == model.num_joints()) t.start = solved.back().joints;
+      solved.push_back(robocal::Compensate(loaded.calibration, model, t));
     }
   }
   result.results.reserve(solved.size());

@@ -87,6 +87,10 @@ struct ForwardRequest {
 };
 /// Validates sizes and joint limits against `model`.
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+/// The same body, {"joints": [[...]]}, with 1 to max_vectors vectors within the robot's limits; a refusal's
+/// message starts with `refusal` (e.g. "invalid forward request"). The parser of every joints-only request.
+ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& model, std::size_t max_vectors,
+                                  const char* refusal);
 void to_json(nlohmann::json& j, const ForwardRequest& request);
 void from_json(const nlohmann::json& j, ForwardRequest& request);
 

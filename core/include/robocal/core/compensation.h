@@ -98,9 +98,13 @@ struct CompensationTarget {
   Eigen::VectorXd start;
 };
 
+/// One target: CompensatePose or CompensateJoints, as the target says.
+CompensationResult Compensate(const Calibration& calibration, const RobotModel& nominal,
+                              const CompensationTarget& target, const CompensationOptions& options = {});
+
 /// Compensates every target on its own, on `threads` threads (0: as many as the hardware runs at once), and
-/// returns the results in target order. Each result is exactly what CompensateJoints / CompensatePose returns
-/// for that target alone, so neither the results nor their order depend on the thread count. Throws what the
+/// returns the results in target order. Each result is exactly what Compensate returns for that target
+/// alone, so neither the results nor their order depend on the thread count. Throws what the
 /// single-target functions throw, for the first target (in order) that throws.
 std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
                                               const std::vector<CompensationTarget>& targets,
