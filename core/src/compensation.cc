@@ -13,6 +13,7 @@
 #include <exception>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/kinematics.h"
@@ -57,6 +58,13 @@ double FreeRotation(const Transform& reached, const Transform& target) {
   return -std::atan2(r.col(1).dot(x_target), r.col(0).dot(x_target));
 }
 
+using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxJoints, 1>;
+using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxJoints, kMaxJoints>;
+using TwistMatrix = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxJoints>;
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, kMaxJoints>;
+// Residual rows: all six for a pose, the first five for position and axis.
+using RowVector = Eigen::Matrix<double, 6, 1>;
+
 // The solver's rows for one target: the position error (mm) and the weighted orientation error (mm per rad
 // times rad), with their exact derivatives. MeasurementResidual's rows are not used here: their Jacobian is
 // exact only at zero residual, and near a singularity that small mismatch, multiplied by a large inverse,
@@ -73,7 +81,7 @@ class Rows {
   int size() const { return MeasurementRows(type_); }
 
   // r = target - reached, weighted.
-  void Residual(const Transform& reached, Eigen::VectorXd* r) const {
+  void Residual(const Transform& reached, RowVector* r) const {
     r->head<3>() = target_.translation() - reached.translation();
     if (type_ == MeasurementType::kPose) {
       r->tail<3>() = weight_ * RotationVector(target_.linear() * reached.linear().transpose());
@@ -86,8 +94,7 @@ class Rows {
 
   // J with r(q + dq) ~= r(q) - J dq, from the joint twists (JointJacobian kPose: dp rows, omega rows) at the
   // reached pose and the current residual r.
-  void Jacobian(const Transform& reached, const Eigen::VectorXd& r, const Eigen::MatrixXd& twists,
-                Eigen::MatrixXd* jacobian) const {
+  void Jacobian(const Transform& reached, const RowVector& r, const TwistMatrix& twists, RowMatrix* jacobian) const {
     jacobian->topRows<3>() = twists.topRows<3>();
     if (type_ == MeasurementType::kPose) {
       // r = log(R_t R^T); turning R by omega changes it by -Jr^-1(r) omega (Jr: the right Jacobian of SO(3)).
@@ -131,7 +138,9 @@ std::string Number(double value) {
   return text;
 }
 
-// Damped least squares on the calibrated model, within the joint limits.
+
+// Damped least squares on the calibrated model (its error parameters folded into one chain), within the joint
+// limits.
 class Solver {
  public:
   struct Outcome {
@@ -142,20 +151,15 @@ class Solver {
     /// No step lowered the error any more (as opposed to running out of iterations).
     bool stalled = false;
   };
-  Solver(const Calibration& calibration, MeasurementType type, const CompensationOptions& options)
-      : calibration_(calibration),
-        model_(calibration.model),
-        type_(type),
-        options_(options),
-        ws_(model_),
-        twists_(6, model_.num_joints()) {}
+  Solver(const RobotModel& model, const FoldedChain& chain, MeasurementType type, const CompensationOptions& options)
+      : model_(model), chain_(chain), type_(type), options_(options) {}
 
-  Transform Reached(const Eigen::VectorXd& q) { return ForwardKinematics(model_, q, calibration_.errors, &ws_); }
+  Transform Reached(const Eigen::Ref<const Eigen::VectorXd>& q) { return chain_.Forward(q, frames_a_.data()); }
 
   // Levenberg-Marquardt with the gain-ratio damping schedule of Nielsen (1999), as given by Madsen, Nielsen &
-  // Tingleff, "Methods for non-linear least squares problems" (2004), section 3.2: mu starts at 1e-6 x the
-  // largest diagonal element of J'J, shrinks by max(1/3, 1 - (2 rho - 1)^3) after a step that lowers the error
-  // (rho: actual over predicted decrease), and grows by nu (doubling each time) after one that does not. A
+  // Tingleff, "Methods for non-linear least squares problems" (2004), section 3.2: mu starts at initial_damping x
+  // the largest diagonal element of J'J, shrinks by max(1/3, 1 - (2 rho - 1)^3) after a step that lowers the
+  // error (rho: actual over predicted decrease), and grows by nu (doubling each time) after one that does not. A
   // joint at a limit whose descent direction points out of the range is held there (an active set), so the
   // other joints still make the progress they can.
   Outcome Solve(const Transform& T_world_target, const Eigen::VectorXd& q0, int max_iterations) {
@@ -163,30 +167,34 @@ class Solver {
     const int n = model_.num_joints();
     const Eigen::VectorXd& lower = model_.lower_limits();
     const Eigen::VectorXd& upper = model_.upper_limits();
-    Eigen::MatrixXd jacobian(rows.size(), n);
-    Eigen::VectorXd residual(rows.size()), trial_residual(rows.size());
-    auto cost_at = [&](const Eigen::VectorXd& joints, Eigen::VectorXd* r) {
-      rows.Residual(Reached(joints), r);
-      return r->squaredNorm();
+    // The joint-sized work is in matrices of at most kMaxJoints columns on the stack: no allocation per
+    // iteration (the solver runs for every target of a request).
+    RowMatrix jacobian(rows.size(), n);
+    RowVector residual = RowVector::Zero(), trial_residual = RowVector::Zero();
+    JointVector q = q0, q_trial(n);
+    // The joint frames at q and at the trial point; swapped when a trial is accepted.
+    Transform* frames = frames_a_.data();
+    Transform* trial_frames = frames_b_.data();
+    Transform reached = chain_.Forward(q, frames);
+    auto cost_of = [&](const Transform& pose, RowVector* r) {
+      rows.Residual(pose, r);
+      return r->head(rows.size()).squaredNorm();
     };
     Outcome out;
-    out.q = q0;
-    out.cost = cost_at(out.q, &residual);
+    out.cost = cost_of(reached, &residual);
     double mu = -1.0, nu = 2.0;
     for (;; ++out.iterations) {
-      const Errors e = MatchedErrors(type_, ws_.T_world_tool, T_world_target);
+      const Errors e = MatchedErrors(type_, reached, T_world_target);
       if (e.position_mm < options_.position_tolerance_mm && e.orientation_rad < options_.orientation_tolerance_rad) {
         out.converged = true;
-        return out;
+        break;
       }
-      if (out.iterations >= max_iterations) return out;
-      JointJacobian(model_, out.q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
-      rows.Jacobian(ws_.T_world_tool, residual, twists_, &jacobian);
-      // The joint-sized work is in matrices of at most kMaxJoints rows on the stack: no allocation per
-      // iteration (the solver runs for every target of a request).
-      const JointVector gradient = jacobian.transpose() * residual;
+      if (out.iterations >= max_iterations) break;
+      Twists(reached, frames);
+      rows.Jacobian(reached, residual, twists_, &jacobian);
+      const JointVector gradient = jacobian.transpose() * residual.head(rows.size());
       std::array<bool, kMaxJoints> held{};
-      for (int i = 0; i < n; ++i) held[i] = AtLowerLimit(out.q, gradient, i) || AtUpperLimit(out.q, gradient, i);
+      for (int i = 0; i < n; ++i) held[i] = AtLowerLimit(q, gradient, i) || AtUpperLimit(q, gradient, i);
       const JointMatrix normal = jacobian.transpose() * jacobian;
       if (mu < 0.0) mu = std::max(options_.initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
       bool accepted = false;
@@ -203,14 +211,21 @@ class Solver {
         }
         ldlt_.compute(a);
         const JointVector dq = ldlt_.solve(b);
-        q_trial_ = (out.q + dq).cwiseMax(lower).cwiseMin(upper);
-        const double trial_cost = dq.allFinite() ? cost_at(q_trial_, &trial_residual) : HUGE_VAL;
-        const JointVector step = q_trial_ - out.q;
+        q_trial = (q + dq).cwiseMax(lower).cwiseMin(upper);
+        Transform trial = Transform::Identity();
+        double trial_cost = HUGE_VAL;
+        if (dq.allFinite()) {
+          trial = chain_.Forward(q_trial, trial_frames);
+          trial_cost = cost_of(trial, &trial_residual);
+        }
+        const JointVector step = q_trial - q;
         // The decrease the linear model predicts: |r|^2 - |r - J s|^2 = 2 s'J'r - s'J'J s.
         const double predicted = 2.0 * step.dot(gradient) - step.dot(normal * step);
         if (trial_cost < out.cost) {
           const double rho = predicted > 0.0 ? (out.cost - trial_cost) / predicted : 1.0;
-          out.q = q_trial_;
+          q = q_trial;
+          reached = trial;
+          std::swap(frames, trial_frames);
           out.cost = trial_cost;
           residual = trial_residual;
           mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)), kMinDamping);
@@ -223,12 +238,13 @@ class Solver {
         }
       }
       if (!accepted) {
-        Reached(out.q);  // leave the workspace at the best point
         out.stalled = true;
         ++out.iterations;
-        return out;
+        break;
       }
     }
+    out.q = q;
+    return out;
   }
 
   // Whether a joint is held at a limit that the error at q pulls outward, and the message naming them.
@@ -255,24 +271,41 @@ class Solver {
   }
 
  private:
+  // The joint twists (position rows: velocity of the tool point; orientation rows: angular velocity) at the
+  // reached pose, from the joint frames of the same forward kinematics.
+  void Twists(const Transform& reached, const Transform* frames) {
+    const int n = model_.num_joints();
+    twists_.resize(6, n);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d axis = frames[i].linear().col(2);
+      if (model_.joint_type(i) == JointType::kRevolute) {
+        twists_.col(i) << axis.cross(reached.translation() - frames[i].translation()), axis;
+      } else {
+        twists_.col(i) << axis, Eigen::Vector3d::Zero();
+      }
+    }
+  }
+
   // The solver's rows at q: the residual *r against the target and its Jacobian.
   Eigen::MatrixXd MatchedJacobian(const Transform& T_world_target, const Eigen::VectorXd& q, Eigen::VectorXd* r) {
     const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
-    r->resize(rows.size());
-    rows.Residual(Reached(q), r);
-    Eigen::MatrixXd jacobian(rows.size(), model_.num_joints());
-    JointJacobian(model_, q, calibration_.errors, MeasurementType::kPose, &ws_, twists_);
-    rows.Jacobian(ws_.T_world_tool, *r, twists_, &jacobian);
+    const Transform reached = Reached(q);
+    RowVector residual = RowVector::Zero();
+    rows.Residual(reached, &residual);
+    *r = residual.head(rows.size());
+    Twists(reached, frames_a_.data());
+    RowMatrix jacobian(rows.size(), model_.num_joints());
+    rows.Jacobian(reached, residual, twists_, &jacobian);
     return jacobian;
   }
 
   // Joint i sits at a limit that the descent direction (gradient = J'r) pulls it out of.
-  template <typename Gradient>
-  bool AtLowerLimit(const Eigen::VectorXd& q, const Gradient& gradient, int i) const {
+  template <typename Joints, typename Gradient>
+  bool AtLowerLimit(const Joints& q, const Gradient& gradient, int i) const {
     return q[i] <= model_.lower_limits()[i] && gradient[i] < 0.0;
   }
-  template <typename Gradient>
-  bool AtUpperLimit(const Eigen::VectorXd& q, const Gradient& gradient, int i) const {
+  template <typename Joints, typename Gradient>
+  bool AtUpperLimit(const Joints& q, const Gradient& gradient, int i) const {
     return q[i] >= model_.upper_limits()[i] && gradient[i] > 0.0;
   }
 
@@ -282,17 +315,13 @@ class Solver {
                                                             : Number(value) + " mm";
   }
 
-  using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxJoints, 1>;
-  using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxJoints, kMaxJoints>;
-
-  const Calibration& calibration_;
   const RobotModel& model_;
+  const FoldedChain& chain_;
   MeasurementType type_;
   const CompensationOptions& options_;
-  KinematicsWorkspace ws_;
-  Eigen::MatrixXd twists_;
+  std::array<Transform, kMaxJoints> frames_a_, frames_b_;
+  TwistMatrix twists_;
   Eigen::LDLT<JointMatrix> ldlt_;
-  Eigen::VectorXd q_trial_;
 };
 
 }  // namespace
@@ -333,46 +362,72 @@ bool CompensationOptions::IsValid(std::string* error) const {
   return true;
 }
 
-CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
-                                  const Eigen::VectorXd& q_start, const CompensationOptions& options) {
+namespace {
+
+// What every target of one request shares: the calibrated chain, the nominal one, the named branches.
+struct Context {
+  Context(const Calibration& c, const RobotModel& n, const CompensationOptions& o)
+      : calibration(c),
+        nominal(n),
+        options(o),
+        chain(c.model, c.errors),
+        nominal_chain(n, Eigen::VectorXd()),
+        T_base_world(n.T_world_base().inverse()),
+        type(MatchedRows(c.model)),
+        arm(ArmSolver::For(c.model)),
+        default_joints(DefaultJoints(c.model)) {}
+  const Calibration& calibration;
+  const RobotModel& nominal;
+  const CompensationOptions& options;
+  FoldedChain chain;
+  FoldedChain nominal_chain;
+  Transform T_base_world;
+  MeasurementType type;
+  std::optional<ArmSolver> arm;
+  Eigen::VectorXd default_joints;
+};
+
+void CheckCalibration(const Calibration& calibration, const CompensationOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("CompensationOptions: " + error);
   const RobotModel& model = calibration.model;
-  const int n = model.num_joints();
-  if (q_start.size() != n) {
-    throw std::invalid_argument("CompensatePose: q_start has " + std::to_string(q_start.size()) +
-                                " values, the robot " + std::to_string(n) + " joints");
-  }
-  if (!q_start.allFinite()) throw std::invalid_argument("CompensatePose: q_start is not finite");
   if (calibration.errors.size() != 0 && calibration.errors.size() != model.num_error_parameters()) {
-    throw std::invalid_argument("CompensatePose: calibration.errors has " + std::to_string(calibration.errors.size()) +
+    throw std::invalid_argument("Compensate: calibration.errors has " + std::to_string(calibration.errors.size()) +
                                 " values, expected " + std::to_string(model.num_error_parameters()));
   }
   // A NaN error parameter would otherwise surface as NaN joints, the one output compensation must never give.
-  if (!calibration.errors.allFinite()) throw std::invalid_argument("CompensatePose: calibration.errors is not finite");
-  if (!IsValidRigidTransform(target, 1e-6)) {
-    throw std::invalid_argument("CompensatePose: target is not a finite rigid transform");
+  if (!calibration.errors.allFinite()) throw std::invalid_argument("Compensate: calibration.errors is not finite");
+  if (!IsValidRigidTransform(calibration.T_world_base, 1e-6)) {
+    throw std::invalid_argument("Compensate: calibration.T_world_base is not a finite rigid transform");
   }
-  if (frame == TargetFrame::kBase && !IsValidRigidTransform(calibration.T_world_base, 1e-6)) {
-    throw std::invalid_argument("CompensatePose: calibration.T_world_base is not a finite rigid transform");
-  }
+}
 
-  const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
-  const MeasurementType type = MatchedRows(model);
-  Solver solver(calibration, type, options);
+void CheckJoints(const RobotModel& model, const Eigen::VectorXd& q, const char* what) {
+  if (q.size() != model.num_joints()) {
+    throw std::invalid_argument(std::string("Compensate: ") + what + " has " + std::to_string(q.size()) +
+                                " values, the robot " + std::to_string(model.num_joints()) + " joints");
+  }
+  if (!q.allFinite()) throw std::invalid_argument(std::string("Compensate: ") + what + " is not finite");
+}
+
+// One solver run from `start` (projected into the limits first), with the result's errors and, when not
+// converged, why not.
+CompensationResult SolveFrom(const Context& ctx, const Transform& T_world_target, const Eigen::VectorXd& q_start) {
+  const RobotModel& model = ctx.calibration.model;
+  Solver solver(model, ctx.chain, ctx.type, ctx.options);
   CompensationResult result;
   // A start outside the limits (e.g. a nominal command at a limit plus round-off) is projected inside.
   const Eigen::VectorXd start = q_start.cwiseMax(model.lower_limits()).cwiseMin(model.upper_limits());
-  const Solver::Outcome outcome = solver.Solve(T_world_target, start, options.max_iterations);
+  const Solver::Outcome outcome = solver.Solve(T_world_target, start, ctx.options.max_iterations);
   const Eigen::VectorXd& q = outcome.q;
   result.converged = outcome.converged;
   result.joints = q;
   result.iterations = outcome.iterations;
   const Transform reached = solver.Reached(q);
-  const Errors e = MatchedErrors(type, reached, T_world_target);
+  const Errors e = MatchedErrors(ctx.type, reached, T_world_target);
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;
-  if (type == MeasurementType::kPositionAxis) result.free_rotation_rad = FreeRotation(reached, T_world_target);
+  if (ctx.type == MeasurementType::kPositionAxis) result.free_rotation_rad = FreeRotation(reached, T_world_target);
   // Not expected (inputs are checked and every accepted step has a finite cost), but never handed out as usable.
   if (!q.allFinite() || !std::isfinite(e.position_mm) || !std::isfinite(e.orientation_rad)) {
     result.converged = false;
@@ -380,6 +435,7 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
     result.message = "non-finite joints or errors";
     return result;
   }
+  if (ctx.arm) result.configuration = ctx.arm->ConfigurationOf(q);
   if (result.converged) {
     result.termination = Termination::kConvergence;
     return result;
@@ -390,7 +446,8 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
   // A joint held at a limit is what keeps the robot from the target: weaker than asked, whatever stopped the loop.
   result.termination = limits.empty() ? Termination::kNoConvergence : Termination::kDegraded;
   result.message = limits + (outcome.stalled ? "no step lowers the error (target out of reach, or a singularity)"
-                                             : "max_iterations (" + std::to_string(options.max_iterations) + ") reached");
+                                             : "max_iterations (" + std::to_string(ctx.options.max_iterations) +
+                                                   ") reached");
   // How close to a singularity it ended: the smallest singular value of the matched Jacobian (orientation rows
   // weighted), against the largest.
   const Eigen::VectorXd sigma = solver.SingularValues(T_world_target, q);
@@ -401,38 +458,246 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
   return result;
 }
 
-CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
-                                    const Eigen::VectorXd& q_nominal, const CompensationOptions& options) {
+// Of two results, the one nearer its target (converged first; then the weighted error).
+bool Better(const CompensationResult& a, const CompensationResult& b, double weight) {
+  if (a.converged != b.converged) return a.converged;
+  return a.position_error_mm + weight * a.orientation_error_rad < b.position_error_mm + weight * b.orientation_error_rad;
+}
+
+// Revolute joint values of a closed-form solution placed in the limits: of q + 2 pi k, the one within the
+// range nearest the reference; a joint with none within its range keeps the one nearest the range (the solver
+// projects it in, and ends held at the limit). Returns the joints left outside.
+int PlaceInLimits(const RobotModel& model, const Eigen::VectorXd& reference, Eigen::VectorXd* q) {
+  int outside = 0;
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const double lower = model.lower_limits()[i], upper = model.upper_limits()[i];
+    const double base = (*q)[i];
+    double best = base, best_distance = HUGE_VAL;
+    bool inside = false;
+    // Every turn within the range (a joint range spans at most a few turns) and the nearest ones outside it.
+    const double k_low = std::floor((lower - base) / kTurn), k_high = std::ceil((upper - base) / kTurn);
+    for (double k = k_low; k <= k_high; ++k) {
+      const double v = base + k * kTurn;
+      const bool in = v >= lower - 1e-12 && v <= upper + 1e-12;
+      const double distance = in ? std::abs(v - reference[i]) : std::max(lower - v, v - upper) + 1e6;
+      if ((in && !inside) || (in == inside && distance < best_distance)) {
+        best = std::clamp(v, lower, upper);
+        best_distance = distance;
+        inside = inside || in;
+      }
+    }
+    (*q)[i] = best;
+    if (!inside) ++outside;
+  }
+  return outside;
+}
+
+// A pose target on a robot with named branches: the nominal closed-form solutions in order of preference,
+// refined on the calibrated model until one converges with the demanded flags.
+CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
+                                   const Eigen::VectorXd& previous) {
+  const RobotModel& model = ctx.calibration.model;
+  const ArmSolver& arm = *ctx.arm;
+  const ArmConfiguration demanded = t.configuration;
+  const Eigen::VectorXd* hint = t.start.size() != 0 ? &t.start : previous.size() != 0 ? &previous : nullptr;
+  const Eigen::VectorXd& reference = hint != nullptr ? *hint : ctx.default_joints;
+  const ArmConfiguration preferred = hint != nullptr ? arm.ConfigurationOf(*hint) : ArmConfiguration{1, 1, 1};
+  struct Candidate {
+    Eigen::VectorXd q;
+    ArmConfiguration configuration;
+    int other_branch = 0;
+    int outside = 0;
+    int inexact = 0;
+    int mismatch = 0;
+    double distance = 0.0;
+  };
+  std::vector<Candidate> candidates;
+  int on_branch = 0;
+  for (ArmSolution& s : arm.Solve(ctx.calibration.T_world_base.inverse() * T_world_target, reference)) {
+    Candidate c{std::move(s.joints), s.configuration};
+    // Solutions of other branches stay as starts of last resort: within the errors' size of a boundary the
+    // nominal chain's branch and the calibrated robot's differ, and the solver may cross to the asked one.
+    c.other_branch = demanded.Admits(c.configuration) ? 0 : 1;
+    on_branch += 1 - c.other_branch;
+    c.outside = PlaceInLimits(model, reference, &c.q);
+    // A pose just beyond the nominal reach gives a stretched start, tried after the exact solutions.
+    c.inexact = s.position_error_mm > 1e-6 ? 1 : 0;
+    // Flags differing from the preferred ones, the shoulder weighing most.
+    c.mismatch = 4 * (c.configuration.shoulder != preferred.shoulder) + 2 * (c.configuration.elbow != preferred.elbow) +
+                 (c.configuration.wrist != preferred.wrist);
+    c.distance = (c.q - reference).squaredNorm();
+    candidates.push_back(std::move(c));
+  }
+  // The asked branch first, within the limits, exact, the preferred flags, then the nearest to the reference.
+  std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.other_branch, a.outside, a.inexact, a.mismatch, a.distance) <
+           std::tie(b.other_branch, b.outside, b.inexact, b.mismatch, b.distance);
+  });
+  const std::string wanted = demanded.ToString();
+  if (candidates.empty()) {
+    CompensationResult none;
+    none.termination = Termination::kFailure;
+    none.message = wanted.empty() ? "no solution on any branch: the target is beyond the arm's reach"
+                                  : "no solution with " + wanted + ": the target is beyond the arm's reach";
+    return none;
+  }
+  CompensationResult best;
+  int iterations = 0;
+  bool any = false;
+  for (const Candidate& c : candidates) {
+    CompensationResult r = SolveFrom(ctx, T_world_target, c.q);
+    iterations += r.iterations;
+    const bool admitted = r.configuration && demanded.Admits(*r.configuration);
+    if (r.converged && admitted) {
+      r.iterations = iterations;
+      return r;
+    }
+    if (admitted && (!any || Better(r, best, ctx.options.orientation_weight_mm_per_rad))) {
+      best = std::move(r);
+      any = true;
+    }
+  }
+  if (!any) {
+    CompensationResult none;
+    none.termination = Termination::kFailure;
+    none.iterations = iterations;
+    none.message = on_branch == 0 ? "no solution with " + wanted + ": the target is beyond the arm's reach on that branch"
+                                  : "no solution with " + wanted + ": the solver left that branch from each of its " +
+                                        std::to_string(on_branch) + " nominal solutions";
+    return none;
+  }
+  best.iterations = iterations;
+  best.converged = false;
+  if (best.termination == Termination::kConvergence) best.termination = Termination::kNoConvergence;
+  best.message = (wanted.empty() ? std::string("no branch reaches the target: ")
+                                 : "the calibrated robot does not reach the target with " + wanted + ": ") +
+                 best.message;
+  return best;
+}
+
+// Starts of a robot without named branches and without a start: DefaultJoints, then every combination of the
+// quarter and three-quarter points of the joint ranges, nearest to DefaultJoints first (a fixed, documented
+// order: the result does not depend on chance).
+std::vector<Eigen::VectorXd> GridStarts(const Context& ctx) {
+  const RobotModel& model = ctx.calibration.model;
+  const int n = model.num_joints();
+  std::vector<Eigen::VectorXd> starts;
+  const int combinations = n <= 10 ? 1 << n : 1 << 10;
+  for (int bits = 0; bits < combinations; ++bits) {
+    Eigen::VectorXd q(n);
+    for (int i = 0; i < n; ++i) {
+      const double lower = model.lower_limits()[i], upper = model.upper_limits()[i];
+      q[i] = lower + (upper - lower) * ((bits >> i) & 1 ? 0.75 : 0.25);
+    }
+    starts.push_back(std::move(q));
+  }
+  std::stable_sort(starts.begin(), starts.end(), [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return (a - ctx.default_joints).squaredNorm() < (b - ctx.default_joints).squaredNorm();
+  });
+  starts.insert(starts.begin(), ctx.default_joints);
+  return starts;
+}
+
+CompensationResult SolvePose(const Context& ctx, const CompensationTarget& t, const Eigen::VectorXd& previous) {
+  const RobotModel& model = ctx.calibration.model;
+  if (t.start.size() != 0) CheckJoints(model, t.start, "start");
+  if (previous.size() != 0) CheckJoints(model, previous, "previous");
+  if (!IsValidRigidTransform(*t.pose, 1e-6)) {
+    throw std::invalid_argument("Compensate: target is not a finite rigid transform");
+  }
+  const Transform T_world_target = t.frame == TargetFrame::kBase ? ctx.calibration.T_world_base * *t.pose : *t.pose;
+  if (ctx.arm) return SolveOnBranches(ctx, T_world_target, t, previous);
+  if (t.configuration != ArmConfiguration{}) {
+    throw std::invalid_argument("Compensate: robot '" + model.name() +
+                                "' has no named configurations (not a 6R arm of a known family)");
+  }
+  if (t.start.size() != 0) return SolveFrom(ctx, T_world_target, t.start);
+  if (previous.size() != 0) return SolveFrom(ctx, T_world_target, previous);
+  CompensationResult best;
+  int iterations = 0, tried = 0;
+  for (const Eigen::VectorXd& start : GridStarts(ctx)) {
+    CompensationResult r = SolveFrom(ctx, T_world_target, start);
+    iterations += r.iterations;
+    ++tried;
+    const bool done = r.converged;
+    if (tried == 1 || Better(r, best, ctx.options.orientation_weight_mm_per_rad)) best = std::move(r);
+    if (done) break;
+  }
+  best.iterations = iterations;
+  if (!best.converged) best.message = "none of " + std::to_string(tried) + " starts converged; the best: " + best.message;
+  return best;
+}
+
+CompensationResult SolveJoints(const Context& ctx, const Eigen::VectorXd& q_nominal) {
+  CheckJoints(ctx.nominal, q_nominal, "q_nominal");
+  // Where the program expects the tool, relative to the robot base: independent of where the tracker stands.
+  const Transform T_base_tool = ctx.T_base_world * ctx.nominal_chain.Forward(q_nominal, nullptr);
+  return SolveFrom(ctx, ctx.calibration.T_world_base * T_base_tool, q_nominal);
+}
+
+void CheckNominal(const Calibration& calibration, const RobotModel& nominal) {
   if (nominal.num_joints() != calibration.model.num_joints()) {
-    throw std::invalid_argument("CompensateJoints: the nominal model has " + std::to_string(nominal.num_joints()) +
+    throw std::invalid_argument("Compensate: the nominal model has " + std::to_string(nominal.num_joints()) +
                                 " joints, the calibrated one " + std::to_string(calibration.model.num_joints()));
   }
-  if (q_nominal.size() != nominal.num_joints()) {
-    throw std::invalid_argument("CompensateJoints: q_nominal has " + std::to_string(q_nominal.size()) +
-                                " values, the robot " + std::to_string(nominal.num_joints()) + " joints");
+}
+
+CompensationResult SolveTarget(const Context& ctx, const CompensationTarget& t, const Eigen::VectorXd& previous) {
+  return t.pose ? SolvePose(ctx, t, previous) : SolveJoints(ctx, t.joints);
+}
+
+}  // namespace
+
+Eigen::VectorXd DefaultJoints(const RobotModel& model) {
+  Eigen::VectorXd q = (model.lower_limits() + model.upper_limits()) / 2.0;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    if (model.lower_limits()[i] <= 0.0 && model.upper_limits()[i] >= 0.0) q[i] = 0.0;
   }
-  // Checked here, not left to CompensatePose, whose complaint would be about the target made from it.
-  if (!q_nominal.allFinite()) throw std::invalid_argument("CompensateJoints: q_nominal is not finite");
-  // Where the program expects the tool, relative to the robot base: independent of where the tracker stands.
-  const Transform T_base_tool = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q_nominal);
-  return CompensatePose(calibration, T_base_tool, TargetFrame::kBase, q_nominal, options);
+  return q;
+}
+
+CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
+                                  const Eigen::VectorXd& q_start, const CompensationOptions& options) {
+  CheckCalibration(calibration, options);
+  CheckJoints(calibration.model, q_start, "q_start");
+  if (!IsValidRigidTransform(target, 1e-6)) {
+    throw std::invalid_argument("CompensatePose: target is not a finite rigid transform");
+  }
+  const Context ctx(calibration, calibration.model, options);
+  const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
+  return SolveFrom(ctx, T_world_target, q_start);
+}
+
+CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
+                                    const Eigen::VectorXd& q_nominal, const CompensationOptions& options) {
+  CheckCalibration(calibration, options);
+  CheckNominal(calibration, nominal);
+  const Context ctx(calibration, nominal, options);
+  return SolveJoints(ctx, q_nominal);
 }
 
 CompensationResult Compensate(const Calibration& calibration, const RobotModel& nominal,
-                              const CompensationTarget& target, const CompensationOptions& options) {
-  return target.pose ? CompensatePose(calibration, *target.pose, target.frame, target.start, options)
-                     : CompensateJoints(calibration, nominal, target.joints, options);
+                              const CompensationTarget& target, const CompensationOptions& options,
+                              const Eigen::VectorXd& previous) {
+  CheckCalibration(calibration, options);
+  CheckNominal(calibration, nominal);
+  const Context ctx(calibration, nominal, options);
+  return SolveTarget(ctx, target, previous);
 }
 
 std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
                                               const std::vector<CompensationTarget>& targets,
                                               const CompensationOptions& options, int threads) {
   if (threads < 0) throw std::invalid_argument("CompensateAll: threads must be >= 0");
+  CheckCalibration(calibration, options);
+  CheckNominal(calibration, nominal);
+  const Context ctx(calibration, nominal, options);
   std::vector<CompensationResult> results(targets.size());
   std::vector<std::exception_ptr> errors(targets.size());
   auto solve = [&](std::size_t i) {
     try {
-      results[i] = Compensate(calibration, nominal, targets[i], options);
+      results[i] = SolveTarget(ctx, targets[i], Eigen::VectorXd());
     } catch (...) {
       errors[i] = std::current_exception();
     }
@@ -455,6 +720,21 @@ std::vector<CompensationResult> CompensateAll(const Calibration& calibration, co
   for (std::thread& t : pool) t.join();
   for (const std::exception_ptr& e : errors) {
     if (e) std::rethrow_exception(e);
+  }
+  return results;
+}
+
+std::vector<CompensationResult> CompensateSequence(const Calibration& calibration, const RobotModel& nominal,
+                                                   const std::vector<CompensationTarget>& targets,
+                                                   const CompensationOptions& options) {
+  CheckCalibration(calibration, options);
+  CheckNominal(calibration, nominal);
+  const Context ctx(calibration, nominal, options);
+  std::vector<CompensationResult> results;
+  results.reserve(targets.size());
+  for (const CompensationTarget& t : targets) {
+    const bool chained = !results.empty() && results.back().joints.size() == calibration.model.num_joints();
+    results.push_back(SolveTarget(ctx, t, chained ? results.back().joints : Eigen::VectorXd()));
   }
   return results;
 }

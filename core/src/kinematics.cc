@@ -1,6 +1,7 @@
 // Forward kinematics through the chain of fixed transforms, error transforms and joint motions.
 #include "robocal/core/kinematics.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -77,6 +78,41 @@ void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Trans
     t = t * JointMotion(model.joint_type(i), q[i]);
   }
   *T_base_flange = t * model.T_lastjoint_flange();
+}
+
+FoldedChain::FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps) {
+  const int n = model.num_joints();
+  CheckSizes(model, Eigen::VectorXd::Zero(n), eps);
+  const bool with_errors = eps.size() != 0;
+  auto error = [&](int site) { return with_errors ? ErrorTransform(eps.data() + 6 * site) : Transform::Identity(); };
+  Transform t = model.T_world_base() * error(0);
+  for (int i = 0; i < n; ++i) {
+    before_.push_back(t * model.fixed_transform(i) * error(i + 1));
+    types_.push_back(model.joint_type(i));
+    t = Transform::Identity();
+  }
+  after_ = model.T_lastjoint_flange() * model.T_flange_tool() * error(n + 1);
+  if (n == 0) after_ = t * after_;
+}
+
+Transform FoldedChain::Forward(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const {
+  const int n = num_joints();
+  Transform t = before_.empty() ? Transform::Identity() : before_[0];
+  for (int i = 0; i < n; ++i) {
+    if (i > 0) t = t * before_[i];
+    if (T_world_joint != nullptr) T_world_joint[i] = t;
+    // The joint's motion applied in place: a rotation about z mixes the frame's x and y columns, a translation
+    // along z moves the origin along the z column (cheaper than a general transform product).
+    if (types_[i] == JointType::kRevolute) {
+      const double c = std::cos(q[i]), s = std::sin(q[i]);
+      const Eigen::Vector3d x = t.linear().col(0), y = t.linear().col(1);
+      t.linear().col(0) = c * x + s * y;
+      t.linear().col(1) = c * y - s * x;
+    } else {
+      t.translation() += q[i] * t.linear().col(2);
+    }
+  }
+  return t * after_;
 }
 
 Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng) {

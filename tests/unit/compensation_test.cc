@@ -13,6 +13,7 @@
 #include <tuple>
 #include <vector>
 
+#include "robocal/core/arm_kinematics.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
@@ -360,14 +361,12 @@ TEST(CompensationTest, CompensateAllIsTheSameOnAnyNumberOfThreads) {
     targets.push_back(t);
   }
   std::vector<CompensationResult> single;
-  for (const CompensationTarget& t : targets) {
-    single.push_back(t.pose ? CompensatePose(calibration, *t.pose, t.frame, t.start)
-                            : CompensateJoints(calibration, nominal, t.joints));
-  }
+  for (const CompensationTarget& t : targets) single.push_back(Compensate(calibration, nominal, t));
   for (const int threads : {1, 2, 5, 0}) {
     const std::vector<CompensationResult> all = CompensateAll(calibration, nominal, targets, {}, threads);
     ASSERT_EQ(all.size(), targets.size());
     for (std::size_t i = 0; i < all.size(); ++i) {
+      ASSERT_EQ(all[i].joints.size(), single[i].joints.size());
       EXPECT_EQ(all[i].joints, single[i].joints) << threads << " threads, target " << i;
       EXPECT_EQ(all[i].termination, single[i].termination);
       EXPECT_EQ(all[i].message, single[i].message);
@@ -449,7 +448,7 @@ TEST(CompensationTest, RejectsWrongSizesAndNonFiniteInputByName) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
   const Transform identity = Transform::Identity();
   ExpectInvalidArgument([&] { CompensatePose(calibration, identity, TargetFrame::kBase, Eigen::VectorXd::Zero(5)); },
-                        "CompensatePose: q_start has 5 values");
+                        "Compensate: q_start has 5 values");
   Eigen::VectorXd q = zero;
   q[2] = std::nan("");
   ExpectInvalidArgument([&] { CompensatePose(calibration, identity, TargetFrame::kBase, q); }, "q_start is not finite");
@@ -472,14 +471,14 @@ TEST(CompensationTest, RejectsWrongSizesAndNonFiniteInputByName) {
   bad = calibration;
   bad.T_world_base.translation().y() = std::nan("");
   ExpectInvalidArgument([&] { CompensatePose(bad, identity, TargetFrame::kBase, zero); }, "calibration.T_world_base");
-  // A tracker-frame target does not use the base frame, so it does not care.
-  EXPECT_NO_THROW(CompensatePose(bad, ForwardKinematics(calibration.model, zero), TargetFrame::kTracker, zero));
+  // Every target needs it (branches are solved in the base frame), so a tracker-frame one is refused as well.
+  ExpectInvalidArgument([&] { CompensatePose(bad, identity, TargetFrame::kTracker, zero); }, "calibration.T_world_base");
 
   ExpectInvalidArgument([&] { CompensateJoints(calibration, Preset("grinder5"), Eigen::VectorXd::Zero(5)); },
                         "the nominal model has 5 joints, the calibrated one 6");
   ExpectInvalidArgument([&] { CompensateJoints(calibration, ur5e, Eigen::VectorXd::Zero(5)); },
-                        "CompensateJoints: q_nominal has 5 values");
-  ExpectInvalidArgument([&] { CompensateJoints(calibration, ur5e, q); }, "CompensateJoints: q_nominal is not finite");
+                        "Compensate: q_nominal has 5 values");
+  ExpectInvalidArgument([&] { CompensateJoints(calibration, ur5e, q); }, "Compensate: q_nominal is not finite");
 }
 
 // A calibration whose identification failed is the nominal robot (errors zero): compensating on it is defined
@@ -505,6 +504,208 @@ TEST(CompensationTest, TargetFrameNamesRoundTrip) {
   TargetFrame f = TargetFrame::kBase;
   EXPECT_FALSE(ParseTargetFrame("world", &f));
   EXPECT_EQ(f, TargetFrame::kBase);
+}
+
+}  // namespace
+}  // namespace robocal
+
+namespace robocal {
+namespace {
+
+// A pose target without joints, on the branch a configuration names: the pose the calibrated robot reaches at
+// random joints, asked with those joints' flags, is solved there on that branch.
+class CompensationBranchTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(CompensationBranchTest, CartesianTargetsLandOnTheNamedBranch) {
+  const RobotModel nominal = Preset(GetParam());
+  const Calibration calibration = MakeCalibration(GetParam(), 31);
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(32);
+  int converged = 0;
+  const int n = 300;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::VectorXd q = RandomConfiguration(nominal, &rng);
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    t.configuration = arm.ConfigurationOf(q);
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    ASSERT_TRUE(r.configuration.has_value() || r.termination == Termination::kFailure);
+    // Never another branch than the one asked for.
+    if (r.configuration) EXPECT_EQ(*r.configuration, t.configuration) << "target " << i;
+    if (!r.converged) {
+      continue;
+    }
+    ++converged;
+    EXPECT_LT((calibrated.Forward(r.joints, nullptr).translation() - t.pose->translation()).norm(), 1e-6);
+  }
+  // The study command measures this on 2000 targets per preset (docs/compensation.md); a few targets lie within
+  // the errors' size of a branch boundary.
+  EXPECT_GE(converged, n - 3);
+}
+
+// Every branch of one pose that the calibrated robot reaches is found when asked for, with its own joints.
+TEST_P(CompensationBranchTest, EachBranchIsSolvedWhenAskedFor) {
+  const RobotModel nominal = Preset(GetParam());
+  const Calibration calibration = MakeCalibration(GetParam(), 33);
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  CompensationTarget t;
+  Eigen::VectorXd q(6);
+  q << 0.3, 0.6, -1.2, 0.4, 0.9, -0.5;
+  t.pose = FoldedChain(calibration.model, calibration.errors).Forward(q, nullptr);
+  const std::vector<ArmSolution> nominal_solutions =
+      arm.Solve(calibration.T_world_base.inverse() * *t.pose, Eigen::VectorXd::Zero(6));
+  std::vector<Eigen::VectorXd> found;
+  for (int shoulder : {1, -1}) {
+    for (int elbow : {1, -1}) {
+      for (int wrist : {1, -1}) {
+        t.configuration = {shoulder, elbow, wrist};
+        const CompensationResult r = Compensate(calibration, nominal, t);
+        bool nominal_has_it = false;
+        for (const ArmSolution& s : nominal_solutions) nominal_has_it = nominal_has_it || s.configuration == t.configuration;
+        if (!r.converged) {
+          // Only a branch that is not there, said so by name.
+          EXPECT_THAT(r.message, HasSubstr(t.configuration.ToString()));
+          continue;
+        }
+        EXPECT_TRUE(nominal_has_it);
+        EXPECT_EQ(*r.configuration, t.configuration);
+        for (const Eigen::VectorXd& other : found) EXPECT_GT((other - r.joints).cwiseAbs().maxCoeff(), 1e-3);
+        found.push_back(r.joints);
+      }
+    }
+  }
+  // ur5e's joints turn +-360 deg, so every branch of the nominal chain is there; puma560's ranges leave out some.
+  int exact = 0;
+  for (const ArmSolution& s : nominal_solutions) exact += s.position_error_mm < 1e-6 ? 1 : 0;
+  if (std::string(GetParam()) == "ur5e") {
+    EXPECT_EQ(found.size(), static_cast<std::size_t>(exact));
+  } else {
+    EXPECT_GE(found.size(), 2u);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(SixAxisPresets, CompensationBranchTest, ::testing::Values("puma560", "ur5e"));
+
+// Without a configuration the branch follows start_joints, else the previous target of a sequence, else it is
+// shoulder front, elbow up, wrist noflip; the same request always gives the same joints.
+TEST(CompensationTest, BranchRulesInOrder) {
+  const RobotModel nominal = Preset("ur5e");
+  const Calibration calibration = MakeCalibration("ur5e", 35);
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Eigen::VectorXd q(6);
+  q << 0.3, -1.9, 1.2, -0.4, 1.1, -0.5;  // elbow and wrist as the preset's defaults would not choose
+  Eigen::VectorXd flipped = q;
+  flipped[4] = -1.1;
+  const ArmConfiguration own = arm.ConfigurationOf(q);
+  CompensationTarget t;
+  t.pose = calibrated.Forward(q, nullptr);
+
+  const CompensationResult none = Compensate(calibration, nominal, t);
+  ASSERT_TRUE(none.converged);
+  EXPECT_EQ(*none.configuration, (ArmConfiguration{1, 1, 1}));
+  EXPECT_EQ(Compensate(calibration, nominal, t).joints, none.joints);
+
+  t.start = q;
+  const CompensationResult started = Compensate(calibration, nominal, t);
+  ASSERT_TRUE(started.converged);
+  EXPECT_EQ(*started.configuration, own);
+  EXPECT_LT((started.joints - q).cwiseAbs().maxCoeff(), 0.01);
+
+  // The previous target counts only without start_joints.
+  t.start = Eigen::VectorXd();
+  const CompensationResult chained = Compensate(calibration, nominal, t, {}, q);
+  EXPECT_EQ(*chained.configuration, own);
+  t.start = flipped;
+  EXPECT_EQ(Compensate(calibration, nominal, t, {}, q).configuration->wrist, -own.wrist);
+
+  // A configuration wins over both, flag by flag.
+  t.configuration = {0, -own.elbow, 0};
+  const CompensationResult asked = Compensate(calibration, nominal, t, {}, q);
+  ASSERT_TRUE(asked.converged) << asked.message;
+  EXPECT_EQ(asked.configuration->elbow, -own.elbow);
+  EXPECT_EQ(asked.configuration->wrist, -own.wrist);  // the rest from start_joints
+}
+
+// A branch that cannot reach the target is never traded for another: a target beyond the arm's reach on the
+// asked branch fails with the branch named, without joints.
+TEST(CompensationTest, UnreachableBranchSaysSoAndGivesNoOtherBranch) {
+  const RobotModel nominal = Preset("puma560");
+  const Calibration calibration = MakeCalibration("puma560", 36);
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(37);
+  int refused = 0;
+  for (int i = 0; i < 200 && refused < 20; ++i) {
+    const Eigen::VectorXd q = RandomConfiguration(nominal, &rng);
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    for (int shoulder : {1, -1}) {
+      for (int elbow : {1, -1}) {
+        t.configuration = {shoulder, elbow, 0};
+        const CompensationResult r = Compensate(calibration, nominal, t);
+        if (r.converged) continue;
+        ++refused;
+        EXPECT_THAT(r.message, HasSubstr(t.configuration.ToString()));
+        if (r.configuration) EXPECT_TRUE(t.configuration.Admits(*r.configuration));
+        if (r.termination == Termination::kFailure) EXPECT_EQ(r.joints.size(), 0);
+      }
+    }
+  }
+  // puma560's joint 2 and 3 ranges leave some shoulder and elbow branches of a pose out of reach.
+  EXPECT_GT(refused, 0);
+  CompensationTarget far;
+  far.pose = calibrated.Forward(Eigen::VectorXd::Zero(6), nullptr);
+  far.pose->translation() *= 10.0;
+  far.configuration = {1, 1, 1};
+  const CompensationResult r = Compensate(calibration, nominal, far);
+  EXPECT_EQ(r.termination, Termination::kFailure);
+  EXPECT_THAT(r.message, HasSubstr("no solution with shoulder front, elbow up, wrist noflip"));
+}
+
+// A robot without named branches: a pose target without start is solved from a fixed set of starts, and a
+// configuration is refused.
+TEST(CompensationTest, RobotWithoutBranchesUsesItsStartsAndRefusesAConfiguration) {
+  const RobotModel nominal = Preset("grinder5");
+  const Calibration calibration = MakeCalibration("grinder5", 38);
+  EXPECT_FALSE(ArmSolver::For(nominal).has_value());
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(39);
+  for (int i = 0; i < 20; ++i) {
+    CompensationTarget t;
+    t.pose = calibrated.Forward(RandomConfiguration(nominal, &rng), nullptr);
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    EXPECT_TRUE(r.converged) << r.message;
+    EXPECT_FALSE(r.configuration.has_value());
+  }
+  CompensationTarget t;
+  t.pose = calibrated.Forward(DefaultJoints(nominal), nullptr);
+  t.configuration.elbow = 1;
+  ExpectInvalidArgument([&] { Compensate(calibration, nominal, t); }, "has no named configurations");
+}
+
+// A program along a smooth path keeps its branch: no result changes configuration, and each starts near the last.
+TEST(CompensationTest, SequenceAlongASmoothPathKeepsItsBranch) {
+  const RobotModel nominal = Preset("ur5e");
+  const Calibration calibration = MakeCalibration("ur5e", 40);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  std::vector<CompensationTarget> program;
+  for (int i = 0; i < 200; ++i) {
+    const double s = i / 199.0;
+    Eigen::VectorXd q(6);
+    q << -0.8 + 1.6 * s, -1.2 + 0.3 * std::sin(3 * s), 1.4 - 0.4 * s, -1.7 + 0.5 * s, -1.3, 0.2 + s;
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    if (i == 0) t.start = q;
+    program.push_back(t);
+  }
+  const std::vector<CompensationResult> results = CompensateSequence(calibration, nominal, program);
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    ASSERT_TRUE(results[i].converged) << i << ": " << results[i].message;
+    EXPECT_EQ(*results[i].configuration, *results[0].configuration) << i;
+    if (i > 0) EXPECT_LT((results[i].joints - results[i - 1].joints).cwiseAbs().maxCoeff(), 0.1) << i;
+  }
 }
 
 }  // namespace

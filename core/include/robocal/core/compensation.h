@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "robocal/core/arm_kinematics.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
@@ -62,8 +63,9 @@ struct CompensationResult {
   /// - kNoConvergence: not met, with no joint held at a limit: max_iterations reached, or no step lowers the
   ///   error any more (damping above max_damping: a target out of reach, or beyond a singularity's fold);
   ///   `joints` are the best found, and the message gives the Jacobian's singular values there.
-  /// - kFailure: no usable joints (not finite). Inputs that could lead there throw instead, so CompensatePose
-  ///   does not return it in practice; it is the value of a result not computed.
+  /// - kFailure: no usable joints: a pose target whose demanded branch has no solution at all (beyond the
+  ///   arm's reach on it; Compensate), or joints not finite (inputs that could lead there throw instead, so
+  ///   CompensatePose does not return it in practice). It is also the value of a result not computed.
   Termination termination = Termination::kFailure;
   /// termination == kConvergence (kept for existing callers).
   bool converged = false;
@@ -71,6 +73,9 @@ struct CompensationResult {
   int iterations = 0;
   /// Empty when converged; otherwise why not (e.g. "joint 3 (Z) at its upper limit 400; ...").
   std::string message;
+  /// For a 6R arm of a known family (ArmSolver::For): the branch of `joints` (flags of the nominal chain
+  /// there); nullopt otherwise or without joints.
+  std::optional<ArmConfiguration> configuration;
 };
 
 /// Joints on the calibrated robot that reach the tool pose `target` (given in `frame`), starting from
@@ -89,18 +94,36 @@ CompensationResult CompensatePose(const Calibration& calibration, const Transfor
 CompensationResult CompensateJoints(const Calibration& calibration, const RobotModel& nominal,
                                     const Eigen::VectorXd& q_nominal, const CompensationOptions& options = {});
 
-/// One target of CompensateAll: a nominal joint command (as CompensateJoints) unless `pose` is set, then a pose
-/// in `frame` solved from `start` (as CompensatePose).
+/// One target: a nominal joint command (as CompensateJoints) unless `pose` is set, then a pose in `frame`.
+///
+/// A pose target is solved on a branch chosen by, in order: `configuration` (a demand: a flag given is never
+/// given up; a target the calibrated robot does not reach with it ends NO_CONVERGENCE or, with no nominal
+/// solution on it at all, FAILURE, saying so), then the branch of `start` if given, then that of the previous
+/// target's result in a sequence, else shoulder front, elbow up, wrist noflip. The branches' nominal closed-form
+/// solutions (ArmSolver), each placed in the joint limits nearest the reference joints (start, previous, or
+/// DefaultJoints), are refined on the calibrated model in that order of preference until one converges with the
+/// demanded flags. A robot of no known family has no named branches: its pose target is solved from `start`,
+/// else from the previous result, else from DefaultJoints and then a fixed grid of starts (the quarter and
+/// three-quarter points of every joint range, nearest first) until one converges.
 struct CompensationTarget {
   Eigen::VectorXd joints;
   std::optional<Transform> pose;
   TargetFrame frame = TargetFrame::kTracker;
+  /// Start joints for a pose target (nominal joints); empty when not given.
   Eigen::VectorXd start;
+  /// Demanded flags of a pose target (0: not demanded). Only for a robot with named branches (ArmSolver::For).
+  ArmConfiguration configuration;
 };
 
-/// One target: CompensatePose or CompensateJoints, as the target says.
+/// Zero (the robot's home) for every joint whose range holds it, else the middle of the range.
+Eigen::VectorXd DefaultJoints(const RobotModel& model);
+
+/// One target, as CompensationTarget describes; `previous` is the previous target's joints in a program (empty
+/// if none). Throws std::invalid_argument for invalid inputs, including a configuration for a robot without
+/// named branches.
 CompensationResult Compensate(const Calibration& calibration, const RobotModel& nominal,
-                              const CompensationTarget& target, const CompensationOptions& options = {});
+                              const CompensationTarget& target, const CompensationOptions& options = {},
+                              const Eigen::VectorXd& previous = Eigen::VectorXd());
 
 /// Compensates every target on its own, on `threads` threads (0: as many as the hardware runs at once), and
 /// returns the results in target order. Each result is exactly what Compensate returns for that target
@@ -109,5 +132,11 @@ CompensationResult Compensate(const Calibration& calibration, const RobotModel& 
 std::vector<CompensationResult> CompensateAll(const Calibration& calibration, const RobotModel& nominal,
                                               const std::vector<CompensationTarget>& targets,
                                               const CompensationOptions& options = {}, int threads = 0);
+
+/// The targets as one program, in order: each is Compensate with the previous result's joints as `previous`
+/// (none for the first, or after a result without joints).
+std::vector<CompensationResult> CompensateSequence(const Calibration& calibration, const RobotModel& nominal,
+                                                   const std::vector<CompensationTarget>& targets,
+                                                   const CompensationOptions& options = {});
 
 }  // namespace robocal

@@ -43,6 +43,32 @@ Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q);
 void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Transform* T_base_joint,
                         Transform* T_base_flange);
 
+/// A model's chain with one set of error parameters folded into its fixed transforms: the same forward
+/// kinematics as ForwardKinematics(model, q, eps) at the cost of the nominal chain (no error transforms to
+/// rebuild per call), for evaluating one calibration many times (compensation). Immutable once built, so one
+/// chain serves any number of threads.
+class FoldedChain {
+ public:
+  /// eps: num_error_parameters values, or empty for the nominal model. Throws std::invalid_argument on a
+  /// wrong size.
+  FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps);
+
+  int num_joints() const { return static_cast<int>(types_.size()); }
+  JointType joint_type(int i) const { return types_[i]; }
+
+  /// T_world_tool at q (num_joints values, not checked: callers own the size). T_world_joint, if not null,
+  /// points at num_joints transforms and receives each joint's frame before its motion (as
+  /// KinematicsWorkspace::T_world_joint).
+  Transform Forward(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const;
+
+ private:
+  // before_[0] = T_world_base E_0 F_0 E_1, before_[i] = F_i E_(i+1): what precedes joint i's motion;
+  // after_ = T_lastjoint_flange T_flange_tool E_(n+1).
+  std::vector<Transform> before_;
+  Transform after_ = Transform::Identity();
+  std::vector<JointType> types_;
+};
+
 /// Uniformly random joint values within the model's limits.
 Eigen::VectorXd RandomConfiguration(const RobotModel& model, Rng* rng);
 
