@@ -1,10 +1,34 @@
 // Calibration, compensation and evaluation on the wire.
 #include "robocal/api/calibration.h"
 
+#include "robocal/core/arm_kinematics.h"
+
 #include <algorithm>
 #include <limits>
 
 #include "robocal/api/json_reader.h"
+
+namespace robocal {
+
+void to_json(nlohmann::json& j, const ArmConfiguration& c) {
+  j = nlohmann::json::object();
+  if (c.shoulder != 0) j["shoulder"] = ShoulderName(c.shoulder);
+  if (c.elbow != 0) j["elbow"] = ElbowName(c.elbow);
+  if (c.wrist != 0) j["wrist"] = WristName(c.wrist);
+}
+
+void from_json(const nlohmann::json& j, ArmConfiguration& c) {
+  const api::WireReader r(j);
+  c = {};
+  for (auto [flag, value] : {std::pair{"shoulder", &c.shoulder}, {"elbow", &c.elbow}, {"wrist", &c.wrist}}) {
+    std::string name;
+    if (r.Optional(flag, &name) && !ParseConfigurationFlag(flag, name, value)) {
+      api::detail::ThrowWire(api::WirePath(r.path(), flag), "not a " + std::string(flag) + " flag: \"" + name + "\"");
+    }
+  }
+}
+
+}  // namespace robocal
 
 namespace robocal::api {
 
@@ -209,10 +233,30 @@ CalibrationResult ToWire(const Calibration& c) {
 
 // ---------------------------------------------------------------------------------------------- compensation
 
+namespace {
+
+// "configuration" of a pose target: an object of the three flags, each optional, each one of its two names.
+void ParseConfiguration(const nlohmann::json& value, const std::string& path, Problems* problems,
+                        ArmConfiguration* out) {
+  ObjectReader r(value, path, problems);
+  if (!r.ok()) return;
+  for (auto [flag, names, target] : {std::tuple{"shoulder", "front or back", &out->shoulder},
+                                     {"elbow", "up or down", &out->elbow},
+                                     {"wrist", "noflip or flip", &out->wrist}}) {
+    std::string text;
+    if (!r.String(flag, false, &text, 16) || text.empty()) continue;
+    if (!ParseConfigurationFlag(flag, text, target)) problems->Add(JoinPath(path, flag), std::string("must be ") + names);
+  }
+  r.RejectUnknown({"shoulder", "elbow", "wrist"});
+}
+
+}  // namespace
+
 void to_json(nlohmann::json& j, const CompensationTargetWire& t) {
   if (t.pose) {
     j = {{"pose", *t.pose}, {"frame", t.frame}};
     if (!t.start_joints.empty()) j["start_joints"] = t.start_joints;
+    if (t.configuration != ArmConfiguration{}) j["configuration"] = t.configuration;
   } else {
     j = {{"joints", t.joints}};
   }
@@ -223,6 +267,7 @@ void from_json(const nlohmann::json& j, CompensationTargetWire& t) {
   if (r.Optional("pose", &t.pose)) {
     r.Optional("frame", &t.frame);
     r.Optional("start_joints", &t.start_joints);
+    r.Optional("configuration", &t.configuration);
   } else {
     r.Required("joints", &t.joints);
   }
@@ -233,6 +278,7 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
   Problems problems;
   CompensateRequest req;
   ObjectReader r(body, "", &problems);
+  const bool named_branches = ArmSolver::For(model).has_value();
   if (const nlohmann::json* a = r.Array("targets", true, 1, limits.max_array_length)) {
     req.targets.resize(a->size());
     for (std::size_t i = 0; i < a->size(); ++i) {
@@ -244,8 +290,8 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
         problems.Add(path, "give exactly one of joints (nominal joint command) or pose");
       } else if (has_joints) {
         ReadJointVector(*t.Get("joints"), JoinPath(path, "joints"), model, &problems, &w.joints);
-        if (t.Has("frame") || t.Has("start_joints")) {
-          problems.Add(path, "frame and start_joints apply to pose targets only");
+        if (t.Has("frame") || t.Has("start_joints") || t.Has("configuration")) {
+          problems.Add(path, "frame, start_joints and configuration apply to pose targets only");
         }
       } else if (has_pose) {
         PoseWire p;
@@ -254,8 +300,17 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
         if (const nlohmann::json* s = t.Get("start_joints")) {
           ReadJointVector(*s, JoinPath(path, "start_joints"), model, &problems, &w.start_joints);
         }
+        if (const nlohmann::json* c = t.Get("configuration")) {
+          if (!named_branches) {
+            problems.Add(JoinPath(path, "configuration"),
+                         "robot '" + model.name() +
+                             "' has no named configurations (only 6R arms with a spherical or an offset wrist have)");
+          } else {
+            ParseConfiguration(*c, JoinPath(path, "configuration"), &problems, &w.configuration);
+          }
+        }
       }
-      t.RejectUnknown({"joints", "pose", "frame", "start_joints"});
+      t.RejectUnknown({"joints", "pose", "frame", "start_joints", "configuration"});
       if (problems.size() > 100) break;
     }
   }
@@ -289,7 +344,9 @@ void to_json(nlohmann::json& j, const Compensation& c) {
        {"iterations", c.iterations},
        {"message", c.message},
        {"joint_jump_deg", Num(c.joint_jump_deg)},
-       {"joint_jump", c.joint_jump}};
+       {"joint_jump", c.joint_jump},
+       {"configuration", c.configuration ? nlohmann::json(*c.configuration) : nlohmann::json(nullptr)},
+       {"branch_change", c.branch_change}};
 }
 
 void from_json(const nlohmann::json& j, Compensation& c) {
@@ -304,6 +361,8 @@ void from_json(const nlohmann::json& j, Compensation& c) {
   r.Required("message", &c.message);
   r.Required("joint_jump_deg", &c.joint_jump_deg);
   r.Required("joint_jump", &c.joint_jump);
+  r.Required("configuration", &c.configuration);
+  r.Required("branch_change", &c.branch_change);
 }
 
 Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
@@ -316,6 +375,7 @@ Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
   c.termination = r.termination;
   c.iterations = r.iterations;
   c.message = r.message;
+  c.configuration = r.configuration;
   return c;
 }
 

@@ -1,6 +1,7 @@
 // robocal fit, compensate, evaluate: a campaign's calibration.
 #include <iomanip>
 #include <limits>
+#include <sstream>
 
 #include "cli.h"
 #include "command.h"
@@ -59,13 +60,19 @@ int Fit(Invocation& in) {
 int Compensate(Invocation& in) {
   const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
   const api::Robot robot = in.Client().GetRobot(campaign.robot);
-  const auto nominal = ReadJointsFile(in.args[1], robot);
   api::CompensateRequest request;
-  for (const auto& q : nominal) {
-    api::CompensationTargetWire target;
-    target.joints = q;
-    request.targets.push_back(std::move(target));
+  TargetFrame frame = TargetFrame::kTracker;
+  if (in.Has("--frame") && !ParseTargetFrame(in.Option("--frame"), &frame)) {
+    throw UsageError("--frame must be tracker or base, got \"" + in.Option("--frame") + "\"");
   }
+  std::istringstream text(ReadFile(in.args[1]));
+  try {
+    request.targets = client::ReadCompensationTargetsCsv(text, static_cast<int>(robot.joints.size()), frame);
+  } catch (const std::runtime_error& e) {
+    throw UsageError(in.args[1] + ": " + e.what());
+  }
+  if (request.targets.empty()) throw UsageError(in.args[1] + ": no rows");
+  if (in.Has("--frame") && !request.targets[0].pose) throw UsageError("--frame applies to pose targets only");
   // Any positive number: the service says which it takes (its error names max_joint_jump_deg).
   request.sequence = in.Has("--sequence");
   request.max_joint_jump_deg = in.Number("--max-jump", request.max_joint_jump_deg, 0.0);

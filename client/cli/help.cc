@@ -160,14 +160,20 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};
 
-const HelpText kCompensate = {"compensated joints for nominal joint commands (CSV in, CSV out)", R"(
-IN.csv: nominal joint commands (a joints CSV: header, one row per configuration, degrees / mm). Writes the
-compensated joints that take the calibrated robot where the nominal model says the command goes, with
-position_error_mm, orientation_error_deg and converged (0/1) columns, to OUT.csv or stdout. --json: the
-compensation result (per target: joints, errors, free rotation, converged, iterations, message).
---sequence: the rows are one program, in order: two more columns, joint_jump_deg (the largest revolute joint
-move from the previous row's result, deg; empty on the first row) and joint_jump (1 when it exceeds
---max-jump DEG, default 30), so that you see where the compensated program would swing the robot.
+const HelpText kCompensate = {"compensated joints for nominal joint commands or tool poses (CSV in, CSV out)", R"(
+IN.csv: nominal joint commands (a joints CSV: header, one row per configuration, degrees / mm), or tool pose
+targets: header x_mm,y_mm,z_mm,qw,qx,qy,qz, optionally followed by shoulder, elbow and wrist columns naming the
+branch (front/back, up/down, noflip/flip; an empty cell leaves the flag free). Poses are in the tracker
+frame, or the calibrated robot base frame with --frame base. Writes the compensated joints that take the
+calibrated robot to each target, with position_error_mm, orientation_error_deg and converged (0/1) columns,
+and for a 6R arm with named branches the shoulder, elbow and wrist of each result, to OUT.csv or stdout. A
+pose without flags takes the branch shoulder front, elbow up, wrist noflip, or the previous row's with
+--sequence. --json: the compensation result (per target: joints, errors, free rotation, converged,
+iterations, message, configuration).
+--sequence: the rows are one program, in order: joint_jump_deg (the largest revolute joint move from the
+previous row's result, deg; empty on the first row), joint_jump (1 when it exceeds --max-jump DEG, default
+30) and branch_change (1 when the branch differs from the previous row's), so that you see where the
+compensated program would swing the robot.
 )"};
 
 const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements", R"(

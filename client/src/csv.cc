@@ -36,9 +36,10 @@ double ParseNumber(const std::string& text, int line, std::size_t column) {
   return v;
 }
 
-// Calls `row` for each data line (after the header) with its numbers; returns the header's fields.
+// Calls `row` for each data line (after the header) with its fields and line number; returns the header's
+// fields.
 template <typename RowFn>
-std::vector<std::string> ReadRows(std::istream& in, RowFn row) {
+std::vector<std::string> ReadLines(std::istream& in, RowFn row) {
   std::string line;
   std::vector<std::string> header;
   int number = 0;
@@ -56,12 +57,20 @@ std::vector<std::string> ReadRows(std::istream& in, RowFn row) {
       throw std::runtime_error("line " + std::to_string(number) + ": expected " + std::to_string(header.size()) +
                                " values (as the header), got " + std::to_string(fields.size()));
     }
-    std::vector<double> values;
-    for (std::size_t i = 0; i < fields.size(); ++i) values.push_back(ParseNumber(fields[i], number, i));
-    row(values);
+    row(fields, number);
   }
   if (header.empty()) throw std::runtime_error("no header line (see the CSV formats in docs/client.md)");
   return header;
+}
+
+// Calls `row` for each data line (after the header) with its numbers; returns the header's fields.
+template <typename RowFn>
+std::vector<std::string> ReadRows(std::istream& in, RowFn row) {
+  return ReadLines(in, [&](const std::vector<std::string>& fields, int number) {
+    std::vector<double> values;
+    for (std::size_t i = 0; i < fields.size(); ++i) values.push_back(ParseNumber(fields[i], number, i));
+    row(values);
+  });
 }
 
 // Shortest text that reads back as the same double, so that a plan written as CSV is the plan.
@@ -146,11 +155,70 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
   }
 }
 
+std::vector<api::CompensationTargetWire> ReadCompensationTargetsCsv(std::istream& in, int num_joints,
+                                                                   TargetFrame frame) {
+  std::vector<std::vector<std::string>> rows;
+  std::vector<int> lines;
+  const std::vector<std::string> header = ReadLines(in, [&](const std::vector<std::string>& fields, int number) {
+    rows.push_back(fields);
+    lines.push_back(number);
+  });
+  std::vector<api::CompensationTargetWire> targets;
+  static const std::vector<std::string> kPose = {"x_mm", "y_mm", "z_mm", "qw", "qx", "qy", "qz"};
+  if (header.size() < kPose.size() || !std::equal(kPose.begin(), kPose.end(), header.begin())) {
+    if (static_cast<int>(header.size()) != num_joints) {
+      throw std::runtime_error("the header has " + std::to_string(header.size()) + " columns; expected the robot's " +
+                               std::to_string(num_joints) + " joint columns, or x_mm,y_mm,z_mm,qw,qx,qy,qz " +
+                               "(+ shoulder,elbow,wrist) for pose targets");
+    }
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      api::CompensationTargetWire t;
+      for (std::size_t i = 0; i < rows[r].size(); ++i) t.joints.push_back(ParseNumber(rows[r][i], lines[r], i));
+      targets.push_back(std::move(t));
+    }
+    return targets;
+  }
+  // Pose targets: the flag columns by name, in any order; an empty cell leaves the flag free.
+  std::vector<int*> flags;
+  for (std::size_t i = kPose.size(); i < header.size(); ++i) {
+    if (header[i] != "shoulder" && header[i] != "elbow" && header[i] != "wrist") {
+      throw std::runtime_error("column " + std::to_string(i + 1) + ": \"" + header[i] +
+                               "\" is not a pose target column (shoulder, elbow, wrist may follow qz)");
+    }
+  }
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    api::CompensationTargetWire t;
+    api::PoseWire pose;
+    for (std::size_t i = 0; i < 3; ++i) pose.position_mm[i] = ParseNumber(rows[r][i], lines[r], i);
+    for (std::size_t i = 0; i < 4; ++i) pose.quaternion[i] = ParseNumber(rows[r][3 + i], lines[r], 3 + i);
+    t.pose = pose;
+    t.frame = frame;
+    for (std::size_t i = kPose.size(); i < header.size(); ++i) {
+      const std::string& text = rows[r][i];
+      if (text.empty()) continue;
+      int* flag = header[i] == "shoulder" ? &t.configuration.shoulder
+                  : header[i] == "elbow"  ? &t.configuration.elbow
+                                          : &t.configuration.wrist;
+      if (!ParseConfigurationFlag(header[i], text, flag)) {
+        throw std::runtime_error("line " + std::to_string(lines[r]) + ", column " + std::to_string(i + 1) +
+                                 ": not a " + header[i] + " flag: \"" + text + "\"");
+      }
+    }
+    targets.push_back(std::move(t));
+  }
+  return targets;
+}
+
 void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                           const std::vector<api::Compensation>& results, bool sequence) {
+  // The branch columns for a robot with named branches (every result with joints says its branch).
+  const bool branches = std::any_of(results.begin(), results.end(),
+                                    [](const api::Compensation& r) { return r.configuration.has_value(); });
   for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
   out << "position_error_mm,orientation_error_deg,converged";
+  if (branches) out << ",shoulder,elbow,wrist";
   if (sequence) out << ",joint_jump_deg,joint_jump";
+  if (sequence && branches) out << ",branch_change";
   out << "\n";
   for (const api::Compensation& r : results) {
     for (std::size_t i = 0; i < joints.size(); ++i) {
@@ -161,11 +229,20 @@ void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>&
     out << ",";
     WriteValue(out, r.orientation_error_deg);
     out << "," << (r.converged ? 1 : 0);
+    if (branches) {
+      if (r.configuration) {
+        out << "," << ShoulderName(r.configuration->shoulder) << "," << ElbowName(r.configuration->elbow) << ","
+            << WristName(r.configuration->wrist);
+      } else {
+        out << ",,,";  // no joints, no branch
+      }
+    }
     if (sequence) {
       out << ",";
       if (std::isfinite(r.joint_jump_deg)) WriteValue(out, r.joint_jump_deg);  // empty on the first row
       out << "," << (r.joint_jump ? 1 : 0);
     }
+    if (sequence && branches) out << "," << (r.branch_change ? 1 : 0);
     out << "\n";
   }
 }

@@ -48,16 +48,6 @@ void CheckFitSize(const RobotModel& model, const IdentificationOptions& options,
   throw ApiError(Status::kFailedPrecondition, "the fit is too large: " + reason, details);
 }
 
-// Zero (the robot's home) where inside the limits, else the middle: the solver's start for a pose target
-// without start_joints.
-Eigen::VectorXd DefaultStart(const RobotModel& model) {
-  Eigen::VectorXd start = (model.lower_limits() + model.upper_limits()) / 2.0;
-  for (int i = 0; i < model.num_joints(); ++i) {
-    if (model.lower_limits()[i] <= 0.0 && model.upper_limits()[i] >= 0.0) start[i] = 0.0;
-  }
-  return start;
-}
-
 }  // namespace
 
 struct Service::Calibrated {
@@ -183,29 +173,18 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
     if (t.pose) {
       target.pose = api::PoseToTransform(*t.pose);
       target.frame = t.frame;
-      target.start = t.start_joints.empty() ? DefaultStart(model) : api::JointsToCore(model, t.start_joints);
+      if (!t.start_joints.empty()) target.start = api::JointsToCore(model, t.start_joints);
+      target.configuration = t.configuration;
     } else {
       target.joints = api::JointsToCore(model, t.joints);
     }
     targets.push_back(std::move(target));
   }
-  // A program (sequence): a pose target without start_joints starts where the previous target's result left
-  // the robot, so those are solved in order; everything else is independent and solved on all threads.
-  const auto starts_from_previous = [&](std::size_t i) {
-    return req.sequence && i > 0 && req.targets[i].pose && req.targets[i].start_joints.empty();
-  };
-  bool chained = false;
-  for (std::size_t i = 0; i < targets.size(); ++i) chained = chained || starts_from_previous(i);
-  std::vector<CompensationResult> solved;
-  if (!chained) {
-    solved = CompensateAll(loaded.calibration, model, targets, {}, options_.compensation_threads);
-  } else {
-    for (std::size_t i = 0; i < targets.size(); ++i) {
-      CompensationTarget& t = targets[i];
-      if (starts_from_previous(i) && solved.back().joints.size() == model.num_joints()) t.start = solved.back().joints;
-      solved.push_back(robocal::Compensate(loaded.calibration, model, t));
-    }
-  }
+  // A program (sequence) is solved in order, each pose target from the previous result; otherwise the targets
+  // are independent and solved on all threads.
+  const std::vector<CompensationResult> solved =
+      req.sequence ? CompensateSequence(loaded.calibration, model, targets)
+                   : CompensateAll(loaded.calibration, model, targets, {}, options_.compensation_threads);
   result.results.reserve(solved.size());
   for (std::size_t i = 0; i < solved.size(); ++i) {
     api::Compensation c = api::ToWire(model, solved[i]);
@@ -221,6 +200,8 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
         c.joint_jump_deg = jump;
         c.joint_jump = jump > req.max_joint_jump_deg;
       }
+      c.branch_change = solved[i].configuration && solved[i - 1].configuration &&
+                        *solved[i].configuration != *solved[i - 1].configuration;
     }
     result.results.push_back(std::move(c));
   }

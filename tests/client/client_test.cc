@@ -406,6 +406,61 @@ TEST(CsvTest, SubnormalValuesReadBackAsWritten) {
   EXPECT_EQ(client::ReadJointsCsv(tiny, 1), (std::vector<std::vector<double>>{{0.0}}));
 }
 
+// Compensation targets: joint rows, or pose rows with the branch columns in any order (an empty cell leaves the
+// flag free); a bad flag or a stray column is named with its line and column.
+TEST(CsvTest, CompensationTargetsJointsOrPosesWithBranches) {
+  std::istringstream joints("x_mm,b_deg\n1,2\n3,4\n");
+  const auto j = client::ReadCompensationTargetsCsv(joints, 2);
+  ASSERT_EQ(j.size(), 2u);
+  EXPECT_FALSE(j[0].pose.has_value());
+  EXPECT_EQ(j[1].joints, (std::vector<double>{3, 4}));
+  std::istringstream poses(
+      "x_mm,y_mm,z_mm,qw,qx,qy,qz,wrist,shoulder\n1,2,3,1,0,0,0,flip,back\n4,5,6,0,1,0,0,,front\n");
+  const auto p = client::ReadCompensationTargetsCsv(poses, 6, TargetFrame::kBase);
+  ASSERT_EQ(p.size(), 2u);
+  ASSERT_TRUE(p[0].pose.has_value());
+  EXPECT_EQ(p[0].frame, TargetFrame::kBase);
+  EXPECT_EQ(p[0].pose->position_mm[2], 3.0);
+  EXPECT_EQ(p[0].configuration, (ArmConfiguration{-1, 0, -1}));
+  EXPECT_EQ(p[1].configuration, (ArmConfiguration{1, 0, 0}));
+  EXPECT_EQ(p[1].pose->quaternion[1], 1.0);
+  std::istringstream bad_flag("x_mm,y_mm,z_mm,qw,qx,qy,qz,elbow\n1,2,3,1,0,0,0,sideways\n");
+  try {
+    client::ReadCompensationTargetsCsv(bad_flag, 6);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "line 2, column 8: not a elbow flag: \"sideways\"");
+  }
+  std::istringstream stray("x_mm,y_mm,z_mm,qw,qx,qy,qz,knee\n1,2,3,1,0,0,0,up\n");
+  EXPECT_THROW(client::ReadCompensationTargetsCsv(stray, 6), std::runtime_error);
+  std::istringstream short_joints("a_deg\n1\n");
+  EXPECT_THROW(client::ReadCompensationTargetsCsv(short_joints, 6), std::runtime_error);
+}
+
+// Results of a robot with named branches carry shoulder, elbow, wrist (and branch_change in a sequence).
+TEST(CsvTest, CompensationResultsWithBranches) {
+  const std::vector<api::RobotJoint> joints = {Joint("a", "deg")};
+  api::Compensation first, second, none;
+  first.joints = {1.0};
+  first.converged = true;
+  first.configuration = ArmConfiguration{1, -1, 1};
+  second = first;
+  second.configuration = ArmConfiguration{1, -1, -1};
+  second.branch_change = true;
+  second.joint_jump_deg = 2.0;
+  std::stringstream s;
+  client::WriteCompensationCsv(s, joints, {first, second, none}, true);
+  EXPECT_EQ(s.str(),
+            "a_deg,position_error_mm,orientation_error_deg,converged,shoulder,elbow,wrist,joint_jump_deg,joint_jump,"
+            "branch_change\n"
+            "1,0,0,1,front,down,noflip,,0,0\n"
+            "1,0,0,1,front,down,flip,2,0,1\n"
+            "nan,0,0,0,,,,,0,0\n");
+  std::stringstream plain;
+  client::WriteCompensationCsv(plain, joints, {none}, false);
+  EXPECT_EQ(plain.str(), "a_deg,position_error_mm,orientation_error_deg,converged\nnan,0,0,0\n");
+}
+
 TEST(CsvTest, MeasurementsWithAndWithoutOrientation) {
   std::istringstream full("# a comment\nq1_deg,x_mm,y_mm,z_mm,qw,qx,qy,qz\n10,1,2,3,1,0,0,0\n");
   const auto m = client::ReadMeasurementsCsv(full, 1);

@@ -231,9 +231,41 @@ call POST "/v1/campaigns/$campaign:evaluate" '{"h_mm": 30}' >"$work/evaluate.jso
 expect "POST :evaluate: calibrated better than nominal" \
   "$(jq '.calibrated.e_xyz_mm.mean < .nominal.e_xyz_mm.mean' "$work/evaluate.json")" true
 
+call POST "/v1/campaigns/$campaign:compensate" \
+  '{"targets": [{"pose": {"position_mm": [500, 300, 100], "quaternion": [1, 0, 0, 0]}, "configuration": {"elbow": "up"}}]}' \
+  >/dev/null
+expect "POST :compensate configuration on a robot without named branches -> 400" "$(status)" 400
+expect "... naming the target's configuration" "$(jq -r '.error.details[0].field' "$work/body")" "targets[0].configuration"
+
 # ---- the mock tracker drives the same server end to end ----------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --seed 2 --shots 3 --json >"$work/mock.json" 2>/dev/null
 expect "robocal-mock-tracker improves accuracy" "$(jq .improved "$work/mock.json")" true
+
+# ---- Cartesian targets on a 6R arm: branches ----------------------------------------------------------------------
+"$mock" --server "$ROBOCAL_URL" --robot ur5e --type pose --seed 3 --shots 1 >/dev/null 2>"$work/mock6.log"
+arm=$(sed -n 's/^campaign //p' "$work/mock6.log")
+q='[30, -120, 70, -40, -60, 20]'
+pose=$(call POST "/v1/campaigns/$arm:forward" "{\"joints\": [$q]}" | jq -c '.poses[0] | {position_mm, quaternion}')
+started=$(call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $pose, \"start_joints\": $q}]}")
+expect "POST :compensate pose with start_joints: back at those joints" \
+  "$(jq --argjson q "$q" '[.results[0].joints, $q] | transpose | map(.[0] - .[1] | fabs < 0.01) | all' <<<"$started")" true
+own=$(jq -c .results[0].configuration <<<"$started")
+expect "... on their branch, named" "$(jq -c 'keys' <<<"$own")" '["elbow","shoulder","wrist"]'
+asked=$(call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $pose, \"configuration\": $own}]}")
+expect "POST :compensate pose with that configuration: the same joints" \
+  "$(jq -c --argjson s "$started" '[.results[0].joints, $s.results[0].joints] | transpose | map(.[0] - .[1] | fabs < 1e-6) | all' <<<"$asked")" true
+flipped=$(jq -c '.wrist = (if .wrist == "flip" then "noflip" else "flip" end)' <<<"$own")
+program=$(jq -nc --argjson p "$pose" --argjson a "$own" --argjson b "$flipped" \
+  '{targets: [{pose: $p, configuration: $a}, {pose: $p, configuration: $b}, {pose: $p}], sequence: true}')
+call POST "/v1/campaigns/$arm:compensate" "$program" >"$work/program.json"
+expect "POST :compensate sequence: the asked wrist, then the previous branch kept" \
+  "$(jq -c '[.results[] | .configuration.wrist]' "$work/program.json")" \
+  "$(jq -nc --argjson a "$own" --argjson b "$flipped" '[$a.wrist, $b.wrist, $b.wrist]')"
+expect "... branch changes flagged where the wrist flips" \
+  "$(jq -c '[.results[] | .branch_change]' "$work/program.json")" '[false,true,false]'
+call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $pose, \"configuration\": {\"elbow\": \"sideways\"}}]}" >/dev/null
+expect "POST :compensate elbow sideways -> 400 naming the flag" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 targets[0].configuration.elbow"
 
 # ---- bearer tokens -------------------------------------------------------------------------------------------
 stop_server

@@ -11,6 +11,7 @@
 #include "robocal/api/health.h"
 #include "robocal/api/cells.h"
 #include "robocal/api/stored.h"
+#include "robocal/core/arm_kinematics.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
@@ -540,7 +541,9 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"state", WireNames<OperationState>()},             {"status", WireNames<Status>()},
       {"convention", WireNames<GeometryConvention>()},    {"type", WireNames<JointType>()},
       {"frame", WireNames<TargetFrame>()},                {"role", WireNames<MeasurementRole>()},
-      {"from_preset", PresetNames()}};
+      {"from_preset", PresetNames()},
+      {"shoulder", {ShoulderName(1), ShoulderName(-1)}},  {"elbow", {ElbowName(1), ElbowName(-1)}},
+      {"wrist", {WristName(1), WristName(-1)}}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {
       {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

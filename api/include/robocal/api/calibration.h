@@ -16,6 +16,16 @@
 #include "robocal/core/compensation.h"
 #include "robocal/core/identification.h"
 
+namespace robocal {
+// In the core's namespace, where argument-dependent lookup finds them.
+/// A configuration (branch) of a 6R arm with named branches: {"shoulder": "front" | "back", "elbow": "up" |
+/// "down", "wrist": "noflip" | "flip"}. In a request each flag is optional (0 in ArmConfiguration: not
+/// demanded); in a result all three are given.
+void to_json(nlohmann::json& j, const ArmConfiguration& c);
+void from_json(const nlohmann::json& j, ArmConfiguration& c);
+
+}  // namespace robocal
+
 namespace robocal::api {
 
 /// POST /v1/campaigns/{c}:fit.
@@ -105,13 +115,15 @@ void from_json(const nlohmann::json& j, CalibrationResult& c);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
 CalibrationResult ToWire(const Calibration& calibration);
 
-/// One compensation target: nominal joints ("joints"), or a pose ("pose", with "frame" tracker | base and
-/// optional "start_joints" for the solver).
+/// One compensation target: nominal joints ("joints"), or a pose ("pose", with "frame" tracker | base, optional
+/// "start_joints" and optional "configuration", the branch demanded; docs/compensation.md gives the rules).
 struct CompensationTargetWire {
   std::vector<double> joints;
   std::optional<PoseWire> pose;
   TargetFrame frame = TargetFrame::kTracker;
   std::vector<double> start_joints;
+  /// Flags demanded (0: free); only for a robot with named branches.
+  ArmConfiguration configuration;
 };
 void to_json(nlohmann::json& j, const CompensationTargetWire& target);
 void from_json(const nlohmann::json& j, CompensationTargetWire& target);
@@ -119,9 +131,10 @@ void from_json(const nlohmann::json& j, CompensationTargetWire& target);
 /// POST /v1/campaigns/{c}:compensate.
 struct CompensateRequest {
   std::vector<CompensationTargetWire> targets;
-  /// The targets are one program, in order: a pose target without start_joints starts from the previous
-  /// target's result (the first from the robot's default start), and each result after the first says how far
-  /// the joints move from the previous one (joint_jump_deg; joint_jump when more than max_joint_jump_deg).
+  /// The targets are one program, in order: a pose target without start_joints keeps the previous target's
+  /// branch and starts from its result, and each result after the first says how far the joints move from the
+  /// previous one (joint_jump_deg; joint_jump when more than max_joint_jump_deg) and whether the branch changed
+  /// (branch_change).
   bool sequence = false;
   /// Threshold of joint_jump, deg (> 0, <= 720).
   double max_joint_jump_deg = 30.0;
@@ -149,6 +162,10 @@ struct Compensation {
   /// max_joint_jump_deg.
   double joint_jump_deg = std::numeric_limits<double>::quiet_NaN();
   bool joint_jump = false;
+  /// For a robot with named branches (a 6R arm of a known family): the branch of `joints`; null otherwise.
+  std::optional<ArmConfiguration> configuration;
+  /// With sequence: the configuration differs from the previous target's result.
+  bool branch_change = false;
 };
 void to_json(nlohmann::json& j, const Compensation& c);
 void from_json(const nlohmann::json& j, Compensation& c);

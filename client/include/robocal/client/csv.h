@@ -31,8 +31,16 @@ std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_
 void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                           const std::vector<api::MeasurementWire>& measurements);
 
+/// Compensation targets: either the robot's joint columns (nominal joint commands), or pose targets
+/// x_mm,y_mm,z_mm,qw,qx,qy,qz (in `frame`), optionally followed by shoulder, elbow, wrist columns (any of them,
+/// any order; a cell front/back, up/down, noflip/flip, or empty to leave the flag free). Throws
+/// std::runtime_error naming the line and column of a malformed value.
+std::vector<api::CompensationTargetWire> ReadCompensationTargetsCsv(std::istream& in, int num_joints,
+                                                                   TargetFrame frame = TargetFrame::kTracker);
 /// Compensation results: the compensated joint columns, then position_error_mm, orientation_error_deg,
-/// converged (0/1); with `sequence` also joint_jump_deg (empty on the first row) and joint_jump (0/1).
+/// converged (0/1); for a robot with named branches shoulder, elbow, wrist (empty without joints); with
+/// `sequence` also joint_jump_deg (empty on the first row) and joint_jump (0/1), and for a robot with named
+/// branches branch_change (0/1).
 void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>& joints,
                           const std::vector<api::Compensation>& results, bool sequence = false);
 
