@@ -101,8 +101,8 @@ void JointCommands(const Calibration& calibration, const RobotModel& nominal, co
   for (CompensationTarget& t : targets) t.joints = RandomConfiguration(nominal, rng);
   const std::vector<CompensationResult> results = CompensateAll(calibration, nominal, targets, {}, o.threads);
   KinematicsWorkspace ws(nominal);
-  std::vector<double> iterations, converged_sigma;
-  std::vector<std::size_t> failed;
+  std::vector<double> iterations, converged_sigma, failed_sigma;
+  std::vector<std::size_t> no_convergence;
   row->joint_targets = o.joint_targets;
   for (std::size_t i = 0; i < results.size(); ++i) {
     const CompensationResult& r = results[i];
@@ -110,23 +110,26 @@ void JointCommands(const Calibration& calibration, const RobotModel& nominal, co
       ++row->joint_converged;
       iterations.push_back(r.iterations);
       if (converged_sigma.size() < 2000) converged_sigma.push_back(MinSingular(nominal, targets[i].joints, &ws));
-      continue;
+    } else if (r.termination == Termination::kDegraded) {
+      ++row->joint_degraded;  // a joint held at its limit: the limit, not a singularity, is in the way
+    } else {
+      ++row->joint_no_convergence;
+      no_convergence.push_back(i);
     }
-    failed.push_back(i);
-    (r.termination == Termination::kDegraded ? row->joint_degraded : row->joint_no_convergence)++;
   }
   row->joint_median_iterations = Median(iterations);
   row->converged_median_min_singular = Median(converged_sigma);
-  for (std::size_t i : failed) {
-    const double sigma = MinSingular(nominal, targets[i].joints, &ws);
-    row->failed_max_min_singular = std::max(row->failed_max_min_singular, sigma);
+  for (std::size_t i : no_convergence) {
+    failed_sigma.push_back(MinSingular(nominal, targets[i].joints, &ws));
     const double distance =
-        DistanceToSingularity(nominal, targets[i].joints, 1e-3 * row->converged_median_min_singular, &ws);
-    row->failed_max_singular_distance_deg =
-        distance < 0.0 || row->failed_max_singular_distance_deg < 0.0
-            ? -1.0
-            : std::max(row->failed_max_singular_distance_deg, distance);
+        DistanceToSingularity(nominal, targets[i].joints, 1e-2 * row->converged_median_min_singular, &ws);
+    if (distance >= 0.0 && distance <= 1.0) ++row->no_convergence_within_1deg;
+    if (distance >= 0.0 && distance <= 5.0) ++row->no_convergence_within_5deg;
+    row->no_convergence_max_distance_deg = distance < 0.0 || row->no_convergence_max_distance_deg < 0.0
+                                               ? -1.0
+                                               : std::max(row->no_convergence_max_distance_deg, distance);
   }
+  row->no_convergence_median_min_singular = Median(failed_sigma);
 }
 
 void CartesianTargets(const Calibration& calibration, const RobotModel& nominal, const ArmSolver& arm,
@@ -270,17 +273,22 @@ std::string FormatCompensationStudy(const CompensationStudyResult& result) {
     out << r.robot << (r.named_branches ? " (named branches)" : " (no named branches)") << "\n";
     if (r.joint_targets > 0) {
       std::snprintf(line, sizeof(line),
-                    "  joint commands: %d, converged %s (median %.0f iterations), DEGRADED %d, NO_CONVERGENCE %d\n"
-                    "    not converged: smallest singular value at most %.4f (converged median %.4f); nearest "
-                    "singularity within %s deg\n",
+                    "  joint commands: %d, converged %s (median %.0f iterations), DEGRADED (a joint at its limit) %d, "
+                    "NO_CONVERGENCE %d\n",
                     r.joint_targets, Percent(r.joint_converged, r.joint_targets).c_str(), r.joint_median_iterations,
-                    r.joint_degraded, r.joint_no_convergence, r.failed_max_min_singular,
-                    r.converged_median_min_singular,
-                    r.joint_converged == r.joint_targets ? "-"
-                    : r.failed_max_singular_distance_deg < 0.0
-                        ? "(not found for every one)"
-                        : std::to_string(r.failed_max_singular_distance_deg).substr(0, 5).c_str());
+                    r.joint_degraded, r.joint_no_convergence);
       out << line;
+      if (r.joint_no_convergence > 0) {
+        std::snprintf(line, sizeof(line),
+                      "    NO_CONVERGENCE: smallest singular value median %.4f (converged %.4f); a singularity within "
+                      "1 deg for %d, within 5 deg for %d; farthest %s\n",
+                      r.no_convergence_median_min_singular, r.converged_median_min_singular,
+                      r.no_convergence_within_1deg, r.no_convergence_within_5deg,
+                      r.no_convergence_max_distance_deg < 0.0
+                          ? "none within 10 deg"
+                          : (std::to_string(r.no_convergence_max_distance_deg).substr(0, 5) + " deg").c_str());
+        out << line;
+      }
     }
     if (r.cartesian_targets > 0) {
       std::snprintf(line, sizeof(line),

@@ -45,14 +45,17 @@ struct CompensationStudyRow {
   int joint_no_convergence = 0;
   /// Median iterations (Jacobian evaluations) of the converged ones.
   double joint_median_iterations = 0.0;
-  /// Of the commands that did not converge: the largest smallest singular value of the nominal position
-  /// Jacobian with unit columns at the command (scale free; the converged commands' median is given beside).
-  double failed_max_min_singular = 0.0;
+  /// The smallest singular value of the nominal joint Jacobian in the solver's rows (orientation weighted
+  /// 100 mm/rad, columns scaled to unit length; scale free, zero at a singularity) at the command: the median
+  /// over converged commands and over NO_CONVERGENCE ones.
   double converged_median_min_singular = 0.0;
-  /// Of the commands that did not converge: the largest distance from the command in joint space (deg) to a
-  /// configuration where that singular value is below a tenth of the converged median (a coarse search along
-  /// each joint), -1 if none was found within 5 deg.
-  double failed_max_singular_distance_deg = 0.0;
+  double no_convergence_median_min_singular = 0.0;
+  /// NO_CONVERGENCE commands with a singularity (that singular value below 1 % of the converged median, found
+  /// by descending it from the command, at most 10 deg away in any joint) within 1 deg and within 5 deg of the
+  /// command (max over joints), and the largest such distance (-1 when one has none within 10 deg).
+  int no_convergence_within_1deg = 0;
+  int no_convergence_within_5deg = 0;
+  double no_convergence_max_distance_deg = 0.0;
   // Cartesian targets (robots with named branches).
   int cartesian_targets = 0;
   int cartesian_on_branch = 0;
