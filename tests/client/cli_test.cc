@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <sstream>
 
 #include "cli.h"
@@ -199,6 +200,38 @@ TEST_F(CliTest, WholeFlow) {
   while (std::getline(program_rows, row)) flagged += row.back() == '1' ? 1 : 0;
   EXPECT_EQ(flagged, 9) << program.out;
   EXPECT_EQ(RunCli(server + " compensate " + campaign + " " + Path("plan.csv") + " --max-jump 5").exit_code, 2);
+  // Pose targets from a CSV: the calibrated robot's own poses (its forward kinematics at the planned joints,
+  // tracker frame) come back converged; grinder5 has no named branches, so no branch columns, and a branch column
+  // is the service's 400 naming the field.
+  {
+    const Result poses = RunCli(server + " campaign forward " + campaign + " " + Path("plan.csv") + " --json");
+    ASSERT_EQ(poses.exit_code, 0);
+    const auto forward = api::FromWire<api::ForwardResult>(nlohmann::json::parse(poses.out));
+    std::ofstream csv(Path("poses.csv"));
+    csv << std::setprecision(17) << "x_mm,y_mm,z_mm,qw,qx,qy,qz\n";
+    for (std::size_t i = 0; i < 3; ++i) {
+      const api::PoseWire& p = forward.poses[i];
+      csv << p.position_mm[0] << "," << p.position_mm[1] << "," << p.position_mm[2] << "," << p.quaternion[0]
+          << "," << p.quaternion[1] << "," << p.quaternion[2] << "," << p.quaternion[3] << "\n";
+    }
+  }
+  const Result to_poses = RunCli(server + " compensate " + campaign + " " + Path("poses.csv"));
+  ASSERT_EQ(to_poses.exit_code, 0);
+  std::istringstream pose_rows(to_poses.out);
+  std::string pose_row;
+  std::getline(pose_rows, pose_row);
+  EXPECT_EQ(pose_row.find("shoulder"), std::string::npos) << pose_row;
+  int converged_rows = 0;
+  while (std::getline(pose_rows, pose_row)) converged_rows += pose_row.substr(pose_row.size() - 2) == ",1" ? 1 : 0;
+  EXPECT_EQ(converged_rows, 3) << to_poses.out;
+  std::ofstream(Path("branch.csv")) << "x_mm,y_mm,z_mm,qw,qx,qy,qz,elbow\n500,300,100,1,0,0,0,up\n";
+  const InProcess branch = RunInProcess({"--server", server_.url(), "compensate", campaign, Path("branch.csv")});
+  EXPECT_NE(branch.exit_code, 0);
+  EXPECT_NE(branch.err.find("targets[0].configuration"), std::string::npos) << branch.err;
+  std::ofstream(Path("badflag.csv")) << "x_mm,y_mm,z_mm,qw,qx,qy,qz,elbow\n500,300,100,1,0,0,0,sideways\n";
+  const InProcess bad_flag = RunInProcess({"--server", server_.url(), "compensate", campaign, Path("badflag.csv")});
+  EXPECT_EQ(bad_flag.exit_code, 2);
+  EXPECT_NE(bad_flag.err.find("line 2, column 8"), std::string::npos) << bad_flag.err;
 
   const Result evaluated = RunCli(server + " evaluate " + campaign);
   ASSERT_EQ(evaluated.exit_code, 0);
