@@ -89,6 +89,22 @@ double DistanceToSingularity(const RobotModel& model, const Eigen::VectorXd& q, 
   return value < threshold ? (x - q).cwiseAbs().maxCoeff() * kDeg : -1.0;
 }
 
+// The smallest move of one revolute joint (deg, steps of 0.02 deg, at most 10 deg) that changes a flag of the
+// configuration, or -1 if none does.
+double DistanceToBoundary(const ArmSolver& arm, const Eigen::VectorXd& q) {
+  const ArmConfiguration own = arm.ConfigurationOf(q);
+  for (int step = 1; step <= 500; ++step) {
+    for (int i = 0; i < q.size(); ++i) {
+      for (double sign : {1.0, -1.0}) {
+        Eigen::VectorXd moved = q;
+        moved[i] += sign * step * 0.02 / kDeg;
+        if (arm.ConfigurationOf(moved) != own) return step * 0.02;
+      }
+    }
+  }
+  return -1.0;
+}
+
 double Median(std::vector<double> values) {
   if (values.empty()) return 0.0;
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
@@ -119,7 +135,16 @@ void JointCommands(const Calibration& calibration, const RobotModel& nominal, co
   }
   row->joint_median_iterations = Median(iterations);
   row->converged_median_min_singular = Median(converged_sigma);
+  const std::optional<ArmSolver> arm = ArmSolver::For(nominal);
   for (std::size_t i : no_convergence) {
+    if (arm) {
+      const double boundary = DistanceToBoundary(*arm, targets[i].joints);
+      if (boundary >= 0.0 && boundary <= 1.0) ++row->boundary_within_1deg;
+      if (boundary >= 0.0 && boundary <= 5.0) ++row->boundary_within_5deg;
+      row->boundary_max_distance_deg = boundary < 0.0 || row->boundary_max_distance_deg < 0.0
+                                           ? -1.0
+                                           : std::max(row->boundary_max_distance_deg, boundary);
+    }
     failed_sigma.push_back(MinSingular(nominal, targets[i].joints, &ws));
     const double distance =
         DistanceToSingularity(nominal, targets[i].joints, 1e-2 * row->converged_median_min_singular, &ws);
@@ -287,6 +312,16 @@ std::string FormatCompensationStudy(const CompensationStudyResult& result) {
                       r.no_convergence_max_distance_deg < 0.0
                           ? "none within 10 deg"
                           : (std::to_string(r.no_convergence_max_distance_deg).substr(0, 5) + " deg").c_str());
+        out << line;
+      }
+      if (r.joint_no_convergence > 0 && r.named_branches) {
+        std::snprintf(line, sizeof(line),
+                      "    NO_CONVERGENCE: a branch boundary (one joint moved) within 1 deg for %d, within 5 deg for "
+                      "%d; farthest %s\n",
+                      r.boundary_within_1deg, r.boundary_within_5deg,
+                      r.boundary_max_distance_deg < 0.0
+                          ? "none within 10 deg"
+                          : (std::to_string(r.boundary_max_distance_deg).substr(0, 5) + " deg").c_str());
         out << line;
       }
     }

@@ -56,6 +56,12 @@ struct CompensationStudyRow {
   int no_convergence_within_1deg = 0;
   int no_convergence_within_5deg = 0;
   double no_convergence_max_distance_deg = 0.0;
+  /// Robots with named branches: NO_CONVERGENCE commands with a branch boundary (a singularity: some flag of
+  /// ArmSolver changes) within 1 deg and within 5 deg of the command, moving one joint at a time (steps of
+  /// 0.02 deg up to 10 deg), and the largest such distance (-1 when one has none within 10 deg).
+  int boundary_within_1deg = 0;
+  int boundary_within_5deg = 0;
+  double boundary_max_distance_deg = 0.0;
   // Cartesian targets (robots with named branches).
   int cartesian_targets = 0;
   int cartesian_on_branch = 0;
