@@ -1,5 +1,5 @@
-// Fuzz target: the CSV files of the CLI and the mock tracker (client::ReadJointsCsv, ReadMeasurementsCsv), read
-// for every joint count a robot can have, and written back. The bytes are also taken as doubles for the
+// Fuzz target: the CSV files of the CLI and the mock tracker (client::ReadJointsCsv, ReadMeasurementsCsv,
+// ReadCompensationTargetsCsv), read for every joint count a robot can have, and written back. The bytes are also taken as doubles for the
 // writers: whatever finite value a plan or a measurement holds must survive a CSV file.
 #include <cstring>
 #include <sstream>
@@ -77,6 +77,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (const auto shots = ReadCsv(text, [&](std::istream& in) { return client::ReadMeasurementsCsv(in, n); })) {
       for (const auto& m : *shots) Check(static_cast<int>(m.joints.size()) == n, "a measurement has n joints");
       CheckMeasurementsRoundTrip(n, *shots);
+    }
+    // Compensation targets: each row a joint command of n values or a pose with flags in {-1, 0, 1}.
+    if (const auto targets =
+            ReadCsv(text, [&](std::istream& in) { return client::ReadCompensationTargetsCsv(in, n); })) {
+      for (const auto& t : *targets) {
+        Check(t.pose.has_value() != (static_cast<int>(t.joints.size()) == n), "a target is joints or a pose");
+        for (int flag : {t.configuration.shoulder, t.configuration.elbow, t.configuration.wrist}) {
+          Check(flag >= -1 && flag <= 1, "a flag is -1, 0 or 1");
+        }
+        if (!t.pose) Check(t.configuration == robocal::ArmConfiguration{}, "no flags on a joint target");
+      }
     }
   }
 
