@@ -1,6 +1,7 @@
 // Fuzz target: the CSV files of the CLI and the mock tracker (client::ReadJointsCsv, ReadMeasurementsCsv,
-// ReadCompensationTargetsCsv), read for every joint count a robot can have, and written back. The bytes are also taken as doubles for the
-// writers: whatever finite value a plan or a measurement holds must survive a CSV file.
+// ReadCompensationTargetsCsv), read for every joint count a robot can have, and written back. The bytes are
+// also taken as doubles for the writers: whatever finite value a plan or a measurement holds must survive a
+// CSV file.
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
