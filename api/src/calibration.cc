@@ -244,7 +244,7 @@ void ParseConfiguration(const nlohmann::json& value, const std::string& path, Pr
                                      {"elbow", "up or down", &out->elbow},
                                      {"wrist", "noflip or flip", &out->wrist}}) {
     std::string text;
-    if (!r.String(flag, false, &text, 16) || text.empty()) continue;
+    if (!r.String(flag, false, &text, 16)) continue;
     if (!ParseConfigurationFlag(flag, text, target)) problems->Add(JoinPath(path, flag), std::string("must be ") + names);
   }
   r.RejectUnknown({"shoulder", "elbow", "wrist"});
@@ -315,8 +315,9 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
     }
   }
   r.Bool("sequence", false, &req.sequence);
-  if (r.Number("max_joint_jump_deg", false, &req.max_joint_jump_deg, 0.0, 720.0) && !(req.max_joint_jump_deg > 0.0)) {
-    problems.Add("max_joint_jump_deg", "must be > 0 deg");
+  if (r.Number("max_joint_jump_deg", false, &req.max_joint_jump_deg) &&
+      !(req.max_joint_jump_deg > 0.0 && req.max_joint_jump_deg <= 720.0)) {
+    problems.Add("max_joint_jump_deg", "must be in (0, 720] deg");
   }
   r.RejectUnknown({"targets", "sequence", "max_joint_jump_deg"});
   problems.ThrowIfAny("invalid compensation request");

@@ -46,6 +46,8 @@ std::vector<std::string> ReadLines(std::istream& in, RowFn row) {
   while (std::getline(in, line)) {
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    // A byte order mark before the first line (spreadsheets write one) is not part of the header.
+    if (number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     const auto first = line.find_first_not_of(" \t");
     if (first == std::string::npos || line[first] == '#') continue;
     const std::vector<std::string> fields = SplitFields(line);

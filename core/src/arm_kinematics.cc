@@ -22,6 +22,9 @@ constexpr double kBeyondReach = 5e-2;
 // Candidates missing their pose by more than this are dropped (a free joint's fallback, far beyond reach).
 constexpr double kSeedMm = 20.0;
 constexpr double kSeedRad = 0.1;
+// Below this sine of the angle between axis 6 and the parallel axes, the offset wrist's joint 6 is taken as
+// ill-determined (about 3 deg from the wrist singularity).
+constexpr double kNearlyParallel = 0.05;
 
 Eigen::Matrix3d Rot(const Eigen::Vector3d& w, double angle) { return Eigen::AngleAxisd(angle, w).toRotationMatrix(); }
 
@@ -254,7 +257,19 @@ std::vector<ArmSolution> ArmSolver::Solve(const Transform& T_base_tool, const Ei
       // place; the parallel joints' sum is what remains of the rotation.
       for (double q5 : RotateToDotOr(x[4].w, x[5].w, a0, (R1 * a0).dot(R * x[5].w), reference[4])) {
         const Eigen::Matrix3d R5 = Rot(x[4].w, q5);
-        const double q6 = RotateTo(x[5].w, R.transpose() * R1 * a0, R5.transpose() * a0).value_or(reference[5]);
+        const Eigen::Vector3d from = R.transpose() * R1 * a0, to = R5.transpose() * a0;
+        // Joint 6 turns the parallel axes' direction into place. Near the wrist singularity (axis 6 nearly
+        // parallel to them) that direction barely leaves axis 6 and joint 6 is ill-determined, while axis 6's
+        // offset from axis 4 still moves the elbow's target: then the reference value and every 30 deg are
+        // tried as well, each giving its own elbow solutions (the calibrated model refines the nearest).
+        std::vector<double> q6s;
+        if (const std::optional<double> q6 = RotateTo(x[5].w, from, to)) q6s.push_back(*q6);
+        const double off_axis = std::min((from - x[5].w * x[5].w.dot(from)).norm(), (to - x[5].w * x[5].w.dot(to)).norm());
+        if (off_axis < kNearlyParallel) {
+          q6s.push_back(reference[5]);
+          for (int k = -5; k <= 6; ++k) q6s.push_back(Wrap(k * std::numbers::pi / 6.0));
+        }
+        for (double q6 : q6s) {
         const Transform E5 = exp(4, q5), E6 = exp(5, q6);
         const Eigen::Matrix3d M = R1.transpose() * R * E6.linear().transpose() * R5.transpose();
         const Eigen::Vector3d e = AnyPerpendicular(a0);
@@ -270,6 +285,7 @@ std::vector<ArmSolution> ArmSolver::Solve(const Transform& T_base_tool, const Ei
           Eigen::VectorXd q(6);
           q << q1, q2, q3, Wrap(sum - q2 - q3), q5, q6;
           raw.push_back(q);
+        }
         }
       }
     }

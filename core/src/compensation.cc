@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <atomic>
 #include <exception>
@@ -493,6 +494,17 @@ int PlaceInLimits(const RobotModel& model, const Eigen::VectorXd& reference, Eig
   return outside;
 }
 
+// A result without joints: FAILURE, its errors unknown (NaN, null on the wire), not zero.
+CompensationResult NoSolution(int iterations, std::string message) {
+  CompensationResult none;
+  none.termination = Termination::kFailure;
+  none.iterations = iterations;
+  none.position_error_mm = std::numeric_limits<double>::quiet_NaN();
+  none.orientation_error_rad = std::numeric_limits<double>::quiet_NaN();
+  none.message = std::move(message);
+  return none;
+}
+
 // A pose target on a robot with named branches: the nominal closed-form solutions in order of preference,
 // refined on the calibrated model until one converges with the demanded flags.
 CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
@@ -502,14 +514,26 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
   const ArmConfiguration demanded = t.configuration;
   const Eigen::VectorXd* hint = t.start.size() != 0 ? &t.start : previous.size() != 0 ? &previous : nullptr;
   const Eigen::VectorXd& reference = hint != nullptr ? *hint : ctx.default_joints;
-  const ArmConfiguration preferred = hint != nullptr ? arm.ConfigurationOf(*hint) : ArmConfiguration{1, 1, 1};
+  // The branch wanted: the demanded flags, the rest from the hint (else front, up, noflip).
+  ArmConfiguration wanted = hint != nullptr ? arm.ConfigurationOf(*hint) : ArmConfiguration{1, 1, 1};
+  if (demanded.shoulder != 0) wanted.shoulder = demanded.shoulder;
+  if (demanded.elbow != 0) wanted.elbow = demanded.elbow;
+  if (demanded.wrist != 0) wanted.wrist = demanded.wrist;
+  int iterations = 0;
+  // The hint first: joints that (nearly) reach the target are the user's own answer, kept exactly when the
+  // solver converges from them on the wanted branch (no other turn of a joint, no neighbouring branch).
+  if (hint != nullptr) {
+    CompensationResult r = SolveFrom(ctx, T_world_target, *hint);
+    iterations += r.iterations;
+    if (r.converged && r.configuration == wanted) return r;
+  }
   struct Candidate {
     Eigen::VectorXd q;
     ArmConfiguration configuration;
     int other_branch = 0;
+    int mismatch = 0;
     int outside = 0;
     int inexact = 0;
-    int mismatch = 0;
     double distance = 0.0;
   };
   std::vector<Candidate> candidates;
@@ -520,30 +544,27 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
     // nominal chain's branch and the calibrated robot's differ, and the solver may cross to the asked one.
     c.other_branch = demanded.Admits(c.configuration) ? 0 : 1;
     on_branch += 1 - c.other_branch;
+    // Flags differing from the wanted ones, the shoulder weighing most.
+    c.mismatch = 4 * (c.configuration.shoulder != wanted.shoulder) + 2 * (c.configuration.elbow != wanted.elbow) +
+                 (c.configuration.wrist != wanted.wrist);
     c.outside = PlaceInLimits(model, reference, &c.q);
     // A pose just beyond the nominal reach gives a stretched start, tried after the exact solutions.
     c.inexact = s.position_error_mm > 1e-6 ? 1 : 0;
-    // Flags differing from the preferred ones, the shoulder weighing most.
-    c.mismatch = 4 * (c.configuration.shoulder != preferred.shoulder) + 2 * (c.configuration.elbow != preferred.elbow) +
-                 (c.configuration.wrist != preferred.wrist);
     c.distance = (c.q - reference).squaredNorm();
     candidates.push_back(std::move(c));
   }
-  // The asked branch first, within the limits, exact, the preferred flags, then the nearest to the reference.
+  // The demanded flags, then the wanted branch (whatever it takes to reach it), within the limits, exact, and
+  // the nearest to the reference.
   std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tie(a.other_branch, a.outside, a.inexact, a.mismatch, a.distance) <
-           std::tie(b.other_branch, b.outside, b.inexact, b.mismatch, b.distance);
+    return std::tie(a.other_branch, a.mismatch, a.outside, a.inexact, a.distance) <
+           std::tie(b.other_branch, b.mismatch, b.outside, b.inexact, b.distance);
   });
-  const std::string wanted = demanded.ToString();
+  const std::string asked = demanded.ToString();
   if (candidates.empty()) {
-    CompensationResult none;
-    none.termination = Termination::kFailure;
-    none.message = wanted.empty() ? "no solution on any branch: the target is beyond the arm's reach"
-                                  : "no solution with " + wanted + ": the target is beyond the arm's reach";
-    return none;
+    return NoSolution(iterations, asked.empty() ? "no solution on any branch: the target is beyond the arm's reach"
+                                                : "no solution with " + asked + ": the target is beyond the arm's reach");
   }
   CompensationResult best;
-  int iterations = 0;
   bool any = false;
   for (const Candidate& c : candidates) {
     CompensationResult r = SolveFrom(ctx, T_world_target, c.q);
@@ -559,19 +580,16 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
     }
   }
   if (!any) {
-    CompensationResult none;
-    none.termination = Termination::kFailure;
-    none.iterations = iterations;
-    none.message = on_branch == 0 ? "no solution with " + wanted + ": the target is beyond the arm's reach on that branch"
-                                  : "no solution with " + wanted + ": the solver left that branch from each of its " +
-                                        std::to_string(on_branch) + " nominal solutions";
-    return none;
+    return NoSolution(iterations, on_branch == 0
+                                      ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"
+                                      : "no solution with " + asked + ": the solver left that branch from each of its " +
+                                            std::to_string(on_branch) + " nominal solutions");
   }
   best.iterations = iterations;
   best.converged = false;
   if (best.termination == Termination::kConvergence) best.termination = Termination::kNoConvergence;
-  best.message = (wanted.empty() ? std::string("no branch reaches the target: ")
-                                 : "the calibrated robot does not reach the target with " + wanted + ": ") +
+  best.message = (asked.empty() ? std::string("no branch reaches the target: ")
+                                 : "the calibrated robot does not reach the target with " + asked + ": ") +
                  best.message;
   return best;
 }

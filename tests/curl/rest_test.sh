@@ -263,6 +263,16 @@ expect "POST :compensate sequence: the asked wrist, then the previous branch kep
   "$(jq -nc --argjson a "$own" --argjson b "$flipped" '[$a.wrist, $b.wrist, $b.wrist]')"
 expect "... branch changes flagged where the wrist flips" \
   "$(jq -c '[.results[] | .branch_change]' "$work/program.json")" '[false,true,false]'
+# On the wrist singularity (joint 5 at 0, joint 6 then ill-determined): still solved without a hint.
+singular=$(call POST "/v1/campaigns/$arm:forward" '{"joints": [[20, -30, 20, -60, 0, 0]]}' |
+  jq -c '.poses[0] | {position_mm, quaternion}')
+expect "POST :compensate a pose on the wrist singularity, no hint: converged" \
+  "$(call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $singular}]}" | jq -r '.results[0].termination')" \
+  CONVERGENCE
+far='{"targets": [{"pose": {"position_mm": [9000, 0, 0], "quaternion": [1, 0, 0, 0]}}]}'
+expect "POST :compensate beyond reach: FAILURE, no joints, errors null" \
+  "$(call POST "/v1/campaigns/$arm:compensate" "$far" |
+    jq -c '.results[0] | [.termination, .joints, .position_error_mm, .orientation_error_deg]')" '["FAILURE",[],null,null]'
 call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $pose, \"configuration\": {\"elbow\": \"sideways\"}}]}" >/dev/null
 expect "POST :compensate elbow sideways -> 400 naming the flag" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
   "400 targets[0].configuration.elbow"

@@ -664,6 +664,88 @@ TEST(CompensationTest, UnreachableBranchSaysSoAndGivesNoOtherBranch) {
   EXPECT_THAT(r.message, HasSubstr("no solution with shoulder front, elbow up, wrist noflip"));
 }
 
+// Start joints that reach the target are given back as they are (no other turn of a joint, no neighbouring
+// branch), near full stretch and near the wrist singularity too; at the offset wrist's singularity (joint 5 at
+// 0, where joint 6 is ill-determined) a pose is still solved without any hint.
+class CompensationStartTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(CompensationStartTest, StartJointsThatReachTheTargetComeBack) {
+  const RobotModel nominal = Preset(GetParam());
+  const Calibration calibration = MakeCalibration(GetParam(), 41);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(42);
+  for (int i = 0; i < 300; ++i) {
+    Eigen::VectorXd q = RandomConfiguration(nominal, &rng);
+    if (i % 3 == 1) q[2] = rng.Uniform(-0.02, 0.02);  // near full stretch
+    if (i % 3 == 2) q[4] = rng.Uniform(-0.02, 0.02);  // near the wrist singularity
+    q = q.cwiseMax(nominal.lower_limits()).cwiseMin(nominal.upper_limits());
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    t.start = q;
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    ASSERT_TRUE(r.converged) << i << ": " << r.message;
+    EXPECT_LT((r.joints - q).cwiseAbs().maxCoeff(), 1e-6) << i << ": " << q.transpose() << " -> " << r.joints.transpose();
+  }
+}
+
+TEST_P(CompensationStartTest, SingularWristIsSolvedWithoutAHint) {
+  const RobotModel nominal = Preset(GetParam());
+  const Calibration calibration = MakeCalibration(GetParam(), 43);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(44);
+  for (int i = 0; i < 100; ++i) {
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+    for (int k = 0; k < 4; ++k) q[k] = rng.Uniform(-0.5, 0.5);
+    q[1] -= 0.6;  // puma560's joint 2 range starts at -45 deg
+    q[2] += i % 2 == 0 ? 0.8 : -0.8;
+    q[4] = i % 4 < 2 ? 0.0 : rng.Uniform(-0.004, 0.004);  // on the singularity, or within 0.25 deg of it
+    q[5] = rng.Uniform(-3.0, 3.0);
+    // Inside the limits (a pose reached with a joint exactly at its limit ends DEGRADED by round-off).
+    q = q.cwiseMax((nominal.lower_limits().array() + 0.05).matrix()).cwiseMin((nominal.upper_limits().array() - 0.05).matrix());
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    EXPECT_TRUE(r.converged) << i << ": " << q.transpose() << ": " << r.message;
+  }
+}
+
+// Without a hint the branch is front, up, noflip whenever the robot reaches the target there.
+TEST_P(CompensationStartTest, WithoutAHintFrontUpNoflipWheneverItReaches) {
+  const RobotModel nominal = Preset(GetParam());
+  const Calibration calibration = MakeCalibration(GetParam(), 45);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  Rng rng(46);
+  int checked = 0;
+  for (int i = 0; i < 200; ++i) {
+    CompensationTarget t;
+    t.pose = calibrated.Forward(RandomConfiguration(nominal, &rng), nullptr);
+    const CompensationResult free = Compensate(calibration, nominal, t);
+    t.configuration = {1, 1, 1};
+    const CompensationResult asked = Compensate(calibration, nominal, t);
+    if (!asked.converged) continue;
+    ++checked;
+    ASSERT_TRUE(free.converged);
+    EXPECT_EQ(*free.configuration, (ArmConfiguration{1, 1, 1})) << i;
+  }
+  EXPECT_GT(checked, 50);
+}
+
+INSTANTIATE_TEST_SUITE_P(SixAxisPresets, CompensationStartTest, ::testing::Values("puma560", "ur5e"));
+
+// A result without joints has no errors to report: NaN (null on the wire), not zero.
+TEST(CompensationTest, FailureHasNoErrors) {
+  const RobotModel nominal = Preset("ur5e");
+  const Calibration calibration = MakeCalibration("ur5e", 47);
+  CompensationTarget far;
+  far.pose = TransformFromXyzRpy({9000.0, 0.0, 0.0}, {0.0, 0.0, 0.0});
+  const CompensationResult r = Compensate(calibration, nominal, far);
+  EXPECT_EQ(r.termination, Termination::kFailure);
+  EXPECT_EQ(r.joints.size(), 0);
+  EXPECT_TRUE(std::isnan(r.position_error_mm));
+  EXPECT_TRUE(std::isnan(r.orientation_error_rad));
+  EXPECT_FALSE(r.configuration.has_value());
+}
+
 // A robot without named branches: a pose target without start is solved from a fixed set of starts, and a
 // configuration is refused.
 TEST(CompensationTest, RobotWithoutBranchesUsesItsStartsAndRefusesAConfiguration) {

@@ -80,9 +80,11 @@ class ArmSolver {
   /// The flags of the nominal chain at q (num_joints values). A flag exactly on its singularity counts as +1.
   ArmConfiguration ConfigurationOf(const Eigen::VectorXd& q) const;
 
-  /// Every nominal solution for the tool pose T_base_tool (robot base frame), at most 8 (one per branch),
-  /// with its reach checked on the nominal forward kinematics. A joint the pose leaves free (a singular pose)
-  /// takes its value from `reference` (num_joints values).
+  /// Every nominal solution for the tool pose T_base_tool (robot base frame): one per branch (at most 8), with
+  /// how closely it reaches the pose on the nominal forward kinematics. A joint the pose leaves free (a singular
+  /// pose) takes its value from `reference` (num_joints values). Within about 3 deg of the offset wrist's
+  /// singularity, where joint 6 is ill-determined, inexact starts with joint 6 at the reference and every
+  /// 30 deg are added.
   std::vector<ArmSolution> Solve(const Transform& T_base_tool, const Eigen::VectorXd& reference) const;
 
  private:

@@ -48,7 +48,7 @@ struct CompensationOptions {
 struct CompensationResult {
   /// Joints for the robot (within limits; rad / mm per joint).
   Eigen::VectorXd joints;
-  /// Remaining error of the calibrated model at `joints` against the target.
+  /// Remaining error of the calibrated model at `joints` against the target (NaN for a result without joints).
   double position_error_mm = 0.0;
   /// Angle between the reached and target orientations over the matched rotations (rad): the full rotation
   /// for 6+ joints, the tool axis for robots with fewer joints.
