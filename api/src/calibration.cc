@@ -4,6 +4,8 @@
 #include "robocal/core/arm_kinematics.h"
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <limits>
 
 #include "robocal/api/json_reader.h"
@@ -381,6 +383,79 @@ Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
 }
 
 void to_json(nlohmann::json& j, const CompensateResult& r) { j = {{"campaign", r.campaign}, {"results", r.results}}; }
+
+namespace {
+
+// A JSON number as the shortest text that reads back as the same double; null when not finite (as Num).
+void AppendNumber(std::string* out, double value) {
+  if (!std::isfinite(value)) {
+    *out += "null";
+    return;
+  }
+  char buffer[32];
+  const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
+  out->append(buffer, end);
+}
+
+// A JSON string, escaped as the server's dump escapes (bytes that are not UTF-8 replaced).
+void AppendString(std::string* out, const std::string& text) {
+  *out += nlohmann::json(text).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+}  // namespace
+
+std::string DumpCompensateResult(const CompensateResult& r) {
+  std::string out;
+  out.reserve(64 + r.results.size() * 400);
+  out += "{\"campaign\":";
+  AppendString(&out, r.campaign);
+  out += ",\"results\":[";
+  // Members in the order the JSON tree keeps them (sorted by name).
+  for (std::size_t i = 0; i < r.results.size(); ++i) {
+    const Compensation& c = r.results[i];
+    if (i > 0) out += ',';
+    out += "{\"branch_change\":";
+    out += c.branch_change ? "true" : "false";
+    out += ",\"configuration\":";
+    if (c.configuration) {
+      out += "{\"elbow\":\"";
+      out += ElbowName(c.configuration->elbow);
+      out += "\",\"shoulder\":\"";
+      out += ShoulderName(c.configuration->shoulder);
+      out += "\",\"wrist\":\"";
+      out += WristName(c.configuration->wrist);
+      out += "\"}";
+    } else {
+      out += "null";
+    }
+    out += ",\"converged\":";
+    out += c.converged ? "true" : "false";
+    out += ",\"free_rotation_deg\":";
+    AppendNumber(&out, c.free_rotation_deg);
+    out += ",\"iterations\":";
+    out += std::to_string(c.iterations);
+    out += ",\"joint_jump\":";
+    out += c.joint_jump ? "true" : "false";
+    out += ",\"joint_jump_deg\":";
+    AppendNumber(&out, c.joint_jump_deg);
+    out += ",\"joints\":[";
+    for (std::size_t k = 0; k < c.joints.size(); ++k) {
+      if (k > 0) out += ',';
+      AppendNumber(&out, c.joints[k]);
+    }
+    out += "],\"message\":";
+    AppendString(&out, c.message);
+    out += ",\"orientation_error_deg\":";
+    AppendNumber(&out, c.orientation_error_deg);
+    out += ",\"position_error_mm\":";
+    AppendNumber(&out, c.position_error_mm);
+    out += ",\"termination\":";
+    out += nlohmann::json(c.termination).dump();
+    out += '}';
+  }
+  out += "]}";
+  return out;
+}
 
 void from_json(const nlohmann::json& j, CompensateResult& r) {
   const WireReader reader(j);

@@ -267,9 +267,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
           std::counting_semaphore<>* slots;
           ~Release() { slots->release(); }
         } release{impl->handler_slots.get()};
-        // Dumping with `replace` cannot throw on a byte a stored document might hold; requests are validated.
-        res.set_content(fn(*impl->service, req).dump(-1, ' ', false, json::error_handler_t::replace),
-                        "application/json");
+        res.set_content(fn(*impl->service, req), "application/json");
       };
     }
     const std::string method = route.method;

@@ -23,15 +23,19 @@ json Body(const Service& service, const httplib::Request& req) {
   }
   return api::ParseBody(req.body, service.limits().max_array_length);
 }
-// A typed reply as the response body; a plan or fit is either the result or (async) its operation.
+// A typed reply as the response body; a plan or fit is either the result or (async) its operation. Dumping
+// with `replace` cannot throw on a byte a stored document might hold; requests are validated.
+std::string Dump(const json& value) { return value.dump(-1, ' ', false, json::error_handler_t::replace); }
 template <typename T>
-json Reply(const T& value) {
-  return json(value);
+std::string Reply(const T& value) {
+  return Dump(json(value));
 }
 template <typename... T>
-json Reply(const std::variant<T...>& value) {
-  return std::visit([](const auto& v) { return json(v); }, value);
+std::string Reply(const std::variant<T...>& value) {
+  return std::visit([](const auto& v) { return Dump(json(v)); }, value);
 }
+// The largest reply of the API is written directly (api::DumpCompensateResult says why).
+std::string Reply(const api::CompensateResult& value) { return api::DumpCompensateResult(value); }
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
   return req.has_param(key) ? req.get_param_value(key) : "";
@@ -55,7 +59,7 @@ const std::vector<Route>& RouteTable() {
       {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
        [](Service& s, const httplib::Request& r) {
          s.DeleteRobot(Id(r));
-         return json::object();
+         return std::string("{}");
        }},
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
        [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
@@ -67,7 +71,7 @@ const std::vector<Route>& RouteTable() {
       {"DELETE", R"(/v1/cells/([^/:]+))", "/v1/cells/{cell}",
        [](Service& s, const httplib::Request& r) {
          s.DeleteCell(Id(r));
-         return json::object();
+         return std::string("{}");
        }},
       {"POST", R"(/v1/cells/([^/:]+):check)", "/v1/cells/{cell}:check",
        [](Service& s, const httplib::Request& r) { return Reply(s.CheckCell(Id(r), Body(s, r))); }},

@@ -16,7 +16,8 @@
 namespace robocal::server {
 
 // What a route does: parse path/query/body, call the service, return the response body.
-using RouteHandler = std::function<nlohmann::json(Service&, const httplib::Request&)>;
+/// The reply body (JSON text) of a request.
+using RouteHandler = std::function<std::string(Service&, const httplib::Request&)>;
 
 struct Route {
   const char* method;

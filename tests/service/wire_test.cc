@@ -243,6 +243,20 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ASSERT_EQ(comp.results.size(), 2u);
   ExpectRoundTrip(comp);
   ExpectEveryFieldRequired(comp, {});
+  // The reply as the server writes it is the same document, with every kind of value a result can hold.
+  EXPECT_EQ(json::parse(DumpCompensateResult(comp)), json(comp));
+  CompensateResult odd = comp;
+  odd.campaign = "c-\"quoted\"";
+  odd.results[0].message = "tab\there, newline\n, \u00e9, backslash \\";
+  odd.results[0].configuration = ArmConfiguration{-1, 1, -1};
+  odd.results[0].branch_change = true;
+  odd.results[0].joint_jump = true;
+  odd.results[0].joint_jump_deg = 1e-300;
+  odd.results[1].joints = {std::nan(""), -0.0, 1e300, 5e-324};
+  odd.results[1].position_error_mm = std::nan("");
+  odd.results[1].termination = Termination::kFailure;
+  EXPECT_EQ(json::parse(DumpCompensateResult(odd)), json(odd));
+  EXPECT_EQ(json::parse(DumpCompensateResult(CompensateResult{})), json(CompensateResult{}));
   const Evaluation eval = service_->Evaluate("w", json::object());
   EXPECT_EQ(eval.num_validation, 8);
   ExpectRoundTrip(eval);
