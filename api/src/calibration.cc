@@ -55,8 +55,10 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
   }
   r.Bool("register_base", false, &req.register_base);
   r.Int("max_iterations", false, &req.max_iterations, 1, 1000);
+  r.Bool("reject_outliers", false, &req.reject_outliers);
+  r.Number("outlier_probability", false, &req.outlier_probability, 1e-12, 0.1);
   r.Bool("async", false, &req.async);
-  r.RejectUnknown({"parameters", "register_base", "max_iterations", "async"});
+  r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability", "async"});
   problems.ThrowIfAny("invalid fit request");
   return req;
 }
@@ -65,6 +67,8 @@ void to_json(nlohmann::json& j, const FitRequest& req) {
   j = {{"parameters", req.parameters},
        {"register_base", req.register_base},
        {"max_iterations", req.max_iterations},
+       {"reject_outliers", req.reject_outliers},
+       {"outlier_probability", req.outlier_probability},
        {"async", req.async}};
 }
 
@@ -73,14 +77,17 @@ void from_json(const nlohmann::json& j, FitRequest& req) {
   r.Required("parameters", &req.parameters);
   r.Required("register_base", &req.register_base);
   r.Required("max_iterations", &req.max_iterations);
+  // Absent in requests stored before the robust fit, which then did not exist.
+  if (!r.Optional("reject_outliers", &req.reject_outliers)) req.reject_outliers = false;
+  r.Optional("outlier_probability", &req.outlier_probability);
   r.Required("async", &req.async);
 }
 
 IdentificationOptions ToIdentificationOptions(const FitRequest& req, const RobotModel& model, MeasurementType type,
-                                              const NoiseWire& noise) {
+                                              const MeasurementNoise& noise) {
   IdentificationOptions options;
   options.measurement_type = type;
-  options.noise = ToCore(noise);
+  options.noise = noise;
   options.identifiability.noise = options.noise;
   for (const std::string& name : req.parameters) options.parameters.push_back(model.ParameterIndex(name));
   std::sort(options.parameters.begin(), options.parameters.end());
@@ -88,7 +95,32 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
                            options.parameters.end());
   options.register_base = req.register_base;
   options.max_iterations = req.max_iterations;
+  options.reject_outliers = req.reject_outliers;
+  options.outlier_probability = req.outlier_probability;
   return options;
+}
+
+void to_json(nlohmann::json& j, const OutlierWire& o) {
+  j = {{"sequence", o.sequence}, {"normalized_residual", Num(o.normalized_residual)}, {"excluded", o.excluded}};
+}
+
+void from_json(const nlohmann::json& j, OutlierWire& o) {
+  const WireReader r(j);
+  r.Required("sequence", &o.sequence);
+  r.Required("normalized_residual", &o.normalized_residual);
+  r.Required("excluded", &o.excluded);
+}
+
+void to_json(nlohmann::json& j, const RobustFitWire& f) {
+  j = {{"enabled", f.enabled}, {"threshold", Num(f.threshold)}, {"scale", Num(f.scale)}, {"rounds", f.rounds}};
+}
+
+void from_json(const nlohmann::json& j, RobustFitWire& f) {
+  const WireReader r(j);
+  r.Required("enabled", &f.enabled);
+  r.Required("threshold", &f.threshold);
+  r.Required("scale", &f.scale);
+  r.Required("rounds", &f.rounds);
 }
 
 void to_json(nlohmann::json& j, const ParameterEstimate& p) {
@@ -179,6 +211,9 @@ void to_json(nlohmann::json& j, const CalibrationResult& c) {
        {"residuals_after", c.residuals_after},
        {"condition_number", Num(c.condition_number)},
        {"scaling", c.scaling},
+       {"robust", c.robust},
+       {"outliers", c.outliers},
+       {"parameters_with_outliers", c.parameters_with_outliers},
        {"summary", c.summary}};
 }
 
@@ -198,17 +233,40 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
   r.Required("residuals_after", &c.residuals_after);
   r.Required("condition_number", &c.condition_number);
   r.Required("scaling", &c.scaling);
+  r.Optional("robust", &c.robust);
+  r.Optional("outliers", &c.outliers);
+  r.Optional("parameters_with_outliers", &c.parameters_with_outliers);
   r.Required("summary", &c.summary);
 }
 
-CalibrationResult ToWire(const Calibration& c) {
-  CalibrationResult w;
-  for (const IdentifiedParameter& p : c.parameters) {
+namespace {
+
+std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& parameters) {
+  std::vector<ParameterEstimate> out;
+  for (const IdentifiedParameter& p : parameters) {
     const bool translation = RobotModel::IsTranslationParameter(p.index);
     const double scale = translation ? 1.0 : kDegPerRad;
-    w.parameters.push_back({p.name, translation ? "mm" : "deg", p.value * scale, p.std * scale});
+    out.push_back({p.name, translation ? "mm" : "deg", p.value * scale, p.std * scale});
   }
+  return out;
+}
+
+}  // namespace
+
+CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& sequences) {
+  CalibrationResult w;
+  w.parameters = ToWire(c.parameters);
   const IdentificationSummary& s = c.summary;
+  w.robust.enabled = s.rejection_rounds > 0;
+  w.robust.threshold = s.outlier_threshold;
+  w.robust.scale = s.robust_scale;
+  w.robust.rounds = s.rejection_rounds;
+  for (const OutlierMeasurement& o : s.outliers) {
+    const bool mapped = o.measurement >= 0 && static_cast<std::size_t>(o.measurement) < sequences.size();
+    w.outliers.push_back({mapped ? sequences[static_cast<std::size_t>(o.measurement)] : o.measurement,
+                          o.normalized_residual, true});
+  }
+  w.parameters_with_outliers = ToWire(s.parameters_with_outliers);
   w.measurement_type = s.measurement_type;
   w.dropped = ToWire(s.dropped);
   w.base = TransformToPose(c.T_world_base);

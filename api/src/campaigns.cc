@@ -21,7 +21,8 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   if (r.Enum("measurement_type", false, &type)) req.measurement_type = type;
   r.String("plan", false, &req.plan, 64);
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
-  r.RejectUnknown({"id", "description", "robot", "measurement_type", "plan", "noise"});
+  ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
+  r.RejectUnknown({"id", "description", "robot", "measurement_type", "plan", "noise", "tracker"});
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
@@ -32,6 +33,7 @@ void to_json(nlohmann::json& j, const CreateCampaignRequest& req) {
   if (!req.id.empty()) j["id"] = req.id;
   if (!req.description.empty()) j["description"] = req.description;
   if (!req.plan.empty()) j["plan"] = req.plan;
+  if (req.tracker) j["tracker"] = *req.tracker;
 }
 
 void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
@@ -42,6 +44,7 @@ void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
   r.Optional("description", &req.description);
   r.Optional("plan", &req.plan);
   r.Optional("noise", &req.noise);
+  r.Optional("tracker", &req.tracker);
 }
 
 void to_json(nlohmann::json& j, const MeasurementCounts& c) {
@@ -61,6 +64,7 @@ void to_json(nlohmann::json& j, const Campaign& c) {
        {"measurement_type", c.measurement_type},
        {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
        {"noise", c.noise},
+       {"tracker", c.tracker ? nlohmann::json(*c.tracker) : nlohmann::json()},
        {"created_unix_ms", c.created_unix_ms},
        {"counts", c.counts},
        {"calibrated", c.calibrated}};
@@ -74,6 +78,7 @@ void from_json(const nlohmann::json& j, Campaign& c) {
   r.Required("measurement_type", &c.measurement_type);
   r.Required("plan", &c.plan);
   r.Required("noise", &c.noise);
+  r.Required("tracker", &c.tracker);
   r.Required("created_unix_ms", &c.created_unix_ms);
   r.Required("counts", &c.counts);
   r.Required("calibrated", &c.calibrated);

@@ -77,6 +77,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   r.Enum("optimiser", false, &req.optimiser);
   r.Enum("scaling", false, &req.scaling);
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
+  ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
   std::int64_t seed = 1;
   if (r.Int("seed", false, &seed, 0, INT64_MAX)) req.seed = static_cast<std::uint64_t>(seed);
   r.Int("num_validation", false, &req.num_validation, 1, 10000);
@@ -100,7 +101,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
                        "screen", "max_iterations"});
   }
   r.RejectUnknown({"robot", "cell", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
-                   "seed", "num_validation", "async", "options"});
+                   "tracker", "seed", "num_validation", "async", "options"});
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
     problems.Add("options.num_candidates",
@@ -158,7 +159,7 @@ PlanWork MaxWork(const PlanRequest& req) {
 ObservabilityOptions ToObservabilityOptions(const PlanRequest& req) {
   ObservabilityOptions o;
   o.measurement_type = req.measurement_type;
-  o.noise = ToCore(req.noise);
+  o.noise = ToCore(req.noise, req.tracker);
   o.scaling = req.scaling;
   return o;
 }
@@ -184,6 +185,7 @@ void to_json(nlohmann::json& j, const PlanRequest& req) {
          {"screen", req.screen},
          {"max_iterations", req.max_iterations}}}};
   if (!req.cell.empty()) j["cell"] = req.cell;
+  if (req.tracker) j["tracker"] = *req.tracker;
 }
 
 void from_json(const nlohmann::json& j, PlanRequest& req) {
@@ -196,6 +198,7 @@ void from_json(const nlohmann::json& j, PlanRequest& req) {
   r.Required("optimiser", &req.optimiser);
   r.Required("scaling", &req.scaling);
   r.Required("noise", &req.noise);
+  r.Optional("tracker", &req.tracker);
   r.Required("seed", &req.seed);
   r.Required("num_validation", &req.num_validation);
   r.Required("async", &req.async);

@@ -45,6 +45,7 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
                  {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
                  {"noise", c.noise},
                  {"created_unix_ms", c.created_unix_ms}});
+  if (c.tracker) j["tracker"] = *c.tracker;
 }
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
@@ -57,6 +58,7 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
   r.Required("measurement_type", &c.measurement_type);
   r.Optional("plan", &c.plan);
   r.Required("noise", &c.noise);
+  r.Optional("tracker", &c.tracker);
   r.Required("created_unix_ms", &c.created_unix_ms);
 }
 

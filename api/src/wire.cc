@@ -269,7 +269,67 @@ void ParseNoise(const nlohmann::json* v, const std::string& path, Problems* prob
 }
 
 MeasurementNoise ToCore(const NoiseWire& noise) {
-  return MeasurementNoise{noise.position_mm, noise.orientation_deg * kRadPerDeg};
+  return MeasurementNoise{noise.position_mm, noise.orientation_deg * kRadPerDeg, std::nullopt};
+}
+
+void to_json(nlohmann::json& j, const TrackerModelWire& t) {
+  j = {{"radial_um", t.radial_um},
+       {"transverse_um", t.transverse_um},
+       {"orientation_deg", t.orientation_deg},
+       {"mpe_sigmas", t.mpe_sigmas}};
+}
+
+void from_json(const nlohmann::json& j, TrackerModelWire& t) {
+  const WireReader r(j);
+  r.Required("radial_um", &t.radial_um);
+  r.Required("transverse_um", &t.transverse_um);
+  r.Required("orientation_deg", &t.orientation_deg);
+  r.Required("mpe_sigmas", &t.mpe_sigmas);
+}
+
+void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problems* problems,
+                       std::optional<TrackerModelWire>* out) {
+  if (v == nullptr) return;
+  TrackerModelWire t;
+  ObjectReader r(*v, path, problems);
+  if (!r.ok()) return;
+  // [constant um, um per m]: the constant positive, the slope >= 0; 1 mm (1000 um) bounds what any tracker
+  // could mean.
+  const auto pair = [&](const char* key, std::array<double, 2>* value) {
+    std::array<double, 2> read{};
+    if (!r.FixedNumbers(key, false, read.data(), 2)) return;
+    if (!r.Has(key)) return;
+    if (!(read[0] > 0.0 && read[0] <= 1000.0)) {
+      problems->Add(JoinPath(path, key) + "[0]", "the constant (um) must be in (0, 1000]");
+    } else if (!(read[1] >= 0.0 && read[1] <= 1000.0)) {
+      problems->Add(JoinPath(path, key) + "[1]", "the slope (um per m) must be in [0, 1000]");
+    } else {
+      *value = read;
+    }
+  };
+  pair("radial_um", &t.radial_um);
+  pair("transverse_um", &t.transverse_um);
+  r.Number("orientation_deg", false, &t.orientation_deg, 1e-9, 90.0);
+  r.Number("mpe_sigmas", false, &t.mpe_sigmas, 0.1, 10.0);
+  r.RejectUnknown({"radial_um", "transverse_um", "orientation_deg", "mpe_sigmas"});
+  *out = t;
+}
+
+TrackerUncertainty ToCore(const TrackerModelWire& t) {
+  TrackerUncertainty out;
+  out.radial_um = t.radial_um[0];
+  out.radial_um_per_m = t.radial_um[1];
+  out.transverse_um = t.transverse_um[0];
+  out.transverse_um_per_m = t.transverse_um[1];
+  out.orientation_deg = t.orientation_deg;
+  out.mpe_sigmas = t.mpe_sigmas;
+  return out;
+}
+
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker) {
+  MeasurementNoise out = ToCore(noise);
+  if (tracker) out.tracker = ToCore(*tracker);
+  return out;
 }
 
 }  // namespace robocal::api

@@ -31,8 +31,15 @@ std::string DescribeScaling(const MeasurementNoise& noise, ColumnScaling columns
                             double expected_rotation_rad) {
   // The stream's shortest form (0.015, not std::to_string's 0.015000).
   std::ostringstream out;
-  out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad
-      << " rad); columns: " << ToString(columns);
+  if (noise.tracker) {
+    const TrackerUncertainty& t = *noise.tracker;
+    out << "rows whitened by the tracker model (radial " << t.radial_um << " um + " << t.radial_um_per_m
+        << " um/m, transverse " << t.transverse_um << " um + " << t.transverse_um_per_m << " um/m, orientation "
+        << t.orientation_deg << " deg, MPE = " << t.mpe_sigmas << " sigma); columns: " << ToString(columns);
+  } else {
+    out << "rows / noise (" << noise.position_mm << " mm, " << noise.orientation_rad
+        << " rad); columns: " << ToString(columns);
+  }
   if (columns == ColumnScaling::kExpectedDeviation) {
     out << " (" << expected_translation_mm << " mm, " << expected_rotation_rad << " rad)";
   }

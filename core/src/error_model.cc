@@ -85,11 +85,103 @@ int MeasurementRows(MeasurementType type) {
   return 0;
 }
 
+double TrackerUncertainty::RadialSigmaMm(double distance_mm) const {
+  return (radial_um + radial_um_per_m * distance_mm * 1e-3) * 1e-3 / mpe_sigmas;
+}
+
+double TrackerUncertainty::TransverseSigmaMm(double distance_mm) const {
+  return (transverse_um + transverse_um_per_m * distance_mm * 1e-3) * 1e-3 / mpe_sigmas;
+}
+
+double TrackerUncertainty::OrientationSigmaRad() const { return orientation_deg * (M_PI / 180.0) / mpe_sigmas; }
+
+namespace {
+
+// a u u' + b (I - u u') for the beam direction u of `point` (b I at the origin, where there is no beam).
+Eigen::Matrix3d AlongAndAcross(const Eigen::Vector3d& point, double a, double b) {
+  const double d = point.norm();
+  if (!(d > 0.0)) return b * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d u = point / d;
+  const Eigen::Matrix3d uu = u * u.transpose();
+  return a * uu + b * (Eigen::Matrix3d::Identity() - uu);
+}
+
+}  // namespace
+
+Eigen::Matrix3d TrackerUncertainty::PositionCovariance(const Eigen::Vector3d& point_mm) const {
+  const double d = point_mm.norm();
+  const double r = RadialSigmaMm(d), t = TransverseSigmaMm(d);
+  return AlongAndAcross(point_mm, r * r, t * t);
+}
+
+Eigen::Matrix3d TrackerUncertainty::PositionSqrt(const Eigen::Vector3d& point_mm) const {
+  const double d = point_mm.norm();
+  return AlongAndAcross(point_mm, RadialSigmaMm(d), TransverseSigmaMm(d));
+}
+
+Eigen::Matrix3d TrackerUncertainty::PositionWhitening(const Eigen::Vector3d& point_mm) const {
+  const double d = point_mm.norm();
+  return AlongAndAcross(point_mm, 1.0 / RadialSigmaMm(d), 1.0 / TransverseSigmaMm(d));
+}
+
+bool TrackerUncertainty::IsValid(std::string* error) const {
+  const struct {
+    const char* name;
+    double value;
+    bool zero_allowed;
+  } fields[] = {{"radial_um", radial_um, false},
+                {"radial_um_per_m", radial_um_per_m, true},
+                {"transverse_um", transverse_um, false},
+                {"transverse_um_per_m", transverse_um_per_m, true},
+                {"orientation_deg", orientation_deg, false},
+                {"mpe_sigmas", mpe_sigmas, false}};
+  for (const auto& f : fields) {
+    const bool ok = std::isfinite(f.value) && (f.zero_allowed ? f.value >= 0.0 : f.value > 0.0);
+    if (!ok) {
+      *error = std::string("tracker.") + f.name + (f.zero_allowed ? " must be finite and >= 0" : " must be positive and finite");
+      return false;
+    }
+  }
+  return true;
+}
+
 Eigen::VectorXd MeasurementNoise::RowWeights(MeasurementType type) const {
   Eigen::VectorXd w(MeasurementRows(type));
-  w.head<3>().setConstant(1.0 / position_mm);
-  w.tail(w.size() - 3).setConstant(1.0 / orientation_rad);
+  double position = position_mm;
+  if (tracker) {
+    const double r = tracker->RadialSigmaMm(kAssumedTrackerDistanceMm);
+    const double t = tracker->TransverseSigmaMm(kAssumedTrackerDistanceMm);
+    position = std::sqrt((r * r + 2.0 * t * t) / 3.0);
+  }
+  w.head<3>().setConstant(1.0 / position);
+  w.tail(w.size() - 3).setConstant(1.0 / OrientationSigmaRad());
   return w;
+}
+
+void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& point_mm,
+                                 Eigen::Ref<Eigen::MatrixXd> w) const {
+  const int rows = MeasurementRows(type);
+  if (w.rows() != rows || w.cols() != rows) throw std::invalid_argument("MeasurementNoise::Whitening: wrong size");
+  w.setZero();
+  if (tracker) {
+    w.topLeftCorner<3, 3>() = tracker->PositionWhitening(point_mm);
+  } else {
+    w.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / position_mm);
+  }
+  for (int k = 3; k < rows; ++k) w(k, k) = 1.0 / OrientationSigmaRad();
+}
+
+bool MeasurementNoise::IsValid(std::string* error) const {
+  if (tracker) return tracker->IsValid(error);
+  if (!(position_mm > 0.0) || !std::isfinite(position_mm)) {
+    *error = "noise.position_mm must be positive and finite";
+    return false;
+  }
+  if (!(orientation_rad > 0.0) || !std::isfinite(orientation_rad)) {
+    *error = "noise.orientation_rad must be positive and finite";
+    return false;
+  }
+  return true;
 }
 
 void TangentBasis(const Eigen::Vector3d& u, Eigen::Vector3d* t1, Eigen::Vector3d* t2) {

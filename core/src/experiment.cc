@@ -142,6 +142,9 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   // In a measurement cell the planners sample its joint ranges and keep only feasible configurations.
   std::optional<Cell> measurement_cell;
   if (options.cell.measurement_cell) measurement_cell = Cell::Build(nominal, *options.cell.measurement_cell);
+  // With a tracker model the planners whiten each configuration's rows as the fit will: from where the cell's
+  // tracker stands (nominal world frame).
+  if (measurement_cell) observability.tracker_position_mm = nominal.T_world_base() * measurement_cell->spec().tracker.position_mm;
   const RobotModel planning = measurement_cell ? measurement_cell->PlanningModel(nominal) : nominal;
   FeasibilityPredicate feasible;
   if (measurement_cell) {
@@ -273,6 +276,22 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                 static_cast<unsigned long long>(o.seed), o.cell.noise.position_mm, o.cell.noise.orientation_rad,
                 o.cell.shots_per_pose, o.h_mm);
   out << line;
+  if (o.cell.noise.tracker) {
+    const TrackerUncertainty& t = *o.cell.noise.tracker;
+    std::snprintf(line, sizeof(line),
+                  "tracker model (replaces the noise above): radial %g um + %g um/m, transverse %g um + %g um/m, "
+                  "orientation %g deg MPE, MPE = %g sigma\n",
+                  t.radial_um, t.radial_um_per_m, t.transverse_um, t.transverse_um_per_m, t.orientation_deg,
+                  t.mpe_sigmas);
+    out << line;
+  }
+  if (o.cell.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) {
+    std::snprintf(line, sizeof(line),
+                  "robot repeatability %g mm (ISO 9283 RP); outliers %g %% of shots, %g-%g mm; robust fit\n",
+                  o.cell.repeatability_mm, 100.0 * o.cell.outlier_rate, o.cell.outlier_min_mm, o.cell.outlier_max_mm);
+    out << line;
+  }
+  if (o.cell.noise.tracker || o.cell.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) out << "\n";
   if (o.cell.measurement_cell) {
     const TrackerSpec& tracker = o.cell.measurement_cell->tracker;
     std::snprintf(line, sizeof(line),

@@ -61,11 +61,7 @@ bool IdentifiabilityOptions::IsValid(std::string* error) const {
     *error = "num_configurations must be in [1, 100000]";
     return false;
   }
-  if (!(noise.position_mm > 0.0) || !(noise.orientation_rad > 0.0) || !std::isfinite(noise.position_mm) ||
-      !std::isfinite(noise.orientation_rad)) {
-    *error = "noise.position_mm and noise.orientation_rad must be positive and finite";
-    return false;
-  }
+  if (!noise.IsValid(error)) return false;
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0)) {
     *error = "rank_tolerance must be in (0, 1)";
     return false;

@@ -79,6 +79,16 @@ class Problem {
       if (inserted) poses_.push_back(m.joints);
       pose_of_.push_back(it->second);
     }
+    // A tracker model whitens each measurement by the covariance at its measured point (fixed during the fit,
+    // so the cost is one function of the parameters); without one every row has its constant weight.
+    if (o.noise.tracker) {
+      whitening_.reserve(measurements.size());
+      for (const Measurement& m : measurements) {
+        Eigen::MatrixXd w(rows_, rows_);
+        o.noise.Whitening(type_, m.T_world_tool.translation(), w);
+        whitening_.push_back(std::move(w));
+      }
+    }
   }
 
   int num_poses() const { return static_cast<int>(poses_.size()); }
@@ -105,7 +115,7 @@ class Problem {
       if (jacobian != nullptr) {
         IdentificationJacobian(model_, poses_[p], eps, type_, &ws_, full);
         for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = full.col(parameters_[k]);
-        pose_jacobian[p] = weights_.asDiagonal() * reduced;
+        pose_jacobian[p] = whitening_.empty() ? Eigen::MatrixXd(weights_.asDiagonal() * reduced) : reduced;
         pose_model[p] = ws_.T_world_tool;
       } else {
         pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_);
@@ -115,8 +125,13 @@ class Problem {
     for (size_t i = 0; i < measurements_.size(); ++i) {
       const int p = pose_of_[i];
       MeasurementResidual(type_, measurements_[i].T_world_tool, pose_model[p], r);
-      residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
-      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = pose_jacobian[p];
+      if (whitening_.empty()) {
+        residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
+        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = pose_jacobian[p];
+      } else {
+        residual->segment(rows_ * i, rows_) = whitening_[i] * r;
+        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * pose_jacobian[p];
+      }
     }
   }
 
@@ -126,6 +141,7 @@ class Problem {
   MeasurementType type_;
   int rows_;
   Eigen::VectorXd weights_;
+  std::vector<Eigen::MatrixXd> whitening_;  // per measurement, with a tracker model only
   std::vector<int> parameters_;
   KinematicsWorkspace ws_;
   std::vector<Eigen::VectorXd> poses_;
@@ -271,14 +287,7 @@ Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::ve
 }
 
 bool IdentificationOptions::IsValid(std::string* error) const {
-  if (!(noise.position_mm > 0.0) || !std::isfinite(noise.position_mm)) {
-    *error = "noise.position_mm must be positive and finite";
-    return false;
-  }
-  if (!(noise.orientation_rad > 0.0) || !std::isfinite(noise.orientation_rad)) {
-    *error = "noise.orientation_rad must be positive and finite";
-    return false;
-  }
+  if (!noise.IsValid(error)) return false;
   for (size_t k = 0; k < parameters.size(); ++k) {
     if (parameters[k] < 0 || (k > 0 && parameters[k] <= parameters[k - 1])) {
       *error = "parameters must be non-negative and strictly ascending (parameters[" + std::to_string(k) + "])";
@@ -303,6 +312,10 @@ bool IdentificationOptions::IsValid(std::string* error) const {
       return false;
     }
   }
+  if (!(outlier_probability > 0.0 && outlier_probability <= 0.1)) {
+    *error = "outlier_probability must be in (0, 0.1]";
+    return false;
+  }
   if (max_iterations < 1 || max_iterations > 100000) {
     *error = "max_iterations must be in [1, 100000]";
     return false;
@@ -317,7 +330,7 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   s.num_measurements = static_cast<int>(measurements.size());
   if (measurements.empty()) return s;
   const int rows = MeasurementRows(type);
-  const Eigen::VectorXd w = noise.RowWeights(type);
+  Eigen::MatrixXd w(rows, rows);
   KinematicsWorkspace ws(model);
   Eigen::VectorXd r(rows);
   double sum_position = 0.0, sum_orientation = 0.0, sum_weighted = 0.0;
@@ -336,7 +349,8 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
     }
     sum_orientation += angle * angle;
     s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
-    sum_weighted += w.cwiseProduct(r).squaredNorm();
+    noise.Whitening(type, m.T_world_tool.translation(), w);
+    sum_weighted += (w * r).squaredNorm();
   }
   const double count = static_cast<double>(measurements.size());
   s.rms_position_mm = std::sqrt(sum_position / count);
@@ -345,8 +359,159 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   return s;
 }
 
+double ChiSquareSurvival(int dof, double x) {
+  if (dof < 1) throw std::invalid_argument("ChiSquareSurvival: dof must be >= 1");
+  if (!(x > 0.0)) return 1.0;
+  if (std::isinf(x)) return 0.0;
+  const double half = 0.5 * x;
+  double sum = 0.0, term = 0.0;
+  if (dof % 2 == 0) {
+    // exp(-x/2) sum_{j < dof/2} (x/2)^j / j!
+    term = 1.0;
+    for (int j = 0; j < dof / 2; ++j) {
+      if (j > 0) term *= half / j;
+      sum += term;
+    }
+    return std::exp(-half) * sum;
+  }
+  // erfc(sqrt(x/2)) + sqrt(2x/pi) exp(-x/2) sum_{j=1}^{(dof-1)/2} x^(j-1) / (1 * 3 * ... * (2j-1))
+  term = 1.0;
+  for (int j = 1; j <= (dof - 1) / 2; ++j) {
+    if (j > 1) term *= x / (2 * j - 1);
+    sum += term;
+  }
+  return std::erfc(std::sqrt(half)) + std::sqrt(2.0 * x / M_PI) * std::exp(-half) * sum;
+}
+
+double ChiSquareQuantile(int dof, double upper_probability) {
+  if (!(upper_probability > 0.0 && upper_probability < 1.0)) {
+    throw std::invalid_argument("ChiSquareQuantile: probability must be in (0, 1)");
+  }
+  // The survival function falls monotonically: bisection to round-off, after bracketing.
+  double lo = 0.0, hi = dof + 10.0;
+  while (ChiSquareSurvival(dof, hi) > upper_probability) hi *= 2.0;
+  for (int k = 0; k < 200 && hi - lo > 1e-12 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (ChiSquareSurvival(dof, mid) > upper_probability ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+namespace {
+
+Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const IdentificationOptions& options);
+
+// Norms of the whitened residuals of every measurement against a calibration.
+std::vector<double> WhitenedNorms(const Calibration& cal, const std::vector<Measurement>& measurements,
+                                  const IdentificationOptions& options) {
+  const int rows = MeasurementRows(options.measurement_type);
+  KinematicsWorkspace ws(cal.model);
+  Eigen::VectorXd r(rows);
+  Eigen::MatrixXd w(rows, rows);
+  std::vector<double> out;
+  out.reserve(measurements.size());
+  for (const Measurement& m : measurements) {
+    MeasurementResidual(options.measurement_type, m.T_world_tool, ForwardKinematics(cal.model, m.joints, cal.errors, &ws), r);
+    options.noise.Whitening(options.measurement_type, m.T_world_tool.translation(), w);
+    out.push_back((w * r).norm());
+  }
+  return out;
+}
+
+double Median(std::vector<double> values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  if (values.size() % 2 == 1) return values[mid];
+  return 0.5 * (values[mid] + *std::max_element(values.begin(), values.begin() + mid));
+}
+
+constexpr double kMinRobustScale = 1e-3;
+// Rounds of the robust fit before it stops with the set it has (an oscillating set is reported as such).
+constexpr int kMaxRejectionRounds = 10;
+// More than this fraction flagged means the noise model or the data are wrong, not a few gross errors.
+constexpr double kSuspiciousOutlierFraction = 0.2;
+
+}  // namespace
+
 Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                      const IdentificationOptions& options) {
+  const Clock::time_point start = Clock::now();
+  Calibration all = IdentifyOnce(nominal, measurements, options);
+  // A cancelled fit (progress returned false) is not refitted.
+  const auto cancelled = [](const Calibration& c) { return c.summary.message == "cancelled"; };
+  if (!options.reject_outliers || all.summary.termination == Termination::kFailure || cancelled(all)) return all;
+
+  // The robust fit: iterative rejection on normalised residuals (a scale from the median, robust to up to half
+  // the data being gross errors; Rousseeuw & Leroy 1987), refitting without the flagged measurements until
+  // the flagged set repeats.
+  const int rows = MeasurementRows(options.measurement_type);
+  const double threshold = std::sqrt(ChiSquareQuantile(rows, options.outlier_probability));
+  const double median_chi2 = ChiSquareQuantile(rows, 0.5);
+  const size_t n = measurements.size();
+  std::vector<char> excluded(n, 0);
+  Calibration current = all;
+  std::vector<double> z;
+  double scale = 0.0;
+  int rounds = 1;
+  bool settled = false;
+  for (; rounds <= kMaxRejectionRounds; ++rounds) {
+    z = WhitenedNorms(current, measurements, options);
+    std::vector<double> squares(n);
+    for (size_t i = 0; i < n; ++i) squares[i] = z[i] * z[i];
+    // Floored: data a thousand times more precise than the noise model says (a noise-free simulation) are
+    // exact, and their round-off is no outlier.
+    scale = std::max(std::sqrt(Median(squares) / median_chi2), kMinRobustScale);
+    std::vector<char> flagged(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      z[i] /= scale;
+      flagged[i] = z[i] > threshold ? 1 : 0;
+    }
+    if (flagged == excluded) {
+      settled = true;
+      break;
+    }
+    if (rounds == kMaxRejectionRounds) break;
+    excluded = flagged;
+    std::vector<Measurement> kept;
+    kept.reserve(n);
+    for (size_t i = 0; i < n; ++i)
+      if (!excluded[i]) kept.push_back(measurements[i]);
+    current = IdentifyOnce(nominal, kept, options);
+    if (cancelled(current)) return current;
+    if (current.summary.termination == Termination::kFailure) {
+      const int count = static_cast<int>(n - kept.size());
+      current.summary.message =
+          "after excluding " + std::to_string(count) + " outlier measurement(s): " + current.summary.message;
+      current.summary.seconds = Seconds(start);
+      return current;
+    }
+  }
+  IdentificationSummary& s = current.summary;
+  s.outlier_threshold = threshold;
+  s.robust_scale = scale;
+  s.rejection_rounds = rounds;
+  for (size_t i = 0; i < n; ++i) {
+    if (excluded[i]) s.outliers.push_back({static_cast<int>(i), z[i]});
+  }
+  if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
+  if (!settled) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
+  }
+  if (static_cast<double>(s.outliers.size()) > kSuspiciousOutlierFraction * static_cast<double>(n)) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; " + std::to_string(s.outliers.size()) + " of " + std::to_string(n) +
+                 " measurements are outliers: check the noise model and the reflector";
+  }
+  s.seconds = Seconds(start);
+  return current;
+}
+
+namespace {
+
+Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const IdentificationOptions& options) {
   const Clock::time_point start = Clock::now();
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
@@ -521,12 +686,16 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   return cal;
 }
 
+}  // namespace
+
 std::string IdentificationSummary::BriefReport() const {
   std::ostringstream out;
   out << "Identification (" << ToString(measurement_type) << "): " << ToString(termination) << ", " << message;
   if (termination == Termination::kFailure) return out.str();
   out << "; " << num_parameters << " parameters from " << num_poses << " poses (" << num_measurements
-      << " measurements), rms position " << std::setprecision(4) << before.rms_position_mm << " -> "
+      << " measurements";
+  if (!outliers.empty()) out << ", " << outliers.size() << " outlier(s) excluded";
+  out << "), rms position " << std::setprecision(4) << before.rms_position_mm << " -> "
       << after.rms_position_mm << " mm, sigma_hat " << sigma_hat << ", cond " << condition_number << ", " << iterations
       << " iterations, " << std::setprecision(3) << seconds << " s";
   return out.str();
@@ -568,6 +737,14 @@ std::string IdentificationSummary::FullReport() const {
       out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
           << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : "rad") << "\n";
     }
+  }
+  if (rejection_rounds > 0) {
+    out << "  robust fit: " << rejection_rounds << " round(s), scale " << std::setprecision(4) << robust_scale
+        << ", threshold " << outlier_threshold << " sigma, " << outliers.size() << " outlier(s)";
+    for (const OutlierMeasurement& o : outliers) {
+      out << (&o == &outliers.front() ? ": " : ", ") << "#" << o.measurement << " (" << o.normalized_residual << ")";
+    }
+    out << "\n";
   }
   out << "  dropped (" << dropped.size() << "):\n";
   for (const DroppedParameter& d : dropped) out << "    " << d.name << ": " << d.reason << "\n";

@@ -121,11 +121,7 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
       return false;
     }
   }
-  if (!(noise.position_mm > 0.0) || !(noise.orientation_rad > 0.0) || !std::isfinite(noise.position_mm) ||
-      !std::isfinite(noise.orientation_rad)) {
-    *error = "noise.position_mm and noise.orientation_rad must be positive and finite";
-    return false;
-  }
+  if (!noise.IsValid(error)) return false;
   if (!(expected_translation_mm > 0.0) || !(expected_rotation_rad > 0.0) ||
       !std::isfinite(expected_translation_mm) || !std::isfinite(expected_rotation_rad)) {
     *error = "expected_translation_mm and expected_rotation_rad must be positive and finite";
@@ -208,6 +204,16 @@ Eigen::MatrixXd ObservabilityEvaluator::Block(const Eigen::VectorXd& q) {
   IdentificationJacobian(model_, q, Eigen::VectorXd(), options_.measurement_type, &ws_, full_jacobian_);
   const int l = static_cast<int>(options_.parameters.size());
   Eigen::MatrixXd block(full_jacobian_.rows(), l);
+  if (options_.noise.tracker && options_.tracker_position_mm) {
+    const int rows = static_cast<int>(full_jacobian_.rows());
+    Eigen::MatrixXd w(rows, rows);
+    options_.noise.Whitening(options_.measurement_type, ws_.T_world_tool.translation() - *options_.tracker_position_mm,
+                             w);
+    Eigen::MatrixXd reduced(rows, l);
+    for (int k = 0; k < l; ++k) reduced.col(k) = full_jacobian_.col(options_.parameters[k]);
+    block.noalias() = w * reduced;
+    return block;
+  }
   for (int k = 0; k < l; ++k) block.col(k) = row_weights_.cwiseProduct(full_jacobian_.col(options_.parameters[k]));
   return block;
 }

@@ -38,6 +38,11 @@ Transform DrawTrackerInBase(const VirtualCellOptions& o, Rng* rng) {
   return t;
 }
 
+// ISO 9283 RP over sigma for an isotropic 3-D Gaussian of 1-sigma per axis: the distance is sigma times a chi
+// variable of 3 degrees of freedom, mean 2 sqrt(2 / pi) = 1.5958, std sqrt(3 - 8 / pi) = 0.6734; 1.5958 +
+// 3 * 0.6734 = 3.615.
+constexpr double kRepeatabilityPerSigma = 3.615;
+
 }  // namespace
 
 bool VirtualCellOptions::IsValid(std::string* error) const {
@@ -54,7 +59,21 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       {"tracker_tilt_sigma_rad", tracker_tilt_sigma_rad},
       {"noise.position_mm", noise.position_mm},
       {"noise.orientation_rad", noise.orientation_rad},
+      {"outlier_min_mm", outlier_min_mm},
+      {"repeatability_mm", repeatability_mm},
   };
+  if (noise.tracker && !noise.tracker->IsValid(error)) {
+    *error = "noise." + *error;
+    return false;
+  }
+  if (!(outlier_rate >= 0.0 && outlier_rate <= 1.0)) {
+    *error = "outlier_rate must be in [0, 1] (got " + std::to_string(outlier_rate) + ")";
+    return false;
+  }
+  if (!(outlier_max_mm >= outlier_min_mm) || !std::isfinite(outlier_max_mm)) {
+    *error = "outlier_max_mm must be finite and >= outlier_min_mm (got " + std::to_string(outlier_max_mm) + ")";
+    return false;
+  }
   for (const Named& n : non_negative) {
     if (!NonNegativeFinite(n.value)) {
       *error = std::string(n.name) + " must be finite and >= 0 (got " + std::to_string(n.value) + ")";
@@ -79,6 +98,15 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
     return false;
   }
   return true;
+}
+
+VirtualCellOptions Realistic(VirtualCellOptions options) {
+  options.noise.tracker = TrackerUncertainty{};
+  options.repeatability_mm = kRealisticRepeatabilityMm;
+  options.outlier_rate = kRealisticOutlierRate;
+  options.outlier_min_mm = 1.0;
+  options.outlier_max_mm = 5.0;
+  return options;
 }
 
 VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& options)
@@ -137,16 +165,36 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
   const int count = shots > 0 ? shots : options_.shots_per_pose;
   std::vector<Measurement> out;
   out.reserve(count);
+  // Each optional effect draws only when it is on, so a seed's draws without it are those of earlier releases.
+  Transform visit = truth;
+  if (options_.repeatability_mm > 0.0) {
+    const double sigma = options_.repeatability_mm / kRepeatabilityPerSigma;
+    for (int k = 0; k < 3; ++k) visit.translation()[k] += sigma * rng_.Normal();
+  }
+  const MeasurementNoise& noise = options_.noise;
+  const Eigen::Matrix3d position_sqrt = noise.tracker ? noise.tracker->PositionSqrt(visit.translation())
+                                                      : Eigen::Matrix3d(noise.position_mm * Eigen::Matrix3d::Identity());
+  const double orientation_sigma = noise.tracker ? noise.tracker->OrientationSigmaRad() : noise.orientation_rad;
   for (int s = 0; s < count; ++s) {
     Measurement m;
     m.joints = q;
-    Eigen::Vector3d dp, dw;
-    for (int k = 0; k < 3; ++k) dp[k] = options_.noise.position_mm * rng_.Normal();
-    for (int k = 0; k < 3; ++k) dw[k] = options_.noise.orientation_rad * rng_.Normal();
-    m.T_world_tool = truth;
+    Eigen::Vector3d n, dw;
+    for (int k = 0; k < 3; ++k) n[k] = rng_.Normal();
+    for (int k = 0; k < 3; ++k) dw[k] = orientation_sigma * rng_.Normal();
+    Eigen::Vector3d dp = position_sqrt * n;
+    if (options_.outlier_rate > 0.0 && rng_.Uniform() < options_.outlier_rate) {
+      Eigen::Vector3d direction;
+      do {
+        for (int k = 0; k < 3; ++k) direction[k] = rng_.Normal();
+      } while (!(direction.norm() > 1e-9));
+      dp += rng_.Uniform(options_.outlier_min_mm, options_.outlier_max_mm) * direction.normalized();
+      outlier_shots_.push_back(shots_);
+    }
+    ++shots_;
+    m.T_world_tool = visit;
     m.T_world_tool.translation() += dp;
     // Applied on the left, in the tracker frame, as the pose residual's rotation vector is taken.
-    m.T_world_tool.linear() = RotationFromVector(dw) * truth.linear();
+    m.T_world_tool.linear() = RotationFromVector(dw) * visit.linear();
     out.push_back(std::move(m));
   }
   return out;

@@ -66,17 +66,20 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
                    {{"measurements", "upload measurements with role calibration first"}});
   }
   const IdentificationOptions options =
-      api::ToIdentificationOptions(req, model, campaign.measurement_type, campaign.noise);
+      api::ToIdentificationOptions(req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker));
   CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
+  auto sequences = std::make_shared<std::vector<std::int64_t>>();
   measurements->reserve(static_cast<std::size_t>(count));
+  sequences->reserve(static_cast<std::size_t>(count));
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
     measurements->push_back(ToCore(model, ReadMeasurement(s)));
+    sequences->push_back(s.sequence);
   });
 
   // Identifies and returns the fit; stores it as the calibration only if `control` never stopped it: a fit cut
   // short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
-  auto fit = [this, campaign, model, measurements, options](WorkControl& control) {
+  auto fit = [this, campaign, model, measurements, sequences, options](WorkControl& control) {
     IdentificationOptions o = options;
     o.progress = [this, &control](double fraction) {
       if (options_.on_fit_progress) options_.on_fit_progress();
@@ -87,7 +90,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
       throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
                      {{"measurements", calibration.summary.message}});
     }
-    api::CalibrationResult result = api::ToWire(calibration);
+    api::CalibrationResult result = api::ToWire(calibration, *sequences);
     result.campaign = campaign.id;
     result.robot = campaign.robot;
     result.measurement_type = campaign.measurement_type;

@@ -39,6 +39,7 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   c.measurement_type = s.measurement_type;
   c.plan = s.plan;
   c.noise = s.noise;
+  c.tracker = s.tracker;
   c.created_unix_ms = s.created_unix_ms;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
@@ -64,6 +65,7 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   campaign.description = req.description;
   campaign.robot = req.robot;
   campaign.noise = req.noise;
+  campaign.tracker = req.tracker;
   campaign.created_unix_ms = NowUnixMs();
   try {
     storage_->Create(kCampaigns, campaign.id, nlohmann::json(campaign).dump());

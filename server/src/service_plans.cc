@@ -47,7 +47,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   std::function<bool(const Eigen::VectorXd&)> feasible;
   if (cell) feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   IdentifiabilityOptions id_options;
-  id_options.noise = api::ToCore(req.noise);
+  id_options.noise = api::ToCore(req.noise, req.tracker);
   id_options.seed = req.seed;
   const IdentifiabilitySummary ident = FindIdentifiableParameters(model, req.measurement_type, id_options);
   if (ident.termination == Termination::kFailure || ident.identifiable.empty()) {
@@ -55,6 +55,9 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   }
   ObservabilityOptions obs = api::ToObservabilityOptions(req);
   obs.parameters = ident.identifiable;
+  // The cell's tracker (base frame) in the planning model's world frame: the rows of each configuration are
+  // whitened by the tracker model at its distance and direction from there.
+  if (cell) obs.tracker_position_mm = model.T_world_base() * cell->cell.spec().tracker.position_mm;
   // ParsePlanRequest refused plans whose work exceeds max_plan_evaluations; the limit is also the optimiser's
   // budget, so that no plan can count past it.
   const int evaluation_limit =

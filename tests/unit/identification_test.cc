@@ -172,13 +172,15 @@ INSTANTIATE_TEST_SUITE_P(Presets, NoiseFreeRecoveryTest,
 // The reported standard deviations are honest: over many noise draws, (estimate - truth) / std behaves like
 // N(0, 1). The truth is that of the reduced parameterisation (dropped parameters folded into kept ones), so it
 // comes from a noise-free fit of the same poses, with the base frame fixed for both fits. The 6R ur5e and the
-// paper's 5-axis grinder5, with full-pose and with position-only measurements.
-using NoiseCase = std::tuple<std::string, MeasurementType>;
+// paper's 5-axis grinder5, with full-pose and with position-only measurements; with isotropic noise, and with
+// the tracker model (noise drawn from it, residuals whitened by it: larger across the beam than along it, and
+// growing with the distance).
+using NoiseCase = std::tuple<std::string, MeasurementType, bool>;
 
 class IdentificationNoiseTest : public ::testing::TestWithParam<NoiseCase> {};
 
 TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
-  const auto& [preset, type] = GetParam();
+  const auto& [preset, type, tracker_model] = GetParam();
   const RobotModel model = Preset(preset);
   const std::vector<int> parameters = FindIdentifiableParameters(model, type).identifiable;
   double sum_z2 = 0.0, sum_sigma_hat = 0.0;
@@ -188,6 +190,7 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
     VirtualCellOptions cell_options;
     cell_options.seed = static_cast<std::uint64_t>(seed);
     cell_options.shots_per_pose = 1;
+    if (tracker_model) cell_options.noise.tracker = TrackerUncertainty{};
     VirtualCell cell(model, cell_options);
     const auto configurations = Configurations(model, 20, 1000 + seed);
     std::vector<Measurement> exact;
@@ -197,6 +200,7 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
     IdentificationOptions o;
     o.measurement_type = type;
     o.parameters = parameters;
+    o.noise = cell_options.noise;
     const Calibration registered = Identify(model, exact, o);
     ASSERT_EQ(registered.summary.termination, Termination::kConvergence) << registered.summary.FullReport();
     o.register_base = false;
@@ -225,11 +229,15 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, IdentificationNoiseTest,
-                         ::testing::Values(NoiseCase{"ur5e", MeasurementType::kPose},
-                                           NoiseCase{"grinder5", MeasurementType::kPose},
-                                           NoiseCase{"grinder5", MeasurementType::kPosition}),
+                         ::testing::Values(NoiseCase{"ur5e", MeasurementType::kPose, false},
+                                           NoiseCase{"grinder5", MeasurementType::kPose, false},
+                                           NoiseCase{"grinder5", MeasurementType::kPosition, false},
+                                           NoiseCase{"ur5e", MeasurementType::kPose, true},
+                                           NoiseCase{"ur5e", MeasurementType::kPosition, true},
+                                           NoiseCase{"grinder5", MeasurementType::kPosition, true}),
                          [](const ::testing::TestParamInfo<NoiseCase>& info) {
-                           return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param));
+                           return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param)) +
+                                  (std::get<2>(info.param) ? "_tracker_model" : "");
                          });
 
 TEST(IdentificationTest, RepeatedShotsAreMoreRowsOfOnePose) {
@@ -548,6 +556,21 @@ TEST(IdentificationOptionsTest, InvalidOptionsAreRejectedByName) {
   o = {};
   o.noise.orientation_rad = NAN;
   expect_rejected(o, "noise.orientation_rad");
+  o = {};
+  o.noise.tracker = TrackerUncertainty{};
+  o.noise.tracker->transverse_um = 0.0;
+  expect_rejected(o, "tracker.transverse_um");
+  o.noise.tracker = TrackerUncertainty{};
+  o.noise.tracker->radial_um_per_m = -0.1;
+  expect_rejected(o, "tracker.radial_um_per_m");
+  o.noise.tracker = TrackerUncertainty{};
+  o.noise.tracker->mpe_sigmas = NAN;
+  expect_rejected(o, "tracker.mpe_sigmas");
+  o = {};
+  o.outlier_probability = 0.0;
+  expect_rejected(o, "outlier_probability");
+  o.outlier_probability = 0.5;
+  expect_rejected(o, "outlier_probability");
   o = {};
   o.parameters = {3, 1};
   expect_rejected(o, "parameters");

@@ -34,6 +34,10 @@ struct FitRequest {
   std::vector<std::string> parameters;
   bool register_base = true;
   int max_iterations = 100;
+  /// The robust fit (docs/identification.md, "Outliers"): measurements whose normalised residual exceeds the
+  /// chi-square threshold at 1 - outlier_probability are excluded and the fit repeated.
+  bool reject_outliers = true;
+  double outlier_probability = 1e-3;
   /// Run as a long-running operation.
   bool async = false;
 };
@@ -43,7 +47,7 @@ void from_json(const nlohmann::json& j, FitRequest& request);
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
 /// empty). Parameters named in the request become sorted, unique indices.
 IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model,
-                                              MeasurementType type, const NoiseWire& noise);
+                                              MeasurementType type, const MeasurementNoise& noise);
 
 /// One identified parameter: value and standard deviation in `unit` (mm or deg).
 struct ParameterEstimate {
@@ -88,6 +92,27 @@ struct FitSummary {
 void to_json(nlohmann::json& j, const FitSummary& s);
 void from_json(const nlohmann::json& j, FitSummary& s);
 
+/// A calibration measurement the robust fit excluded: its stored sequence number and its normalised residual
+/// (sigmas, against the final fit).
+struct OutlierWire {
+  std::int64_t sequence = 0;
+  double normalized_residual = 0.0;
+  bool excluded = true;
+};
+void to_json(nlohmann::json& j, const OutlierWire& o);
+void from_json(const nlohmann::json& j, OutlierWire& o);
+
+/// The robust fit's figures: the threshold on the normalised residual (sigmas), the median-based scale of the
+/// residuals (1 when the noise model is right), and the number of fits.
+struct RobustFitWire {
+  bool enabled = false;
+  double threshold = 0.0;
+  double scale = 0.0;
+  int rounds = 0;
+};
+void to_json(nlohmann::json& j, const RobustFitWire& r);
+void from_json(const nlohmann::json& j, RobustFitWire& r);
+
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
   std::string campaign;
@@ -108,12 +133,18 @@ struct CalibrationResult {
   Residuals residuals_after;
   double condition_number = 0.0;
   std::string scaling;
+  /// The robust fit: what it excluded, and the parameters of plain least squares over every measurement
+  /// (empty when nothing was excluded). Absent in fits stored before them (read as empty).
+  RobustFitWire robust;
+  std::vector<OutlierWire> outliers;
+  std::vector<ParameterEstimate> parameters_with_outliers;
   FitSummary summary;
 };
 void to_json(nlohmann::json& j, const CalibrationResult& c);
 void from_json(const nlohmann::json& j, CalibrationResult& c);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
-CalibrationResult ToWire(const Calibration& calibration);
+/// `sequences` maps the fit's measurement indices to stored sequence numbers (empty: the indices themselves).
+CalibrationResult ToWire(const Calibration& calibration, const std::vector<std::int64_t>& sequences = {});
 
 /// One compensation target: nominal joints ("joints"), or a pose ("pose", with "frame" tracker | base, optional
 /// "start_joints" and optional "configuration", the branch demanded; docs/compensation.md gives the rules).

@@ -23,6 +23,8 @@ struct CreateCampaignRequest {
   std::optional<MeasurementType> measurement_type;
   std::string plan;  // optional plan id (its robot and measurement type must match)
   NoiseWire noise;
+  /// The tracker's uncertainty model; given, the fit whitens residuals by it and `noise` is unused.
+  std::optional<TrackerModelWire> tracker;
 };
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
@@ -45,6 +47,8 @@ struct Campaign {
   /// The linked plan (null on the wire when none).
   std::optional<std::string> plan;
   NoiseWire noise;
+  /// Null on the wire when the campaign weights by `noise`.
+  std::optional<TrackerModelWire> tracker;
   std::int64_t created_unix_ms = 0;
   MeasurementCounts counts;
   /// Whether the campaign has a stored calibration (a fit that finished).

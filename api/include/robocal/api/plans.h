@@ -26,6 +26,9 @@ struct PlanRequest {
   Optimiser optimiser = Optimiser::kSolisWets;
   ColumnScaling scaling = ColumnScaling::kColumnNorm;
   NoiseWire noise;
+  /// The tracker's uncertainty model: rows whitened by it at each configuration (from the cell's tracker when
+  /// the plan has a cell, else its isotropic equivalent at 3 m). Unset: `noise`.
+  std::optional<TrackerModelWire> tracker;
   std::uint64_t seed = 1;
   /// Optimiser options ("options" object); unset ones keep the core's defaults (the paper's for solis_wets).
   int k_max = 100, restarts = 0;                                 // solis_wets

@@ -356,6 +356,26 @@ void from_json(const nlohmann::json& j, NoiseWire& noise);
 void ParseNoise(const nlohmann::json* value, const std::string& path, Problems* problems, NoiseWire* out);
 MeasurementNoise ToCore(const NoiseWire& noise);
 
+/// The tracker's uncertainty model on the wire (core TrackerUncertainty; docs/identification.md, "Weighting"):
+/// {"radial_um": [a, b], "transverse_um": [a, b], "orientation_deg": o, "mpe_sigmas": k}, the MPE along the
+/// beam and across it as a (um) + b (um per m of distance), the 6-DoF orientation MPE, and how many sigmas the
+/// figures are (2: datasheet MPE with typical errors half of it; 1: the figures are 1-sigma values).
+struct TrackerModelWire {
+  std::array<double, 2> radial_um{10.0, 0.3};
+  std::array<double, 2> transverse_um{15.0, 6.0};
+  double orientation_deg = 0.01;
+  double mpe_sigmas = 2.0;
+};
+void to_json(nlohmann::json& j, const TrackerModelWire& tracker);
+void from_json(const nlohmann::json& j, TrackerModelWire& tracker);
+/// Validates an optional request member "tracker" (nullptr: absent, *out stays unset); a member given fills
+/// the others from the defaults above.
+void ParseTrackerModel(const nlohmann::json* value, const std::string& path, Problems* problems,
+                       std::optional<TrackerModelWire>* out);
+TrackerUncertainty ToCore(const TrackerModelWire& tracker);
+/// The core's noise: the tracker model when given, else the isotropic noise.
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker);
+
 /// Degrees per radian and back, for the conversions between core (rad) and wire (deg).
 inline constexpr double kDegPerRad = 57.295779513082320876798154814105;
 inline constexpr double kRadPerDeg = 0.017453292519943295769236907684886;

@@ -1,6 +1,7 @@
 // The geometric error model: measurement types, their residual rows, and the identification Jacobian.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -28,12 +29,68 @@ bool ParseMeasurementType(const std::string& text, MeasurementType* type);
 /// Residual rows per measurement: 3, 5 or 6.
 int MeasurementRows(MeasurementType type);
 
-/// 1-sigma tracker noise, used to weight residual rows (row weight = 1 / sigma).
+/// A laser tracker's uncertainty as its datasheet states it: maximum permissible errors (MPE, ISO 10360-10)
+/// that grow with the distance from the tracker, different along the beam (the distance meter, ADM or
+/// interferometer) and across it (the angle encoders). Typical datasheet figures for a 1.5" SMR are
+/// +-(10 um + 0.3 um/m) radial and +-(15 um + 6 um/m) transverse, and typical errors are about half the MPE
+/// (mpe_sigmas = 2). These are the defaults.
+///
+/// The 1-sigma position covariance of a point p (mm, tracker frame: the tracker's beam origin at 0) is
+///   C(p) = s_r^2 u u' + s_t^2 (I - u u'),  u = p / |p|,
+///   s_r = (radial_um + radial_um_per_m * |p| / 1000) / 1000 / mpe_sigmas (mm), s_t likewise with transverse_*,
+/// and a 6-DoF probe's orientation error is orientation_deg / mpe_sigmas per axis. Figures that are already
+/// 1-sigma values are given with mpe_sigmas = 1.
+struct TrackerUncertainty {
+  double radial_um = 10.0;
+  double radial_um_per_m = 0.3;
+  double transverse_um = 15.0;
+  double transverse_um_per_m = 6.0;
+  double orientation_deg = 0.01;
+  double mpe_sigmas = 2.0;
+
+  /// 1-sigma along the beam / across it (mm) at `distance_mm` from the tracker.
+  double RadialSigmaMm(double distance_mm) const;
+  double TransverseSigmaMm(double distance_mm) const;
+  /// 1-sigma orientation error per axis (rad).
+  double OrientationSigmaRad() const;
+  /// C(p) above (mm^2). At the tracker's own origin (|p| = 0, no beam direction) it is s_t^2 I.
+  Eigen::Matrix3d PositionCovariance(const Eigen::Vector3d& point_mm) const;
+  /// L with L L' = C(p) (symmetric: s_r u u' + s_t (I - u u')), to draw errors as L n, n ~ N(0, I).
+  Eigen::Matrix3d PositionSqrt(const Eigen::Vector3d& point_mm) const;
+  /// W with W' W = C(p)^-1 (symmetric: u u' / s_r + (I - u u') / s_t): W r is a residual in sigmas.
+  Eigen::Matrix3d PositionWhitening(const Eigen::Vector3d& point_mm) const;
+  /// Every figure finite, the constants and mpe_sigmas positive, the slopes >= 0; else false and the field.
+  bool IsValid(std::string* error) const;
+};
+
+/// Where a tracker is assumed to stand when a covariance is needed without knowing where it stands (planning
+/// without a cell): 3 m, the distance of the preset cells and of the virtual cell.
+inline constexpr double kAssumedTrackerDistanceMm = 3000.0;
+
+/// The tracker's noise, used to weight (whiten) residual rows.
+///
+/// Without `tracker` every position row has 1-sigma position_mm and every orientation or axis row
+/// orientation_rad (row weight = 1 / sigma). With `tracker`, position_mm and orientation_rad are unused: a
+/// measurement's three position rows are whitened by TrackerUncertainty::PositionWhitening at the measured point
+/// and its orientation rows divided by the tracker's orientation sigma.
 struct MeasurementNoise {
   double position_mm = 0.015;
   double orientation_rad = 1e-4;
-  /// Row weights for one measurement of `type` (size MeasurementRows(type)).
+  std::optional<TrackerUncertainty> tracker;
+
+  /// Diagonal row weights for one measurement of `type` (size MeasurementRows(type)). With `tracker`: the
+  /// isotropic equivalent at kAssumedTrackerDistanceMm (position rows 1 / sqrt((s_r^2 + 2 s_t^2) / 3)), for
+  /// callers that do not know where the tracker is.
   Eigen::VectorXd RowWeights(MeasurementType type) const;
+  /// The whitening matrix of one measurement whose tool point is `point_mm` (tracker frame), rows x rows with
+  /// rows = MeasurementRows(type): W' W is the inverse covariance of the residual rows. Without `tracker` it is
+  /// diag(RowWeights(type)).
+  void Whitening(MeasurementType type, const Eigen::Vector3d& point_mm, Eigen::Ref<Eigen::MatrixXd> w) const;
+  /// The 1-sigma orientation error (rad) the rows use.
+  double OrientationSigmaRad() const { return tracker ? tracker->OrientationSigmaRad() : orientation_rad; }
+  /// Positive, finite sigmas (and a valid tracker); else false and the field ("noise.position_mm",
+  /// "tracker.radial_um", ...).
+  bool IsValid(std::string* error) const;
 };
 
 /// Residual r = measured - model for one measurement (size MeasurementRows(type)).

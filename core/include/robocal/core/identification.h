@@ -40,6 +40,14 @@ struct IdentificationOptions {
   /// Stop when the step is smaller than parameter_tolerance * (|x| + parameter_tolerance).
   double parameter_tolerance = 1e-12;
   int max_iterations = 100;
+  /// The robust fit (docs/identification.md, "Outliers"): after the least-squares fit every measurement's
+  /// normalised residual z is computed (the norm of its whitened residual over the median-based scale of all
+  /// of them, at least 0.001); those with z^2 above the chi-square quantile of their rows at 1 - outlier_probability are
+  /// excluded and the fit repeated, until the excluded set stops changing. A measurement excluded in one round
+  /// comes back when the next fit explains it. False: plain least squares over every measurement.
+  bool reject_outliers = true;
+  /// The probability that a clean measurement is flagged (per measurement), in (0, 0.1].
+  double outlier_probability = 1e-3;
   /// Called after every Levenberg-Marquardt iteration that did not converge, with iterations / max_iterations;
   /// returning false cancels the fit: it stops with NO_CONVERGENCE, message "cancelled", and the best
   /// parameters so far with their covariance (the accepted steps only ever lower the cost).
@@ -54,6 +62,14 @@ struct IdentifiedParameter {
   std::string name;
   double value = 0.0;
   double std = 0.0;
+};
+
+/// A measurement the robust fit excluded.
+struct OutlierMeasurement {
+  /// Index into the measurements given to Identify.
+  int measurement = -1;
+  /// Norm of the whitened residual over the robust scale (sigma units, against the final fit).
+  double normalized_residual = 0.0;
 };
 
 /// Residuals of a model against the measurements (measured - model).
@@ -72,6 +88,7 @@ struct IdentificationSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
   MeasurementType measurement_type = MeasurementType::kPose;
+  /// Measurements the fit used: the ones given less the excluded outliers.
   int num_measurements = 0;
   /// Distinct joint configurations among the measurements (repeated shots count once).
   int num_poses = 0;
@@ -98,6 +115,15 @@ struct IdentificationSummary {
   /// The estimated parameters with standard deviations (as Calibration::parameters), so that FullReport can
   /// print the parameter table from the summary alone.
   std::vector<IdentifiedParameter> parameters;
+  /// The robust fit (IdentificationOptions::reject_outliers): the excluded measurements in index order, the
+  /// threshold on the normalised residual (sqrt of the chi-square quantile), the robust scale (median-based,
+  /// 1 when the noise model's sigmas are right), the number of fits, and the parameters of the plain
+  /// least-squares fit over every measurement (empty when nothing was excluded).
+  std::vector<OutlierMeasurement> outliers;
+  double outlier_threshold = 0.0;
+  double robust_scale = 0.0;
+  int rejection_rounds = 0;
+  std::vector<IdentifiedParameter> parameters_with_outliers;
   double seconds = 0.0;
 
   std::string BriefReport() const;
@@ -129,6 +155,11 @@ struct Calibration {
 /// On FAILURE `errors` is zero and `model` the nominal one.
 Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                      const IdentificationOptions& options = {});
+
+/// The upper tail probability of the chi-square distribution with `dof` degrees of freedom at x (exact, closed
+/// form for integer dof), and its quantile: the x with ChiSquareSurvival(dof, x) = probability.
+double ChiSquareSurvival(int dof, double x);
+double ChiSquareQuantile(int dof, double upper_probability);
 
 /// Residual statistics of (model, errors) against measurements of `type`.
 ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,

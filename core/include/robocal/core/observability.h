@@ -3,6 +3,7 @@
 #pragma once
 
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ bool ParseObservabilityIndex(const std::string& text, ObservabilityIndex* index)
 struct ObservabilityOptions {
   MeasurementType measurement_type = MeasurementType::kPose;
   MeasurementNoise noise;
+  /// Where the tracker stands, in the model's world frame (a cell's tracker). With noise.tracker, each
+  /// configuration's rows are whitened by the tracker model at its tool point's distance and direction from
+  /// here (MeasurementNoise::Whitening); unset, by the model's isotropic equivalent (RowWeights).
+  std::optional<Eigen::Vector3d> tracker_position_mm;
   ColumnScaling scaling = ColumnScaling::kColumnNorm;
   /// Expected size of the geometric errors, used by kExpectedDeviation (and nothing else).
   double expected_translation_mm = 0.1;

@@ -35,8 +35,22 @@ struct VirtualCellOptions {
   double tracker_distance_mm = 3000.0;
   double tracker_tilt_sigma_rad = 0.05;
   /// Tracker noise per shot (1-sigma): position per axis (mm), orientation per axis of the rotation vector
-  /// (rad). Zero gives exact measurements.
-  MeasurementNoise noise{0.015, 1e-4};
+  /// (rad). Zero gives exact measurements. With noise.tracker set, a shot's position error is drawn from the
+  /// tracker model's covariance at the true point instead (larger along and across the beam as the distance
+  /// grows) and its orientation error from the model's orientation sigma.
+  MeasurementNoise noise{0.015, 1e-4, std::nullopt};
+  /// Gross errors, as a real cell has them (a reflector in the wrong nest, a beam break, a robot that had not
+  /// settled): each shot is, with probability outlier_rate, moved by a distance drawn uniformly from
+  /// [outlier_min_mm, outlier_max_mm] in a uniformly drawn direction. Its index among the shots measured so
+  /// far is recorded (outlier_shots()).
+  double outlier_rate = 0.0;
+  double outlier_min_mm = 1.0;
+  double outlier_max_mm = 5.0;
+  /// The robot's repeatability as datasheets give it (ISO 9283 RP = mean + 3 std of the distances to the mean
+  /// position, mm): each visit of a configuration (one Measure call) lands the tool displaced by an isotropic
+  /// Gaussian of 1-sigma RP / 3.615 per axis (for which mean + 3 std of the distance is RP), shared by all the
+  /// visit's shots. 0: a perfectly repeatable robot.
+  double repeatability_mm = 0.0;
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
   /// The measurement cell (cell.h, in the robot's base frame), e.g. PresetCellSpec(robot); unset: every
@@ -50,6 +64,15 @@ struct VirtualCellOptions {
 
   bool IsValid(std::string* error) const;
 };
+
+/// The realistic cell's figures (docs/experiment.md, "The realistic cell"): a laser tracker with the datasheet
+/// MPE of TrackerUncertainty's defaults, a robot of 0.03 mm ISO 9283 repeatability (a UR5e's datasheet
+/// figure; large industrial arms state 0.02-0.08 mm), and 2 % of the shots gross errors of 1-5 mm.
+inline constexpr double kRealisticRepeatabilityMm = 0.03;
+inline constexpr double kRealisticOutlierRate = 0.02;
+/// `options` with the realistic cell's tracker model, repeatability and outliers (seed, magnitudes of the hidden
+/// errors, shots and measurement cell kept).
+VirtualCellOptions Realistic(VirtualCellOptions options);
 
 /// A simulated cell: the true robot is `nominal` with the tracker as its world frame (T_world_base = the
 /// hidden tracker placement) and hidden error parameters on every site.
@@ -88,6 +111,9 @@ class VirtualCell {
 
   /// Configurations Measure() was asked for and could not measure, since construction.
   int unmeasured() const { return unmeasured_; }
+  /// Indices of the shots given an outlier, counting every shot Measure() returned since construction (for
+  /// MeasureAll on a new cell: indices into its result).
+  const std::vector<int>& outlier_shots() const { return outlier_shots_; }
 
  private:
   RobotModel nominal_;
@@ -97,6 +123,8 @@ class VirtualCell {
   Rng rng_;
   std::optional<Cell> cell_;
   int unmeasured_ = 0;
+  int shots_ = 0;
+  std::vector<int> outlier_shots_;
 };
 
 }  // namespace robocal

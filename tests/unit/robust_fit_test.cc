@@ -1,0 +1,143 @@
+// The robust fit: gross errors (a reflector in the wrong nest, a beam break) are flagged by measurement and do
+// not pull the parameters. The acceptance figures over 50 seeds, and one planted outlier found by index.
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
+#include "robocal/core/virtual_cell.h"
+
+namespace robocal {
+namespace {
+
+std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
+  Rng rng(seed);
+  std::vector<Eigen::VectorXd> out;
+  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
+  return out;
+}
+
+// Mean distance between the calibrated model's tool point and the true robot's over `validation`: what
+// compensation with this calibration achieves.
+double MeanPositionError(const Calibration& cal, const VirtualCell& cell,
+                         const std::vector<Eigen::VectorXd>& validation) {
+  KinematicsWorkspace ws(cal.model);
+  double sum = 0.0;
+  for (const Eigen::VectorXd& q : validation) {
+    sum += (ForwardKinematics(cal.model, q, cal.errors, &ws).translation() - cell.TruePose(q).translation()).norm();
+  }
+  return sum / static_cast<double>(validation.size());
+}
+
+// 40 poses of 3 shots (120 measurements, position only, the tracker model's noise) with 5 % outliers of
+// 1-5 mm, 50 seeds. Acceptance: the robust fit's accuracy within 1.2x of the outlier-free fit's, >= 95 % of the
+// injected outliers flagged, <= 1 % of the clean measurements flagged. Plain least squares on the same data is
+// checked to be far worse, so the comparison can fail.
+TEST(RobustFitTest, OutliersAreFlaggedAndDoNotPullTheParameters) {
+  const RobotModel model = Preset("ur5e");
+  const std::vector<Eigen::VectorXd> validation = Configurations(model, 200, 99);
+  double clean_error = 0.0, robust_error = 0.0, plain_error = 0.0;
+  int injected = 0, found = 0, clean = 0, false_alarms = 0;
+  const int seeds = 50;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    VirtualCellOptions o;
+    o.seed = static_cast<std::uint64_t>(seed);
+    o.shots_per_pose = 3;
+    o.noise.tracker = TrackerUncertainty{};
+    const std::vector<Eigen::VectorXd> configurations = Configurations(model, 40, 500 + seed);
+    VirtualCell clean_cell(model, o);
+    o.outlier_rate = 0.05;
+    VirtualCell dirty_cell(model, o);
+    const std::vector<Measurement> clean_data = clean_cell.MeasureAll(configurations);
+    const std::vector<Measurement> dirty_data = dirty_cell.MeasureAll(configurations);
+
+    IdentificationOptions fit;
+    fit.measurement_type = MeasurementType::kPosition;
+    fit.noise = o.noise;
+    const Calibration without = Identify(model, clean_data, fit);
+    const Calibration robust = Identify(model, dirty_data, fit);
+    fit.reject_outliers = false;
+    const Calibration plain = Identify(model, dirty_data, fit);
+    ASSERT_NE(without.summary.termination, Termination::kFailure) << without.summary.message;
+    ASSERT_NE(robust.summary.termination, Termination::kFailure) << robust.summary.message;
+    ASSERT_NE(plain.summary.termination, Termination::kFailure) << plain.summary.message;
+    clean_error += MeanPositionError(without, clean_cell, validation) / seeds;
+    robust_error += MeanPositionError(robust, dirty_cell, validation) / seeds;
+    plain_error += MeanPositionError(plain, dirty_cell, validation) / seeds;
+
+    const std::set<int> truth(dirty_cell.outlier_shots().begin(), dirty_cell.outlier_shots().end());
+    std::set<int> flagged;
+    for (const OutlierMeasurement& m : robust.summary.outliers) {
+      flagged.insert(m.measurement);
+      EXPECT_GT(m.normalized_residual, robust.summary.outlier_threshold);
+    }
+    injected += static_cast<int>(truth.size());
+    clean += static_cast<int>(dirty_data.size() - truth.size());
+    for (int i : flagged) (truth.count(i) ? found : false_alarms) += 1;
+    // The fit reports what it used and what it would have been with them.
+    EXPECT_EQ(robust.summary.num_measurements, static_cast<int>(dirty_data.size() - flagged.size()));
+    EXPECT_EQ(robust.summary.parameters_with_outliers.empty(), flagged.empty());
+    // Clean data: whatever is flagged is a false alarm too.
+    clean += static_cast<int>(clean_data.size());
+    false_alarms += static_cast<int>(without.summary.outliers.size());
+  }
+  const double recall = static_cast<double>(found) / injected;
+  const double false_rate = static_cast<double>(false_alarms) / clean;
+  RecordProperty("injected", injected);
+  RecordProperty("recall", std::to_string(recall));
+  RecordProperty("false_alarm_rate", std::to_string(false_rate));
+  RecordProperty("error_clean_mm", std::to_string(clean_error));
+  RecordProperty("error_robust_mm", std::to_string(robust_error));
+  RecordProperty("error_plain_mm", std::to_string(plain_error));
+  EXPECT_GT(injected, 200);  // 50 x 120 x 5 %: 300 +- 17
+  EXPECT_GE(recall, 0.95);
+  EXPECT_LE(false_rate, 0.01);
+  EXPECT_LE(robust_error, 1.2 * clean_error) << "clean " << clean_error << " robust " << robust_error;
+  EXPECT_GT(plain_error, 5.0 * clean_error) << "plain least squares is pulled by the outliers";
+}
+
+TEST(RobustFitTest, APlantedOutlierIsFoundByIndexAndTheParametersWithItAreReported) {
+  const RobotModel model = Preset("grinder5");
+  VirtualCellOptions o;
+  o.seed = 4;
+  o.shots_per_pose = 1;
+  VirtualCell cell(model, o);
+  std::vector<Measurement> data = cell.MeasureAll(Configurations(model, 30, 7));
+  data[7].T_world_tool.translation() += Eigen::Vector3d(1.2, -1.6, 0.0);  // 2 mm
+  IdentificationOptions fit;
+  fit.noise = o.noise;
+  const Calibration cal = Identify(model, data, fit);
+  const IdentificationSummary& s = cal.summary;
+  ASSERT_EQ(s.termination, Termination::kConvergence) << s.FullReport();
+  ASSERT_EQ(s.outliers.size(), 1u) << s.FullReport();
+  EXPECT_EQ(s.outliers[0].measurement, 7);
+  // 2 mm against 0.015 mm noise: over a hundred sigmas.
+  EXPECT_GT(s.outliers[0].normalized_residual, 100.0);
+  EXPECT_NEAR(s.outlier_threshold, std::sqrt(ChiSquareQuantile(6, 1e-3)), 1e-12);
+  EXPECT_NEAR(s.robust_scale, 1.0, 0.3);
+  EXPECT_EQ(s.num_measurements, 29);
+  EXPECT_GE(s.rejection_rounds, 2);
+  ASSERT_EQ(s.parameters_with_outliers.size(), s.parameters.size());
+  double largest_shift = 0.0;
+  for (size_t k = 0; k < s.parameters.size(); ++k) {
+    largest_shift = std::max(largest_shift, std::abs(s.parameters_with_outliers[k].value - s.parameters[k].value) /
+                                                s.parameters[k].std);
+  }
+  EXPECT_GT(largest_shift, 3.0) << "the outlier moves some parameter by several of its std";
+  EXPECT_NE(s.FullReport().find("#7"), std::string::npos) << s.FullReport();
+  // Without the robust fit every measurement is used and nothing is listed.
+  fit.reject_outliers = false;
+  const Calibration plain = Identify(model, data, fit);
+  EXPECT_EQ(plain.summary.num_measurements, 30);
+  EXPECT_TRUE(plain.summary.outliers.empty());
+  EXPECT_EQ(plain.summary.rejection_rounds, 0);
+}
+
+}  // namespace
+}  // namespace robocal
