@@ -22,7 +22,8 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   r.String("plan", false, &req.plan, 64);
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
   ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
-  r.RejectUnknown({"id", "description", "robot", "measurement_type", "plan", "noise", "tracker"});
+  r.Number("repeatability_mm", false, &req.repeatability_mm, 0.0, 10.0);
+  r.RejectUnknown({"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm"});
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
@@ -34,6 +35,7 @@ void to_json(nlohmann::json& j, const CreateCampaignRequest& req) {
   if (!req.description.empty()) j["description"] = req.description;
   if (!req.plan.empty()) j["plan"] = req.plan;
   if (req.tracker) j["tracker"] = *req.tracker;
+  if (req.repeatability_mm != 0.0) j["repeatability_mm"] = req.repeatability_mm;
 }
 
 void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
@@ -45,6 +47,7 @@ void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
   r.Optional("plan", &req.plan);
   r.Optional("noise", &req.noise);
   r.Optional("tracker", &req.tracker);
+  r.Optional("repeatability_mm", &req.repeatability_mm);
 }
 
 void to_json(nlohmann::json& j, const MeasurementCounts& c) {
@@ -65,6 +68,7 @@ void to_json(nlohmann::json& j, const Campaign& c) {
        {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
        {"noise", c.noise},
        {"tracker", c.tracker ? nlohmann::json(*c.tracker) : nlohmann::json()},
+       {"repeatability_mm", c.repeatability_mm},
        {"created_unix_ms", c.created_unix_ms},
        {"counts", c.counts},
        {"calibrated", c.calibrated}};
@@ -79,6 +83,7 @@ void from_json(const nlohmann::json& j, Campaign& c) {
   r.Required("plan", &c.plan);
   r.Required("noise", &c.noise);
   r.Required("tracker", &c.tracker);
+  r.Required("repeatability_mm", &c.repeatability_mm);
   r.Required("created_unix_ms", &c.created_unix_ms);
   r.Required("counts", &c.counts);
   r.Required("calibrated", &c.calibrated);

@@ -46,6 +46,7 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
                  {"noise", c.noise},
                  {"created_unix_ms", c.created_unix_ms}});
   if (c.tracker) j["tracker"] = *c.tracker;
+  if (c.repeatability_mm != 0.0) j["repeatability_mm"] = c.repeatability_mm;
 }
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
@@ -59,6 +60,7 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
   r.Optional("plan", &c.plan);
   r.Required("noise", &c.noise);
   r.Optional("tracker", &c.tracker);
+  r.Optional("repeatability_mm", &c.repeatability_mm);
   r.Required("created_unix_ms", &c.created_unix_ms);
 }
 

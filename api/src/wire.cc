@@ -326,9 +326,11 @@ TrackerUncertainty ToCore(const TrackerModelWire& t) {
   return out;
 }
 
-MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker) {
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker,
+                        double repeatability_mm) {
   MeasurementNoise out = ToCore(noise);
   if (tracker) out.tracker = ToCore(*tracker);
+  out.repeatability_mm = repeatability_mm;
   return out;
 }
 

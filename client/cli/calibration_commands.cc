@@ -27,6 +27,12 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
       << Fixed(c.residuals_after.rms_position_mm, 4) << " mm, rms orientation "
       << Fixed(c.residuals_before.rms_orientation_deg, 5) << " deg -> "
       << Fixed(c.residuals_after.rms_orientation_deg, 5) << " deg\n";
+  if (!c.outliers.empty()) {
+    out << c.outliers.size() << " outlier(s) excluded (normalised residual over " << Fixed(c.robust.threshold, 2)
+        << " sigma):";
+    for (const api::OutlierWire& o : c.outliers) out << " #" << o.sequence << " (" << Fixed(o.normalized_residual, 1) << ")";
+    out << "\n";
+  }
   out << "condition number " << Fixed(c.condition_number, 2) << "; " << api::WireName(c.summary.termination) << ": "
       << c.summary.brief << "\n";
   if (!c.stored) out << "NOT stored as the campaign's calibration: " << c.summary.message << "\n";
@@ -39,6 +45,8 @@ int Fit(Invocation& in) {
   if (in.Has("--parameters")) request.parameters = tools::SplitList("--parameters", in.Option("--parameters"));
   request.register_base = !in.Has("--no-register-base");
   request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
+  request.reject_outliers = !in.Has("--keep-outliers");
+  request.outlier_probability = in.Number("--outlier-probability", request.outlier_probability, 1e-12);
   api::CalibrationResult result;
   if (in.Has("--async")) {
     const api::Operation started = in.Client().StartFit(in.args[0], request);

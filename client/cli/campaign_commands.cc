@@ -53,6 +53,27 @@ int CampaignCreate(Invocation& in) {
   request.plan = in.Option("--plan");
   request.id = in.Option("--id");
   request.description = in.Option("--description");
+  if (in.Has("--tracker")) {
+    // "datasheet": the defaults; else radial a,b, transverse a,b[, orientation deg[, MPE sigmas]]. The service
+    // checks the ranges and names the member.
+    api::TrackerModelWire tracker;
+    const std::string text = in.Option("--tracker");
+    if (text != "datasheet") {
+      const std::vector<std::string> parts = tools::SplitList("--tracker", text);
+      if (parts.size() < 4 || parts.size() > 6) {
+        throw UsageError("--tracker takes datasheet or RADIAL_UM,RADIAL_UM_PER_M,TRANSVERSE_UM,TRANSVERSE_UM_PER_M"
+                         "[,ORIENTATION_DEG[,MPE_SIGMAS]]");
+      }
+      std::vector<double> v;
+      for (const std::string& p : parts) v.push_back(tools::ParseDoubleFlag("--tracker", p, std::numeric_limits<double>::lowest()));
+      tracker.radial_um = {v[0], v[1]};
+      tracker.transverse_um = {v[2], v[3]};
+      if (v.size() > 4) tracker.orientation_deg = v[4];
+      if (v.size() > 5) tracker.mpe_sigmas = v[5];
+    }
+    request.tracker = tracker;
+  }
+  request.repeatability_mm = in.Number("--repeatability-mm", 0.0, std::numeric_limits<double>::lowest());
   const api::Campaign campaign = in.Client().CreateCampaign(request);
   if (in.json) return Show(in, campaign);
   in.out << campaign.id << "\n";

@@ -110,7 +110,13 @@ new one. --json: the plan resource.
 
 const HelpText kCampaignCreate = {"create a calibration campaign (TYPE: pose, position_axis, position)", R"(
 TYPE is what the tracker measures. --plan links a plan (same robot and type); --id names the campaign
-(generated otherwise); --description says what it is for. Prints the campaign id; --json: the campaign.
+(generated otherwise); --description says what it is for. --tracker sets the tracker's uncertainty model the
+fit whitens residuals with (docs/identification.md): "datasheet" for radial 10 um + 0.3 um/m and transverse
+15 um + 6 um/m MPE, orientation 0.01 deg, MPE = 2 sigma; or R,r,T,t[,O[,K]] for radial R um + r um/m,
+transverse T um + t um/m, orientation O deg, MPE = K sigma (K = 1: the figures are 1-sigma values). Without
+it every axis weighs alike (0.015 mm). --repeatability-mm: the robot's ISO 9283 repeatability RP, which the
+shots of one configuration share (the fit then does not count them as independent). Prints the campaign id;
+--json: the campaign.
 )"};
 
 const HelpText kCampaignList = {"every campaign, with its measurement counts and whether it is calibrated", R"(
@@ -156,6 +162,10 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
   --parameters a,b,... the parameters to estimate (default: the identifiable set)
   --no-register-base   do not register the base (tracker -> base) before identifying
   --max-iterations N   Levenberg-Marquardt iterations at most (default 100)
+  --keep-outliers      plain least squares: no robust fit (by default measurements whose normalised residual
+                       exceeds the chi-square threshold are excluded and listed by sequence number)
+  --outlier-probability P
+                       chance that a clean measurement is flagged (default 0.001, at most 0.1)
   --async              run as a long-running operation and wait for it with a progress bar on stderr
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};

@@ -40,6 +40,11 @@ Options:
   --cell CELL|preset    measure in a cell: the id of a cell on the server, or "preset" for the robot's preset
                         cell (created as preset-<robot> if absent). Plans are made in it, the tracker
                         measures only the poses it can see, and the report says how many it could not
+  --realistic           the realistic cell: the tracker's datasheet uncertainty model (radial 10 um + 0.3 um/m,
+                        transverse 15 um + 6 um/m MPE, sent as the plan's and campaign's tracker), 0.03 mm
+                        robot repeatability and 2 % outliers of 1-5 mm; the report says how many outliers the
+                        fit excluded
+  --outliers RATE       share of shots made 1-5 mm outliers, 0..0.5 (default 0, or 0.02 with --realistic)
   --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
                         from seed + trial; validation errors pooled (default 1; one trial of 10
                         configurations is a noisy comparison)
@@ -131,7 +136,7 @@ int main(int argc, char** argv) {
         tools::ParseIntegerFlag(flag, v, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
   };
   try {
-    for (const auto& [flag, v] : tools::SplitFlags(args, {"--json", "--help"})) {
+    for (const auto& [flag, v] : tools::SplitFlags(args, {"--json", "--help", "--realistic"})) {
       if (flag == "--help") {
         std::cout << kUsage;
         return 0;
@@ -158,6 +163,10 @@ int main(int argc, char** argv) {
       } else if (flag == "--cell") {
         if (v.empty()) return Usage("--cell takes a cell id or 'preset'");
         options.cell = v;
+      } else if (flag == "--realistic") {
+        options.realistic = true;
+      } else if (flag == "--outliers") {
+        options.outlier_rate = tools::ParseDoubleFlag(flag, v, std::numeric_limits<double>::lowest());
       } else if (flag == "--trials") {
         options.trials = integer(flag, v);
       } else if (flag == "--validation") {

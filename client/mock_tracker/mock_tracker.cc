@@ -51,6 +51,12 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   if (cell_id != nullptr) plan_request.cell = *cell_id;
   plan_request.noise.position_mm = cell->options().noise.position_mm;
   plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * api::kDegPerRad;
+  if (const auto& t = cell->options().noise.tracker) {
+    plan_request.tracker = api::TrackerModelWire{{t->radial_um, t->radial_um_per_m},
+                                                 {t->transverse_um, t->transverse_um_per_m},
+                                                 t->orientation_deg,
+                                                 t->mpe_sigmas};
+  }
   out.plan = client.CreatePlan(plan_request);
   Log(log, "plan " + out.plan.id + " (" + api::WireName(optimiser) + "): " + out.plan.summary.brief);
 
@@ -59,6 +65,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   campaign_request.measurement_type = options.measurement_type;
   campaign_request.plan = out.plan.id;
   campaign_request.noise = plan_request.noise;
+  campaign_request.tracker = plan_request.tracker;
+  campaign_request.repeatability_mm = cell->options().noise.repeatability_mm;
   campaign_request.description =
       "mock tracker, seed " + std::to_string(options.seed) + ", " + api::WireName(optimiser);
   out.campaign = client.CreateCampaign(campaign_request);
@@ -66,6 +74,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
 
   // "Move" the robot to each planned configuration and shoot it with the tracker (when it can see it).
   const int unmeasured_before = cell->unmeasured();
+  const int shots_before = cell->shots();
+  const std::size_t outliers_before = cell->outlier_shots().size();
   const api::MeasurementBatchRequest batch =
       MeasurementBatch(cell, out.plan.configurations, api::MeasurementRole::kCalibration, options);
   out.unmeasured_poses = cell->unmeasured() - unmeasured_before;
@@ -75,9 +85,21 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   }
   const api::BatchResult uploaded = client.UploadMeasurements(out.campaign.id, batch);
   Log(log, "uploaded " + std::to_string(uploaded.count) + " calibration shots");
+  for (std::size_t k = outliers_before; k < cell->outlier_shots().size(); ++k) {
+    out.injected_outliers.push_back(uploaded.first_sequence + (cell->outlier_shots()[k] - shots_before));
+  }
 
   out.calibration = client.Fit(out.campaign.id);
   Log(log, "fit: " + out.calibration.summary.brief);
+  for (const api::OutlierWire& o : out.calibration.outliers) {
+    out.outliers_found += static_cast<int>(
+        std::count(out.injected_outliers.begin(), out.injected_outliers.end(), o.sequence));
+  }
+  if (!out.injected_outliers.empty() || !out.calibration.outliers.empty()) {
+    Log(log, "outliers: the cell injected " + std::to_string(out.injected_outliers.size()) + ", the fit excluded " +
+                 std::to_string(out.calibration.outliers.size()) + " (" + std::to_string(out.outliers_found) +
+                 " of them injected)");
+  }
 
   // Validation: the nominal command lands where the true robot goes; the target is where the nominal model
   // says it should be, in the calibrated base frame (the frame compensation aims at).
@@ -88,8 +110,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   for (std::size_t i = 0; i < validation.size(); ++i) {
     const Transform T_base_tool = nominal.T_world_base().inverse() * ForwardKinematics(nominal, validation[i]);
     targets.push_back(T_world_base * T_base_tool);
-    reached_nominal.push_back(cell->TruePose(validation[i]));
-    reached_compensated.push_back(cell->TruePose(api::JointsToCore(nominal, compensated[i].joints)));
+    reached_nominal.push_back(cell->Land(validation[i]));
+    reached_compensated.push_back(cell->Land(api::JointsToCore(nominal, compensated[i].joints)));
   }
   out.before = ComputeAccuracy(reached_nominal, targets, options.h_mm);
   out.after = ComputeAccuracy(reached_compensated, targets, options.h_mm);
@@ -113,6 +135,9 @@ json OutcomeJson(const CampaignOutcome& o) {
           {"unmeasured_poses", o.unmeasured_poses},
           {"condition_number", api::Num(o.plan.indices.condition_number)},
           {"fit", o.calibration.summary.brief},
+          {"outliers_injected", o.injected_outliers.size()},
+          {"outliers_excluded", o.calibration.outliers.size()},
+          {"outliers_found", o.outliers_found},
           {"before", api::ToWire(o.before)},
           {"after", api::ToWire(o.after)},
           {"service_evaluation", o.evaluation}};
@@ -147,6 +172,7 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
   if (num_validation < 2 || num_validation > 10000) return fail("--validation must be in [2, 10000]");
   if (!(h_mm > 0)) return fail("--h-mm must be positive");
   if (trials < 1 || trials > 100) return fail("--trials must be in [1, 100]");
+  if (outlier_rate && !(*outlier_rate >= 0.0 && *outlier_rate <= 0.5)) return fail("--outliers must be in [0, 0.5]");
   return true;
 }
 
@@ -155,6 +181,8 @@ VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<Reso
   cell_options.seed = options.seed;
   cell_options.shots_per_pose = options.shots_per_pose;
   if (cell) cell_options.measurement_cell = cell->spec;
+  if (options.realistic) cell_options = Realistic(cell_options);
+  if (options.outlier_rate) cell_options.outlier_rate = *options.outlier_rate;
   return VirtualCell(Preset(options.robot), cell_options);
 }
 

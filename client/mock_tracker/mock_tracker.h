@@ -43,6 +43,11 @@ struct MockTrackerOptions {
   /// cell on the server. With a cell, plans are made in it (PlanRequest::cell), the virtual cell's tracker
   /// measures only the poses the cell finds feasible, and validation poses are drawn feasible.
   std::string cell;
+  /// The realistic cell (docs/experiment.md): the datasheet tracker model (sent to the service as the plan's and
+  /// the campaign's `tracker`), 0.03 mm robot repeatability and 2 % outliers of 1-5 mm.
+  bool realistic = false;
+  /// Share of shots turned into 1-5 mm outliers (unset: 0, or the realistic cell's 2 %).
+  std::optional<double> outlier_rate;
 
   bool IsValid(std::string* error) const;
 };
@@ -54,6 +59,9 @@ struct CampaignOutcome {
   int unmeasured_poses = 0;
   api::Campaign campaign;
   api::CalibrationResult calibration;
+  /// Outliers the cell put into the calibration shots (sequence numbers), and how many of them the fit excluded.
+  std::vector<std::int64_t> injected_outliers;
+  int outliers_found = 0;
   /// Nominal joints commanded: the nominal model's accuracy (with the calibrated base registration).
   AccuracyReport before;
   /// Compensated joints commanded.

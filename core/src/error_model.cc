@@ -147,31 +147,47 @@ bool TrackerUncertainty::IsValid(std::string* error) const {
 
 Eigen::VectorXd MeasurementNoise::RowWeights(MeasurementType type) const {
   Eigen::VectorXd w(MeasurementRows(type));
-  double position = position_mm;
+  double variance = position_mm * position_mm;
   if (tracker) {
     const double r = tracker->RadialSigmaMm(kAssumedTrackerDistanceMm);
     const double t = tracker->TransverseSigmaMm(kAssumedTrackerDistanceMm);
-    position = std::sqrt((r * r + 2.0 * t * t) / 3.0);
+    variance = (r * r + 2.0 * t * t) / 3.0;
   }
-  w.head<3>().setConstant(1.0 / position);
+  const double repeatability = RepeatabilitySigmaMm();
+  w.head<3>().setConstant(1.0 / std::sqrt(variance + repeatability * repeatability));
   w.tail(w.size() - 3).setConstant(1.0 / OrientationSigmaRad());
   return w;
 }
 
-void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& point_mm,
-                                 Eigen::Ref<Eigen::MatrixXd> w) const {
+void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& point_mm, Eigen::Ref<Eigen::MatrixXd> w,
+                                 int repeatability_visits) const {
   const int rows = MeasurementRows(type);
   if (w.rows() != rows || w.cols() != rows) throw std::invalid_argument("MeasurementNoise::Whitening: wrong size");
   w.setZero();
+  // An isotropic variance added to s_r^2 u u' + s_t^2 (I - u u') keeps its form: both sigmas grow.
+  const double shared = repeatability_visits * RepeatabilitySigmaMm() * RepeatabilitySigmaMm();
   if (tracker) {
-    w.topLeftCorner<3, 3>() = tracker->PositionWhitening(point_mm);
+    const double d = point_mm.norm();
+    const double r = tracker->RadialSigmaMm(d), t = tracker->TransverseSigmaMm(d);
+    const double inverse_r = 1.0 / std::sqrt(r * r + shared), inverse_t = 1.0 / std::sqrt(t * t + shared);
+    if (d > 0.0) {
+      const Eigen::Vector3d u = point_mm / d;
+      const Eigen::Matrix3d uu = u * u.transpose();
+      w.topLeftCorner<3, 3>() = inverse_r * uu + inverse_t * (Eigen::Matrix3d::Identity() - uu);
+    } else {
+      w.topLeftCorner<3, 3>().diagonal().setConstant(inverse_t);
+    }
   } else {
-    w.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / position_mm);
+    w.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / std::sqrt(position_mm * position_mm + shared));
   }
   for (int k = 3; k < rows; ++k) w(k, k) = 1.0 / OrientationSigmaRad();
 }
 
 bool MeasurementNoise::IsValid(std::string* error) const {
+  if (!(repeatability_mm >= 0.0 && repeatability_mm <= 10.0)) {
+    *error = "noise.repeatability_mm must be in [0, 10]";
+    return false;
+  }
   if (tracker) return tracker->IsValid(error);
   if (!(position_mm > 0.0) || !std::isfinite(position_mm)) {
     *error = "noise.position_mm must be positive and finite";

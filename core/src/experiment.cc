@@ -231,7 +231,7 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
     for (int v = 0; v < options.num_validation; ++v) {
       const Eigen::VectorXd q = RandomConfiguration(planning, &validation_rng);
       const Transform target = T_world_true_base * nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
-      before_reached.push_back(cell.TruePose(q));
+      before_reached.push_back(cell.Land(q));
       before_target.push_back(target);
       for (int k = 0; k < num_methods; ++k) {
         if (calibrations[k] == nullptr) continue;
@@ -239,7 +239,7 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
         // Not converged (a target beyond a singularity's fold, or a joint at its limit): the robot is still sent
         // to the best joints found, as a controller would, and the error counts.
         if (!r.converged) ++pools[k].unconverged_targets;
-        pools[k].reached.push_back(cell.TruePose(r.joints));
+        pools[k].reached.push_back(cell.Land(r.joints));
         pools[k].target.push_back(target);
       }
     }
@@ -285,13 +285,13 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                   t.mpe_sigmas);
     out << line;
   }
-  if (o.cell.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) {
+  if (o.cell.noise.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) {
     std::snprintf(line, sizeof(line),
                   "robot repeatability %g mm (ISO 9283 RP); outliers %g %% of shots, %g-%g mm; robust fit\n",
-                  o.cell.repeatability_mm, 100.0 * o.cell.outlier_rate, o.cell.outlier_min_mm, o.cell.outlier_max_mm);
+                  o.cell.noise.repeatability_mm, 100.0 * o.cell.outlier_rate, o.cell.outlier_min_mm, o.cell.outlier_max_mm);
     out << line;
   }
-  if (o.cell.noise.tracker || o.cell.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) out << "\n";
+  if (o.cell.noise.tracker || o.cell.noise.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) out << "\n";
   if (o.cell.measurement_cell) {
     const TrackerSpec& tracker = o.cell.measurement_cell->tracker;
     std::snprintf(line, sizeof(line),

@@ -79,9 +79,27 @@ class Problem {
       if (inserted) poses_.push_back(m.joints);
       pose_of_.push_back(it->second);
     }
-    // A tracker model whitens each measurement by the covariance at its measured point (fixed during the fit,
-    // so the cost is one function of the parameters); without one every row has its constant weight.
-    if (o.noise.tracker) {
+    if (o.noise.repeatability_mm > 0.0) {
+      // The shots of one pose share the robot's repeatability error: their residuals are correlated. With H an
+      // orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance of
+      // the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n times
+      // the repeatability's, and the n - 1 Helmert contrasts the tracker's alone (every shot of a pose is
+      // measured at the same point to within the noise, so one tracker covariance, at their mean, serves them).
+      // Only the mean depends on the parameters; the contrasts carry the scatter of the shots.
+      shots_of_.resize(poses_.size());
+      for (size_t i = 0; i < measurements.size(); ++i) shots_of_[pose_of_[i]].push_back(static_cast<int>(i));
+      for (const std::vector<int>& shots : shots_of_) {
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (int i : shots) mean += measurements[i].T_world_tool.translation();
+        mean /= static_cast<double>(shots.size());
+        Eigen::MatrixXd w_mean(rows_, rows_), w_contrast(rows_, rows_);
+        o.noise.Whitening(type_, mean, w_mean, static_cast<int>(shots.size()));
+        o.noise.Whitening(type_, mean, w_contrast, 0);
+        pose_whitening_.push_back({std::move(w_mean), std::move(w_contrast)});
+      }
+    } else if (o.noise.tracker) {
+      // A tracker model whitens each measurement by the covariance at its measured point (fixed during the fit,
+      // so the cost is one function of the parameters); without one every row has its constant weight.
       whitening_.reserve(measurements.size());
       for (const Measurement& m : measurements) {
         Eigen::MatrixXd w(rows_, rows_);
@@ -115,13 +133,18 @@ class Problem {
       if (jacobian != nullptr) {
         IdentificationJacobian(model_, poses_[p], eps, type_, &ws_, full);
         for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = full.col(parameters_[k]);
-        pose_jacobian[p] = whitening_.empty() ? Eigen::MatrixXd(weights_.asDiagonal() * reduced) : reduced;
+        pose_jacobian[p] = whitening_.empty() && pose_whitening_.empty() ? Eigen::MatrixXd(weights_.asDiagonal() * reduced)
+                                                                         : reduced;
         pose_model[p] = ws_.T_world_tool;
       } else {
         pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_);
       }
     }
     Eigen::VectorXd r(rows_);
+    if (!pose_whitening_.empty()) {
+      EvaluateByPose(pose_model, pose_jacobian, residual, jacobian);
+      return;
+    }
     for (size_t i = 0; i < measurements_.size(); ++i) {
       const int p = pose_of_[i];
       MeasurementResidual(type_, measurements_[i].T_world_tool, pose_model[p], r);
@@ -140,8 +163,41 @@ class Problem {
   const std::vector<Measurement>& measurements_;
   MeasurementType type_;
   int rows_;
+  // Rows of the repeatability model (see the constructor): per pose, sqrt(n) times the mean residual of its n
+  // shots whitened by `mean`, then the n - 1 Helmert contrasts whitened by `contrast` (no parameter moves them).
+  void EvaluateByPose(const std::vector<Transform>& pose_model, const std::vector<Eigen::MatrixXd>& pose_jacobian,
+                      Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const {
+    Eigen::VectorXd r(rows_), sum(rows_), contrast(rows_);
+    Eigen::Index row = 0;
+    for (size_t p = 0; p < shots_of_.size(); ++p) {
+      const std::vector<int>& shots = shots_of_[p];
+      const double n = static_cast<double>(shots.size());
+      sum.setZero();
+      for (size_t k = 0; k < shots.size(); ++k) {
+        MeasurementResidual(type_, measurements_[shots[k]].T_world_tool, pose_model[p], r);
+        if (k > 0) {
+          // Helmert contrast k: (r_0 + ... + r_{k-1} - k r_k) / sqrt(k (k + 1)).
+          const double kk = static_cast<double>(k);
+          contrast = (sum - kk * r) / std::sqrt(kk * (kk + 1.0));
+          residual->segment(row + rows_ * static_cast<Eigen::Index>(k), rows_) = pose_whitening_[p].contrast * contrast;
+          if (jacobian != nullptr) jacobian->middleRows(row + rows_ * static_cast<Eigen::Index>(k), rows_).setZero();
+        }
+        sum += r;
+      }
+      residual->segment(row, rows_) = pose_whitening_[p].mean * (sum / std::sqrt(n));
+      if (jacobian != nullptr) jacobian->middleRows(row, rows_) = std::sqrt(n) * (pose_whitening_[p].mean * pose_jacobian[p]);
+      row += rows_ * static_cast<Eigen::Index>(shots.size());
+    }
+  }
+
+  struct PoseWhitening {
+    Eigen::MatrixXd mean;
+    Eigen::MatrixXd contrast;
+  };
   Eigen::VectorXd weights_;
   std::vector<Eigen::MatrixXd> whitening_;  // per measurement, with a tracker model only
+  std::vector<std::vector<int>> shots_of_;   // per pose, with repeatability only
+  std::vector<PoseWhitening> pose_whitening_;
   std::vector<int> parameters_;
   KinematicsWorkspace ws_;
   std::vector<Eigen::VectorXd> poses_;

@@ -38,11 +38,6 @@ Transform DrawTrackerInBase(const VirtualCellOptions& o, Rng* rng) {
   return t;
 }
 
-// ISO 9283 RP over sigma for an isotropic 3-D Gaussian of 1-sigma per axis: the distance is sigma times a chi
-// variable of 3 degrees of freedom, mean 2 sqrt(2 / pi) = 1.5958, std sqrt(3 - 8 / pi) = 0.6734; 1.5958 +
-// 3 * 0.6734 = 3.615.
-constexpr double kRepeatabilityPerSigma = 3.615;
-
 }  // namespace
 
 bool VirtualCellOptions::IsValid(std::string* error) const {
@@ -60,8 +55,11 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       {"noise.position_mm", noise.position_mm},
       {"noise.orientation_rad", noise.orientation_rad},
       {"outlier_min_mm", outlier_min_mm},
-      {"repeatability_mm", repeatability_mm},
   };
+  if (!(noise.repeatability_mm >= 0.0 && noise.repeatability_mm <= 10.0)) {
+    *error = "noise.repeatability_mm must be in [0, 10]";
+    return false;
+  }
   if (noise.tracker && !noise.tracker->IsValid(error)) {
     *error = "noise." + *error;
     return false;
@@ -102,7 +100,7 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
 
 VirtualCellOptions Realistic(VirtualCellOptions options) {
   options.noise.tracker = TrackerUncertainty{};
-  options.repeatability_mm = kRealisticRepeatabilityMm;
+  options.noise.repeatability_mm = kRealisticRepeatabilityMm;
   options.outlier_rate = kRealisticOutlierRate;
   options.outlier_min_mm = 1.0;
   options.outlier_max_mm = 5.0;
@@ -148,6 +146,15 @@ Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
   return ForwardKinematics(true_model_, q, true_errors_, &ws);
 }
 
+Transform VirtualCell::Land(const Eigen::VectorXd& q) {
+  Transform pose = TruePose(q);
+  if (options_.noise.repeatability_mm > 0.0) {
+    const double sigma = options_.noise.RepeatabilitySigmaMm();
+    for (int k = 0; k < 3; ++k) pose.translation()[k] += sigma * rng_.Normal();
+  }
+  return pose;
+}
+
 bool VirtualCell::Measurable(const Eigen::VectorXd& q) const {
   if (!cell_) {
     if (q.size() != nominal_.num_joints()) throw std::invalid_argument("VirtualCell: q has the wrong size");
@@ -167,8 +174,8 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
   out.reserve(count);
   // Each optional effect draws only when it is on, so a seed's draws without it are those of earlier releases.
   Transform visit = truth;
-  if (options_.repeatability_mm > 0.0) {
-    const double sigma = options_.repeatability_mm / kRepeatabilityPerSigma;
+  if (options_.noise.repeatability_mm > 0.0) {
+    const double sigma = options_.noise.RepeatabilitySigmaMm();
     for (int k = 0; k < 3; ++k) visit.translation()[k] += sigma * rng_.Normal();
   }
   const MeasurementNoise& noise = options_.noise;

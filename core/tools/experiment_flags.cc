@@ -44,7 +44,7 @@ void Apply(const std::string& flag, const std::string& value, ExperimentOptions*
       options->cell = Realistic(options->cell);
     } else {
       options->cell.noise.tracker.reset();
-      options->cell.repeatability_mm = 0.0;
+      options->cell.noise.repeatability_mm = 0.0;
       options->cell.outlier_rate = 0.0;
     }
     options->cell.measurement_cell = cell;

@@ -66,7 +66,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
                    {{"measurements", "upload measurements with role calibration first"}});
   }
   const IdentificationOptions options =
-      api::ToIdentificationOptions(req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker));
+      api::ToIdentificationOptions(req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm));
   CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();

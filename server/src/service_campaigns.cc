@@ -40,6 +40,7 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   c.plan = s.plan;
   c.noise = s.noise;
   c.tracker = s.tracker;
+  c.repeatability_mm = s.repeatability_mm;
   c.created_unix_ms = s.created_unix_ms;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
@@ -66,6 +67,7 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   campaign.robot = req.robot;
   campaign.noise = req.noise;
   campaign.tracker = req.tracker;
+  campaign.repeatability_mm = req.repeatability_mm;
   campaign.created_unix_ms = NowUnixMs();
   try {
     storage_->Create(kCampaigns, campaign.id, nlohmann::json(campaign).dump());

@@ -237,9 +237,51 @@ call POST "/v1/campaigns/$campaign:compensate" \
 expect "POST :compensate configuration on a robot without named branches -> 400" "$(status)" 400
 expect "... naming the target's configuration" "$(jq -r '.error.details[0].field' "$work/body")" "targets[0].configuration"
 
+# ---- the tracker's uncertainty model and the robust fit ----------------------------------------------------------
+tracked=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"plan\": \"$plan\", \"tracker\": {\"radial_um\": [12, 0.5]}}" |
+  jq -r .id)
+expect "POST /v1/campaigns with a tracker model" "$(status)" 200
+expect "... the members left out take the datasheet defaults" \
+  "$(call GET "/v1/campaigns/$tracked" | jq -c '.tracker | [.radial_um, .transverse_um, .mpe_sigmas]')" '[[12,0.5],[15,6],2]'
+expect "a campaign without one says null" "$(call GET "/v1/campaigns/$campaign" | jq -c .tracker)" null
+for bad_tracker in '{"radial_um": [0, 0.3]}|tracker.radial_um[0]' '{"transverse_um": [15, -1]}|tracker.transverse_um[1]' \
+  '{"transverse_um": [15]}|tracker.transverse_um' '{"mpe_sigmas": 0}|tracker.mpe_sigmas' '{"radial": [1, 1]}|tracker.radial' \
+  '[]|tracker'; do
+  call POST /v1/campaigns "{\"robot\": \"grinder5\", \"tracker\": ${bad_tracker%%|*}}" >/dev/null
+  expect "tracker ${bad_tracker%%|*} -> 400 naming ${bad_tracker##*|}" \
+    "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 ${bad_tracker##*|}"
+done
+# Shots as the realistic cell takes them (the tracker model's noise, 0.03 mm repeatability), one moved by
+# 3 mm (a reflector in the wrong nest): the robust fit excludes it by sequence number.
+tracked=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"plan\": \"$plan\", \"tracker\": {}, \"repeatability_mm\": 0.03}" |
+  jq -r .id)
+expect "... with the robot's repeatability" "$(call GET "/v1/campaigns/$tracked" | jq .repeatability_mm)" 0.03
+"$mock" --dump-measurements "$work/realistic.json" --configurations "$work/plan.json" --seed 1 --realistic --outliers 0
+jq -c '.request_id = "moved-18" | .measurements[17].pose.position_mm[0] += 3' "$work/realistic.json" >"$work/moved.json"
+call POST "/v1/campaigns/$tracked/measurements" "@$work/moved.json" >/dev/null
+call POST "/v1/campaigns/$tracked:fit" '{"outlier_probability": 1e-6}' >"$work/robust.json"
+expect "fit with a tracker model and an outlier" "$(status)" 200
+expect "... excludes the moved shot, sequence 18" "$(jq -c '[.outliers[] | .sequence]' "$work/robust.json")" '[18]'
+expect "... far over the threshold" \
+  "$(jq '.robust.enabled and .outliers[0].normalized_residual > 10 * .robust.threshold' "$work/robust.json")" true
+expect "... and reports the parameters with it" \
+  "$(jq '(.parameters_with_outliers | length) == (.parameters | length)' "$work/robust.json")" true
+expect "... whitened by the tracker model" "$(jq -r .scaling "$work/robust.json" | cut -c1-37)" \
+  "rows whitened by the tracker model (r"
+expect "reject_outliers false: every shot used, none listed" \
+  "$(call POST "/v1/campaigns/$tracked:fit" '{"reject_outliers": false}' | jq -c '[.summary.num_measurements, (.outliers | length)]')" \
+  '[100,0]'
+call POST "/v1/campaigns/$tracked:fit" '{"outlier_probability": 0.5}' >/dev/null
+expect "outlier_probability 0.5 -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 outlier_probability"
+
 # ---- the mock tracker drives the same server end to end ----------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --seed 2 --shots 3 --json >"$work/mock.json" 2>/dev/null
 expect "robocal-mock-tracker improves accuracy" "$(jq .improved "$work/mock.json")" true
+"$mock" --server "$ROBOCAL_URL" --realistic --outliers 0.05 --seed 4 --shots 3 --json >"$work/mock_real.json" 2>/dev/null
+expect "robocal-mock-tracker --realistic improves accuracy" "$(jq .improved "$work/mock_real.json")" true
+expect "... and the fit excluded every outlier it injected" \
+  "$(jq '.trials[0].planned | .outliers_injected > 0 and .outliers_found == .outliers_injected' "$work/mock_real.json")" true
 
 # ---- Cartesian targets on a 6R arm: branches ----------------------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --robot ur5e --type pose --seed 3 --shots 1 >/dev/null 2>"$work/mock6.log"

@@ -172,15 +172,17 @@ INSTANTIATE_TEST_SUITE_P(Presets, NoiseFreeRecoveryTest,
 // The reported standard deviations are honest: over many noise draws, (estimate - truth) / std behaves like
 // N(0, 1). The truth is that of the reduced parameterisation (dropped parameters folded into kept ones), so it
 // comes from a noise-free fit of the same poses, with the base frame fixed for both fits. The 6R ur5e and the
-// paper's 5-axis grinder5, with full-pose and with position-only measurements; with isotropic noise, and with
-// the tracker model (noise drawn from it, residuals whitened by it: larger across the beam than along it, and
-// growing with the distance).
-using NoiseCase = std::tuple<std::string, MeasurementType, bool>;
+// paper's 5-axis grinder5, with full-pose and with position-only measurements; with isotropic noise, with the
+// tracker model (noise drawn from it, residuals whitened by it: larger across the beam than along it, and
+// growing with the distance), and with the tracker model and the robot's repeatability (3 shots per pose that
+// share the robot's error: the fit must not count them as independent).
+enum class NoiseModel { kIsotropic, kTracker, kTrackerAndRepeatability };
+using NoiseCase = std::tuple<std::string, MeasurementType, NoiseModel>;
 
 class IdentificationNoiseTest : public ::testing::TestWithParam<NoiseCase> {};
 
 TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
-  const auto& [preset, type, tracker_model] = GetParam();
+  const auto& [preset, type, noise_model] = GetParam();
   const RobotModel model = Preset(preset);
   const std::vector<int> parameters = FindIdentifiableParameters(model, type).identifiable;
   double sum_z2 = 0.0, sum_sigma_hat = 0.0;
@@ -190,7 +192,11 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
     VirtualCellOptions cell_options;
     cell_options.seed = static_cast<std::uint64_t>(seed);
     cell_options.shots_per_pose = 1;
-    if (tracker_model) cell_options.noise.tracker = TrackerUncertainty{};
+    if (noise_model != NoiseModel::kIsotropic) cell_options.noise.tracker = TrackerUncertainty{};
+    if (noise_model == NoiseModel::kTrackerAndRepeatability) {
+      cell_options.noise.repeatability_mm = 0.05;
+      cell_options.shots_per_pose = 3;
+    }
     VirtualCell cell(model, cell_options);
     const auto configurations = Configurations(model, 20, 1000 + seed);
     std::vector<Measurement> exact;
@@ -229,15 +235,22 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, IdentificationNoiseTest,
-                         ::testing::Values(NoiseCase{"ur5e", MeasurementType::kPose, false},
-                                           NoiseCase{"grinder5", MeasurementType::kPose, false},
-                                           NoiseCase{"grinder5", MeasurementType::kPosition, false},
-                                           NoiseCase{"ur5e", MeasurementType::kPose, true},
-                                           NoiseCase{"ur5e", MeasurementType::kPosition, true},
-                                           NoiseCase{"grinder5", MeasurementType::kPosition, true}),
+                         ::testing::Values(NoiseCase{"ur5e", MeasurementType::kPose, NoiseModel::kIsotropic},
+                                           NoiseCase{"grinder5", MeasurementType::kPose, NoiseModel::kIsotropic},
+                                           NoiseCase{"grinder5", MeasurementType::kPosition, NoiseModel::kIsotropic},
+                                           NoiseCase{"ur5e", MeasurementType::kPose, NoiseModel::kTracker},
+                                           NoiseCase{"ur5e", MeasurementType::kPosition, NoiseModel::kTracker},
+                                           NoiseCase{"grinder5", MeasurementType::kPosition, NoiseModel::kTracker},
+                                           NoiseCase{"ur5e", MeasurementType::kPosition,
+                                                     NoiseModel::kTrackerAndRepeatability},
+                                           NoiseCase{"ur5e", MeasurementType::kPose,
+                                                     NoiseModel::kTrackerAndRepeatability}),
                          [](const ::testing::TestParamInfo<NoiseCase>& info) {
+                           const NoiseModel m = std::get<2>(info.param);
                            return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param)) +
-                                  (std::get<2>(info.param) ? "_tracker_model" : "");
+                                  (m == NoiseModel::kTracker                   ? "_tracker_model"
+                                   : m == NoiseModel::kTrackerAndRepeatability ? "_tracker_and_repeatability"
+                                                                               : "");
                          });
 
 TEST(IdentificationTest, RepeatedShotsAreMoreRowsOfOnePose) {

@@ -178,7 +178,7 @@ TEST(VirtualCellTrackerTest, RepeatabilityMovesEveryShotOfAVisitTogether) {
   VirtualCellOptions o;
   o.seed = 9;
   o.noise = {0.0, 0.0, std::nullopt};
-  o.repeatability_mm = 0.03;
+  o.noise.repeatability_mm = 0.03;
   VirtualCell cell(model, o);
   const Eigen::VectorXd q = MidConfiguration(model);
   const Transform truth = cell.TruePose(q);
@@ -211,8 +211,8 @@ TEST(VirtualCellTrackerTest, InvalidSettingsAreNamed) {
   o.outlier_max_mm = 0.5;
   rejected(o, "outlier_max_mm");
   o = {};
-  o.repeatability_mm = -0.01;
-  rejected(o, "repeatability_mm");
+  o.noise.repeatability_mm = -0.01;
+  rejected(o, "noise.repeatability_mm");
   o = {};
   o.noise.tracker = TrackerUncertainty{};
   o.noise.tracker->radial_um = -1.0;

@@ -25,6 +25,9 @@ struct CreateCampaignRequest {
   NoiseWire noise;
   /// The tracker's uncertainty model; given, the fit whitens residuals by it and `noise` is unused.
   std::optional<TrackerModelWire> tracker;
+  /// The robot's repeatability, ISO 9283 RP (mm, [0, 10]): the shots of one joint configuration share an error
+  /// of this size, which the fit models (docs/identification.md, "Weighting"). 0: not modelled.
+  double repeatability_mm = 0.0;
 };
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
@@ -49,6 +52,7 @@ struct Campaign {
   NoiseWire noise;
   /// Null on the wire when the campaign weights by `noise`.
   std::optional<TrackerModelWire> tracker;
+  double repeatability_mm = 0.0;
   std::int64_t created_unix_ms = 0;
   MeasurementCounts counts;
   /// Whether the campaign has a stored calibration (a fit that finished).

@@ -4,8 +4,8 @@
 //
 // Versions: 1 is every document written before the field "schema_version" existed (the same members as version
 // 2, without it; plans and fits recorded deadline_exceeded only when true); 2 adds "schema_version"; 3 adds
-// cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and the fit's robust-fit
-// members (outliers, parameters_with_outliers). A document of a version newer than
+// cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and "repeatability_mm" and the fit's
+// robust-fit members (outliers, parameters_with_outliers). A document of a version newer than
 // kStoredSchemaVersion is refused by name rather than misread.
 #pragma once
 
@@ -49,6 +49,7 @@ struct StoredCampaign {
   std::optional<std::string> plan;
   NoiseWire noise;
   std::optional<TrackerModelWire> tracker;
+  double repeatability_mm = 0.0;
   std::int64_t created_unix_ms = 0;
 };
 void to_json(nlohmann::json& j, const StoredCampaign& campaign);

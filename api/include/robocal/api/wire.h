@@ -373,8 +373,10 @@ void from_json(const nlohmann::json& j, TrackerModelWire& tracker);
 void ParseTrackerModel(const nlohmann::json* value, const std::string& path, Problems* problems,
                        std::optional<TrackerModelWire>* out);
 TrackerUncertainty ToCore(const TrackerModelWire& tracker);
-/// The core's noise: the tracker model when given, else the isotropic noise.
-MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker);
+/// The core's noise: the tracker model when given, else the isotropic noise; and the robot's repeatability
+/// (ISO 9283 RP, mm), shared by the shots of one joint configuration.
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker,
+                        double repeatability_mm = 0.0);
 
 /// Degrees per radian and back, for the conversions between core (rad) and wire (deg).
 inline constexpr double kDegPerRad = 57.295779513082320876798154814105;

@@ -67,25 +67,41 @@ struct TrackerUncertainty {
 /// without a cell): 3 m, the distance of the preset cells and of the virtual cell.
 inline constexpr double kAssumedTrackerDistanceMm = 3000.0;
 
-/// The tracker's noise, used to weight (whiten) residual rows.
+/// ISO 9283 repeatability RP (mean + 3 std of the distances to the mean position) over the 1-sigma per axis of an
+/// isotropic 3-D Gaussian: the distance is sigma times a chi variable of 3 degrees of freedom, mean
+/// 2 sqrt(2 / pi) = 1.5958, std sqrt(3 - 8 / pi) = 0.6734, and 1.5958 + 3 * 0.6734 = 3.615.
+inline constexpr double kRepeatabilityPerSigma = 3.615;
+
+/// The noise of a measurement, used to weight (whiten) residual rows: the tracker's, and the robot's
+/// repeatability.
 ///
 /// Without `tracker` every position row has 1-sigma position_mm and every orientation or axis row
 /// orientation_rad (row weight = 1 / sigma). With `tracker`, position_mm and orientation_rad are unused: a
-/// measurement's three position rows are whitened by TrackerUncertainty::PositionWhitening at the measured point
-/// and its orientation rows divided by the tracker's orientation sigma.
+/// measurement's three position rows are whitened by the tracker model's covariance at the measured point and
+/// its orientation rows divided by the tracker's orientation sigma.
+///
+/// repeatability_mm > 0 (ISO 9283 RP of the robot) adds an isotropic 1-sigma RP / kRepeatabilityPerSigma per
+/// position axis that the shots of one visit share: the robot stands where it stands while the tracker shoots
+/// it several times. The fit treats the shots of one joint configuration as one visit.
 struct MeasurementNoise {
   double position_mm = 0.015;
   double orientation_rad = 1e-4;
   std::optional<TrackerUncertainty> tracker;
+  double repeatability_mm = 0.0;
 
-  /// Diagonal row weights for one measurement of `type` (size MeasurementRows(type)). With `tracker`: the
-  /// isotropic equivalent at kAssumedTrackerDistanceMm (position rows 1 / sqrt((s_r^2 + 2 s_t^2) / 3)), for
-  /// callers that do not know where the tracker is.
+  /// Diagonal row weights for one measurement of `type` (size MeasurementRows(type)), repeatability included.
+  /// With `tracker`: the isotropic equivalent at kAssumedTrackerDistanceMm (position variance
+  /// (s_r^2 + 2 s_t^2) / 3), for callers that do not know where the tracker is.
   Eigen::VectorXd RowWeights(MeasurementType type) const;
   /// The whitening matrix of one measurement whose tool point is `point_mm` (tracker frame), rows x rows with
-  /// rows = MeasurementRows(type): W' W is the inverse covariance of the residual rows. Without `tracker` it is
-  /// diag(RowWeights(type)).
-  void Whitening(MeasurementType type, const Eigen::Vector3d& point_mm, Eigen::Ref<Eigen::MatrixXd> w) const;
+  /// rows = MeasurementRows(type): W' W is the inverse covariance of the residual rows, whose position part is
+  /// the tracker's plus `repeatability_visits` times the repeatability variance per axis: 1 for a shot on its
+  /// own, 0 for the tracker alone (the differences between shots of one visit), n for sqrt(n) times the mean of
+  /// n shots of one visit. Without `tracker` and repeatability it is diag(RowWeights(type)).
+  void Whitening(MeasurementType type, const Eigen::Vector3d& point_mm, Eigen::Ref<Eigen::MatrixXd> w,
+                 int repeatability_visits = 1) const;
+  /// 1-sigma per position axis of the repeatability (mm).
+  double RepeatabilitySigmaMm() const { return repeatability_mm / kRepeatabilityPerSigma; }
   /// The 1-sigma orientation error (rad) the rows use.
   double OrientationSigmaRad() const { return tracker ? tracker->OrientationSigmaRad() : orientation_rad; }
   /// Positive, finite sigmas (and a valid tracker); else false and the field ("noise.position_mm",

@@ -37,7 +37,9 @@ struct VirtualCellOptions {
   /// Tracker noise per shot (1-sigma): position per axis (mm), orientation per axis of the rotation vector
   /// (rad). Zero gives exact measurements. With noise.tracker set, a shot's position error is drawn from the
   /// tracker model's covariance at the true point instead (larger along and across the beam as the distance
-  /// grows) and its orientation error from the model's orientation sigma.
+  /// grows) and its orientation error from the model's orientation sigma. noise.repeatability_mm (ISO 9283 RP)
+  /// > 0: each visit of a configuration (one Measure call) lands the tool displaced by an isotropic Gaussian of
+  /// 1-sigma RP / kRepeatabilityPerSigma per axis, shared by all the visit's shots.
   MeasurementNoise noise{0.015, 1e-4, std::nullopt};
   /// Gross errors, as a real cell has them (a reflector in the wrong nest, a beam break, a robot that had not
   /// settled): each shot is, with probability outlier_rate, moved by a distance drawn uniformly from
@@ -46,11 +48,6 @@ struct VirtualCellOptions {
   double outlier_rate = 0.0;
   double outlier_min_mm = 1.0;
   double outlier_max_mm = 5.0;
-  /// The robot's repeatability as datasheets give it (ISO 9283 RP = mean + 3 std of the distances to the mean
-  /// position, mm): each visit of a configuration (one Measure call) lands the tool displaced by an isotropic
-  /// Gaussian of 1-sigma RP / 3.615 per axis (for which mean + 3 std of the distance is RP), shared by all the
-  /// visit's shots. 0: a perfectly repeatable robot.
-  double repeatability_mm = 0.0;
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
   /// The measurement cell (cell.h, in the robot's base frame), e.g. PresetCellSpec(robot); unset: every
@@ -92,6 +89,10 @@ class VirtualCell {
   /// Noise-free tool pose of the true robot at joints q, tracker frame. Throws std::invalid_argument for a q of
   /// the wrong size or with a non-finite value (Measure too).
   Transform TruePose(const Eigen::VectorXd& q) const;
+  /// Where the true robot's tool lands when commanded q: TruePose displaced by one draw of the robot's
+  /// repeatability (noise.repeatability_mm; none when 0, and then nothing is drawn). What a validation of the
+  /// calibrated robot sees, by an ideal observer.
+  Transform Land(const Eigen::VectorXd& q);
 
   /// The built measurement cell, or nullptr when options.measurement_cell is unset.
   const Cell* measurement_cell() const { return cell_ ? &*cell_ : nullptr; }
@@ -114,6 +115,8 @@ class VirtualCell {
   /// Indices of the shots given an outlier, counting every shot Measure() returned since construction (for
   /// MeasureAll on a new cell: indices into its result).
   const std::vector<int>& outlier_shots() const { return outlier_shots_; }
+  /// Shots Measure() returned since construction.
+  int shots() const { return shots_; }
 
  private:
   RobotModel nominal_;
