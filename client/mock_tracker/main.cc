@@ -40,10 +40,10 @@ Options:
   --cell CELL|preset    measure in a cell: the id of a cell on the server, or "preset" for the robot's preset
                         cell (created as preset-<robot> if absent). Plans are made in it, the tracker
                         measures only the poses it can see, and the report says how many it could not
-  --realistic           the realistic cell: the tracker's datasheet uncertainty model (radial 10 um + 0.3 um/m,
-                        transverse 15 um + 6 um/m MPE, sent as the plan's and campaign's tracker), 0.03 mm
-                        robot repeatability and 2 % outliers of 1-5 mm; the report says how many outliers the
-                        fit excluded
+  --realistic           the realistic cell: the robot's preset cell (unless --cell names another), the
+                        tracker's datasheet uncertainty model (radial 10 um + 0.3 um/m, transverse 15 um +
+                        6 um/m MPE) and 0.03 mm robot repeatability (both sent with the plan and campaign),
+                        and 2 % outliers of 1-5 mm; the report says how many outliers the fit excluded
   --outliers RATE       share of shots made 1-5 mm outliers, 0..0.5 (default 0, or 0.02 with --realistic)
   --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
                         from seed + trial; validation errors pooled (default 1; one trial of 10
@@ -191,6 +191,8 @@ int main(int argc, char** argv) {
   } catch (const robocal::tools::BadFlag& e) {
     return Usage(e.what());
   }
+  // The realistic cell measures in the robot's preset cell unless another cell is named.
+  if (options.realistic && options.cell.empty()) options.cell = "preset";
   std::string error;
   if (!options.IsValid(&error)) return Usage(error);
 

@@ -13,6 +13,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (const std::string& name : request->parameters) {
       fuzz::Check(model.ParameterIndex(name) >= 0, "every accepted parameter name is the model's");
     }
+    // The core's options must accept whatever the request accepted (outlier_probability above all).
+    std::string error;
+    fuzz::Check(api::ToIdentificationOptions(*request, model, MeasurementType::kPose, MeasurementNoise{}).IsValid(&error),
+                "an accepted fit request gives valid identification options");
     fuzz::CheckRoundTrip(*request, parse);
   }
   return 0;
