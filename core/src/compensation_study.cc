@@ -42,6 +42,7 @@ Calibration StudyCalibration(const RobotModel& model, const CompensationStudyOpt
                      .covariance = {},
                      .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
                      .T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + tool_site),
+                     .reflectors = {},
                      .summary = {}};
 }
 

@@ -138,7 +138,8 @@ bool TrackerUncertainty::IsValid(std::string* error) const {
   for (const auto& f : fields) {
     const bool ok = std::isfinite(f.value) && (f.zero_allowed ? f.value >= 0.0 : f.value > 0.0);
     if (!ok) {
-      *error = std::string("tracker.") + f.name + (f.zero_allowed ? " must be finite and >= 0" : " must be positive and finite");
+      *error = std::string("tracker.") + f.name +
+               (f.zero_allowed ? " must be finite and >= 0" : " must be positive and finite");
       return false;
     }
   }
@@ -256,8 +257,8 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
   }
 }
 
-void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                   MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps, MeasurementType type,
+                   KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
   CheckJacobianSize(jacobian, MeasurementRows(type), model.num_joints(), "JointJacobian");
   const Transform& tool = ForwardKinematics(model, q, eps, ws);
   const RowWriter writer = MakeWriter(type, tool);

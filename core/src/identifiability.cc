@@ -1,14 +1,13 @@
 // Identifiable parameter subset by column-pivoted QR of the scaled identification Jacobian.
 #include "robocal/core/identifiability.h"
 
+#include <Eigen/QR>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <numeric>
 #include <sstream>
-
-#include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/kinematics.h"
@@ -21,7 +20,7 @@ namespace {
 std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorXd& d, const std::vector<int>& kept,
                            const Eigen::MatrixXd& kept_scaled,
                            const Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& kept_qr, int j, const RobotModel& model,
-                           MeasurementType type) {
+                           const std::vector<Reflector>& reflectors, MeasurementType type) {
   if (d[j] == 0.0) {
     return std::string("no effect on ") + ToString(type) + " measurements";
   }
@@ -47,7 +46,7 @@ std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorX
     const int k = kept[order[i]];
     const double coeff = c[order[i]] * d[k] / d[j];
     if (i > 0) out << ", ";
-    out << coeff << " " << model.parameter_name(k);
+    out << coeff << " " << ParameterName(model, reflectors, k);
   }
   if (!single && static_cast<int>(significant) > shown) out << ", ...";
   out << std::noshowpos << " (residual " << std::setprecision(2) << misfit << ")";
@@ -62,6 +61,7 @@ bool IdentifiabilityOptions::IsValid(std::string* error) const {
     return false;
   }
   if (!noise.IsValid(error)) return false;
+  if (!ValidateReflectors(reflectors, error)) return false;
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0)) {
     *error = "rank_tolerance must be in (0, 1)";
     return false;
@@ -77,7 +77,9 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
                                                   const IdentifiabilityOptions& options) {
   IdentifiabilitySummary summary;
   summary.measurement_type = type;
-  summary.num_parameters = model.num_error_parameters();
+  const std::vector<Reflector>& reflectors = options.reflectors;
+  const int num_reflectors = static_cast<int>(reflectors.size());
+  summary.num_parameters = model.num_error_parameters() + 3 * num_reflectors;
   summary.num_configurations = options.num_configurations;
   summary.scaling = DescribeScaling(options.noise);
   std::string error;
@@ -85,11 +87,17 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
     summary.message = "invalid options: " + error;
     return summary;
   }
-  const int rows = MeasurementRows(type);
-  const int n = model.num_error_parameters();
+  if (num_reflectors > 0 && type != MeasurementType::kPosition) {
+    summary.message = "invalid options: reflectors need position measurements";
+    return summary;
+  }
+  // With reflectors a configuration gives 3 rows per reflector.
+  const int rows = num_reflectors > 0 ? 3 * num_reflectors : MeasurementRows(type);
+  const int n_model = model.num_error_parameters();
+  const int n = summary.num_parameters;
   if (rows * options.num_configurations < n) {
-    summary.message = "too few configurations: " + std::to_string(rows * options.num_configurations) +
-                      " rows for " + std::to_string(n) + " parameters";
+    summary.message = "too few configurations: " + std::to_string(rows * options.num_configurations) + " rows for " +
+                      std::to_string(n) + " parameters";
     return summary;
   }
 
@@ -97,11 +105,24 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   const Eigen::VectorXd w = options.noise.RowWeights(type);
   KinematicsWorkspace ws(model);
   Rng rng(options.seed);
-  Eigen::MatrixXd block(rows, n);
+  Eigen::MatrixXd block = Eigen::MatrixXd::Zero(rows, n);
+  const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(model, reflectors, Eigen::VectorXd());
+  Eigen::MatrixXd pose(6, n_model);
   for (int m = 0; m < options.num_configurations; ++m) {
     const Eigen::VectorXd q = RandomConfiguration(model, &rng);
-    IdentificationJacobian(model, q, Eigen::VectorXd(), type, &ws, block);
-    weighted.middleRows(m * rows, rows) = w.asDiagonal() * block;
+    if (num_reflectors == 0) {
+      IdentificationJacobian(model, q, Eigen::VectorXd(), type, &ws, block);
+    } else {
+      IdentificationJacobian(model, q, Eigen::VectorXd(), MeasurementType::kPose, &ws, pose);
+      for (int k = 0; k < num_reflectors; ++k) {
+        ReflectorRows(ws.T_world_tool, in_tool[k], pose, block.block(3 * k, 0, 3, n_model));
+        // A fixed reflector's columns stay zero: it has no offset to estimate.
+        if (!reflectors[k].fixed) {
+          block.block<3, 3>(3 * k, n_model + 3 * k) = ReflectorOffsetRows(model, ws.T_world_tool);
+        }
+      }
+    }
+    for (int r = 0; r < rows; ++r) weighted.row(m * rows + r) = w[num_reflectors > 0 ? 0 : r] * block.row(r);
   }
   // A column with no effect stays zero; the QR then pivots it last.
   const Eigen::VectorXd d = UnitColumnFactorsOf(weighted);
@@ -116,7 +137,7 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   const auto& perm = qr.colsPermutation().indices();
   for (int k = 0; k < rank; ++k) summary.identifiable.push_back(perm[k]);
   std::sort(summary.identifiable.begin(), summary.identifiable.end());
-  for (int k : summary.identifiable) summary.identifiable_names.push_back(model.parameter_name(k));
+  for (int k : summary.identifiable) summary.identifiable_names.push_back(ParameterName(model, reflectors, k));
 
   Eigen::MatrixXd kept_scaled(scaled.rows(), rank);
   for (int k = 0; k < rank; ++k) kept_scaled.col(k) = scaled.col(summary.identifiable[k]);
@@ -124,9 +145,11 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   std::vector<int> dropped_indices(perm.data() + rank, perm.data() + n);
   std::sort(dropped_indices.begin(), dropped_indices.end());
   for (int j : dropped_indices) {
-    summary.dropped.push_back({j, model.parameter_name(j),
-                               ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model,
-                                              type)});
+    const bool held = j >= n_model && reflectors[(j - n_model) / 3].fixed;
+    summary.dropped.push_back(
+        {j, ParameterName(model, reflectors, j),
+         held ? "held at its given position (fixed reflector)"
+              : ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model, reflectors, type)});
   }
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept_scaled);
@@ -135,6 +158,7 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
 
   std::ostringstream msg;
   msg << rank << " of " << n << " parameters identifiable from " << ToString(type) << " measurements";
+  if (num_reflectors > 0) msg << " of " << num_reflectors << " reflectors";
   if (rank < n && summary.smallest_kept_pivot < options.min_rank_gap * summary.largest_dropped_pivot) {
     summary.termination = Termination::kDegraded;
     msg << "; rank decision unclear (kept pivot " << summary.smallest_kept_pivot << " vs dropped "

@@ -2,6 +2,9 @@
 // the identifiable error parameters, with covariance, residual statistics and reports.
 #include "robocal/core/identification.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,10 +12,6 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
-
-#include <Eigen/Cholesky>
-#include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/kinematics.h"
@@ -59,8 +58,9 @@ std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
   return "";
 }
 
-// The least-squares problem over the chosen parameters. Shots of one pose share its kinematics and Jacobian,
-// so the cost of an evaluation grows with the distinct poses, not with the shots.
+// The least-squares problem over the chosen parameters (the model's error parameters, then 3 offset errors per
+// reflector: reflectors.h's index space). Shots are grouped by joint configuration and reflector; a group
+// shares its kinematics and Jacobian, so the cost of an evaluation grows with the groups, not with the shots.
 class Problem {
  public:
   Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const IdentificationOptions& o,
@@ -71,31 +71,37 @@ class Problem {
         rows_(MeasurementRows(o.measurement_type)),
         weights_(o.noise.RowWeights(o.measurement_type)),
         parameters_(parameters),
+        reflectors_(o.reflectors),
+        n_model_(model.num_error_parameters()),
         ws_(model) {
-    std::map<Eigen::VectorXd, int, JointsLess> index;
-    pose_of_.reserve(measurements.size());
-    for (const Measurement& m : measurements) {
-      const auto [it, inserted] = index.emplace(m.joints, static_cast<int>(poses_.size()));
-      if (inserted) poses_.push_back(m.joints);
-      pose_of_.push_back(it->second);
+    std::map<Eigen::VectorXd, int, JointsLess> pose_index;
+    std::map<std::pair<int, int>, int> group_index;
+    group_of_.reserve(measurements.size());
+    for (size_t i = 0; i < measurements.size(); ++i) {
+      const Measurement& m = measurements[i];
+      const auto [pose, new_pose] = pose_index.emplace(m.joints, static_cast<int>(poses_.size()));
+      if (new_pose) poses_.push_back(m.joints);
+      const auto [group, new_group] =
+          group_index.emplace(std::make_pair(pose->second, m.reflector), static_cast<int>(groups_.size()));
+      if (new_group) groups_.push_back({pose->second, m.reflector, {}});
+      groups_[group->second].shots.push_back(static_cast<int>(i));
+      group_of_.push_back(group->second);
     }
     if (o.noise.repeatability_mm > 0.0) {
-      // The shots of one pose share the robot's repeatability error: their residuals are correlated. With H an
-      // orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance of
-      // the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n times
-      // the repeatability's, and the n - 1 Helmert contrasts the tracker's alone (every shot of a pose is
-      // measured at the same point to within the noise, so one tracker covariance, at their mean, serves them).
-      // Only the mean depends on the parameters; the contrasts carry the scatter of the shots.
-      shots_of_.resize(poses_.size());
-      for (size_t i = 0; i < measurements.size(); ++i) shots_of_[pose_of_[i]].push_back(static_cast<int>(i));
-      for (const std::vector<int>& shots : shots_of_) {
+      // The shots of one group share the robot's repeatability error: their residuals are correlated. With H
+      // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance
+      // of the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n
+      // times the repeatability's, and the n - 1 Helmert contrasts the tracker's alone (the shots of a group
+      // are measured at the same point to within the noise, so one tracker covariance, at their mean, serves
+      // them). Only the mean depends on the parameters; the contrasts carry the scatter of the shots.
+      for (const Group& g : groups_) {
         Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (int i : shots) mean += measurements[i].T_world_tool.translation();
-        mean /= static_cast<double>(shots.size());
+        for (int i : g.shots) mean += measurements[i].T_world_tool.translation();
+        mean /= static_cast<double>(g.shots.size());
         Eigen::MatrixXd w_mean(rows_, rows_), w_contrast(rows_, rows_);
-        o.noise.Whitening(type_, mean, w_mean, static_cast<int>(shots.size()));
+        o.noise.Whitening(type_, mean, w_mean, static_cast<int>(g.shots.size()));
         o.noise.Whitening(type_, mean, w_contrast, 0);
-        pose_whitening_.push_back({std::move(w_mean), std::move(w_contrast)});
+        group_whitening_.push_back({std::move(w_mean), std::move(w_contrast)});
       }
     } else if (o.noise.tracker) {
       // A tracker model whitens each measurement by the covariance at its measured point (fixed during the fit,
@@ -110,98 +116,149 @@ class Problem {
   }
 
   int num_poses() const { return static_cast<int>(poses_.size()); }
+  /// Distinct (joint configuration, reflector) pairs: what bounds the information.
+  int num_groups() const { return static_cast<int>(groups_.size()); }
   int num_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
 
+  // The model's error parameters (num_error_parameters) and the reflectors' offset errors (3 each) at x.
   Eigen::VectorXd FullErrors(const Eigen::VectorXd& x) const {
-    Eigen::VectorXd eps = Eigen::VectorXd::Zero(model_.num_error_parameters());
-    for (int k = 0; k < num_parameters(); ++k) eps[parameters_[k]] = x[k];
+    Eigen::VectorXd eps = Eigen::VectorXd::Zero(n_model_);
+    for (int k = 0; k < num_parameters(); ++k)
+      if (parameters_[k] < n_model_) eps[parameters_[k]] = x[k];
     return eps;
+  }
+  Eigen::VectorXd ReflectorErrors(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd out = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(reflectors_.size()));
+    for (int k = 0; k < num_parameters(); ++k)
+      if (parameters_[k] >= n_model_) out[parameters_[k] - n_model_] = x[k];
+    return out;
   }
 
   // Weighted residuals r (num_rows) at reduced parameters x and, if `jacobian` is not null, the weighted
   // Jacobian of the model prediction (num_rows x num_parameters), so that r(x + d) ~= r(x) - J d.
   void Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
     const Eigen::VectorXd eps = FullErrors(x);
+    const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(model_, reflectors_, ReflectorErrors(x));
     residual->resize(num_rows());
     if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
-    Eigen::MatrixXd full(rows_, model_.num_error_parameters());
-    Eigen::MatrixXd reduced(rows_, num_parameters());
+    const bool by_reflector = !reflectors_.empty();
+    // Per pose: the tool's kinematics and, for the Jacobian, its rows (the type's, or the pose's 6 for
+    // reflectors, whose points move with the tool's position and orientation).
+    const int pose_rows = by_reflector ? 6 : rows_;
+    Eigen::MatrixXd full(pose_rows, n_model_);
     std::vector<Transform> pose_model(poses_.size());
-    std::vector<Eigen::MatrixXd> pose_jacobian(jacobian != nullptr ? poses_.size() : 0);
+    std::vector<Eigen::MatrixXd> pose_full(jacobian != nullptr ? poses_.size() : 0);
     for (size_t p = 0; p < poses_.size(); ++p) {
       if (jacobian != nullptr) {
-        IdentificationJacobian(model_, poses_[p], eps, type_, &ws_, full);
-        for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = full.col(parameters_[k]);
-        pose_jacobian[p] = whitening_.empty() && pose_whitening_.empty() ? Eigen::MatrixXd(weights_.asDiagonal() * reduced)
-                                                                         : reduced;
+        IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full);
+        pose_full[p] = full;
         pose_model[p] = ws_.T_world_tool;
       } else {
         pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_);
       }
     }
-    Eigen::VectorXd r(rows_);
-    if (!pose_whitening_.empty()) {
-      EvaluateByPose(pose_model, pose_jacobian, residual, jacobian);
+    // Per group: the prediction and its Jacobian over the chosen parameters (unweighted).
+    std::vector<Transform> prediction(groups_.size());
+    std::vector<Eigen::MatrixXd> group_jacobian(jacobian != nullptr ? groups_.size() : 0);
+    Eigen::MatrixXd point(3, n_model_);
+    for (size_t g = 0; g < groups_.size(); ++g) {
+      const Group& group = groups_[g];
+      const Transform& tool = pose_model[group.pose];
+      prediction[g] = group.reflector < 0 ? tool : AtReflector(tool, in_tool[group.reflector]);
+      if (jacobian == nullptr) continue;
+      Eigen::MatrixXd reduced = Eigen::MatrixXd::Zero(rows_, num_parameters());
+      if (group.reflector < 0) {
+        for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = pose_full[group.pose].col(parameters_[k]);
+      } else {
+        ReflectorRows(tool, in_tool[group.reflector], pose_full[group.pose], point);
+        const Eigen::Matrix3d offset = ReflectorOffsetRows(model_, tool);
+        for (int k = 0; k < num_parameters(); ++k) {
+          const int j = parameters_[k];
+          if (j < n_model_) {
+            reduced.col(k) = point.col(j);
+          } else if ((j - n_model_) / 3 == group.reflector) {
+            reduced.col(k) = offset.col((j - n_model_) % 3);
+          }
+        }
+      }
+      group_jacobian[g] = whitening_.empty() && group_whitening_.empty()
+                              ? Eigen::MatrixXd(weights_.asDiagonal() * reduced)
+                              : std::move(reduced);
+    }
+    if (!group_whitening_.empty()) {
+      EvaluateByGroup(prediction, group_jacobian, residual, jacobian);
       return;
     }
+    Eigen::VectorXd r(rows_);
     for (size_t i = 0; i < measurements_.size(); ++i) {
-      const int p = pose_of_[i];
-      MeasurementResidual(type_, measurements_[i].T_world_tool, pose_model[p], r);
+      const int g = group_of_[i];
+      MeasurementResidual(type_, measurements_[i].T_world_tool, prediction[g], r);
       if (whitening_.empty()) {
         residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
-        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = pose_jacobian[p];
+        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = group_jacobian[g];
       } else {
         residual->segment(rows_ * i, rows_) = whitening_[i] * r;
-        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * pose_jacobian[p];
+        if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * group_jacobian[g];
       }
     }
   }
 
  private:
-  const RobotModel& model_;
-  const std::vector<Measurement>& measurements_;
-  MeasurementType type_;
-  int rows_;
-  // Rows of the repeatability model (see the constructor): per pose, sqrt(n) times the mean residual of its n
+  struct Group {
+    int pose = 0;
+    int reflector = -1;
+    std::vector<int> shots;
+  };
+  struct GroupWhitening {
+    Eigen::MatrixXd mean;
+    Eigen::MatrixXd contrast;
+  };
+
+  // Rows of the repeatability model (see the constructor): per group, sqrt(n) times the mean residual of its n
   // shots whitened by `mean`, then the n - 1 Helmert contrasts whitened by `contrast` (no parameter moves them).
-  void EvaluateByPose(const std::vector<Transform>& pose_model, const std::vector<Eigen::MatrixXd>& pose_jacobian,
-                      Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const {
+  void EvaluateByGroup(const std::vector<Transform>& prediction, const std::vector<Eigen::MatrixXd>& group_jacobian,
+                       Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const {
     Eigen::VectorXd r(rows_), sum(rows_), contrast(rows_);
     Eigen::Index row = 0;
-    for (size_t p = 0; p < shots_of_.size(); ++p) {
-      const std::vector<int>& shots = shots_of_[p];
+    for (size_t g = 0; g < groups_.size(); ++g) {
+      const std::vector<int>& shots = groups_[g].shots;
       const double n = static_cast<double>(shots.size());
       sum.setZero();
       for (size_t k = 0; k < shots.size(); ++k) {
-        MeasurementResidual(type_, measurements_[shots[k]].T_world_tool, pose_model[p], r);
+        MeasurementResidual(type_, measurements_[shots[k]].T_world_tool, prediction[g], r);
         if (k > 0) {
           // Helmert contrast k: (r_0 + ... + r_{k-1} - k r_k) / sqrt(k (k + 1)).
           const double kk = static_cast<double>(k);
           contrast = (sum - kk * r) / std::sqrt(kk * (kk + 1.0));
-          residual->segment(row + rows_ * static_cast<Eigen::Index>(k), rows_) = pose_whitening_[p].contrast * contrast;
-          if (jacobian != nullptr) jacobian->middleRows(row + rows_ * static_cast<Eigen::Index>(k), rows_).setZero();
+          const Eigen::Index at = row + rows_ * static_cast<Eigen::Index>(k);
+          residual->segment(at, rows_) = group_whitening_[g].contrast * contrast;
+          if (jacobian != nullptr) jacobian->middleRows(at, rows_).setZero();
         }
         sum += r;
       }
-      residual->segment(row, rows_) = pose_whitening_[p].mean * (sum / std::sqrt(n));
-      if (jacobian != nullptr) jacobian->middleRows(row, rows_) = std::sqrt(n) * (pose_whitening_[p].mean * pose_jacobian[p]);
+      residual->segment(row, rows_) = group_whitening_[g].mean * (sum / std::sqrt(n));
+      if (jacobian != nullptr) {
+        jacobian->middleRows(row, rows_) = std::sqrt(n) * (group_whitening_[g].mean * group_jacobian[g]);
+      }
       row += rows_ * static_cast<Eigen::Index>(shots.size());
     }
   }
 
-  struct PoseWhitening {
-    Eigen::MatrixXd mean;
-    Eigen::MatrixXd contrast;
-  };
+  const RobotModel& model_;
+  const std::vector<Measurement>& measurements_;
+  MeasurementType type_;
+  int rows_;
   Eigen::VectorXd weights_;
-  std::vector<Eigen::MatrixXd> whitening_;  // per measurement, with a tracker model only
-  std::vector<std::vector<int>> shots_of_;   // per pose, with repeatability only
-  std::vector<PoseWhitening> pose_whitening_;
   std::vector<int> parameters_;
+  std::vector<Reflector> reflectors_;
+  int n_model_;
   KinematicsWorkspace ws_;
   std::vector<Eigen::VectorXd> poses_;
-  std::vector<int> pose_of_;
+  std::vector<Group> groups_;
+  std::vector<int> group_of_;
+  std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
+  std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
 };
 
 struct LmResult {
@@ -368,6 +425,11 @@ bool IdentificationOptions::IsValid(std::string* error) const {
       return false;
     }
   }
+  if (!ValidateReflectors(reflectors, error)) return false;
+  if (!reflectors.empty() && measurement_type != MeasurementType::kPosition) {
+    *error = "reflectors need position measurements (a 6-DoF probe measures the tool's orientation itself)";
+    return false;
+  }
   if (!(outlier_probability > 0.0 && outlier_probability <= 0.1)) {
     *error = "outlier_probability must be in (0, 0.1]";
     return false;
@@ -381,7 +443,8 @@ bool IdentificationOptions::IsValid(std::string* error) const {
 
 ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
                                              const std::vector<Measurement>& measurements, MeasurementType type,
-                                             const MeasurementNoise& noise) {
+                                             const MeasurementNoise& noise,
+                                             const std::vector<Eigen::Vector3d>& reflectors_in_tool) {
   ResidualStatistics s;
   s.num_measurements = static_cast<int>(measurements.size());
   if (measurements.empty()) return s;
@@ -391,7 +454,8 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   Eigen::VectorXd r(rows);
   double sum_position = 0.0, sum_orientation = 0.0, sum_weighted = 0.0;
   for (const Measurement& m : measurements) {
-    const Transform& predicted = ForwardKinematics(model, m.joints, errors, &ws);
+    const Transform& tool = ForwardKinematics(model, m.joints, errors, &ws);
+    const Transform predicted = m.reflector < 0 ? tool : AtReflector(tool, reflectors_in_tool.at(m.reflector));
     MeasurementResidual(type, m.T_world_tool, predicted, r);
     const double position = r.head<3>().norm();
     sum_position += position * position;
@@ -467,8 +531,11 @@ std::vector<double> WhitenedNorms(const Calibration& cal, const std::vector<Meas
   Eigen::MatrixXd w(rows, rows);
   std::vector<double> out;
   out.reserve(measurements.size());
+  const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(cal.model, cal.reflectors, Eigen::VectorXd());
   for (const Measurement& m : measurements) {
-    MeasurementResidual(options.measurement_type, m.T_world_tool, ForwardKinematics(cal.model, m.joints, cal.errors, &ws), r);
+    const Transform& tool = ForwardKinematics(cal.model, m.joints, cal.errors, &ws);
+    MeasurementResidual(options.measurement_type, m.T_world_tool,
+                        m.reflector < 0 ? tool : AtReflector(tool, in_tool.at(m.reflector)), r);
     options.noise.Whitening(options.measurement_type, m.T_world_tool.translation(), w);
     out.push_back((w * r).norm());
   }
@@ -572,11 +639,16 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
   const int n_all = nominal.num_error_parameters();
-  if (!options.parameters.empty() && options.parameters.back() >= n_all) {
+  const int num_reflectors = static_cast<int>(options.reflectors.size());
+  // The fit's index space: the model's parameters, then 3 offset errors per reflector.
+  const int n_fit = n_all + 3 * num_reflectors;
+  if (!options.parameters.empty() && options.parameters.back() >= n_fit) {
     throw std::invalid_argument("IdentificationOptions: parameters[" + std::to_string(options.parameters.size() - 1) +
                                 "] = " + std::to_string(options.parameters.back()) + " but '" + nominal.name() +
-                                "' has " + std::to_string(n_all) + " error parameters");
+                                "' has " + std::to_string(n_all) + " error parameters and " +
+                                std::to_string(num_reflectors) + " reflector(s)");
   }
+  const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
   for (size_t i = 0; i < measurements.size(); ++i) {
     if (measurements[i].joints.size() != nominal.num_joints()) {
       throw std::invalid_argument("Identify: measurements[" + std::to_string(i) + "].joints has " +
@@ -586,9 +658,14 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
 
   const MeasurementType type = options.measurement_type;
-  Calibration cal{
-      nominal, Eigen::VectorXd::Zero(n_all), {}, Eigen::MatrixXd(), nominal.T_world_base(), nominal.T_flange_tool(),
-      {}};
+  Calibration cal{nominal,
+                  Eigen::VectorXd::Zero(n_all),
+                  {},
+                  Eigen::MatrixXd(),
+                  nominal.T_world_base(),
+                  nominal.T_flange_tool(),
+                  options.reflectors,
+                  {}};
   IdentificationSummary& s = cal.summary;
   s.measurement_type = type;
   s.num_measurements = static_cast<int>(measurements.size());
@@ -607,43 +684,57 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   for (size_t i = 0; i < measurements.size(); ++i) {
     const std::string problem = CheckMeasurement(measurements[i], type);
     if (!problem.empty()) return fail("measurements[" + std::to_string(i) + "]: " + problem);
+    const int reflector = measurements[i].reflector;
+    if (num_reflectors == 0 && reflector != -1) {
+      return fail("measurements[" + std::to_string(i) + "]: names reflector " + std::to_string(reflector) +
+                  " but the fit has no reflectors");
+    }
+    if (num_reflectors > 0 && (reflector < 0 || reflector >= num_reflectors)) {
+      return fail("measurements[" + std::to_string(i) + "]: reflector " + std::to_string(reflector) +
+                  " is not one of the " + std::to_string(num_reflectors) + " reflectors (0.." +
+                  std::to_string(num_reflectors - 1) + ")");
+    }
   }
 
   // Which parameters to estimate.
   std::vector<int> parameters = options.parameters;
   Termination identifiability_termination = Termination::kConvergence;
   if (parameters.empty()) {
-    const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, type, options.identifiability);
+    IdentifiabilityOptions identifiability = options.identifiability;
+    identifiability.reflectors = options.reflectors;
+    const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, type, identifiability);
     if (id.termination == Termination::kFailure) return fail("identifiability: " + id.message);
     identifiability_termination = id.termination;
     parameters = id.identifiable;
     s.dropped = id.dropped;
   } else {
-    for (int k = 0, next = 0; k < n_all; ++k) {
+    for (int k = 0, next = 0; k < n_fit; ++k) {
       if (next < static_cast<int>(parameters.size()) && parameters[next] == k)
         ++next;
       else
-        s.dropped.push_back({k, nominal.parameter_name(k), "not requested"});
+        s.dropped.push_back({k, name(k), "not requested"});
     }
   }
   s.num_parameters = static_cast<int>(parameters.size());
 
-  // Distinct poses bound the information; repeated shots only average the noise.
+  // Distinct poses (and reflectors) bound the information; repeated shots only average the noise.
   Problem counter(nominal, measurements, options, parameters);
   s.num_poses = counter.num_poses();
   const int rows = MeasurementRows(type);
   // Rows from distinct poses must exceed the parameters: with equality the fit interpolates the pose means and
   // only the scatter of repeated shots would be left to estimate sigma_hat from.
-  if (rows * s.num_poses <= s.num_parameters) {
+  if (rows * counter.num_groups() <= s.num_parameters) {
     std::ostringstream msg;
     msg << "too few distinct poses: " << s.num_poses << " distinct joint configuration(s) among " << s.num_measurements
-        << " measurements give " << rows * s.num_poses << " independent " << ToString(type) << " rows for "
-        << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1
-        << " distinct poses";
+        << " measurements give " << rows * counter.num_groups() << " independent " << ToString(type) << " rows for "
+        << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1 << " distinct poses";
     return fail(msg.str());
   }
 
-  // Tracker -> base registration: nominal tool positions (nominal world frame) onto the measured ones.
+  // Each reflector's nominal point in the tool frame (empty without reflectors).
+  const std::vector<Eigen::Vector3d> nominal_in_tool = ReflectorsInTool(nominal, options.reflectors, Eigen::VectorXd());
+  // Tracker -> base registration: nominal tool (or reflector) positions (nominal world frame) onto the measured
+  // ones.
   RobotModel model = nominal;
   if (options.register_base) {
     std::vector<Eigen::Vector3d> from, to;
@@ -651,7 +742,8 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     to.reserve(measurements.size());
     KinematicsWorkspace ws(nominal);
     for (const Measurement& m : measurements) {
-      from.push_back(ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws).translation());
+      const Transform& tool = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws);
+      from.push_back(m.reflector < 0 ? tool.translation() : tool * nominal_in_tool.at(m.reflector));
       to.push_back(m.T_world_tool.translation());
     }
     Transform T;
@@ -668,7 +760,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
 
   Problem problem(model, measurements, options, parameters);
-  s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise);
+  s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
 
   // Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters
   // they cannot determine named, instead of producing a meaningless fit.
@@ -686,7 +778,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
           << rank << " of " << s.num_parameters << " parameters (undetermined:";
       const auto& perm = qr.colsPermutation().indices();
       for (int k = rank; k < std::min(s.num_parameters, rank + 4); ++k) {
-        msg << " " << nominal.parameter_name(parameters[perm[k]]);
+        msg << " " << name(parameters[perm[k]]);
       }
       msg << (s.num_parameters - rank > 4 ? " ...)" : ")");
       return fail(msg.str());
@@ -717,11 +809,13 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   cal.covariance = s.sigma_hat * s.sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
 
   for (int k = 0; k < s.num_parameters; ++k) {
-    cal.parameters.push_back(
-        {parameters[k], nominal.parameter_name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});
+    cal.parameters.push_back({parameters[k], name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});
   }
   s.parameters = cal.parameters;
-  s.after = ComputeResidualStatistics(model, errors, measurements, type, options.noise);
+  const Eigen::VectorXd reflector_errors = problem.ReflectorErrors(lm.x);
+  s.after = ComputeResidualStatistics(model, errors, measurements, type, options.noise,
+                                      ReflectorsInTool(nominal, options.reflectors, reflector_errors));
+  for (int k = 0; k < num_reflectors; ++k) cal.reflectors[k].position_mm += reflector_errors.segment<3>(3 * k);
 
   cal.T_world_base = model.T_world_base() * ErrorTransform(errors.data());
   cal.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
@@ -751,9 +845,9 @@ std::string IdentificationSummary::BriefReport() const {
   out << "; " << num_parameters << " parameters from " << num_poses << " poses (" << num_measurements
       << " measurements";
   if (!outliers.empty()) out << ", " << outliers.size() << " outlier(s) excluded";
-  out << "), rms position " << std::setprecision(4) << before.rms_position_mm << " -> "
-      << after.rms_position_mm << " mm, sigma_hat " << sigma_hat << ", cond " << condition_number << ", " << iterations
-      << " iterations, " << std::setprecision(3) << seconds << " s";
+  out << "), rms position " << std::setprecision(4) << before.rms_position_mm << " -> " << after.rms_position_mm
+      << " mm, sigma_hat " << sigma_hat << ", cond " << condition_number << ", " << iterations << " iterations, "
+      << std::setprecision(3) << seconds << " s";
   return out.str();
 }
 
@@ -779,8 +873,8 @@ std::string IdentificationSummary::FullReport() const {
   // model takes over.
   const auto frame = [&](const char* label, const Transform& t) {
     const Eigen::Vector3d p = t.translation(), rpy = RpyFromRotation(t.linear());
-    out << "  " << label << ": xyz " << std::setprecision(10) << p.x() << " " << p.y() << " " << p.z()
-        << " mm, rpy " << std::setprecision(8) << rpy.x() << " " << rpy.y() << " " << rpy.z() << " rad\n";
+    out << "  " << label << ": xyz " << std::setprecision(10) << p.x() << " " << p.y() << " " << p.z() << " mm, rpy "
+        << std::setprecision(8) << rpy.x() << " " << rpy.y() << " " << rpy.z() << " rad\n";
   };
   frame("T_world_base ", T_world_base);
   frame("T_flange_tool", T_flange_tool);

@@ -56,6 +56,7 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       {"noise.orientation_rad", noise.orientation_rad},
       {"outlier_min_mm", outlier_min_mm},
   };
+  if (!ValidateReflectors(reflectors, error)) return false;
   if (!(noise.repeatability_mm >= 0.0 && noise.repeatability_mm <= 10.0)) {
     *error = "noise.repeatability_mm must be in [0, 10]";
     return false;
@@ -135,6 +136,13 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
   }
   // The base site stays zero: any base error is one more rigid transform on top of the tracker placement,
   // which is already the large unknown.
+  // Reflector offsets last, so that the robot a seed hides does not depend on the reflectors.
+  true_reflector_errors_ = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(options.reflectors.size()));
+  for (size_t k = 0; k < options.reflectors.size(); ++k) {
+    if (options.reflectors[k].fixed) continue;
+    for (int a = 0; a < 3; ++a) true_reflector_errors_[3 * k + a] = options.tool_translation_sigma_mm * rng_.Normal();
+  }
+  true_in_tool_ = ReflectorsInTool(nominal, options.reflectors, true_reflector_errors_);
 }
 
 Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
@@ -179,30 +187,38 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
     for (int k = 0; k < 3; ++k) visit.translation()[k] += sigma * rng_.Normal();
   }
   const MeasurementNoise& noise = options_.noise;
-  const Eigen::Matrix3d position_sqrt = noise.tracker ? noise.tracker->PositionSqrt(visit.translation())
-                                                      : Eigen::Matrix3d(noise.position_mm * Eigen::Matrix3d::Identity());
   const double orientation_sigma = noise.tracker ? noise.tracker->OrientationSigmaRad() : noise.orientation_rad;
-  for (int s = 0; s < count; ++s) {
-    Measurement m;
-    m.joints = q;
-    Eigen::Vector3d n, dw;
-    for (int k = 0; k < 3; ++k) n[k] = rng_.Normal();
-    for (int k = 0; k < 3; ++k) dw[k] = orientation_sigma * rng_.Normal();
-    Eigen::Vector3d dp = position_sqrt * n;
-    if (options_.outlier_rate > 0.0 && rng_.Uniform() < options_.outlier_rate) {
-      Eigen::Vector3d direction;
-      do {
-        for (int k = 0; k < 3; ++k) direction[k] = rng_.Normal();
-      } while (!(direction.norm() > 1e-9));
-      dp += rng_.Uniform(options_.outlier_min_mm, options_.outlier_max_mm) * direction.normalized();
-      outlier_shots_.push_back(shots_);
+  // Every reflector of the tool (or the tool point), `count` shots each.
+  const int targets = options_.reflectors.empty() ? 1 : static_cast<int>(options_.reflectors.size());
+  out.reserve(static_cast<size_t>(count) * targets);
+  for (int target = 0; target < targets; ++target) {
+    const Transform aim = options_.reflectors.empty() ? visit : AtReflector(visit, true_in_tool_[target]);
+    const Eigen::Matrix3d position_sqrt = noise.tracker
+                                              ? noise.tracker->PositionSqrt(aim.translation())
+                                              : Eigen::Matrix3d(noise.position_mm * Eigen::Matrix3d::Identity());
+    for (int s = 0; s < count; ++s) {
+      Measurement m;
+      m.joints = q;
+      m.reflector = options_.reflectors.empty() ? -1 : target;
+      Eigen::Vector3d n, dw;
+      for (int k = 0; k < 3; ++k) n[k] = rng_.Normal();
+      for (int k = 0; k < 3; ++k) dw[k] = orientation_sigma * rng_.Normal();
+      Eigen::Vector3d dp = position_sqrt * n;
+      if (options_.outlier_rate > 0.0 && rng_.Uniform() < options_.outlier_rate) {
+        Eigen::Vector3d direction;
+        do {
+          for (int k = 0; k < 3; ++k) direction[k] = rng_.Normal();
+        } while (!(direction.norm() > 1e-9));
+        dp += rng_.Uniform(options_.outlier_min_mm, options_.outlier_max_mm) * direction.normalized();
+        outlier_shots_.push_back(shots_);
+      }
+      ++shots_;
+      m.T_world_tool = aim;
+      m.T_world_tool.translation() += dp;
+      // Applied on the left, in the tracker frame, as the pose residual's rotation vector is taken.
+      m.T_world_tool.linear() = RotationFromVector(dw) * visit.linear();
+      out.push_back(std::move(m));
     }
-    ++shots_;
-    m.T_world_tool = visit;
-    m.T_world_tool.translation() += dp;
-    // Applied on the left, in the tracker frame, as the pose residual's rotation vector is taken.
-    m.T_world_tool.linear() = RotationFromVector(dw) * visit.linear();
-    out.push_back(std::move(m));
   }
   return out;
 }

@@ -26,6 +26,7 @@ Calibration MakeCalibration(const std::string& preset) {
                      .covariance = {},
                      .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
                      .T_flange_tool = model.T_flange_tool(),
+                     .reflectors = {},
                      .summary = {}};
 }
 

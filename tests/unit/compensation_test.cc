@@ -43,6 +43,7 @@ Calibration MakeCalibration(const std::string& preset, std::uint64_t seed) {
                      .covariance = {},
                      .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
                      .T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + tool_site),
+                     .reflectors = {},
                      .summary = {}};
 }
 

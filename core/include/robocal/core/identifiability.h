@@ -9,6 +9,7 @@
 
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/error_model.h"
+#include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 
@@ -22,6 +23,10 @@ struct IdentifiabilityOptions {
   std::uint64_t seed = 1;
   /// Row weighting: each row divided by its 1-sigma noise (position mm, orientation rad).
   MeasurementNoise noise;
+  /// Several reflectors on the tool (position measurements only): every probe configuration measures each of
+  /// them, and the parameters are the model's followed by 3 offset errors per reflector (reflectors.h's index
+  /// space); a fixed reflector's are dropped ("held at its given position"). Empty: the tool point.
+  std::vector<Reflector> reflectors;
   /// A parameter is kept while |R_kk| > rank_tolerance * |R_00| in the column-pivoted QR of the
   /// row-weighted, unit-column-norm Jacobian. Columns are unit norm, so the test is scale free.
   double rank_tolerance = kRankTolerance;

@@ -11,6 +11,7 @@
 #include "robocal/core/error_model.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/measurement.h"
+#include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 #include "robocal/core/transforms.h"
@@ -26,8 +27,13 @@ struct IdentificationOptions {
   MeasurementType measurement_type = MeasurementType::kPose;
   /// 1-sigma tracker noise; residual rows are divided by it (position mm, orientation rad).
   MeasurementNoise noise;
-  /// Error parameters to estimate (indices into the model's parameters, ascending). Empty: the identifiable
-  /// set from FindIdentifiableParameters(model, measurement_type) with `identifiability` options.
+  /// Several reflectors on the tool (position measurements only; reflectors.h): each measurement names the one
+  /// it shot (Measurement::reflector), and the fit estimates the free reflectors' offset errors beside the
+  /// model's parameters. Empty: every shot is of the tool point.
+  std::vector<Reflector> reflectors;
+  /// Error parameters to estimate (indices into the model's parameters, then the reflectors' offsets:
+  /// reflectors.h's index space; ascending). Empty: the identifiable set from FindIdentifiableParameters(model,
+  /// measurement_type) with `identifiability` options and these reflectors.
   std::vector<int> parameters;
   IdentifiabilityOptions identifiability;
   /// Estimate the tracker -> base transform by point-set registration of the measured positions onto the
@@ -144,6 +150,10 @@ struct Calibration {
   /// Effective tracker -> base and flange -> tool transforms including the identified base and tool errors.
   Transform T_world_base = Transform::Identity();
   Transform T_flange_tool = Transform::Identity();
+  /// The fit's reflectors with their identified positions (flange frame, relative to the NOMINAL tool
+  /// frame: a point of reflector k is at ForwardKinematics(model, q, errors) * ReflectorsInTool(model,
+  /// reflectors, {})[k]); empty without reflectors.
+  std::vector<Reflector> reflectors;
   IdentificationSummary summary;
 };
 
@@ -162,8 +172,10 @@ double ChiSquareSurvival(int dof, double x);
 double ChiSquareQuantile(int dof, double upper_probability);
 
 /// Residual statistics of (model, errors) against measurements of `type`.
+/// With reflectors, `reflectors_in_tool` (ReflectorsInTool) gives each Measurement::reflector's point.
 ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
                                              const std::vector<Measurement>& measurements, MeasurementType type,
-                                             const MeasurementNoise& noise);
+                                             const MeasurementNoise& noise,
+                                             const std::vector<Eigen::Vector3d>& reflectors_in_tool = {});
 
 }  // namespace robocal

@@ -18,6 +18,9 @@ struct Measurement {
   Eigen::VectorXd joints;
   /// Measured tool pose in the tracker frame.
   Transform T_world_tool = Transform::Identity();
+  /// With several reflectors on the tool (IdentificationOptions::reflectors, position measurements): the index
+  /// of the reflector this shot measured, whose point is T_world_tool's translation. -1: the tool point.
+  int reflector = -1;
 };
 
 }  // namespace robocal

@@ -14,6 +14,7 @@
 #include "robocal/core/error_model.h"
 #include "robocal/core/measurement.h"
 #include "robocal/core/random.h"
+#include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/transforms.h"
 
@@ -50,6 +51,11 @@ struct VirtualCellOptions {
   double outlier_max_mm = 5.0;
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
+  /// Reflectors on the tool (flange frame): with any, Measure shoots each of them `shots` times per visit
+  /// (Measurement::reflector set), at its true position: the given one plus a hidden offset error of
+  /// tool_translation_sigma_mm per axis (none for a fixed reflector, whose position is known). Empty: the tool
+  /// point.
+  std::vector<Reflector> reflectors;
   /// The measurement cell (cell.h, in the robot's base frame), e.g. PresetCellSpec(robot); unset: every
   /// configuration is measured and the tracker stands as drawn above. Set: the tracker's origin stands at the
   /// cell's tracker position instead (tracker_distance_mm is unused; bearing, yaw and tilt are drawn as before,
@@ -84,6 +90,8 @@ class VirtualCell {
   /// (num_error_parameters: mm, rad). Hidden from identification; exposed for tests and reports.
   const RobotModel& true_model() const { return true_model_; }
   const Eigen::VectorXd& true_errors() const { return true_errors_; }
+  /// The reflectors' hidden offset errors (3 per reflector, flange frame, mm; zero for fixed ones).
+  const Eigen::VectorXd& true_reflector_errors() const { return true_reflector_errors_; }
   const VirtualCellOptions& options() const { return options_; }
 
   /// Noise-free tool pose of the true robot at joints q, tracker frame. Throws std::invalid_argument for a q of
@@ -122,6 +130,8 @@ class VirtualCell {
   RobotModel nominal_;
   RobotModel true_model_;
   Eigen::VectorXd true_errors_;
+  Eigen::VectorXd true_reflector_errors_;
+  std::vector<Eigen::Vector3d> true_in_tool_;
   VirtualCellOptions options_;
   Rng rng_;
   std::optional<Cell> cell_;
