@@ -299,8 +299,8 @@ void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problem
     std::array<double, 2> read{};
     if (!r.FixedNumbers(key, false, read.data(), 2)) return;
     if (!r.Has(key)) return;
-    if (!(read[0] > 0.0 && read[0] <= 1000.0)) {
-      problems->Add(JoinPath(path, key) + "[0]", "the constant (um) must be in (0, 1000]");
+    if (!(read[0] >= kMinTrackerUm && read[0] <= 1000.0)) {
+      problems->Add(JoinPath(path, key) + "[0]", "the constant (um) must be in [0.001, 1000]");
     } else if (!(read[1] >= 0.0 && read[1] <= 1000.0)) {
       problems->Add(JoinPath(path, key) + "[1]", "the slope (um per m) must be in [0, 1000]");
     } else {
@@ -309,7 +309,7 @@ void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problem
   };
   pair("radial_um", &t.radial_um);
   pair("transverse_um", &t.transverse_um);
-  r.Number("orientation_deg", false, &t.orientation_deg, 1e-9, 90.0);
+  r.Number("orientation_deg", false, &t.orientation_deg, kMinTrackerOrientationDeg, 90.0);
   r.Number("mpe_sigmas", false, &t.mpe_sigmas, 0.1, 10.0);
   r.RejectUnknown({"radial_um", "transverse_um", "orientation_deg", "mpe_sigmas"});
   *out = t;

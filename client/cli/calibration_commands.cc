@@ -46,7 +46,9 @@ int Fit(Invocation& in) {
   request.register_base = !in.Has("--no-register-base");
   request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
   request.reject_outliers = !in.Has("--keep-outliers");
-  request.outlier_probability = in.Number("--outlier-probability", request.outlier_probability, 1e-12);
+  // The service checks the range and names the field.
+  request.outlier_probability =
+      in.Number("--outlier-probability", request.outlier_probability, std::numeric_limits<double>::lowest());
   api::CalibrationResult result;
   if (in.Has("--async")) {
     const api::Operation started = in.Client().StartFit(in.args[0], request);

@@ -20,6 +20,12 @@ int Show(Invocation& in, const api::Campaign& campaign) {
     in.out << campaign.id << "  robot " << campaign.robot << "  " << api::WireName(campaign.measurement_type)
            << "  calibration " << campaign.counts.calibration << "  validation " << campaign.counts.validation
            << (campaign.calibrated ? "  calibrated" : "  not calibrated") << "\n";
+    if (const auto& t = campaign.tracker) {
+      in.out << "tracker radial " << t->radial_um[0] << " um + " << t->radial_um[1] << " um/m, transverse "
+             << t->transverse_um[0] << " um + " << t->transverse_um[1] << " um/m, orientation " << t->orientation_deg
+             << " deg (MPE = " << t->mpe_sigmas << " sigma)\n";
+    }
+    if (campaign.repeatability_mm > 0.0) in.out << "robot repeatability " << campaign.repeatability_mm << " mm\n";
   }
   return kExitOk;
 }
@@ -53,26 +59,7 @@ int CampaignCreate(Invocation& in) {
   request.plan = in.Option("--plan");
   request.id = in.Option("--id");
   request.description = in.Option("--description");
-  if (in.Has("--tracker")) {
-    // "datasheet": the defaults; else radial a,b, transverse a,b[, orientation deg[, MPE sigmas]]. The service
-    // checks the ranges and names the member.
-    api::TrackerModelWire tracker;
-    const std::string text = in.Option("--tracker");
-    if (text != "datasheet") {
-      const std::vector<std::string> parts = tools::SplitList("--tracker", text);
-      if (parts.size() < 4 || parts.size() > 6) {
-        throw UsageError("--tracker takes datasheet or RADIAL_UM,RADIAL_UM_PER_M,TRANSVERSE_UM,TRANSVERSE_UM_PER_M"
-                         "[,ORIENTATION_DEG[,MPE_SIGMAS]]");
-      }
-      std::vector<double> v;
-      for (const std::string& p : parts) v.push_back(tools::ParseDoubleFlag("--tracker", p, std::numeric_limits<double>::lowest()));
-      tracker.radial_um = {v[0], v[1]};
-      tracker.transverse_um = {v[2], v[3]};
-      if (v.size() > 4) tracker.orientation_deg = v[4];
-      if (v.size() > 5) tracker.mpe_sigmas = v[5];
-    }
-    request.tracker = tracker;
-  }
+  if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));
   request.repeatability_mm = in.Number("--repeatability-mm", 0.0, std::numeric_limits<double>::lowest());
   const api::Campaign campaign = in.Client().CreateCampaign(request);
   if (in.json) return Show(in, campaign);

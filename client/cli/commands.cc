@@ -25,6 +25,7 @@ const std::vector<Command>& Commands() {
         {"--objective", "NAME"},
         {"--optimiser", "NAME"},
         {"--seed", "N"},
+        {"--tracker", "datasheet|R,r,T,t[,O[,K]]"},
         {"--async"},
         {"--out", "FILE.csv|FILE.json"}},
        &help::kPlan,

@@ -99,6 +99,8 @@ accuracy against a random set of the same size.
   --objective NAME     condition_number, o1, o2, o3, o4, o5, log_det (default condition_number)
   --optimiser NAME     solis_wets, random or exchange (default solis_wets)
   --seed N             seed of the search (default 1); the same seed gives the same plan
+  --tracker MODEL      weigh the rows by the tracker's uncertainty model, as campaign create takes it
+                       (datasheet, or R,r,T,t[,O[,K]]); in a cell from its tracker's place
   --async              run as a long-running operation and wait for it with a progress bar on stderr
   --out FILE           also write the configurations: FILE.csv (joints CSV) or FILE.json (the plan)
 )"};
@@ -165,7 +167,8 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
   --keep-outliers      plain least squares: no robust fit (by default measurements whose normalised residual
                        exceeds the chi-square threshold are excluded and listed by sequence number)
   --outlier-probability P
-                       chance that a clean measurement is flagged (default 0.001, at most 0.1)
+                       chance that a clean measurement is flagged (default 0.001; 1e-12 to 0.1; unused
+                       with --keep-outliers)
   --async              run as a long-running operation and wait for it with a progress bar on stderr
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};

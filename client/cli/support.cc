@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "cli.h"
@@ -21,6 +22,26 @@ std::string ReadFile(const std::string& path) {
 
 bool EndsWith(const std::string& text, const std::string& suffix) {
   return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+api::TrackerModelWire ParseTrackerFlag(const std::string& text) {
+  api::TrackerModelWire tracker;
+  if (text == "datasheet") return tracker;
+  const std::vector<std::string> parts = tools::SplitList("--tracker", text);
+  if (parts.size() < 4 || parts.size() > 6) {
+    throw UsageError(
+        "--tracker takes datasheet or RADIAL_UM,RADIAL_UM_PER_M,TRANSVERSE_UM,TRANSVERSE_UM_PER_M"
+        "[,ORIENTATION_DEG[,MPE_SIGMAS]]");
+  }
+  std::vector<double> v;
+  for (const std::string& p : parts) {
+    v.push_back(tools::ParseDoubleFlag("--tracker", p, std::numeric_limits<double>::lowest()));
+  }
+  tracker.radial_um = {v[0], v[1]};
+  tracker.transverse_um = {v[2], v[3]};
+  if (v.size() > 4) tracker.orientation_deg = v[4];
+  if (v.size() > 5) tracker.mpe_sigmas = v[5];
+  return tracker;
 }
 
 std::string Fixed(double v, int digits) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "command.h"
+#include "robocal/api/wire.h"
 
 namespace robocal::cli {
 
@@ -16,6 +17,9 @@ std::string ReadFile(const std::string& path);
 bool EndsWith(const std::string& text, const std::string& suffix);
 /// `v` with `digits` decimals; "-" if not finite.
 std::string Fixed(double v, int digits);
+/// The value of --tracker: "datasheet" (the defaults) or RADIAL_UM,RADIAL_UM_PER_M,TRANSVERSE_UM,
+/// TRANSVERSE_UM_PER_M[,ORIENTATION_DEG[,MPE_SIGMAS]]; UsageError otherwise. The service checks the ranges.
+api::TrackerModelWire ParseTrackerFlag(const std::string& text);
 
 /// `out_file` opened for writing, or `out` when it is empty.
 class Output {

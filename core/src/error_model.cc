@@ -2,6 +2,7 @@
 #include "robocal/core/error_model.h"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace robocal {
@@ -125,21 +126,23 @@ Eigen::Matrix3d TrackerUncertainty::PositionWhitening(const Eigen::Vector3d& poi
 }
 
 bool TrackerUncertainty::IsValid(std::string* error) const {
+  // Bounds that keep every weight and its square finite (1 / (1e-3 um)^2 = 1e12 mm^-2), far beyond any
+  // tracker on either side.
   const struct {
     const char* name;
     double value;
-    bool zero_allowed;
-  } fields[] = {{"radial_um", radial_um, false},
-                {"radial_um_per_m", radial_um_per_m, true},
-                {"transverse_um", transverse_um, false},
-                {"transverse_um_per_m", transverse_um_per_m, true},
-                {"orientation_deg", orientation_deg, false},
-                {"mpe_sigmas", mpe_sigmas, false}};
+    double min, max;
+  } fields[] = {{"radial_um", radial_um, kMinTrackerUm, 1000.0},
+                {"radial_um_per_m", radial_um_per_m, 0.0, 1000.0},
+                {"transverse_um", transverse_um, kMinTrackerUm, 1000.0},
+                {"transverse_um_per_m", transverse_um_per_m, 0.0, 1000.0},
+                {"orientation_deg", orientation_deg, kMinTrackerOrientationDeg, 90.0},
+                {"mpe_sigmas", mpe_sigmas, 0.1, 10.0}};
   for (const auto& f : fields) {
-    const bool ok = std::isfinite(f.value) && (f.zero_allowed ? f.value >= 0.0 : f.value > 0.0);
-    if (!ok) {
-      *error = std::string("tracker.") + f.name +
-               (f.zero_allowed ? " must be finite and >= 0" : " must be positive and finite");
+    if (!(f.value >= f.min && f.value <= f.max)) {
+      std::ostringstream range;
+      range << "tracker." << f.name << " must be in [" << f.min << ", " << f.max << "]";
+      *error = range.str();
       return false;
     }
   }

@@ -124,6 +124,10 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
     }
     for (int r = 0; r < rows; ++r) weighted.row(m * rows + r) = w[num_reflectors > 0 ? 0 : r] * block.row(r);
   }
+  if (!weighted.allFinite()) {
+    summary.message = "non-finite weighted Jacobian: the noise figures are out of range";
+    return summary;
+  }
   // A column with no effect stays zero; the QR then pivots it last.
   const Eigen::VectorXd d = UnitColumnFactorsOf(weighted);
   const Eigen::MatrixXd scaled = weighted * d.asDiagonal();

@@ -550,6 +550,8 @@ double Median(std::vector<double> values) {
 }
 
 constexpr double kMinRobustScale = 1e-3;
+// A robust scale beyond this factor either way is said in the message (above it: DEGRADED).
+constexpr double kScaleWarning = 3.0;
 // Rounds of the robust fit before it stops with the set it has (an oscillating set is reported as such).
 constexpr int kMaxRejectionRounds = 10;
 // More than this fraction flagged means the noise model or the data are wrong, not a few gross errors.
@@ -621,6 +623,23 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   if (!settled) {
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
     s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
+  }
+  // The scale is 1 when the noise model is right. Far above, the data scatter more than the model says and
+  // gross errors can hide in the scatter (or more than half the data are gross errors); far below, the model
+  // is too pessimistic, and where its proportions are wrong (e.g. across against along the beam) the
+  // whitened residuals are no longer chi-square shaped and clean shots get flagged.
+  if (scale > kScaleWarning) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    std::ostringstream note;
+    note << "; the residuals scatter " << std::setprecision(3) << scale
+         << " times what the noise model says (robust scale): outliers may be missed; check the tracker figures, "
+            "the repeatability and the data";
+    s.message += note.str();
+  } else if (scale < 1.0 / kScaleWarning && scale > kMinRobustScale) {
+    std::ostringstream note;
+    note << "; the residuals scatter only " << std::setprecision(3) << scale
+         << " times what the noise model says (robust scale): the model is pessimistic";
+    s.message += note.str();
   }
   if (static_cast<double>(s.outliers.size()) > kSuspiciousOutlierFraction * static_cast<double>(n)) {
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;

@@ -246,7 +246,7 @@ expect "... the members left out take the datasheet defaults" \
 expect "a campaign without one says null" "$(call GET "/v1/campaigns/$campaign" | jq -c .tracker)" null
 for bad_tracker in '{"radial_um": [0, 0.3]}|tracker.radial_um[0]' '{"transverse_um": [15, -1]}|tracker.transverse_um[1]' \
   '{"transverse_um": [15]}|tracker.transverse_um' '{"mpe_sigmas": 0}|tracker.mpe_sigmas' '{"radial": [1, 1]}|tracker.radial' \
-  '[]|tracker'; do
+  '[]|tracker' '{"radial_um": [1e-150, 0]}|tracker.radial_um[0]' '{"orientation_deg": 1e-12}|tracker.orientation_deg'; do
   call POST /v1/campaigns "{\"robot\": \"grinder5\", \"tracker\": ${bad_tracker%%|*}}" >/dev/null
   expect "tracker ${bad_tracker%%|*} -> 400 naming ${bad_tracker##*|}" \
     "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 ${bad_tracker##*|}"

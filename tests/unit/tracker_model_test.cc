@@ -65,6 +65,10 @@ TEST(TrackerUncertaintyTest, InvalidFiguresAreNamed) {
     const char* name;
   } cases[] = {{&TrackerUncertainty::radial_um, 0.0, "tracker.radial_um"},
                {&TrackerUncertainty::radial_um_per_m, -1.0, "tracker.radial_um_per_m"},
+               {&TrackerUncertainty::radial_um, 1e-150, "tracker.radial_um"},
+               {&TrackerUncertainty::transverse_um, 1e-4, "tracker.transverse_um"},
+               {&TrackerUncertainty::mpe_sigmas, 20.0, "tracker.mpe_sigmas"},
+               {&TrackerUncertainty::orientation_deg, 91.0, "tracker.orientation_deg"},
                {&TrackerUncertainty::transverse_um, NAN, "tracker.transverse_um"},
                {&TrackerUncertainty::transverse_um_per_m, INFINITY, "tracker.transverse_um_per_m"},
                {&TrackerUncertainty::orientation_deg, -0.01, "tracker.orientation_deg"},

@@ -59,9 +59,14 @@ struct TrackerUncertainty {
   Eigen::Matrix3d PositionSqrt(const Eigen::Vector3d& point_mm) const;
   /// W with W' W = C(p)^-1 (symmetric: u u' / s_r + (I - u u') / s_t): W r is a residual in sigmas.
   Eigen::Matrix3d PositionWhitening(const Eigen::Vector3d& point_mm) const;
-  /// Every figure finite, the constants and mpe_sigmas positive, the slopes >= 0; else false and the field.
+  /// The constants in [kMinTrackerUm, 1000] um, the slopes in [0, 1000] um/m, the orientation in
+  /// [kMinTrackerOrientationDeg, 90] deg, mpe_sigmas in [0.1, 10]; else false and the field.
   bool IsValid(std::string* error) const;
 };
+
+/// The smallest constants TrackerUncertainty takes (um; deg): a thousandth of a micrometre, a nanodegree.
+inline constexpr double kMinTrackerUm = 1e-3;
+inline constexpr double kMinTrackerOrientationDeg = 1e-9;
 
 /// Where a tracker is assumed to stand when a covariance is needed without knowing where it stands (planning
 /// without a cell): 3 m, the distance of the preset cells and of the virtual cell.
