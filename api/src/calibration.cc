@@ -102,11 +102,13 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
 
 void to_json(nlohmann::json& j, const OutlierWire& o) {
   j = {{"sequence", o.sequence}, {"normalized_residual", Num(o.normalized_residual)}, {"excluded", o.excluded}};
+  if (!o.reflector.empty()) j["reflector"] = o.reflector;
 }
 
 void from_json(const nlohmann::json& j, OutlierWire& o) {
   const WireReader r(j);
   r.Required("sequence", &o.sequence);
+  r.Optional("reflector", &o.reflector);
   r.Required("normalized_residual", &o.normalized_residual);
   r.Required("excluded", &o.excluded);
 }
@@ -214,6 +216,7 @@ void to_json(nlohmann::json& j, const CalibrationResult& c) {
        {"robust", c.robust},
        {"outliers", c.outliers},
        {"parameters_with_outliers", c.parameters_with_outliers},
+       {"reflectors", c.reflectors},
        {"summary", c.summary}};
 }
 
@@ -236,15 +239,17 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
   r.Optional("robust", &c.robust);
   r.Optional("outliers", &c.outliers);
   r.Optional("parameters_with_outliers", &c.parameters_with_outliers);
+  r.Optional("reflectors", &c.reflectors);
   r.Required("summary", &c.summary);
 }
 
 namespace {
 
-std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& parameters) {
+// `num_model_parameters`: indices from there on are reflector offsets (mm).
+std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& parameters, int num_model_parameters) {
   std::vector<ParameterEstimate> out;
   for (const IdentifiedParameter& p : parameters) {
-    const bool translation = RobotModel::IsTranslationParameter(p.index);
+    const bool translation = p.index >= num_model_parameters || RobotModel::IsTranslationParameter(p.index);
     const double scale = translation ? 1.0 : kDegPerRad;
     out.push_back({p.name, translation ? "mm" : "deg", p.value * scale, p.std * scale});
   }
@@ -255,7 +260,9 @@ std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& pa
 
 CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& sequences) {
   CalibrationResult w;
-  w.parameters = ToWire(c.parameters);
+  const int n_model = static_cast<int>(c.errors.size());
+  w.parameters = ToWire(c.parameters, n_model);
+  w.reflectors = ToWire(c.reflectors);
   const IdentificationSummary& s = c.summary;
   w.robust.enabled = s.rejection_rounds > 0;
   w.robust.threshold = s.outlier_threshold;
@@ -263,10 +270,12 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
   w.robust.rounds = s.rejection_rounds;
   for (const OutlierMeasurement& o : s.outliers) {
     const bool mapped = o.measurement >= 0 && static_cast<std::size_t>(o.measurement) < sequences.size();
+    const bool named = o.reflector >= 0 && static_cast<std::size_t>(o.reflector) < c.reflectors.size();
     w.outliers.push_back({mapped ? sequences[static_cast<std::size_t>(o.measurement)] : o.measurement,
+                          named ? c.reflectors[static_cast<std::size_t>(o.reflector)].id : std::string(),
                           o.normalized_residual, true});
   }
-  w.parameters_with_outliers = ToWire(s.parameters_with_outliers);
+  w.parameters_with_outliers = ToWire(s.parameters_with_outliers, n_model);
   w.measurement_type = s.measurement_type;
   w.dropped = ToWire(s.dropped);
   w.base = TransformToPose(c.T_world_base);

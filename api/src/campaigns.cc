@@ -2,6 +2,7 @@
 #include "robocal/api/campaigns.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "robocal/api/json_reader.h"
 #include "robocal/api/robots.h"
@@ -9,6 +10,78 @@
 namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- campaigns
+
+void to_json(nlohmann::json& j, const CampaignReflectorWire& r) {
+  j = {{"id", r.id}, {"position_mm", r.position_mm}, {"fixed", r.fixed}};
+}
+
+void from_json(const nlohmann::json& j, CampaignReflectorWire& r) {
+  const WireReader reader(j);
+  reader.Required("id", &r.id);
+  reader.Required("position_mm", &r.position_mm);
+  reader.Required("fixed", &r.fixed);
+}
+
+std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors) {
+  std::vector<Reflector> out;
+  for (const CampaignReflectorWire& r : reflectors) {
+    out.push_back({r.id, Eigen::Vector3d(r.position_mm[0], r.position_mm[1], r.position_mm[2]), r.fixed});
+  }
+  return out;
+}
+
+std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors) {
+  std::vector<CampaignReflectorWire> out;
+  for (const Reflector& r : reflectors) {
+    out.push_back({r.id, {r.position_mm.x(), r.position_mm.y(), r.position_mm.z()}, r.fixed});
+  }
+  return out;
+}
+
+int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const std::string& id) {
+  for (std::size_t k = 0; k < reflectors.size(); ++k) {
+    if (reflectors[k].id == id) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+namespace {
+
+// "reflectors" of a campaign request: at most kMaxFitReflectors, ids by the id rule and unique, positions
+// finite within 10 m of the flange.
+void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out) {
+  if (value == nullptr) return;
+  if (!value->is_array()) {
+    problems->Add("reflectors", std::string("expected an array, got ") + value->type_name());
+    return;
+  }
+  if (value->size() > static_cast<std::size_t>(kMaxFitReflectors)) {
+    problems->Add("reflectors", "too many elements: " + std::to_string(value->size()) + " (limit " +
+                                    std::to_string(kMaxFitReflectors) + ")");
+    return;
+  }
+  for (std::size_t k = 0; k < value->size(); ++k) {
+    const std::string path = IndexPath("reflectors", k);
+    ObjectReader r((*value)[k], path, problems);
+    CampaignReflectorWire w;
+    if (r.String("id", true, &w.id, 64)) {
+      if (!IsValidId(w.id)) {
+        problems->Add(JoinPath(path, "id"), kIdRule);
+      } else if (ReflectorIndex(*out, w.id) >= 0) {
+        problems->Add(JoinPath(path, "id"), "\"" + w.id + "\" is given twice");
+      }
+    }
+    if (r.FixedNumbers("position_mm", true, w.position_mm.data(), 3) &&
+        std::any_of(w.position_mm.begin(), w.position_mm.end(), [](double v) { return std::abs(v) > 1e4; })) {
+      problems->Add(JoinPath(path, "position_mm"), "must be within 10000 mm of the flange");
+    }
+    r.Bool("fixed", false, &w.fixed);
+    r.RejectUnknown({"id", "position_mm", "fixed"});
+    out->push_back(std::move(w));
+  }
+}
+
+}  // namespace
 
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   Problems problems;
@@ -23,7 +96,12 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
   ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
   r.Number("repeatability_mm", false, &req.repeatability_mm, 0.0, 10.0);
-  r.RejectUnknown({"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm"});
+  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors);
+  if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
+    problems.Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
+  }
+  r.RejectUnknown(
+      {"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm", "reflectors"});
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
@@ -36,6 +114,7 @@ void to_json(nlohmann::json& j, const CreateCampaignRequest& req) {
   if (!req.plan.empty()) j["plan"] = req.plan;
   if (req.tracker) j["tracker"] = *req.tracker;
   if (req.repeatability_mm != 0.0) j["repeatability_mm"] = req.repeatability_mm;
+  if (!req.reflectors.empty()) j["reflectors"] = req.reflectors;
 }
 
 void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
@@ -48,6 +127,7 @@ void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
   r.Optional("noise", &req.noise);
   r.Optional("tracker", &req.tracker);
   r.Optional("repeatability_mm", &req.repeatability_mm);
+  r.Optional("reflectors", &req.reflectors);
 }
 
 void to_json(nlohmann::json& j, const MeasurementCounts& c) {
@@ -69,6 +149,7 @@ void to_json(nlohmann::json& j, const Campaign& c) {
        {"noise", c.noise},
        {"tracker", c.tracker ? nlohmann::json(*c.tracker) : nlohmann::json()},
        {"repeatability_mm", c.repeatability_mm},
+       {"reflectors", c.reflectors},
        {"created_unix_ms", c.created_unix_ms},
        {"counts", c.counts},
        {"calibrated", c.calibrated}};
@@ -84,6 +165,7 @@ void from_json(const nlohmann::json& j, Campaign& c) {
   r.Required("noise", &c.noise);
   r.Required("tracker", &c.tracker);
   r.Required("repeatability_mm", &c.repeatability_mm);
+  r.Required("reflectors", &c.reflectors);
   r.Required("created_unix_ms", &c.created_unix_ms);
   r.Required("counts", &c.counts);
   r.Required("calibrated", &c.calibrated);
@@ -102,16 +184,21 @@ void from_json(const nlohmann::json& j, CampaignList& list) {
 
 // ---------------------------------------------------------------------------------------------- measurements
 
-void to_json(nlohmann::json& j, const MeasurementWire& m) { j = {{"joints", m.joints}, {"pose", m.pose}}; }
+void to_json(nlohmann::json& j, const MeasurementWire& m) {
+  j = {{"joints", m.joints}, {"pose", m.pose}};
+  if (!m.reflector.empty()) j["reflector"] = m.reflector;
+}
 
 void from_json(const nlohmann::json& j, MeasurementWire& m) {
   const WireReader r(j);
   r.Required("joints", &m.joints);
   r.Required("pose", &m.pose);
+  r.Optional("reflector", &m.reflector);
 }
 
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
-                                                     MeasurementType type, const Limits& limits) {
+                                                     MeasurementType type, const Limits& limits,
+                                                     const std::vector<CampaignReflectorWire>& reflectors) {
   Problems problems;
   MeasurementBatchRequest req;
   ObjectReader r(body, "", &problems);
@@ -141,7 +228,17 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
       } else if (m.ok()) {
         problems.Add(JoinPath(path, "pose"), "required");
       }
-      m.RejectUnknown({"joints", "pose"});
+      if (m.String("reflector", !reflectors.empty(), &w.reflector, 64)) {
+        if (reflectors.empty()) {
+          problems.Add(JoinPath(path, "reflector"), "the campaign has no reflectors");
+        } else if (ReflectorIndex(reflectors, w.reflector) < 0) {
+          std::string known;
+          for (const CampaignReflectorWire& c : reflectors) known += (known.empty() ? "" : ", ") + c.id;
+          problems.Add(JoinPath(path, "reflector"),
+                       "unknown reflector \"" + w.reflector + "\" (the campaign has " + known + ")");
+        }
+      }
+      m.RejectUnknown({"joints", "pose", "reflector"});
       // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
       if (problems.size() > 100) break;
     }
@@ -163,8 +260,12 @@ void from_json(const nlohmann::json& j, MeasurementBatchRequest& req) {
 }
 
 void to_json(nlohmann::json& j, const BatchResult& b) {
-  j = {{"campaign", b.campaign},   {"batch_id", b.batch_id},       {"request_id", b.request_id},
-       {"replayed", b.replayed},   {"first_sequence", b.first_sequence}, {"count", b.count},
+  j = {{"campaign", b.campaign},
+       {"batch_id", b.batch_id},
+       {"request_id", b.request_id},
+       {"replayed", b.replayed},
+       {"first_sequence", b.first_sequence},
+       {"count", b.count},
        {"campaign_total", b.campaign_total}};
 }
 
@@ -185,6 +286,7 @@ void to_json(nlohmann::json& j, const StoredMeasurementWire& m) {
        {"role", m.role},
        {"joints", m.measurement.joints},
        {"pose", m.measurement.pose}};
+  if (!m.measurement.reflector.empty()) j["reflector"] = m.measurement.reflector;
 }
 
 void from_json(const nlohmann::json& j, StoredMeasurementWire& m) {

@@ -47,6 +47,7 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
                  {"created_unix_ms", c.created_unix_ms}});
   if (c.tracker) j["tracker"] = *c.tracker;
   if (c.repeatability_mm != 0.0) j["repeatability_mm"] = c.repeatability_mm;
+  if (!c.reflectors.empty()) j["reflectors"] = c.reflectors;
 }
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
@@ -61,6 +62,7 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
   r.Required("noise", &c.noise);
   r.Optional("tracker", &c.tracker);
   r.Optional("repeatability_mm", &c.repeatability_mm);
+  r.Optional("reflectors", &c.reflectors);
   r.Required("created_unix_ms", &c.created_unix_ms);
 }
 
@@ -133,6 +135,7 @@ Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) 
                 {},
                 PoseToTransform(stored.T_world_base),
                 PoseToTransform(stored.T_flange_tool),
+                ToCore(stored.result.reflectors),
                 {}};
   c.summary.termination = stored.result.summary.termination;
   c.summary.message = stored.result.summary.message;

@@ -140,7 +140,8 @@ x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit. --json: the forwa
 const HelpText kUpload = {"upload tracker measurements (CSV or JSON)", R"(
 FILE is CSV (*.csv) or JSON. CSV: a header, then one row per tracker shot: the joint columns (degrees for
 revolute, mm for prismatic joints, in joint order), x_mm,y_mm,z_mm (tool position, tracker frame) and
-qw,qx,qy,qz (tool orientation; may be left out for position campaigns). JSON: a batch
+qw,qx,qy,qz (tool orientation; may be left out for position campaigns), and for a campaign with reflectors a
+last column reflector naming each shot's nest. JSON: a batch
 {"request_id": ..., "role": ..., "measurements": [{"joints": [...], "pose": {...}}]}, or just the array.
 The upload is atomic and idempotent: the same request id with the same content is stored once, so a repeated
 upload is safe. Without --request-id (and none in the JSON) it is derived from the content.

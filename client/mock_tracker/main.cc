@@ -45,6 +45,9 @@ Options:
                         6 um/m MPE) and 0.03 mm robot repeatability (both sent with the plan and campaign),
                         and 2 % outliers of 1-5 mm; the report says how many outliers the fit excluded
   --outliers RATE       share of shots made 1-5 mm outliers, 0..0.5 (default 0, or 0.02 with --realistic)
+  --reflectors N        reflector nests on the tool, 0..3 (needs --type position): each pose shoots every
+                        one, the campaign lists them and the fit identifies their offsets (default 0: the
+                        tool point)
   --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
                         from seed + trial; validation errors pooled (default 1; one trial of 10
                         configurations is a noisy comparison)
@@ -165,6 +168,8 @@ int main(int argc, char** argv) {
         options.cell = v;
       } else if (flag == "--realistic") {
         options.realistic = true;
+      } else if (flag == "--reflectors") {
+        options.reflectors = integer(flag, v);
       } else if (flag == "--outliers") {
         options.outlier_rate = tools::ParseDoubleFlag(flag, v, std::numeric_limits<double>::lowest());
       } else if (flag == "--trials") {

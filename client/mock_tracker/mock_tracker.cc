@@ -67,8 +67,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   campaign_request.noise = plan_request.noise;
   campaign_request.tracker = plan_request.tracker;
   campaign_request.repeatability_mm = cell->options().noise.repeatability_mm;
-  campaign_request.description =
-      "mock tracker, seed " + std::to_string(options.seed) + ", " + api::WireName(optimiser);
+  campaign_request.reflectors = api::ToWire(cell->options().reflectors);
+  campaign_request.description = "mock tracker, seed " + std::to_string(options.seed) + ", " + api::WireName(optimiser);
   out.campaign = client.CreateCampaign(campaign_request);
   Log(log, "campaign " + out.campaign.id);
 
@@ -92,8 +92,8 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   out.calibration = client.Fit(out.campaign.id);
   Log(log, "fit: " + out.calibration.summary.brief);
   for (const api::OutlierWire& o : out.calibration.outliers) {
-    out.outliers_found += static_cast<int>(
-        std::count(out.injected_outliers.begin(), out.injected_outliers.end(), o.sequence));
+    out.outliers_found +=
+        static_cast<int>(std::count(out.injected_outliers.begin(), out.injected_outliers.end(), o.sequence));
   }
   if (!out.injected_outliers.empty() || !out.calibration.outliers.empty()) {
     Log(log, "outliers: the cell injected " + std::to_string(out.injected_outliers.size()) + ", the fit excluded " +
@@ -143,7 +143,9 @@ json OutcomeJson(const CampaignOutcome& o) {
           {"service_evaluation", o.evaluation}};
 }
 
-json PooledJson(const PooledAccuracy& p) { return {{"before", api::ToWire(p.before)}, {"after", api::ToWire(p.after)}}; }
+json PooledJson(const PooledAccuracy& p) {
+  return {{"before", api::ToWire(p.before)}, {"after", api::ToWire(p.after)}};
+}
 
 // The validation errors of one method over all trials, as if one long validation run.
 PooledAccuracy Pool(const std::vector<const CampaignOutcome*>& outcomes, double h_mm) {
@@ -173,6 +175,10 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
   if (!(h_mm > 0)) return fail("--h-mm must be positive");
   if (trials < 1 || trials > 100) return fail("--trials must be in [1, 100]");
   if (outlier_rate && !(*outlier_rate >= 0.0 && *outlier_rate <= 0.5)) return fail("--outliers must be in [0, 0.5]");
+  if (reflectors < 0 || reflectors > 3) return fail("--reflectors must be in [0, 3]");
+  if (reflectors > 0 && measurement_type != MeasurementType::kPosition) {
+    return fail("--reflectors needs --type position");
+  }
   return true;
 }
 
@@ -183,6 +189,11 @@ VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<Reso
   if (cell) cell_options.measurement_cell = cell->spec;
   if (options.realistic) cell_options = Realistic(cell_options);
   if (options.outlier_rate) cell_options.outlier_rate = *options.outlier_rate;
+  // Three nests on a tool plate, 60 mm off the flange axis and 20 mm out, positions known to the fit only as
+  // drawn: the cell hides their offsets.
+  const std::vector<Reflector> nests = {
+      {"smr1", {60.0, 0.0, 20.0}, false}, {"smr2", {-30.0, 52.0, 20.0}, false}, {"smr3", {-30.0, -52.0, 20.0}, false}};
+  cell_options.reflectors.assign(nests.begin(), nests.begin() + options.reflectors);
   return VirtualCell(Preset(options.robot), cell_options);
 }
 
@@ -221,13 +232,14 @@ std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTracke
     wire = client.GetCell(options.cell);
   }
   if (wire.robot != options.robot) {
-    throw std::invalid_argument("cell '" + wire.id + "' is for robot '" + wire.robot + "', not '" + options.robot + "'");
+    throw std::invalid_argument("cell '" + wire.id + "' is for robot '" + wire.robot + "', not '" + options.robot +
+                                "'");
   }
   return ResolvedCell{wire.id, api::ToCell(wire, model).spec()};
 }
 
 api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
-                                             api::MeasurementRole role, const MockTrackerOptions& options) {
+                                              api::MeasurementRole role, const MockTrackerOptions& options) {
   const RobotModel& nominal = cell->nominal();
   api::MeasurementBatchRequest batch;
   batch.request_id = "mock-" + std::to_string(options.seed) + "-" + api::WireName(role);
@@ -236,7 +248,8 @@ api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vect
     const Eigen::VectorXd q = api::JointsToCore(nominal, wire_q);
     // One shot per validation pose; the planned poses get the cell's shots per pose, as the paper measures.
     for (const Measurement& m : cell->Measure(q, role == api::MeasurementRole::kValidation ? 1 : 0)) {
-      batch.measurements.push_back({wire_q, api::TransformToPose(m.T_world_tool)});
+      const std::string reflector = m.reflector >= 0 ? cell->options().reflectors[m.reflector].id : std::string();
+      batch.measurements.push_back({wire_q, api::TransformToPose(m.T_world_tool), reflector});
     }
   }
   return batch;
@@ -265,8 +278,8 @@ MockTrackerReport RunMockTracker(client::Client& client, const MockTrackerOption
       // The same cell (same hidden errors), calibrated from random configurations: the paper's comparison.
       MockTrackerOptions random_options = trial_options;
       random_options.seed = trial_options.seed + kRandomPlanSeedOffset;  // distinct request ids for this campaign
-      trial.random =
-          RunCampaign(client, &cell, cell_id, random_options, api::Optimiser::kRandom, random_options.seed, validation, log);
+      trial.random = RunCampaign(client, &cell, cell_id, random_options, api::Optimiser::kRandom, random_options.seed,
+                                 validation, log);
     }
     report.trials.push_back(std::move(trial));
   }
@@ -310,8 +323,9 @@ std::string FormatReport(const MockTrackerReport& report, const MockTrackerOptio
   out << "robot " << options.robot << ", " << options.count << " " << api::WireName(options.measurement_type)
       << " configurations, seed " << options.seed << ", " << report.trials.size() << " trial"
       << (report.trials.size() > 1 ? "s" : "") << ", h = " << options.h_mm << " mm"
-      << (options.cell.empty() ? "" : ", measured in cell " + (options.cell == "preset" ? "preset-" + options.robot
-                                                                                          : options.cell))
+      << (options.cell.empty()
+              ? ""
+              : ", measured in cell " + (options.cell == "preset" ? "preset-" + options.robot : options.cell))
       << "\n";
   tables(report.planned, api::WireName(options.optimiser), false);
   if (report.random) {

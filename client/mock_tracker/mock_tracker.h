@@ -48,6 +48,9 @@ struct MockTrackerOptions {
   bool realistic = false;
   /// Share of shots turned into 1-5 mm outliers (unset: 0, or the realistic cell's 2 %).
   std::optional<double> outlier_rate;
+  /// Reflector nests on the tool (0..3; needs position measurements): each pose shoots every one, and the
+  /// campaign identifies their offsets.
+  int reflectors = 0;
 
   bool IsValid(std::string* error) const;
 };

@@ -112,20 +112,38 @@ void WriteJointsCsv(std::ostream& out, const std::vector<api::RobotJoint>& joint
 std::vector<api::MeasurementWire> ReadMeasurementsCsv(std::istream& in, int num_joints) {
   std::vector<api::MeasurementWire> measurements;
   const std::size_t n = static_cast<std::size_t>(num_joints);
-  const auto header = ReadRows(in, [&](const std::vector<double>& v) {
+  std::vector<std::vector<std::string>> rows;
+  std::vector<int> lines;
+  const std::vector<std::string> header = ReadLines(in, [&](const std::vector<std::string>& fields, int number) {
+    rows.push_back(fields);
+    lines.push_back(number);
+  });
+  // A last column "reflector" names the reflector of each shot (a campaign with several reflectors).
+  const bool reflector = !header.empty() && header.back() == "reflector";
+  const std::size_t numbers = header.size() - (reflector ? 1 : 0);
+  if (numbers != n + 3 && numbers != n + 7) {
+    throw std::runtime_error("the header has " + std::to_string(header.size()) + " columns; expected " +
+                             std::to_string(n) + " joints + x_mm,y_mm,z_mm (+ qw,qx,qy,qz) (+ reflector)");
+  }
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    std::vector<double> v;
+    for (std::size_t i = 0; i < numbers; ++i) v.push_back(ParseNumber(rows[r][i], lines[r], i));
     api::MeasurementWire m;
-    m.joints.assign(v.begin(), v.begin() + std::min(n, v.size()));
-    if (v.size() >= n + 3) m.pose.position_mm = {v[n], v[n + 1], v[n + 2]};
-    if (v.size() == n + 7) {
+    m.joints.assign(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n));
+    m.pose.position_mm = {v[n], v[n + 1], v[n + 2]};
+    if (numbers == n + 7) {
       m.pose.quaternion = {v[n + 3], v[n + 4], v[n + 5], v[n + 6]};
     } else {
       m.pose.has_orientation = false;
     }
+    if (reflector) {
+      m.reflector = rows[r][numbers];
+      if (!m.reflector.empty() && !api::IsValidId(m.reflector)) {
+        throw std::runtime_error("line " + std::to_string(lines[r]) + ", column " + std::to_string(numbers + 1) +
+                                 ": reflector \"" + m.reflector + "\" " + api::kIdRule);
+      }
+    }
     measurements.push_back(std::move(m));
-  });
-  if (header.size() != n + 3 && header.size() != n + 7) {
-    throw std::runtime_error("the header has " + std::to_string(header.size()) + " columns; expected " +
-                             std::to_string(n) + " joints + x_mm,y_mm,z_mm (+ qw,qx,qy,qz)");
   }
   if (header[n] != "x_mm") {
     throw std::runtime_error("column " + std::to_string(n + 1) + " must be x_mm (after the " + std::to_string(n) +
@@ -139,8 +157,10 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
   // Position-only measurements have no quaternion to write (a made-up identity would read back as measured).
   const bool orientation = std::all_of(measurements.begin(), measurements.end(),
                                        [](const api::MeasurementWire& m) { return m.pose.has_orientation; });
+  const bool reflector = std::any_of(measurements.begin(), measurements.end(),
+                                     [](const api::MeasurementWire& m) { return !m.reflector.empty(); });
   for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
-  out << (orientation ? "x_mm,y_mm,z_mm,qw,qx,qy,qz\n" : "x_mm,y_mm,z_mm\n");
+  out << (orientation ? "x_mm,y_mm,z_mm,qw,qx,qy,qz" : "x_mm,y_mm,z_mm") << (reflector ? ",reflector\n" : "\n");
   for (const auto& m : measurements) {
     for (double v : m.joints) {
       WriteValue(out, v);
@@ -148,17 +168,20 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
     }
     for (int i = 0; i < 3; ++i) {
       WriteValue(out, m.pose.position_mm[i]);
-      out << (i < 2 || orientation ? "," : "\n");
+      if (i < 2 || orientation) out << ",";
     }
     for (int i = 0; orientation && i < 4; ++i) {
       WriteValue(out, m.pose.quaternion[i]);
-      out << (i < 3 ? "," : "\n");
+      if (i < 3) out << ",";
     }
+    // Reflector ids follow the id rule: no comma or quote to escape.
+    if (reflector) out << "," << m.reflector;
+    out << "\n";
   }
 }
 
 std::vector<api::CompensationTargetWire> ReadCompensationTargetsCsv(std::istream& in, int num_joints,
-                                                                   TargetFrame frame) {
+                                                                    TargetFrame frame) {
   std::vector<std::vector<std::string>> rows;
   std::vector<int> lines;
   const std::vector<std::string> header = ReadLines(in, [&](const std::vector<std::string>& fields, int number) {
@@ -202,8 +225,8 @@ std::vector<api::CompensationTargetWire> ReadCompensationTargetsCsv(std::istream
                   : header[i] == "elbow"  ? &t.configuration.elbow
                                           : &t.configuration.wrist;
       if (!ParseConfigurationFlag(header[i], text, flag)) {
-        throw std::runtime_error("line " + std::to_string(lines[r]) + ", column " + std::to_string(i + 1) +
-                                 ": not a " + header[i] + " flag: \"" + text + "\"");
+        throw std::runtime_error("line " + std::to_string(lines[r]) + ", column " + std::to_string(i + 1) + ": not a " +
+                                 header[i] + " flag: \"" + text + "\"");
       }
     }
     targets.push_back(std::move(t));

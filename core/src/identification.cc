@@ -617,7 +617,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   s.robust_scale = scale;
   s.rejection_rounds = rounds;
   for (size_t i = 0; i < n; ++i) {
-    if (excluded[i]) s.outliers.push_back({static_cast<int>(i), z[i]});
+    if (excluded[i]) s.outliers.push_back({static_cast<int>(i), measurements[i].reflector, z[i]});
   }
   if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
   if (!settled) {

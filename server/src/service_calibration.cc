@@ -17,10 +17,13 @@ namespace {
 using api::ApiError;
 using api::Status;
 
-Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w) {
+// `reflectors`: the campaign's, by which the measurement's reflector id becomes an index.
+Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w,
+                   const std::vector<api::CampaignReflectorWire>& reflectors) {
   Measurement m;
   m.joints = api::JointsToCore(model, w.joints);
   m.T_world_tool = api::PoseToTransform(w.pose);
+  m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(reflectors, w.reflector);
   return m;
 }
 
@@ -65,15 +68,16 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
-  const IdentificationOptions options =
-      api::ToIdentificationOptions(req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm));
+  IdentificationOptions options = api::ToIdentificationOptions(
+      req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm));
+  options.reflectors = api::ToCore(campaign.reflectors);
   CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();
   measurements->reserve(static_cast<std::size_t>(count));
   sequences->reserve(static_cast<std::size_t>(count));
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    measurements->push_back(ToCore(model, ReadMeasurement(s)));
+    measurements->push_back(ToCore(model, ReadMeasurement(s), campaign.reflectors));
     sequences->push_back(s.sequence);
   });
 
@@ -218,11 +222,23 @@ api::Evaluation Service::Evaluate(const std::string& campaign_id, const nlohmann
   const TrimWhenDone trim(&trimmer_, true);
   std::vector<Transform> measured, nominal, calibrated;
   KinematicsWorkspace ws(calibration.model);
+  // With reflectors a shot is compared at its reflector's point: the given position for the nominal robot,
+  // the identified one for the calibrated robot.
+  const std::vector<Eigen::Vector3d> given =
+      ReflectorsInTool(loaded.model, api::ToCore(loaded.campaign.reflectors), Eigen::VectorXd());
+  const std::vector<Eigen::Vector3d> identified =
+      ReflectorsInTool(loaded.model, calibration.reflectors, Eigen::VectorXd());
   ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {
-    const Measurement m = ToCore(loaded.model, ReadMeasurement(s));
+    const Measurement m = ToCore(loaded.model, ReadMeasurement(s), loaded.campaign.reflectors);
     measured.push_back(m.T_world_tool);
-    nominal.push_back(ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws));
-    calibrated.push_back(ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws));
+    const Transform& before = ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws);
+    nominal.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= given.size()
+                          ? before
+                          : AtReflector(before, given[m.reflector]));
+    const Transform& after = ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws);
+    calibrated.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= identified.size()
+                             ? after
+                             : AtReflector(after, identified[m.reflector]));
   });
   if (measured.empty()) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no validation measurements",

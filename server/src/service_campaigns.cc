@@ -41,6 +41,7 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   c.noise = s.noise;
   c.tracker = s.tracker;
   c.repeatability_mm = s.repeatability_mm;
+  c.reflectors = s.reflectors;
   c.created_unix_ms = s.created_unix_ms;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
@@ -68,6 +69,12 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   campaign.noise = req.noise;
   campaign.tracker = req.tracker;
   campaign.repeatability_mm = req.repeatability_mm;
+  campaign.reflectors = req.reflectors;
+  if (!campaign.reflectors.empty() && campaign.measurement_type != MeasurementType::kPosition) {
+    throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
+                   {{"reflectors", std::string("need position measurements (the plan's are ") +
+                                       api::WireName(campaign.measurement_type) + ")"}});
+  }
   campaign.created_unix_ms = NowUnixMs();
   try {
     storage_->Create(kCampaigns, campaign.id, nlohmann::json(campaign).dump());
@@ -98,7 +105,7 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   const api::MeasurementBatchRequest req =
-      api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits);
+      api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits, campaign.reflectors);
   const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
   std::vector<std::string> texts;
   texts.reserve(req.measurements.size());
@@ -114,8 +121,7 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
                                      options_.max_measurements_per_campaign);
   } catch (const StorageError& e) {
     if (e.kind() == StorageError::Kind::kAlreadyExists) {
-      throw ApiError(Status::kAlreadyExists,
-                     "request_id \"" + req.request_id + "\" was used before with other content",
+      throw ApiError(Status::kAlreadyExists, "request_id \"" + req.request_id + "\" was used before with other content",
                      {{"request_id", "reused with different content"}});
     }
     if (e.kind() == StorageError::Kind::kResourceExhausted) {

@@ -468,6 +468,17 @@ TEST(CsvTest, MeasurementsWithAndWithoutOrientation) {
   EXPECT_TRUE(m[0].pose.has_orientation);
   std::istringstream position("q1_deg,x_mm,y_mm,z_mm\n10,1,2,3\n");
   EXPECT_FALSE(client::ReadMeasurementsCsv(position, 1)[0].pose.has_orientation);
+  // A campaign with reflectors: a last column names each shot's nest, and is written back.
+  std::istringstream nests("q1_deg,x_mm,y_mm,z_mm,reflector\n10,1,2,3,smr1\n10,4,5,6,smr2\n");
+  const auto shots = client::ReadMeasurementsCsv(nests, 1);
+  ASSERT_EQ(shots.size(), 2u);
+  EXPECT_EQ(shots[1].reflector, "smr2");
+  EXPECT_FALSE(shots[1].pose.has_orientation);
+  std::ostringstream written;
+  client::WriteMeasurementsCsv(written, {Joint("q1", "deg")}, shots);
+  EXPECT_EQ(written.str(), "q1_deg,x_mm,y_mm,z_mm,reflector\n10,1,2,3,smr1\n10,4,5,6,smr2\n");
+  std::istringstream bad_id("q1_deg,x_mm,y_mm,z_mm,reflector\n10,1,2,3,SMR 1\n");
+  EXPECT_THROW(client::ReadMeasurementsCsv(bad_id, 1), std::runtime_error);
   std::istringstream bad("q1_deg,x_mm,y_mm,z_mm\n10,1,zwei,3\n");
   try {
     client::ReadMeasurementsCsv(bad, 1);

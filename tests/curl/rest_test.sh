@@ -275,6 +275,37 @@ call POST "/v1/campaigns/$tracked:fit" '{"outlier_probability": 0.5}' >/dev/null
 expect "outlier_probability 0.5 -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
   "400 outlier_probability"
 
+# ---- several reflectors per pose (a position-only tracker sees the tool's orientation through three nests) ------
+nests='[{"id": "smr1", "position_mm": [60, 0, 20]}, {"id": "smr2", "position_mm": [-30, 52, 20]}, {"id": "smr3", "position_mm": [-30, -52, 20]}]'
+nested=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"position\", \"reflectors\": $nests}" | jq -r .id)
+expect "POST /v1/campaigns with three reflectors" "$(call GET "/v1/campaigns/$nested" | jq -c '[.reflectors[] | [.id, .fixed]]')" \
+  '[["smr1",false],["smr2",false],["smr3",false]]'
+call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"pose\", \"reflectors\": $nests}" >/dev/null
+expect "reflectors on a pose campaign -> 400 naming reflectors" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 reflectors"
+call POST /v1/campaigns '{"robot": "grinder5", "measurement_type": "position", "reflectors": [{"id": "a", "position_mm": [0, 0, 0]}, {"id": "a", "position_mm": [1, 0, 0]}]}' >/dev/null
+expect "a reflector id twice -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 reflectors[1].id"
+"$mock" --dump-measurements "$work/nests.json" --configurations "$work/plan.json" --seed 1 --type position \
+  --reflectors 3 --shots 2
+expect "upload shots of three reflectors" "$(call POST "/v1/campaigns/$nested/measurements" "@$work/nests.json" | jq .count)" 60
+unknown=$(jq -c '.request_id = "nests-2" | .measurements[0].reflector = "smr9"' "$work/nests.json")
+expect "an unknown reflector -> 400 naming it" \
+  "$(call POST "/v1/campaigns/$nested/measurements" "$unknown" | jq -r '.error.details[0].field')" "measurements[0].reflector"
+missing=$(jq -c '.request_id = "nests-3" | del(.measurements[4].reflector)' "$work/nests.json")
+expect "a shot without its reflector -> 400 naming it" \
+  "$(call POST "/v1/campaigns/$nested/measurements" "$missing" | jq -r '.error.details[0].field')" "measurements[4].reflector"
+expect "a reflector in a campaign without reflectors -> 400" \
+  "$(call POST "/v1/campaigns/$tracked/measurements" "$unknown" | jq -r '.error.details[0].reason')" "the campaign has no reflectors"
+expect "stored shots keep their reflector" \
+  "$(call GET "/v1/campaigns/$nested/measurements?limit=3" | jq -c '[.measurements[].reflector]')" '["smr1","smr1","smr2"]'
+call POST "/v1/campaigns/$nested:fit" '{}' >"$work/nests_fit.json"
+expect "fit with three reflectors" "$(status)" 200
+expect "... identifies reflector offsets beside the robot's" \
+  "$(jq '[.parameters[].name | select(startswith("reflector."))] | length > 0' "$work/nests_fit.json")" true
+expect "... and returns the reflectors at their identified positions" \
+  "$(jq -c '[.reflectors[].id]' "$work/nests_fit.json")" '["smr1","smr2","smr3"]'
+expect "... to the noise level" "$(jq '.residuals_after.rms_position_mm < 0.05' "$work/nests_fit.json")" true
+
 # ---- the mock tracker drives the same server end to end ----------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --seed 2 --shots 3 --json >"$work/mock.json" 2>/dev/null
 expect "robocal-mock-tracker improves accuracy" "$(jq .improved "$work/mock.json")" true

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/campaigns.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/accuracy.h"
@@ -96,6 +97,8 @@ void from_json(const nlohmann::json& j, FitSummary& s);
 /// (sigmas, against the final fit).
 struct OutlierWire {
   std::int64_t sequence = 0;
+  /// The reflector of the shot (a campaign with reflectors; absent otherwise).
+  std::string reflector;
   double normalized_residual = 0.0;
   bool excluded = true;
 };
@@ -138,6 +141,9 @@ struct CalibrationResult {
   RobustFitWire robust;
   std::vector<OutlierWire> outliers;
   std::vector<ParameterEstimate> parameters_with_outliers;
+  /// The campaign's reflectors at their identified positions (flange frame; a fixed one where it was given);
+  /// empty without reflectors. Their offsets are also parameters (reflector.<id>.dx, ...) when identified.
+  std::vector<CampaignReflectorWire> reflectors;
   FitSummary summary;
 };
 void to_json(nlohmann::json& j, const CalibrationResult& c);

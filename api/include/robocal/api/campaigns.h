@@ -10,9 +10,25 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/wire.h"
+#include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal::api {
+
+/// A reflector of a position campaign (docs/identification.md, "Several reflectors per pose"): its id (the
+/// id rule), where it sits on the flange (mm, flange frame) and whether that position is known (fixed, held)
+/// or its offset is identified. In a fit result: the identified position.
+struct CampaignReflectorWire {
+  std::string id;
+  std::array<double, 3> position_mm{0.0, 0.0, 0.0};
+  bool fixed = false;
+};
+void to_json(nlohmann::json& j, const CampaignReflectorWire& reflector);
+void from_json(const nlohmann::json& j, CampaignReflectorWire& reflector);
+std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors);
+std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors);
+/// The index of each measurement's reflector id among `reflectors` (-1 for none).
+int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const std::string& id);
 
 /// POST /v1/campaigns.
 struct CreateCampaignRequest {
@@ -28,6 +44,9 @@ struct CreateCampaignRequest {
   /// The robot's repeatability, ISO 9283 RP (mm, [0, 10]): the shots of one joint configuration share an error
   /// of this size, which the fit models (docs/identification.md, "Weighting"). 0: not modelled.
   double repeatability_mm = 0.0;
+  /// Several reflectors on the tool (position campaigns, at most kMaxFitReflectors): every measurement then
+  /// names the one it shot.
+  std::vector<CampaignReflectorWire> reflectors;
 };
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
@@ -53,6 +72,7 @@ struct Campaign {
   /// Null on the wire when the campaign weights by `noise`.
   std::optional<TrackerModelWire> tracker;
   double repeatability_mm = 0.0;
+  std::vector<CampaignReflectorWire> reflectors;
   std::int64_t created_unix_ms = 0;
   MeasurementCounts counts;
   /// Whether the campaign has a stored calibration (a fit that finished).
@@ -74,6 +94,8 @@ void from_json(const nlohmann::json& j, CampaignList& list);
 struct MeasurementWire {
   std::vector<double> joints;
   PoseWire pose;
+  /// The reflector shot (a campaign with reflectors); empty (absent on the wire) otherwise.
+  std::string reflector;
 };
 void to_json(nlohmann::json& j, const MeasurementWire& measurement);
 void from_json(const nlohmann::json& j, MeasurementWire& measurement);
@@ -85,9 +107,10 @@ struct MeasurementBatchRequest {
   std::vector<MeasurementWire> measurements;
 };
 /// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
-/// position.
+/// position; `reflector` is required and one of `reflectors` when the campaign has any, refused otherwise.
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
-                                                     MeasurementType type, const Limits& limits);
+                                                     MeasurementType type, const Limits& limits,
+                                                     const std::vector<CampaignReflectorWire>& reflectors = {});
 void to_json(nlohmann::json& j, const MeasurementBatchRequest& request);
 void from_json(const nlohmann::json& j, MeasurementBatchRequest& request);
 

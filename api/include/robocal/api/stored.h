@@ -50,6 +50,7 @@ struct StoredCampaign {
   NoiseWire noise;
   std::optional<TrackerModelWire> tracker;
   double repeatability_mm = 0.0;
+  std::vector<CampaignReflectorWire> reflectors;
   std::int64_t created_unix_ms = 0;
 };
 void to_json(nlohmann::json& j, const StoredCampaign& campaign);

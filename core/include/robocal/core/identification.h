@@ -72,8 +72,9 @@ struct IdentifiedParameter {
 
 /// A measurement the robust fit excluded.
 struct OutlierMeasurement {
-  /// Index into the measurements given to Identify.
+  /// Index into the measurements given to Identify, and its reflector (Measurement::reflector).
   int measurement = -1;
+  int reflector = -1;
   /// Norm of the whitened residual over the robust scale (sigma units, against the final fit).
   double normalized_residual = 0.0;
 };
