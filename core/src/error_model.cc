@@ -173,14 +173,8 @@ void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& po
   if (tracker) {
     const double d = point_mm.norm();
     const double r = tracker->RadialSigmaMm(d), t = tracker->TransverseSigmaMm(d);
-    const double inverse_r = 1.0 / std::sqrt(r * r + shared), inverse_t = 1.0 / std::sqrt(t * t + shared);
-    if (d > 0.0) {
-      const Eigen::Vector3d u = point_mm / d;
-      const Eigen::Matrix3d uu = u * u.transpose();
-      w.topLeftCorner<3, 3>() = inverse_r * uu + inverse_t * (Eigen::Matrix3d::Identity() - uu);
-    } else {
-      w.topLeftCorner<3, 3>().diagonal().setConstant(inverse_t);
-    }
+    w.topLeftCorner<3, 3>() =
+        AlongAndAcross(point_mm, 1.0 / std::sqrt(r * r + shared), 1.0 / std::sqrt(t * t + shared));
   } else {
     w.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / std::sqrt(position_mm * position_mm + shared));
   }
