@@ -36,18 +36,21 @@ namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- fit
 
-FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits&) {
+FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits&,
+                           const std::vector<Reflector>& reflectors) {
   Problems problems;
   FitRequest req;
   ObjectReader r(body, "", &problems);
-  if (const nlohmann::json* a = r.Array("parameters", false, 0, model.parameter_names().size())) {
+  if (const nlohmann::json* a =
+          r.Array("parameters", false, 0, model.parameter_names().size() + 3 * reflectors.size())) {
     for (std::size_t i = 0; i < a->size(); ++i) {
       const nlohmann::json& v = (*a)[i];
       if (!v.is_string()) {
         problems.Add(IndexPath("parameters", i), "expected a parameter name");
-      } else if (model.ParameterIndex(v.get<std::string>()) < 0) {
-        problems.Add(IndexPath("parameters", i), "unknown parameter \"" + v.get<std::string>() +
-                                                     "\" (e.g. joint2.dz, base.rx, tool.dx)");
+      } else if (ParameterIndex(model, reflectors, v.get<std::string>()) < 0) {
+        problems.Add(IndexPath("parameters", i),
+                     "unknown parameter \"" + v.get<std::string>() + "\" (e.g. joint2.dz, base.rx, tool.dx" +
+                         (reflectors.empty() ? "" : ", reflector." + reflectors[0].id + ".dx") + ")");
       } else {
         req.parameters.push_back(v.get<std::string>());
       }
@@ -84,12 +87,13 @@ void from_json(const nlohmann::json& j, FitRequest& req) {
 }
 
 IdentificationOptions ToIdentificationOptions(const FitRequest& req, const RobotModel& model, MeasurementType type,
-                                              const MeasurementNoise& noise) {
+                                              const MeasurementNoise& noise, const std::vector<Reflector>& reflectors) {
   IdentificationOptions options;
+  options.reflectors = reflectors;
   options.measurement_type = type;
   options.noise = noise;
   options.identifiability.noise = options.noise;
-  for (const std::string& name : req.parameters) options.parameters.push_back(model.ParameterIndex(name));
+  for (const std::string& name : req.parameters) options.parameters.push_back(ParameterIndex(model, reflectors, name));
   std::sort(options.parameters.begin(), options.parameters.end());
   options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()),
                            options.parameters.end());

@@ -72,7 +72,7 @@ void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vecto
       }
     }
     if (r.FixedNumbers("position_mm", true, w.position_mm.data(), 3) &&
-        std::any_of(w.position_mm.begin(), w.position_mm.end(), [](double v) { return std::abs(v) > 1e4; })) {
+        std::hypot(w.position_mm[0], w.position_mm[1], w.position_mm[2]) > 1e4) {
       problems->Add(JoinPath(path, "position_mm"), "must be within 10000 mm of the flange");
     }
     r.Bool("fixed", false, &w.fixed);

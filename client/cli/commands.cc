@@ -34,7 +34,7 @@ const std::vector<Command>& Commands() {
       {"campaign create",
        {"ROBOT", "TYPE"},
        {{"--plan", "PLAN"}, {"--id", "ID"}, {"--description", "TEXT"}, {"--tracker", "datasheet|R,r,T,t[,O[,K]]"},
-        {"--repeatability-mm", "RP"}},
+        {"--repeatability-mm", "RP"}, {"--reflectors", "ID:X,Y,Z[:fixed]/..."}},
        &help::kCampaignCreate,
        CampaignCreate},
       {"campaign list", {}, {}, &help::kCampaignList, CampaignList},

@@ -117,8 +117,11 @@ fit whitens residuals with (docs/identification.md): "datasheet" for radial 10 u
 15 um + 6 um/m MPE, orientation 0.01 deg, MPE = 2 sigma; or R,r,T,t[,O[,K]] for radial R um + r um/m,
 transverse T um + t um/m, orientation O deg, MPE = K sigma (K = 1: the figures are 1-sigma values). Without
 it every axis weighs alike (0.015 mm). --repeatability-mm: the robot's ISO 9283 repeatability RP, which the
-shots of one configuration share (the fit then does not count them as independent). Prints the campaign id;
---json: the campaign.
+shots of one configuration share (the fit then does not count them as independent). --reflectors lists the
+reflector nests on the tool (position campaigns; TYPE position), each ID:X,Y,Z in mm in the flange frame,
+separated by "/", ":fixed" for a nest whose position is known (held; the others' offsets are identified), e.g.
+smr1:60,0,20/smr2:-30,52,20/smr3:-30,-52,20; every measurement then names its reflector. Free nests locate
+themselves, not the tool point; fixed ones calibrate it. Prints the campaign id; --json: the campaign.
 )"};
 
 const HelpText kCampaignList = {"every campaign, with its measurement counts and whether it is calibrated", R"(
@@ -128,7 +131,8 @@ every page), each campaign as `campaign get --json` prints it.
 )"};
 
 const HelpText kCampaignGet = {"one campaign", R"(
-Prints the campaign's robot, measurement type, measurement counts and whether it is calibrated.
+Prints the campaign's robot, measurement type, measurement counts and whether it is calibrated, its tracker
+model, repeatability and reflectors where it has them.
 --json: the campaign resource.
 )"};
 

@@ -44,6 +44,37 @@ api::TrackerModelWire ParseTrackerFlag(const std::string& text) {
   return tracker;
 }
 
+std::vector<api::CampaignReflectorWire> ParseReflectorsFlag(const std::string& text) {
+  const std::string usage = "--reflectors takes ID:X,Y,Z[:fixed]/ID:X,Y,Z[:fixed]/... (mm, flange frame)";
+  std::vector<api::CampaignReflectorWire> out;
+  std::size_t begin = 0;
+  while (begin <= text.size()) {
+    const std::size_t end = std::min(text.find('/', begin), text.size());
+    const std::string item = text.substr(begin, end - begin);
+    begin = end + 1;
+    const std::size_t colon = item.find(':');
+    if (colon == std::string::npos) throw UsageError(usage + "; \"" + item + "\" has no position");
+    api::CampaignReflectorWire r;
+    r.id = item.substr(0, colon);
+    std::string position = item.substr(colon + 1);
+    const std::size_t second = position.find(':');
+    if (second != std::string::npos) {
+      if (position.substr(second + 1) != "fixed") {
+        throw UsageError(usage + "; \"" + item + "\" ends in neither a position nor :fixed");
+      }
+      r.fixed = true;
+      position.resize(second);
+    }
+    const std::vector<std::string> xyz = tools::SplitList("--reflectors", position);
+    if (xyz.size() != 3) throw UsageError(usage + "; \"" + item + "\" needs three coordinates");
+    for (int k = 0; k < 3; ++k) {
+      r.position_mm[k] = tools::ParseDoubleFlag("--reflectors", xyz[k], std::numeric_limits<double>::lowest());
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 std::string Fixed(double v, int digits) {
   if (!std::isfinite(v)) return "-";
   std::ostringstream s;

@@ -20,6 +20,9 @@ std::string Fixed(double v, int digits);
 /// The value of --tracker: "datasheet" (the defaults) or RADIAL_UM,RADIAL_UM_PER_M,TRANSVERSE_UM,
 /// TRANSVERSE_UM_PER_M[,ORIENTATION_DEG[,MPE_SIGMAS]]; UsageError otherwise. The service checks the ranges.
 api::TrackerModelWire ParseTrackerFlag(const std::string& text);
+/// --reflectors ID:X,Y,Z[:fixed]/...: reflector nests on the flange (mm, flange frame); ids and ranges are
+/// left to the service, which names the field.
+std::vector<api::CampaignReflectorWire> ParseReflectorsFlag(const std::string& text);
 
 /// `out_file` opened for writing, or `out` when it is empty.
 class Output {

@@ -43,11 +43,18 @@ Options:
   --realistic           the realistic cell: the robot's preset cell (unless --cell names another), the
                         tracker's datasheet uncertainty model (radial 10 um + 0.3 um/m, transverse 15 um +
                         6 um/m MPE) and 0.03 mm robot repeatability (both sent with the plan and campaign),
-                        and 2 % outliers of 1-5 mm; the report says how many outliers the fit excluded
-  --outliers RATE       share of shots made 1-5 mm outliers, 0..0.5 (default 0, or 0.02 with --realistic)
+                        and 2 % outliers of 1-5 mm; the report says how many outliers the fit excluded;
+                        with --type position, three reflector nests unless --reflectors says otherwise
+  --outliers RATE       share of shots made outliers, 0..0.5 (default 0, or 0.02 with --realistic)
+  --outlier-size MIN,MAX
+                        an outlier's size, mm, uniform in [MIN, MAX] in a random direction (default 1,5)
   --reflectors N        reflector nests on the tool, 0..3 (needs --type position): each pose shoots every
-                        one, the campaign lists them and the fit identifies their offsets (default 0: the
-                        tool point)
+                        one and the campaign lists them, at positions measured on the tool plate (fixed:
+                        the fit calibrates the tool point through them) (default 0: the tool point, or 3
+                        with --realistic --type position)
+  --free-nests          the nests' positions are known only roughly: the cell hides an offset error of
+                        each, the fit identifies it, and the tool point keeps its nominal place on the
+                        flange (the landing check at the tool point then shows the tool's own error)
   --trials N            independent trials, each a new cell (hidden errors, tracker, noise) and new plans
                         from seed + trial; validation errors pooled (default 1; one trial of 10
                         configurations is a noisy comparison)
@@ -81,6 +88,8 @@ E EnumFlag(const std::string& flag, const std::string& text) {
 int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& file, const std::string& configurations,
          int random, robocal::api::MeasurementRole role) {
   robocal::VirtualCell cell = robocal::mock::MakeCell(options);
+  // A validation dump is another visit to the same robot: new noise, not the calibration dump's draws.
+  if (role == robocal::api::MeasurementRole::kValidation) cell.StartNoiseStream(1);
   const robocal::RobotModel& model = cell.nominal();
   std::vector<std::vector<double>> wire;
   if (!configurations.empty()) {
@@ -139,7 +148,7 @@ int main(int argc, char** argv) {
         tools::ParseIntegerFlag(flag, v, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
   };
   try {
-    for (const auto& [flag, v] : tools::SplitFlags(args, {"--json", "--help", "--realistic"})) {
+    for (const auto& [flag, v] : tools::SplitFlags(args, {"--json", "--help", "--realistic", "--free-nests"})) {
       if (flag == "--help") {
         std::cout << kUsage;
         return 0;
@@ -170,8 +179,15 @@ int main(int argc, char** argv) {
         options.realistic = true;
       } else if (flag == "--reflectors") {
         options.reflectors = integer(flag, v);
+      } else if (flag == "--free-nests") {
+        options.free_nests = true;
       } else if (flag == "--outliers") {
         options.outlier_rate = tools::ParseDoubleFlag(flag, v, std::numeric_limits<double>::lowest());
+      } else if (flag == "--outlier-size") {
+        const std::vector<std::string> range = tools::SplitList(flag, v);
+        if (range.size() != 2) return Usage("--outlier-size takes MIN,MAX (mm)");
+        options.outlier_size_mm = {tools::ParseDoubleFlag(flag, range[0], std::numeric_limits<double>::lowest()),
+                                   tools::ParseDoubleFlag(flag, range[1], std::numeric_limits<double>::lowest())};
       } else if (flag == "--trials") {
         options.trials = integer(flag, v);
       } else if (flag == "--validation") {

@@ -175,11 +175,21 @@ bool MockTrackerOptions::IsValid(std::string* error) const {
   if (!(h_mm > 0)) return fail("--h-mm must be positive");
   if (trials < 1 || trials > 100) return fail("--trials must be in [1, 100]");
   if (outlier_rate && !(*outlier_rate >= 0.0 && *outlier_rate <= 0.5)) return fail("--outliers must be in [0, 0.5]");
-  if (reflectors < 0 || reflectors > 3) return fail("--reflectors must be in [0, 3]");
-  if (reflectors > 0 && measurement_type != MeasurementType::kPosition) {
+  if (outlier_size_mm && !((*outlier_size_mm)[0] >= 0.0 && (*outlier_size_mm)[1] >= (*outlier_size_mm)[0] &&
+                           (*outlier_size_mm)[1] <= 1000.0)) {
+    return fail("--outlier-size must be MIN,MAX with 0 <= MIN <= MAX <= 1000 mm");
+  }
+  if (reflectors && (*reflectors < 0 || *reflectors > 3)) return fail("--reflectors must be in [0, 3]");
+  if (NumReflectors() > 0 && measurement_type != MeasurementType::kPosition) {
     return fail("--reflectors needs --type position");
   }
+  if (free_nests && NumReflectors() == 0) return fail("--free-nests needs reflectors (--reflectors N)");
   return true;
+}
+
+int MockTrackerOptions::NumReflectors() const {
+  if (reflectors) return *reflectors;
+  return realistic && measurement_type == MeasurementType::kPosition ? 3 : 0;
 }
 
 VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<ResolvedCell>& cell) {
@@ -189,11 +199,16 @@ VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<Reso
   if (cell) cell_options.measurement_cell = cell->spec;
   if (options.realistic) cell_options = Realistic(cell_options);
   if (options.outlier_rate) cell_options.outlier_rate = *options.outlier_rate;
-  // Three nests on a tool plate, 60 mm off the flange axis and 20 mm out, positions known to the fit only as
-  // drawn: the cell hides their offsets.
+  if (options.outlier_size_mm) {
+    cell_options.outlier_min_mm = (*options.outlier_size_mm)[0];
+    cell_options.outlier_max_mm = (*options.outlier_size_mm)[1];
+  }
+  // Three nests on a tool plate, 60 mm off the flange axis and 20 mm out: fixed at positions measured on the
+  // plate, or (free_nests) known only as drawn, the cell hiding their offsets.
+  const bool fixed = !options.free_nests;
   const std::vector<Reflector> nests = {
-      {"smr1", {60.0, 0.0, 20.0}, false}, {"smr2", {-30.0, 52.0, 20.0}, false}, {"smr3", {-30.0, -52.0, 20.0}, false}};
-  cell_options.reflectors.assign(nests.begin(), nests.begin() + options.reflectors);
+      {"smr1", {60.0, 0.0, 20.0}, fixed}, {"smr2", {-30.0, 52.0, 20.0}, fixed}, {"smr3", {-30.0, -52.0, 20.0}, fixed}};
+  cell_options.reflectors.assign(nests.begin(), nests.begin() + options.NumReflectors());
   return VirtualCell(Preset(options.robot), cell_options);
 }
 

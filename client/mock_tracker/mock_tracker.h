@@ -3,6 +3,7 @@
 // cell would: command nominal and compensated joints, and see where the true robot lands.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -46,11 +47,19 @@ struct MockTrackerOptions {
   /// The realistic cell (docs/experiment.md): the datasheet tracker model (sent to the service as the plan's and
   /// the campaign's `tracker`), 0.03 mm robot repeatability and 2 % outliers of 1-5 mm.
   bool realistic = false;
-  /// Share of shots turned into 1-5 mm outliers (unset: 0, or the realistic cell's 2 %).
+  /// Share of shots turned into outliers (unset: 0, or the realistic cell's 2 %), of a size drawn uniformly
+  /// from outlier_size_mm (unset: 1-5 mm).
   std::optional<double> outlier_rate;
-  /// Reflector nests on the tool (0..3; needs position measurements): each pose shoots every one, and the
-  /// campaign identifies their offsets.
-  int reflectors = 0;
+  std::optional<std::array<double, 2>> outlier_size_mm;
+  /// Reflector nests on the tool (0..3; needs position measurements): each pose shoots every one. Unset: none,
+  /// or 3 in a realistic position campaign. Fixed (positions measured on the tool plate, so the fit calibrates
+  /// the tool point through them) unless free_nests: then the cell hides an offset error of each and the
+  /// campaign identifies it.
+  std::optional<int> reflectors;
+  bool free_nests = false;
+
+  /// The reflector count this run uses (reflectors, or its default).
+  int NumReflectors() const;
 
   bool IsValid(std::string* error) const;
 };

@@ -270,21 +270,26 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
   std::ostringstream out;
   char line[256];
   std::snprintf(line, sizeof(line),
-                "robot %s, %s measurements, M = %d configurations, %d trials x %d validation poses, seed %llu\n"
-                "tracker noise %g mm, %g rad per axis, %d shots per pose; E_tot = E_xyz + %g mm * E_cos\n\n",
+                "robot %s, %s measurements, M = %d configurations, %d trials x %d validation poses, seed %llu\n",
                 o.robot.c_str(), ToString(o.measurement_type), o.num_configurations, o.trials, o.num_validation,
-                static_cast<unsigned long long>(o.seed), o.cell.noise.position_mm, o.cell.noise.orientation_rad,
-                o.cell.shots_per_pose, o.h_mm);
+                static_cast<unsigned long long>(o.seed));
   out << line;
+  // The tracker's noise: its uncertainty model where the cell has one, else one sigma per axis.
   if (o.cell.noise.tracker) {
     const TrackerUncertainty& t = *o.cell.noise.tracker;
     std::snprintf(line, sizeof(line),
-                  "tracker model (replaces the noise above): radial %g um + %g um/m, transverse %g um + %g um/m, "
-                  "orientation %g deg MPE, MPE = %g sigma\n",
+                  "tracker model: radial %g um + %g um/m, transverse %g um + %g um/m, orientation %g deg MPE, "
+                  "MPE = %g sigma",
                   t.radial_um, t.radial_um_per_m, t.transverse_um, t.transverse_um_per_m, t.orientation_deg,
                   t.mpe_sigmas);
-    out << line;
+  } else {
+    std::snprintf(line, sizeof(line), "tracker noise %g mm, %g rad per axis", o.cell.noise.position_mm,
+                  o.cell.noise.orientation_rad);
   }
+  out << line;
+  std::snprintf(line, sizeof(line), ", %d shots per pose; E_tot = E_xyz + %g mm * E_cos\n\n", o.cell.shots_per_pose,
+                o.h_mm);
+  out << line;
   if (o.cell.noise.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) {
     std::snprintf(line, sizeof(line),
                   "robot repeatability %g mm (ISO 9283 RP); outliers %g %% of shots, %g-%g mm; robust fit\n",

@@ -131,14 +131,55 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   // A column with no effect stays zero; the QR then pivots it last.
   const Eigen::VectorXd d = UnitColumnFactorsOf(weighted);
   const Eigen::MatrixXd scaled = weighted * d.asDiagonal();
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(scaled);
-  const Eigen::VectorXd diag = qr.matrixQR().diagonal().cwiseAbs();
-  const double r00 = diag[0];
-  const int rank = PivotRank(diag, options.rank_tolerance);
-  summary.smallest_kept_pivot = rank > 0 ? diag[rank - 1] / r00 : 0.0;
-  summary.largest_dropped_pivot = rank < n ? diag[rank] / r00 : 0.0;
 
-  const auto& perm = qr.colsPermutation().indices();
+  // The gauge of free reflector nests. Whatever moves all points rigidly with the flange (the tool site, the
+  // last joint's turn about its axis, ...) is also explained by the free nests' offsets, so the pivoted QR
+  // alone would keep an arbitrary mix of the two. The nests' offset columns go first: a free nest's position
+  // is what its shots measure, while the tool point is not measured at all, so what the offsets can explain
+  // stays in them and the tool site keeps its nominal place on the flange (no campaign without the
+  // tool-to-nest geometry can know better). The model's columns follow in pivoted order, projected off the
+  // nests' span: the same |R_kk| as one QR with the nests' columns pivoted first.
+  std::vector<int> first, rest;
+  for (int j = 0; j < n; ++j) {
+    const bool free_offset = j >= n_model && !reflectors[(j - n_model) / 3].fixed;
+    (free_offset ? first : rest).push_back(j);
+  }
+  std::vector<int> perm;  // columns in pivot order
+  Eigen::VectorXd diag(n);
+  Eigen::MatrixXd rest_cols(scaled.rows(), rest.size());
+  for (size_t k = 0; k < rest.size(); ++k) rest_cols.col(k) = scaled.col(rest[k]);
+  int first_rank = 0;
+  if (!first.empty()) {
+    Eigen::MatrixXd first_cols(scaled.rows(), first.size());
+    for (size_t k = 0; k < first.size(); ++k) first_cols.col(k) = scaled.col(first[k]);
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_first(first_cols);
+    const Eigen::VectorXd first_diag = qr_first.matrixQR().diagonal().cwiseAbs();
+    // Tolerance against a unit column: the largest |R_kk| any column of `scaled` can have.
+    while (first_rank < first_diag.size() && first_diag[first_rank] > options.rank_tolerance) ++first_rank;
+    for (int k = 0; k < first_rank; ++k) {
+      perm.push_back(first[qr_first.colsPermutation().indices()[k]]);
+      diag[k] = first_diag[k];
+    }
+    // Q' applied to the rest; its rows below first_rank are the rest projected off the kept nest columns.
+    rest_cols.applyOnTheLeft(qr_first.householderQ().transpose());
+    rest_cols.topRows(first_rank).setZero();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_rest(rest_cols);
+  const Eigen::VectorXd rest_diag = qr_rest.matrixQR().diagonal().cwiseAbs();
+  for (Eigen::Index k = 0; k < rest_diag.size(); ++k) {
+    perm.push_back(rest[qr_rest.colsPermutation().indices()[k]]);
+    diag[first_rank + k] = rest_diag[k];
+  }
+  // Nest columns beyond the nests' own rank (not expected: each nest has its own rows) are dropped last.
+  for (size_t k = first_rank; k < first.size(); ++k) {
+    perm.push_back(first[k]);
+    diag[first_rank + rest_diag.size() + (k - first_rank)] = 0.0;
+  }
+  int rank = first_rank;
+  while (rank - first_rank < rest_diag.size() && rest_diag[rank - first_rank] > options.rank_tolerance) ++rank;
+  summary.smallest_kept_pivot = rank > 0 ? diag.head(rank).minCoeff() : 0.0;
+  summary.largest_dropped_pivot = rank < n ? diag.tail(n - rank).maxCoeff() : 0.0;
+
   for (int k = 0; k < rank; ++k) summary.identifiable.push_back(perm[k]);
   std::sort(summary.identifiable.begin(), summary.identifiable.end());
   for (int k : summary.identifiable) summary.identifiable_names.push_back(ParameterName(model, reflectors, k));
@@ -146,7 +187,7 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   Eigen::MatrixXd kept_scaled(scaled.rows(), rank);
   for (int k = 0; k < rank; ++k) kept_scaled.col(k) = scaled.col(summary.identifiable[k]);
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> kept_qr(kept_scaled);
-  std::vector<int> dropped_indices(perm.data() + rank, perm.data() + n);
+  std::vector<int> dropped_indices(perm.begin() + rank, perm.end());
   std::sort(dropped_indices.begin(), dropped_indices.end());
   for (int j : dropped_indices) {
     const bool held = j >= n_model && reflectors[(j - n_model) / 3].fixed;

@@ -519,8 +519,20 @@ double ChiSquareQuantile(int dof, double upper_probability) {
 
 namespace {
 
+// Which parameters a fit estimates, chosen once for the robust fit's rounds.
+struct ParameterSelection {
+  std::vector<int> parameters;
+  std::vector<DroppedParameter> dropped;
+  Termination termination = Termination::kConvergence;
+  std::string failure;  // non-empty: no set could be chosen
+  std::string note;     // said in the fit's message
+};
+
+ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                    const IdentificationOptions& options);
+
 Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                         const IdentificationOptions& options);
+                         const IdentificationOptions& options, const ParameterSelection& selection);
 
 // Norms of the whitened residuals of every measurement against a calibration.
 std::vector<double> WhitenedNorms(const Calibration& cal, const std::vector<Measurement>& measurements,
@@ -562,7 +574,17 @@ constexpr double kSuspiciousOutlierFraction = 0.2;
 Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                      const IdentificationOptions& options) {
   const Clock::time_point start = Clock::now();
-  Calibration all = IdentifyOnce(nominal, measurements, options);
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
+  const int n_fit = nominal.num_error_parameters() + 3 * static_cast<int>(options.reflectors.size());
+  if (!options.parameters.empty() && options.parameters.back() >= n_fit) {
+    throw std::invalid_argument("IdentificationOptions: parameters[" + std::to_string(options.parameters.size() - 1) +
+                                "] = " + std::to_string(options.parameters.back()) + " but '" + nominal.name() +
+                                "' has " + std::to_string(nominal.num_error_parameters()) + " error parameters and " +
+                                std::to_string(options.reflectors.size()) + " reflector(s)");
+  }
+  const ParameterSelection selection = SelectParameters(nominal, measurements, options);
+  Calibration all = IdentifyOnce(nominal, measurements, options, selection);
   // A cancelled fit (progress returned false) is not refitted.
   const auto cancelled = [](const Calibration& c) { return c.summary.message == "cancelled"; };
   if (!options.reject_outliers || all.summary.termination == Termination::kFailure || cancelled(all)) return all;
@@ -602,7 +624,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     kept.reserve(n);
     for (size_t i = 0; i < n; ++i)
       if (!excluded[i]) kept.push_back(measurements[i]);
-    current = IdentifyOnce(nominal, kept, options);
+    current = IdentifyOnce(nominal, kept, options, selection);
     if (cancelled(current)) return current;
     if (current.summary.termination == Termination::kFailure) {
       const int count = static_cast<int>(n - kept.size());
@@ -652,21 +674,82 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
 
 namespace {
 
-Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                         const IdentificationOptions& options) {
-  const Clock::time_point start = Clock::now();
-  std::string error;
-  if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
+ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                    const IdentificationOptions& options) {
+  ParameterSelection out;
   const int n_all = nominal.num_error_parameters();
   const int num_reflectors = static_cast<int>(options.reflectors.size());
   // The fit's index space: the model's parameters, then 3 offset errors per reflector.
   const int n_fit = n_all + 3 * num_reflectors;
-  if (!options.parameters.empty() && options.parameters.back() >= n_fit) {
-    throw std::invalid_argument("IdentificationOptions: parameters[" + std::to_string(options.parameters.size() - 1) +
-                                "] = " + std::to_string(options.parameters.back()) + " but '" + nominal.name() +
-                                "' has " + std::to_string(n_all) + " error parameters and " +
-                                std::to_string(num_reflectors) + " reflector(s)");
+  const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
+  if (!options.parameters.empty()) {
+    out.parameters = options.parameters;
+    for (int k = 0, next = 0; k < n_fit; ++k) {
+      if (next < static_cast<int>(out.parameters.size()) && out.parameters[next] == k)
+        ++next;
+      else
+        out.dropped.push_back({k, name(k), "not requested"});
+    }
+    return out;
   }
+  // A nest without shots has nothing to say: the identifiability probe leaves it out (its rows would be
+  // information the data do not hold) and its offset is dropped by name.
+  std::vector<char> measured(num_reflectors, 0);
+  for (const Measurement& m : measurements) {
+    if (m.reflector >= 0 && m.reflector < num_reflectors) measured[m.reflector] = 1;
+  }
+  IdentifiabilityOptions identifiability = options.identifiability;
+  std::vector<int> original;  // probe reflector -> the fit's reflector
+  bool free_nests = false;
+  for (int k = 0; k < num_reflectors; ++k) {
+    if (!measured[k]) continue;
+    identifiability.reflectors.push_back(options.reflectors[k]);
+    original.push_back(k);
+    free_nests = free_nests || !options.reflectors[k].fixed;
+  }
+  const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, options.measurement_type, identifiability);
+  if (id.termination == Termination::kFailure) {
+    out.failure = "identifiability: " + id.message;
+    return out;
+  }
+  out.termination = id.termination;
+  const auto fit_index = [&](int j) { return j < n_all ? j : n_all + 3 * original[(j - n_all) / 3] + (j - n_all) % 3; };
+  for (int j : id.identifiable) out.parameters.push_back(fit_index(j));
+  for (DroppedParameter d : id.dropped) {
+    d.index = fit_index(d.index);
+    out.dropped.push_back(std::move(d));
+  }
+  for (int k = 0; k < num_reflectors; ++k) {
+    if (measured[k]) continue;
+    for (int axis = 0; axis < 3; ++axis) {
+      const int j = n_all + 3 * k + axis;
+      out.dropped.push_back({j, name(j),
+                             options.reflectors[k].fixed
+                                 ? "held at its given position (fixed reflector)"
+                                 : "reflector '" + options.reflectors[k].id + "' has no measurements"});
+    }
+  }
+  std::sort(out.parameters.begin(), out.parameters.end());
+  std::sort(out.dropped.begin(), out.dropped.end(),
+            [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
+  if (free_nests) {
+    // The parameters the nests' offsets took over (FindIdentifiableParameters' gauge): they stay nominal.
+    std::string held;
+    for (const DroppedParameter& d : out.dropped) {
+      if (d.index < n_all && d.reason.find("reflector.") != std::string::npos) held += (held.empty() ? "" : ", ") + d.name;
+    }
+    out.note = "free reflector nests locate themselves, not the tool point: " +
+               (held.empty() ? std::string("nothing") : held) +
+               " stay nominal (hold the nests at measured positions to calibrate the tool point)";
+  }
+  return out;
+}
+
+Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const IdentificationOptions& options, const ParameterSelection& selection) {
+  const Clock::time_point start = Clock::now();
+  const int n_all = nominal.num_error_parameters();
+  const int num_reflectors = static_cast<int>(options.reflectors.size());
   const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
   for (size_t i = 0; i < measurements.size(); ++i) {
     if (measurements[i].joints.size() != nominal.num_joints()) {
@@ -716,24 +799,10 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
 
   // Which parameters to estimate.
-  std::vector<int> parameters = options.parameters;
-  Termination identifiability_termination = Termination::kConvergence;
-  if (parameters.empty()) {
-    IdentifiabilityOptions identifiability = options.identifiability;
-    identifiability.reflectors = options.reflectors;
-    const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, type, identifiability);
-    if (id.termination == Termination::kFailure) return fail("identifiability: " + id.message);
-    identifiability_termination = id.termination;
-    parameters = id.identifiable;
-    s.dropped = id.dropped;
-  } else {
-    for (int k = 0, next = 0; k < n_fit; ++k) {
-      if (next < static_cast<int>(parameters.size()) && parameters[next] == k)
-        ++next;
-      else
-        s.dropped.push_back({k, name(k), "not requested"});
-    }
-  }
+  if (!selection.failure.empty()) return fail(selection.failure);
+  const std::vector<int>& parameters = selection.parameters;
+  const Termination identifiability_termination = selection.termination;
+  s.dropped = selection.dropped;
   s.num_parameters = static_cast<int>(parameters.size());
 
   // Distinct poses (and reflectors) bound the information; repeated shots only average the noise.
@@ -850,6 +919,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     s.termination = Termination::kDegraded;
     msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";
   }
+  if (!selection.note.empty()) msg << "; " << selection.note;
   s.message = msg.str();
   s.seconds = Seconds(start);
   return cal;
@@ -902,7 +972,8 @@ std::string IdentificationSummary::FullReport() const {
         << "std"
         << "  units\n";
     for (const IdentifiedParameter& p : parameters) {
-      const bool mm = RobotModel::IsTranslationParameter(p.index);
+      // By the name's axis: a reflector's offsets (past the model's parameters) end in .dx, .dy, .dz too.
+      const bool mm = p.name.size() > 3 && p.name.compare(p.name.size() - 3, 2, ".d") == 0;
       out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
           << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : "rad") << "\n";
     }

@@ -44,6 +44,19 @@ std::string ParameterName(const RobotModel& model, const std::vector<Reflector>&
   return "reflector." + reflectors[k].id + "." + kAxes[(index - n) % 3];
 }
 
+int ParameterIndex(const RobotModel& model, const std::vector<Reflector>& reflectors, const std::string& name) {
+  const int index = model.ParameterIndex(name);
+  if (index >= 0) return index;
+  const int n = model.num_error_parameters();
+  for (size_t k = 0; k < reflectors.size(); ++k) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int j = n + 3 * static_cast<int>(k) + axis;
+      if (ParameterName(model, reflectors, j) == name) return j;
+    }
+  }
+  return -1;
+}
+
 std::vector<Eigen::Vector3d> ReflectorsInTool(const RobotModel& nominal, const std::vector<Reflector>& reflectors,
                                               const Eigen::VectorXd& offset_errors) {
   if (offset_errors.size() != 0 && offset_errors.size() != 3 * static_cast<Eigen::Index>(reflectors.size())) {

@@ -145,6 +145,14 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
   true_in_tool_ = ReflectorsInTool(nominal, options.reflectors, true_reflector_errors_);
 }
 
+void VirtualCell::StartNoiseStream(std::uint64_t stream) {
+  // A SplitMix64 step decorrelates neighbouring (seed, stream) pairs before they seed the Mersenne Twister.
+  std::uint64_t z = options_.seed + 0x9E3779B97F4A7C15ull * (stream + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  rng_ = Rng(z ^ (z >> 31));
+}
+
 Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
   // Sizes are checked by ForwardKinematics; a NaN joint would pass it and come back as a NaN "measurement".
   if (q.size() == true_model_.num_joints() && !q.allFinite()) {

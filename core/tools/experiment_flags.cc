@@ -50,6 +50,8 @@ void Apply(const std::string& flag, const std::string& value, ExperimentOptions*
     options->cell.measurement_cell = cell;
   } else if (flag == "--shots") {
     options->cell.shots_per_pose = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000));
+  } else if (flag == "--outliers" || flag == "--outlier-size") {
+    // Applied after every flag (ApplyExperimentFlags), so that --cell realistic does not reset them.
   } else {
     throw BadFlag("unknown option '" + flag + "'");
   }
@@ -74,6 +76,10 @@ const char* const kExperimentFlagsHelp = R"(  --robot NAME           grinder5 (d
                          10 um + 0.3 um/m, transverse 15 um + 6 um/m MPE, 2 sigma; --noise-* unused), 0.03 mm
                          robot repeatability and 2 % outliers of 1-5 mm, fitted robustly (docs/experiment.md)
                          (default none: the paper's three methods, everything measurable)
+  --outliers RATE        share of shots made gross errors, 0..1 (default 0; 0.02 with --cell realistic);
+                         every fit is robust (docs/identification.md, "Outliers")
+  --outlier-size MIN,MAX size of a gross error, mm, drawn uniformly in [MIN, MAX] in a random direction
+                         (default 1,5)
 )";
 
 std::string ParseExperimentFlags(const std::vector<std::string>& args, ExperimentOptions* options) {
@@ -88,6 +94,17 @@ std::string ApplyExperimentFlags(const std::vector<std::pair<std::string, std::s
                                  ExperimentOptions* options) {
   try {
     for (const auto& [flag, value] : flags) Apply(flag, value, options);
+    // Gross errors on top of whatever cell was chosen (the virtual cell checks the ranges).
+    for (const auto& [flag, value] : flags) {
+      if (flag == "--outliers") {
+        options->cell.outlier_rate = ParseDoubleFlag(flag, value, 0.0);
+      } else if (flag == "--outlier-size") {
+        const std::vector<std::string> range = SplitList(flag, value);
+        if (range.size() != 2) throw BadFlag("--outlier-size takes MIN,MAX (mm)");
+        options->cell.outlier_min_mm = ParseDoubleFlag(flag, range[0], 0.0);
+        options->cell.outlier_max_mm = ParseDoubleFlag(flag, range[1], 0.0);
+      }
+    }
     if (options->cell.measurement_cell) {
       // --cell preset|realistic: the robot's preset cell (docs/cells.md), named by --robot wherever it stands.
       try {

@@ -62,15 +62,16 @@ struct Service::Calibrated {
 FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body) {
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
   const RobotModel model = api::BuildModel(campaign.robot_definition);
-  const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits);
+  const std::vector<Reflector> reflectors = api::ToCore(campaign.reflectors);
+  const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits, reflectors);
   const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
   if (count == 0) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
   IdentificationOptions options = api::ToIdentificationOptions(
-      req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm));
-  options.reflectors = api::ToCore(campaign.reflectors);
+      req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm),
+      reflectors);
   CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();

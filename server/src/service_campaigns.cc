@@ -53,7 +53,9 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   const api::CreateCampaignRequest req = api::ParseCreateCampaignRequest(body);
   api::StoredCampaign campaign;
   campaign.robot_definition = ResolveRobot(req.robot).definition;
-  campaign.measurement_type = req.measurement_type.value_or(MeasurementType::kPose);
+  // Reflector nests are for a position tracker: with them the type defaults to position.
+  campaign.measurement_type =
+      req.measurement_type.value_or(req.reflectors.empty() ? MeasurementType::kPose : MeasurementType::kPosition);
   if (!req.plan.empty()) {
     const api::PlanResult plan = GetPlan(req.plan);
     if (plan.robot != req.robot) {
@@ -61,6 +63,11 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
                      {{"plan", "planned for another robot"}});
     }
     if (!req.measurement_type) campaign.measurement_type = plan.measurement_type;
+    if (!req.reflectors.empty() && !req.measurement_type && plan.measurement_type != MeasurementType::kPosition) {
+      throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
+                     {{"reflectors", "need position measurements; plan \"" + req.plan + "\" measures " +
+                                         api::WireName(plan.measurement_type)}});
+    }
     campaign.plan = req.plan;
   }
   campaign.id = req.id.empty() ? NewId("c") : req.id;
@@ -72,8 +79,8 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   campaign.reflectors = req.reflectors;
   if (!campaign.reflectors.empty() && campaign.measurement_type != MeasurementType::kPosition) {
     throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
-                   {{"reflectors", std::string("need position measurements (the plan's are ") +
-                                       api::WireName(campaign.measurement_type) + ")"}});
+                   {{"reflectors", std::string("need position measurements; measurement_type is ") +
+                                       api::WireName(campaign.measurement_type)}});
   }
   campaign.created_unix_ms = NowUnixMs();
   try {

@@ -444,6 +444,36 @@ TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
   EXPECT_NE(unknown.err.find("robot commands: register, get, delete, forward"), std::string::npos) << unknown.err;
 }
 
+// campaign create --reflectors: nests with flange positions, fixed or identified (campaign get lists them);
+// a malformed list is a usage error naming the flag, reflectors on a pose campaign the service's field.
+TEST_F(CliTest, CampaignCreateWithReflectors) {
+  const std::string server = "--server " + server_.url();
+  const Result created = RunCli(server +
+                                " campaign create ur5e position --id nests-1 --json --reflectors "
+                                "smr1:60,0,20/smr2:-30,52,20:fixed/smr3:-30,-52.5,20");
+  ASSERT_EQ(created.exit_code, 0) << created.out;
+  const nlohmann::json campaign = nlohmann::json::parse(created.out);
+  ASSERT_EQ(campaign.at("reflectors").size(), 3u);
+  EXPECT_EQ(campaign["reflectors"][1]["id"], "smr2");
+  EXPECT_EQ(campaign["reflectors"][1]["fixed"], true);
+  EXPECT_EQ(campaign["reflectors"][2]["position_mm"][1], -52.5);
+  EXPECT_EQ(campaign["reflectors"][0].value("fixed", false), false);
+  const Result shown = RunCli(server + " campaign get nests-1");
+  EXPECT_NE(shown.out.find("reflector smr2 at -30 52 20 mm (flange), fixed"), std::string::npos) << shown.out;
+  EXPECT_NE(shown.out.find("reflector smr1 at 60 0 20 mm (flange), offset identified"), std::string::npos)
+      << shown.out;
+  for (const char* bad : {"smr1", "smr1:1,2", "smr1:1,2,3:loose", "smr1:1,2,x"}) {
+    const InProcess r =
+        RunInProcess({"--server", server_.url(), "campaign", "create", "ur5e", "position", "--reflectors", bad});
+    EXPECT_EQ(r.exit_code, 2) << bad;
+    EXPECT_NE(r.err.find("--reflectors"), std::string::npos) << r.err;
+  }
+  const InProcess pose =
+      RunInProcess({"--server", server_.url(), "campaign", "create", "ur5e", "pose", "--reflectors", "smr1:1,2,3"});
+  EXPECT_EQ(pose.exit_code, 1);
+  EXPECT_NE(pose.err.find("reflectors: need position measurements"), std::string::npos) << pose.err;
+}
+
 // campaign list says which campaigns are calibrated, in its table and as JSON (list items once carried no
 // calibrated, and every campaign read as uncalibrated).
 TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {

@@ -50,6 +50,40 @@ TEST_F(MockTrackerTest, CalibrationImprovesAccuracy) {
   EXPECT_DOUBLE_EQ(again.planned.after.e_xyz_mm.mean, after.e_xyz_mm.mean);
 }
 
+// A realistic position campaign shoots three nests held at their plate positions: the fit calibrates the tool
+// point through them (the landing check is at the tool point), excludes the outliers of the chosen size, and
+// free nests instead leave the tool point where the nominal tool says.
+TEST_F(MockTrackerTest, RealisticPositionCampaignShootsThreeHeldNests) {
+  mock::MockTrackerOptions options;
+  options.robot = "ur5e";
+  options.measurement_type = MeasurementType::kPosition;
+  options.realistic = true;
+  options.cell = "";  // every configuration measurable: the nests, not the cell, are under test
+  options.shots_per_pose = 2;
+  options.count = 12;
+  options.outlier_rate = 0.05;
+  options.outlier_size_mm = std::array<double, 2>{8.0, 9.0};
+  options.seed = 2;
+  ASSERT_EQ(options.NumReflectors(), 3);
+  const mock::MockTrackerReport held = mock::RunMockTracker(client, options, nullptr);
+  const mock::CampaignOutcome& run = held.trials[0].planned;
+  ASSERT_EQ(run.campaign.reflectors.size(), 3u);
+  EXPECT_TRUE(run.campaign.reflectors[0].fixed);
+  EXPECT_FALSE(run.injected_outliers.empty());
+  EXPECT_EQ(run.outliers_found, static_cast<int>(run.injected_outliers.size()));
+  for (const api::OutlierWire& o : run.calibration.outliers) EXPECT_GT(o.normalized_residual, 10.0);
+  // Repeatability (0.03 mm RP) bounds the landing; the nominal robot is off by about a mm.
+  EXPECT_LT(held.planned.after.e_xyz_mm.mean, 0.1);
+  EXPECT_GT(held.planned.before.e_xyz_mm.mean, 0.3);
+
+  options.free_nests = true;
+  const mock::MockTrackerReport free = mock::RunMockTracker(client, options, nullptr);
+  EXPECT_FALSE(free.trials[0].planned.campaign.reflectors[0].fixed);
+  EXPECT_NE(free.trials[0].planned.calibration.summary.message.find("not the tool point"), std::string::npos);
+  // The tool's own error (0.5 mm per axis hidden in the cell) stays: the landing check sees it.
+  EXPECT_GT(free.planned.after.e_xyz_mm.mean, 3.0 * held.planned.after.e_xyz_mm.mean);
+}
+
 TEST_F(MockTrackerTest, CompareRandom) {
   mock::MockTrackerOptions options;
   options.compare_random = true;

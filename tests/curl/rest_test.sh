@@ -305,6 +305,20 @@ expect "... identifies reflector offsets beside the robot's" \
 expect "... and returns the reflectors at their identified positions" \
   "$(jq -c '[.reflectors[].id]' "$work/nests_fit.json")" '["smr1","smr2","smr3"]'
 expect "... to the noise level" "$(jq '.residuals_after.rms_position_mm < 0.05' "$work/nests_fit.json")" true
+expect "... and says the tool point keeps its nominal place" \
+  "$(jq '.summary.message | contains("not the tool point")' "$work/nests_fit.json")" true
+some=$(jq -c '[.parameters[].name | select(startswith("reflector.") | not)][0:2] + ["reflector.smr2.dx", "reflector.smr2.dy"]' \
+  "$work/nests_fit.json")
+call POST "/v1/campaigns/$nested:fit" "{\"parameters\": $some}" >"$work/nests_some.json"
+expect "fit parameters may name reflector offsets" "$(status) $(jq -c '[.parameters[].name]' "$work/nests_some.json")" \
+  "200 $some"
+call POST "/v1/campaigns/$nested:fit" '{"parameters": ["reflector.smr9.dx"]}' >/dev/null
+expect "... an unknown one -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 parameters[0]"
+expect "reflectors without a type make a position campaign" \
+  "$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"reflectors\": $nests}" | jq -r .measurement_type)" position
+call POST /v1/campaigns '{"robot": "grinder5", "reflectors": [{"id": "far", "position_mm": [6000, 6000, 6000]}]}' >/dev/null
+expect "a reflector over 10 m from the flange -> 400 naming it" \
+  "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 reflectors[0].position_mm"
 
 # ---- the mock tracker drives the same server end to end ----------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --seed 2 --shots 3 --json >"$work/mock.json" 2>/dev/null

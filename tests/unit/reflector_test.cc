@@ -186,6 +186,107 @@ TEST(ReflectorRecoveryTest, NoiseFreeShotsOfThreeReflectorsRecoverTheTool) {
   EXPECT_GT(orientation_error(one, cell), 1e-4);
 }
 
+// Free nests leave the tool frame's place among them open (a gauge freedom): what moves every nest rigidly
+// with the flange is explained by their offsets, and the tool site stays nominal. Then a robot whose true tool
+// sits where the nominal says is calibrated at its tool point from nest shots alone; the fit says how it chose.
+TEST(ReflectorGaugeTest, FreeNestsKeepTheToolSiteNominal) {
+  const RobotModel model = Preset("ur5e");
+  const int n = model.num_error_parameters();
+  IdentifiabilityOptions free;
+  free.reflectors = ThreeNests(false);
+  const IdentifiabilitySummary id = FindIdentifiableParameters(model, MeasurementType::kPosition, free);
+  ASSERT_EQ(id.termination, Termination::kConvergence) << id.FullReport();
+  EXPECT_EQ(id.identifiable.size(), 33u);
+  for (int k = 0; k < 9; ++k) EXPECT_THAT(id.identifiable, Contains(n + k));
+  for (const DroppedParameter& d : id.dropped) {
+    SCOPED_TRACE(d.name);
+    EXPECT_LT(d.index, n);
+    if (d.name.rfind("tool.", 0) == 0) EXPECT_THAT(d.reason, HasSubstr("reflector."));
+  }
+  for (const char* site : {"tool.dx", "tool.dy", "tool.dz", "tool.rx", "tool.ry", "tool.rz"}) {
+    EXPECT_THAT(id.identifiable_names, Not(Contains(std::string(site))));
+  }
+
+  // Shots of a true robot whose errors leave alone what the nests take over (the tool site, the last joint's
+  // offset along and turn about its axis), with hidden nest offsets.
+  Rng rng(21);
+  Eigen::VectorXd truth = test::RandomErrors(model, &rng, 0.2, 3.5e-4);  // the virtual cell's magnitudes
+  for (const char* held : {"joint6.dz", "joint6.rz", "tool.dx", "tool.dy", "tool.dz", "tool.rx", "tool.ry", "tool.rz"}) {
+    truth[model.ParameterIndex(held)] = 0.0;
+  }
+  Eigen::VectorXd offsets(9);
+  for (int k = 0; k < 9; ++k) offsets[k] = 0.5 * rng.Normal();
+  const std::vector<Eigen::Vector3d> true_nests = ReflectorsInTool(model, free.reflectors, offsets);
+  KinematicsWorkspace ws(model);
+  std::vector<Measurement> shots;
+  for (const Eigen::VectorXd& q : Configurations(model, 20, 5)) {
+    const Transform tool = ForwardKinematics(model, q, truth, &ws);
+    for (int k = 0; k < 3; ++k) {
+      Measurement m;
+      m.joints = q;
+      m.T_world_tool = AtReflector(tool, true_nests[k]);
+      m.reflector = k;
+      shots.push_back(m);
+    }
+  }
+  IdentificationOptions fit;
+  fit.measurement_type = MeasurementType::kPosition;
+  fit.reflectors = free.reflectors;
+  const Calibration cal = Identify(model, shots, fit);
+  ASSERT_EQ(cal.summary.termination, Termination::kConvergence) << cal.summary.FullReport();
+  EXPECT_THAT(cal.summary.message, HasSubstr("not the tool point: joint6.dz, joint6.rz, tool.dx"));
+  // The nests are matched exactly (residual ~1e-13 mm); the tool point and the nests' positions to second
+  // order in the errors: the kept parameters stand for the dropped equivalent ones (joint6.dy for joint5.dz,
+  // ...) exactly only to first order, and the nests take up the rest (0.2 mm x 3.5e-4 rad ~ 0.1 um here). An
+  // arbitrary gauge is off by the size of the errors themselves (tens of um).
+  double worst = 0.0;
+  for (const Eigen::VectorXd& q : Configurations(model, 20, 77)) {
+    const Eigen::Vector3d predicted = ForwardKinematics(cal.model, q, cal.errors, &ws).translation();
+    worst = std::max(worst, (predicted - ForwardKinematics(model, q, truth, &ws).translation()).norm());
+  }
+  RecordProperty("tool_point_error_mm", std::to_string(worst));
+  EXPECT_LT(worst, 5e-4);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT((cal.reflectors[k].position_mm - free.reflectors[k].position_mm - offsets.segment<3>(3 * k)).norm(), 5e-4);
+  }
+}
+
+// A nest the campaign never shot is dropped by name; the others are fitted.
+TEST(ReflectorGaugeTest, AnUnmeasuredNestIsDroppedByName) {
+  const RobotModel model = Preset("ur5e");
+  const int n = model.num_error_parameters();
+  VirtualCellOptions o;
+  o.seed = 4;
+  o.noise = {0.0, 0.0, std::nullopt};
+  o.shots_per_pose = 1;
+  o.reflectors = ThreeNests(true);
+  VirtualCell cell(model, o);
+  std::vector<Measurement> shots;
+  for (const Measurement& m : cell.MeasureAll(Configurations(model, 20, 5))) {
+    if (m.reflector != 2) shots.push_back(m);
+  }
+  IdentificationOptions fit;
+  fit.measurement_type = MeasurementType::kPosition;
+  fit.reflectors = o.reflectors;
+  fit.reflectors[2].fixed = false;
+  const Calibration cal = Identify(model, shots, fit);
+  ASSERT_EQ(cal.summary.termination, Termination::kConvergence) << cal.summary.FullReport();
+  int unmeasured = 0;
+  for (const DroppedParameter& d : cal.summary.dropped) {
+    if (d.index >= n + 6) {
+      ++unmeasured;
+      EXPECT_EQ(d.reason, "reflector 'smr3' has no measurements");
+    }
+  }
+  EXPECT_EQ(unmeasured, 3);
+  // As many parameters as the two measured nests identify on their own.
+  IdentifiabilityOptions two;
+  two.reflectors = {o.reflectors[0], o.reflectors[1]};
+  EXPECT_EQ(cal.summary.num_parameters,
+            static_cast<int>(FindIdentifiableParameters(model, MeasurementType::kPosition, two).identifiable.size()));
+  EXPECT_EQ(cal.reflectors[2].position_mm, o.reflectors[2].position_mm);
+}
+
 TEST(ReflectorFailureTest, BadReflectorDataIsNamed) {
   const RobotModel model = Preset("ur5e");
   IdentificationOptions fit;

@@ -39,6 +39,28 @@ TEST(VirtualCellTest, SameSeedGivesTheSameCellAndShots) {
   EXPECT_NE(a.true_errors(), c.true_errors());
 }
 
+// A noise stream keeps the hidden robot and draws other, reproducible noise (a validation dump made by another
+// process must not repeat the calibration dump's draws).
+TEST(VirtualCellTest, NoiseStreamsDrawOtherNoiseForTheSameRobot) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 42;
+  VirtualCell first(model, o), second(model, o), again(model, o);
+  second.StartNoiseStream(1);
+  again.StartNoiseStream(1);
+  EXPECT_EQ(first.true_errors(), second.true_errors());
+  const Eigen::VectorXd q = Config(model, 1);
+  const auto a = first.Measure(q, 2), b = second.Measure(q, 2), c = again.Measure(q, 2);
+  ASSERT_EQ(b.size(), 2u);
+  for (size_t i = 0; i < b.size(); ++i) {
+    EXPECT_EQ(b[i].T_world_tool.matrix(), c[i].T_world_tool.matrix());
+    // Both are noisy shots of one true pose: apart by about the noise (0.015 mm per axis), not equal.
+    const double apart = (a[i].T_world_tool.translation() - b[i].T_world_tool.translation()).norm();
+    EXPECT_GT(apart, 1e-6);
+    EXPECT_LT(apart, 0.2);
+  }
+}
+
 TEST(VirtualCellTest, NoiseSettingsDoNotChangeTheHiddenRobot) {
   const RobotModel model = Preset("puma560");
   VirtualCellOptions noisy, exact;

@@ -42,13 +42,17 @@ struct FitRequest {
   /// Run as a long-running operation.
   bool async = false;
 };
-FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
+/// `parameters` name the model's error parameters and, in a campaign with reflectors, their offsets
+/// ("reflector.<id>.dx").
+FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,
+                           const std::vector<Reflector>& reflectors = {});
 void to_json(nlohmann::json& j, const FitRequest& request);
 void from_json(const nlohmann::json& j, FitRequest& request);
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
-/// empty). Parameters named in the request become sorted, unique indices.
+/// empty) and `reflectors`. Parameters named in the request become sorted, unique indices of the fit's space.
 IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model,
-                                              MeasurementType type, const MeasurementNoise& noise);
+                                              MeasurementType type, const MeasurementNoise& noise,
+                                              const std::vector<Reflector>& reflectors = {});
 
 /// One identified parameter: value and standard deviation in `unit` (mm or deg).
 struct ParameterEstimate {

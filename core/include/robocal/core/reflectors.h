@@ -32,6 +32,9 @@ bool ValidateReflectors(const std::vector<Reflector>& reflectors, std::string* e
 /// "reflector.<id>.dx" / ".dy" / ".dz". Throws std::out_of_range for an index beyond both.
 std::string ParameterName(const RobotModel& model, const std::vector<Reflector>& reflectors, int index);
 
+/// The index of a name of that space ("joint2.dz", "reflector.smr2.dy"), or -1 for none.
+int ParameterIndex(const RobotModel& model, const std::vector<Reflector>& reflectors, const std::string& name);
+
 /// Each reflector's point in the nominal tool frame (T_flange_tool^-1 (position + offset error)); offset_errors
 /// holds 3 per reflector (flange frame), or is empty for none.
 std::vector<Eigen::Vector3d> ReflectorsInTool(const RobotModel& nominal, const std::vector<Reflector>& reflectors,

@@ -118,6 +118,11 @@ class VirtualCell {
   std::vector<Measurement> MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots = 0,
                                       std::vector<int>* lost = nullptr);
 
+  /// From here on, noise (and outliers and repeatability) is drawn from a generator seeded by options.seed and
+  /// `stream` (stream 0 is not the construction's). Two processes that simulate one cell, one shooting the
+  /// calibration poses and one the validation poses, thus draw independent noise for the same hidden robot.
+  void StartNoiseStream(std::uint64_t stream);
+
   /// Configurations Measure() was asked for and could not measure, since construction.
   int unmeasured() const { return unmeasured_; }
   /// Indices of the shots given an outlier, counting every shot Measure() returned since construction (for
