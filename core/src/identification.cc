@@ -58,13 +58,42 @@ std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
   return "";
 }
 
+// Shots grouped by joint configuration and reflector: a group shares its kinematics (and its robot
+// repeatability error); distinct groups bound the information.
+struct ShotGroups {
+  struct Group {
+    int pose = 0;
+    int reflector = -1;
+    std::vector<int> shots;
+  };
+  std::vector<Eigen::VectorXd> poses;  // distinct joint configurations
+  std::vector<Group> groups;
+  std::vector<int> group_of;  // per measurement
+
+  explicit ShotGroups(const std::vector<Measurement>& measurements) {
+    std::map<Eigen::VectorXd, int, JointsLess> pose_index;
+    std::map<std::pair<int, int>, int> group_index;
+    group_of.reserve(measurements.size());
+    for (size_t i = 0; i < measurements.size(); ++i) {
+      const Measurement& m = measurements[i];
+      const auto [pose, new_pose] = pose_index.emplace(m.joints, static_cast<int>(poses.size()));
+      if (new_pose) poses.push_back(m.joints);
+      const auto [group, new_group] =
+          group_index.emplace(std::make_pair(pose->second, m.reflector), static_cast<int>(groups.size()));
+      if (new_group) groups.push_back({pose->second, m.reflector, {}});
+      groups[group->second].shots.push_back(static_cast<int>(i));
+      group_of.push_back(group->second);
+    }
+  }
+};
+
 // The least-squares problem over the chosen parameters (the model's error parameters, then 3 offset errors per
 // reflector: reflectors.h's index space). Shots are grouped by joint configuration and reflector; a group
 // shares its kinematics and Jacobian, so the cost of an evaluation grows with the groups, not with the shots.
 class Problem {
  public:
-  Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const IdentificationOptions& o,
-          const std::vector<int>& parameters)
+  Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const ShotGroups& shot_groups,
+          const IdentificationOptions& o, const std::vector<int>& parameters)
       : model_(model),
         measurements_(measurements),
         type_(o.measurement_type),
@@ -73,20 +102,10 @@ class Problem {
         parameters_(parameters),
         reflectors_(o.reflectors),
         n_model_(model.num_error_parameters()),
-        ws_(model) {
-    std::map<Eigen::VectorXd, int, JointsLess> pose_index;
-    std::map<std::pair<int, int>, int> group_index;
-    group_of_.reserve(measurements.size());
-    for (size_t i = 0; i < measurements.size(); ++i) {
-      const Measurement& m = measurements[i];
-      const auto [pose, new_pose] = pose_index.emplace(m.joints, static_cast<int>(poses_.size()));
-      if (new_pose) poses_.push_back(m.joints);
-      const auto [group, new_group] =
-          group_index.emplace(std::make_pair(pose->second, m.reflector), static_cast<int>(groups_.size()));
-      if (new_group) groups_.push_back({pose->second, m.reflector, {}});
-      groups_[group->second].shots.push_back(static_cast<int>(i));
-      group_of_.push_back(group->second);
-    }
+        ws_(model),
+        poses_(shot_groups.poses),
+        groups_(shot_groups.groups),
+        group_of_(shot_groups.group_of) {
     if (o.noise.repeatability_mm > 0.0) {
       // The shots of one group share the robot's repeatability error: their residuals are correlated. With H
       // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance
@@ -115,9 +134,6 @@ class Problem {
     }
   }
 
-  int num_poses() const { return static_cast<int>(poses_.size()); }
-  /// Distinct (joint configuration, reflector) pairs: what bounds the information.
-  int num_groups() const { return static_cast<int>(groups_.size()); }
   int num_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
 
@@ -205,11 +221,7 @@ class Problem {
   }
 
  private:
-  struct Group {
-    int pose = 0;
-    int reflector = -1;
-    std::vector<int> shots;
-  };
+  using Group = ShotGroups::Group;
   struct GroupWhitening {
     Eigen::MatrixXd mean;
     Eigen::MatrixXd contrast;
@@ -254,9 +266,9 @@ class Problem {
   std::vector<Reflector> reflectors_;
   int n_model_;
   KinematicsWorkspace ws_;
-  std::vector<Eigen::VectorXd> poses_;
-  std::vector<Group> groups_;
-  std::vector<int> group_of_;
+  const std::vector<Eigen::VectorXd>& poses_;
+  const std::vector<Group>& groups_;
+  const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
 };
@@ -441,6 +453,31 @@ bool IdentificationOptions::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+
+// Calls visit(m, predicted, r, w) for every measurement: the model's prediction at its reflector, the residual
+// and the whitening at the measured point. The one loop behind the residual statistics and the robust fit's
+// normalised residuals.
+template <typename Visit>
+void ForEachResidual(const RobotModel& model, const Eigen::VectorXd& errors,
+                     const std::vector<Measurement>& measurements, MeasurementType type,
+                     const MeasurementNoise& noise, const std::vector<Eigen::Vector3d>& reflectors_in_tool,
+                     Visit&& visit) {
+  const int rows = MeasurementRows(type);
+  Eigen::MatrixXd w(rows, rows);
+  KinematicsWorkspace ws(model);
+  Eigen::VectorXd r(rows);
+  for (const Measurement& m : measurements) {
+    const Transform& tool = ForwardKinematics(model, m.joints, errors, &ws);
+    const Transform predicted = m.reflector < 0 ? tool : AtReflector(tool, reflectors_in_tool.at(m.reflector));
+    MeasurementResidual(type, m.T_world_tool, predicted, r);
+    noise.Whitening(type, m.T_world_tool.translation(), w);
+    visit(m, predicted, r, w);
+  }
+}
+
+}  // namespace
+
 ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
                                              const std::vector<Measurement>& measurements, MeasurementType type,
                                              const MeasurementNoise& noise,
@@ -449,14 +486,9 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   s.num_measurements = static_cast<int>(measurements.size());
   if (measurements.empty()) return s;
   const int rows = MeasurementRows(type);
-  Eigen::MatrixXd w(rows, rows);
-  KinematicsWorkspace ws(model);
-  Eigen::VectorXd r(rows);
   double sum_position = 0.0, sum_orientation = 0.0, sum_weighted = 0.0;
-  for (const Measurement& m : measurements) {
-    const Transform& tool = ForwardKinematics(model, m.joints, errors, &ws);
-    const Transform predicted = m.reflector < 0 ? tool : AtReflector(tool, reflectors_in_tool.at(m.reflector));
-    MeasurementResidual(type, m.T_world_tool, predicted, r);
+  const auto visit = [&](const Measurement& m, const Transform& predicted, const Eigen::VectorXd& r,
+                         const Eigen::MatrixXd& w) {
     const double position = r.head<3>().norm();
     sum_position += position * position;
     s.max_position_mm = std::max(s.max_position_mm, position);
@@ -469,9 +501,9 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
     }
     sum_orientation += angle * angle;
     s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
-    noise.Whitening(type, m.T_world_tool.translation(), w);
     sum_weighted += (w * r).squaredNorm();
-  }
+  };
+  ForEachResidual(model, errors, measurements, type, noise, reflectors_in_tool, visit);
   const double count = static_cast<double>(measurements.size());
   s.rms_position_mm = std::sqrt(sum_position / count);
   s.rms_orientation_rad = std::sqrt(sum_orientation / count);
@@ -537,20 +569,13 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
 // Norms of the whitened residuals of every measurement against a calibration.
 std::vector<double> WhitenedNorms(const Calibration& cal, const std::vector<Measurement>& measurements,
                                   const IdentificationOptions& options) {
-  const int rows = MeasurementRows(options.measurement_type);
-  KinematicsWorkspace ws(cal.model);
-  Eigen::VectorXd r(rows);
-  Eigen::MatrixXd w(rows, rows);
   std::vector<double> out;
   out.reserve(measurements.size());
-  const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(cal.model, cal.reflectors, Eigen::VectorXd());
-  for (const Measurement& m : measurements) {
-    const Transform& tool = ForwardKinematics(cal.model, m.joints, cal.errors, &ws);
-    MeasurementResidual(options.measurement_type, m.T_world_tool,
-                        m.reflector < 0 ? tool : AtReflector(tool, in_tool.at(m.reflector)), r);
-    options.noise.Whitening(options.measurement_type, m.T_world_tool.translation(), w);
-    out.push_back((w * r).norm());
-  }
+  ForEachResidual(cal.model, cal.errors, measurements, options.measurement_type, options.noise,
+                  ReflectorsInTool(cal.model, cal.reflectors, Eigen::VectorXd()),
+                  [&](const Measurement&, const Transform&, const Eigen::VectorXd& r, const Eigen::MatrixXd& w) {
+                    out.push_back((w * r).norm());
+                  });
   return out;
 }
 
@@ -806,15 +831,16 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   s.num_parameters = static_cast<int>(parameters.size());
 
   // Distinct poses (and reflectors) bound the information; repeated shots only average the noise.
-  Problem counter(nominal, measurements, options, parameters);
-  s.num_poses = counter.num_poses();
+  const ShotGroups groups(measurements);
+  s.num_poses = static_cast<int>(groups.poses.size());
   const int rows = MeasurementRows(type);
   // Rows from distinct poses must exceed the parameters: with equality the fit interpolates the pose means and
   // only the scatter of repeated shots would be left to estimate sigma_hat from.
-  if (rows * counter.num_groups() <= s.num_parameters) {
+  const int num_groups = static_cast<int>(groups.groups.size());
+  if (rows * num_groups <= s.num_parameters) {
     std::ostringstream msg;
     msg << "too few distinct poses: " << s.num_poses << " distinct joint configuration(s) among " << s.num_measurements
-        << " measurements give " << rows * counter.num_groups() << " independent " << ToString(type) << " rows for "
+        << " measurements give " << rows * num_groups << " independent " << ToString(type) << " rows for "
         << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1 << " distinct poses";
     return fail(msg.str());
   }
@@ -847,7 +873,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     model = RobotModel::Build(spec);
   }
 
-  Problem problem(model, measurements, options, parameters);
+  Problem problem(model, measurements, groups, options, parameters);
   s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
 
   // Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters
