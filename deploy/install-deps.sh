@@ -12,6 +12,8 @@ packages=(
   python3 python3-jsonschema
   # make test-sanitize and make fuzz: clang, and its sanitizer and libFuzzer runtimes (libclang_rt.*).
   clang libclang-rt-14-dev
+  # URDF import and export (POST /v1/robots with "urdf").
+  liburdfdom-dev
 )
 
 missing=()

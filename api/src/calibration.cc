@@ -47,10 +47,16 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
       const nlohmann::json& v = (*a)[i];
       if (!v.is_string()) {
         problems.Add(IndexPath("parameters", i), "expected a parameter name");
-      } else if (ParameterIndex(model, reflectors, v.get<std::string>()) < 0) {
+      } else if (const int index = ParameterIndex(model, reflectors, v.get<std::string>()); index < 0) {
         problems.Add(IndexPath("parameters", i),
                      "unknown parameter \"" + v.get<std::string>() + "\" (e.g. joint2.dz, base.rx, tool.dx" +
                          (reflectors.empty() ? "" : ", reflector." + reflectors[0].id + ".dx") + ")");
+      } else if (std::find(req.parameters.begin(), req.parameters.end(), v.get<std::string>()) !=
+                 req.parameters.end()) {
+        problems.Add(IndexPath("parameters", i), "\"" + v.get<std::string>() + "\" is given twice");
+      } else if (const int n = model.num_error_parameters(); index >= n && reflectors[(index - n) / 3].fixed) {
+        problems.Add(IndexPath("parameters", i), "reflector \"" + reflectors[(index - n) / 3].id +
+                                                     "\" is fixed: its position is held, not estimated");
       } else {
         req.parameters.push_back(v.get<std::string>());
       }

@@ -69,6 +69,9 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
   PoseWire pose;
   if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
   if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
+  if (const nlohmann::json* v = r.Get("flange"); v && ParsePose(*v, "flange", true, &problems, &pose)) {
+    req.flange = pose;
+  }
   if (r.Has("from_preset")) {
     r.Enum("from_preset", true, PresetNames(), &req.from_preset);
     if (r.Has("joints")) problems.Add("joints", "give either from_preset or joints, not both");
@@ -102,7 +105,7 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
       }
     }
   }
-  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool"});
+  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool", "flange"});
   problems.ThrowIfAny("invalid robot");
   (void)BuildModel(req);
   return req;
@@ -125,6 +128,10 @@ void to_json(nlohmann::json& j, const RegisterRobotRequest& req) {
   }
   if (req.base) j["base"] = *req.base;
   if (req.tool) j["tool"] = *req.tool;
+  if (req.flange) j["flange"] = *req.flange;
+  if (req.urdf) {
+    j["urdf_source"] = {{"xml", req.urdf->xml}, {"base_link", req.urdf->base_link}, {"tip_link", req.urdf->tip_link}};
+  }
 }
 
 void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
@@ -144,6 +151,54 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
       }
     }
   }
+  std::optional<PoseWire> pose;
+  if (r.Optional("base", &pose)) req.base = pose;
+  if (r.Optional("tool", &pose)) req.tool = pose;
+  if (r.Optional("flange", &pose)) req.flange = pose;
+  if (r.Has("urdf_source")) {
+    const WireReader u(r.Member("urdf_source"), "urdf_source");
+    UrdfSource source;
+    u.Required("xml", &source.xml);
+    u.Required("base_link", &source.base_link);
+    u.Required("tip_link", &source.tip_link);
+    req.urdf = std::move(source);
+  }
+}
+
+bool IsUrdfImport(const nlohmann::json& body) { return body.is_object() && body.contains("urdf"); }
+
+ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits&) {
+  Problems problems;
+  ImportUrdfRequest req;
+  ObjectReader r(body, "", &problems);
+  if (r.String("id", false, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
+  r.String("description", false, &req.description, 1024);
+  r.String("urdf", true, &req.urdf, kMaxUrdfBytes);
+  r.String("base_link", true, &req.base_link, 256);
+  r.String("tip_link", true, &req.tip_link, 256);
+  PoseWire pose;
+  if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
+  if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
+  r.RejectUnknown({"id", "description", "urdf", "base_link", "tip_link", "base", "tool"});
+  problems.ThrowIfAny("invalid robot");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const ImportUrdfRequest& req) {
+  j = {{"urdf", req.urdf}, {"base_link", req.base_link}, {"tip_link", req.tip_link}};
+  if (!req.id.empty()) j["id"] = req.id;
+  if (!req.description.empty()) j["description"] = req.description;
+  if (req.base) j["base"] = *req.base;
+  if (req.tool) j["tool"] = *req.tool;
+}
+
+void from_json(const nlohmann::json& j, ImportUrdfRequest& req) {
+  const WireReader r(j);
+  r.Optional("id", &req.id);
+  r.Optional("description", &req.description);
+  r.Required("urdf", &req.urdf);
+  r.Required("base_link", &req.base_link);
+  r.Required("tip_link", &req.tip_link);
   std::optional<PoseWire> pose;
   if (r.Optional("base", &pose)) req.base = pose;
   if (r.Optional("tool", &pose)) req.tool = pose;
@@ -175,6 +230,7 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
   spec.name = req.id;
   if (req.base) spec.T_world_base = PoseToTransform(*req.base);
   if (req.tool) spec.T_flange_tool = PoseToTransform(*req.tool);
+  if (req.flange) spec.T_lastjoint_flange = PoseToTransform(*req.flange);
   return spec;
 }
 
@@ -206,7 +262,9 @@ void to_json(nlohmann::json& j, const Robot& robot) {
        {"joints", std::move(joints)},
        {"base", PoseResultJson(robot.base)},
        {"tool", PoseResultJson(robot.tool)},
+       {"flange", PoseResultJson(robot.flange)},
        {"error_parameters", robot.error_parameters}};
+  if (!robot.urdf_tip_link.empty()) j["urdf"] = {{"base_link", robot.urdf_base_link}, {"tip_link", robot.urdf_tip_link}};
 }
 
 void from_json(const nlohmann::json& j, Robot& robot) {
@@ -232,6 +290,12 @@ void from_json(const nlohmann::json& j, Robot& robot) {
   }
   ReadResultPose(r, "base", &robot.base);
   ReadResultPose(r, "tool", &robot.tool);
+  ReadResultPose(r, "flange", &robot.flange);
+  if (r.Has("urdf")) {
+    const WireReader u(r.Member("urdf"), "urdf");
+    u.Required("base_link", &robot.urdf_base_link);
+    u.Required("tip_link", &robot.urdf_tip_link);
+  }
   r.Required("error_parameters", &robot.error_parameters);
 }
 
@@ -261,6 +325,7 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   }
   robot.base = TransformToPose(spec.T_world_base);
   robot.tool = TransformToPose(spec.T_flange_tool);
+  robot.flange = TransformToPose(spec.T_lastjoint_flange);
   robot.error_parameters = model.parameter_names();
   return robot;
 }

@@ -30,7 +30,10 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
   if (!c.outliers.empty()) {
     out << c.outliers.size() << " outlier(s) excluded (normalised residual over " << Fixed(c.robust.threshold, 2)
         << " sigma):";
-    for (const api::OutlierWire& o : c.outliers) out << " #" << o.sequence << " (" << Fixed(o.normalized_residual, 1) << ")";
+    for (const api::OutlierWire& o : c.outliers) {
+      out << " #" << o.sequence << (o.reflector.empty() ? "" : " " + o.reflector) << " ("
+          << Fixed(o.normalized_residual, 1) << ")";
+    }
     out << "\n";
   }
   out << "condition number " << Fixed(c.condition_number, 2) << "; " << api::WireName(c.summary.termination) << ": "

@@ -107,6 +107,7 @@ void PrintJson(std::ostream& out, const T& resource) {
 // The commands, by family.
 int Robots(Invocation& in);
 int RobotRegister(Invocation& in);
+int RobotImport(Invocation& in);
 int RobotGet(Invocation& in);
 int RobotDelete(Invocation& in);
 int RobotForward(Invocation& in);

@@ -9,6 +9,11 @@ const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {
       {"robots", {}, {}, &help::kRobots, Robots},
       {"robot register", {"FILE.json"}, {}, &help::kRobotRegister, RobotRegister},
+      {"robot import",
+       {"FILE.urdf"},
+       {{"--base", "LINK"}, {"--tip", "LINK"}, {"--id", "ID"}, {"--description", "TEXT"}, {"--tool-mm", "X,Y,Z"}},
+       &help::kRobotImport,
+       RobotImport},
       {"robot get", {"ROBOT"}, {}, &help::kRobotGet, RobotGet},
       {"robot delete", {"ROBOT"}, {}, &help::kRobotDelete, RobotDelete},
       {"robot forward", {"ROBOT", "IN.csv"}, {{"--out", "OUT.csv"}}, &help::kRobotForward, RobotForward},

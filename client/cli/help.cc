@@ -41,6 +41,15 @@ or a full table: {"id": ..., "convention": "dh"|"mdh"|"transform", "joints": [..
 Prints the robot as `robot get` does.
 )"};
 
+const HelpText kRobotImport = {"register a robot from its URDF file (the chain from --base down to --tip)", R"(
+Sends FILE.urdf to POST /v1/robots: the joints from link --base down to link --tip become the robot, with the
+URDF's joint names; fixed joints are folded into the next moving joint, an axis other than +z into a fixed
+rotation, and the tip link is the flange (docs/formats.md). --id names the robot (default: the URDF's robot
+name, in lower case); --description says what it is. --tool-mm X,Y,Z puts the tool point at that offset from
+the tip link (mm, tip frame; orientation that of the tip). Prints the robot as `robot get` does; errors name
+the URDF element.
+)"};
+
 const HelpText kRobotGet = {"one robot: its joints, limits and units", R"(
 Prints the robot's joints (type, limits in the joint's unit). --json: the robot resource.
 )"};

@@ -1,5 +1,6 @@
 // robocal robots, robot register | get | delete | forward.
 #include <iomanip>
+#include <limits>
 
 #include "cli.h"
 #include "command.h"
@@ -10,7 +11,9 @@ namespace {
 
 void PrintRobot(const api::Robot& robot, std::ostream& out) {
   out << robot.id << ": " << robot.joints.size() << " joints (" << api::WireName(robot.convention) << "), "
-      << robot.error_parameters.size() << " error parameters\n";
+      << robot.error_parameters.size() << " error parameters";
+  if (!robot.urdf_tip_link.empty()) out << ", from URDF " << robot.urdf_base_link << " -> " << robot.urdf_tip_link;
+  out << "\n";
   for (const api::RobotJoint& j : robot.joints) {
     out << "  " << std::left << std::setw(8) << j.joint.name << std::setw(10) << api::WireName(j.joint.type)
         << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit << "\n";
@@ -50,6 +53,26 @@ int RobotRegister(Invocation& in) {
     throw UsageError(in.args[0] + " is not JSON: " + e.what());
   }
   return Show(in, in.Client().RegisterRobot(body));
+}
+
+int RobotImport(Invocation& in) {
+  if (!in.Has("--base") || !in.Has("--tip")) throw UsageError("robot import needs --base LINK and --tip LINK");
+  api::ImportUrdfRequest request;
+  request.urdf = ReadFile(in.args[0]);
+  request.base_link = in.Option("--base");
+  request.tip_link = in.Option("--tip");
+  request.id = in.Option("--id");
+  request.description = in.Option("--description");
+  if (in.Has("--tool-mm")) {
+    const std::vector<std::string> xyz = tools::SplitList("--tool-mm", in.Option("--tool-mm"));
+    if (xyz.size() != 3) throw UsageError("--tool-mm takes X,Y,Z (mm)");
+    api::PoseWire tool;
+    for (int k = 0; k < 3; ++k) {
+      tool.position_mm[k] = tools::ParseDoubleFlag("--tool-mm", xyz[k], std::numeric_limits<double>::lowest());
+    }
+    request.tool = tool;
+  }
+  return Show(in, in.Client().ImportRobot(request));
 }
 
 int RobotGet(Invocation& in) { return Show(in, in.Client().GetRobot(in.args[0])); }

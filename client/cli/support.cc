@@ -65,6 +65,7 @@ std::vector<api::CampaignReflectorWire> ParseReflectorsFlag(const std::string& t
       r.fixed = true;
       position.resize(second);
     }
+    if (position.empty()) throw UsageError(usage + "; \"" + item + "\" has no position");
     const std::vector<std::string> xyz = tools::SplitList("--reflectors", position);
     if (xyz.size() != 3) throw UsageError(usage + "; \"" + item + "\" needs three coordinates");
     for (int k = 0; k < 3; ++k) {

@@ -15,6 +15,10 @@ namespace {
 
 using nlohmann::json;
 
+// Where a calibration dump's --random configurations are drawn from: apart from the validation poses of the
+// same seed.
+constexpr std::uint64_t kCalibrationDumpSeedOffset = 15485863;
+
 constexpr const char* kUsage = R"(Usage: robocal-mock-tracker [options]
 
 Simulates a robot with hidden geometric errors and a laser tracker measuring it (seeded, reproducible), and
@@ -107,6 +111,9 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
   } else {
     robocal::mock::MockTrackerOptions o = options;
     o.num_validation = random;
+    // A calibration dump draws its configurations apart from the validation poses of the same seed (which
+    // RunMockTracker and a validation dump use), so that a fit is never judged on its own poses.
+    if (role == robocal::api::MeasurementRole::kCalibration) o.seed += kCalibrationDumpSeedOffset;
     for (const auto& q : robocal::mock::ValidationConfigurations(cell, o)) {
       wire.push_back(robocal::api::JointsToWire(model, q));
     }
@@ -136,6 +143,7 @@ int main(int argc, char** argv) {
   std::string dump_file, configurations;
   robocal::api::MeasurementRole role = robocal::api::MeasurementRole::kCalibration;
   int random = 0;
+  bool role_given = false;
 
   std::vector<std::string> args(argv + 1, argv + argc);
   for (std::string& a : args) {
@@ -205,6 +213,7 @@ int main(int argc, char** argv) {
         random = static_cast<int>(tools::ParseIntegerFlag(flag, v, 1, std::numeric_limits<int>::max()));
       } else if (flag == "--role") {
         role = EnumFlag<robocal::api::MeasurementRole>(flag, v);
+        role_given = true;
       } else {
         return Usage("unknown option " + flag);
       }
@@ -218,6 +227,9 @@ int main(int argc, char** argv) {
   if (!options.IsValid(&error)) return Usage(error);
 
   try {
+    if (dump_file.empty() && (role_given || random > 0 || !configurations.empty())) {
+      return Usage("--role, --random and --configurations belong to --dump-measurements");
+    }
     if (!dump_file.empty()) {
       if (configurations.empty() == (random == 0)) {
         return Usage("--dump-measurements needs exactly one of --configurations FILE or --random N");

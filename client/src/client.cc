@@ -306,6 +306,8 @@ api::Robot Client::RegisterRobot(const json& body) {
   return Parse<api::Robot>(Call("POST", "/v1/robots", &body, false), "robot");
 }
 
+api::Robot Client::ImportRobot(const api::ImportUrdfRequest& request) { return RegisterRobot(json(request)); }
+
 void Client::DeleteRobot(const std::string& robot) { Call("DELETE", "/v1/robots/" + Segment(robot), nullptr, false); }
 
 api::CellWire Client::CreateCell(const api::CellWire& request) { return CreateCell(json(request)); }

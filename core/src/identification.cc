@@ -587,6 +587,9 @@ double Median(std::vector<double> values) {
 }
 
 constexpr double kMinRobustScale = 1e-3;
+// Beyond these an identified error is no longer a calibration of the nominal geometry (IdentifyOnce says so).
+constexpr double kImplausibleErrorMm = 100.0;
+constexpr double kImplausibleErrorRad = 10.0 * M_PI / 180.0;
 // A robust scale beyond this factor either way is said in the message (above it: DEGRADED).
 constexpr double kScaleWarning = 3.0;
 // Rounds of the robust fit before it stops with the set it has (an oscillating set is reported as such).
@@ -621,7 +624,8 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   const double threshold = std::sqrt(ChiSquareQuantile(rows, options.outlier_probability));
   const double median_chi2 = ChiSquareQuantile(rows, 0.5);
   const size_t n = measurements.size();
-  std::vector<char> excluded(n, 0);
+  std::vector<char> excluded(n, 0), previous(n, 0);
+  std::string stopped;
   Calibration current = all;
   std::vector<double> z;
   double scale = 0.0;
@@ -649,15 +653,20 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     kept.reserve(n);
     for (size_t i = 0; i < n; ++i)
       if (!excluded[i]) kept.push_back(measurements[i]);
-    current = IdentifyOnce(nominal, kept, options, selection);
-    if (cancelled(current)) return current;
-    if (current.summary.termination == Termination::kFailure) {
+    Calibration next = IdentifyOnce(nominal, kept, options, selection);
+    if (cancelled(next)) return next;
+    if (next.summary.termination == Termination::kFailure) {
+      // Too few measurements left to fit (the flagged ones took whole poses with them): the rejection cannot
+      // go on, and the last fit that worked is the answer, DEGRADED and saying why; its own outliers (the
+      // previous round's) stay listed below.
       const int count = static_cast<int>(n - kept.size());
-      current.summary.message =
-          "after excluding " + std::to_string(count) + " outlier measurement(s): " + current.summary.message;
-      current.summary.seconds = Seconds(start);
-      return current;
+      stopped = "the robust fit stopped: excluding " + std::to_string(count) + " measurement(s) left " +
+                next.summary.message + "; this is the fit before that round";
+      for (size_t i = 0; i < n; ++i) excluded[i] = previous[i];
+      break;
     }
+    previous = excluded;
+    current = std::move(next);
   }
   IdentificationSummary& s = current.summary;
   s.outlier_threshold = threshold;
@@ -667,7 +676,10 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     if (excluded[i]) s.outliers.push_back({static_cast<int>(i), measurements[i].reflector, z[i]});
   }
   if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
-  if (!settled) {
+  if (!stopped.empty()) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; " + stopped;
+  } else if (!settled) {
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
     s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
   }
@@ -757,6 +769,18 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   std::sort(out.parameters.begin(), out.parameters.end());
   std::sort(out.dropped.begin(), out.dropped.end(),
             [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
+  if (!free_nests && !original.empty()) {
+    // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved.
+    std::string unobserved;
+    for (const DroppedParameter& d : out.dropped) {
+      if (d.index < n_all && d.name.rfind("tool.r", 0) == 0) unobserved += (unobserved.empty() ? "" : ", ") + d.name;
+    }
+    if (!unobserved.empty()) {
+      out.note = "the reflector nests do not observe the tool's turn (" + unobserved +
+                 " dropped): the tool point is calibrated only where it lies on the line through the nests (three "
+                 "nests not on one line observe it)";
+    }
+  }
   if (free_nests) {
     // The parameters the nests' offsets took over (FindIdentifiableParameters' gauge): they stay nominal.
     std::string held;
@@ -946,6 +970,25 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";
   }
   if (!selection.note.empty()) msg << "; " << selection.note;
+  // Geometric errors are tenths of a mm and hundredths of a degree; a fit that needs metres or tens of degrees
+  // matched the shots with a wrong nominal geometry (a tool, a reflector position, a table typed wrong).
+  std::string implausible;
+  int count = 0;
+  for (const IdentifiedParameter& p : cal.parameters) {
+    const bool mm = p.name.size() > 3 && p.name.compare(p.name.size() - 3, 2, ".d") == 0;
+    if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
+      if (++count <= 3) {
+        std::ostringstream one;
+        one << std::setprecision(4) << p.name << " " << (mm ? p.value : p.value * 180.0 / M_PI) << (mm ? " mm" : " deg");
+        implausible += (implausible.empty() ? "" : ", ") + one.str();
+      }
+    }
+  }
+  if (count > 0) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    msg << "; implausible geometric errors (" << implausible << (count > 3 ? ", ..." : "")
+        << "): the nominal geometry, the tool or a reflector position is likely wrong";
+  }
   s.message = msg.str();
   s.seconds = Seconds(start);
   return cal;

@@ -65,8 +65,9 @@ void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention,
     errors->push_back({prefix + ".max", "must be greater than min (min " + Num(joint.min) + ", max " +
                                             Num(joint.max) + ")"});
   }
-  if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 4.0 * M_PI + 1e-9) {
-    errors->push_back({prefix + ".max", "revolute range max - min must not exceed 720 degrees"});
+  // Four turns: industrial wrists turn +-400 degrees (ABB) and more; a range beyond is a unit error.
+  if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 8.0 * M_PI + 1e-9) {
+    errors->push_back({prefix + ".max", "revolute range max - min must not exceed 1440 degrees (four turns)"});
   }
 }
 
@@ -116,11 +117,17 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   for (int i = 0; i < n; ++i) ValidateJoint(spec.joints[i], i, spec.convention, &names, &errors);
   CheckTransform(spec.T_world_base, "base", &errors);
   CheckTransform(spec.T_flange_tool, "tool", &errors);
+  CheckTransform(spec.T_lastjoint_flange, "flange", &errors);
+  if (spec.convention != GeometryConvention::kTransform &&
+      !spec.T_lastjoint_flange.matrix().isIdentity(0.0)) {
+    errors.push_back({"flange", "only the transform convention takes a flange transform (DH derives it)"});
+  }
   if (!errors.empty()) throw InvalidModelError(std::move(errors));
 
   RobotModel model;
   model.spec_ = spec;
   model.fixed_.resize(n, Transform::Identity());
+  if (spec.convention == GeometryConvention::kTransform) model.flange_ = spec.T_lastjoint_flange;
   model.lower_.resize(n);
   model.upper_.resize(n);
   for (int i = 0; i < n; ++i) {

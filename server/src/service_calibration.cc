@@ -81,6 +81,23 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     measurements->push_back(ToCore(model, ReadMeasurement(s), campaign.reflectors));
     sequences->push_back(s.sequence);
   });
+  // An offset named for a nest without shots cannot be estimated: say so by the request's field.
+  if (!reflectors.empty()) {
+    std::vector<char> measured(reflectors.size(), 0);
+    for (const Measurement& m : *measurements) {
+      if (m.reflector >= 0) measured[static_cast<std::size_t>(m.reflector)] = 1;
+    }
+    const int n = model.num_error_parameters();
+    for (std::size_t i = 0; i < req.parameters.size(); ++i) {
+      const int index = ParameterIndex(model, reflectors, req.parameters[i]);
+      if (index >= n && !measured[static_cast<std::size_t>((index - n) / 3)]) {
+        const std::string reason =
+            "reflector \"" + reflectors[static_cast<std::size_t>((index - n) / 3)].id + "\" has no measurements";
+        throw ApiError(Status::kFailedPrecondition, "cannot fit " + req.parameters[i] + ": " + reason,
+                       {{"parameters[" + std::to_string(i) + "]", reason}});
+      }
+    }
+  }
 
   // Identifies and returns the fit; stores it as the calibration only if `control` never stopped it: a fit cut
   // short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.

@@ -2,6 +2,7 @@
 #include <algorithm>
 
 #include "robocal/core/presets.h"
+#include "robocal/urdf/urdf_import.h"
 #include "robocal/server/service.h"
 #include "service_support.h"
 
@@ -24,6 +25,20 @@ Service::Service(Storage* storage, ServiceOptions options)
       operations_(storage, &trimmer_, OperationRunnerOptions{options_.max_running_operations}) {}
 
 Service::~Service() = default;
+
+namespace {
+
+// A registered robot's resource: its model, and the links of the URDF it was imported from.
+api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition) {
+  api::Robot robot = api::RobotFromModel(id, model, false, definition.description);
+  if (definition.urdf) {
+    robot.urdf_base_link = definition.urdf->base_link;
+    robot.urdf_tip_link = definition.urdf->tip_link;
+  }
+  return robot;
+}
+
+}  // namespace
 
 Service::ResolvedRobot Service::ResolveRobot(const std::string& id) {
   if (IsPreset(id)) {
@@ -67,7 +82,7 @@ api::RobotList Service::ListRobots(const std::string& page_size, const std::stri
     }
     for (const Document& d : docs) {
       const api::RegisterRobotRequest definition = ReadStored<api::StoredRobot>(d).definition;
-      list.robots.push_back(api::RobotFromModel(d.id, api::BuildModel(definition), false, definition.description));
+      list.robots.push_back(RobotResource(d.id, api::BuildModel(definition), definition));
     }
   }
   if (more) list.next_page_token = PageToken(kRobots, list.robots.back().id);
@@ -75,7 +90,9 @@ api::RobotList Service::ListRobots(const std::string& page_size, const std::stri
 }
 
 api::Robot Service::CreateRobot(const nlohmann::json& body) {
-  const api::RegisterRobotRequest req = api::ParseRegisterRobotRequest(body, options_.limits);
+  const api::RegisterRobotRequest req = api::IsUrdfImport(body)
+                                            ? urdf::ImportUrdf(api::ParseImportUrdfRequest(body, options_.limits))
+                                            : api::ParseRegisterRobotRequest(body, options_.limits);
   if (IsPreset(req.id)) {
     throw ApiError(Status::kAlreadyExists, "\"" + req.id + "\" is a preset", {{"id", "taken by a preset"}});
   }
@@ -88,13 +105,14 @@ api::Robot Service::CreateRobot(const nlohmann::json& body) {
     }
     throw;
   }
-  return api::RobotFromModel(req.id, model, false, req.description);
+  return RobotResource(req.id, model, req);
 }
 
 api::Robot Service::GetRobot(const std::string& id) {
   const ResolvedRobot robot = ResolveRobot(id);
   const bool preset = IsPreset(id);
-  return api::RobotFromModel(id, robot.model, preset, preset ? PresetDescription(id) : robot.definition.description);
+  if (preset) return api::RobotFromModel(id, robot.model, true, PresetDescription(id));
+  return RobotResource(id, robot.model, robot.definition);
 }
 
 void Service::DeleteRobot(const std::string& id) {

@@ -441,7 +441,7 @@ TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
       << help.out;
   const InProcess unknown = RunInProcess({"robot", "frobnicate", "x"});
   EXPECT_EQ(unknown.exit_code, 2);
-  EXPECT_NE(unknown.err.find("robot commands: register, get, delete, forward"), std::string::npos) << unknown.err;
+  EXPECT_NE(unknown.err.find("robot commands: register, import, get, delete, forward"), std::string::npos) << unknown.err;
 }
 
 // campaign create --reflectors: nests with flange positions, fixed or identified (campaign get lists them);

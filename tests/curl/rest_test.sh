@@ -86,6 +86,23 @@ call GET /v1/robots/cell7 >/dev/null
 expect "GET deleted robot -> 404" "$(status)" 404
 expect "GET /v1/robots/nosuch -> NOT_FOUND" "$(call GET /v1/robots/nosuch | jq -r .error.status)" NOT_FOUND
 
+# ---- robots from URDF files --------------------------------------------------------------------------------------
+urdf_body=$(jq -n --rawfile x "$here/../data/urdf/irb2400.urdf" '{urdf: $x, base_link: "base_link", tip_link: "tool0"}')
+call POST /v1/robots "$urdf_body" >"$work/irb.json"
+expect "POST /v1/robots with a URDF (ABB IRB 2400)" "$(status) $(jq -c '[.id, .num_joints, .joints[0].joint // .joints[0].name, .urdf.tip_link]' "$work/irb.json")" \
+  '200 ["abb_irb2400",6,"joint_1","tool0"]'
+expect "... its limits in degrees (joint_6: 6.9813 rad)" "$(jq '.joints[5].max_deg | . > 399.99 and . < 400.01' "$work/irb.json")" true
+expect "... forward kinematics at zero: tool0 940 mm out, 1455 mm up (the URDF's offsets summed)" \
+  "$(call POST '/v1/robots/abb_irb2400:forward' '{"joints": [[0, 0, 0, 0, 0, 0]]}' | jq -c '.poses[0].position_mm | map(round | fabs)')" \
+  '[940,0,1455]'
+call POST /v1/robots "$(echo "$urdf_body" | jq '.id = "irb-b" | .tip_link = "nosuch"')" >/dev/null
+expect "... an unknown tip link -> 400 naming tip_link" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 tip_link"
+call POST /v1/robots "$(echo "$urdf_body" | jq '.id = "irb-c" | .urdf = "<robot name=\"x\"><link name=\"a\">"')" >/dev/null
+expect "... malformed XML -> 400 naming urdf" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 urdf"
+call POST /v1/robots "$(echo "$urdf_body" | jq '.id = "irb-d" | .base_link = "link_6" | .tip_link = "link_2"')" >/dev/null
+expect "... a tip not below the base -> 400" "$(status) $(jq -r '.error.details[0].reason' "$work/body" | cut -c1-30)" \
+  '400 link "link_2" is not below bas'
+
 # ---- bad input ---------------------------------------------------------------------------------------------
 expect "malformed JSON -> 400" "$(call POST /v1/plans '{"robot": ' | jq -r .error.status)" INVALID_ARGUMENT
 expect "misspelt option -> field" \

@@ -152,7 +152,8 @@ void ExpectEveryFieldRequired(const T& value, const std::set<std::string>& optio
 }
 
 // The rpy_deg beside each quaternion of a reply is derived, not read.
-const std::set<std::string> kDerived = {"base.rpy_deg", "tool.rpy_deg", "registered_base.rpy_deg",
+const std::set<std::string> kDerived = {"base.rpy_deg", "tool.rpy_deg", "flange.rpy_deg", "robots[0].flange.rpy_deg",
+                                        "registered_base.rpy_deg",
                                         "robots[0].base.rpy_deg", "robots[0].tool.rpy_deg", "poses[0].rpy_deg",
                                         "result.base.rpy_deg", "result.tool.rpy_deg",
                                         "result.registered_base.rpy_deg"};
@@ -175,6 +176,15 @@ TEST_F(WireTest, RobotsRoundTripAndRequireEveryField) {
   // Every joint field of the convention, the name included (optional in definitions only).
   ExpectEveryFieldRequired(robot, kDerived);
   ExpectEveryFieldRequired(table, kDerived);
+  // A robot imported from a URDF names its links; the whole "urdf" member is absent for other robots.
+  const Robot imported = service_->CreateRobot(json::parse(R"({"id":"imp","base_link":"b","tip_link":"t","urdf":
+      "<robot name='x'><link name='b'/><link name='m'/><link name='t'/><joint name='j1' type='revolute'><parent link='b'/><child link='m'/><axis xyz='0 1 0'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint><joint name='tip' type='fixed'><parent link='m'/><child link='t'/><origin xyz='0 0 0.1' rpy='0 0 0'/></joint></robot>"})"));
+  EXPECT_EQ(imported.urdf_tip_link, "t");
+  EXPECT_EQ(imported.joints.at(0).joint.name, "j1");
+  ExpectRoundTrip(imported);
+  std::set<std::string> optional = kDerived;
+  optional.insert("urdf");
+  ExpectEveryFieldRequired(imported, optional);
   const RobotList list = service_->ListRobots("2");
   ASSERT_TRUE(list.next_page_token.has_value());
   ExpectRoundTrip(list);

@@ -107,12 +107,12 @@ TEST(RobotModelTest, RejectsNonRigidBaseAndToolAndExcessiveRevoluteRange) {
   RobotModelSpec spec = TwoLinkSpec();
   spec.T_world_base.linear() *= 2.0;
   spec.T_flange_tool.translation().x() = INFINITY;
-  spec.joints[0].min = -3 * M_PI;
-  spec.joints[0].max = 3 * M_PI;
+  spec.joints[0].min = -4.5 * M_PI;  // 1620 degrees: more than four turns
+  spec.joints[0].max = 4.5 * M_PI;
   const auto errors = BuildErrors(spec);
   EXPECT_TRUE(HasError(errors, "base", "orthonormal"));
   EXPECT_TRUE(HasError(errors, "tool", "finite"));
-  EXPECT_TRUE(HasError(errors, "joints[0].max", "720"));
+  EXPECT_TRUE(HasError(errors, "joints[0].max", "1440"));
 }
 
 TEST(RobotModelTest, ErrorMessageListsEveryProblem) {

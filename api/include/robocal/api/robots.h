@@ -26,6 +26,13 @@ struct JointWire {
   double min = 0.0, max = 0.0;
 };
 
+/// Where an imported robot came from: the URDF document and the chain taken from it.
+struct UrdfSource {
+  std::string xml;
+  std::string base_link;
+  std::string tip_link;
+};
+
 /// POST /v1/robots, and the definition stored for a robot (and copied into each campaign). Either a full table
 /// (convention + joints) or `from_preset` (a preset's geometry, with base / tool optionally replaced).
 struct RegisterRobotRequest {
@@ -36,6 +43,11 @@ struct RegisterRobotRequest {
   std::vector<JointWire> joints;
   std::optional<PoseWire> base;  // tracker (world) -> robot base
   std::optional<PoseWire> tool;  // flange -> tool (measured point, z = tool axis)
+  /// Last joint frame (after its motion) -> flange: transform convention only (an imported URDF's fixed joints
+  /// down to its tip link); DH tables derive it.
+  std::optional<PoseWire> flange;
+  /// A robot imported from a URDF: the document and the chain, kept for the calibrated URDF export.
+  std::optional<UrdfSource> urdf;
 };
 /// Validates a request body (every problem with its field; the geometry through the core).
 RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
@@ -44,6 +56,27 @@ void to_json(nlohmann::json& j, const RegisterRobotRequest& request);
 /// Structural reading of a definition (no range checks: stored definitions stay readable when request
 /// validation tightens).
 void from_json(const nlohmann::json& j, RegisterRobotRequest& request);
+/// POST /v1/robots with a URDF document instead of a table (docs/formats.md): the chain from base_link down
+/// to tip_link becomes a transform-convention robot that keeps the URDF's joint names. `id` may be left out:
+/// the URDF's robot name then gives it (lower case, other characters as '_').
+struct ImportUrdfRequest {
+  std::string id;
+  std::string description;
+  std::string urdf;
+  std::string base_link;
+  std::string tip_link;
+  std::optional<PoseWire> base;  // tracker (world) -> base_link
+  std::optional<PoseWire> tool;  // tip_link (the flange) -> tool
+};
+/// The largest URDF document accepted (bytes).
+inline constexpr std::size_t kMaxUrdfBytes = 4u << 20;
+/// True for a body that imports a URDF (it has a "urdf" member).
+bool IsUrdfImport(const nlohmann::json& body);
+/// Validates the request's fields (the document itself is read by the importer).
+ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits& limits);
+void to_json(nlohmann::json& j, const ImportUrdfRequest& request);
+void from_json(const nlohmann::json& j, ImportUrdfRequest& request);
+
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);
 /// The model of a definition (throws ApiError kInvalidArgument naming the fields the core rejects).
@@ -64,8 +97,11 @@ struct Robot {
   GeometryConvention convention = GeometryConvention::kStandardDh;
   int num_joints = 0;
   std::vector<RobotJoint> joints;
-  PoseWire base;  // tracker (world) -> robot base
-  PoseWire tool;  // flange -> tool
+  PoseWire base;    // tracker (world) -> robot base
+  PoseWire tool;    // flange -> tool
+  PoseWire flange;  // last joint frame -> flange (identity but for an imported URDF's tip)
+  /// For a robot imported from a URDF: its base and tip links (empty otherwise).
+  std::string urdf_base_link, urdf_tip_link;
   std::vector<std::string> error_parameters;
 };
 void to_json(nlohmann::json& j, const Robot& robot);

@@ -114,6 +114,8 @@ class Client {
   api::Robot RegisterRobot(const api::RegisterRobotRequest& request);
   /// The body as read from a robot definition file (same fields as RegisterRobotRequest).
   api::Robot RegisterRobot(const nlohmann::json& body);
+  /// POST /v1/robots with a URDF document: the chain base_link -> tip_link (docs/formats.md).
+  api::Robot ImportRobot(const api::ImportUrdfRequest& request);
   void DeleteRobot(const std::string& robot);
   /// Nominal tool poses (frame "world (nominal base)") for joint vectors (deg / mm), one per vector in order.
   api::ForwardResult RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints);

@@ -54,6 +54,10 @@ struct RobotModelSpec {
   std::vector<JointSpec> joints;
   /// World (tracker) frame -> robot base frame.
   Transform T_world_base = Transform::Identity();
+  /// Last joint frame (after its motion) -> flange, for kTransform (e.g. a URDF's fixed joints after the last
+  /// moving one, down to its tip link); the DH conventions derive it from their last row and require the
+  /// identity here.
+  Transform T_lastjoint_flange = Transform::Identity();
   /// Flange (last joint frame, after the last link's fixed geometry) -> tool frame. The tool frame's origin
   /// is the measured point (tracker reflector / tool centre point); its z axis is the tool axis.
   Transform T_flange_tool = Transform::Identity();

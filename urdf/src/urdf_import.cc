@@ -1,0 +1,218 @@
+// URDF import (see urdf_import.h). The document is parsed by liburdfdom; this file only maps the parsed chain
+// onto robocal's joint model.
+#include "robocal/urdf/urdf_import.h"
+
+#include <console_bridge/console.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <mutex>
+#include <vector>
+
+#include "robocal/api/error.h"
+#include "robocal/core/transforms.h"
+
+namespace robocal::urdf {
+namespace {
+
+constexpr double kMmPerM = 1000.0;
+constexpr double kDegPerRad = 180.0 / M_PI;
+
+[[noreturn]] void Refuse(const std::string& field, const std::string& reason) {
+  throw api::ApiError(api::Status::kInvalidArgument, "invalid URDF robot: " + field + ": " + reason,
+                      {{field, reason}});
+}
+
+// liburdfdom reports why a document is refused through console_bridge's global log only; this handler
+// collects the messages of one parse (parses are serialised: the handler is process-wide).
+class Collector : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) messages.push_back(text);
+  }
+  std::vector<std::string> messages;
+};
+
+::urdf::ModelInterfaceSharedPtr Parse(const std::string& xml) {
+  static std::mutex mutex;
+  const std::lock_guard<std::mutex> lock(mutex);
+  Collector collector;
+  console_bridge::useOutputHandler(&collector);
+  ::urdf::ModelInterfaceSharedPtr model;
+  try {
+    model = ::urdf::parseURDF(xml);
+  } catch (const std::exception& e) {  // liburdfdom throws for some malformed numbers
+    collector.messages.push_back(e.what());
+  }
+  console_bridge::noOutputHandler();
+  if (!model) {
+    std::string why;
+    for (const std::string& m : collector.messages) why += (why.empty() ? "" : "; ") + m;
+    Refuse("urdf", "not a valid URDF document: " + (why.empty() ? std::string("no <robot> element") : why));
+  }
+  return model;
+}
+
+Transform ToTransform(const ::urdf::Pose& pose) {
+  Transform t = Transform::Identity();
+  double x = 0, y = 0, z = 0, w = 1;
+  pose.rotation.getQuaternion(x, y, z, w);
+  t.linear() = Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
+  t.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z) * kMmPerM;
+  return t;
+}
+
+// The fixed rotation that turns z onto `axis` (unit): the identity for +z, half a turn about x for -z, else
+// the shortest turn about z x axis. A joint moving about / along `axis` is then this rotation, the motion
+// about / along z, and its inverse (which the next transform takes over).
+Eigen::Matrix3d AxisAlignment(const Eigen::Vector3d& axis) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  if ((axis - z).norm() < 1e-15) return Eigen::Matrix3d::Identity();
+  if ((axis + z).norm() < 1e-15) return Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  return Eigen::Quaterniond::FromTwoVectors(z, axis).toRotationMatrix();
+}
+
+std::string JointPath(const ::urdf::Joint& joint) { return "urdf: <joint name=\"" + joint.name + "\">"; }
+
+// The robot id a URDF's name gives: lower case, other characters '_' (IsValidId decides).
+std::string IdFromName(const std::string& name) {
+  std::string id;
+  for (char c : name.substr(0, 64)) {
+    const char l = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    id += (std::isalnum(static_cast<unsigned char>(l)) || l == '_' || l == '.' || l == '-') ? l : '_';
+  }
+  return id;
+}
+
+}  // namespace
+
+api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
+  const ::urdf::ModelInterfaceSharedPtr model = Parse(request.urdf);
+  const auto link_names = [&] {
+    std::vector<::urdf::LinkSharedPtr> links;
+    model->getLinks(links);
+    std::vector<std::string> names;
+    for (const auto& l : links) names.push_back(l->name);
+    std::sort(names.begin(), names.end());
+    std::string out;
+    for (size_t i = 0; i < names.size() && i < 20; ++i) out += (i ? ", " : "") + names[i];
+    return out + (names.size() > 20 ? ", ..." : "");
+  };
+  const ::urdf::LinkConstSharedPtr base = model->getLink(request.base_link);
+  if (!base) Refuse("base_link", "no link \"" + request.base_link + "\" in the URDF (links: " + link_names() + ")");
+  const ::urdf::LinkConstSharedPtr tip = model->getLink(request.tip_link);
+  if (!tip) Refuse("tip_link", "no link \"" + request.tip_link + "\" in the URDF (links: " + link_names() + ")");
+
+  // The joints from the tip up to the base, then in chain order.
+  std::vector<::urdf::JointConstSharedPtr> chain;
+  for (::urdf::LinkConstSharedPtr link = tip; link != base;) {
+    if (!link->parent_joint) {
+      Refuse("tip_link", "link \"" + request.tip_link + "\" is not below base_link \"" + request.base_link +
+                             "\" (its chain ends at the root link \"" + link->name + "\")");
+    }
+    chain.push_back(link->parent_joint);
+    link = model->getLink(link->parent_joint->parent_link_name);
+  }
+  std::reverse(chain.begin(), chain.end());
+
+  api::RegisterRobotRequest out;
+  out.id = request.id.empty() ? IdFromName(model->getName()) : request.id;
+  if (!api::IsValidId(out.id)) {
+    Refuse("id", "the URDF's robot name \"" + model->getName() + "\" gives no valid id; give one (" +
+                     std::string(api::kIdRule) + ")");
+  }
+  out.description = request.description.empty() ? "imported from the URDF robot \"" + model->getName() + "\" (" +
+                                                      request.base_link + " -> " + request.tip_link + ")"
+                                                : request.description;
+  out.convention = GeometryConvention::kTransform;
+  out.base = request.base;
+  out.tool = request.tool;
+  out.urdf = api::UrdfSource{request.urdf, request.base_link, request.tip_link};
+
+  // What lies between the previous moving joint's frame (after its motion) and the next joint's origin: fixed
+  // joints and the previous joint's axis alignment, inverted.
+  Transform pending = Transform::Identity();
+  for (const ::urdf::JointConstSharedPtr& joint : chain) {
+    const Transform origin = ToTransform(joint->parent_to_joint_origin_transform);
+    if (joint->type == ::urdf::Joint::FIXED) {
+      pending = pending * origin;
+      continue;
+    }
+    if (joint->type == ::urdf::Joint::FLOATING || joint->type == ::urdf::Joint::PLANAR) {
+      Refuse("urdf", JointPath(*joint) + " is " +
+                         (joint->type == ::urdf::Joint::FLOATING ? "floating" : "planar") +
+                         ": an arm's chain has revolute, continuous, prismatic and fixed joints only");
+    }
+    if (joint->type != ::urdf::Joint::REVOLUTE && joint->type != ::urdf::Joint::CONTINUOUS &&
+        joint->type != ::urdf::Joint::PRISMATIC) {
+      Refuse("urdf", JointPath(*joint) + " has an unknown type");
+    }
+    if (joint->mimic) {
+      Refuse("urdf", JointPath(*joint) + " mimics \"" + joint->mimic->joint_name +
+                         "\": a calibrated chain needs joints that move on their own");
+    }
+    Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
+    if (!axis.allFinite() || !(axis.norm() > 1e-9)) Refuse("urdf", JointPath(*joint) + ": <axis> is zero");
+    axis.normalize();
+    const Eigen::Matrix3d align = AxisAlignment(axis);
+    const Transform fixed = pending * origin * Rotation(align);
+    pending = Rotation(align.transpose());
+
+    api::JointWire j;
+    j.name = joint->name;
+    j.type = joint->type == ::urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
+    const Eigen::Vector3d rpy = RpyFromRotation(fixed.linear()) * kDegPerRad;
+    j.xyz_mm = {fixed.translation().x(), fixed.translation().y(), fixed.translation().z()};
+    j.rpy_deg = {rpy.x(), rpy.y(), rpy.z()};
+    if (joint->type == ::urdf::Joint::CONTINUOUS) {
+      j.min = -360.0;
+      j.max = 360.0;
+    } else {
+      if (!joint->limits) Refuse("urdf", JointPath(*joint) + " has no <limit>");
+      const double scale = j.type == JointType::kPrismatic ? kMmPerM : kDegPerRad;
+      j.min = joint->limits->lower * scale;
+      j.max = joint->limits->upper * scale;
+      if (!(j.min < j.max)) {
+        Refuse("urdf", JointPath(*joint) + ": <limit> lower must be below upper (lower " +
+                           std::to_string(joint->limits->lower) + ", upper " + std::to_string(joint->limits->upper) +
+                           ")");
+      }
+    }
+    out.joints.push_back(j);
+  }
+  if (out.joints.empty()) {
+    Refuse("tip_link", "no revolute, continuous or prismatic joint between \"" + request.base_link + "\" and \"" +
+                           request.tip_link + "\"");
+  }
+  if (out.joints.size() > static_cast<size_t>(kMaxJoints)) {
+    Refuse("tip_link", std::to_string(out.joints.size()) + " moving joints between \"" + request.base_link +
+                           "\" and \"" + request.tip_link + "\"; robocal takes at most " + std::to_string(kMaxJoints));
+  }
+  out.flange = api::TransformToPose(pending);
+
+  // The core's checks (names robocal reserves or cannot use, limits) name joints[i]; say which URDF joint that is.
+  try {
+    (void)RobotModel::Build(api::ToSpec(out));
+  } catch (const InvalidModelError& e) {
+    std::vector<api::FieldViolation> details;
+    std::string message;
+    for (const FieldError& f : e.errors()) {
+      std::string field = f.field;
+      if (field.rfind("joints[", 0) == 0) {
+        const size_t i = std::stoul(field.substr(7));
+        field = "urdf";
+        details.push_back({field, "<joint name=\"" + out.joints.at(i).name + "\">: " + f.reason});
+      } else {
+        details.push_back({field, f.reason});
+      }
+      message += (message.empty() ? "" : "; ") + details.back().field + ": " + details.back().reason;
+    }
+    throw api::ApiError(api::Status::kInvalidArgument, "invalid URDF robot: " + message, details);
+  }
+  return out;
+}
+
+}  // namespace robocal::urdf
