@@ -770,15 +770,16 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   std::sort(out.dropped.begin(), out.dropped.end(),
             [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
   if (!free_nests && !original.empty()) {
-    // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved.
-    std::string unobserved;
-    for (const DroppedParameter& d : out.dropped) {
-      if (d.index < n_all && d.name.rfind("tool.r", 0) == 0) unobserved += (unobserved.empty() ? "" : ", ") + d.name;
-    }
-    if (!unobserved.empty()) {
-      out.note = "the reflector nests do not observe the tool's turn (" + unobserved +
-                 " dropped): the tool point is calibrated only where it lies on the line through the nests (three "
-                 "nests not on one line observe it)";
+    // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved:
+    // fewer of the model's parameters than pose measurements would identify.
+    IdentifiabilityOptions pose_options = options.identifiability;
+    const IdentifiabilitySummary pose = FindIdentifiableParameters(nominal, MeasurementType::kPose, pose_options);
+    const auto model_kept = std::count_if(out.parameters.begin(), out.parameters.end(), [&](int j) { return j < n_all; });
+    if (pose.termination != Termination::kFailure && model_kept < static_cast<long>(pose.identifiable.size())) {
+      out.note = "the reflector nests do not observe the tool's full orientation (" + std::to_string(model_kept) +
+                 " parameters against " + std::to_string(pose.identifiable.size()) +
+                 " from pose measurements): nests on one line leave the turn about it open, and a tool point off "
+                 "that line is not calibrated (three nests not on one line observe it)";
     }
   }
   if (free_nests) {

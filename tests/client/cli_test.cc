@@ -444,6 +444,28 @@ TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
   EXPECT_NE(unknown.err.find("robot commands: register, import, get, delete, forward"), std::string::npos) << unknown.err;
 }
 
+// robot import: a public URDF (UR5) becomes a robot with its joint names, the chain's links said; without
+// --base / --tip it is a usage error, an unknown link the service's named field.
+TEST_F(CliTest, RobotImportFromAUrdfFile) {
+  const std::string server = "--server " + server_.url();
+  const std::string file = std::string(ROBOCAL_URDF_DATA) + "/ur5_robot.urdf";
+  const Result imported = RunCli(server + " robot import " + file + " --base base_link --tip tool0 --id ur5-lab");
+  ASSERT_EQ(imported.exit_code, 0);
+  EXPECT_NE(imported.out.find("ur5-lab: 6 joints (transform), 48 error parameters, from URDF base_link -> tool0"),
+            std::string::npos)
+      << imported.out;
+  EXPECT_NE(imported.out.find("shoulder_pan_joint"), std::string::npos) << imported.out;
+  const Result shown = RunCli(server + " robot get ur5-lab --json");
+  EXPECT_EQ(nlohmann::json::parse(shown.out).at("urdf").at("tip_link"), "tool0");
+  const InProcess no_tip = RunInProcess({"--server", server_.url(), "robot", "import", file, "--base", "base_link"});
+  EXPECT_EQ(no_tip.exit_code, 2);
+  EXPECT_NE(no_tip.err.find("--tip"), std::string::npos) << no_tip.err;
+  const InProcess bad_link =
+      RunInProcess({"--server", server_.url(), "robot", "import", file, "--base", "base_link", "--tip", "hand"});
+  EXPECT_EQ(bad_link.exit_code, 1);
+  EXPECT_NE(bad_link.err.find("tip_link: no link \"hand\""), std::string::npos) << bad_link.err;
+}
+
 // campaign create --reflectors: nests with flange positions, fixed or identified (campaign get lists them);
 // a malformed list is a usage error naming the flag, reflectors on a pose campaign the service's field.
 TEST_F(CliTest, CampaignCreateWithReflectors) {

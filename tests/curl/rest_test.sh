@@ -331,6 +331,23 @@ expect "fit parameters may name reflector offsets" "$(status) $(jq -c '[.paramet
   "200 $some"
 call POST "/v1/campaigns/$nested:fit" '{"parameters": ["reflector.smr9.dx"]}' >/dev/null
 expect "... an unknown one -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 parameters[0]"
+call POST "/v1/campaigns/$nested:fit" '{"parameters": ["reflector.smr1.dx", "reflector.smr1.dx"]}' >/dev/null
+expect "... one named twice -> 400" "$(status) $(jq -r '.error.details[0].reason' "$work/body")" \
+  '400 "reflector.smr1.dx" is given twice'
+held=$(call POST /v1/campaigns '{"robot": "grinder5", "reflectors": [{"id": "h1", "position_mm": [60, 0, 20], "fixed": true}, {"id": "h2", "position_mm": [0, 60, 20]}]}' | jq -r .id)
+call POST "/v1/campaigns/$held:fit" '{"parameters": ["tool.dx", "reflector.h1.dx"]}' >/dev/null
+expect "... a held nest's offset -> 400" "$(status) $(jq -r '.error.details[0] | .field + ": " + .reason' "$work/body")" \
+  '400 parameters[1]: reflector "h1" is fixed: its position is held, not estimated'
+# A fourth nest nobody shot: dropped by name, and a request for its offset refused by name.
+four=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"reflectors\": $(echo "$nests" | jq -c '. + [{"id": "smr4", "position_mm": [0, 0, 80]}]')}" | jq -r .id)
+call POST "/v1/campaigns/$four/measurements" "$(jq -c '.request_id = "four-1"' "$work/nests.json")" >/dev/null
+call POST "/v1/campaigns/$four:fit" '{}' >"$work/four_fit.json"
+expect "a nest without shots is dropped by name" \
+  "$(status) $(jq -r '[.dropped[] | select(.name | startswith("reflector.smr4")) | .reason] | unique | join("|")' "$work/four_fit.json")" \
+  "200 reflector 'smr4' has no measurements"
+call POST "/v1/campaigns/$four:fit" '{"parameters": ["tool.dx", "reflector.smr4.dz"]}' >/dev/null
+expect "... naming its offset -> 400 naming the parameter" "$(status) $(jq -r '.error.details[0] | .field + ": " + .reason' "$work/body")" \
+  '400 parameters[1]: reflector "smr4" has no measurements'
 expect "reflectors without a type make a position campaign" \
   "$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"reflectors\": $nests}" | jq -r .measurement_type)" position
 call POST /v1/campaigns '{"robot": "grinder5", "reflectors": [{"id": "far", "position_mm": [6000, 6000, 6000]}]}' >/dev/null

@@ -251,6 +251,30 @@ TEST(ReflectorGaugeTest, FreeNestsKeepTheToolSiteNominal) {
   }
 }
 
+// Two held nests observe the tool's turn about every axis but the line through them: the fit says so.
+TEST(ReflectorGaugeTest, TwoHeldNestsSayWhatTheyLeaveUnobserved) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 5;
+  o.noise = {0.0, 0.0, std::nullopt};
+  o.shots_per_pose = 1;
+  o.reflectors = {ThreeNests(true)[0], ThreeNests(true)[1]};
+  VirtualCell cell(model, o);
+  IdentificationOptions fit;
+  fit.measurement_type = MeasurementType::kPosition;
+  fit.reflectors = o.reflectors;
+  const Calibration two = Identify(model, cell.MeasureAll(Configurations(model, 20, 5)), fit);
+  ASSERT_EQ(two.summary.termination, Termination::kConvergence) << two.summary.FullReport();
+  EXPECT_THAT(two.summary.message,
+              HasSubstr("the reflector nests do not observe the tool's full orientation (29 parameters against 30"));
+  // Three not on one line: nothing to say.
+  o.reflectors = ThreeNests(true);
+  VirtualCell three_cell(model, o);
+  fit.reflectors = o.reflectors;
+  const Calibration three = Identify(model, three_cell.MeasureAll(Configurations(model, 20, 5)), fit);
+  EXPECT_THAT(three.summary.message, Not(HasSubstr("do not observe")));
+}
+
 // A nest the campaign never shot is dropped by name; the others are fitted.
 TEST(ReflectorGaugeTest, AnUnmeasuredNestIsDroppedByName) {
   const RobotModel model = Preset("ur5e");

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "robocal/core/identification.h"
@@ -137,6 +138,56 @@ TEST(RobustFitTest, APlantedOutlierIsFoundByIndexAndTheParametersWithItAreReport
   EXPECT_EQ(plain.summary.num_measurements, 30);
   EXPECT_TRUE(plain.summary.outliers.empty());
   EXPECT_EQ(plain.summary.rejection_rounds, 0);
+}
+
+// Few poses for many parameters (10 poses, ur5e position, 27 parameters): the rejection can flag whole poses
+// and leave too few to fit. The robust fit then answers with the last fit that worked, DEGRADED and saying
+// why, never a failure; over these seeds the path is taken at least once.
+TEST(RobustFitTest, RejectionThatLeavesTooFewPosesFallsBackToTheLastFit) {
+  const RobotModel model = Preset("ur5e");
+  int stopped = 0;
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    SCOPED_TRACE(seed);
+    VirtualCellOptions o;
+    o.seed = seed;
+    o.shots_per_pose = 3;
+    o = Realistic(o);
+    VirtualCell cell(model, o);
+    IdentificationOptions fit;
+    fit.measurement_type = MeasurementType::kPosition;
+    fit.noise = o.noise;
+    const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 10, seed + 100)), fit);
+    ASSERT_NE(cal.summary.termination, Termination::kFailure) << cal.summary.FullReport();
+    if (cal.summary.message.find("the robust fit stopped") != std::string::npos) {
+      ++stopped;
+      EXPECT_EQ(cal.summary.termination, Termination::kDegraded);
+      EXPECT_THAT(cal.summary.message, ::testing::HasSubstr("this is the fit before that round"));
+    }
+  }
+  RecordProperty("stopped", stopped);
+  EXPECT_GE(stopped, 1);
+}
+
+// Shots of a nest at 60, 0, 20 mm fitted as if it were held at 2 m: the fit matches them with metres of
+// "error", which it must not call a calibration.
+TEST(RobustFitTest, ImplausibleErrorsAreDegraded) {
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 3;
+  o.shots_per_pose = 1;
+  o.reflectors = {{"smr1", {60.0, 0.0, 20.0}, true}};
+  VirtualCell cell(model, o);
+  IdentificationOptions fit;
+  fit.measurement_type = MeasurementType::kPosition;
+  fit.noise = o.noise;
+  fit.reflectors = {{"smr1", {2000.0, 0.0, 0.0}, true}};
+  const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 30, 9)), fit);
+  EXPECT_EQ(cal.summary.termination, Termination::kDegraded) << cal.summary.FullReport();
+  EXPECT_THAT(cal.summary.message, ::testing::HasSubstr("implausible geometric errors ("));
+  // The nest where it is: a calibration, not flagged.
+  fit.reflectors = o.reflectors;
+  const Calibration right = Identify(model, cell.MeasureAll(Configurations(model, 30, 9)), fit);
+  EXPECT_EQ(right.summary.termination, Termination::kConvergence) << right.summary.FullReport();
 }
 
 }  // namespace
