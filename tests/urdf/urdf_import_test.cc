@@ -256,6 +256,17 @@ TEST(UrdfImportTest, BadDocumentsAndChainsAreNamed) {
   EXPECT_THAT(reason, HasSubstr("<joint name=\"elbow\">: <limit> lower must be below upper"));
   std::tie(field, reason) = Refusal(Replace(kCoverage, R"(<axis xyz="0 -1 0"/>)", R"(<axis xyz="0 0 0"/>)"));
   EXPECT_THAT(reason, HasSubstr("elbow"));
+  // Nesting that would take the XML parser's recursion through the stack is refused before it parses; the
+  // coverage URDF itself, with comments and quoted '>' added, is not.
+  std::string deep = "<robot name='x'>";
+  for (int i = 0; i < 200000; ++i) deep += "<a>";
+  std::tie(field, reason) = Refusal(deep);
+  EXPECT_EQ(field, "urdf");
+  EXPECT_THAT(reason, HasSubstr("elements nest deeper than 64 levels"));
+  EXPECT_EQ(Refusal(Replace(kCoverage, "<link name=\"world\"/>",
+                            "<!-- <a><b><c> --><link name=\"world\"/><![CDATA[<x><y>]]>"))
+                .first,
+            "accepted");
   // A robot name that gives no id.
   std::tie(field, reason) = Refusal(Replace(kCoverage, R"(name="Cover_Bot 1")", R"(name="_x")"));
   EXPECT_EQ(field, "id");

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <vector>
 
@@ -36,7 +37,55 @@ class Collector : public console_bridge::OutputHandler {
   std::vector<std::string> messages;
 };
 
+// The deepest element nesting in `xml`, counted up to `limit` + 1. Written here because liburdfdom's XML
+// parser (TinyXML) descends recursively with no depth limit of its own: a document of a few MB nested a
+// million deep would overflow the server thread's stack. A URDF nests four deep (robot, joint, limit); this
+// scan only has to be conservative: comments, CDATA, declarations and processing instructions are skipped, a
+// quoted attribute value may hold '>', an empty element (<x/>) does not nest.
+int NestingDepth(const std::string& xml, int limit) {
+  int depth = 0, deepest = 0;
+  size_t i = 0;
+  const auto skip_past = [&](const char* end) {
+    const size_t at = xml.find(end, i);
+    i = at == std::string::npos ? xml.size() : at + std::strlen(end);
+  };
+  while ((i = xml.find('<', i)) != std::string::npos) {
+    if (xml.compare(i, 4, "<!--") == 0) {
+      skip_past("-->");
+    } else if (xml.compare(i, 9, "<![CDATA[") == 0) {
+      skip_past("]]>");
+    } else if (xml.compare(i, 2, "<?") == 0) {
+      skip_past("?>");
+    } else if (xml.compare(i, 2, "<!") == 0 || xml.compare(i, 2, "</") == 0) {
+      if (xml[i + 1] == '/') --depth;
+      skip_past(">");
+    } else {
+      // A start tag: to its '>' outside quotes; "/>" closes it at once.
+      char quote = 0;
+      size_t j = i + 1;
+      for (; j < xml.size(); ++j) {
+        if (quote) {
+          if (xml[j] == quote) quote = 0;
+        } else if (xml[j] == '"' || xml[j] == '\'') {
+          quote = xml[j];
+        } else if (xml[j] == '>') {
+          break;
+        }
+      }
+      if (j < xml.size() && xml[j - 1] != '/') deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+      i = j + 1;
+    }
+  }
+  return deepest;
+}
+
+constexpr int kMaxXmlDepth = 64;
+
 ::urdf::ModelInterfaceSharedPtr Parse(const std::string& xml) {
+  if (NestingDepth(xml, kMaxXmlDepth) > kMaxXmlDepth) {
+    Refuse("urdf", "elements nest deeper than " + std::to_string(kMaxXmlDepth) + " levels (a URDF needs 4)");
+  }
   static std::mutex mutex;
   const std::lock_guard<std::mutex> lock(mutex);
   Collector collector;
