@@ -26,7 +26,14 @@ Eigen::Vector3d RpyFromRotation(const Eigen::Matrix3d& r) {
     const double yaw = std::atan2(-r(0, 1), r(1, 1));
     return {0.0, pitch, yaw};
   }
-  return {std::atan2(r(2, 1), r(2, 2)), pitch, std::atan2(r(1, 0), r(0, 0))};
+  // Near the lock roll and yaw are each ill-determined (r(2,1), r(2,2), r(1,0), r(0,0) are all of the size of
+  // cos(pitch)); taken separately, their errors would not cancel. So yaw is taken first and roll and pitch from
+  // M = Rz(-yaw) R = Ry(pitch) Rx(roll), whose row 1 is (0, cos roll, -sin roll): the three angles then
+  // rebuild R to round-off whatever the yaw's own error.
+  const double yaw = std::atan2(r(1, 0), r(0, 0));
+  const double cy = std::cos(yaw), sy = std::sin(yaw);
+  const double roll = std::atan2(sy * r(0, 2) - cy * r(1, 2), cy * r(1, 1) - sy * r(0, 1));
+  return {roll, std::atan2(-r(2, 0), cy * r(0, 0) + sy * r(1, 0)), yaw};
 }
 
 Transform TransformFromXyzRpy(const Eigen::Vector3d& xyz_mm, const Eigen::Vector3d& rpy_rad) {

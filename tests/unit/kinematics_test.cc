@@ -202,6 +202,14 @@ TEST(TransformsTest, RpyRoundTripAndRotationVector) {
   // Gimbal lock keeps the rotation even though rpy is not unique.
   const Eigen::Matrix3d r = RotationFromRpy({0.3, M_PI / 2, -0.2});
   EXPECT_LT((RotationFromRpy(RpyFromRotation(r)) - r).norm(), 1e-12);
+  // Near the lock roll and yaw are each ill-determined; the rotation they give back must not be (pitch within
+  // 1e-9 .. 1e-6 rad of 90 degrees, as a URDF's rounded pi/2 next to a small calibrated turn puts it).
+  for (const double off : {1e-9, 1.8e-9, 1e-7, 1e-6}) {
+    for (const double sign : {1.0, -1.0}) {
+      const Eigen::Matrix3d near = RotationFromRpy({0.3, sign * (M_PI / 2 - off), -0.2}) * RotationFromRpy({1e-5, -2e-5, 3e-5});
+      EXPECT_LT((RotationFromRpy(RpyFromRotation(near)) - near).norm(), 1e-14) << off << " " << sign;
+    }
+  }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // liburdfdom's parsed joints, independently of the importer's mapping), for URDFs written to cover each case
 // and for public robot descriptions; and every refusal naming its field and element.
 #include "robocal/urdf/urdf_import.h"
+#include "robocal/urdf/urdf_export.h"
 
 #include <urdf_parser/urdf_parser.h>
 
@@ -193,6 +194,56 @@ TEST(UrdfImportTest, KeepsNamesAndConvertsLimitsAndUnits) {
   const Eigen::VectorXd q = Eigen::Vector4d(0.3, -0.2, 120.0, 2.0);
   EXPECT_TRUE(ForwardKinematics(api::BuildModel(stored), q, Eigen::VectorXd(), &ws)
                   .isApprox(ForwardKinematics(api::BuildModel(d), q, Eigen::VectorXd(), &ws), 1e-15));
+}
+
+// The calibrated URDF: random geometric errors of calibration size on every site (base, joints, tool),
+// exported, imported again down to the added tool link: its kinematics are the calibrated robot's in its base
+// frame, to round-off; the rest of the document is kept.
+TEST(UrdfExportTest, TheCalibratedUrdfReproducesTheCalibratedKinematics) {
+  for (const auto& [name, xml, base, tip] :
+       {std::tuple{"coverage", std::string(kCoverage), "world", "tool0"},
+        std::tuple{"ur5", ReadData("ur5_robot.urdf"), "base_link", "tool0"},
+        std::tuple{"irb2400", ReadData("irb2400.urdf"), "base_link", "tool0"}}) {
+    SCOPED_TRACE(name);
+    api::ImportUrdfRequest request = Request(xml, base, tip);
+    api::PoseWire tool;
+    tool.position_mm = {10.0, -5.0, 150.0};
+    tool.quaternion = {0.9238795325112867, 0.0, 0.3826834323650898, 0.0};  // 45 deg about y
+    request.tool = tool;
+    api::PoseWire registered;
+    registered.position_mm = {2500.0, -800.0, 300.0};
+    request.base = registered;
+    const api::RegisterRobotRequest definition = urdf::ImportUrdf(request);
+    const RobotModel model = api::BuildModel(definition);
+    Rng rng(11);
+    Eigen::VectorXd errors(model.num_error_parameters());
+    for (int k = 0; k < errors.size(); ++k) {
+      errors[k] = (RobotModel::IsTranslationParameter(k) ? 0.3 : 1e-3) * rng.Normal();
+    }
+    const std::string exported = urdf::ExportCalibratedUrdf(*definition.urdf, model, errors, model.T_world_base());
+    EXPECT_THAT(exported, HasSubstr("Calibrated by robocal"));
+    EXPECT_THAT(exported, HasSubstr("<link name=\"robocal_tool\"/>"));
+    const RobotModel back = api::BuildModel(urdf::ImportUrdf(Request(exported, base, urdf::kToolLink)));
+    ASSERT_EQ(back.num_joints(), model.num_joints());
+    KinematicsWorkspace ws(model), ws_back(back);
+    double position = 0.0, rotation = 0.0;
+    for (int n = 0; n < 100; ++n) {
+      const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+      const Transform calibrated = model.T_world_base().inverse() * ForwardKinematics(model, q, errors, &ws);
+      const Transform& reloaded = ForwardKinematics(back, q, Eigen::VectorXd(), &ws_back);
+      position = std::max(position, (calibrated.translation() - reloaded.translation()).norm());
+      rotation = std::max(rotation, Eigen::AngleAxisd(calibrated.linear().transpose() * reloaded.linear()).angle());
+    }
+    RecordProperty(std::string(name) + "_position_mm", std::to_string(position * 1e9) + "e-9");
+    EXPECT_LT(position, 1e-9);
+    EXPECT_LT(rotation, 1e-12);
+    // The errors are in it: the nominal robot (with its tool) is off the reloaded one by tenths of a mm.
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    EXPECT_GT((ForwardKinematics(back, q, Eigen::VectorXd(), &ws_back).translation() -
+               (model.T_world_base().inverse() * ForwardKinematics(model, q, Eigen::VectorXd(), &ws)).translation())
+                  .norm(),
+              0.05);
+  }
 }
 
 // Refusals: the field, and the element in the reason.

@@ -2,6 +2,8 @@
 // onto robocal's joint model.
 #include "robocal/urdf/urdf_import.h"
 
+#include "urdf_internal.h"
+
 #include <console_bridge/console.h>
 #include <urdf_parser/urdf_parser.h>
 
@@ -17,7 +19,7 @@
 #include "robocal/core/transforms.h"
 
 namespace robocal::urdf {
-namespace {
+namespace internal {
 
 constexpr double kMmPerM = 1000.0;
 constexpr double kDegPerRad = 180.0 / M_PI;
@@ -136,7 +138,9 @@ std::string IdFromName(const std::string& name) {
   return id;
 }
 
-}  // namespace
+}  // namespace internal
+
+using namespace internal;
 
 api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
   const ::urdf::ModelInterfaceSharedPtr model = Parse(request.urdf);
