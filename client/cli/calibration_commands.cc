@@ -100,6 +100,20 @@ int Compensate(Invocation& in) {
   return kExitOk;
 }
 
+int Export(Invocation& in) {
+  const std::string format = in.Option("--format", "urdf");
+  std::string text;
+  if (format == "urdf") {
+    text = in.Client().GetCalibrationUrdf(in.args[0]);
+  } else if (format == "json") {
+    text = nlohmann::json(in.Client().GetCalibration(in.args[0])).dump(2) + "\n";
+  } else {
+    throw UsageError("--format takes urdf or json, got '" + format + "'");
+  }
+  Output(in.Option("--out"), in.out).stream() << text;
+  return kExitOk;
+}
+
 int Evaluate(Invocation& in) {
   api::EvaluateRequest request;
   // Any number: the service says which it takes (its error names h_mm and the range).

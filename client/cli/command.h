@@ -108,6 +108,7 @@ void PrintJson(std::ostream& out, const T& resource) {
 int Robots(Invocation& in);
 int RobotRegister(Invocation& in);
 int RobotImport(Invocation& in);
+int Export(Invocation& in);
 int RobotGet(Invocation& in);
 int RobotDelete(Invocation& in);
 int RobotForward(Invocation& in);

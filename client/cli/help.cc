@@ -50,6 +50,13 @@ the tip link (mm, tip frame; orientation that of the tip). Prints the robot as `
 the URDF element.
 )"};
 
+const HelpText kExport = {"the calibrated robot in a format robot software loads (--format urdf|json)", R"(
+--format urdf (the default): a URDF document whose kinematics are the calibrated robot's (docs/formats.md): a
+robot imported from a URDF comes back as its own document with the identified errors folded into the chain's
+joint origins, any other robot as a generated one; both end in a link robocal_tool, the calibrated tool.
+--format json: the stored calibration (GET /v1/campaigns/{c}/calibration). Written to stdout, or to --out FILE.
+)"};
+
 const HelpText kRobotGet = {"one robot: its joints, limits and units", R"(
 Prints the robot's joints (type, limits in the joint's unit). --json: the robot resource.
 )"};

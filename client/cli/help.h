@@ -21,6 +21,7 @@ extern const char* const kGlobal;
 extern const HelpText kRobots;
 extern const HelpText kRobotRegister;
 extern const HelpText kRobotImport;
+extern const HelpText kExport;
 extern const HelpText kRobotGet;
 extern const HelpText kRobotDelete;
 extern const HelpText kRobotForward;

@@ -414,6 +414,11 @@ api::Operation Client::StartFit(const std::string& campaign, const api::FitReque
                                "operation");
 }
 
+std::string Client::GetCalibrationUrdf(const std::string& campaign) {
+  return Send(*impl_->http, impl_->base_url, options_, "GET",
+              "/v1/campaigns/" + Segment(campaign) + "/calibration?format=urdf", nullptr, true);
+}
+
 api::CalibrationResult Client::GetCalibration(const std::string& campaign) {
   return Parse<api::CalibrationResult>(
       Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration");

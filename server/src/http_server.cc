@@ -267,7 +267,8 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
           std::counting_semaphore<>* slots;
           ~Release() { slots->release(); }
         } release{impl->handler_slots.get()};
-        res.set_content(fn(*impl->service, req), "application/json");
+        RouteReply reply = fn(*impl->service, req);
+        res.set_content(std::move(reply.body), reply.content_type);
       };
     }
     const std::string method = route.method;

@@ -95,7 +95,15 @@ const std::vector<Route>& RouteTable() {
       {"POST", R"(/v1/campaigns/([^/:]+):fit)", "/v1/campaigns/{campaign}:fit",
        [](Service& s, const httplib::Request& r) { return Reply(s.Fit(Id(r), Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/calibration)", "/v1/campaigns/{campaign}/calibration",
-       [](Service& s, const httplib::Request& r) { return Reply(s.GetCalibration(Id(r))); }},
+       [](Service& s, const httplib::Request& r) -> RouteReply {
+         const std::string format = Query(r, "format");
+         if (format == "urdf") return {s.CalibrationUrdf(Id(r)), "application/xml"};
+         if (!format.empty() && format != "json") {
+           throw ApiError(Status::kInvalidArgument, "unknown format \"" + format + "\"",
+                          {{"format", "must be json (the default) or urdf"}});
+         }
+         return Reply(s.GetCalibration(Id(r)));
+       }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
        [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",

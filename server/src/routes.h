@@ -15,9 +15,16 @@
 
 namespace robocal::server {
 
-// What a route does: parse path/query/body, call the service, return the response body.
-/// The reply body (JSON text) of a request.
-using RouteHandler = std::function<std::string(Service&, const httplib::Request&)>;
+/// A route's reply: its body and media type (JSON unless a route says otherwise, e.g. a URDF document).
+struct RouteReply {
+  RouteReply(std::string body_text) : body(std::move(body_text)) {}  // NOLINT: JSON replies convert implicitly
+  RouteReply(std::string body_text, std::string type) : body(std::move(body_text)), content_type(std::move(type)) {}
+  std::string body;
+  std::string content_type = "application/json";
+};
+
+// What a route does: parse path/query/body, call the service, return the response.
+using RouteHandler = std::function<RouteReply(Service&, const httplib::Request&)>;
 
 struct Route {
   const char* method;

@@ -9,6 +9,7 @@
 #include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
+#include "robocal/urdf/urdf_export.h"
 #include "service_support.h"
 
 namespace robocal::server {
@@ -171,6 +172,17 @@ api::CalibrationResult Service::GetCalibration(const std::string& campaign_id) {
   const auto doc = storage_->Get(kCalibrations, campaign_id);
   if (!doc) throw ApiError(Status::kNotFound, "campaign \"" + campaign_id + "\" has no calibration yet (POST :fit)");
   return ReadStored<api::StoredCalibration>(*doc).result;
+}
+
+std::string Service::CalibrationUrdf(const std::string& campaign_id) {
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const Calibration& c = loaded.calibration;
+  // The nominal model with the calibrated base registration; the URDF holds the chain, not the registration.
+  if (loaded.campaign.robot_definition.urdf) {
+    return urdf::ExportCalibratedUrdf(*loaded.campaign.robot_definition.urdf, loaded.model, c.errors,
+                                      c.model.T_world_base());
+  }
+  return urdf::GenerateCalibratedUrdf(loaded.model, c.errors, c.model.T_world_base());
 }
 
 api::ForwardResult Service::CampaignForward(const std::string& campaign_id, const nlohmann::json& body) {

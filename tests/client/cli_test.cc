@@ -515,6 +515,15 @@ TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
       << nlohmann::json(mock::MeasurementBatch(&cell, configurations, api::MeasurementRole::kCalibration, options));
   ASSERT_EQ(RunCli(server + " upload cal-1 " + Path("shots.json")).exit_code, 0);
   ASSERT_EQ(RunCli(server + " fit cal-1").exit_code, 0);
+  // export: the calibrated robot as a URDF (to a file) or as the calibration's JSON; other formats are usage errors.
+  ASSERT_EQ(RunCli(server + " export cal-1 --out " + Path("cal-1.urdf")).exit_code, 0);
+  std::stringstream urdf;
+  urdf << std::ifstream(Path("cal-1.urdf")).rdbuf();
+  EXPECT_NE(urdf.str().find("<link name=\"robocal_tool\"/>"), std::string::npos) << urdf.str();
+  EXPECT_NE(urdf.str().find("<robot name=\"grinder5\">"), std::string::npos);
+  const Result exported_json = RunCli(server + " export cal-1 --format json");
+  EXPECT_EQ(nlohmann::json::parse(exported_json.out).at("campaign"), "cal-1");
+  EXPECT_EQ(RunCli(server + " export cal-1 --format dxf").exit_code, 2);
 
   const Result table = RunCli(server + " campaign list");
   ASSERT_EQ(table.exit_code, 0);

@@ -218,6 +218,20 @@ expect "fit improves the residuals" \
 expect "GET /calibration" "$(call GET "/v1/campaigns/$campaign/calibration" | jq '.parameters | length')" \
   "$(jq '.parameters | length' "$work/fit.json")"
 expect "the fit says it was stored" "$(jq .stored "$work/fit.json")" true
+# The calibrated robot as a URDF: imported again at the registered base, it gives the campaign's own poses.
+call GET "/v1/campaigns/$campaign/calibration?format=urdf" >"$work/calibrated.urdf"
+expect "GET /calibration?format=urdf" "$(status) $(grep -c '<link name="robocal_tool"/>' "$work/calibrated.urdf")" "200 1"
+reimport=$(jq -n --rawfile x "$work/calibrated.urdf" --argjson base "$(jq -c '.registered_base | {position_mm, quaternion}' "$work/fit.json")" \
+  '{id: "grinder5-calibrated", urdf: $x, base_link: "base_link", tip_link: "robocal_tool", base: $base}')
+call POST /v1/robots "$reimport" >/dev/null
+expect "... imports as a robot" "$(status)" 200
+q=$(jq -c '{joints: [.configurations[0]]}' "$work/plan.json")
+expect "... whose forward kinematics are the calibrated campaign's (to 1e-6 mm)" \
+  "$(jq -n --argjson a "$(call POST /v1/robots/grinder5-calibrated:forward "$q" | jq -c '.poses[0].position_mm')" \
+     --argjson b "$(call POST "/v1/campaigns/$campaign:forward" "$q" | jq -c '.poses[0].position_mm')" \
+     '[range(3) | ($a[.] - $b[.]) | fabs] | max < 1e-6')" true
+call GET "/v1/campaigns/$campaign/calibration?format=dxf" >/dev/null
+expect "... an unknown format -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 op=$(call POST "/v1/campaigns/$campaign:fit" '{"async": true}' | jq -r .id)
 expect "POST :fit async -> an operation of kind fit" "$(call GET "/v1/operations/$op" | jq -r .kind)" fit
 for _ in $(seq 1 100); do

@@ -19,6 +19,7 @@
 
 #include "robocal/api/error.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
 #include "robocal/core/random.h"
 
 namespace robocal {
@@ -243,6 +244,35 @@ TEST(UrdfExportTest, TheCalibratedUrdfReproducesTheCalibratedKinematics) {
                (model.T_world_base().inverse() * ForwardKinematics(model, q, Eigen::VectorXd(), &ws)).translation())
                   .norm(),
               0.05);
+  }
+}
+
+// Robots that came from a table (presets: DH, and a transform table with prismatic joints) get a generated URDF
+// with the same property.
+TEST(UrdfExportTest, AGeneratedUrdfReproducesTheCalibratedKinematicsOfATableRobot) {
+  for (const char* preset : {"ur5e", "puma560", "grinder5"}) {
+    SCOPED_TRACE(preset);
+    const RobotModel model = Preset(preset);
+    Rng rng(12);
+    Eigen::VectorXd errors(model.num_error_parameters());
+    for (int k = 0; k < errors.size(); ++k) {
+      errors[k] = (RobotModel::IsTranslationParameter(k) ? 0.3 : 1e-3) * rng.Normal();
+    }
+    const std::string generated = urdf::GenerateCalibratedUrdf(model, errors, model.T_world_base());
+    const RobotModel back = api::BuildModel(urdf::ImportUrdf(Request(generated, "base_link", urdf::kToolLink)));
+    ASSERT_EQ(back.num_joints(), model.num_joints());
+    EXPECT_EQ(back.joint_name(0), model.joint_name(0));
+    EXPECT_NEAR(back.upper_limits()[0], model.upper_limits()[0], 1e-12);
+    KinematicsWorkspace ws(model), ws_back(back);
+    double position = 0.0;
+    for (int n = 0; n < 100; ++n) {
+      const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+      const Transform calibrated = model.T_world_base().inverse() * ForwardKinematics(model, q, errors, &ws);
+      position = std::max(position, (calibrated.translation() -
+                                     ForwardKinematics(back, q, Eigen::VectorXd(), &ws_back).translation())
+                                        .norm());
+    }
+    EXPECT_LT(position, 1e-9);
   }
 }
 

@@ -37,7 +37,87 @@ void SetOrigin(tinyxml2::XMLDocument* doc, tinyxml2::XMLElement* joint, const Tr
   origin->SetAttribute("rpy", Numbers(RpyFromRotation(t.linear())).c_str());
 }
 
+tinyxml2::XMLElement* AddLink(tinyxml2::XMLDocument* doc, tinyxml2::XMLElement* robot, const std::string& name) {
+  tinyxml2::XMLElement* link = doc->NewElement("link");
+  link->SetAttribute("name", name.c_str());
+  robot->InsertEndChild(link);
+  return link;
+}
+
+tinyxml2::XMLElement* AddJoint(tinyxml2::XMLDocument* doc, tinyxml2::XMLElement* robot, const std::string& name,
+                               const char* type, const std::string& parent, const std::string& child,
+                               const Transform& origin) {
+  tinyxml2::XMLElement* joint = doc->NewElement("joint");
+  joint->SetAttribute("name", name.c_str());
+  joint->SetAttribute("type", type);
+  tinyxml2::XMLElement* p = doc->NewElement("parent");
+  p->SetAttribute("link", parent.c_str());
+  tinyxml2::XMLElement* c = doc->NewElement("child");
+  c->SetAttribute("link", child.c_str());
+  joint->InsertEndChild(p);
+  joint->InsertEndChild(c);
+  robot->InsertEndChild(joint);
+  SetOrigin(doc, joint, origin);
+  return joint;
+}
+
+std::string RegistrationNote(const std::string& base_link, const Transform& T_world_base) {
+  return " Calibrated by robocal: the joint origins carry the identified geometric errors; " +
+         std::string(kToolLink) + " is the calibrated tool. The tracker -> " + base_link +
+         " registration: xyz " + Numbers(T_world_base.translation() / 1000.0) + " m, rpy " +
+         Numbers(RpyFromRotation(T_world_base.linear())) + " rad. ";
+}
+
+std::string Print(const tinyxml2::XMLDocument& doc) {
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
+}
+
 }  // namespace
+
+std::string GenerateCalibratedUrdf(const RobotModel& model, const Eigen::VectorXd& errors,
+                                   const Transform& T_world_base) {
+  if (errors.size() != model.num_error_parameters()) Stale("the calibration does not match the robot's model");
+  const auto error = [&](int site) { return ErrorTransform(errors.data() + 6 * site); };
+  tinyxml2::XMLDocument doc;
+  doc.InsertEndChild(doc.NewDeclaration());
+  tinyxml2::XMLElement* robot = doc.NewElement("robot");
+  robot->SetAttribute("name", model.name().c_str());
+  doc.InsertEndChild(robot);
+  robot->InsertEndChild(doc.NewComment(RegistrationNote("base_link", T_world_base).c_str()));
+  AddLink(&doc, robot, "base_link");
+  std::string parent = "base_link";
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const std::string child = model.joint_name(i) + "_link";
+    AddLink(&doc, robot, child);
+    Transform origin = model.fixed_transform(i) * error(i + 1);
+    if (i == 0) origin = error(0) * origin;
+    const bool revolute = model.joint_type(i) == JointType::kRevolute;
+    tinyxml2::XMLElement* joint =
+        AddJoint(&doc, robot, model.joint_name(i), revolute ? "revolute" : "prismatic", parent, child, origin);
+    tinyxml2::XMLElement* axis = doc.NewElement("axis");
+    axis->SetAttribute("xyz", "0 0 1");
+    joint->InsertEndChild(axis);
+    tinyxml2::XMLElement* limit = doc.NewElement("limit");
+    const double scale = revolute ? 1.0 : 1e-3;  // rad, or mm -> m
+    char value[32];
+    std::snprintf(value, sizeof value, "%.17g", model.lower_limits()[i] * scale);
+    limit->SetAttribute("lower", value);
+    std::snprintf(value, sizeof value, "%.17g", model.upper_limits()[i] * scale);
+    limit->SetAttribute("upper", value);
+    limit->SetAttribute("effort", "0");
+    limit->SetAttribute("velocity", "0");
+    joint->InsertEndChild(limit);
+    parent = child;
+  }
+  AddLink(&doc, robot, "flange");
+  AddJoint(&doc, robot, "robocal_flange_joint", "fixed", parent, "flange", model.T_lastjoint_flange());
+  AddLink(&doc, robot, kToolLink);
+  AddJoint(&doc, robot, kToolJoint, "fixed", "flange", kToolLink,
+           model.T_flange_tool() * error(model.num_joints() + 1));
+  return Print(doc);
+}
 
 std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel& model, const Eigen::VectorXd& errors,
                                  const Transform& T_world_base) {
@@ -89,30 +169,11 @@ std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel
   if (site != model.num_joints() + 1) Stale("the URDF's chain has fewer moving joints than the robot");
 
   // The calibrated tool: tip link (the flange) -> measured point.
-  tinyxml2::XMLElement* tool_link = doc.NewElement("link");
-  tool_link->SetAttribute("name", kToolLink);
-  robot->InsertEndChild(tool_link);
-  tinyxml2::XMLElement* tool_joint = doc.NewElement("joint");
-  tool_joint->SetAttribute("name", kToolJoint);
-  tool_joint->SetAttribute("type", "fixed");
-  tinyxml2::XMLElement* parent = doc.NewElement("parent");
-  parent->SetAttribute("link", source.tip_link.c_str());
-  tinyxml2::XMLElement* child = doc.NewElement("child");
-  child->SetAttribute("link", kToolLink);
-  tool_joint->InsertEndChild(parent);
-  tool_joint->InsertEndChild(child);
-  robot->InsertEndChild(tool_joint);
-  SetOrigin(&doc, tool_joint, model.T_flange_tool() * error(model.num_joints() + 1));
-
-  const std::string note = " Calibrated by robocal: the chain " + source.base_link + " -> " + source.tip_link +
-                           " carries the identified geometric errors; " + kToolLink +
-                           " is the calibrated tool. The tracker -> " + source.base_link + " registration: xyz " +
-                           Numbers(T_world_base.translation() / 1000.0) + " m, rpy " +
-                           Numbers(RpyFromRotation(T_world_base.linear())) + " rad. ";
-  robot->InsertFirstChild(doc.NewComment(note.c_str()));
-  tinyxml2::XMLPrinter printer;
-  doc.Print(&printer);
-  return printer.CStr();
+  AddLink(&doc, robot, kToolLink);
+  AddJoint(&doc, robot, kToolJoint, "fixed", source.tip_link, kToolLink,
+           model.T_flange_tool() * error(model.num_joints() + 1));
+  robot->InsertFirstChild(doc.NewComment(RegistrationNote(source.base_link, T_world_base).c_str()));
+  return Print(doc);
 }
 
 }  // namespace robocal::urdf

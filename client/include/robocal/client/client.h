@@ -161,6 +161,8 @@ class Client {
   /// calibration is stored when the operation SUCCEEDS; Operation::fit holds the result.
   api::Operation StartFit(const std::string& campaign, const api::FitRequest& request = {});
   api::CalibrationResult GetCalibration(const std::string& campaign);
+  /// The calibrated robot as a URDF document (GET .../calibration?format=urdf; docs/formats.md).
+  std::string GetCalibrationUrdf(const std::string& campaign);
   /// One result per target, in order.
   api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).

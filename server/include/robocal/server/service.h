@@ -92,6 +92,9 @@ class Service {
   // operation whose result is the fit, stored when the operation SUCCEEDS.
   FitReply Fit(const std::string& campaign, const nlohmann::json& body);
   api::CalibrationResult GetCalibration(const std::string& campaign);
+  /// The calibrated robot as a URDF document (docs/formats.md): the imported document with the errors folded
+  /// in, or one generated from the model for a robot that came from a table.
+  std::string CalibrationUrdf(const std::string& campaign);
   api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);

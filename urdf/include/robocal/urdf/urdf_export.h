@@ -29,4 +29,12 @@ inline constexpr const char* kToolJoint = "robocal_tool_joint";
 std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel& model, const Eigen::VectorXd& errors,
                                  const Transform& T_world_base);
 
+/// A URDF of `model` with `errors` folded in, for a robot that did not come from a URDF (a preset, a DH or
+/// transform table): links base_link, <joint>_link per joint, flange and kToolLink; each joint's origin its
+/// fixed transform with its site's error (the base site's folded into the first), axis z, limits in rad / m
+/// (effort and velocity 0: robocal knows neither); fixed joints robocal_flange_joint and kToolJoint. Imported again
+/// (base_link -> kToolLink) it reproduces the calibrated forward kinematics in the base frame to round-off.
+std::string GenerateCalibratedUrdf(const RobotModel& model, const Eigen::VectorXd& errors,
+                                   const Transform& T_world_base);
+
 }  // namespace robocal::urdf
