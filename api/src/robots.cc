@@ -165,7 +165,9 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
   }
 }
 
-bool IsUrdfImport(const nlohmann::json& body) { return body.is_object() && body.contains("urdf"); }
+bool IsUrdfImport(const nlohmann::json& body) {
+  return body.is_object() && (body.contains("urdf") || body.contains("base_link") || body.contains("tip_link"));
+}
 
 ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits&) {
   Problems problems;

@@ -1,4 +1,5 @@
 // robocal robots, robot register | get | delete | forward.
+#include <algorithm>
 #include <iomanip>
 #include <limits>
 
@@ -14,8 +15,11 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
       << robot.error_parameters.size() << " error parameters";
   if (!robot.urdf_tip_link.empty()) out << ", from URDF " << robot.urdf_base_link << " -> " << robot.urdf_tip_link;
   out << "\n";
+  std::size_t width = 8;
+  for (const api::RobotJoint& j : robot.joints) width = std::max(width, j.joint.name.size() + 1);
   for (const api::RobotJoint& j : robot.joints) {
-    out << "  " << std::left << std::setw(8) << j.joint.name << std::setw(10) << api::WireName(j.joint.type)
+    out << "  " << std::left << std::setw(static_cast<int>(width)) << j.joint.name << std::setw(10)
+        << api::WireName(j.joint.type)
         << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit << "\n";
   }
 }

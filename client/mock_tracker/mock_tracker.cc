@@ -205,9 +205,8 @@ VirtualCell MakeCell(const MockTrackerOptions& options, const std::optional<Reso
   }
   // Three nests on a tool plate, 60 mm off the flange axis and 20 mm out: fixed at positions measured on the
   // plate, or (free_nests) known only as drawn, the cell hiding their offsets.
-  const bool fixed = !options.free_nests;
-  const std::vector<Reflector> nests = {
-      {"smr1", {60.0, 0.0, 20.0}, fixed}, {"smr2", {-30.0, 52.0, 20.0}, fixed}, {"smr3", {-30.0, -52.0, 20.0}, fixed}};
+  std::vector<Reflector> nests = RealisticReflectors();
+  for (Reflector& r : nests) r.fixed = !options.free_nests;
   cell_options.reflectors.assign(nests.begin(), nests.begin() + options.NumReflectors());
   return VirtualCell(Preset(options.robot), cell_options);
 }

@@ -124,7 +124,11 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   const int m = options.num_configurations;
 
   // The identifiable set depends on the robot and the measurement type only: found once.
-  const IdentifiabilitySummary identifiable = FindIdentifiableParameters(nominal, options.measurement_type);
+  // With reflector nests (a realistic position cell) every probe, plan and fit sees each of them.
+  IdentifiabilityOptions identifiability;
+  identifiability.reflectors = options.cell.reflectors;
+  const IdentifiabilitySummary identifiable =
+      FindIdentifiableParameters(nominal, options.measurement_type, identifiability);
   // Rows are weighted by the tracker's noise. A noise-free cell still needs weights: the defaults then only
   // set the balance of mm against rad.
   MeasurementNoise weights = options.cell.noise;
@@ -134,7 +138,9 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   observability.measurement_type = options.measurement_type;
   observability.noise = weights;
   observability.parameters = identifiable.identifiable;
+  observability.reflectors = options.cell.reflectors;
   IdentificationOptions identification;
+  identification.reflectors = options.cell.reflectors;
   identification.measurement_type = options.measurement_type;
   identification.noise = weights;
   identification.parameters = identifiable.identifiable;
@@ -295,6 +301,15 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                   "robot repeatability %g mm (ISO 9283 RP); outliers %g %% of shots, %g-%g mm; robust fit\n",
                   o.cell.noise.repeatability_mm, 100.0 * o.cell.outlier_rate, o.cell.outlier_min_mm, o.cell.outlier_max_mm);
     out << line;
+  }
+  if (!o.cell.reflectors.empty()) {
+    out << o.cell.reflectors.size() << " reflector nests shot at every pose (";
+    for (size_t k = 0; k < o.cell.reflectors.size(); ++k) {
+      const Reflector& r = o.cell.reflectors[k];
+      out << (k ? ", " : "") << r.id << " at " << r.position_mm.x() << " " << r.position_mm.y() << " "
+          << r.position_mm.z() << " mm" << (r.fixed ? " held" : " free");
+    }
+    out << "); planned, fitted and validated with them\n";
   }
   if (o.cell.noise.tracker || o.cell.noise.repeatability_mm > 0.0 || o.cell.outlier_rate > 0.0) out << "\n";
   if (o.cell.measurement_cell) {

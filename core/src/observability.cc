@@ -23,7 +23,8 @@ constexpr int kRefreshInterval = 64;
 // The predicted error's singularity cut on the LDLT pivots of the unit-column normal matrix (see PredictedError).
 constexpr double kNormalPivotTolerance = 1e-12;
 
-Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::VectorXd& column_norms) {
+Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::VectorXd& column_norms,
+                            int num_model_parameters) {
   const int l = static_cast<int>(options.parameters.size());
   if (options.scaling == ColumnScaling::kColumnNorm) return UnitColumnFactors(column_norms);
   Eigen::VectorXd d(l);
@@ -32,8 +33,10 @@ Eigen::VectorXd ColumnScale(const ObservabilityOptions& options, const Eigen::Ve
       case ColumnScaling::kColumnNorm:
         break;
       case ColumnScaling::kExpectedDeviation:
-        d[k] = RobotModel::IsTranslationParameter(options.parameters[k]) ? options.expected_translation_mm
-                                                                         : options.expected_rotation_rad;
+        // A reflector's offsets (after the model's parameters) are translations.
+        d[k] = options.parameters[k] >= num_model_parameters || RobotModel::IsTranslationParameter(options.parameters[k])
+                   ? options.expected_translation_mm
+                   : options.expected_rotation_rad;
         break;
       case ColumnScaling::kNone:
         d[k] = 1.0;
@@ -111,8 +114,14 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
     *error = "parameters must list at least one error parameter (normally the identifiable set)";
     return false;
   }
+  if (!ValidateReflectors(reflectors, error)) return false;
+  if (!reflectors.empty() && measurement_type != MeasurementType::kPosition) {
+    *error = "reflectors need position measurements";
+    return false;
+  }
+  const int n_fit = model.num_error_parameters() + 3 * static_cast<int>(reflectors.size());
   for (size_t k = 0; k < parameters.size(); ++k) {
-    if (parameters[k] < 0 || parameters[k] >= model.num_error_parameters()) {
+    if (parameters[k] < 0 || parameters[k] >= n_fit) {
       *error = "parameters[" + std::to_string(k) + "] = " + std::to_string(parameters[k]) + " is out of range";
       return false;
     }
@@ -132,6 +141,10 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
     return false;
   }
   return true;
+}
+
+int ObservabilityOptions::RowsPerConfiguration() const {
+  return reflectors.empty() ? MeasurementRows(measurement_type) : 3 * static_cast<int>(reflectors.size());
 }
 
 std::string ObservabilityOptions::ScalingDescription() const {
@@ -172,10 +185,10 @@ ObservabilityIndices ComputeIndicesBySvd(const RobotModel& model, const std::vec
   // The evaluator validates the options and builds each configuration's weighted, reduced block; only the
   // way the indices are taken from the blocks (SVD of the stack, not the normal matrix) differs.
   ObservabilityEvaluator evaluator(model, options);
-  const int rows = MeasurementRows(options.measurement_type);
+  const int rows = options.RowsPerConfiguration();
   Eigen::MatrixXd stacked(rows * configurations.size(), options.parameters.size());
   for (size_t m = 0; m < configurations.size(); ++m) stacked.middleRows(m * rows, rows) = evaluator.Block(configurations[m]);
-  const Eigen::VectorXd d = ColumnScale(options, stacked.colwise().norm());
+  const Eigen::VectorXd d = ColumnScale(options, stacked.colwise().norm(), model.num_error_parameters());
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked * d.asDiagonal());
   return IndicesFromSingularValues(svd.singularValues(), static_cast<int>(configurations.size()),
                                    options.ScalingDescription());
@@ -196,11 +209,13 @@ ObservabilityEvaluator::ObservabilityEvaluator(const RobotModel& model, Observab
   full_jacobian_.resize(MeasurementRows(options_.measurement_type), model_.num_error_parameters());
   pose_jacobian_.resize(6, model_.num_error_parameters());
   row_weights_ = options_.noise.RowWeights(options_.measurement_type);
+  reflectors_in_tool_ = ReflectorsInTool(model_, options_.reflectors, Eigen::VectorXd());
   const int l = static_cast<int>(options_.parameters.size());
   normal_ = Eigen::MatrixXd::Zero(l, l);
 }
 
 Eigen::MatrixXd ObservabilityEvaluator::Block(const Eigen::VectorXd& q) {
+  if (!options_.reflectors.empty()) return ReflectorBlock(q);
   IdentificationJacobian(model_, q, Eigen::VectorXd(), options_.measurement_type, &ws_, full_jacobian_);
   const int l = static_cast<int>(options_.parameters.size());
   Eigen::MatrixXd block(full_jacobian_.rows(), l);
@@ -218,9 +233,43 @@ Eigen::MatrixXd ObservabilityEvaluator::Block(const Eigen::VectorXd& q) {
   return block;
 }
 
+Eigen::MatrixXd ObservabilityEvaluator::ReflectorBlock(const Eigen::VectorXd& q) {
+  // As identifiability and the fit do (reflectors.h): each reflector's point rows from the tool's pose rows, its
+  // own offset columns for a free reflector, whitened at its point.
+  IdentificationJacobian(model_, q, Eigen::VectorXd(), MeasurementType::kPose, &ws_, pose_jacobian_);
+  const int n = model_.num_error_parameters();
+  const int l = static_cast<int>(options_.parameters.size());
+  const int count = static_cast<int>(options_.reflectors.size());
+  Eigen::MatrixXd block(3 * count, l), point(3, n), reduced(3, l), w(3, 3);
+  const Eigen::Matrix3d offset = ReflectorOffsetRows(model_, ws_.T_world_tool);
+  for (int r = 0; r < count; ++r) {
+    const Eigen::Vector3d& in_tool = reflectors_in_tool_[r];
+    ReflectorRows(ws_.T_world_tool, in_tool, pose_jacobian_, point);
+    for (int k = 0; k < l; ++k) {
+      const int j = options_.parameters[k];
+      if (j < n) {
+        reduced.col(k) = point.col(j);
+      } else if ((j - n) / 3 == r && !options_.reflectors[r].fixed) {
+        reduced.col(k) = offset.col((j - n) % 3);
+      } else {
+        reduced.col(k).setZero();
+      }
+    }
+    if (options_.noise.tracker && options_.tracker_position_mm) {
+      options_.noise.Whitening(MeasurementType::kPosition,
+                               AtReflector(ws_.T_world_tool, in_tool).translation() - *options_.tracker_position_mm, w);
+    } else {
+      w = Eigen::Matrix3d(row_weights_.head<3>().asDiagonal());
+    }
+    block.middleRows(3 * r, 3).noalias() = w * reduced;
+  }
+  return block;
+}
+
 ObservabilityIndices ObservabilityEvaluator::IndicesOf(const Eigen::MatrixXd& normal, int num_configurations) const {
   // Singular values of E* D are the square roots of the eigenvalues of D A D.
-  const Eigen::VectorXd d = ColumnScale(options_, normal.diagonal().cwiseMax(0.0).cwiseSqrt());
+  const Eigen::VectorXd d =
+      ColumnScale(options_, normal.diagonal().cwiseMax(0.0).cwiseSqrt(), model_.num_error_parameters());
   const Eigen::MatrixXd scaled = d.asDiagonal() * normal * d.asDiagonal();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
   ObservabilityIndices out = IndicesFromSingularValues(eig.eigenvalues().cwiseMax(0.0).cwiseSqrt(), num_configurations,
@@ -232,8 +281,16 @@ ObservabilityIndices ObservabilityEvaluator::IndicesOf(const Eigen::MatrixXd& no
 Eigen::MatrixXd ObservabilityEvaluator::PoseJacobian(const Eigen::VectorXd& q) {
   IdentificationJacobian(model_, q, Eigen::VectorXd(), MeasurementType::kPose, &ws_, pose_jacobian_);
   const int l = static_cast<int>(options_.parameters.size());
+  const int n = model_.num_error_parameters();
   Eigen::MatrixXd reduced(6, l);
-  for (int k = 0; k < l; ++k) reduced.col(k) = pose_jacobian_.col(options_.parameters[k]);
+  for (int k = 0; k < l; ++k) {
+    // The tool's pose does not depend on a reflector's offset.
+    if (options_.parameters[k] < n) {
+      reduced.col(k) = pose_jacobian_.col(options_.parameters[k]);
+    } else {
+      reduced.col(k).setZero();
+    }
+  }
   return reduced;
 }
 

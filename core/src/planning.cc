@@ -608,7 +608,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   Rng rng(options.seed);
   const int count = options.num_candidates;
   const int l = static_cast<int>(observability.parameters.size());
-  const int rows = MeasurementRows(observability.measurement_type);
+  const int rows = observability.RowsPerConfiguration();
   // The pool and every candidate's weighted, reduced block, each in one allocation: they are the optimiser's
   // memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed
   // when needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored

@@ -99,6 +99,10 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
   return true;
 }
 
+std::vector<Reflector> RealisticReflectors() {
+  return {{"smr1", {60.0, 0.0, 20.0}, true}, {"smr2", {-30.0, 52.0, 20.0}, true}, {"smr3", {-30.0, -52.0, 20.0}, true}};
+}
+
 VirtualCellOptions Realistic(VirtualCellOptions options) {
   options.noise.tracker = TrackerUncertainty{};
   options.noise.repeatability_mm = kRealisticRepeatabilityMm;

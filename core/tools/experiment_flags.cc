@@ -94,6 +94,12 @@ std::string ApplyExperimentFlags(const std::vector<std::pair<std::string, std::s
                                  ExperimentOptions* options) {
   try {
     for (const auto& [flag, value] : flags) Apply(flag, value, options);
+    // The realistic cell shoots its three held nests when the tracker measures positions only.
+    const bool realistic = options->cell.noise.tracker.has_value();
+    options->cell.reflectors.clear();
+    if (realistic && options->measurement_type == MeasurementType::kPosition) {
+      options->cell.reflectors = RealisticReflectors();
+    }
     // Gross errors on top of whatever cell was chosen (the virtual cell checks the ranges).
     for (const auto& [flag, value] : flags) {
       if (flag == "--outliers") {

@@ -128,6 +128,50 @@ TEST(ObservabilityOptionsTest, RejectsBadParameterLists) {
   EXPECT_THROW(ObservabilityEvaluator(model, o), std::invalid_argument);
 }
 
+// Planning with reflector nests sees what the fit sees: over random configurations the evaluator's E* has the
+// rank of the identifiable set with three nests (held: as many as pose measurements; free: 3 more), the rows are
+// each nest's (3 per nest), and two nests on a line cannot determine that set. With a tracker model the rows are
+// whitened at each nest's point: the same rank, other numbers.
+TEST(ObservabilityReflectorTest, NestsGiveTheirRowsAndTheIdentifiableRank) {
+  const RobotModel model = Preset("ur5e");
+  Rng rng(6);
+  const auto configurations = RandomConfigurations(model, 30, &rng);
+  for (const bool fixed : {true, false}) {
+    SCOPED_TRACE(fixed ? "held" : "free");
+    std::vector<Reflector> nests = {{"a", {60.0, 0.0, 20.0}, fixed}, {"b", {-30.0, 52.0, 20.0}, fixed},
+                                    {"c", {-30.0, -52.0, 20.0}, fixed}};
+    IdentifiabilityOptions probe;
+    probe.reflectors = nests;
+    const IdentifiabilitySummary id = FindIdentifiableParameters(model, MeasurementType::kPosition, probe);
+    ASSERT_EQ(id.termination, Termination::kConvergence);
+    ObservabilityOptions o;
+    o.measurement_type = MeasurementType::kPosition;
+    o.reflectors = nests;
+    o.parameters = id.identifiable;
+    EXPECT_EQ(o.RowsPerConfiguration(), 9);
+    ObservabilityEvaluator evaluator(model, o);
+    EXPECT_EQ(evaluator.Block(configurations[0]).rows(), 9);
+    EXPECT_EQ(NumericalRank(model, configurations, o), static_cast<int>(id.identifiable.size()));
+    EXPECT_EQ(id.identifiable.size(), fixed ? 30u : 33u);
+    o.noise.tracker = TrackerUncertainty{};
+    o.tracker_position_mm = Eigen::Vector3d(2500.0, -800.0, 300.0);
+    EXPECT_EQ(NumericalRank(model, configurations, o), static_cast<int>(id.identifiable.size()));
+    // The set three nests identify is too much for two (their line's turn is open).
+    if (fixed) {
+      o.reflectors.pop_back();
+      EXPECT_LT(NumericalRank(model, configurations, o), static_cast<int>(id.identifiable.size()));
+    }
+  }
+  // Reflectors and parameters beyond the model's are checked.
+  ObservabilityOptions bad;
+  bad.measurement_type = MeasurementType::kPose;
+  bad.reflectors = {{"a", {60.0, 0.0, 20.0}, false}};
+  bad.parameters = {0};
+  std::string error;
+  EXPECT_FALSE(bad.IsValid(model, &error));
+  EXPECT_THAT(error, HasSubstr("reflectors need position measurements"));
+}
+
 // Predicted accuracy is noise propagation: it scales linearly with the tracker noise, and measuring every
 // configuration twice divides it by sqrt(2), exactly.
 TEST(PredictedAccuracyTest, ScalesWithNoiseAndRepetition) {

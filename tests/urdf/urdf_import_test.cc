@@ -60,6 +60,24 @@ const char* const kCoverage = R"(<?xml version="1.0"?>
 </robot>
 )";
 
+// Axes next to -z (their alignment is nearly half a turn), origins next to the gimbal lock, a huge axis.
+const char* const kNearSingular = R"(<robot name="near">
+  <link name="l0"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="l5"/>
+  <joint name="a" type="revolute"><parent link="l0"/><child link="l1"/>
+    <origin xyz="0.1 0 0.2" rpy="0.3 1.5707962267948965 0.5"/><axis xyz="0 1e-5 -1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="b" type="prismatic"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0.3 1" rpy="0 -1.5707964267948966 0"/><axis xyz="0 1e-9 -1"/>
+    <limit lower="0" upper="0.4" effort="1" velocity="1"/></joint>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.2 0 0" rpy="0 0 0"/><axis xyz="1e154 1e154 0"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="d" type="continuous"><parent link="l3"/><child link="l4"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="3e-154 0 0"/></joint>
+  <joint name="e" type="fixed"><parent link="l4"/><child link="l5"/><origin xyz="0 0 1" rpy="0 0 0"/></joint>
+</robot>
+)";
+
 api::ImportUrdfRequest Request(const std::string& xml, const std::string& base, const std::string& tip) {
   api::ImportUrdfRequest r;
   r.urdf = xml;
@@ -90,7 +108,8 @@ Transform UrdfForward(const ::urdf::ModelInterface& model, const std::string& ba
   for (const auto& j : chain) {
     t = t * PoseOf(j->parent_to_joint_origin_transform);
     if (j->type == ::urdf::Joint::FIXED) continue;
-    const Eigen::Vector3d axis = Eigen::Vector3d(j->axis.x, j->axis.y, j->axis.z).normalized();
+    const Eigen::Vector3d raw(j->axis.x, j->axis.y, j->axis.z);
+    const Eigen::Vector3d axis = (raw / raw.cwiseAbs().maxCoeff()).normalized();  // 1e154 and 3e-154 too
     Transform motion = Transform::Identity();
     if (j->type == ::urdf::Joint::PRISMATIC) {
       motion.translation() = axis * q[i];
@@ -130,6 +149,10 @@ TEST(UrdfImportTest, ForwardKinematicsEqualTheUrdfsOnEveryKindOfJoint) {
   EXPECT_EQ(joints, 4);
   EXPECT_LT(position, 1e-9);
   EXPECT_LT(rotation, 1e-12);
+  const auto [near_position, near_rotation] = CompareForward(kNearSingular, "l0", "l5", &joints);
+  EXPECT_EQ(joints, 4);
+  EXPECT_LT(near_position, 1e-9);
+  EXPECT_LT(near_rotation, 1e-12);
   // From an inner link down to another: the chain between them only.
   const auto [inner_position, inner_rotation] = CompareForward(kCoverage, "l1", "l4", &joints);
   EXPECT_EQ(joints, 3);
@@ -348,9 +371,31 @@ TEST(UrdfImportTest, BadDocumentsAndChainsAreNamed) {
                             "<!-- <a><b><c> --><link name=\"world\"/><![CDATA[<x><y>]]>"))
                 .first,
             "accepted");
+  // Not a tree: a link with two parents, cycles through the chain (liburdfdom accepts them).
+  const std::string two_links = R"(<robot name="t"><link name="l0"/><link name="l1"/><link name="l2"/>
+    <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+    <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>)";
+  std::tie(field, reason) = Refusal(two_links + R"(<joint name="j3" type="fixed"><parent link="l0"/><child link="l2"/></joint></robot>)", "l0", "l2");
+  EXPECT_EQ(field, "urdf");
+  EXPECT_THAT(reason, HasSubstr("link \"l2\" is the child of two joints"));
+  for (const char* loop : {R"(<joint name="j3" type="fixed"><parent link="l2"/><child link="l2"/></joint></robot>)",
+                           R"(<joint name="j3" type="fixed"><parent link="l1"/><child link="l1"/></joint></robot>)"}) {
+    std::tie(field, reason) = Refusal(two_links + loop, "l0", "l2");
+    EXPECT_EQ(field, "urdf") << reason;
+    EXPECT_THAT(reason, ::testing::AnyOf(HasSubstr("form a cycle"), HasSubstr("child of two joints")));
+  }
+  std::tie(field, reason) = Refusal(Replace(kCoverage, R"(<origin xyz="0 0.05 0" rpy="0 0 0"/>)",
+                                            R"(<origin xyz="0 0 1.7e305" rpy="0 0 0"/>)"));
+  EXPECT_THAT(reason, HasSubstr("<joint name=\"slide\">: <origin> must be finite and within 1000 m"));
+  std::tie(field, reason) = Refusal(Replace(kCoverage, R"(<limit lower="0" upper="0.5")", R"(<limit lower="0" upper="1e306")"));
+  EXPECT_THAT(reason, HasSubstr("<joint name=\"slide\">: <limit> lower and upper must lie within 1000 m"));
   // A robot name that gives no id.
-  std::tie(field, reason) = Refusal(Replace(kCoverage, R"(name="Cover_Bot 1")", R"(name="_x")"));
+  std::tie(field, reason) = Refusal(Replace(kCoverage, R"(name="Cover_Bot 1")", R"(name="!!!")"));
   EXPECT_EQ(field, "id");
+  EXPECT_EQ(urdf::ImportUrdf(Request(Replace(kCoverage, R"(name="Cover_Bot 1")", R"(name="  My Robot!! (v2) ")"),
+                                     "world", "tool0"))
+                .id,
+            "my_robot_v2");
 }
 
 }  // namespace

@@ -156,7 +156,8 @@ std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel
       continue;
     }
     if (site > model.num_joints()) Stale("the URDF's chain has more moving joints than the robot");
-    const Eigen::Vector3d axis = Eigen::Vector3d(joint->axis.x, joint->axis.y, joint->axis.z).normalized();
+    const Eigen::Vector3d raw(joint->axis.x, joint->axis.y, joint->axis.z);
+    const Eigen::Vector3d axis = (raw / raw.cwiseAbs().maxCoeff()).normalized();  // as the import scales it
     const Transform align = Rotation(internal::AxisAlignment(axis));
     // The model's joint frame is origin * align (after the fixed joints before it); its site error follows it.
     // Written back in the URDF's joint frame: origin' = origin * align * E * align^-1. The base site's error

@@ -12,7 +12,9 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <mutex>
+#include <set>
 #include <vector>
 
 #include "robocal/api/error.h"
@@ -22,6 +24,9 @@ namespace robocal::urdf {
 namespace internal {
 
 constexpr double kMmPerM = 1000.0;
+// The longest offset a joint origin (or a prismatic joint's travel) may have: no robot cell is a kilometre.
+constexpr double kMaxOffsetM = 1000.0;
+constexpr double kMaxOffsetMm = kMaxOffsetM * kMmPerM;
 constexpr double kDegPerRad = 180.0 / M_PI;
 
 [[noreturn]] void Refuse(const std::string& field, const std::string& reason) {
@@ -121,21 +126,32 @@ Transform ToTransform(const ::urdf::Pose& pose) {
 // about / along z, and its inverse (which the next transform takes over).
 Eigen::Matrix3d AxisAlignment(const Eigen::Vector3d& axis) {
   const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
-  if ((axis - z).norm() < 1e-15) return Eigen::Matrix3d::Identity();
-  if ((axis + z).norm() < 1e-15) return Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  return Eigen::Quaterniond::FromTwoVectors(z, axis).toRotationMatrix();
+  if (axis.z() >= 0.0) return Eigen::Quaterniond::FromTwoVectors(z, axis).toRotationMatrix();
+  // Towards -z the shortest turn is nearly half a turn, where its construction loses digits: turn z onto -z
+  // exactly (half a turn about x), then -z onto the axis by a small turn.
+  return Eigen::Quaterniond::FromTwoVectors(-z, axis).toRotationMatrix() *
+         Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
 }
 
-std::string JointPath(const ::urdf::Joint& joint) { return "urdf: <joint name=\"" + joint.name + "\">"; }
+std::string JointPath(const ::urdf::Joint& joint) { return "<joint name=\"" + joint.name + "\">"; }
 
-// The robot id a URDF's name gives: lower case, other characters '_' (IsValidId decides).
+// The robot id a URDF's name gives: lower case, each run of other characters one '_', none at either end, at
+// most 64 characters (IsValidId decides).
 std::string IdFromName(const std::string& name) {
   std::string id;
-  for (char c : name.substr(0, 64)) {
+  bool gap = false;
+  for (char c : name) {
     const char l = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    id += (std::isalnum(static_cast<unsigned char>(l)) || l == '_' || l == '.' || l == '-') ? l : '_';
+    const bool kept = (l >= 'a' && l <= 'z') || (l >= '0' && l <= '9') || l == '_' || l == '.' || l == '-';
+    if (!kept) {
+      gap = true;
+      continue;
+    }
+    if (gap && !id.empty()) id += '_';
+    gap = false;
+    id += l;
   }
-  return id;
+  return id.substr(0, 64);
 }
 
 }  // namespace internal
@@ -159,9 +175,26 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
   const ::urdf::LinkConstSharedPtr tip = model->getLink(request.tip_link);
   if (!tip) Refuse("tip_link", "no link \"" + request.tip_link + "\" in the URDF (links: " + link_names() + ")");
 
+  // liburdfdom keeps one parent joint per link and does not look for cycles: a link that is the child of two
+  // joints would silently lose one, and a cycle would make the walk below endless.
+  {
+    std::map<std::string, std::string> parent_of;  // child link -> joint
+    for (const auto& [name, joint] : model->joints_) {
+      const auto [at, fresh] = parent_of.emplace(joint->child_link_name, name);
+      if (!fresh) {
+        Refuse("urdf", "link \"" + joint->child_link_name + "\" is the child of two joints (\"" + at->second +
+                           "\" and \"" + name + "\"): a URDF is a tree");
+      }
+    }
+  }
   // The joints from the tip up to the base, then in chain order.
   std::vector<::urdf::JointConstSharedPtr> chain;
+  std::set<std::string> visited;
   for (::urdf::LinkConstSharedPtr link = tip; link != base;) {
+    if (!visited.insert(link->name).second) {
+      Refuse("urdf", "the joints above link \"" + request.tip_link + "\" form a cycle through link \"" + link->name +
+                         "\" (" + JointPath(*link->parent_joint) + "): a URDF is a tree");
+    }
     if (!link->parent_joint) {
       Refuse("tip_link", "link \"" + request.tip_link + "\" is not below base_link \"" + request.base_link +
                              "\" (its chain ends at the root link \"" + link->name + "\")");
@@ -190,6 +223,9 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
   Transform pending = Transform::Identity();
   for (const ::urdf::JointConstSharedPtr& joint : chain) {
     const Transform origin = ToTransform(joint->parent_to_joint_origin_transform);
+    if (!origin.matrix().allFinite() || !(origin.translation().norm() <= kMaxOffsetMm)) {
+      Refuse("urdf", JointPath(*joint) + ": <origin> must be finite and within 1000 m of its parent");
+    }
     if (joint->type == ::urdf::Joint::FIXED) {
       pending = pending * origin;
       continue;
@@ -208,8 +244,11 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
                          "\": a calibrated chain needs joints that move on their own");
     }
     Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
-    if (!axis.allFinite() || !(axis.norm() > 1e-9)) Refuse("urdf", JointPath(*joint) + ": <axis> is zero");
-    axis.normalize();
+    // Scaled by its largest component first, so that neither huge nor tiny components under- or overflow.
+    const double largest = axis.cwiseAbs().maxCoeff();
+    if (!std::isfinite(largest)) Refuse("urdf", JointPath(*joint) + ": <axis> must be finite");
+    if (!(largest > 0.0)) Refuse("urdf", JointPath(*joint) + ": <axis> is zero");
+    axis = (axis / largest).normalized();
     const Eigen::Matrix3d align = AxisAlignment(axis);
     const Transform fixed = pending * origin * Rotation(align);
     pending = Rotation(align.transpose());
@@ -228,6 +267,12 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
       const double scale = j.type == JointType::kPrismatic ? kMmPerM : kDegPerRad;
       j.min = joint->limits->lower * scale;
       j.max = joint->limits->upper * scale;
+      const double bound = j.type == JointType::kPrismatic ? kMaxOffsetMm : 8.0 * 180.0;  // mm; four turns
+      if (!(std::abs(j.min) <= bound) || !(std::abs(j.max) <= bound)) {
+        Refuse("urdf", JointPath(*joint) + ": <limit> lower and upper must lie within " +
+                           (j.type == JointType::kPrismatic ? std::string("1000 m")
+                                                            : std::string("four turns (25.13 rad)")));
+      }
       if (!(j.min < j.max)) {
         Refuse("urdf", JointPath(*joint) + ": <limit> lower must be below upper (lower " +
                            std::to_string(joint->limits->lower) + ", upper " + std::to_string(joint->limits->upper) +

@@ -70,7 +70,7 @@ struct ImportUrdfRequest {
 };
 /// The largest URDF document accepted (bytes).
 inline constexpr std::size_t kMaxUrdfBytes = 4u << 20;
-/// True for a body that imports a URDF (it has a "urdf" member).
+/// True for a body that imports a URDF (it has a "urdf", "base_link" or "tip_link" member).
 bool IsUrdfImport(const nlohmann::json& body);
 /// Validates the request's fields (the document itself is read by the importer).
 ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits& limits);

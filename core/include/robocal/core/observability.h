@@ -11,6 +11,7 @@
 
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/error_model.h"
+#include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal {
@@ -48,9 +49,17 @@ struct ObservabilityOptions {
   /// the position error they cause this far from the tool point (mm per rad), the h of E_tot = E_xyz + h E_cos
   /// in accuracy.h (30 mm there too).
   double orientation_length_mm = 30.0;
-  /// The parameters kept in E* (indices into the model's error parameters), normally
-  /// FindIdentifiableParameters(...).identifiable. Must be non-empty, ascending, in range.
+  /// Reflector nests on the tool (position measurements only; reflectors.h): every configuration gives 3 rows
+  /// per reflector, at its point (whitened there with a tracker model), and `parameters` index the fit's space:
+  /// the model's error parameters, then 3 offset errors per reflector (a fixed reflector's have no effect).
+  /// Empty: the tool point.
+  std::vector<Reflector> reflectors;
+  /// The parameters kept in E* (indices into the model's error parameters, and the reflectors' offsets after
+  /// them), normally FindIdentifiableParameters(...).identifiable. Must be non-empty, ascending, in range.
   std::vector<int> parameters;
+
+  /// Rows of E* per configuration: MeasurementRows(measurement_type), or 3 per reflector.
+  int RowsPerConfiguration() const;
 
   bool IsValid(const RobotModel& model, std::string* error) const;
   /// DescribeScaling of these options, e.g. "rows / noise (0.015 mm, 0.0001 rad); columns: column_norm".
@@ -165,6 +174,8 @@ class ObservabilityEvaluator {
   KinematicsWorkspace ws_;
   Eigen::MatrixXd full_jacobian_;
   Eigen::VectorXd row_weights_;
+  std::vector<Eigen::Vector3d> reflectors_in_tool_;
+  Eigen::MatrixXd ReflectorBlock(const Eigen::VectorXd& q);
   std::vector<Eigen::VectorXd> configurations_;
   std::vector<Eigen::MatrixXd> contributions_;  // B'B per configuration
   Eigen::MatrixXd normal_;

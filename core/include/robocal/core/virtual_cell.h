@@ -77,6 +77,11 @@ inline constexpr double kRealisticOutlierRate = 0.02;
 /// errors, shots and measurement cell kept).
 VirtualCellOptions Realistic(VirtualCellOptions options);
 
+/// The realistic cell's reflector nests for position measurements: three on a tool plate, 60 mm off the flange
+/// axis and 20 mm out (not on one line, so that they observe the tool's orientation), held at their positions
+/// (measured on the plate: the fit calibrates the tool point through them).
+std::vector<Reflector> RealisticReflectors();
+
 /// A simulated cell: the true robot is `nominal` with the tracker as its world frame (T_world_base = the
 /// hidden tracker placement) and hidden error parameters on every site.
 class VirtualCell {
