@@ -45,19 +45,18 @@ int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const s
   return -1;
 }
 
-namespace {
-
-// "reflectors" of a campaign request: at most kMaxFitReflectors, ids by the id rule and unique, positions
+// "reflectors" of a campaign or plan request: at most max_count, ids by the id rule and unique, positions
 // finite within 10 m of the flange.
-void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out) {
+void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out,
+                     std::size_t max_count) {
   if (value == nullptr) return;
   if (!value->is_array()) {
     problems->Add("reflectors", std::string("expected an array, got ") + value->type_name());
     return;
   }
-  if (value->size() > static_cast<std::size_t>(kMaxFitReflectors)) {
+  if (value->size() > max_count) {
     problems->Add("reflectors", "too many elements: " + std::to_string(value->size()) + " (limit " +
-                                    std::to_string(kMaxFitReflectors) + ")");
+                                    std::to_string(max_count) + ")");
     return;
   }
   for (std::size_t k = 0; k < value->size(); ++k) {
@@ -81,8 +80,6 @@ void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vecto
   }
 }
 
-}  // namespace
-
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   Problems problems;
   CreateCampaignRequest req;
@@ -96,7 +93,7 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
   ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
   r.Number("repeatability_mm", false, &req.repeatability_mm, 0.0, 10.0);
-  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors);
+  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors, kMaxFitReflectors);
   if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
     problems.Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
   }

@@ -78,6 +78,11 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   r.Enum("scaling", false, &req.scaling);
   ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
   ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
+  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors, kMaxPlanReflectors);
+  if (!req.reflectors.empty() && req.measurement_type != MeasurementType::kPosition) {
+    problems.Add("reflectors", std::string("need position measurements; measurement_type is ") +
+                                   WireName(req.measurement_type));
+  }
   std::int64_t seed = 1;
   if (r.Int("seed", false, &seed, 0, INT64_MAX)) req.seed = static_cast<std::uint64_t>(seed);
   r.Int("num_validation", false, &req.num_validation, 1, 10000);
@@ -101,7 +106,7 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
                        "screen", "max_iterations"});
   }
   r.RejectUnknown({"robot", "cell", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
-                   "tracker", "seed", "num_validation", "async", "options"});
+                   "tracker", "reflectors", "seed", "num_validation", "async", "options"});
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
     problems.Add("options.num_candidates",
@@ -161,6 +166,7 @@ ObservabilityOptions ToObservabilityOptions(const PlanRequest& req) {
   o.measurement_type = req.measurement_type;
   o.noise = ToCore(req.noise, req.tracker);
   o.scaling = req.scaling;
+  o.reflectors = ToCore(req.reflectors);
   return o;
 }
 
@@ -186,6 +192,7 @@ void to_json(nlohmann::json& j, const PlanRequest& req) {
          {"max_iterations", req.max_iterations}}}};
   if (!req.cell.empty()) j["cell"] = req.cell;
   if (req.tracker) j["tracker"] = *req.tracker;
+  if (!req.reflectors.empty()) j["reflectors"] = req.reflectors;
 }
 
 void from_json(const nlohmann::json& j, PlanRequest& req) {
@@ -199,6 +206,7 @@ void from_json(const nlohmann::json& j, PlanRequest& req) {
   r.Required("scaling", &req.scaling);
   r.Required("noise", &req.noise);
   r.Optional("tracker", &req.tracker);
+  r.Optional("reflectors", &req.reflectors);
   r.Required("seed", &req.seed);
   r.Required("num_validation", &req.num_validation);
   r.Required("async", &req.async);

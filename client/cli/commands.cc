@@ -31,6 +31,7 @@ const std::vector<Command>& Commands() {
         {"--optimiser", "NAME"},
         {"--seed", "N"},
         {"--tracker", "datasheet|R,r,T,t[,O[,K]]"},
+        {"--reflectors", "ID:X,Y,Z[:fixed]/..."},
         {"--async"},
         {"--out", "FILE.csv|FILE.json"}},
        &help::kPlan,

@@ -117,6 +117,8 @@ accuracy against a random set of the same size.
   --seed N             seed of the search (default 1); the same seed gives the same plan
   --tracker MODEL      weigh the rows by the tracker's uncertainty model, as campaign create takes it
                        (datasheet, or R,r,T,t[,O[,K]]); in a cell from its tracker's place
+  --reflectors NESTS   plan for shots of these nests (--type position; at most 4), as campaign create
+                       takes them (ID:X,Y,Z[:fixed]/...): the set they identify, not the tool point's
   --async              run as a long-running operation and wait for it with a progress bar on stderr
   --out FILE           also write the configurations: FILE.csv (joints CSV) or FILE.json (the plan)
 )"};

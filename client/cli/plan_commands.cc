@@ -111,6 +111,7 @@ int Plan(Invocation& in) {
   request.optimiser = in.Enum("--optimiser", api::Optimiser::kSolisWets);
   request.seed = in.Seed("--seed", 1);
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));
+  if (in.Has("--reflectors")) request.reflectors = ParseReflectorsFlag(in.Option("--reflectors"));
   if (!in.Has("--async")) return Show(in, in.Client().CreatePlan(request), out_file);
   const api::Operation started = in.Client().StartPlan(request);
   in.err << "operation " << started.id << "\n";

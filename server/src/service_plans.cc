@@ -48,6 +48,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   if (cell) feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   IdentifiabilityOptions id_options;
   id_options.noise = api::ToCore(req.noise, req.tracker);
+  id_options.reflectors = api::ToCore(req.reflectors);
   id_options.seed = req.seed;
   const IdentifiabilitySummary ident = FindIdentifiableParameters(model, req.measurement_type, id_options);
   if (ident.termination == Termination::kFailure || ident.identifiable.empty()) {

@@ -309,6 +309,12 @@ expect "outlier_probability 0.5 -> 400 naming it" "$(status) $(jq -r '.error.det
 # ---- several reflectors per pose (a position-only tracker sees the tool's orientation through three nests) ------
 nests='[{"id": "smr1", "position_mm": [60, 0, 20]}, {"id": "smr2", "position_mm": [-30, 52, 20]}, {"id": "smr3", "position_mm": [-30, -52, 20]}]'
 nested=$(call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"position\", \"reflectors\": $nests}" | jq -r .id)
+call POST /v1/plans "{\"robot\": \"ur5e\", \"num_configurations\": 12, \"measurement_type\": \"position\", \"reflectors\": $(echo "$nests" | jq -c 'map(.fixed = true)'), \"options\": {\"k_max\": 10}}" >"$work/nest_plan.json"
+expect "POST /v1/plans with three held nests: the set they identify (30 on a ur5e, 27 from the tool point)" \
+  "$(status) $(jq '.identifiable_parameters | length' "$work/nest_plan.json") $(jq -c '[.request.reflectors[].id]' "$work/nest_plan.json")" \
+  '200 30 ["smr1","smr2","smr3"]'
+call POST /v1/plans "{\"robot\": \"ur5e\", \"measurement_type\": \"pose\", \"reflectors\": $nests}" >/dev/null
+expect "... on a pose plan -> 400 naming reflectors" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 reflectors"
 expect "POST /v1/campaigns with three reflectors" "$(call GET "/v1/campaigns/$nested" | jq -c '[.reflectors[] | [.id, .fixed]]')" \
   '[["smr1",false],["smr2",false],["smr3",false]]'
 call POST /v1/campaigns "{\"robot\": \"grinder5\", \"measurement_type\": \"pose\", \"reflectors\": $nests}" >/dev/null

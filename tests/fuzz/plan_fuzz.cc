@@ -14,6 +14,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::Check(
         request->k_max <= limits.max_plan_evaluations && request->max_evaluations <= limits.max_plan_evaluations,
         "the optimiser's budget within the limit");
+    // Nests: few, and only with position measurements (the planner's rows per configuration and its memory).
+    fuzz::Check(request->reflectors.size() <= static_cast<std::size_t>(api::kMaxPlanReflectors) &&
+                    (request->reflectors.empty() || request->measurement_type == MeasurementType::kPosition),
+                "reflectors few and with position measurements only");
     fuzz::CheckRoundTrip(*request, parse);
   }
   return 0;

@@ -122,7 +122,8 @@ std::string GenerateCalibratedUrdf(const RobotModel& model, const Eigen::VectorX
 std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel& model, const Eigen::VectorXd& errors,
                                  const Transform& T_world_base) {
   if (errors.size() != model.num_error_parameters()) Stale("the calibration does not match the robot's model");
-  const ::urdf::ModelInterfaceSharedPtr parsed = internal::Parse(source.xml);
+  const internal::ParsedModel parsed_model(internal::Parse(source.xml));
+  const ::urdf::ModelInterfaceSharedPtr& parsed = parsed_model.get();
   if (parsed->getLink(kToolLink)) Stale(std::string("the URDF already has a link \"") + kToolLink + "\"");
   const auto error = [&](int site) { return ErrorTransform(errors.data() + 6 * site); };
 

@@ -159,7 +159,8 @@ std::string IdFromName(const std::string& name) {
 using namespace internal;
 
 api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
-  const ::urdf::ModelInterfaceSharedPtr model = Parse(request.urdf);
+  const ParsedModel parsed(Parse(request.urdf));
+  const ::urdf::ModelInterfaceSharedPtr& model = parsed.get();
   const auto link_names = [&] {
     std::vector<::urdf::LinkSharedPtr> links;
     model->getLinks(links);

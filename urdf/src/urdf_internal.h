@@ -15,6 +15,27 @@ namespace robocal::urdf::internal {
 [[noreturn]] void Refuse(const std::string& field, const std::string& reason);
 /// The parsed document (nesting checked first); refuses naming "urdf" with liburdfdom's messages.
 ::urdf::ModelInterfaceSharedPtr Parse(const std::string& xml);
+/// Holds a parsed model and, when it goes, breaks its links' shared pointers to each other: a document with a
+/// cycle of joints (which liburdfdom accepts and the import refuses) would otherwise keep its links alive.
+class ParsedModel {
+ public:
+  explicit ParsedModel(::urdf::ModelInterfaceSharedPtr model) : model_(std::move(model)) {}
+  ~ParsedModel() {
+    for (auto& [name, link] : model_->links_) {
+      link->child_links.clear();
+      link->child_joints.clear();
+      link->parent_joint.reset();
+    }
+  }
+  ParsedModel(const ParsedModel&) = delete;
+  ParsedModel& operator=(const ParsedModel&) = delete;
+  const ::urdf::ModelInterfaceSharedPtr& operator->() const { return model_; }
+  const ::urdf::ModelInterfaceSharedPtr& get() const { return model_; }
+
+ private:
+  ::urdf::ModelInterfaceSharedPtr model_;
+};
+
 /// A URDF pose (m) as a transform (mm).
 Transform ToTransform(const ::urdf::Pose& pose);
 /// The fixed rotation that turns z onto `axis` (unit).

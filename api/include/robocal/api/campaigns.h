@@ -27,6 +27,11 @@ void to_json(nlohmann::json& j, const CampaignReflectorWire& reflector);
 void from_json(const nlohmann::json& j, CampaignReflectorWire& reflector);
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors);
 std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors);
+class Problems;
+/// Reads a request's "reflectors" (at most max_count; ids by the id rule and unique; positions finite within
+/// 10 m of the flange), recording every problem.
+void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out,
+                     std::size_t max_count);
 /// The index of each measurement's reflector id among `reflectors` (-1 for none).
 int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const std::string& id);
 

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/planning.h"
@@ -16,6 +17,10 @@
 namespace robocal::api {
 
 /// POST /v1/plans.
+/// Nests a plan may name: a tool carries two to four (each adds 3 rows per configuration to the planners' work
+/// and the exchange pool's memory).
+inline constexpr int kMaxPlanReflectors = 4;
+
 struct PlanRequest {
   std::string robot;
   /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
@@ -29,6 +34,9 @@ struct PlanRequest {
   /// The tracker's uncertainty model: rows whitened by it at each configuration (from the cell's tracker when
   /// the plan has a cell, else its isotropic equivalent at 3 m). Unset: `noise`.
   std::optional<TrackerModelWire> tracker;
+  /// Reflector nests on the tool (position plans, at most kMaxPlanReflectors): the plan is chosen for what
+  /// shots of every nest identify (their offsets, free ones, among the parameters) rather than the tool point.
+  std::vector<CampaignReflectorWire> reflectors;
   std::uint64_t seed = 1;
   /// Optimiser options ("options" object); unset ones keep the core's defaults (the paper's for solis_wets).
   int k_max = 100, restarts = 0;                                 // solis_wets
