@@ -586,6 +586,12 @@ double Median(std::vector<double> values) {
   return 0.5 * (values[mid] + *std::max_element(values.begin(), values.begin() + mid));
 }
 
+// A fit parameter is a translation (mm) by its name's axis: the model's and the reflectors' offsets (past the
+// model's parameters, where RobotModel::IsTranslationParameter's index rule does not reach) end in .dx/.dy/.dz.
+bool IsTranslationName(const std::string& name) {
+  return name.size() > 3 && name.compare(name.size() - 3, 2, ".d") == 0;
+}
+
 constexpr double kMinRobustScale = 1e-3;
 // Beyond these an identified error is no longer a calibration of the nominal geometry (IdentifyOnce says so).
 constexpr double kImplausibleErrorMm = 100.0;
@@ -976,7 +982,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   std::string implausible;
   int count = 0;
   for (const IdentifiedParameter& p : cal.parameters) {
-    const bool mm = p.name.size() > 3 && p.name.compare(p.name.size() - 3, 2, ".d") == 0;
+    const bool mm = IsTranslationName(p.name);
     if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
       if (++count <= 3) {
         std::ostringstream one;
@@ -1042,8 +1048,7 @@ std::string IdentificationSummary::FullReport() const {
         << "std"
         << "  units\n";
     for (const IdentifiedParameter& p : parameters) {
-      // By the name's axis: a reflector's offsets (past the model's parameters) end in .dx, .dy, .dz too.
-      const bool mm = p.name.size() > 3 && p.name.compare(p.name.size() - 3, 2, ".d") == 0;
+      const bool mm = IsTranslationName(p.name);
       out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
           << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : "rad") << "\n";
     }
