@@ -128,14 +128,11 @@ std::string ExportCalibratedUrdf(const api::UrdfSource& source, const RobotModel
   const auto error = [&](int site) { return ErrorTransform(errors.data() + 6 * site); };
 
   // The chain as the import walked it: each moving joint, and the fixed joints before the first.
-  std::vector<::urdf::JointConstSharedPtr> chain;
-  ::urdf::LinkConstSharedPtr link = parsed->getLink(source.tip_link);
-  const ::urdf::LinkConstSharedPtr base = parsed->getLink(source.base_link);
-  if (!link || !base) Stale("the URDF's base or tip link is gone");
-  for (; link != base; link = parsed->getLink(link->parent_joint->parent_link_name)) {
-    if (!link->parent_joint) Stale("the tip link is no longer below the base link");
-    chain.insert(chain.begin(), link->parent_joint);
+  if (!parsed->getLink(source.tip_link) || !parsed->getLink(source.base_link)) {
+    Stale("the URDF's base or tip link is gone");
   }
+  const std::vector<::urdf::JointConstSharedPtr> chain =
+      internal::Chain(*parsed, source.base_link, source.tip_link);
 
   tinyxml2::XMLDocument doc;
   if (doc.Parse(source.xml.c_str(), source.xml.size()) != tinyxml2::XML_SUCCESS) Stale(doc.ErrorStr());

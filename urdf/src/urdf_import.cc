@@ -154,6 +154,28 @@ std::string IdFromName(const std::string& name) {
   return id.substr(0, 64);
 }
 
+std::vector<::urdf::JointConstSharedPtr> Chain(const ::urdf::ModelInterface& model, const std::string& base_link,
+                                               const std::string& tip_link) {
+  // From the tip up to the base, then in chain order.
+  const ::urdf::LinkConstSharedPtr base = model.getLink(base_link);
+  std::vector<::urdf::JointConstSharedPtr> chain;
+  std::set<std::string> visited;
+  for (::urdf::LinkConstSharedPtr link = model.getLink(tip_link); link != base;) {
+    if (!visited.insert(link->name).second) {
+      Refuse("urdf", "the joints above link \"" + tip_link + "\" form a cycle through link \"" + link->name +
+                         "\" (" + JointPath(*link->parent_joint) + "): a URDF is a tree");
+    }
+    if (!link->parent_joint) {
+      Refuse("tip_link", "link \"" + tip_link + "\" is not below base_link \"" + base_link +
+                             "\" (its chain ends at the root link \"" + link->name + "\")");
+    }
+    chain.push_back(link->parent_joint);
+    link = model.getLink(link->parent_joint->parent_link_name);
+  }
+  std::reverse(chain.begin(), chain.end());
+  return chain;
+}
+
 }  // namespace internal
 
 using namespace internal;
@@ -188,22 +210,7 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
       }
     }
   }
-  // The joints from the tip up to the base, then in chain order.
-  std::vector<::urdf::JointConstSharedPtr> chain;
-  std::set<std::string> visited;
-  for (::urdf::LinkConstSharedPtr link = tip; link != base;) {
-    if (!visited.insert(link->name).second) {
-      Refuse("urdf", "the joints above link \"" + request.tip_link + "\" form a cycle through link \"" + link->name +
-                         "\" (" + JointPath(*link->parent_joint) + "): a URDF is a tree");
-    }
-    if (!link->parent_joint) {
-      Refuse("tip_link", "link \"" + request.tip_link + "\" is not below base_link \"" + request.base_link +
-                             "\" (its chain ends at the root link \"" + link->name + "\")");
-    }
-    chain.push_back(link->parent_joint);
-    link = model->getLink(link->parent_joint->parent_link_name);
-  }
-  std::reverse(chain.begin(), chain.end());
+  const std::vector<::urdf::JointConstSharedPtr> chain = Chain(*model, request.base_link, request.tip_link);
 
   api::RegisterRobotRequest out;
   out.id = request.id.empty() ? IdFromName(model->getName()) : request.id;

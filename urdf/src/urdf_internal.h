@@ -4,6 +4,7 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -35,6 +36,11 @@ class ParsedModel {
  private:
   ::urdf::ModelInterfaceSharedPtr model_;
 };
+
+/// The joints from link `base` down to link `tip` (both in the model), in chain order. Refuses a tip not below
+/// the base (naming tip_link) and a cycle of joints above the tip (naming urdf).
+std::vector<::urdf::JointConstSharedPtr> Chain(const ::urdf::ModelInterface& model, const std::string& base,
+                                               const std::string& tip);
 
 /// A URDF pose (m) as a transform (mm).
 Transform ToTransform(const ::urdf::Pose& pose);
