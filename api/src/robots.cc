@@ -301,6 +301,34 @@ void from_json(const nlohmann::json& j, Robot& robot) {
   r.Required("error_parameters", &robot.error_parameters);
 }
 
+JointWire JointToWire(const JointSpec& js) {
+  const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
+  JointWire jw;
+  jw.name = js.name;
+  jw.type = js.type;
+  jw.a_mm = js.a_mm;
+  jw.alpha_deg = js.alpha_rad * kDegPerRad;
+  jw.d_mm = js.d_mm;
+  jw.theta_deg = js.theta_rad * kDegPerRad;
+  jw.xyz_mm = {js.xyz_mm.x(), js.xyz_mm.y(), js.xyz_mm.z()};
+  jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
+  jw.min = js.min * scale;
+  jw.max = js.max * scale;
+  return jw;
+}
+
+RegisterRobotRequest DefinitionOf(const std::string& id, const RobotModelSpec& spec, const std::string& description) {
+  RegisterRobotRequest req;
+  req.id = id;
+  req.description = description;
+  req.convention = spec.convention;
+  for (const JointSpec& js : spec.joints) req.joints.push_back(JointToWire(js));
+  req.base = TransformToPose(spec.T_world_base);
+  req.tool = TransformToPose(spec.T_flange_tool);
+  if (spec.convention == GeometryConvention::kTransform) req.flange = TransformToPose(spec.T_lastjoint_flange);
+  return req;
+}
+
 Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset, const std::string& description) {
   const RobotModelSpec& spec = model.spec();
   Robot robot;
@@ -309,22 +337,7 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   robot.description = description;
   robot.convention = spec.convention;
   robot.num_joints = model.num_joints();
-  for (int i = 0; i < model.num_joints(); ++i) {
-    const JointSpec& js = spec.joints[i];
-    const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
-    JointWire jw;
-    jw.name = js.name;
-    jw.type = js.type;
-    jw.a_mm = js.a_mm;
-    jw.alpha_deg = js.alpha_rad * kDegPerRad;
-    jw.d_mm = js.d_mm;
-    jw.theta_deg = js.theta_rad * kDegPerRad;
-    jw.xyz_mm = {js.xyz_mm.x(), js.xyz_mm.y(), js.xyz_mm.z()};
-    jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
-    jw.min = js.min * scale;
-    jw.max = js.max * scale;
-    robot.joints.push_back({jw, JointUnit(model, i)});
-  }
+  for (int i = 0; i < model.num_joints(); ++i) robot.joints.push_back({JointToWire(spec.joints[i]), JointUnit(model, i)});
   robot.base = TransformToPose(spec.T_world_base);
   robot.tool = TransformToPose(spec.T_flange_tool);
   robot.flange = TransformToPose(spec.T_lastjoint_flange);

@@ -107,8 +107,12 @@ int Export(Invocation& in) {
     text = in.Client().GetCalibrationUrdf(in.args[0]);
   } else if (format == "json") {
     text = nlohmann::json(in.Client().GetCalibration(in.args[0])).dump(2) + "\n";
+  } else if (format == "dh" || format == "mdh") {
+    const GeometryConvention convention =
+        format == "dh" ? GeometryConvention::kStandardDh : GeometryConvention::kModifiedDh;
+    text = nlohmann::json(in.Client().GetCalibrationDh(in.args[0], convention)).dump(2) + "\n";
   } else {
-    throw UsageError("--format takes urdf or json, got '" + format + "'");
+    throw UsageError("--format takes urdf, dh, mdh or json, got '" + format + "'");
   }
   Output(in.Option("--out"), in.out).stream() << text;
   return kExitOk;

@@ -71,7 +71,7 @@ const std::vector<Command>& Commands() {
        {{"--out", "OUT.csv"}, {"--sequence"}, {"--max-jump", "DEG"}, {"--frame", "tracker|base"}},
        &help::kCompensate, Compensate},
       {"evaluate", {"CAMPAIGN"}, {{"--h-mm", "H"}}, &help::kEvaluate, Evaluate},
-      {"export", {"CAMPAIGN"}, {{"--format", "urdf|json"}, {"--out", "FILE"}}, &help::kExport, Export},
+      {"export", {"CAMPAIGN"}, {{"--format", "urdf|dh|mdh|json"}, {"--out", "FILE"}}, &help::kExport, Export},
       {"operation wait", {"ID"}, {}, &help::kOperationWait, OperationWait},
       {"operation get", {"ID"}, {}, &help::kOperationGet, OperationGet},
       {"operation cancel", {"ID"}, {}, &help::kOperationCancel, OperationCancel},

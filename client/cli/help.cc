@@ -50,10 +50,14 @@ the tip link (mm, tip frame; orientation that of the tip). Prints the robot as `
 the URDF element.
 )"};
 
-const HelpText kExport = {"the calibrated robot in a format robot software loads (--format urdf|json)", R"(
+const HelpText kExport = {"the calibrated robot in a format robot software loads (--format urdf|dh|mdh|json)", R"(
 --format urdf (the default): a URDF document whose kinematics are the calibrated robot's (docs/formats.md): a
 robot imported from a URDF comes back as its own document with the identified errors folded into the chain's
 joint origins, any other robot as a generated one; both end in a link robocal_tool, the calibrated tool.
+--format dh | mdh: the calibrated robot as a standard / modified DH table, rebuilt from the calibrated joint
+axes: a robot definition (JSON) that `robocal robot register` takes as it is; base = tracker -> frame 0, tool =
+last frame -> calibrated tool. Axes parallel in the model that the calibration tilts apart have no usable DH
+table: the service says which row and which identified parameters, and urdf or json is the way out.
 --format json: the stored calibration (GET /v1/campaigns/{c}/calibration). Written to stdout, or to --out FILE.
 )"};
 

@@ -419,6 +419,14 @@ std::string Client::GetCalibrationUrdf(const std::string& campaign) {
               "/v1/campaigns/" + Segment(campaign) + "/calibration?format=urdf", nullptr, true);
 }
 
+api::RegisterRobotRequest Client::GetCalibrationDh(const std::string& campaign, GeometryConvention convention) {
+  return Parse<api::RegisterRobotRequest>(Call("GET",
+                                               "/v1/campaigns/" + Segment(campaign) +
+                                                   "/calibration?format=" + ToString(convention),
+                                               nullptr, true),
+                                          "robot definition");
+}
+
 api::CalibrationResult Client::GetCalibration(const std::string& campaign) {
   return Parse<api::CalibrationResult>(
       Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration");

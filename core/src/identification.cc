@@ -593,9 +593,6 @@ bool IsTranslationName(const std::string& name) {
 }
 
 constexpr double kMinRobustScale = 1e-3;
-// Beyond these an identified error is no longer a calibration of the nominal geometry (IdentifyOnce says so).
-constexpr double kImplausibleErrorMm = 100.0;
-constexpr double kImplausibleErrorRad = 10.0 * M_PI / 180.0;
 // A robust scale beyond this factor either way is said in the message (above it: DEGRADED).
 constexpr double kScaleWarning = 3.0;
 // Rounds of the robust fit before it stops with the set it has (an oscillating set is reported as such).

@@ -98,9 +98,11 @@ const std::vector<Route>& RouteTable() {
        [](Service& s, const httplib::Request& r) -> RouteReply {
          const std::string format = Query(r, "format");
          if (format == "urdf") return {s.CalibrationUrdf(Id(r)), "application/xml"};
+         if (format == "dh") return Reply(s.CalibrationDh(Id(r), GeometryConvention::kStandardDh));
+         if (format == "mdh") return Reply(s.CalibrationDh(Id(r), GeometryConvention::kModifiedDh));
          if (!format.empty() && format != "json") {
            throw ApiError(Status::kInvalidArgument, "unknown format \"" + format + "\"",
-                          {{"format", "must be json (the default) or urdf"}});
+                          {{"format", "must be json (the default), urdf, dh or mdh"}});
          }
          return Reply(s.GetCalibration(Id(r)));
        }},

@@ -5,6 +5,7 @@
 
 #include "robocal/core/accuracy.h"
 #include "robocal/core/compensation.h"
+#include "robocal/core/dh_table.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
@@ -183,6 +184,26 @@ std::string Service::CalibrationUrdf(const std::string& campaign_id) {
                                       c.model.T_world_base());
   }
   return urdf::GenerateCalibratedUrdf(loaded.model, c.errors, c.model.T_world_base());
+}
+
+api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id, GeometryConvention convention) {
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const Calibration& c = loaded.calibration;
+  const char* name = ToString(convention);
+  try {
+    const RobotModelSpec spec = CalibratedDhSpec(c.model, c.errors, convention);
+    // An id that registers as it is: the campaign's, with the convention (ids are at most 64 characters).
+    const std::string suffix = std::string("-") + name;
+    const std::string id = campaign_id.substr(0, 64 - suffix.size()) + suffix;
+    return api::DefinitionOf(id, spec,
+                             "robot '" + loaded.campaign.robot + "' as calibrated by campaign '" + campaign_id +
+                                 "': " + name + " table from the calibrated joint axes, base = tracker -> frame 0");
+  } catch (const DhTableError& e) {
+    throw ApiError(Status::kFailedPrecondition,
+                   "the calibration of \"" + campaign_id + "\" has no " + name + " table: " + e.what(),
+                   {{"format", std::string("the calibrated kinematics cannot be written as a ") + name +
+                                   " table (" + e.field() + ")"}});
+  }
 }
 
 api::ForwardResult Service::CampaignForward(const std::string& campaign_id, const nlohmann::json& body) {

@@ -11,7 +11,10 @@
 
 #include "cli.h"
 #include "mock_tracker.h"
+#include "robocal/api/robots.h"
 #include "robocal/client/csv.h"
+#include "robocal/core/planning.h"
+#include "robocal/core/virtual_cell.h"
 #include "test_server.h"
 
 namespace robocal {
@@ -496,6 +499,46 @@ TEST_F(CliTest, CampaignCreateWithReflectors) {
   EXPECT_NE(pose.err.find("reflectors: need position measurements"), std::string::npos) << pose.err;
 }
 
+// export --format dh|mdh of a robot without parallel neighbouring axes: a definition that robot register takes.
+TEST_F(CliTest, ExportDhTableRegistersAsARobot) {
+  const std::string server = "--server " + server_.url();
+  nlohmann::json joints = nlohmann::json::array();
+  const double a[6] = {50, 300, 40, 10, 0, 5}, d[6] = {400, 30, -20, 350, 15, 90};
+  const double alpha[6] = {90, -90, 90, -90, 90, 0};
+  for (int i = 0; i < 6; ++i) {
+    joints.push_back({{"name", "j" + std::to_string(i + 1)}, {"type", "revolute"}, {"a_mm", a[i]},
+                      {"alpha_deg", alpha[i]}, {"d_mm", d[i]}, {"theta_deg", 0}, {"min_deg", -170},
+                      {"max_deg", 170}});
+  }
+  const nlohmann::json skew = {{"id", "skew"}, {"convention", "dh"}, {"joints", joints}};
+  std::ofstream(Path("skew.json")) << skew;
+  ASSERT_EQ(RunCli(server + " robot register " + Path("skew.json")).exit_code, 0);
+  ASSERT_EQ(Trim(RunCli(server + " campaign create skew pose --id skew-1").out), "skew-1");
+  const RobotModel model = api::BuildModel(api::ParseRegisterRobotRequest(skew, api::Limits{}));
+  VirtualCellOptions cell_options;
+  cell_options.seed = 2;
+  VirtualCell cell(model, cell_options);
+  Rng rng(3);
+  nlohmann::json shots = nlohmann::json::array();
+  for (const Measurement& m : cell.MeasureAll(RandomConfigurations(model, 25, &rng), 1)) {
+    shots.push_back({{"joints", api::JointsToWire(model, m.joints)}, {"pose", api::TransformToPose(m.T_world_tool)}});
+  }
+  std::ofstream(Path("skew-shots.json")) << nlohmann::json{{"role", "calibration"}, {"measurements", shots}};
+  ASSERT_EQ(RunCli(server + " upload skew-1 " + Path("skew-shots.json")).exit_code, 0);
+  ASSERT_EQ(RunCli(server + " fit skew-1").exit_code, 0);
+  for (const std::string format : {"dh", "mdh"}) {
+    const std::string file = Path("skew-1-" + format + ".json");
+    ASSERT_EQ(RunCli(server + " export skew-1 --format " + format + " --out " + file).exit_code, 0);
+    std::stringstream text;
+    text << std::ifstream(file).rdbuf();
+    const nlohmann::json table = nlohmann::json::parse(text.str());
+    EXPECT_EQ(table.at("convention"), format);
+    EXPECT_EQ(table.at("joints").size(), 6u);
+    EXPECT_EQ(RunCli(server + " robot register " + file).exit_code, 0) << text.str();
+    EXPECT_EQ(RunCli(server + " robot get skew-1-" + format + " --json").exit_code, 0);
+  }
+}
+
 // campaign list says which campaigns are calibrated, in its table and as JSON (list items once carried no
 // calibrated, and every campaign read as uncalibrated).
 TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
@@ -524,6 +567,10 @@ TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
   const Result exported_json = RunCli(server + " export cal-1 --format json");
   EXPECT_EQ(nlohmann::json::parse(exported_json.out).at("campaign"), "cal-1");
   EXPECT_EQ(RunCli(server + " export cal-1 --format dxf").exit_code, 2);
+  // The grinder's Z and C axes are one line: the calibration has no DH table, and the service says why.
+  const InProcess no_table = RunInProcess({"--server", server_.url(), "export", "cal-1", "--format", "dh"});
+  EXPECT_EQ(no_table.exit_code, 1);
+  EXPECT_NE(no_table.err.find("joint 'Z' and joint 'C' are"), std::string::npos) << no_table.err;
 
   const Result table = RunCli(server + " campaign list");
   ASSERT_EQ(table.exit_code, 0);

@@ -230,6 +230,42 @@ expect "... whose forward kinematics are the calibrated campaign's (to 1e-6 mm)"
   "$(jq -n --argjson a "$(call POST /v1/robots/grinder5-calibrated:forward "$q" | jq -c '.poses[0].position_mm')" \
      --argjson b "$(call POST "/v1/campaigns/$campaign:forward" "$q" | jq -c '.poses[0].position_mm')" \
      '[range(3) | ($a[.] - $b[.]) | fabs] | max < 1e-6')" true
+# A DH table: the grinder's Z and C axes are one line, which the calibration moves apart, so there is none.
+call GET "/v1/campaigns/$campaign/calibration?format=dh" >/dev/null
+expect "GET /calibration?format=dh of the grinder -> 400 naming format, and the axes" \
+  "$(status) $(jq -r '.error.details[0].field' "$work/body") $(jq '.error.message | test("joint .Z. and joint .C. are")' "$work/body")" \
+  "400 format true"
+# A robot without parallel neighbouring axes has a table. The "real" robot is a copy with other DH numbers, its
+# poses the measurements; the calibrated table, registered, gives the campaign's poses.
+skew_robot() {  # id, a/d offset (mm), angle offset (deg)
+  jq -nc --arg id "$1" --argjson o "$2" --argjson t "$3" '{id: $id, convention: "dh", joints: [
+    range(6) as $i | {name: "j\($i + 1)", type: "revolute", a_mm: ([50, 300, 40, 10, 0, 5][$i] + $o),
+      alpha_deg: ([90, -90, 90, -90, 90, 0][$i] + $t), d_mm: ([400, 30, -20, 350, 15, 90][$i] - $o),
+      theta_deg: $t, min_deg: -170, max_deg: 170}],
+    tool: {position_mm: [10, 20, 120], rpy_deg: [0, 15, 0]}}'
+}
+call POST /v1/robots "$(skew_robot skew 0 0)" >/dev/null
+call POST /v1/robots "$(skew_robot skew-true 0.4 0.05)" >/dev/null
+call POST /v1/campaigns '{"id": "skew-cal", "robot": "skew"}' >/dev/null
+skew_q=$(jq -nc '{joints: [range(24) as $k | [range(6) as $i | 150 * (($k * 1.7 + $i * 2.3) | sin)]]}')
+call POST /v1/robots/skew-true:forward "$skew_q" >"$work/skew_poses.json"
+call POST /v1/campaigns/skew-cal/measurements "$(jq -c --argjson q "$skew_q" '{request_id: "skew-1", role: "calibration",
+  measurements: [range(24) as $k | {joints: $q.joints[$k], pose: (.poses[$k] | {position_mm, quaternion})}]}' \
+  "$work/skew_poses.json")" >/dev/null
+expect "a skew robot's campaign: measurements stored" "$(status) $(jq -r .error.message "$work/body")" "200 null"
+call POST /v1/campaigns/skew-cal:fit '{}' >/dev/null
+expect "... and calibrated" "$(status)" 200
+for convention in dh mdh; do
+  call GET "/v1/campaigns/skew-cal/calibration?format=$convention" >"$work/skew_$convention.json"
+  expect "GET /calibration?format=$convention -> a $convention table" "$(status) $(jq -r .convention "$work/skew_$convention.json")" \
+    "200 $convention"
+  call POST /v1/robots "$(cat "$work/skew_$convention.json")" >/dev/null
+  expect "... that registers as robot skew-cal-$convention" "$(status) $(jq -r .id "$work/body")" "200 skew-cal-$convention"
+  expect "... whose poses are the calibrated campaign's (to 1e-6 mm)" \
+    "$(jq -n --argjson a "$(call POST "/v1/robots/skew-cal-$convention:forward" "$skew_q" | jq -c '[.poses[].position_mm]')" \
+       --argjson b "$(call POST /v1/campaigns/skew-cal:forward "$skew_q" | jq -c '[.poses[].position_mm]')" \
+       '[range($a | length) as $k | range(3) as $i | ($a[$k][$i] - $b[$k][$i]) | fabs] | max < 1e-6')" true
+done
 call GET "/v1/campaigns/$campaign/calibration?format=dxf" >/dev/null
 expect "... an unknown format -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 op=$(call POST "/v1/campaigns/$campaign:fit" '{"async": true}' | jq -r .id)

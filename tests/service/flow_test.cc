@@ -5,7 +5,9 @@
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
 #include "robocal/api/plans.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
+#include "robocal/core/random.h"
 #include "robocal/core/virtual_cell.h"
 #include "test_server.h"
 
@@ -84,6 +86,70 @@ TEST(FlowTest, PlanCampaignUploadFitCompensateEvaluate) {
   EXPECT_EQ(evaluated.body["num_validation"], 15);
   EXPECT_LT(evaluated.body["calibrated"]["e_xyz_mm"]["mean"].get<double>(),
             evaluated.body["nominal"]["e_xyz_mm"]["mean"].get<double>());
+}
+
+// GET .../calibration?format=dh|mdh: a robot whose neighbouring axes are never parallel gets its calibrated
+// table, which registers as a robot with the calibrated kinematics; the grinder, whose Z and C axes are one line,
+// gets a 400 naming format, the row and the parameters.
+TEST(FlowTest, CalibratedDhTablesRegisterWithTheCalibratedKinematics) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  json joints = json::array();
+  const double a[6] = {50, 300, 40, 10, 0, 5}, d[6] = {400, 30, -20, 350, 15, 90};
+  const double alpha[6] = {90, -90, 90, -90, 90, 0};
+  for (int i = 0; i < 6; ++i) {
+    joints.push_back({{"name", "j" + std::to_string(i + 1)}, {"type", "revolute"}, {"a_mm", a[i]},
+                      {"alpha_deg", alpha[i]}, {"d_mm", d[i]}, {"theta_deg", 5.0 * i}, {"min_deg", -170},
+                      {"max_deg", 170}});
+  }
+  const json skew = {{"id", "skew"}, {"convention", "dh"}, {"joints", joints},
+                     {"tool", {{"position_mm", {10, 20, 120}}, {"rpy_deg", {0, 15, 0}}}}};
+  ASSERT_EQ(s.Post("/v1/robots", skew).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "skew-cal"}, {"robot", "skew"}}).status, 200);
+  const RobotModel model = api::BuildModel(api::ParseRegisterRobotRequest(skew, api::Limits{}));
+  VirtualCellOptions cell_options;
+  cell_options.seed = 4;
+  VirtualCell cell(model, cell_options);
+  Rng rng(9);
+  const auto measured = cell.MeasureAll(RandomConfigurations(model, 30, &rng), 1);
+  ASSERT_EQ(s.Post("/v1/campaigns/skew-cal/measurements", Batch(model, measured, "c", "calibration")).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/skew-cal:fit", json::object()).status, 200);
+
+  json q = json::array();
+  for (int k = 0; k < 5; ++k) q.push_back(api::JointsToWire(model, RandomConfiguration(model, &rng)));
+  const Reply calibrated = s.Post("/v1/campaigns/skew-cal:forward", {{"joints", q}});
+  ASSERT_EQ(calibrated.status, 200) << calibrated.text;
+  for (const char* format : {"dh", "mdh"}) {
+    SCOPED_TRACE(format);
+    const Reply table = s.Get(std::string("/v1/campaigns/skew-cal/calibration?format=") + format);
+    ASSERT_EQ(table.status, 200) << table.text;
+    EXPECT_EQ(table.body["id"], std::string("skew-cal-") + format);
+    EXPECT_EQ(table.body["convention"], format);
+    ASSERT_EQ(s.Post("/v1/robots", table.body).status, 200);
+    const Reply nominal = s.Post("/v1/robots/skew-cal-" + std::string(format) + ":forward", {{"joints", q}});
+    ASSERT_EQ(nominal.status, 200) << nominal.text;
+    for (std::size_t k = 0; k < q.size(); ++k) {
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_NEAR(nominal.body["poses"][k]["position_mm"][i].get<double>(),
+                    calibrated.body["poses"][k]["position_mm"][i].get<double>(), 1e-9);
+      }
+    }
+  }
+
+  // The grinder's Z and C axes are one line; a calibration that tilts or offsets C across it has no table.
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "grind"}, {"robot", "grinder5"}}).status, 200);
+  const RobotModel grinder = Preset("grinder5");
+  VirtualCell grinder_cell(grinder, cell_options);
+  const auto shots = grinder_cell.MeasureAll(RandomConfigurations(grinder, 30, &rng), 1);
+  ASSERT_EQ(s.Post("/v1/campaigns/grind/measurements", Batch(grinder, shots, "c", "calibration")).status, 200);
+  const Reply fit = s.Post("/v1/campaigns/grind:fit", json::object());
+  ASSERT_EQ(fit.status, 200) << fit.text;
+  const Reply refused = s.Get("/v1/campaigns/grind/calibration?format=dh");
+  ASSERT_EQ(refused.status, 400) << refused.text;
+  EXPECT_EQ(refused.body["error"]["details"][0]["field"], "format");
+  const std::string message = refused.body["error"]["message"];
+  EXPECT_NE(message.find("joint 'Z' and joint 'C' are"), std::string::npos) << message;
+  // It names identified parameters of C.
+  EXPECT_NE(message.find("identified C."), std::string::npos) << message;
 }
 
 TEST(FlowTest, FitWithTooFewMeasurementsStoresNothing) {

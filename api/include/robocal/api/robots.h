@@ -79,6 +79,11 @@ void from_json(const nlohmann::json& j, ImportUrdfRequest& request);
 
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);
+/// A core joint in wire units (deg, mm).
+JointWire JointToWire(const JointSpec& joint);
+/// The definition that registers `spec`'s model under `id` (a table in the spec's convention, base and tool; no
+/// preset, no URDF document): e.g. a calibrated DH table (GET /v1/campaigns/{c}/calibration?format=dh).
+RegisterRobotRequest DefinitionOf(const std::string& id, const RobotModelSpec& spec, const std::string& description);
 /// The model of a definition (throws ApiError kInvalidArgument naming the fields the core rejects).
 RobotModel BuildModel(const RegisterRobotRequest& request);
 

@@ -163,6 +163,10 @@ class Client {
   api::CalibrationResult GetCalibration(const std::string& campaign);
   /// The calibrated robot as a URDF document (GET .../calibration?format=urdf; docs/formats.md).
   std::string GetCalibrationUrdf(const std::string& campaign);
+  /// The calibrated robot as a standard or modified DH table (GET .../calibration?format=dh|mdh): a robot
+  /// definition that RegisterRobot takes as it is. Throws ApiError (400, field format) where no DH table can
+  /// hold the calibration.
+  api::RegisterRobotRequest GetCalibrationDh(const std::string& campaign, GeometryConvention convention);
   /// One result per target, in order.
   api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).

@@ -23,6 +23,11 @@ namespace robocal {
 /// size mismatch.
 Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to);
 
+/// Beyond these an identified error is no longer a calibration of the nominal geometry: a fit that identifies one
+/// is DEGRADED and says so (mm; rad, 10 degrees).
+inline constexpr double kImplausibleErrorMm = 100.0;
+inline constexpr double kImplausibleErrorRad = 0.17453292519943295;
+
 struct IdentificationOptions {
   MeasurementType measurement_type = MeasurementType::kPose;
   /// 1-sigma tracker noise; residual rows are divided by it (position mm, orientation rad).

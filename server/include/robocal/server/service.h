@@ -95,6 +95,9 @@ class Service {
   /// The calibrated robot as a URDF document (docs/formats.md): the imported document with the errors folded
   /// in, or one generated from the model for a robot that came from a table.
   std::string CalibrationUrdf(const std::string& campaign);
+  /// GET .../calibration?format=dh|mdh: the calibrated robot as a DH (standard or modified) table, a body that
+  /// registers it (POST /v1/robots); FAILED_PRECONDITION naming the parameters where no DH table can hold it.
+  api::RegisterRobotRequest CalibrationDh(const std::string& campaign, GeometryConvention convention);
   api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);

@@ -1,0 +1,389 @@
+#include "robocal/core/dh_table.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
+
+namespace robocal {
+namespace {
+
+// Two axes whose directions differ by less than this (rad) are parallel: treating them so moves a point a metre
+// away by a nanometre at most.
+constexpr double kParallel = 1e-12;
+// Two parallel axes closer than this (mm) are the same line.
+constexpr double kCoincident = 1e-12;
+// A pair of axes parallel in the nominal model within this (rad) is "parallel" for the refusal's explanation.
+constexpr double kNominallyParallel = 1e-9;
+// Two parallel axes of the nominal model closer than this (mm) are "one line" for the refusal's explanation.
+constexpr double kNominallyCoincident = 1e-9;
+
+struct Line {
+  Eigen::Vector3d point;
+  Eigen::Vector3d dir;  // unit
+};
+
+struct Frame {
+  Eigen::Vector3d o, x, z;
+};
+
+// The component of the unit vector v perpendicular to the unit vector z, normalised; that of `fallback` (a unit
+// vector perpendicular to v) where v is within 30 degrees of z, so that a small turn of z never turns the result
+// much.
+Eigen::Vector3d Perpendicular(const Eigen::Vector3d& v, const Eigen::Vector3d& z, const Eigen::Vector3d& fallback) {
+  Eigen::Vector3d p = v - v.dot(z) * z;
+  if (p.norm() < 0.5) p = fallback - fallback.dot(z) * z;
+  return p.normalized();
+}
+
+Eigen::Vector3d Foot(const Line& line, const Eigen::Vector3d& point) {
+  return line.point + line.dir.dot(point - line.point) * line.dir;
+}
+
+// The angle from u to v about the unit axis k (both perpendicular to k).
+double AngleAbout(const Eigen::Vector3d& u, const Eigen::Vector3d& v, const Eigen::Vector3d& k) {
+  return std::atan2(k.dot(u.cross(v)), u.dot(v));
+}
+
+struct Normal {
+  Eigen::Vector3d foot_a, foot_b, x;
+};
+
+// What decides the DH rules' free choices for one frame: a frame nearby (origin, x and y axes). The nominal
+// table takes the model's own frames; the calibrated one takes the nominal table's, so that both make the same
+// choices.
+struct Ref {
+  Eigen::Vector3d o, x, y;
+};
+
+Ref RefOf(const Transform& t) { return {t.translation(), t.linear().col(0), t.linear().col(1)}; }
+
+// The common normal of lines a and b. Its x is signed to agree with the reference's x, or where that is nearly
+// perpendicular to the normal, to point from a to b (or along a x b where they meet). Where the rules leave a
+// choice (parallel lines: anywhere along them; the same line: any direction), the normal through the reference
+// origin's foot on b, and the reference's x.
+Normal CommonNormal(const Line& a, const Line& b, const Ref& ref) {
+  Normal n;
+  const Eigen::Vector3d c = a.dir.cross(b.dir);
+  const double s = c.norm();
+  if (s > kParallel) {
+    // Closest points of the two lines: a.point + t a.dir and b.point + u b.dir.
+    const Eigen::Vector3d w = a.point - b.point;
+    const double ab = a.dir.dot(b.dir), d = a.dir.dot(w), e = b.dir.dot(w);
+    const double t = (ab * e - d) / (s * s), u = (e - ab * d) / (s * s);
+    n.foot_a = a.point + t * a.dir;
+    n.foot_b = b.point + u * b.dir;
+    n.x = c / s;
+  } else {
+    n.foot_b = Foot(b, ref.o);
+    n.foot_a = Foot(a, n.foot_b);
+    const Eigen::Vector3d v = n.foot_b - n.foot_a;
+    n.x = v.norm() > kCoincident ? Eigen::Vector3d(v.normalized()) : Perpendicular(ref.x, a.dir, ref.y);
+  }
+  const double agree = n.x.dot(ref.x);
+  if (std::abs(agree) > 0.1) {
+    if (agree < 0.0) n.x = -n.x;
+  } else if (n.x.dot(n.foot_b - n.foot_a) < -kCoincident) {
+    n.x = -n.x;
+  }
+  return n;
+}
+
+// The calibrated chain at q = 0 as lines, and the frames that decide the DH rules' free choices.
+struct ChainLines {
+  std::vector<Line> axes;   // joint 1..n (0-based)
+  Transform flange;         // last joint frame -> flange, in the tracker frame
+  Transform base;           // tracker -> base, with the base error
+  std::vector<Transform> site;  // the joints' frames before their errors (0-based joint)
+  Transform tool;           // the calibrated tool
+};
+
+ChainLines LinesOf(const RobotModel& model, const Eigen::VectorXd& errors) {
+  const int n = model.num_joints();
+  KinematicsWorkspace ws(model);
+  ChainLines lines;
+  lines.tool = ForwardKinematics(model, Eigen::VectorXd::Zero(n), errors, &ws);
+  for (int i = 0; i < n; ++i) {
+    lines.axes.push_back({ws.T_world_joint[i].translation(), ws.T_world_joint[i].linear().col(2).normalized()});
+    lines.site.push_back(ws.T_world_site[i + 1]);
+  }
+  lines.flange = ws.T_world_site[n + 1] * model.T_flange_tool().inverse();
+  lines.base = errors.size() == 0 ? model.T_world_base() : model.T_world_base() * ErrorTransform(errors.data());
+  return lines;
+}
+
+Line LineOf(const Transform& t) { return {t.translation(), t.linear().col(2).normalized()}; }
+
+Transform ToTransform(const Frame& f) {
+  Transform t = Transform::Identity();
+  t.linear().col(0) = f.x;
+  t.linear().col(1) = f.z.cross(f.x);
+  t.linear().col(2) = f.z;
+  t.translation() = f.o;
+  return t;
+}
+
+// Frame 0 of either convention: on the first axis, at the reference's foot, x nearest the reference's.
+Frame FirstFrame(const ChainLines& lines, const Ref& ref) {
+  Frame f;
+  f.z = lines.axes[0].dir;
+  f.o = Foot(lines.axes[0], ref.o);
+  f.x = Perpendicular(ref.x, f.z, ref.y);
+  return f;
+}
+
+struct Table {
+  std::vector<JointSpec> rows;  // a_mm, alpha_rad, d_mm, theta_rad
+  std::vector<Frame> frames;    // frame 0 .. n in the tracker frame at q = 0
+  Transform T_world_base = Transform::Identity();
+  Transform T_flange_tool = Transform::Identity();
+
+  Ref RefAt(int i) const { return {frames[i].o, frames[i].x, frames[i].z.cross(frames[i].x)}; }
+};
+
+// The tables of the calibrated chain take the nominal table (`nominal`) as reference; the nominal table the
+// model's own frames: the calibrated base for frame 0, and the frame before each joint's error, or the flange.
+Table StandardTable(const ChainLines& lines, const Table* nominal) {
+  const int n = static_cast<int>(lines.axes.size());
+  Table table;
+  table.rows.resize(n);
+  Frame prev = FirstFrame(lines, nominal ? nominal->RefAt(0) : RefOf(lines.base));
+  table.frames.push_back(prev);
+  table.T_world_base = ToTransform(prev);
+  for (int i = 0; i < n; ++i) {
+    // Row i + 1: from frame i (on axis i + 1) to frame i + 1 (on the next axis, or the flange's z).
+    const bool last = i + 1 == n;
+    const Line next = last ? LineOf(lines.flange) : lines.axes[i + 1];
+    const Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(last ? lines.flange : lines.site[i + 1]);
+    const Normal normal = CommonNormal({prev.o, prev.z}, next, ref);
+    Frame f;
+    f.o = normal.foot_b;
+    f.x = normal.x;
+    f.z = next.dir;
+    JointSpec& row = table.rows[i];
+    row.d_mm = (normal.foot_a - prev.o).dot(prev.z);
+    row.theta_rad = AngleAbout(prev.x, f.x, prev.z);
+    row.a_mm = (normal.foot_b - normal.foot_a).dot(f.x);
+    row.alpha_rad = AngleAbout(prev.z, f.z, f.x);
+    prev = f;
+    table.frames.push_back(f);
+  }
+  table.T_flange_tool = ToTransform(prev).inverse() * lines.tool;
+  return table;
+}
+
+Table ModifiedTable(const ChainLines& lines, const Table* nominal) {
+  const int n = static_cast<int>(lines.axes.size());
+  Table table;
+  table.rows.resize(n);
+  Frame prev = FirstFrame(lines, nominal ? nominal->RefAt(0) : RefOf(lines.base));
+  table.frames.push_back(prev);
+  table.T_world_base = ToTransform(prev);
+  Eigen::Vector3d prev_foot = prev.o;  // the foot on axis i of the normal from axis i - 1 (frame 0: on axis 1)
+  for (int i = 0; i < n; ++i) {
+    // Frame i + 1 sits on axis i + 1, its x along the normal to the next axis; the last one nearest the flange.
+    Frame f;
+    f.z = lines.axes[i].dir;
+    Eigen::Vector3d foot_next;
+    const Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(i + 1 < n ? lines.site[i] : lines.flange);
+    if (i + 1 < n) {
+      const Normal normal = CommonNormal(lines.axes[i], lines.axes[i + 1], ref);
+      f.o = normal.foot_a;
+      f.x = normal.x;
+      foot_next = normal.foot_b;
+    } else {
+      f.o = Foot(lines.axes[i], ref.o);
+      f.x = Perpendicular(ref.x, f.z, ref.y);
+    }
+    JointSpec& row = table.rows[i];
+    row.alpha_rad = AngleAbout(prev.z, f.z, prev.x);
+    row.a_mm = (prev_foot - prev.o).dot(prev.x);
+    row.theta_rad = AngleAbout(prev.x, f.x, f.z);
+    row.d_mm = (f.o - prev_foot).dot(f.z);
+    prev = f;
+    table.frames.push_back(f);
+    prev_foot = foot_next;
+  }
+  table.T_flange_tool = ToTransform(prev).inverse() * lines.tool;
+  return table;
+}
+
+double Wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
+
+std::string Format(double value, int digits = 4) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
+
+// The four fields of a row, in the order they are checked, and their deviation from the nominal row (mm or rad,
+// angles wrapped).
+constexpr int kFields = 4;
+const char* const kFieldNames[kFields] = {"d_mm", "a_mm", "theta_deg", "alpha_deg"};
+bool IsLength(int field) { return field < 2; }
+
+double Deviation(const JointSpec& row, const JointSpec& nominal, int field) {
+  switch (field) {
+    case 0:
+      return row.d_mm - nominal.d_mm;
+    case 1:
+      return row.a_mm - nominal.a_mm;
+    case 2:
+      return Wrap(row.theta_rad - nominal.theta_rad);
+    default:
+      return Wrap(row.alpha_rad - nominal.alpha_rad);
+  }
+}
+
+bool Plausible(double deviation, int field) {
+  return std::abs(deviation) <= (IsLength(field) ? kImplausibleErrorMm : kImplausibleErrorRad);
+}
+
+Table TableOf(const RobotModel& model, const Eigen::VectorXd& errors, bool standard, const Table* nominal) {
+  const ChainLines lines = LinesOf(model, errors);
+  return standard ? StandardTable(lines, nominal) : ModifiedTable(lines, nominal);
+}
+
+// The line after axis `k` (0-based) in the convention's sense: the next axis, or for the last the flange's z.
+Line LineAfter(const ChainLines& lines, int k) {
+  return k + 1 < static_cast<int>(lines.axes.size()) ? lines.axes[k + 1] : LineOf(lines.flange);
+}
+
+std::string AxisName(const RobotModel& model, int k) {
+  return k < model.num_joints() ? "joint '" + model.joint_name(k) + "'" : "the flange's z axis";
+}
+
+std::string Shown(double value, bool length) {
+  return length ? Format(value, 8) + " mm" : Format(value * 180.0 / M_PI, 8) + " deg";
+}
+
+// The distance (mm) between two parallel lines.
+double DistanceOfParallel(const Line& a, const Line& b) {
+  const Eigen::Vector3d w = b.point - a.point;
+  return (w - w.dot(a.dir) * a.dir).norm();
+}
+
+// Refuses the table whose row `row` has `field` beyond what a calibration can move it. The explanation names a
+// pair of axes next to the row that is parallel in the model and not in the calibration (where there is one),
+// and the error parameters without which the field would stay within bounds (or, failing that, would move
+// least).
+[[noreturn]] void Refuse(const RobotModel& model, const Eigen::VectorXd& errors, const Table& nominal,
+                         const Table& table, int row, int field, bool standard) {
+  const bool length = IsLength(field);
+  const std::string name = kFieldNames[field];
+  const double nominal_value = length ? (field == 0 ? nominal.rows[row].d_mm : nominal.rows[row].a_mm)
+                                      : (field == 2 ? nominal.rows[row].theta_rad : nominal.rows[row].alpha_rad);
+  const double deviation = Deviation(table.rows[row], nominal.rows[row], field);
+  std::ostringstream reason;
+  reason << "the calibrated " << (standard ? "dh" : "mdh") << " table would have " << name << " = "
+         << Shown(nominal_value + deviation, length) << " against " << Shown(nominal_value, length)
+         << " in the nominal table";
+  // Standard DH row i is read from axes i and i + 1 (and, through d, the normal before); modified DH row i from
+  // axes i - 1 and i (and, through d, the normal after).
+  const ChainLines nominal_lines = LinesOf(model, Eigen::VectorXd());
+  const ChainLines lines = LinesOf(model, errors);
+  for (int k : standard ? std::vector<int>{row, row - 1} : std::vector<int>{row - 1, row}) {
+    if (k < 0 || k >= model.num_joints()) continue;
+    if (nominal_lines.axes[k].dir.cross(LineAfter(nominal_lines, k).dir).norm() > kNominallyParallel) continue;
+    const Line a = lines.axes[k], b = LineAfter(lines, k);
+    const double angle = AngleBetween(a.dir, b.dir);
+    const std::string pair = ": " + AxisName(model, k) + " and " + AxisName(model, k + 1);
+    if (angle > kParallel) {
+      reason << pair << " are parallel in the nominal model and " << Format(angle * 180.0 / M_PI)
+             << " deg apart in the calibrated one, and the common normal of two nearly parallel axes, which a DH"
+             << " table is built on, lies where they pass closest";
+      break;
+    }
+    const Line na = nominal_lines.axes[k], nb = LineAfter(nominal_lines, k);
+    if (DistanceOfParallel(na, nb) <= kNominallyCoincident && DistanceOfParallel(a, b) > kNominallyCoincident) {
+      reason << pair << " are one line in the nominal model and " << Format(DistanceOfParallel(a, b))
+             << " mm apart in the calibrated one, and the x axis of a DH frame follows the common normal of"
+             << " the two, which turns with the offset";
+      break;
+    }
+  }
+  // Leave one out: the parameters whose removal helps this field most.
+  std::vector<std::pair<double, int>> without;
+  for (int p = 0; p < errors.size(); ++p) {
+    if (errors[p] == 0.0) continue;
+    Eigen::VectorXd less = errors;
+    less[p] = 0.0;
+    const Table t = TableOf(model, less, standard, &nominal);
+    without.emplace_back(std::abs(Deviation(t.rows[row], nominal.rows[row], field)), p);
+  }
+  std::sort(without.begin(), without.end());
+  std::vector<std::string> parameters;
+  const bool one_suffices = !without.empty() && Plausible(without.front().first, field);
+  for (const auto& [remaining, p] : without) {
+    if (parameters.size() == 3 || remaining >= std::abs(deviation)) break;
+    if (one_suffices && !Plausible(remaining, field)) break;
+    parameters.push_back(model.parameter_name(p));
+    if (!one_suffices) break;  // none brings it within bounds alone: the one that helps most
+  }
+  if (!parameters.empty()) {
+    reason << "; identified ";
+    for (std::size_t i = 0; i < parameters.size(); ++i) {
+      const int p = model.ParameterIndex(parameters[i]);
+      const bool mm = RobotModel::IsTranslationParameter(p);
+      reason << (i ? ", " : "") << parameters[i] << " = " << Format(mm ? errors[p] : errors[p] * 180.0 / M_PI)
+             << (mm ? " mm" : " deg");
+    }
+    if (one_suffices) {
+      reason << (parameters.size() == 1 ? " puts it there (without it" : " put it there (without any one of them")
+             << " the table would exist)";
+    } else {
+      reason << " moves it most";
+    }
+  }
+  reason << ". The calibration can be written as a URDF or in robocal's own JSON.";
+  throw DhTableError("joints[" + std::to_string(row) + "]." + name, reason.str(), std::move(parameters));
+}
+
+}  // namespace
+
+DhTableError::DhTableError(std::string field, const std::string& reason, std::vector<std::string> parameters)
+    : std::runtime_error(reason), field_(std::move(field)), parameters_(std::move(parameters)) {}
+
+RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& errors,
+                                GeometryConvention convention) {
+  if (convention != GeometryConvention::kStandardDh && convention != GeometryConvention::kModifiedDh) {
+    throw std::invalid_argument("CalibratedDhSpec: the convention must be dh or mdh");
+  }
+  if (errors.size() != 0 && errors.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("CalibratedDhSpec: errors must have num_error_parameters values");
+  }
+  const bool standard = convention == GeometryConvention::kStandardDh;
+  const Table nominal = TableOf(model, Eigen::VectorXd(), standard, nullptr);
+  const Table table = TableOf(model, errors, standard, &nominal);
+
+  RobotModelSpec spec;
+  spec.name = model.name();
+  spec.convention = convention;
+  spec.T_world_base = table.T_world_base;
+  spec.T_flange_tool = table.T_flange_tool;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const JointSpec& nom = nominal.rows[i];
+    for (int field = 0; field < kFields; ++field) {
+      if (!Plausible(Deviation(table.rows[i], nom, field), field)) {
+        Refuse(model, errors, nominal, table, i, field, standard);
+      }
+    }
+    JointSpec row = table.rows[i];
+    // Angles next to the nominal ones, so that a table read beside the nominal one differs by the calibration.
+    row.theta_rad = nom.theta_rad + Wrap(row.theta_rad - nom.theta_rad);
+    row.alpha_rad = nom.alpha_rad + Wrap(row.alpha_rad - nom.alpha_rad);
+    const JointSpec& source = model.spec().joints[i];
+    row.name = source.name;
+    row.type = source.type;
+    row.min = source.min;
+    row.max = source.max;
+    spec.joints.push_back(row);
+  }
+  return spec;
+}
+
+}  // namespace robocal

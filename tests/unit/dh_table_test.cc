@@ -1,0 +1,233 @@
+// The calibrated DH table: the same forward kinematics as the calibrated model, the nominal table back from a DH
+// model without errors, and the refusal where axes parallel in the model are tilted apart.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "robocal/core/dh_table.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
+#include "robocal/core/random.h"
+
+namespace robocal {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// The largest position (mm) and rotation (rad) difference between the model with errors and the rebuilt table,
+// over `count` random configurations.
+std::pair<double, double> LargestDifference(const RobotModel& model, const Eigen::VectorXd& errors,
+                                            const RobotModel& table, int count) {
+  Rng rng(7);
+  KinematicsWorkspace ws(model), ws_table(table);
+  double position = 0.0, rotation = 0.0;
+  for (int k = 0; k < count; ++k) {
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    const Transform a = ForwardKinematics(model, q, errors, &ws);
+    const Transform b = ForwardKinematics(table, q, Eigen::VectorXd(), &ws_table);
+    position = std::max(position, (a.translation() - b.translation()).norm());
+    rotation = std::max(rotation, RotationVector(a.linear() * b.linear().transpose()).norm());
+  }
+  return {position, rotation};
+}
+
+Eigen::VectorXd RandomErrors(const RobotModel& model, std::uint64_t seed, double mm, double rad) {
+  Rng rng(seed);
+  Eigen::VectorXd errors(model.num_error_parameters());
+  for (int k = 0; k < errors.size(); ++k) {
+    errors[k] = rng.Uniform(-1.0, 1.0) * (RobotModel::IsTranslationParameter(k) ? mm : rad);
+  }
+  return errors;
+}
+
+// A 6R arm without parallel neighbouring axes (every alpha +-90 degrees) and a tool, standing off the origin.
+RobotModel SkewArm() {
+  RobotModelSpec spec;
+  spec.name = "skew";
+  spec.convention = GeometryConvention::kStandardDh;
+  const double a[6] = {50, 300, 40, 10, 0, 5}, d[6] = {400, 30, -20, 350, 15, 90};
+  const double alpha[6] = {90, -90, 90, -90, 90, 0}, theta[6] = {0, 10, -20, 0, 30, 0};
+  for (int i = 0; i < 6; ++i) {
+    JointSpec j;
+    j.name = "j" + std::to_string(i + 1);
+    j.a_mm = a[i];
+    j.d_mm = d[i];
+    j.alpha_rad = alpha[i] * kDeg;
+    j.theta_rad = theta[i] * kDeg;
+    j.min = -170 * kDeg;
+    j.max = 170 * kDeg;
+    spec.joints.push_back(j);
+  }
+  spec.T_world_base = TransformFromXyzRpy({2000, -500, 300}, {0.1, -0.2, 0.7});
+  spec.T_flange_tool = TransformFromXyzRpy({10, 20, 120}, {0.0, 0.3, 0.0});
+  return RobotModel::Build(spec);
+}
+
+TEST(DhTableTest, ADhModelWithoutErrorsGetsItsOwnTable) {
+  for (const std::string name : {"puma560", "ur5e"}) {
+    SCOPED_TRACE(name);
+    const RobotModel model = Preset(name);
+    const RobotModelSpec spec = CalibratedDhSpec(model, Eigen::VectorXd(), GeometryConvention::kStandardDh);
+    ASSERT_EQ(spec.joints.size(), model.spec().joints.size());
+    for (int i = 0; i < model.num_joints(); ++i) {
+      const JointSpec& got = spec.joints[i];
+      const JointSpec& want = model.spec().joints[i];
+      EXPECT_EQ(got.name, want.name);
+      EXPECT_NEAR(got.a_mm, want.a_mm, 1e-9) << i;
+      EXPECT_NEAR(got.d_mm, want.d_mm, 1e-9) << i;
+      EXPECT_NEAR(got.alpha_rad, want.alpha_rad, 1e-12) << i;
+      EXPECT_NEAR(got.theta_rad, want.theta_rad, 1e-12) << i;
+      EXPECT_EQ(got.min, want.min);
+      EXPECT_EQ(got.max, want.max);
+    }
+    EXPECT_TRUE(spec.T_world_base.isApprox(model.T_world_base(), 1e-12));
+    EXPECT_TRUE(spec.T_flange_tool.isApprox(model.T_flange_tool(), 1e-12));
+  }
+}
+
+TEST(DhTableTest, AModifiedDhModelWithoutErrorsGetsItsOwnTable) {
+  // Craig's PUMA 560 table (modified DH), with alpha_0 = a_0 = 0 so that frame 0 is on the first axis.
+  RobotModelSpec spec;
+  spec.name = "craig";
+  spec.convention = GeometryConvention::kModifiedDh;
+  const double alpha[6] = {0, -90, 0, -90, 90, -90}, a[6] = {0, 0, 431.8, 20.3, 0, 0};
+  const double d[6] = {0, 0, 150.05, 431.8, 0, 0}, theta[6] = {0, 0, 0, 0, 0, 0};
+  for (int i = 0; i < 6; ++i) {
+    JointSpec j;
+    j.name = "j" + std::to_string(i + 1);
+    j.alpha_rad = alpha[i] * kDeg;
+    j.a_mm = a[i];
+    j.d_mm = d[i];
+    j.theta_rad = theta[i] * kDeg;
+    j.min = -170 * kDeg;
+    j.max = 170 * kDeg;
+    spec.joints.push_back(j);
+  }
+  spec.T_world_base = TransformFromXyzRpy({100, 200, 300}, {0.0, 0.0, 0.5});
+  spec.T_flange_tool = Translation(0, 0, 100);
+  const RobotModel model = RobotModel::Build(spec);
+  const RobotModelSpec out = CalibratedDhSpec(model, Eigen::VectorXd(), GeometryConvention::kModifiedDh);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(out.joints[i].a_mm, a[i], 1e-9) << i;
+    EXPECT_NEAR(out.joints[i].d_mm, d[i], 1e-9) << i;
+    EXPECT_NEAR(out.joints[i].alpha_rad, alpha[i] * kDeg, 1e-12) << i;
+    EXPECT_NEAR(out.joints[i].theta_rad, theta[i] * kDeg, 1e-12) << i;
+  }
+  EXPECT_TRUE(out.T_world_base.isApprox(spec.T_world_base, 1e-12));
+  EXPECT_TRUE(out.T_flange_tool.isApprox(spec.T_flange_tool, 1e-12));
+}
+
+TEST(DhTableTest, CalibratedTablesHaveTheCalibratedKinematics) {
+  const RobotModel model = SkewArm();
+  for (std::uint64_t seed : {1, 2, 3}) {
+    // 0.5 mm and 3 mrad on every parameter: no DH row can hold a joint's y errors as they are, the table is
+    // rebuilt from the axes.
+    const Eigen::VectorXd errors = RandomErrors(model, seed, 0.5, 3e-3);
+    for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+      SCOPED_TRACE(std::string(ToString(convention)) + " seed " + std::to_string(seed));
+      const RobotModelSpec spec = CalibratedDhSpec(model, errors, convention);
+      EXPECT_EQ(spec.convention, convention);
+      const RobotModel table = RobotModel::Build(spec);
+      const auto [position, rotation] = LargestDifference(model, errors, table, 200);
+      EXPECT_LT(position, 1e-9);
+      EXPECT_LT(rotation, 1e-12);
+      // A calibration, not a new robot: every row next to the nominal one.
+      const RobotModelSpec nominal = CalibratedDhSpec(model, Eigen::VectorXd(), convention);
+      for (int i = 0; i < 6; ++i) {
+        EXPECT_LT(std::abs(spec.joints[i].a_mm - nominal.joints[i].a_mm), 5.0) << i;
+        EXPECT_LT(std::abs(spec.joints[i].d_mm - nominal.joints[i].d_mm), 5.0) << i;
+        EXPECT_LT(std::abs(spec.joints[i].alpha_rad - nominal.joints[i].alpha_rad), 0.05) << i;
+        EXPECT_LT(std::abs(spec.joints[i].theta_rad - nominal.joints[i].theta_rad), 0.05) << i;
+      }
+    }
+  }
+}
+
+TEST(DhTableTest, ParallelAxesThatStayParallelAreWritten) {
+  // ur5e: axes 2, 3 and 4 are parallel. Errors that keep them parallel (all but the tilts of axes 3 and 4,
+  // joint3.rx/ry and joint4.rx/ry) have a table, in both conventions.
+  const RobotModel model = Preset("ur5e");
+  Eigen::VectorXd errors = RandomErrors(model, 11, 0.5, 3e-3);
+  for (const char* tilt : {"joint3.rx", "joint3.ry", "joint4.rx", "joint4.ry"}) errors[model.ParameterIndex(tilt)] = 0;
+  for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+    SCOPED_TRACE(ToString(convention));
+    const RobotModel table = RobotModel::Build(CalibratedDhSpec(model, errors, convention));
+    const auto [position, rotation] = LargestDifference(model, errors, table, 200);
+    EXPECT_LT(position, 1e-9);
+    EXPECT_LT(rotation, 1e-12);
+  }
+}
+
+TEST(DhTableTest, AxesTiltedOutOfParallelAreRefusedNamingTheParameter) {
+  const RobotModel model = Preset("ur5e");
+  for (const std::string parameter : {"joint3.ry", "joint4.ry"}) {
+    for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+      SCOPED_TRACE(parameter + " " + ToString(convention));
+      Eigen::VectorXd errors = Eigen::VectorXd::Zero(model.num_error_parameters());
+      errors[model.ParameterIndex("joint2.dx")] = 0.3;  // an error a row holds, beside the tilt
+      errors[model.ParameterIndex(parameter)] = 1e-3;
+      try {
+        CalibratedDhSpec(model, errors, convention);
+        FAIL() << "no refusal";
+      } catch (const DhTableError& e) {
+        ASSERT_EQ(e.parameters().size(), 1u) << e.what();
+        EXPECT_EQ(e.parameters()[0], parameter);
+        EXPECT_NE(std::string(e.what()).find("are parallel in the nominal model"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(parameter + " = 0.0573 deg puts it there"), std::string::npos)
+            << e.what();
+        EXPECT_EQ(e.field().rfind("joints[", 0), 0u) << e.field();
+      }
+    }
+  }
+}
+
+TEST(DhTableTest, TransformModelsAndPrismaticJointsHaveTables) {
+  // grinder5: three prismatic joints and two revolute ones, in the transform convention; the Z and C axes are
+  // the same line. Errors that keep them one line (all but C's tilts and offsets across the axis) have a table.
+  const RobotModel model = Preset("grinder5");
+  Eigen::VectorXd errors = RandomErrors(model, 5, 0.2, 1e-3);
+  for (const char* across : {"C.dx", "C.dy", "C.rx", "C.ry"}) errors[model.ParameterIndex(across)] = 0.0;
+  for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+    SCOPED_TRACE(ToString(convention));
+    const RobotModel table = RobotModel::Build(CalibratedDhSpec(model, errors, convention));
+    const auto [position, rotation] = LargestDifference(model, errors, table, 200);
+    EXPECT_LT(position, 1e-9);
+    EXPECT_LT(rotation, 1e-12);
+    for (int i = 0; i < model.num_joints(); ++i) EXPECT_EQ(table.joint_type(i), model.joint_type(i));
+  }
+}
+
+TEST(DhTableTest, TheNamedParametersAreTheCause) {
+  // Every error, C's tilts included: refused, and without the parameters it names the table exists.
+  const RobotModel model = Preset("grinder5");
+  for (std::uint64_t seed : {5, 6, 7, 8}) {
+    SCOPED_TRACE(seed);
+    Eigen::VectorXd errors = RandomErrors(model, seed, 0.2, 1e-3);
+    try {
+      CalibratedDhSpec(model, errors, GeometryConvention::kStandardDh);
+      FAIL() << "no refusal";
+    } catch (const DhTableError& e) {
+      ASSERT_FALSE(e.parameters().empty()) << e.what();
+      EXPECT_NE(std::string(e.what()).find("joint 'Z' and joint 'C' are "), std::string::npos) << e.what();
+      if (std::string(e.what()).find("the table would exist") == std::string::npos) continue;
+      errors[model.ParameterIndex(e.parameters()[0])] = 0.0;
+      // This field now stays within bounds: a refusal, if any, names another field.
+      try {
+        CalibratedDhSpec(model, errors, GeometryConvention::kStandardDh);
+      } catch (const DhTableError& again) {
+        EXPECT_NE(again.field(), e.field()) << again.what();
+      }
+    }
+  }
+}
+
+TEST(DhTableTest, OtherConventionsAndSizesAreProgrammerErrors) {
+  const RobotModel model = Preset("ur5e");
+  EXPECT_THROW(CalibratedDhSpec(model, Eigen::VectorXd(), GeometryConvention::kTransform), std::invalid_argument);
+  EXPECT_THROW(CalibratedDhSpec(model, Eigen::VectorXd::Zero(5), GeometryConvention::kStandardDh),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace robocal
