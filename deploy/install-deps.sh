@@ -14,6 +14,8 @@ packages=(
   clang libclang-rt-14-dev
   # URDF import and export (POST /v1/robots with "urdf").
   liburdfdom-dev libtinyxml2-dev
+  # The campaign report's browser test: headless Chromium renders GET /v1/campaigns/{c}/report to PNG.
+  chromium
 )
 
 missing=()

@@ -1,6 +1,7 @@
-// robocal fit, compensate, evaluate: a campaign's calibration.
+// robocal fit, compensate, evaluate, export, report: a campaign's calibration.
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "cli.h"
@@ -115,6 +116,20 @@ int Export(Invocation& in) {
     throw UsageError("--format takes urdf, dh, mdh or json, got '" + format + "'");
   }
   Output(in.Option("--out"), in.out).stream() << text;
+  return kExitOk;
+}
+
+int Report(Invocation& in) {
+  std::optional<double> h_mm;
+  // Any number: the service says which it takes (its error names h_mm and the range).
+  if (in.Has("--h-mm")) h_mm = in.Number("--h-mm", 0.0, std::numeric_limits<double>::lowest());
+  // Fetched before the file is opened: a refused report leaves no empty file behind.
+  const std::string page = in.Client().GetCampaignReport(in.args[0], h_mm);
+  const std::string file = in.Option("--out");
+  Output(file, in.out).stream() << page;
+  if (!file.empty()) {
+    in.out << "report of campaign " << in.args[0] << " written to " << file << " (" << page.size() << " bytes)\n";
+  }
   return kExitOk;
 }
 

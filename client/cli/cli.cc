@@ -195,6 +195,7 @@ int Run(const std::vector<std::string>& raw, const std::map<std::string, std::st
     std::vector<std::string> args = raw;
     for (std::string& a : args) {
       if (a == "-h") a = "--help";
+      if (a == "-o") a = "--out";
     }
     const tools::CommandLine line = tools::SplitCommandLine(args, Switches());
     if (HasFlag(line, "--help")) {

@@ -71,6 +71,7 @@ const std::vector<Command>& Commands() {
        {{"--out", "OUT.csv"}, {"--sequence"}, {"--max-jump", "DEG"}, {"--frame", "tracker|base"}},
        &help::kCompensate, Compensate},
       {"evaluate", {"CAMPAIGN"}, {{"--h-mm", "H"}}, &help::kEvaluate, Evaluate},
+      {"report", {"CAMPAIGN"}, {{"--out", "FILE.html"}, {"--h-mm", "H"}}, &help::kReport, Report},
       {"export", {"CAMPAIGN"}, {{"--format", "urdf|dh|mdh|json"}, {"--out", "FILE"}}, &help::kExport, Export},
       {"operation wait", {"ID"}, {}, &help::kOperationWait, OperationWait},
       {"operation get", {"ID"}, {}, &help::kOperationGet, OperationGet},

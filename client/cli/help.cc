@@ -22,6 +22,7 @@ Global options (anywhere on the line, valid for every command):
                   use --ca-cert instead.
   --json          print the resource as the service's JSON instead of tables (for scripts)
   --help          help for robocal, for a command family (robocal campaign --help) or for one command
+                  (-h for short; -o FILE is short for --out FILE)
 
 An option that a command does not take is a usage error naming it (robocal robots --count 3).
 
@@ -220,6 +221,17 @@ const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the val
 The paper's accuracy table on the campaign's validation measurements, nominal model against calibrated
 model: E_xyz (position, um), E_cos (tool axis angle, urad shown as um at 1 m), E_tot = E_xyz + H E_cos;
 mean, std, max and RP = mean + 3 std. --h-mm H defaults to 30 mm. --json: the evaluation.
+)"};
+
+const HelpText kReport = {"the campaign report: one HTML page to look at and print (--out FILE.html)", R"(
+Fetches GET /v1/campaigns/{c}/report: one self-contained HTML page (inline SVG and CSS, no script, no external
+asset; prints one section per page) of the campaign's robot, the plan it was made from (configurations,
+observability indices, predicted accuracy, and stick figures around the tracker when the plan has a cell),
+the fit (parameters with std and std in percent, dropped parameters, the most correlated pairs, singular
+values, residuals before and after, outliers), the residual of each configuration as bars, and the
+validation table (E_xyz, E_cos, E_tot before and after) with the distribution of E_xyz (docs/report.md).
+Written to --out FILE (-o FILE), or to stdout. --h-mm H: E_tot = E_xyz + H E_cos[rad] (default 30 mm).
+The campaign must be calibrated (robocal fit) first.
 )"};
 
 const HelpText kOperationWait = {"wait for an async plan or fit, drawing progress on stderr", R"(

@@ -427,6 +427,20 @@ api::RegisterRobotRequest Client::GetCalibrationDh(const std::string& campaign, 
                                           "robot definition");
 }
 
+std::string Client::GetCampaignReport(const std::string& campaign, std::optional<double> h_mm) {
+  std::string path = "/v1/campaigns/" + Segment(campaign) + "/report";
+  if (h_mm) {
+    char number[64];
+    std::snprintf(number, sizeof(number), "%.17g", *h_mm);
+    path += "?h_mm=" + std::string(number);
+  }
+  std::string page = Send(*impl_->http, impl_->base_url, options_, "GET", path, nullptr, true);
+  if (page.rfind("<!DOCTYPE html>", 0) != 0) {
+    throw ProtocolError("not an HTML page from " + impl_->base_url + path + ": " + Snippet(page));
+  }
+  return page;
+}
+
 api::CalibrationResult Client::GetCalibration(const std::string& campaign) {
   return Parse<api::CalibrationResult>(
       Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration");

@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "robocal/core/column_scaling.h"
+#include "robocal/core/fit_diagnostics.h"
 #include "robocal/core/kinematics.h"
 
 namespace robocal {
@@ -370,6 +371,23 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
   }
 }
 
+// Singular values and covariance of a weighted Jacobian through its column-scaled form Js = J D (unit columns):
+// (J'J)^-1 = D (Js'Js)^-1 D. False, with nothing written, when Js is rank deficient: no covariance exists.
+// The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
+bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
+                      Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance) {
+  const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
+  const Eigen::MatrixXd scaled = jacobian * d.asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  if (PivotRank(sv, rank_tolerance) < jacobian.cols()) return false;
+  const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();
+  *covariance = sigma_hat * sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
+  *singular_values = sv;
+  return true;
+}
+
 }  // namespace
 
 Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to) {
@@ -478,6 +496,30 @@ void ForEachResidual(const RobotModel& model, const Eigen::VectorXd& errors,
 
 }  // namespace
 
+std::vector<MeasurementResidualNorms> ComputeMeasurementResiduals(const RobotModel& model,
+                                                                  const Eigen::VectorXd& errors,
+                                                                  const std::vector<Measurement>& measurements,
+                                                                  MeasurementType type, const MeasurementNoise& noise,
+                                                                  const std::vector<Eigen::Vector3d>& reflectors_in_tool) {
+  std::vector<MeasurementResidualNorms> out;
+  out.reserve(measurements.size());
+  const auto visit = [&](const Measurement& m, const Transform& predicted, const Eigen::VectorXd& r,
+                         const Eigen::MatrixXd& w) {
+    MeasurementResidualNorms n;
+    n.position_mm = r.head<3>().norm();
+    if (type == MeasurementType::kPose) {
+      n.orientation_rad = r.tail<3>().norm();
+    } else if (type == MeasurementType::kPositionAxis) {
+      // The exact angle between the axes; the residual's tangent rows are its first-order form.
+      n.orientation_rad = AngleBetween(m.T_world_tool.linear().col(2), predicted.linear().col(2));
+    }
+    n.weighted = (w * r).norm();
+    out.push_back(n);
+  };
+  ForEachResidual(model, errors, measurements, type, noise, reflectors_in_tool, visit);
+  return out;
+}
+
 ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eigen::VectorXd& errors,
                                              const std::vector<Measurement>& measurements, MeasurementType type,
                                              const MeasurementNoise& noise,
@@ -487,28 +529,90 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   if (measurements.empty()) return s;
   const int rows = MeasurementRows(type);
   double sum_position = 0.0, sum_orientation = 0.0, sum_weighted = 0.0;
-  const auto visit = [&](const Measurement& m, const Transform& predicted, const Eigen::VectorXd& r,
-                         const Eigen::MatrixXd& w) {
-    const double position = r.head<3>().norm();
-    sum_position += position * position;
-    s.max_position_mm = std::max(s.max_position_mm, position);
-    double angle = 0.0;
-    if (type == MeasurementType::kPose) {
-      angle = r.tail<3>().norm();
-    } else if (type == MeasurementType::kPositionAxis) {
-      // The exact angle between the axes; the residual's tangent rows are its first-order form.
-      angle = AngleBetween(m.T_world_tool.linear().col(2), predicted.linear().col(2));
-    }
-    sum_orientation += angle * angle;
-    s.max_orientation_rad = std::max(s.max_orientation_rad, angle);
-    sum_weighted += (w * r).squaredNorm();
-  };
-  ForEachResidual(model, errors, measurements, type, noise, reflectors_in_tool, visit);
+  for (const MeasurementResidualNorms& n :
+       ComputeMeasurementResiduals(model, errors, measurements, type, noise, reflectors_in_tool)) {
+    sum_position += n.position_mm * n.position_mm;
+    s.max_position_mm = std::max(s.max_position_mm, n.position_mm);
+    sum_orientation += n.orientation_rad * n.orientation_rad;
+    s.max_orientation_rad = std::max(s.max_orientation_rad, n.orientation_rad);
+    sum_weighted += n.weighted * n.weighted;
+  }
   const double count = static_cast<double>(measurements.size());
   s.rms_position_mm = std::sqrt(sum_position / count);
   s.rms_orientation_rad = std::sqrt(sum_orientation / count);
   s.rms_weighted = std::sqrt(sum_weighted / (count * rows));
   return s;
+}
+
+FitLinearization LinearizeFit(const Calibration& calibration, const std::vector<Measurement>& measurements,
+                              const IdentificationOptions& options) {
+  const RobotModel& model = calibration.model;
+  const int n_model = model.num_error_parameters();
+  const int num_reflectors = static_cast<int>(options.reflectors.size());
+  const std::vector<int>& parameters = options.parameters;
+  if (parameters.empty()) throw std::invalid_argument("LinearizeFit: options.parameters is empty: name the estimated set");
+  if (calibration.errors.size() != n_model) {
+    throw std::invalid_argument("LinearizeFit: calibration.errors has " + std::to_string(calibration.errors.size()) +
+                                " values, the model has " + std::to_string(n_model) + " error parameters");
+  }
+  if (static_cast<int>(calibration.reflectors.size()) != num_reflectors) {
+    throw std::invalid_argument("LinearizeFit: the calibration has " + std::to_string(calibration.reflectors.size()) +
+                                " reflectors, options.reflectors " + std::to_string(num_reflectors));
+  }
+  for (size_t k = 0; k < parameters.size(); ++k) {
+    if (parameters[k] < 0 || parameters[k] >= n_model + 3 * num_reflectors || (k > 0 && parameters[k] <= parameters[k - 1])) {
+      throw std::invalid_argument("LinearizeFit: options.parameters[" + std::to_string(k) +
+                                  "] is out of range or not ascending");
+    }
+  }
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    const int reflector = measurements[i].reflector;
+    if (measurements[i].joints.size() != model.num_joints() || reflector >= num_reflectors ||
+        (num_reflectors > 0 && reflector < 0)) {
+      throw std::invalid_argument("LinearizeFit: measurements[" + std::to_string(i) +
+                                  "] does not fit the model (joints) or the reflectors");
+    }
+  }
+  const int n = static_cast<int>(parameters.size());
+  if (MeasurementRows(options.measurement_type) * static_cast<int>(measurements.size()) <= n) {
+    throw std::invalid_argument("LinearizeFit: " + std::to_string(measurements.size()) +
+                                " measurements have too few rows for " + std::to_string(n) + " parameters");
+  }
+  // The solution in the fit's reduced space: the model's errors, and each free reflector's offset from its
+  // given position.
+  Eigen::VectorXd x(n);
+  for (int k = 0; k < n; ++k) {
+    const int j = parameters[k];
+    x[k] = j < n_model ? calibration.errors[j]
+                       : calibration.reflectors[(j - n_model) / 3].position_mm[(j - n_model) % 3] -
+                             options.reflectors[(j - n_model) / 3].position_mm[(j - n_model) % 3];
+  }
+  const ShotGroups groups(measurements);
+  Problem problem(model, measurements, groups, options, parameters);
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian;
+  problem.Evaluate(x, &residual, &jacobian);
+  FitLinearization out;
+  out.parameters = parameters;
+  out.sigma_hat = std::sqrt(residual.squaredNorm() / (problem.num_rows() - n));
+  if (!residual.allFinite() || !jacobian.allFinite() ||
+      !ScaledCovariance(jacobian, out.sigma_hat, options.identifiability.rank_tolerance, &out.singular_values,
+                        &out.covariance)) {
+    throw std::invalid_argument("LinearizeFit: rank-deficient or non-finite Jacobian at the solution");
+  }
+  out.condition_number = out.singular_values[0] / out.singular_values[out.singular_values.size() - 1];
+  return out;
+}
+
+Eigen::MatrixXd CorrelationOf(const Eigen::MatrixXd& covariance) {
+  const Eigen::VectorXd sigma = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  Eigen::MatrixXd rho = Eigen::MatrixXd::Zero(covariance.rows(), covariance.cols());
+  for (Eigen::Index i = 0; i < covariance.rows(); ++i) {
+    for (Eigen::Index j = 0; j < covariance.cols(); ++j) {
+      if (sigma[i] > 0.0 && sigma[j] > 0.0) rho(i, j) = covariance(i, j) / (sigma[i] * sigma[j]);
+    }
+  }
+  return rho;
 }
 
 double ChiSquareSurvival(int dof, double x) {
@@ -936,19 +1040,13 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   const int dof = s.num_residuals - s.num_parameters;
   s.sigma_hat = std::sqrt(2.0 * s.final_cost / dof);
 
-  // Covariance and condition number from the column-scaled Jacobian Js = J D: (J'J)^-1 = D (Js'Js)^-1 D.
-  const Eigen::VectorXd d = UnitColumnFactorsOf(lm.jacobian);
-  const Eigen::MatrixXd scaled = lm.jacobian * d.asDiagonal();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
-  const Eigen::VectorXd& sv = svd.singularValues();
-  // The rank test of the start, on the singular values at the solution: the covariance needs every one.
-  if (PivotRank(sv, options.identifiability.rank_tolerance) < s.num_parameters) {
+  // Covariance and condition number from the column-scaled Jacobian; the rank test of the start, on the
+  // singular values at the solution: the covariance needs every one.
+  Eigen::VectorXd sv;
+  if (!ScaledCovariance(lm.jacobian, s.sigma_hat, options.identifiability.rank_tolerance, &sv, &cal.covariance)) {
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
   s.condition_number = sv[0] / sv[sv.size() - 1];
-  const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
-  const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();
-  cal.covariance = s.sigma_hat * s.sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
 
   for (int k = 0; k < s.num_parameters; ++k) {
     cal.parameters.push_back({parameters[k], name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});

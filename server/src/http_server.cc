@@ -268,6 +268,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
           ~Release() { slots->release(); }
         } release{impl->handler_slots.get()};
         RouteReply reply = fn(*impl->service, req);
+        for (const auto& [name, value] : reply.headers) res.set_header(name, value);
         res.set_content(std::move(reply.body), reply.content_type);
       };
     }

@@ -106,6 +106,15 @@ const std::vector<Route>& RouteTable() {
          }
          return Reply(s.GetCalibration(Id(r)));
        }},
+      {"GET", R"(/v1/campaigns/([^/:]+)/report)", "/v1/campaigns/{campaign}/report",
+       [](Service& s, const httplib::Request& r) -> RouteReply {
+         RouteReply reply(s.CampaignReport(Id(r), Query(r, "h_mm")), "text/html; charset=utf-8");
+         // The page needs nothing but its own inline styles and SVG: a browser is told to load and run nothing
+         // else, whatever a stored name might smuggle in.
+         reply.headers = {{"Content-Security-Policy", "default-src 'none'; style-src 'unsafe-inline'; img-src data:"},
+                          {"X-Content-Type-Options", "nosniff"}};
+         return reply;
+       }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
        [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",

@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -21,6 +22,8 @@ struct RouteReply {
   RouteReply(std::string body_text, std::string type) : body(std::move(body_text)), content_type(std::move(type)) {}
   std::string body;
   std::string content_type = "application/json";
+  /// Headers beside the content type (e.g. the report's Content-Security-Policy).
+  std::vector<std::pair<std::string, std::string>> headers;
 };
 
 // What a route does: parse path/query/body, call the service, return the response.

@@ -19,16 +19,6 @@ namespace {
 using api::ApiError;
 using api::Status;
 
-// `reflectors`: the campaign's, by which the measurement's reflector id becomes an index.
-Measurement ToCore(const RobotModel& model, const api::MeasurementWire& w,
-                   const std::vector<api::CampaignReflectorWire>& reflectors) {
-  Measurement m;
-  m.joints = api::JointsToCore(model, w.joints);
-  m.T_world_tool = api::PoseToTransform(w.pose);
-  m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(reflectors, w.reflector);
-  return m;
-}
-
 // Refuses, before any measurement is loaded, a fit whose Jacobian (rows x measurements x parameters) exceeds
 // max_fit_jacobian_entries: its size bounds the fit's memory and the time of each iteration.
 void CheckFitSize(const RobotModel& model, const IdentificationOptions& options, std::int64_t measurements,
@@ -55,12 +45,6 @@ void CheckFitSize(const RobotModel& model, const IdentificationOptions& options,
 
 }  // namespace
 
-struct Service::Calibrated {
-  api::StoredCampaign campaign;
-  RobotModel model;
-  Calibration calibration;
-};
-
 FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body) {
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
   const RobotModel model = api::BuildModel(campaign.robot_definition);
@@ -80,7 +64,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   measurements->reserve(static_cast<std::size_t>(count));
   sequences->reserve(static_cast<std::size_t>(count));
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    measurements->push_back(ToCore(model, ReadMeasurement(s), campaign.reflectors));
+    measurements->push_back(MeasurementToCore(model, ReadMeasurement(s), campaign.reflectors));
     sequences->push_back(s.sequence);
   });
   // An offset named for a nest without shots cannot be estimated: say so by the request's field.
@@ -162,7 +146,7 @@ Service::Calibrated Service::LoadCalibrated(const std::string& campaign_id) {
   const api::StoredCalibration stored = ReadStored<api::StoredCalibration>(*doc);
   try {
     Calibration calibration = api::Restore(model, stored);
-    return {std::move(campaign), std::move(model), std::move(calibration)};
+    return {std::move(campaign), std::move(model), std::move(calibration), stored.result};
   } catch (const api::WireError& e) {
     throw ApiError(Status::kInternal, "stored calibration of \"" + campaign_id + "\" is unreadable: " + e.what());
   }
@@ -268,9 +252,15 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
 
 api::Evaluation Service::Evaluate(const std::string& campaign_id, const nlohmann::json& body) {
   const Calibrated loaded = LoadCalibrated(campaign_id);
-  const Calibration& calibration = loaded.calibration;
   const api::EvaluateRequest req = api::ParseEvaluateRequest(body);
   const TrimWhenDone trim(&trimmer_, true);
+  return EvaluateLoaded(loaded, req.h_mm);
+}
+
+api::Evaluation Service::EvaluateLoaded(const Calibrated& loaded, double h_mm, AccuracyReport* before_out,
+                                        AccuracyReport* after_out) {
+  const Calibration& calibration = loaded.calibration;
+  const std::string& campaign_id = loaded.campaign.id;
   std::vector<Transform> measured, nominal, calibrated;
   KinematicsWorkspace ws(calibration.model);
   // With reflectors a shot is compared at its reflector's point: the given position for the nominal robot,
@@ -280,7 +270,7 @@ api::Evaluation Service::Evaluate(const std::string& campaign_id, const nlohmann
   const std::vector<Eigen::Vector3d> identified =
       ReflectorsInTool(loaded.model, calibration.reflectors, Eigen::VectorXd());
   ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {
-    const Measurement m = ToCore(loaded.model, ReadMeasurement(s), loaded.campaign.reflectors);
+    const Measurement m = MeasurementToCore(loaded.model, ReadMeasurement(s), loaded.campaign.reflectors);
     measured.push_back(m.T_world_tool);
     const Transform& before = ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws);
     nominal.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= given.size()
@@ -295,18 +285,20 @@ api::Evaluation Service::Evaluate(const std::string& campaign_id, const nlohmann
     throw ApiError(Status::kFailedPrecondition, "the campaign has no validation measurements",
                    {{"measurements", "upload measurements with role validation first"}});
   }
-  const AccuracyReport before = ComputeAccuracy(nominal, measured, req.h_mm);
-  const AccuracyReport after = ComputeAccuracy(calibrated, measured, req.h_mm);
+  AccuracyReport before = ComputeAccuracy(nominal, measured, h_mm);
+  AccuracyReport after = ComputeAccuracy(calibrated, measured, h_mm);
   api::Evaluation e;
   e.campaign = campaign_id;
   e.num_validation = static_cast<int>(measured.size());
-  e.h_mm = req.h_mm;
+  e.h_mm = h_mm;
   e.nominal = api::ToWire(before);
   e.calibrated = api::ToWire(after);
   e.improvement_percent = api::ImprovementOf(before, after);
   if (loaded.campaign.measurement_type == MeasurementType::kPosition) {
     e.note = "position measurements carry no orientation: E_cos and E_tot compare against identity";
   }
+  if (before_out != nullptr) *before_out = std::move(before);
+  if (after_out != nullptr) *after_out = std::move(after);
   return e;
 }
 

@@ -26,20 +26,6 @@ Service::Service(Storage* storage, ServiceOptions options)
 
 Service::~Service() = default;
 
-namespace {
-
-// A registered robot's resource: its model, and the links of the URDF it was imported from.
-api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition) {
-  api::Robot robot = api::RobotFromModel(id, model, false, definition.description);
-  if (definition.urdf) {
-    robot.urdf_base_link = definition.urdf->base_link;
-    robot.urdf_tip_link = definition.urdf->tip_link;
-  }
-  return robot;
-}
-
-}  // namespace
-
 Service::ResolvedRobot Service::ResolveRobot(const std::string& id) {
   if (IsPreset(id)) {
     api::RegisterRobotRequest definition;

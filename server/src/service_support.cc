@@ -103,4 +103,22 @@ std::string NewId(const std::string& prefix) {
   return prefix + "-" + buf;
 }
 
+api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition) {
+  api::Robot robot = api::RobotFromModel(id, model, false, definition.description);
+  if (definition.urdf) {
+    robot.urdf_base_link = definition.urdf->base_link;
+    robot.urdf_tip_link = definition.urdf->tip_link;
+  }
+  return robot;
+}
+
+Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWire& w,
+                              const std::vector<api::CampaignReflectorWire>& reflectors) {
+  Measurement m;
+  m.joints = api::JointsToCore(model, w.joints);
+  m.T_world_tool = api::PoseToTransform(w.pose);
+  m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(reflectors, w.reflector);
+  return m;
+}
+
 }  // namespace robocal::server

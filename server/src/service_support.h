@@ -13,6 +13,7 @@
 #include "robocal/api/error.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/wire.h"
+#include "robocal/core/measurement.h"
 #include "robocal/server/memory_trimmer.h"
 #include "server/storage/storage.h"
 
@@ -62,6 +63,14 @@ api::MeasurementWire ReadMeasurement(const StoredMeasurement& stored);
 /// campaign's stored text is never all in memory at once (only what the caller keeps of it).
 void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const std::string& role,
                         const std::function<void(const StoredMeasurement&)>& visit);
+
+/// A stored measurement as the core takes it; `reflectors`: the campaign's, by which the measurement's reflector
+/// id becomes an index.
+Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWire& w,
+                              const std::vector<api::CampaignReflectorWire>& reflectors);
+
+/// A registered robot's resource: its model, and the links of the URDF it was imported from.
+api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition);
 
 /// Tool poses of `model` with `errors` (empty: nominal) for the request's joint vectors.
 std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,

@@ -571,6 +571,26 @@ TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
   const InProcess no_table = RunInProcess({"--server", server_.url(), "export", "cal-1", "--format", "dh"});
   EXPECT_EQ(no_table.exit_code, 1);
   EXPECT_NE(no_table.err.find("joint 'Z' and joint 'C' are"), std::string::npos) << no_table.err;
+  // report: the HTML page to a file (-o is --out), its parameter rows the calibration's; refused before a fit
+  // (exit 1, nothing written), and a bad --h-mm named.
+  const Result report = RunCli(server + " report cal-1 -o " + Path("cal-1.html"));
+  ASSERT_EQ(report.exit_code, 0);
+  EXPECT_NE(report.out.find("written to " + Path("cal-1.html")), std::string::npos) << report.out;
+  std::stringstream page;
+  page << std::ifstream(Path("cal-1.html")).rdbuf();
+  EXPECT_EQ(page.str().rfind("<!DOCTYPE html>", 0), 0u);
+  for (const auto& p : nlohmann::json::parse(exported_json.out).at("parameters")) {
+    EXPECT_NE(page.str().find("<tr data-parameter=\"" + p.at("name").get<std::string>() + "\">"), std::string::npos);
+  }
+  const InProcess early = RunInProcess({"--server", server_.url(), "report", "fresh-1", "--out", Path("fresh-1.html")});
+  EXPECT_EQ(early.exit_code, 1);
+  EXPECT_NE(early.err.find("FAILED_PRECONDITION"), std::string::npos) << early.err;
+  EXPECT_FALSE(std::ifstream(Path("fresh-1.html")).good()) << "a refused report left a file";
+  const InProcess bad_h = RunInProcess({"--server", server_.url(), "report", "cal-1", "--h-mm=-5"});
+  EXPECT_EQ(bad_h.exit_code, 1);
+  EXPECT_NE(bad_h.err.find("h_mm"), std::string::npos) << bad_h.err;
+  EXPECT_NE(RunCli("report --help").out.find("Usage: robocal report CAMPAIGN [--out FILE.html] [--h-mm H]"),
+            std::string::npos);
 
   const Result table = RunCli(server + " campaign list");
   ASSERT_EQ(table.exit_code, 0);

@@ -256,6 +256,28 @@ TEST(ClientTest, CampaignFlow) {
   const api::Evaluation evaluation = c.Evaluate(id);
   EXPECT_EQ(evaluation.num_validation, 10);
   EXPECT_LT(evaluation.calibrated.e_xyz_mm.mean, evaluation.nominal.e_xyz_mm.mean);
+
+  // The report: an HTML page whose parameter table is the calibration's, and whose validation table takes h_mm.
+  const std::string page = c.GetCampaignReport(id);
+  EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
+  for (const api::ParameterEstimate& p : calibration.parameters) {
+    EXPECT_NE(page.find("<tr data-parameter=\"" + p.name + "\">"), std::string::npos) << p.name;
+  }
+  EXPECT_NE(c.GetCampaignReport(id, 50.0).find("id=\"h-mm\" data-value=\"50\""), std::string::npos);
+  try {
+    (void)c.GetCampaignReport(uncalibrated);
+    ADD_FAILURE() << "a report of an uncalibrated campaign";
+  } catch (const ServiceError& e) {
+    EXPECT_EQ(e.status(), api::Status::kFailedPrecondition);
+  }
+  try {
+    (void)c.GetCampaignReport(id, -1.0);
+    ADD_FAILURE() << "a negative h_mm";
+  } catch (const ServiceError& e) {
+    EXPECT_EQ(e.http_status(), 400);
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "h_mm");
+  }
 }
 
 TEST(ClientTest, AsyncFitIsAnOperationWhoseResultIsTheStoredFit) {

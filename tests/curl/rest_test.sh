@@ -193,6 +193,9 @@ expect "POST /v1/campaigns" "$(status)" 200
 expect "GET /v1/campaigns" "$(call GET /v1/campaigns | jq '.campaigns | length')" 1
 call POST "/v1/campaigns/$campaign:fit" '{}' >/dev/null
 expect "fit without measurements -> FAILED_PRECONDITION" "$(jq -r .error.status "$work/body")" FAILED_PRECONDITION
+call GET "/v1/campaigns/$campaign/report" >/dev/null
+expect "GET /report before any fit -> 400 FAILED_PRECONDITION naming campaign" \
+  "$(status) $(jq -r '[.error.status, .error.details[0].field] | join(" ")' "$work/body")" "400 FAILED_PRECONDITION campaign"
 
 # The simulated cell measures the planned configurations (10 shots each) and 36 random validation poses.
 mock="$build_dir/client/robocal-mock-tracker"
@@ -268,6 +271,20 @@ for convention in dh mdh; do
 done
 call GET "/v1/campaigns/$campaign/calibration?format=dxf" >/dev/null
 expect "... an unknown format -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
+# The report: one HTML page (not JSON: the schema check only checks its media type), its parameter table the
+# calibration's, no script, and the plan's configurations in it.
+call GET "/v1/campaigns/$campaign/report" >"$work/report.html"
+expect "GET /report" "$(status) $(head -c 15 "$work/report.html")" "200 <!DOCTYPE html>"
+expect "... one parameter row per identified parameter" \
+  "$(grep -o 'data-key="std_percent"' "$work/report.html" | wc -l)" "$(jq '.parameters | length' "$work/fit.json")"
+first=$(jq -r '.parameters[0].name' "$work/fit.json")
+shown=$(grep -F "<tr data-parameter=\"$first\">" "$work/report.html" | sed -n 's/.*data-key="value" data-value="\([^"]*\)".*/\1/p')
+expect "... the first parameter's value exactly" "$(jq --argjson v "${shown:-null}" '.parameters[0].value == $v' "$work/fit.json")" true
+expect "... no script anywhere" "$(grep -ci '<script' "$work/report.html")" 0
+expect "... the plan's configurations" \
+  "$(grep -o 'data-key="plan.configurations.[0-9]*.0"' "$work/report.html" | wc -l)" "$(jq '.configurations | length' "$work/plan.json")"
+call GET "/v1/campaigns/$campaign/report?h_mm=abc" >/dev/null
+expect "... h_mm that is not a number -> 400 naming h_mm" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 h_mm"
 op=$(call POST "/v1/campaigns/$campaign:fit" '{"async": true}' | jq -r .id)
 expect "POST :fit async -> an operation of kind fit" "$(call GET "/v1/operations/$op" | jq -r .kind)" fit
 for _ in $(seq 1 100); do

@@ -167,6 +167,9 @@ class Client {
   /// definition that RegisterRobot takes as it is. Throws ApiError (400, field format) where no DH table can
   /// hold the calibration.
   api::RegisterRobotRequest GetCalibrationDh(const std::string& campaign, GeometryConvention convention);
+  /// The campaign report: one self-contained HTML page (GET .../report; docs/report.md). `h_mm`: E_tot's h in
+  /// the validation table (unset: the server's default, 30 mm). ProtocolError if the reply is not an HTML page.
+  std::string GetCampaignReport(const std::string& campaign, std::optional<double> h_mm = std::nullopt);
   /// One result per target, in order.
   api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).

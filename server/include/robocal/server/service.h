@@ -101,6 +101,11 @@ class Service {
   api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);
+  /// The campaign report (service_report.cc, docs/report.md): one self-contained HTML page of the robot, the
+  /// plan, the fit (with correlations, singular values and per-pose residuals recomputed from the stored
+  /// calibration and measurements) and the validation. h_mm: "" (30) or E_tot's h (as :evaluate takes it).
+  /// FAILED_PRECONDITION when the campaign is not calibrated.
+  std::string CampaignReport(const std::string& campaign, const std::string& h_mm = "");
 
   // Operations.
   api::Operation GetOperation(const std::string& id) { return operations_.Get(id); }
@@ -137,8 +142,19 @@ class Service {
   /// FAILED_PRECONDITION when a sample of the cell's joint ranges finds (almost) nothing feasible.
   void CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed);
   /// A campaign's nominal model and stored calibration (FAILED_PRECONDITION if not calibrated yet).
-  struct Calibrated;
+  struct Calibrated {
+    api::StoredCampaign campaign;
+    RobotModel model;
+    Calibration calibration;
+    /// The fit as returned and stored.
+    api::CalibrationResult result;
+  };
   Calibrated LoadCalibrated(const std::string& campaign);
+  /// The validation measurements against the nominal and the calibrated model (:evaluate's figures, with E_tot's
+  /// h_mm); the per-pose values in `before` / `after` when given. FAILED_PRECONDITION without validation
+  /// measurements.
+  api::Evaluation EvaluateLoaded(const Calibrated& loaded, double h_mm, AccuracyReport* before = nullptr,
+                                 AccuracyReport* after = nullptr);
 
   Storage* storage_;
   ServiceOptions options_;

@@ -1,0 +1,209 @@
+// The campaign report's data: the stored campaign, robot, plan (and its cell's drawing), calibration and
+// measurements, and what the wire calibration does not keep, recomputed here with the core's own functions
+// (fit_diagnostics.h): the covariance's correlations and the singular values at the solution, and every
+// calibration measurement's residual before and after. report_html.cc renders it.
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <set>
+
+#include "report_html.h"
+#include "robocal/api/text.h"
+#include "robocal/core/fit_diagnostics.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/presets.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+// E_tot's h from the query: "" is :evaluate's default; otherwise a number in :evaluate's range.
+double ParseReportH(const std::string& text) {
+  if (text.empty()) return api::EvaluateRequest{}.h_mm;
+  char* end = nullptr;
+  errno = 0;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(value) || std::isspace(static_cast<unsigned char>(text[0]))) {
+    throw ApiError(Status::kInvalidArgument, "invalid report request: h_mm is not a number",
+                   {{"h_mm", "must be a number (mm), got \"" + api::SafeText(text, 64) + "\""}});
+  }
+  return api::ParseEvaluateRequest(nlohmann::json{{"h_mm", value}}).h_mm;
+}
+
+std::array<double, 3> Minus(const Eigen::Vector3d& p, const std::array<double, 3>& origin) {
+  return {p.x() - origin[0], p.y() - origin[1], p.z() - origin[2]};
+}
+
+// The stick figures of a plan's configurations in its cell: nominal forward kinematics in the base frame,
+// moved so that the tracker is the origin.
+report::CellFigure DrawCell(const RobotModel& model, const api::PlanResult& plan, const api::CellWire& cell) {
+  report::CellFigure f;
+  f.cell = cell.id;
+  f.tracker_in_base_mm = cell.tracker.position_mm;
+  std::vector<Transform> T_base_joint(static_cast<std::size_t>(model.num_joints()));
+  Transform T_base_flange;
+  for (const std::vector<double>& configuration : plan.configurations) {
+    NominalChainInBase(model, api::JointsToCore(model, configuration), T_base_joint.data(), &T_base_flange);
+    std::vector<std::array<double, 3>> chain;
+    chain.push_back(Minus(Eigen::Vector3d::Zero(), f.tracker_in_base_mm));
+    for (const Transform& T : T_base_joint) chain.push_back(Minus(T.translation(), f.tracker_in_base_mm));
+    chain.push_back(Minus(T_base_flange.translation(), f.tracker_in_base_mm));
+    chain.push_back(Minus((T_base_flange * model.T_flange_tool()).translation(), f.tracker_in_base_mm));
+    f.chains.push_back(std::move(chain));
+  }
+  for (const api::ObstacleWire& o : cell.obstacles) {
+    f.obstacles.push_back({o.id, Minus(Eigen::Vector3d(o.min_mm[0], o.min_mm[1], o.min_mm[2]), f.tracker_in_base_mm),
+                           Minus(Eigen::Vector3d(o.max_mm[0], o.max_mm[1], o.max_mm[2]), f.tracker_in_base_mm)});
+  }
+  return f;
+}
+
+}  // namespace
+
+std::string Service::CampaignReport(const std::string& campaign_id, const std::string& h_mm_text) {
+  const double h_mm = ParseReportH(h_mm_text);
+  const Calibrated loaded = LoadCalibrated(campaign_id);
+  const api::StoredCampaign& campaign = loaded.campaign;
+  const RobotModel& model = loaded.model;
+  const TrimWhenDone trim(&trimmer_, true);
+
+  report::ReportData data;
+  data.campaign = campaign.id;
+  data.description = campaign.description;
+  data.measurement_type = campaign.measurement_type;
+  data.created_unix_ms = campaign.created_unix_ms;
+  data.counts.calibration = storage_->CountMeasurements(campaign_id, "calibration");
+  data.counts.validation = storage_->CountMeasurements(campaign_id, "validation");
+  data.generated_unix_ms = NowUnixMs();
+  const api::RegisterRobotRequest& definition = campaign.robot_definition;
+  data.robot = definition.from_preset.empty()
+                   ? RobotResource(campaign.robot, model, definition)
+                   : api::RobotFromModel(campaign.robot, model, true, PresetDescription(definition.from_preset));
+
+  // The plan, and its cell's drawing.
+  if (!campaign.plan) {
+    data.plan_missing = "The campaign was not made from a plan (it names none).";
+  } else if (const auto doc = storage_->Get(kPlans, *campaign.plan); !doc) {
+    data.plan_missing = "The campaign names plan \"" + *campaign.plan + "\", which is no longer stored.";
+  } else {
+    report::PlanSection section;
+    section.plan = ReadStored<api::StoredPlan>(*doc).plan;
+    const api::PlanResult& plan = section.plan;
+    if (!plan.cell) {
+      section.no_figure_reason = "The plan was made without a cell: there is no tracker to draw the configurations "
+                                 "around (plan in a cell to see them here).";
+    } else if (const auto cell_doc = storage_->Get(kCells, *plan.cell); !cell_doc) {
+      section.no_figure_reason = "The plan's cell \"" + *plan.cell + "\" is no longer stored: nothing to draw.";
+    } else {
+      section.figure = DrawCell(model, plan, ReadStored<api::StoredCell>(*cell_doc).cell);
+    }
+    data.plan = std::move(section);
+  }
+
+  // The fit as stored, and its calibration measurements (all of them, the fit's outliers included).
+  report::FitSection& fit = data.fit;
+  fit.calibration = loaded.result;
+  const api::CalibrationResult& result = loaded.result;
+  const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
+  const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
+  std::vector<Measurement> measurements;
+  std::vector<std::int64_t> sequences;
+  std::vector<std::vector<double>> joints;  // wire joints, to group the shots of one configuration exactly
+  ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    api::MeasurementWire w = ReadMeasurement(s);
+    measurements.push_back(MeasurementToCore(model, w, campaign.reflectors));
+    sequences.push_back(s.sequence);
+    joints.push_back(std::move(w.joints));
+  });
+  std::set<std::int64_t> outlier_sequences;
+  for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
+
+  // The linearisation over the measurements the fit used, with the fit's parameters and weighting.
+  api::FitRequest request;
+  for (const api::ParameterEstimate& p : result.parameters) request.parameters.push_back(p.name);
+  std::vector<Measurement> used;
+  for (std::size_t i = 0; i < measurements.size(); ++i) {
+    if (!outlier_sequences.count(sequences[i])) used.push_back(measurements[i]);
+  }
+  bool names_known = true;
+  for (const api::ParameterEstimate& p : result.parameters) names_known = names_known && ParameterIndex(model, given, p.name) >= 0;
+  if (result.parameters.empty()) {
+    fit.linearization_problem = "the fit estimated no parameters";
+  } else if (!names_known) {
+    fit.linearization_problem = "the stored fit names parameters this robot does not have";
+  } else {
+    const IdentificationOptions options =
+        api::ToIdentificationOptions(request, model, campaign.measurement_type, noise, given);
+    try {
+      const FitLinearization lin = LinearizeFit(loaded.calibration, used, options);
+      fit.singular_values.assign(lin.singular_values.data(), lin.singular_values.data() + lin.singular_values.size());
+      fit.condition_number = lin.condition_number;
+      // Names in the linearisation's (ascending index) order, which the covariance follows.
+      std::vector<std::string> names;
+      for (int index : lin.parameters) names.push_back(ParameterName(model, given, index));
+      fit.correlations = report::TopCorrelations(names, CorrelationOf(lin.covariance), report::kTopCorrelations);
+    } catch (const std::invalid_argument& e) {
+      fit.linearization_problem = e.what();
+    }
+  }
+
+  // Every calibration measurement's residual before (nominal model, registered base, given reflectors) and after,
+  // as the fit's own before/after statistics compute them; then the RMS per joint configuration.
+  const Calibration& calibration = loaded.calibration;
+  const std::vector<MeasurementResidualNorms> before =
+      ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.measurement_type, noise,
+                                  ReflectorsInTool(model, given, Eigen::VectorXd()));
+  const std::vector<MeasurementResidualNorms> after =
+      ComputeMeasurementResiduals(calibration.model, calibration.errors, measurements, campaign.measurement_type, noise,
+                                  ReflectorsInTool(model, calibration.reflectors, Eigen::VectorXd()));
+  std::map<std::vector<double>, std::size_t> pose_of;
+  struct Sums {
+    double before_p = 0, after_p = 0, before_o = 0, after_o = 0;
+  };
+  std::vector<Sums> sums;
+  for (std::size_t i = 0; i < measurements.size(); ++i) {
+    const auto [it, added] = pose_of.emplace(joints[i], fit.poses.size());
+    if (added) {
+      report::PoseResidual p;
+      p.first_sequence = sequences[i];
+      fit.poses.push_back(p);
+      sums.emplace_back();
+    }
+    report::PoseResidual& p = fit.poses[it->second];
+    Sums& s = sums[it->second];
+    p.last_sequence = sequences[i];
+    p.shots += 1;
+    p.outliers += outlier_sequences.count(sequences[i]) ? 1 : 0;
+    s.before_p += before[i].position_mm * before[i].position_mm;
+    s.after_p += after[i].position_mm * after[i].position_mm;
+    s.before_o += before[i].orientation_rad * before[i].orientation_rad;
+    s.after_o += after[i].orientation_rad * after[i].orientation_rad;
+  }
+  for (std::size_t k = 0; k < fit.poses.size(); ++k) {
+    report::PoseResidual& p = fit.poses[k];
+    const double n = p.shots;
+    p.before_position_mm = std::sqrt(sums[k].before_p / n);
+    p.after_position_mm = std::sqrt(sums[k].after_p / n);
+    p.before_orientation_deg = std::sqrt(sums[k].before_o / n) * api::kDegPerRad;
+    p.after_orientation_deg = std::sqrt(sums[k].after_o / n) * api::kDegPerRad;
+  }
+
+  // The validation, as :evaluate answers it.
+  if (data.counts.validation > 0) {
+    AccuracyReport before_accuracy, after_accuracy;
+    report::ValidationSection validation;
+    validation.evaluation = EvaluateLoaded(loaded, h_mm, &before_accuracy, &after_accuracy);
+    validation.e_xyz_before_mm = std::move(before_accuracy.e_xyz_values_mm);
+    validation.e_xyz_after_mm = std::move(after_accuracy.e_xyz_values_mm);
+    data.validation = std::move(validation);
+  }
+  return report::RenderReport(data);
+}
+
+}  // namespace robocal::server
