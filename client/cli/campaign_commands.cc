@@ -107,9 +107,56 @@ int CampaignForward(Invocation& in) {
   return WriteForward(in, robot, joints, in.Client().CampaignForward(campaign.id, joints));
 }
 
+// upload --format sa|csv: the tracker's own export, read and matched by the service.
+int ImportTrackerFile(Invocation& in, const std::string& format) {
+  if (format != "sa" && format != "csv") throw UsageError("--format takes sa or csv, got '" + format + "'");
+  api::ImportMeasurementsRequest request;
+  request.format = format;
+  request.text = ReadFile(in.args[1]);
+  request.role = in.Enum("--role", request.role);
+  request.request_id = in.Option("--request-id");
+  request.plan = in.Option("--plan");
+  request.unit = in.Option("--unit");
+  request.match = in.Option("--match", request.match);
+  request.shots_per_configuration = static_cast<int>(in.Integer("--shots", 0, 1, 1000));
+  if (in.Has("--columns")) {
+    if (format != "csv") throw UsageError("--columns is for --format csv");
+    // target=Name,x=X,y=Y,z=Z,reflector=Nest: the header names of the columns the import reads.
+    std::istringstream list(in.Option("--columns"));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const std::size_t eq = item.find('=');
+      const std::string key = item.substr(0, eq);
+      std::string* out = key == "target"      ? &request.columns.target
+                         : key == "x"         ? &request.columns.x
+                         : key == "y"         ? &request.columns.y
+                         : key == "z"         ? &request.columns.z
+                         : key == "reflector" ? &request.columns.reflector
+                                              : nullptr;
+      if (eq == std::string::npos || out == nullptr) {
+        throw UsageError("--columns takes KEY=HEADER,... with keys target, x, y, z, reflector; got '" + item + "'");
+      }
+      *out = item.substr(eq + 1);
+    }
+  }
+  const api::BatchResult r = in.Client().ImportMeasurements(in.args[0], request);
+  if (in.json) {
+    PrintJson(in.out, r);
+  } else {
+    in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " " << api::WireName(request.role)
+           << " measurements from " << in.args[1] << ", batch " << r.batch_id << ", request id " << r.request_id
+           << "; campaign total " << r.campaign_total << "\n";
+  }
+  return kExitOk;
+}
+
 int Upload(Invocation& in) {
   const std::string& campaign_id = in.args[0];
   const std::string& path = in.args[1];
+  if (in.Has("--format")) return ImportTrackerFile(in, in.Option("--format"));
+  for (const char* option : {"--plan", "--unit", "--columns", "--match", "--shots"}) {
+    if (in.Has(option)) throw UsageError(std::string(option) + " is for --format sa|csv (a tracker export)");
+  }
   const std::string text = ReadFile(path);
   api::MeasurementBatchRequest batch;
   if (EndsWith(path, ".csv")) {

@@ -164,7 +164,7 @@ IN.csv is a joints CSV; writes the calibrated robot's tool poses in the tracker 
 x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit. --json: the forward result.
 )"};
 
-const HelpText kUpload = {"upload tracker measurements (CSV or JSON)", R"(
+const HelpText kUpload = {"upload tracker measurements (CSV or JSON, or the tracker's own export)", R"(
 FILE is CSV (*.csv) or JSON. CSV: a header, then one row per tracker shot: the joint columns (degrees for
 revolute, mm for prismatic joints, in joint order), x_mm,y_mm,z_mm (tool position, tracker frame) and
 qw,qx,qy,qz (tool orientation; may be left out for position campaigns), and for a campaign with reflectors a
@@ -173,6 +173,16 @@ last column reflector naming each shot's nest. JSON: a batch
 The upload is atomic and idempotent: the same request id with the same content is stored once, so a repeated
 upload is safe. Without --request-id (and none in the JSON) it is derived from the content.
 --role (calibration or validation) defaults to calibration (or the JSON's role). --json: the batch result.
+
+--format sa|csv: FILE is the tracker's own point export, sent to POST .../measurements:import (docs/formats.md)
+and matched to the configurations of --plan (default: the campaign's plan). The campaign must measure
+position. sa: `//` header lines (`// Units: mm` declares the unit) and `collection group target x y z` rows,
+comma or white space between fields. csv: a header row; --columns names the columns read (default
+target=target,x=x,y=y,z=z; reflector=... for a campaign with nests). --unit mm|m|in: the coordinates' unit
+(required for csv; for sa when the file declares none). --match name (default): a point's configuration is its
+target name's trailing number, 1-based (P007 is configuration 7); --match order: the points in file order,
+--shots N per configuration (default: points / configurations). A bad line is named by its number, and then
+nothing is stored.
 )"};
 
 const HelpText kMeasurements = {"the stored measurements as CSV (the upload format) or JSON", R"(

@@ -394,6 +394,15 @@ api::BatchResult Client::UploadMeasurements(const std::string& campaign, const a
       Call("POST", "/v1/campaigns/" + Segment(campaign) + "/measurements", &body, true), "upload");
 }
 
+api::BatchResult Client::ImportMeasurements(const std::string& campaign, const api::ImportMeasurementsRequest& request) {
+  api::ImportMeasurementsRequest content = request;
+  content.request_id.clear();
+  json body = request;
+  if (request.request_id.empty()) body["request_id"] = "auto-" + api::ContentHash(json(content).dump());
+  return Parse<api::BatchResult>(
+      Call("POST", "/v1/campaigns/" + Segment(campaign) + "/measurements:import", &body, true), "import");
+}
+
 api::MeasurementList Client::ListMeasurements(const std::string& campaign, std::optional<api::MeasurementRole> role,
                                               std::int64_t after, int limit) {
   std::string path = "/v1/campaigns/" + Segment(campaign) + "/measurements?limit=" + std::to_string(limit);

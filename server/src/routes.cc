@@ -86,6 +86,8 @@ const std::vector<Route>& RouteTable() {
        [](Service& s, const httplib::Request& r) { return Reply(s.CreateCampaign(Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+))", "/v1/campaigns/{campaign}",
        [](Service& s, const httplib::Request& r) { return Reply(s.GetCampaign(Id(r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+)/measurements:import)", "/v1/campaigns/{campaign}/measurements:import",
+       [](Service& s, const httplib::Request& r) { return Reply(s.ImportMeasurements(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",
        [](Service& s, const httplib::Request& r) { return Reply(s.AppendMeasurements(Id(r), Body(s, r))); }},
       {"GET", R"(/v1/campaigns/([^/:]+)/measurements)", "/v1/campaigns/{campaign}/measurements",

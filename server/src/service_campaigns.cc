@@ -1,4 +1,5 @@
 // The service's campaigns and their measurements.
+#include "robocal/api/tracker_files.h"
 #include "robocal/server/service.h"
 #include "service_support.h"
 
@@ -106,6 +107,52 @@ api::CampaignList Service::ListCampaigns(const std::string& page_size, const std
   for (const Document& d : docs) list.campaigns.push_back(CampaignResource(ReadStored<api::StoredCampaign>(d)));
   if (more) list.next_page_token = PageToken(kCampaigns, docs.back().id);
   return list;
+}
+
+api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, const nlohmann::json& body) {
+  const api::ImportMeasurementsRequest req = api::ParseImportMeasurementsRequest(body);
+  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  // A point export carries positions: the campaign must measure positions, with its nests named per point.
+  if (campaign.measurement_type != MeasurementType::kPosition) {
+    throw ApiError(Status::kFailedPrecondition,
+                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
+                       "; a tracker point export carries positions only",
+                   {{"format", "points only: import into a position campaign"}});
+  }
+  if (!campaign.reflectors.empty() && req.columns.reflector.empty()) {
+    throw ApiError(Status::kInvalidArgument,
+                   "campaign \"" + campaign_id + "\" has reflectors: every point must name its nest",
+                   {{"columns.reflector", "required for a campaign with reflectors (format csv)"}});
+  }
+  const std::string plan_id = !req.plan.empty() ? req.plan : campaign.plan.value_or("");
+  if (plan_id.empty()) {
+    throw ApiError(Status::kInvalidArgument, "no plan: the points are matched to a plan's configurations",
+                   {{"plan", "required: the campaign was not created from a plan"}});
+  }
+  api::PlanResult plan;
+  try {
+    plan = GetPlan(plan_id);
+  } catch (const ApiError& e) {
+    if (e.status() != Status::kNotFound) throw;
+    throw ApiError(Status::kInvalidArgument, "plan \"" + plan_id + "\" does not exist", {{"plan", "unknown plan"}});
+  }
+  if (plan.robot != campaign.robot) {
+    throw ApiError(Status::kInvalidArgument,
+                   "plan \"" + plan_id + "\" is for robot \"" + plan.robot + "\", the campaign's is \"" +
+                       campaign.robot + "\"",
+                   {{"plan", "a plan of another robot"}});
+  }
+  api::Problems problems;
+  const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
+  if (points.size() > options_.limits.max_array_length) {
+    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
+                             std::to_string(options_.limits.max_array_length));
+  }
+  problems.ThrowIfAny("invalid tracker file");
+  const api::MeasurementBatchRequest batch = api::MatchToConfigurations(req, points, plan.configurations, &problems);
+  problems.ThrowIfAny("invalid tracker file");
+  // The batch goes the way of every upload: the campaign's checks, one transaction, the request id's replay.
+  return AppendMeasurements(campaign_id, nlohmann::json(batch));
 }
 
 api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, const nlohmann::json& body) {

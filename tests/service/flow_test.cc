@@ -1,5 +1,7 @@
 // The whole calibration flow over HTTP with measurements from the core's virtual cell: plan -> campaign ->
 // upload -> fit -> forward -> compensate -> evaluate, on the real SQLite storage (in memory).
+#include <cstdio>
+
 #include <gtest/gtest.h>
 
 #include "robocal/api/calibration.h"
@@ -150,6 +152,78 @@ TEST(FlowTest, CalibratedDhTablesRegisterWithTheCalibratedKinematics) {
   EXPECT_NE(message.find("joint 'Z' and joint 'C' are"), std::string::npos) << message;
   // It names identified parameters of C.
   EXPECT_NE(message.find("identified C."), std::string::npos) << message;
+}
+
+// A tracker's own point export (measurements:import), matched to the plan by target name: stored as one batch
+// that fits; a file with one bad line stores nothing and names the line; a repeat is replayed.
+TEST(FlowTest, TrackerPointExportsAreImportedAgainstThePlan) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  const RobotModel model = Preset("grinder5");
+  const Reply plan = s.Post("/v1/plans", {{"robot", "grinder5"},
+                                          {"num_configurations", 12},
+                                          {"measurement_type", "position"},
+                                          {"seed", 3},
+                                          {"options", {{"k_max", 20}}}});
+  ASSERT_EQ(plan.status, 200) << plan.text;
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "sa"}, {"robot", "grinder5"}, {"plan", plan.body["id"]}}).status, 200);
+  VirtualCellOptions cell_options;
+  cell_options.seed = 11;
+  VirtualCell cell(model, cell_options);
+  const auto configurations = Configurations(model, plan.body["configurations"]);
+  // Two shots of each configuration, in metres, targets P001.. as a tracker program names them.
+  std::string text = "// robocal test export\n// Units: Meters\n";
+  int lines = 2;
+  for (int shot = 0; shot < 2; ++shot) {
+    for (std::size_t k = 0; k < configurations.size(); ++k) {
+      const Eigen::Vector3d p = cell.Measure(configurations[k], 1).front().T_world_tool.translation() / 1000.0;
+      char row[160];
+      std::snprintf(row, sizeof(row), "A,Robot,P%03zu,%.9f,%.9f,%.9f\n", k + 1, p.x(), p.y(), p.z());
+      text += row;
+      ++lines;
+    }
+  }
+  const json import = {{"request_id", "sa-1"}, {"format", "sa"}, {"text", text}};
+  const Reply stored = s.Post("/v1/campaigns/sa/measurements:import", import);
+  ASSERT_EQ(stored.status, 200) << stored.text;
+  EXPECT_EQ(stored.body["count"], 24);
+  EXPECT_EQ(s.Post("/v1/campaigns/sa/measurements:import", import).body["replayed"], true);
+  const Reply listed = s.Get("/v1/campaigns/sa/measurements?limit=1");
+  ASSERT_EQ(listed.status, 200);
+  EXPECT_EQ(listed.body["measurements"][0]["joints"], plan.body["configurations"][0]);
+
+  // One bad line among good ones: nothing stored, the line named.
+  const json bad = {{"request_id", "sa-2"}, {"format", "sa"}, {"text", text + "A,Robot,P004,1,2\n"}};
+  const Reply refused = s.Post("/v1/campaigns/sa/measurements:import", bad);
+  ASSERT_EQ(refused.status, 400) << refused.text;
+  EXPECT_EQ(refused.body["error"]["details"][0]["field"], "text");
+  EXPECT_EQ(refused.body["error"]["details"][0]["reason"],
+            "line " + std::to_string(lines + 1) + ": expected 6 fields (collection group target x y z), got 5");
+  EXPECT_EQ(s.Get("/v1/campaigns/sa").body["counts"]["calibration"], 24);
+
+  const Reply fit = s.Post("/v1/campaigns/sa:fit", json::object());
+  ASSERT_EQ(fit.status, 200) << fit.text;
+  EXPECT_LT(fit.body["residuals_after"]["rms_position_mm"].get<double>(), 0.1);
+
+  // A pose campaign takes no point export; a campaign without a plan needs one named.
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "pose"}, {"robot", "grinder5"}}).status, 200);
+  const Reply pose = s.Post("/v1/campaigns/pose/measurements:import", import);
+  EXPECT_EQ(pose.status, 400);
+  EXPECT_EQ(pose.body["error"]["details"][0]["field"], "format");
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "csv"}, {"robot", "grinder5"}, {"measurement_type", "position"}}).status,
+            200);
+  std::string csv = "X;Y;Z\n";
+  for (const auto& q : configurations) {
+    const Eigen::Vector3d p = cell.Measure(q, 1).front().T_world_tool.translation();
+    csv += std::to_string(p.x()) + ";" + std::to_string(p.y()) + ";" + std::to_string(p.z()) + "\n";
+  }
+  json by_order = {{"request_id", "csv-1"}, {"format", "csv"}, {"text", csv}, {"unit", "mm"}, {"match", "order"}};
+  const Reply no_plan = s.Post("/v1/campaigns/csv/measurements:import", by_order);
+  EXPECT_EQ(no_plan.status, 400);
+  EXPECT_EQ(no_plan.body["error"]["details"][0]["field"], "plan");
+  by_order["plan"] = plan.body["id"];
+  const Reply ordered = s.Post("/v1/campaigns/csv/measurements:import", by_order);
+  ASSERT_EQ(ordered.status, 200) << ordered.text;
+  EXPECT_EQ(ordered.body["count"], 12);
 }
 
 TEST(FlowTest, FitWithTooFewMeasurementsStoresNothing) {

@@ -23,6 +23,7 @@
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
+#include "robocal/api/tracker_files.h"
 
 namespace robocal::client {
 
@@ -148,6 +149,10 @@ class Client {
   /// Uploads one batch. An empty request_id is filled with one derived from the batch's content (role and
   /// measurements), so that a retried or repeated upload of the same batch is stored once.
   api::BatchResult UploadMeasurements(const std::string& campaign, const api::MeasurementBatchRequest& batch);
+  /// A tracker's point export (Spatial Analyzer style or CSV; docs/formats.md) matched to a plan's configurations
+  /// and stored as one batch (POST .../measurements:import). Without a request_id it is derived from the content,
+  /// so a repeated import is stored once. ApiError names each bad line of the file; nothing is stored then.
+  api::BatchResult ImportMeasurements(const std::string& campaign, const api::ImportMeasurementsRequest& request);
   /// One page of at most `limit` measurements; `role` unset: both roles; after: the sequence to continue after
   /// (the page's next_after).
   api::MeasurementList ListMeasurements(const std::string& campaign,

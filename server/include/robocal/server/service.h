@@ -83,6 +83,9 @@ class Service {
   api::CampaignList ListCampaigns(const std::string& page_size = "", const std::string& page_token = "");
   api::Campaign GetCampaign(const std::string& id);
   api::BatchResult AppendMeasurements(const std::string& campaign, const nlohmann::json& body);
+  /// POST .../measurements:import: a tracker's point export (api/tracker_files.h) matched to a plan's
+  /// configurations, stored as one batch of position measurements, or nothing when any line is bad.
+  api::BatchResult ImportMeasurements(const std::string& campaign, const nlohmann::json& body);
   /// role: "" (all), calibration, validation; after: sequence to start after; limit: page size.
   api::MeasurementList ListMeasurements(const std::string& campaign, const std::string& role,
                                         const std::string& after, const std::string& limit);

@@ -1,0 +1,87 @@
+// Measurements from a laser tracker's own export files (POST /v1/campaigns/{c}/measurements:import): a point
+// export in the Spatial Analyzer style and a generic CSV, read into points in mm and matched to a plan's
+// configurations by target name or by order (docs/formats.md).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "robocal/api/campaigns.h"
+#include "robocal/api/error.h"
+#include "robocal/api/wire.h"
+
+namespace robocal::api {
+
+/// The largest tracker file accepted in one import (bytes of `text`).
+inline constexpr std::size_t kMaxTrackerFileBytes = 4u << 20;
+/// A point farther than this from the tracker (mm, after the unit) is a unit or column mistake: trackers reach
+/// tens of metres.
+inline constexpr double kMaxTrackerDistanceMm = 1e6;
+
+/// The header names of a CSV export's columns (matched without regard to case or surrounding white space).
+struct CsvColumns {
+  std::string target = "target";
+  std::string x = "x";
+  std::string y = "y";
+  std::string z = "z";
+  /// The reflector (nest) id of each point, for a campaign with reflectors; empty: no such column.
+  std::string reflector;
+};
+
+/// POST /v1/campaigns/{c}/measurements:import.
+struct ImportMeasurementsRequest {
+  /// As in a measurement batch: the idempotency key, and the role of every point.
+  std::string request_id;
+  MeasurementRole role = MeasurementRole::kCalibration;
+  /// "sa": `//` header lines and `collection group target x y z` rows (comma or white space); "csv": a header
+  /// row and `columns`.
+  std::string format;
+  /// The file's text.
+  std::string text;
+  /// "mm", "m" or "in". csv: required. sa: the file's own declaration (a `// Units: ...` line) when absent; a
+  /// request unit that contradicts the file is refused.
+  std::string unit;
+  /// The plan whose configurations the points were shot at; empty: the campaign's plan.
+  std::string plan;
+  /// "name" (default): a point's configuration is the trailing number of its target name, 1-based ("P007" is
+  /// configuration 7). "order": the points in file order, `shots_per_configuration` per configuration.
+  std::string match = "name";
+  /// match "order": shots per configuration; 0: the number of points over the plan's configurations.
+  int shots_per_configuration = 0;
+  CsvColumns columns;
+};
+/// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
+ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);
+void to_json(nlohmann::json& j, const ImportMeasurementsRequest& request);
+void from_json(const nlohmann::json& j, ImportMeasurementsRequest& request);
+
+/// One point of a tracker export.
+struct TrackerPoint {
+  /// 1-based line of the file.
+  int line = 0;
+  std::string target;
+  std::string reflector;
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
+};
+
+/// Reads the points of `request.text` in its format, positions converted to mm. Every bad line is recorded in
+/// `problems` as {"text", "line N: why"}; problems of the whole file ({"unit", ...}, {"columns.x", ...},
+/// {"text", "no points"}) likewise.
+std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems);
+
+/// The 0-based configuration a target name points at: its trailing number, 1-based ("P007" -> 6); -1 without
+/// trailing digits (or a number beyond any plan).
+int ConfigurationOfTarget(const std::string& target);
+
+/// The measurement batch of the points: each with the joints of its configuration among `configurations` (wire
+/// units, the plan's), matched by `request.match`. Problems are recorded as ReadTrackerPoints does.
+MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
+                                              const std::vector<TrackerPoint>& points,
+                                              const std::vector<std::vector<double>>& configurations,
+                                              Problems* problems);
+
+}  // namespace robocal::api

@@ -1,0 +1,483 @@
+#include "robocal/api/tracker_files.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <optional>
+#include <utility>
+
+#include "robocal/api/json_reader.h"
+
+namespace robocal::api {
+namespace {
+
+// The file formats are read by hand: they are line-oriented text with a handful of rules (a unit header line,
+// comma or white-space separated fields, CSV quotes), and no Debian library reads Spatial Analyzer exports; a
+// general CSV library would still leave the unit, column and line-number rules here.
+
+const std::vector<std::string> kFormats = {"sa", "csv"};
+const std::vector<std::string> kUnits = {"mm", "m", "in"};
+const std::vector<std::string> kMatches = {"name", "order"};
+
+// Target and reflector names longer than this are no names a tracker program writes.
+constexpr std::size_t kMaxTargetLength = 128;
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string Trim(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t\n\r\f\v");
+  if (first == std::string::npos) return "";
+  const auto last = s.find_last_not_of(" \t\n\r\f\v");
+  return s.substr(first, last - first + 1);
+}
+
+double UnitScale(const std::string& unit) {
+  if (unit == "m") return 1000.0;
+  if (unit == "in") return 25.4;
+  return 1.0;
+}
+
+// The unit a header word names ("Millimeters", "mm", "metres", "inch", ...), or empty.
+std::string UnitOfWord(const std::string& word) {
+  const std::string w = Lower(Trim(word));
+  for (const char* mm : {"mm", "millimeter", "millimeters", "millimetre", "millimetres"}) {
+    if (w == mm) return "mm";
+  }
+  for (const char* m : {"m", "meter", "meters", "metre", "metres"}) {
+    if (w == m) return "m";
+  }
+  for (const char* in : {"in", "inch", "inches"}) {
+    if (w == in) return "in";
+  }
+  return "";
+}
+
+std::string LineReason(int line, const std::string& why) { return "line " + std::to_string(line) + ": " + why; }
+
+// A printable, bounded excerpt of a field for a reason.
+std::string Shown(const std::string& field) {
+  std::string out;
+  for (char c : field.substr(0, 40)) out += (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) ? '?' : c;
+  return "'" + out + (field.size() > 40 ? "...'" : "'");
+}
+
+// A finite number filling the whole field.
+std::optional<double> Number(const std::string& field) {
+  const std::string f = Trim(field);
+  if (f.empty()) return std::nullopt;
+  errno = 0;
+  char* end = nullptr;
+  const double value = std::strtod(f.c_str(), &end);
+  if (end != f.c_str() + f.size() || errno == ERANGE || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+// The file's lines, without their line ends (a leading UTF-8 byte order mark dropped).
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(std::move(line));
+    start = end + 1;
+  }
+  return lines;
+}
+
+// Splits an SA row: at commas if it has any, else at runs of white space.
+std::vector<std::string> SplitSaRow(const std::string& line) {
+  std::vector<std::string> fields;
+  if (line.find(',') != std::string::npos) {
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      fields.push_back(Trim(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  } else {
+    std::size_t i = 0;
+    while (i < line.size()) {
+      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      if (i == line.size()) break;
+      const std::size_t start = i;
+      while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      fields.push_back(line.substr(start, i - start));
+    }
+  }
+  return fields;
+}
+
+// Splits a CSV row at `delimiter`, with RFC 4180 quotes ("a ""b""" is a "b"); false for an unclosed quote.
+bool SplitCsvRow(const std::string& line, char delimiter, std::vector<std::string>* fields) {
+  fields->clear();
+  std::string field;
+  bool quoted = false, was_quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        field += c;
+      }
+    } else if (c == '"' && Trim(field).empty()) {
+      quoted = was_quoted = true;
+      field.clear();
+    } else if (c == delimiter) {
+      fields->push_back(was_quoted ? field : Trim(field));
+      field.clear();
+      was_quoted = false;
+    } else {
+      field += c;
+    }
+  }
+  if (quoted) return false;
+  fields->push_back(was_quoted ? field : Trim(field));
+  return true;
+}
+
+// The delimiter of a CSV header: the most frequent of ',', ';' and tab (0 if none occurs).
+char CsvDelimiter(const std::string& header) {
+  char best = 0;
+  std::ptrdiff_t count = 0;
+  for (char d : {',', ';', '\t'}) {
+    const std::ptrdiff_t n = std::count(header.begin(), header.end(), d);
+    if (n > count) {
+      best = d;
+      count = n;
+    }
+  }
+  return best;
+}
+
+// Checks a point's position (already in mm) and records its problems; true if usable.
+bool CheckPosition(const Eigen::Vector3d& p, int line, Problems* problems) {
+  if (p.norm() > kMaxTrackerDistanceMm) {
+    problems->Add("text", LineReason(line, "the point is " + std::to_string(static_cast<long long>(p.norm() / 1000)) +
+                                               " m from the tracker: a wrong unit or column?"));
+    return false;
+  }
+  return true;
+}
+
+void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string>& lines,
+            std::vector<TrackerPoint>* points, Problems* problems) {
+  std::string declared;
+  int declared_line = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const int line = static_cast<int>(i) + 1;
+    const std::string text = Trim(lines[i]);
+    if (text.empty()) continue;
+    if (text.rfind("//", 0) == 0) {
+      // A header line; "// Units: Millimeters" (or "Units = mm") declares the unit.
+      const std::string header = Trim(text.substr(2));
+      const std::string lower = Lower(header);
+      if (lower.rfind("unit", 0) != 0) continue;
+      // The word after "Units:" / "Units =" / "Units".
+      const std::size_t sep = header.find_first_of(":=");
+      const std::size_t after = sep != std::string::npos ? sep + 1 : lower.rfind("units", 0) == 0 ? 5 : 4;
+      const std::string word = header.substr(after);
+      const std::string unit = UnitOfWord(word);
+      if (unit.empty()) {
+        problems->Add("text", LineReason(line, "unknown unit " + Shown(Trim(word)) + " (mm, m or in)"));
+      } else if (!declared.empty() && unit != declared) {
+        problems->Add("text", LineReason(line, "declares " + unit + ", line " + std::to_string(declared_line) +
+                                                   " declared " + declared));
+      } else {
+        declared = unit;
+        declared_line = line;
+      }
+      continue;
+    }
+    const std::vector<std::string> fields = SplitSaRow(text);
+    if (fields.size() != 6) {
+      problems->Add("text", LineReason(line, "expected 6 fields (collection group target x y z), got " +
+                                                 std::to_string(fields.size())));
+      continue;
+    }
+    TrackerPoint p;
+    p.line = line;
+    p.target = fields[2];
+    bool ok = true;
+    if (p.target.size() > kMaxTargetLength) {
+      problems->Add("text", LineReason(line, "target name longer than " + std::to_string(kMaxTargetLength)));
+      ok = false;
+    }
+    static const char* const kAxes[3] = {"x", "y", "z"};
+    for (int k = 0; k < 3; ++k) {
+      const std::optional<double> v = Number(fields[3 + k]);
+      if (!v) {
+        problems->Add("text", LineReason(line, std::string(kAxes[k]) + " " + Shown(fields[3 + k]) +
+                                                   " is not a finite number"));
+        ok = false;
+      } else {
+        p.position_mm[k] = *v;
+      }
+    }
+    if (ok) points->push_back(std::move(p));
+  }
+  // The unit: the request's or the file's, and never two different ones.
+  std::string unit = req.unit;
+  if (!declared.empty() && !unit.empty() && declared != unit) {
+    problems->Add("unit", "the request says " + unit + ", the file declares " + declared + " (line " +
+                              std::to_string(declared_line) + ")");
+  } else if (unit.empty()) {
+    unit = declared;
+  }
+  if (unit.empty()) {
+    problems->Add("unit", "the file declares no unit (a '// Units: mm' line) and the request gives none");
+    return;
+  }
+  const double scale = UnitScale(unit);
+  std::vector<TrackerPoint> kept;
+  for (TrackerPoint& p : *points) {
+    p.position_mm *= scale;
+    if (CheckPosition(p.position_mm, p.line, problems)) kept.push_back(std::move(p));
+  }
+  *points = std::move(kept);
+}
+
+void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string>& lines,
+             std::vector<TrackerPoint>* points, Problems* problems) {
+  if (req.unit.empty()) problems->Add("unit", "required for format csv (mm, m or in)");
+  std::size_t header_index = 0;
+  while (header_index < lines.size() && Trim(lines[header_index]).empty()) ++header_index;
+  if (header_index == lines.size()) return;  // "no points" follows
+  const int header_line = static_cast<int>(header_index) + 1;
+  const char delimiter = CsvDelimiter(lines[header_index]);
+  std::vector<std::string> header;
+  if (delimiter == 0 || !SplitCsvRow(lines[header_index], delimiter, &header)) {
+    problems->Add("text", LineReason(header_line, "the header has no ',', ';' or tab between column names"));
+    return;
+  }
+  // The columns the import needs.
+  struct Wanted {
+    const char* field;
+    const std::string* name;
+    bool needed;
+    int index = -1;
+  };
+  Wanted wanted[] = {{"columns.target", &req.columns.target, req.match == "name"},
+                     {"columns.x", &req.columns.x, true},
+                     {"columns.y", &req.columns.y, true},
+                     {"columns.z", &req.columns.z, true},
+                     {"columns.reflector", &req.columns.reflector, !req.columns.reflector.empty()}};
+  bool columns_ok = true;
+  for (Wanted& w : wanted) {
+    if (!w.needed) continue;
+    for (std::size_t c = 0; c < header.size(); ++c) {
+      if (Lower(Trim(header[c])) == Lower(Trim(*w.name))) {
+        w.index = static_cast<int>(c);
+        break;
+      }
+    }
+    if (w.index < 0) {
+      problems->Add(w.field, "no column " + Shown(*w.name) + " in the header (line " + std::to_string(header_line) +
+                                 ": " + Shown(lines[header_index]) + ")");
+      columns_ok = false;
+    }
+  }
+  if (!columns_ok) return;
+  const double scale = UnitScale(req.unit);
+  std::vector<std::string> fields;
+  for (std::size_t i = header_index + 1; i < lines.size(); ++i) {
+    const int line = static_cast<int>(i) + 1;
+    if (Trim(lines[i]).empty()) continue;
+    if (!SplitCsvRow(lines[i], delimiter, &fields)) {
+      problems->Add("text", LineReason(line, "a quote is not closed"));
+      continue;
+    }
+    TrackerPoint p;
+    p.line = line;
+    bool ok = true;
+    for (const Wanted& w : wanted) {
+      if (w.index < 0) continue;
+      if (w.index >= static_cast<int>(fields.size())) {
+        problems->Add("text", LineReason(line, "no value in column " + Shown(*w.name) + " (" +
+                                                   std::to_string(fields.size()) + " fields)"));
+        ok = false;
+        break;
+      }
+    }
+    if (!ok) continue;
+    if (wanted[0].index >= 0) p.target = fields[wanted[0].index];
+    if (wanted[4].index >= 0) p.reflector = fields[wanted[4].index];
+    if (p.target.size() > kMaxTargetLength || p.reflector.size() > kMaxTargetLength) {
+      problems->Add("text", LineReason(line, "target or reflector longer than " + std::to_string(kMaxTargetLength)));
+      ok = false;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const std::string& field = fields[wanted[1 + k].index];
+      const std::optional<double> v = Number(field);
+      if (!v) {
+        problems->Add("text", LineReason(line, "column " + Shown(*wanted[1 + k].name) + ": " + Shown(field) +
+                                                   " is not a finite number"));
+        ok = false;
+      } else {
+        p.position_mm[k] = *v * scale;
+      }
+    }
+    if (ok && CheckPosition(p.position_mm, line, problems)) points->push_back(std::move(p));
+  }
+}
+
+}  // namespace
+
+ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body) {
+  Problems problems;
+  ImportMeasurementsRequest req;
+  ObjectReader r(body, "", &problems);
+  if (r.String("request_id", true, &req.request_id, 128) && req.request_id.empty()) {
+    problems.Add("request_id", "must not be empty (it makes retries of this import safe)");
+  }
+  r.Enum("role", false, &req.role);
+  r.Enum("format", true, kFormats, &req.format);
+  if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
+    problems.Add("text", "the file is empty");
+  }
+  r.Enum("unit", false, kUnits, &req.unit);
+  r.String("plan", false, &req.plan, 64);
+  r.Enum("match", false, kMatches, &req.match);
+  r.Int("shots_per_configuration", false, &req.shots_per_configuration, 1, 1000);
+  if (r.Has("shots_per_configuration") && req.match != "order") {
+    problems.Add("shots_per_configuration", "only with match \"order\"");
+  }
+  if (const nlohmann::json* c = r.Get("columns")) {
+    if (req.format != "csv") problems.Add("columns", "only with format \"csv\"");
+    ObjectReader cr(*c, "columns", &problems);
+    for (auto [key, out] : {std::pair<const char*, std::string*>{"target", &req.columns.target},
+                            {"x", &req.columns.x},
+                            {"y", &req.columns.y},
+                            {"z", &req.columns.z},
+                            {"reflector", &req.columns.reflector}}) {
+      if (cr.String(key, false, out, 128) && Trim(*out).empty() && std::string(key) != "reflector") {
+        problems.Add(JoinPath("columns", key), "must name a column");
+      }
+    }
+    cr.RejectUnknown({"target", "x", "y", "z", "reflector"});
+  }
+  r.RejectUnknown({"request_id", "role", "format", "text", "unit", "plan", "match", "shots_per_configuration",
+                   "columns"});
+  problems.ThrowIfAny("invalid measurement import");
+  return req;
+}
+
+void to_json(nlohmann::json& j, const ImportMeasurementsRequest& req) {
+  j = {{"request_id", req.request_id}, {"role", req.role},   {"format", req.format},
+       {"text", req.text},             {"match", req.match}};
+  if (!req.unit.empty()) j["unit"] = req.unit;
+  if (!req.plan.empty()) j["plan"] = req.plan;
+  if (req.shots_per_configuration > 0) j["shots_per_configuration"] = req.shots_per_configuration;
+  if (req.format == "csv") {
+    j["columns"] = {{"target", req.columns.target}, {"x", req.columns.x}, {"y", req.columns.y}, {"z", req.columns.z}};
+    if (!req.columns.reflector.empty()) j["columns"]["reflector"] = req.columns.reflector;
+  }
+}
+
+void from_json(const nlohmann::json& j, ImportMeasurementsRequest& req) {
+  const WireReader r(j);
+  r.Required("request_id", &req.request_id);
+  r.Required("role", &req.role);
+  r.Required("format", &req.format);
+  r.Required("text", &req.text);
+  r.Required("match", &req.match);
+  r.Optional("unit", &req.unit);
+  r.Optional("plan", &req.plan);
+  r.Optional("shots_per_configuration", &req.shots_per_configuration);
+  if (r.Has("columns")) {
+    const WireReader c(r.Member("columns"), "columns");
+    c.Optional("target", &req.columns.target);
+    c.Optional("x", &req.columns.x);
+    c.Optional("y", &req.columns.y);
+    c.Optional("z", &req.columns.z);
+    c.Optional("reflector", &req.columns.reflector);
+  }
+}
+
+std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems) {
+  std::vector<TrackerPoint> points;
+  const std::vector<std::string> lines = Lines(request.text);
+  if (request.format == "sa") {
+    ReadSa(request, lines, &points, problems);
+  } else {
+    ReadCsv(request, lines, &points, problems);
+  }
+  if (points.empty() && problems->empty()) problems->Add("text", "no points");
+  return points;
+}
+
+int ConfigurationOfTarget(const std::string& target) {
+  std::size_t start = target.size();
+  while (start > 0 && std::isdigit(static_cast<unsigned char>(target[start - 1]))) --start;
+  if (start == target.size()) return -1;
+  const std::string digits = target.substr(start);
+  // Leading zeros are padding ("P007"); more than 9 digits is no configuration of any plan.
+  const std::size_t first = digits.find_first_not_of('0');
+  if (first == std::string::npos || digits.size() - first > 9) return -1;
+  return std::stoi(digits.substr(first)) - 1;
+}
+
+MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
+                                              const std::vector<TrackerPoint>& points,
+                                              const std::vector<std::vector<double>>& configurations,
+                                              Problems* problems) {
+  MeasurementBatchRequest batch;
+  batch.request_id = request.request_id;
+  batch.role = request.role;
+  const std::size_t m = configurations.size();
+  std::vector<int> configuration(points.size(), -1);
+  if (request.match == "order") {
+    std::size_t shots = static_cast<std::size_t>(request.shots_per_configuration);
+    if (shots == 0 && m > 0 && points.size() % m == 0) shots = points.size() / m;
+    if (shots == 0 || points.size() != m * shots) {
+      problems->Add("text", std::to_string(points.size()) + " points for the plan's " + std::to_string(m) +
+                                " configurations" +
+                                (request.shots_per_configuration > 0
+                                     ? " at " + std::to_string(shots) + " shots each"
+                                     : ": give shots_per_configuration, or as many shots of every configuration") +
+                                " (match \"order\")");
+      return batch;
+    }
+    for (std::size_t k = 0; k < points.size(); ++k) configuration[k] = static_cast<int>(k / shots);
+  } else {
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const int c = ConfigurationOfTarget(points[k].target);
+      if (c < 0) {
+        problems->Add("text", LineReason(points[k].line, "target " + Shown(points[k].target) +
+                                                             " has no configuration number (its trailing digits, 1..." +
+                                                             std::to_string(m) + ")"));
+      } else if (static_cast<std::size_t>(c) >= m) {
+        problems->Add("text", LineReason(points[k].line, "target " + Shown(points[k].target) + " is configuration " +
+                                                             std::to_string(c + 1) + "; the plan has " +
+                                                             std::to_string(m)));
+      } else {
+        configuration[k] = c;
+      }
+    }
+  }
+  if (!problems->empty()) return batch;
+  batch.measurements.reserve(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    MeasurementWire w;
+    w.joints = configurations[configuration[k]];
+    w.pose.position_mm = {points[k].position_mm.x(), points[k].position_mm.y(), points[k].position_mm.z()};
+    w.pose.has_orientation = false;
+    w.reflector = points[k].reflector;
+    batch.measurements.push_back(std::move(w));
+  }
+  return batch;
+}
+
+}  // namespace robocal::api

@@ -1,0 +1,257 @@
+// Tracker export files: Spatial Analyzer style point exports and CSV read into points in mm, every bad line
+// named by its number, and the points matched to a plan's configurations.
+#include <gtest/gtest.h>
+
+#include "robocal/api/tracker_files.h"
+
+namespace robocal::api {
+namespace {
+
+using nlohmann::json;
+
+ImportMeasurementsRequest Request(const std::string& format, const std::string& text, const std::string& unit = "") {
+  ImportMeasurementsRequest r;
+  r.request_id = "t";
+  r.format = format;
+  r.text = text;
+  r.unit = unit;
+  return r;
+}
+
+// The reasons recorded for `field`.
+std::vector<std::string> Reasons(const Problems& problems, const std::string& field) {
+  std::vector<std::string> out;
+  for (const FieldViolation& v : problems.list()) {
+    if (v.field == field) out.push_back(v.reason);
+  }
+  return out;
+}
+
+TEST(TrackerFilesTest, SaRowsWithCommasAndTheFilesUnit) {
+  const std::string text =
+      "// Point export\r\n"
+      "// Units: Millimeters\r\n"
+      "\r\n"
+      "A,Robot,P001,1500.25,-20.5,300\r\n"
+      "A,Robot,P001,1500.5,-20.25,300.125\r\n"
+      "A,Robot,P002,1e3,0,-4.5e2\r\n";
+  Problems problems;
+  const std::vector<TrackerPoint> points = ReadTrackerPoints(Request("sa", text), &problems);
+  ASSERT_TRUE(problems.empty()) << problems.list().front().reason;
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_EQ(points[0].line, 4);
+  EXPECT_EQ(points[0].target, "P001");
+  EXPECT_EQ(points[1].position_mm, Eigen::Vector3d(1500.5, -20.25, 300.125));
+  EXPECT_EQ(points[2].line, 6);
+  EXPECT_EQ(points[2].position_mm, Eigen::Vector3d(1000, 0, -450));
+}
+
+TEST(TrackerFilesTest, SaRowsWithWhiteSpaceInMetresAndInches) {
+  const std::string rows = "A  G  T1   1.5\t-0.25  0.125\nA G T2 2 0 1\n";
+  Problems problems;
+  const auto metres = ReadTrackerPoints(Request("sa", "//Units = m\n" + rows), &problems);
+  ASSERT_TRUE(problems.empty());
+  EXPECT_EQ(metres[0].position_mm, Eigen::Vector3d(1500, -250, 125));
+  // The request's unit where the file declares none; 1 in = 25.4 mm exactly.
+  const auto inches = ReadTrackerPoints(Request("sa", rows, "in"), &problems);
+  ASSERT_TRUE(problems.empty());
+  EXPECT_EQ(inches[1].position_mm, Eigen::Vector3d(50.8, 0, 25.4));
+}
+
+TEST(TrackerFilesTest, SaUnitsMustBeKnownDeclaredAndAgree) {
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "A G T1 1 2 3\n"), &problems);
+    EXPECT_EQ(Reasons(problems, "unit").size(), 1u);
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "// Units: mm\nA G T1 1 2 3\n", "m"), &problems);
+    ASSERT_EQ(Reasons(problems, "unit").size(), 1u);
+    EXPECT_EQ(Reasons(problems, "unit")[0], "the request says m, the file declares mm (line 1)");
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "// Units: feet\nA G T1 1 2 3\n"), &problems);
+    ASSERT_FALSE(Reasons(problems, "text").empty());
+    EXPECT_EQ(Reasons(problems, "text")[0], "line 1: unknown unit 'feet' (mm, m or in)");
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "// Units: mm\n// UNITS: m\nA G T1 1 2 3\n"), &problems);
+    ASSERT_FALSE(Reasons(problems, "text").empty());
+    EXPECT_EQ(Reasons(problems, "text")[0], "line 2: declares m, line 1 declared mm");
+  }
+}
+
+TEST(TrackerFilesTest, EveryBadSaLineIsNamedAndNoPointOfItKept) {
+  const std::string text =
+      "// Units: m\n"
+      "A,G,P1,1,2,3\n"
+      "A,G,P2,1,2\n"
+      "A,G,P3,1,x,3\n"
+      "A,G,P4,1,2,nan\n"
+      "A,G,P5,2000,0,0\n"
+      "A,G,P6,1,2,3,4\n";
+  Problems problems;
+  const auto points = ReadTrackerPoints(Request("sa", text), &problems);
+  const std::vector<std::string> reasons = Reasons(problems, "text");
+  ASSERT_EQ(reasons.size(), 5u);
+  EXPECT_EQ(reasons[0], "line 3: expected 6 fields (collection group target x y z), got 5");
+  EXPECT_EQ(reasons[1], "line 4: y 'x' is not a finite number");
+  EXPECT_EQ(reasons[2], "line 5: z 'nan' is not a finite number");
+  EXPECT_EQ(reasons[3], "line 7: expected 6 fields (collection group target x y z), got 7");
+  // Checked after the unit: 2000 m.
+  EXPECT_EQ(reasons[4], "line 6: the point is 2000 m from the tracker: a wrong unit or column?");
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_EQ(points[0].target, "P1");
+}
+
+TEST(TrackerFilesTest, CsvWithItsColumnsDelimiterAndQuotes) {
+  ImportMeasurementsRequest r = Request("csv",
+                                        "\xEF\xBB\xBF"
+                                        "Name;Nest;X [in];Y [in];Z [in];RMS\n"
+                                        "\"P;1\";smr1;1;2;3;0.001\n"
+                                        "\"P \"\"2\"\"\";smr2; -1 ;0;10;0.002\n",
+                                        "in");
+  r.columns = {"name", "X [in]", "y [IN]", "Z [in]", "Nest"};
+  Problems problems;
+  const auto points = ReadTrackerPoints(r, &problems);
+  ASSERT_TRUE(problems.empty()) << problems.list().front().field << " " << problems.list().front().reason;
+  ASSERT_EQ(points.size(), 2u);
+  EXPECT_EQ(points[0].target, "P;1");
+  EXPECT_EQ(points[0].reflector, "smr1");
+  EXPECT_EQ(points[0].position_mm, Eigen::Vector3d(1, 2, 3) * 25.4);
+  EXPECT_EQ(points[1].target, "P \"2\"");
+  EXPECT_EQ(points[1].line, 3);
+  EXPECT_EQ(points[1].position_mm, Eigen::Vector3d(-1, 0, 10) * 25.4);
+}
+
+TEST(TrackerFilesTest, CsvProblemsNameTheColumnOrTheLine) {
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("csv", "target,x,y\nP1,1,2\n"), &problems);
+    EXPECT_EQ(Reasons(problems, "unit").size(), 1u);  // csv needs a unit
+    ASSERT_EQ(Reasons(problems, "columns.z").size(), 1u);
+    EXPECT_EQ(Reasons(problems, "columns.z")[0], "no column 'z' in the header (line 1: 'target,x,y')");
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("csv", "target,x,y,z\nP1,1,2,3\n\"P2,1,2,3\nP3,1,2\nP4,1,2,3e999\n", "mm"), &problems);
+    const auto reasons = Reasons(problems, "text");
+    ASSERT_EQ(reasons.size(), 3u);
+    EXPECT_EQ(reasons[0], "line 3: a quote is not closed");
+    EXPECT_EQ(reasons[1], "line 4: no value in column 'z' (3 fields)");
+    EXPECT_EQ(reasons[2], "line 5: column 'z': '3e999' is not a finite number");
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("csv", "target x y z\n", "mm"), &problems);
+    EXPECT_EQ(Reasons(problems, "text")[0], "line 1: the header has no ',', ';' or tab between column names");
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("csv", "target,x,y,z\n\n", "mm"), &problems);
+    EXPECT_EQ(Reasons(problems, "text")[0], "no points");
+  }
+}
+
+TEST(TrackerFilesTest, TargetNamesEndInTheirConfigurationNumber) {
+  EXPECT_EQ(ConfigurationOfTarget("P007"), 6);
+  EXPECT_EQ(ConfigurationOfTarget("12"), 11);
+  EXPECT_EQ(ConfigurationOfTarget("pose_3"), 2);
+  EXPECT_EQ(ConfigurationOfTarget("A"), -1);
+  EXPECT_EQ(ConfigurationOfTarget("P0"), -1);
+  EXPECT_EQ(ConfigurationOfTarget(""), -1);
+  EXPECT_EQ(ConfigurationOfTarget("P1234567890"), -1);
+  EXPECT_EQ(ConfigurationOfTarget("P000000000000001"), 0);
+}
+
+std::vector<TrackerPoint> Points(const std::vector<std::string>& targets) {
+  std::vector<TrackerPoint> points;
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    points.push_back({static_cast<int>(k) + 2, targets[k], "", Eigen::Vector3d(k, 0, 1)});
+  }
+  return points;
+}
+
+TEST(TrackerFilesTest, PointsTakeTheJointsOfTheirConfiguration) {
+  const std::vector<std::vector<double>> configurations = {{10, 20}, {30, 40}, {50, 60}};
+  ImportMeasurementsRequest r = Request("sa", "-");
+  r.role = MeasurementRole::kValidation;
+  Problems problems;
+  const MeasurementBatchRequest by_name =
+      MatchToConfigurations(r, Points({"P3", "P1", "P1", "P2"}), configurations, &problems);
+  ASSERT_TRUE(problems.empty());
+  ASSERT_EQ(by_name.measurements.size(), 4u);
+  EXPECT_EQ(by_name.role, MeasurementRole::kValidation);
+  EXPECT_EQ(by_name.request_id, "t");
+  EXPECT_EQ(by_name.measurements[0].joints, configurations[2]);
+  EXPECT_EQ(by_name.measurements[2].joints, configurations[0]);
+  EXPECT_EQ(by_name.measurements[3].pose.position_mm, (std::array<double, 3>{3, 0, 1}));
+  EXPECT_FALSE(by_name.measurements[3].pose.has_orientation);
+
+  r.match = "order";
+  const MeasurementBatchRequest by_order =
+      MatchToConfigurations(r, Points({"a", "b", "c", "d", "e", "f"}), configurations, &problems);
+  ASSERT_TRUE(problems.empty());
+  EXPECT_EQ(by_order.measurements[1].joints, configurations[0]);
+  EXPECT_EQ(by_order.measurements[2].joints, configurations[1]);
+  EXPECT_EQ(by_order.measurements[5].joints, configurations[2]);
+}
+
+TEST(TrackerFilesTest, MatchingProblemsNameTheLine) {
+  const std::vector<std::vector<double>> configurations = {{10, 20}, {30, 40}};
+  ImportMeasurementsRequest r = Request("sa", "-");
+  Problems problems;
+  MatchToConfigurations(r, Points({"P1", "P3", "Q"}), configurations, &problems);
+  const auto reasons = Reasons(problems, "text");
+  ASSERT_EQ(reasons.size(), 2u);
+  EXPECT_EQ(reasons[0], "line 3: target 'P3' is configuration 3; the plan has 2");
+  EXPECT_EQ(reasons[1], "line 4: target 'Q' has no configuration number (its trailing digits, 1...2)");
+
+  r.match = "order";
+  Problems order;
+  const auto batch = MatchToConfigurations(r, Points({"a", "b", "c"}), configurations, &order);
+  EXPECT_TRUE(batch.measurements.empty());
+  ASSERT_EQ(Reasons(order, "text").size(), 1u);
+  r.shots_per_configuration = 2;
+  Problems shots;
+  MatchToConfigurations(r, Points({"a", "b", "c"}), configurations, &shots);
+  EXPECT_EQ(Reasons(shots, "text")[0], "3 points for the plan's 2 configurations at 2 shots each (match \"order\")");
+}
+
+TEST(TrackerFilesTest, RequestFieldsAreChecked) {
+  auto fields = [](const json& body) {
+    std::vector<std::string> out;
+    try {
+      ParseImportMeasurementsRequest(body);
+    } catch (const ApiError& e) {
+      for (const FieldViolation& v : e.details()) out.push_back(v.field);
+    }
+    return out;
+  };
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "A G P1 1 2 3"}}), std::vector<std::string>{});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "dxf"}, {"text", "x"}}), std::vector<std::string>{"format"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", " \n "}}), std::vector<std::string>{"text"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "x"}, {"unit", "ft"}}),
+            std::vector<std::string>{"unit"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "x"}, {"shots_per_configuration", 2}}),
+            std::vector<std::string>{"shots_per_configuration"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "x"}, {"columns", {{"x", "X"}}}}),
+            std::vector<std::string>{"columns"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "csv"}, {"text", "x"}, {"columns", {{"x", ""}, {"w", 1}}}}),
+            (std::vector<std::string>{"columns.x", "columns.w"}));
+  EXPECT_EQ(fields({{"format", "csv"}, {"text", "x"}, {"extra", 1}}), (std::vector<std::string>{"request_id", "extra"}));
+  // The request survives its own JSON form.
+  ImportMeasurementsRequest r = Request("csv", "target,x,y,z\n", "m");
+  r.plan = "p1";
+  r.match = "order";
+  r.shots_per_configuration = 3;
+  r.columns.reflector = "Nest";
+  const ImportMeasurementsRequest back = ParseImportMeasurementsRequest(json(r));
+  EXPECT_EQ(json(back), json(r));
+}
+
+}  // namespace
+}  // namespace robocal::api
