@@ -13,7 +13,9 @@
 #include "mock_tracker.h"
 #include "robocal/api/robots.h"
 #include "robocal/client/csv.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/planning.h"
+#include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
 #include "test_server.h"
 
@@ -537,6 +539,41 @@ TEST_F(CliTest, ExportDhTableRegistersAsARobot) {
     EXPECT_EQ(RunCli(server + " robot register " + file).exit_code, 0) << text.str();
     EXPECT_EQ(RunCli(server + " robot get skew-1-" + format + " --json").exit_code, 0);
   }
+}
+
+// upload --format sa|csv: the tracker's point export, matched to the campaign's plan; a bad line is named and
+// nothing is stored; upload-only options without --format are usage errors.
+TEST_F(CliTest, UploadTrackerExports) {
+  const std::string server = "--server " + server_.url();
+  const Result plan = RunCli(server + " plan grinder5 --type position --count 6 --seed 5 --json");
+  ASSERT_EQ(plan.exit_code, 0);
+  const nlohmann::json planned = nlohmann::json::parse(plan.out);
+  const std::string plan_id = planned.at("id");
+  ASSERT_EQ(Trim(RunCli(server + " campaign create grinder5 position --id pts-1 --plan " + plan_id).out), "pts-1");
+  const RobotModel model = Preset("grinder5");
+  std::ofstream sa(Path("export.txt"));
+  sa << "// Units: mm\n";
+  for (std::size_t k = 0; k < planned.at("configurations").size(); ++k) {
+    const Eigen::VectorXd q =
+        api::JointsToCore(model, planned.at("configurations")[k].get<std::vector<double>>());
+    const Eigen::Vector3d p = ForwardKinematics(model, q).translation();
+    sa << "A G P" << (k + 1) << " " << p.x() << " " << p.y() << " " << p.z() << "\n";
+  }
+  sa.close();
+  const Result stored = RunCli(server + " upload pts-1 " + Path("export.txt") + " --format sa");
+  ASSERT_EQ(stored.exit_code, 0);
+  EXPECT_NE(stored.out.find("stored 6 calibration measurements from " + Path("export.txt")), std::string::npos)
+      << stored.out;
+  std::ofstream(Path("export.txt"), std::ios::app) << "A G P2 1 2\n";
+  const InProcess bad =
+      RunInProcess({"--server", server_.url(), "upload", "pts-1", Path("export.txt"), "--format", "sa"});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("line 8: expected 6 fields"), std::string::npos) << bad.err;
+  EXPECT_EQ(RunCli(server + " upload pts-1 " + Path("export.txt") + " --plan " + plan_id).exit_code, 2);
+  EXPECT_EQ(RunCli(server + " upload pts-1 " + Path("export.txt") + " --format dxf").exit_code, 2);
+  EXPECT_EQ(RunCli(server + " upload pts-1 " + Path("export.txt") + " --format sa --columns x=X").exit_code, 2);
+  const Result campaign = RunCli(server + " campaign get pts-1 --json");
+  EXPECT_EQ(nlohmann::json::parse(campaign.out).at("counts").at("calibration"), 6);
 }
 
 // campaign list says which campaigns are calibrated, in its table and as JSON (list items once carried no

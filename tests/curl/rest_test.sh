@@ -269,6 +269,33 @@ for convention in dh mdh; do
        --argjson b "$(call POST /v1/campaigns/skew-cal:forward "$skew_q" | jq -c '[.poses[].position_mm]')" \
        '[range($a | length) as $k | range(3) as $i | ($a[$k][$i] - $b[$k][$i]) | fabs] | max < 1e-6')" true
 done
+# A tracker's own point export, matched to the plan's configurations: by target number (SA style, metres) and by
+# order (CSV, inches, its own column names); a bad line stores nothing and is named.
+points=$(call POST /v1/robots/grinder5:forward "$(jq -c '{joints: .configurations}' "$work/plan.json")")
+sa_text=$(jq -rn --argjson p "$points" '"// exported by the tracker program\n// Units: Meters",
+  ($p.poses | to_entries[] | "A,Robot,P\(.key + 1 | tostring | ("00" + .)[-3:]),\(.value.position_mm | map(. / 1000) | join(","))")')
+points_campaign=$(call POST /v1/campaigns '{"robot": "grinder5", "measurement_type": "position"}' | jq -r .id)
+sa_import=$(jq -nc --arg t "$sa_text" --arg plan "$plan" '{request_id: "sa-1", format: "sa", text: $t, plan: $plan}')
+expect "POST measurements:import (SA export, by target) -> one per configuration" \
+  "$(call POST "/v1/campaigns/$points_campaign/measurements:import" "$sa_import" | jq .count)" 10
+expect "... its joints the plan's" \
+  "$(call GET "/v1/campaigns/$points_campaign/measurements?limit=1" | jq -c '.measurements[0].joints')" \
+  "$(jq -c '.configurations[0]' "$work/plan.json")"
+expect "... again: replayed" "$(call POST "/v1/campaigns/$points_campaign/measurements:import" "$sa_import" | jq .replayed)" true
+bad_import=$(jq -nc --arg t "$sa_text"$'\nA,Robot,P003,1,2' --arg plan "$plan" '{request_id: "sa-2", format: "sa", text: $t, plan: $plan}')
+call POST "/v1/campaigns/$points_campaign/measurements:import" "$bad_import" >/dev/null
+expect "... a short row -> 400 naming its line, nothing stored" \
+  "$(status) $(jq -r '.error.details[0].reason' "$work/body") $(call GET "/v1/campaigns/$points_campaign" | jq .counts.calibration)" \
+  "400 line 13: expected 6 fields (collection group target x y z), got 5 10"
+csv_text=$(jq -rn --argjson p "$points" '"Point;X [in];Y [in];Z [in]",
+  ($p.poses | to_entries[] | "\(.key);\(.value.position_mm | map(. / 25.4 | tostring) | join(";"))")')
+csv_import=$(jq -nc --arg t "$csv_text" --arg plan "$plan" '{request_id: "csv-1", role: "validation", format: "csv",
+  text: $t, unit: "in", plan: $plan, match: "order", columns: {x: "X [in]", y: "Y [in]", z: "Z [in]"}}')
+expect "POST measurements:import (CSV, inches, by order) -> validation measurements" \
+  "$(call POST "/v1/campaigns/$points_campaign/measurements:import" "$csv_import" | jq .count) $(call GET "/v1/campaigns/$points_campaign" | jq .counts.validation)" \
+  "10 10"
+call POST "/v1/campaigns/$campaign/measurements:import" "$sa_import" >/dev/null
+expect "... into a pose campaign -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 call GET "/v1/campaigns/$campaign/calibration?format=dxf" >/dev/null
 expect "... an unknown format -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 # The report: one HTML page (not JSON: the schema check only checks its media type), its parameter table the
