@@ -17,9 +17,6 @@ namespace {
 // comma or white-space separated fields, CSV quotes), and no Debian library reads Spatial Analyzer exports; a
 // general CSV library would still leave the unit, column and line-number rules here.
 
-const std::vector<std::string> kFormats = {"sa", "csv"};
-const std::vector<std::string> kUnits = {"mm", "m", "in"};
-const std::vector<std::string> kMatches = {"name", "order"};
 
 // Target and reflector names longer than this are no names a tracker program writes.
 constexpr std::size_t kMaxTargetLength = 128;
@@ -335,6 +332,19 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
 
 }  // namespace
 
+const std::vector<std::string>& TrackerFileFormats() {
+  static const std::vector<std::string> names = {"sa", "csv"};
+  return names;
+}
+const std::vector<std::string>& TrackerFileUnits() {
+  static const std::vector<std::string> names = {"mm", "m", "in"};
+  return names;
+}
+const std::vector<std::string>& TrackerFileMatches() {
+  static const std::vector<std::string> names = {"name", "order"};
+  return names;
+}
+
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body) {
   Problems problems;
   ImportMeasurementsRequest req;
@@ -343,13 +353,13 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
     problems.Add("request_id", "must not be empty (it makes retries of this import safe)");
   }
   r.Enum("role", false, &req.role);
-  r.Enum("format", true, kFormats, &req.format);
+  r.Enum("format", true, TrackerFileFormats(), &req.format);
   if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
     problems.Add("text", "the file is empty");
   }
-  r.Enum("unit", false, kUnits, &req.unit);
+  r.Enum("unit", false, TrackerFileUnits(), &req.unit);
   r.String("plan", false, &req.plan, 64);
-  r.Enum("match", false, kMatches, &req.match);
+  r.Enum("match", false, TrackerFileMatches(), &req.match);
   r.Int("shots_per_configuration", false, &req.shots_per_configuration, 1, 1000);
   if (r.Has("shots_per_configuration") && req.match != "order") {
     problems.Add("shots_per_configuration", "only with match \"order\"");

@@ -20,6 +20,9 @@ constexpr double kCoincident = 1e-12;
 constexpr double kNominallyParallel = 1e-9;
 // Two parallel axes of the nominal model closer than this (mm) are "one line" for the refusal's explanation.
 constexpr double kNominallyCoincident = 1e-9;
+// No robot's table has a length beyond this (mm): a nominal table that does comes from axes nearly, not exactly,
+// parallel, whose common normal lies far away.
+constexpr double kMaxDhLengthMm = 1e5;
 
 struct Line {
   Eigen::Vector3d point;
@@ -71,9 +74,9 @@ Normal CommonNormal(const Line& a, const Line& b, const Ref& ref) {
   const double s = c.norm();
   if (s > kParallel) {
     // Closest points of the two lines: a.point + t a.dir and b.point + u b.dir.
-    const Eigen::Vector3d w = a.point - b.point;
-    const double ab = a.dir.dot(b.dir), d = a.dir.dot(w), e = b.dir.dot(w);
-    const double t = (ab * e - d) / (s * s), u = (e - ab * d) / (s * s);
+    // In the cross-product form: the dot-product form cancels digits as the lines approach parallel.
+    const Eigen::Vector3d w = b.point - a.point;
+    const double t = w.cross(b.dir).dot(c) / (s * s), u = w.cross(a.dir).dot(c) / (s * s);
     n.foot_a = a.point + t * a.dir;
     n.foot_b = b.point + u * b.dir;
     n.x = c / s;
@@ -99,6 +102,17 @@ struct ChainLines {
   Transform base;           // tracker -> base, with the base error
   std::vector<Transform> site;  // the joints' frames before their errors (0-based joint)
   Transform tool;           // the calibrated tool
+  // Where the model's own table puts the common normal of two parallel axes: through the joint frame on the
+  // first of them (modified DH) or on the second (standard DH, and the transform convention's joint origins).
+  // A calibrated twist of two such axes turns them about that normal, so the nominal tables of both conventions
+  // put it there too.
+  bool anchor_on_first = false;
+
+  // The point the nominal common normal of axes k and k + 1 (k + 1 == n: the flange's z) passes through.
+  Eigen::Vector3d Anchor(int k) const {
+    if (anchor_on_first) return site[k].translation();
+    return k + 1 < static_cast<int>(site.size()) ? site[k + 1].translation() : flange.translation();
+  }
 };
 
 ChainLines LinesOf(const RobotModel& model, const Eigen::VectorXd& errors) {
@@ -111,6 +125,7 @@ ChainLines LinesOf(const RobotModel& model, const Eigen::VectorXd& errors) {
     lines.site.push_back(ws.T_world_site[i + 1]);
   }
   lines.flange = ws.T_world_site[n + 1] * model.T_flange_tool().inverse();
+  lines.anchor_on_first = model.spec().convention == GeometryConvention::kModifiedDh;
   lines.base = errors.size() == 0 ? model.T_world_base() : model.T_world_base() * ErrorTransform(errors.data());
   return lines;
 }
@@ -157,7 +172,8 @@ Table StandardTable(const ChainLines& lines, const Table* nominal) {
     // Row i + 1: from frame i (on axis i + 1) to frame i + 1 (on the next axis, or the flange's z).
     const bool last = i + 1 == n;
     const Line next = last ? LineOf(lines.flange) : lines.axes[i + 1];
-    const Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(last ? lines.flange : lines.site[i + 1]);
+    Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(last ? lines.flange : lines.site[i + 1]);
+    if (!nominal) ref.o = lines.Anchor(i);
     const Normal normal = CommonNormal({prev.o, prev.z}, next, ref);
     Frame f;
     f.o = normal.foot_b;
@@ -188,7 +204,8 @@ Table ModifiedTable(const ChainLines& lines, const Table* nominal) {
     Frame f;
     f.z = lines.axes[i].dir;
     Eigen::Vector3d foot_next;
-    const Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(i + 1 < n ? lines.site[i] : lines.flange);
+    Ref ref = nominal ? nominal->RefAt(i + 1) : RefOf(i + 1 < n ? lines.site[i] : lines.flange);
+    if (!nominal && i + 1 < n) ref.o = lines.Anchor(i);
     if (i + 1 < n) {
       const Normal normal = CommonNormal(lines.axes[i], lines.axes[i + 1], ref);
       f.o = normal.foot_a;
@@ -267,6 +284,38 @@ double DistanceOfParallel(const Line& a, const Line& b) {
   return (w - w.dot(a.dir) * a.dir).norm();
 }
 
+// The pairs of axes a row is read from: standard DH row i from axes i and i + 1 (and, through d, the normal
+// before); modified DH row i from axes i - 1 and i (and, through d, the normal after). Pairs by their first axis.
+std::vector<int> PairsOfRow(int row, bool standard) {
+  return standard ? std::vector<int>{row, row - 1} : std::vector<int>{row - 1, row};
+}
+
+// Why the common normal of axes k and k + 1 is unusable, or empty when nothing about the pair explains it.
+std::string PairExplanation(const RobotModel& model, const ChainLines& nominal, const ChainLines& lines, int k) {
+  if (k < 0 || k >= model.num_joints()) return "";
+  const Line na = nominal.axes[k], nb = LineAfter(nominal, k);
+  const Line a = lines.axes[k], b = LineAfter(lines, k);
+  // Angles from parallel, whichever way the axes point.
+  const double nominal_angle = std::min(AngleBetween(na.dir, nb.dir), M_PI - AngleBetween(na.dir, nb.dir));
+  const double angle = std::min(AngleBetween(a.dir, b.dir), M_PI - AngleBetween(a.dir, b.dir));
+  const std::string pair = AxisName(model, k) + " and " + AxisName(model, k + 1);
+  const std::string closest = ", and the common normal of two nearly parallel axes, which a DH table is built on, "
+                              "lies where they pass closest";
+  if (nominal_angle > kNominallyParallel) {
+    if (nominal_angle > 1e-3) return "";
+    return pair + " are " + Format(nominal_angle * 180.0 / M_PI) + " deg from parallel in the nominal model" + closest;
+  }
+  if (DistanceOfParallel(na, nb) <= kNominallyCoincident) {
+    if (angle <= kParallel && DistanceOfParallel(a, b) <= kNominallyCoincident) return "";
+    return pair + " are one line in the nominal model and " + Format(angle * 180.0 / M_PI) + " deg from parallel and " +
+           Format(DistanceOfParallel(a, b)) + " mm apart in the calibrated one, and the x axis of a DH frame follows" +
+           " the direction of their common normal, which turns with that small difference";
+  }
+  if (angle <= kParallel) return "";
+  return pair + " are parallel in the nominal model and " + Format(angle * 180.0 / M_PI) +
+         " deg from parallel in the calibrated one" + closest;
+}
+
 // Refuses the table whose row `row` has `field` beyond what a calibration can move it. The explanation names a
 // pair of axes next to the row that is parallel in the model and not in the calibration (where there is one),
 // and the error parameters without which the field would stay within bounds (or, failing that, would move
@@ -286,23 +335,10 @@ double DistanceOfParallel(const Line& a, const Line& b) {
   // axes i - 1 and i (and, through d, the normal after).
   const ChainLines nominal_lines = LinesOf(model, Eigen::VectorXd());
   const ChainLines lines = LinesOf(model, errors);
-  for (int k : standard ? std::vector<int>{row, row - 1} : std::vector<int>{row - 1, row}) {
-    if (k < 0 || k >= model.num_joints()) continue;
-    if (nominal_lines.axes[k].dir.cross(LineAfter(nominal_lines, k).dir).norm() > kNominallyParallel) continue;
-    const Line a = lines.axes[k], b = LineAfter(lines, k);
-    const double angle = AngleBetween(a.dir, b.dir);
-    const std::string pair = ": " + AxisName(model, k) + " and " + AxisName(model, k + 1);
-    if (angle > kParallel) {
-      reason << pair << " are parallel in the nominal model and " << Format(angle * 180.0 / M_PI)
-             << " deg apart in the calibrated one, and the common normal of two nearly parallel axes, which a DH"
-             << " table is built on, lies where they pass closest";
-      break;
-    }
-    const Line na = nominal_lines.axes[k], nb = LineAfter(nominal_lines, k);
-    if (DistanceOfParallel(na, nb) <= kNominallyCoincident && DistanceOfParallel(a, b) > kNominallyCoincident) {
-      reason << pair << " are one line in the nominal model and " << Format(DistanceOfParallel(a, b))
-             << " mm apart in the calibrated one, and the x axis of a DH frame follows the common normal of"
-             << " the two, which turns with the offset";
+  for (int k : PairsOfRow(row, standard)) {
+    const std::string why = PairExplanation(model, nominal_lines, lines, k);
+    if (!why.empty()) {
+      reason << ": " << why;
       break;
     }
   }
@@ -365,6 +401,25 @@ RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& 
   spec.convention = convention;
   spec.T_world_base = table.T_world_base;
   spec.T_flange_tool = table.T_flange_tool;
+  // A nominal geometry whose axes are nearly, not exactly, parallel has no usable table to calibrate.
+  for (int i = 0; i < model.num_joints(); ++i) {
+    for (const auto& [name, value] : {std::pair<const char*, double>{"d_mm", nominal.rows[i].d_mm},
+                                      {"a_mm", nominal.rows[i].a_mm}}) {
+      if (std::abs(value) <= kMaxDhLengthMm) continue;
+      std::string reason = std::string("the nominal ") + (standard ? "dh" : "mdh") + " table would have " + name +
+                           " = " + Shown(value, true);
+      const ChainLines nominal_lines = LinesOf(model, Eigen::VectorXd());
+      for (int k : PairsOfRow(i, standard)) {
+        const std::string why = PairExplanation(model, nominal_lines, nominal_lines, k);
+        if (!why.empty()) {
+          reason += ": " + why;
+          break;
+        }
+      }
+      throw DhTableError("joints[" + std::to_string(i) + "]." + name,
+                         reason + ". The calibration can be written as a URDF or in robocal's own JSON.", {});
+    }
+  }
   for (int i = 0; i < model.num_joints(); ++i) {
     const JointSpec& nom = nominal.rows[i];
     for (int field = 0; field < kFields; ++field) {

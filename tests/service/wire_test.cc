@@ -11,6 +11,7 @@
 #include "robocal/api/health.h"
 #include "robocal/api/cells.h"
 #include "robocal/api/stored.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/core/arm_kinematics.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/planning.h"
@@ -573,7 +574,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"state", WireNames<OperationState>()},             {"status", WireNames<Status>()},
       {"convention", WireNames<GeometryConvention>()},    {"type", WireNames<JointType>()},
       {"frame", WireNames<TargetFrame>()},                {"role", WireNames<MeasurementRole>()},
-      {"from_preset", PresetNames()},
+      {"from_preset", PresetNames()},                   {"format", TrackerFileFormats()},
+      {"unit", TrackerFileUnits()},                     {"match", TrackerFileMatches()},
       {"shoulder", {ShoulderName(1), ShoulderName(-1)}},  {"elbow", {ElbowName(1), ElbowName(-1)}},
       {"wrist", {WristName(1), WristName(-1)}}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.

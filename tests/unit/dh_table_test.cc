@@ -222,6 +222,102 @@ TEST(DhTableTest, TheNamedParametersAreTheCause) {
   }
 }
 
+// Craig's PUMA 560 in modified DH (axes 2 and 3 parallel, d3 = 150.05 mm).
+RobotModel CraigPuma() {
+  RobotModelSpec spec;
+  spec.name = "craig";
+  spec.convention = GeometryConvention::kModifiedDh;
+  const double alpha[6] = {0, -90, 0, -90, 90, -90}, a[6] = {0, 0, 431.8, 20.3, 0, 0};
+  const double d[6] = {0, 0, 150.05, 431.8, 0, 0};
+  for (int i = 0; i < 6; ++i) {
+    JointSpec j;
+    j.name = "j" + std::to_string(i + 1);
+    j.alpha_rad = alpha[i] * kDeg;
+    j.a_mm = a[i];
+    j.d_mm = d[i];
+    j.min = -170 * kDeg;
+    j.max = 170 * kDeg;
+    spec.joints.push_back(j);
+  }
+  return RobotModel::Build(spec);
+}
+
+// A twist of two parallel axes about their common normal (a change of alpha) is a DH row's own error: both
+// conventions write it, whichever convention the model has.
+TEST(DhTableTest, TwistsOfParallelAxesAreWrittenInBothConventions) {
+  const double twist = 1e-3;
+  // puma560 (standard DH): joint3's site is DH frame 2, on axis 3 with x along the normal: rx is the twist.
+  const RobotModel puma = Preset("puma560");
+  Eigen::VectorXd puma_errors = Eigen::VectorXd::Zero(puma.num_error_parameters());
+  puma_errors[puma.ParameterIndex("joint3.rx")] = twist;
+  puma_errors[puma.ParameterIndex("joint2.dx")] = 0.3;
+  // Craig's table: joint j3's site is d3 above the normal's foot on axis 3, so the twist about the normal is rx
+  // there with the site carried round the normal: dy = -d3 sin, dz = d3 (cos - 1).
+  const RobotModel craig = CraigPuma();
+  Eigen::VectorXd craig_errors = Eigen::VectorXd::Zero(craig.num_error_parameters());
+  craig_errors[craig.ParameterIndex("j3.rx")] = twist;
+  craig_errors[craig.ParameterIndex("j3.dy")] = -150.05 * std::sin(twist);
+  craig_errors[craig.ParameterIndex("j3.dz")] = 150.05 * (std::cos(twist) - 1.0);
+  for (const auto& [model, errors] : {std::pair{puma, puma_errors}, std::pair{craig, craig_errors}}) {
+    for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+      SCOPED_TRACE(model.name() + " -> " + ToString(convention));
+      const RobotModel table = RobotModel::Build(CalibratedDhSpec(model, errors, convention));
+      const auto [position, rotation] = LargestDifference(model, errors, table, 200);
+      EXPECT_LT(position, 1e-9);
+      EXPECT_LT(rotation, 1e-12);
+    }
+  }
+}
+
+TEST(DhTableTest, AntiParallelAxesAreParallelToo) {
+  // alpha 180 degrees: axes 1 and 2 point opposite ways; a tilt of joint2 is reported by its angle from parallel.
+  RobotModelSpec spec = PresetSpec("puma560");
+  spec.joints[0].alpha_rad = M_PI;
+  spec.joints[0].a_mm = 100;
+  const RobotModel model = RobotModel::Build(spec);
+  Eigen::VectorXd errors = Eigen::VectorXd::Zero(model.num_error_parameters());
+  errors[model.ParameterIndex("joint2.ry")] = 1e-3;
+  try {
+    CalibratedDhSpec(model, errors, GeometryConvention::kStandardDh);
+    FAIL() << "no refusal";
+  } catch (const DhTableError& e) {
+    EXPECT_NE(std::string(e.what()).find("0.0573 deg from parallel in the calibrated one"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(DhTableTest, NearlyParallelNominalAxesHaveNoTable) {
+  // Axes 2 and 3 1e-7 degrees from parallel, tilted across their normal: their common normal lies hundreds of
+  // km away. No table at all, and never a body that a registration would refuse.
+  RobotModelSpec spec;
+  spec.name = "nearly";
+  spec.convention = GeometryConvention::kTransform;
+  const Eigen::Vector3d xyz[4] = {{0, 0, 0}, {0, 0, 300}, {400, 0, 0}, {0, 0, 100}};
+  const Eigen::Vector3d rpy[4] = {{0, 0, 0}, {M_PI / 2, 0, 0}, {0, 1e-7 * kDeg, 0}, {-M_PI / 2, 0, 0}};
+  for (int i = 0; i < 4; ++i) {
+    JointSpec j;
+    j.name = "joint" + std::to_string(i + 1);
+    j.xyz_mm = xyz[i];
+    j.rpy_rad = rpy[i];
+    j.min = -M_PI;
+    j.max = M_PI;
+    spec.joints.push_back(j);
+  }
+  const RobotModel model = RobotModel::Build(spec);
+  for (GeometryConvention convention : {GeometryConvention::kStandardDh, GeometryConvention::kModifiedDh}) {
+    try {
+      CalibratedDhSpec(model, Eigen::VectorXd(), convention);
+      FAIL() << "no refusal";
+    } catch (const DhTableError& e) {
+      EXPECT_NE(std::string(e.what()).find("joint 'joint2' and joint 'joint3' are 1e-07 deg from parallel in the "
+                                           "nominal model"),
+                std::string::npos)
+          << e.what();
+      EXPECT_TRUE(e.parameters().empty());
+    }
+  }
+}
+
 TEST(DhTableTest, OtherConventionsAndSizesAreProgrammerErrors) {
   const RobotModel model = Preset("ur5e");
   EXPECT_THROW(CalibratedDhSpec(model, Eigen::VectorXd(), GeometryConvention::kTransform), std::invalid_argument);

@@ -22,6 +22,11 @@ inline constexpr std::size_t kMaxTrackerFileBytes = 4u << 20;
 /// tens of metres.
 inline constexpr double kMaxTrackerDistanceMm = 1e6;
 
+/// The wire names of an import's format ("sa", "csv"), unit ("mm", "m", "in") and match ("name", "order").
+const std::vector<std::string>& TrackerFileFormats();
+const std::vector<std::string>& TrackerFileUnits();
+const std::vector<std::string>& TrackerFileMatches();
+
 /// The header names of a CSV export's columns (matched without regard to case or surrounding white space).
 struct CsvColumns {
   std::string target = "target";
