@@ -235,6 +235,7 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string>
   }
   if (unit.empty()) {
     problems->Add("unit", "the file declares no unit (a '// Units: mm' line) and the request gives none");
+    points->clear();  // positions in no known unit are no points
     return;
   }
   const double scale = UnitScale(unit);

@@ -384,6 +384,13 @@ TEST(UrdfImportTest, BadDocumentsAndChainsAreNamed) {
     EXPECT_EQ(field, "urdf") << reason;
     EXPECT_THAT(reason, ::testing::AnyOf(HasSubstr("form a cycle"), HasSubstr("child of two joints")));
   }
+  // A cycle in a document liburdfdom refuses for another reason (a joint without links): refused as a cycle
+  // before liburdfdom links it (it would leak the linked links; the sanitizer build checks that).
+  std::tie(field, reason) = Refusal(R"(<robot name="t"><link name="m"/><joint name="j" type="fixed"><child link="m"/>)"
+                                    R"(<parent link="m"/></joint><joint name="k" type="fixed"></joint></robot>)",
+                                    "m", "m");
+  EXPECT_EQ(field, "urdf");
+  EXPECT_EQ(reason, "joint \"j\" makes link \"m\" its own ancestor: the joints form a cycle");
   std::tie(field, reason) = Refusal(Replace(kCoverage, R"(<origin xyz="0 0.05 0" rpy="0 0 0"/>)",
                                             R"(<origin xyz="0 0 1.7e305" rpy="0 0 0"/>)"));
   EXPECT_THAT(reason, HasSubstr("<joint name=\"slide\">: <origin> must be finite and within 1000 m"));

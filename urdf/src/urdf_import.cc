@@ -5,6 +5,7 @@
 #include "urdf_internal.h"
 
 #include <console_bridge/console.h>
+#include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include <Eigen/Geometry>
@@ -89,10 +90,58 @@ int NestingDepth(const std::string& xml, int limit) {
 
 constexpr int kMaxXmlDepth = 64;
 
+// liburdfdom links every joint's parent and child links (shared pointers, parent to child) before it checks the
+// tree, and drops the model when a check fails later: links that a cycle of joints has linked (a joint whose
+// parent is its own child, or one further down) keep each other alive, and every such request would leak them.
+// So cycles are refused here, from the document as liburdfdom reads it (each joint's first <parent> and <child>),
+// before it is parsed. The walk is iterative: a document may hold tens of thousands of joints.
+void RefuseJointCycles(const std::string& xml) {
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) return;  // liburdfdom reports it
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (robot == nullptr) return;
+  std::map<std::string, std::vector<std::pair<std::string, std::string>>> children;  // parent -> (child, joint)
+  for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const tinyxml2::XMLElement* parent = j->FirstChildElement("parent");
+    const tinyxml2::XMLElement* child = j->FirstChildElement("child");
+    const char* parent_link = parent ? parent->Attribute("link") : nullptr;
+    const char* child_link = child ? child->Attribute("link") : nullptr;
+    if (parent_link == nullptr || child_link == nullptr) continue;
+    const char* name = j->Attribute("name");
+    children[parent_link].emplace_back(child_link, name ? name : "");
+  }
+  // Depth-first from every link, colouring links on the current path; an edge back onto the path is a cycle.
+  std::map<std::string, int> state;  // 1: on the path, 2: done
+  for (const auto& start : children) {
+    if (state[start.first] != 0) continue;
+    std::vector<std::pair<std::string, std::size_t>> stack = {{start.first, 0}};
+    state[start.first] = 1;
+    while (!stack.empty()) {
+      auto& [link, next] = stack.back();
+      const auto edges = children.find(link);
+      if (edges == children.end() || next == edges->second.size()) {
+        state[link] = 2;
+        stack.pop_back();
+        continue;
+      }
+      const auto& [child, joint] = edges->second[next++];
+      const int seen = state[child];
+      if (seen == 1) {
+        Refuse("urdf", "joint \"" + joint + "\" makes link \"" + child + "\" its own ancestor: the joints form a cycle");
+      }
+      if (seen == 0) {
+        state[child] = 1;
+        stack.emplace_back(child, 0);
+      }
+    }
+  }
+}
+
 ::urdf::ModelInterfaceSharedPtr Parse(const std::string& xml) {
   if (NestingDepth(xml, kMaxXmlDepth) > kMaxXmlDepth) {
     Refuse("urdf", "elements nest deeper than " + std::to_string(kMaxXmlDepth) + " levels (a URDF needs 4)");
   }
+  RefuseJointCycles(xml);
   static std::mutex mutex;
   const std::lock_guard<std::mutex> lock(mutex);
   Collector collector;
