@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <optional>
+#include <sstream>
+#include <string_view>
 #include <utility>
 
 #include "robocal/api/json_reader.h"
@@ -18,6 +20,9 @@ namespace {
 // general CSV library would still leave the unit, column and line-number rules here.
 
 
+// No export has more columns than this, and no import more points (the server's own batch limit is lower).
+constexpr std::ptrdiff_t kMaxCsvFields = 1000;
+constexpr std::size_t kMaxTrackerPoints = 100000;
 // Target and reflector names longer than this are no names a tracker program writes.
 constexpr std::size_t kMaxTargetLength = 128;
 
@@ -63,36 +68,46 @@ std::string Shown(const std::string& field) {
   return "'" + out + (field.size() > 40 ? "...'" : "'");
 }
 
-// A finite number filling the whole field.
+// A finite decimal number filling the whole field (digits, sign, point, exponent: no hex, no inf or nan, which
+// strtod would take). A number too small for a double reads as what strtod makes of it (0 or subnormal).
 std::optional<double> Number(const std::string& field) {
   const std::string f = Trim(field);
-  if (f.empty()) return std::nullopt;
+  if (f.empty() || f.find_first_not_of("0123456789+-.eE") != std::string::npos) return std::nullopt;
   errno = 0;
   char* end = nullptr;
   const double value = std::strtod(f.c_str(), &end);
-  if (end != f.c_str() + f.size() || errno == ERANGE || !std::isfinite(value)) return std::nullopt;
+  if (end != f.c_str() + f.size() || !std::isfinite(value) || (errno == ERANGE && std::abs(value) > 1.0)) {
+    return std::nullopt;
+  }
   return value;
 }
 
-// The file's lines, without their line ends (a leading UTF-8 byte order mark dropped).
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::size_t start = text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
-  while (start <= text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    std::string line = text.substr(start, end - start);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    lines.push_back(std::move(line));
-    start = end + 1;
+// The file's lines as views into `text`, without their line ends: LF, CRLF and a lone CR each end a line, as
+// editors count them; a leading UTF-8 byte order mark is dropped.
+std::vector<std::string_view> Lines(const std::string& text) {
+  std::vector<std::string_view> lines;
+  const std::string_view all(text);
+  std::size_t start = all.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
+  while (true) {
+    const std::size_t end = all.find_first_of("\r\n", start);
+    if (end == std::string_view::npos) {
+      lines.push_back(all.substr(start));
+      break;
+    }
+    lines.push_back(all.substr(start, end - start));
+    start = end + (all[end] == '\r' && end + 1 < all.size() && all[end + 1] == '\n' ? 2 : 1);
   }
   return lines;
 }
 
-// Splits an SA row: at commas if it has any, else at runs of white space.
-std::vector<std::string> SplitSaRow(const std::string& line) {
+// Splits an SA row: at commas if it has any, else at runs of white space. A row of more than `max_fields` fields
+// gives max_fields + 1 of them (enough to say it has too many, without building a field per comma of a 4 MiB line).
+std::vector<std::string> SplitSaRow(const std::string& line, std::size_t max_fields) {
   std::vector<std::string> fields;
   if (line.find(',') != std::string::npos) {
+    if (static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) >= max_fields + 1) {
+      return std::vector<std::string>(max_fields + 1);
+    }
     std::size_t start = 0;
     while (true) {
       const std::size_t comma = line.find(',', start);
@@ -102,7 +117,7 @@ std::vector<std::string> SplitSaRow(const std::string& line) {
     }
   } else {
     std::size_t i = 0;
-    while (i < line.size()) {
+    while (i < line.size() && fields.size() <= max_fields) {
       while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
       if (i == line.size()) break;
       const std::size_t start = i;
@@ -145,15 +160,21 @@ bool SplitCsvRow(const std::string& line, char delimiter, std::vector<std::strin
   return true;
 }
 
-// The delimiter of a CSV header: the most frequent of ',', ';' and tab (0 if none occurs).
+// The delimiter of a CSV header: the most frequent of ',', ';' and tab outside quotes (0 if none occurs).
 char CsvDelimiter(const std::string& header) {
+  int counts[3] = {0, 0, 0};
+  const char delimiters[3] = {',', ';', '\t'};
+  bool quoted = false;
+  for (char c : header) {
+    if (c == '"') quoted = !quoted;
+    for (int k = 0; k < 3; ++k) counts[k] += !quoted && c == delimiters[k];
+  }
   char best = 0;
-  std::ptrdiff_t count = 0;
-  for (char d : {',', ';', '\t'}) {
-    const std::ptrdiff_t n = std::count(header.begin(), header.end(), d);
-    if (n > count) {
-      best = d;
-      count = n;
+  int count = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (counts[k] > count) {
+      best = delimiters[k];
+      count = counts[k];
     }
   }
   return best;
@@ -161,31 +182,49 @@ char CsvDelimiter(const std::string& header) {
 
 // Checks a point's position (already in mm) and records its problems; true if usable.
 bool CheckPosition(const Eigen::Vector3d& p, int line, Problems* problems) {
-  if (p.norm() > kMaxTrackerDistanceMm) {
-    problems->Add("text", LineReason(line, "the point is " + std::to_string(static_cast<long long>(p.norm() / 1000)) +
-                                               " m from the tracker: a wrong unit or column?"));
+  // Each coordinate first: the norm of coordinates near the largest double overflows.
+  if (p.cwiseAbs().maxCoeff() > kMaxTrackerDistanceMm || !(p.norm() <= kMaxTrackerDistanceMm)) {
+    std::ostringstream why;
+    why.precision(6);
+    const double metres = p.stableNorm() / 1000.0;  // stableNorm: the plain norm of 1e308 overflows
+    why << "the point is ";
+    if (std::isfinite(metres)) {
+      why << metres << " m from the tracker, beyond 1 km";
+    } else {
+      why << "too far from the tracker for a double";
+    }
+    why << ": a wrong unit or column?";
+    problems->Add("text", LineReason(line, why.str()));
     return false;
   }
   return true;
 }
 
-void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string>& lines,
+void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
             std::vector<TrackerPoint>* points, Problems* problems) {
   std::string declared;
   int declared_line = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
-    const std::string text = Trim(lines[i]);
+    const std::string text = Trim(std::string(lines[i]));
     if (text.empty()) continue;
     if (text.rfind("//", 0) == 0) {
-      // A header line; "// Units: Millimeters" (or "Units = mm") declares the unit.
+      // A header line; "// Units: Millimeters" (or "Unit = mm") declares the unit: the first word after the
+      // separator ("Millimeters (mm)", "Meters, Degrees" declare mm and m). Other header lines are comments.
       const std::string header = Trim(text.substr(2));
       const std::string lower = Lower(header);
-      if (lower.rfind("unit", 0) != 0) continue;
-      // The word after "Units:" / "Units =" / "Units".
-      const std::size_t sep = header.find_first_of(":=");
-      const std::size_t after = sep != std::string::npos ? sep + 1 : lower.rfind("units", 0) == 0 ? 5 : 4;
-      const std::string word = header.substr(after);
+      const std::size_t name = lower.rfind("units", 0) == 0 ? 5 : lower.rfind("unit", 0) == 0 ? 4 : 0;
+      if (name == 0) continue;
+      const std::size_t sep = header.find_first_not_of(" \t", name);
+      if (sep == std::string::npos || (header[sep] != ':' && header[sep] != '=')) continue;
+      const std::size_t first = header.find_first_not_of(" \t", sep + 1);
+      std::string word;
+      for (std::size_t k = first; k != std::string::npos && k < header.size() &&
+                                  std::isalpha(static_cast<unsigned char>(header[k]));
+           ++k) {
+        word += header[k];
+      }
+      if (word.empty() && first != std::string::npos) word = header.substr(first);
       const std::string unit = UnitOfWord(word);
       if (unit.empty()) {
         problems->Add("text", LineReason(line, "unknown unit " + Shown(Trim(word)) + " (mm, m or in)"));
@@ -198,7 +237,11 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string>
       }
       continue;
     }
-    const std::vector<std::string> fields = SplitSaRow(text);
+    if (points->size() >= kMaxTrackerPoints) {
+      problems->Add("text", LineReason(line, "more than " + std::to_string(kMaxTrackerPoints) + " points"));
+      break;
+    }
+    const std::vector<std::string> fields = SplitSaRow(text, 6);
     if (fields.size() != 6) {
       problems->Add("text", LineReason(line, "expected 6 fields (collection group target x y z), got " +
                                                  std::to_string(fields.size())));
@@ -247,16 +290,21 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string>
   *points = std::move(kept);
 }
 
-void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string>& lines,
+void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
              std::vector<TrackerPoint>* points, Problems* problems) {
   if (req.unit.empty()) problems->Add("unit", "required for format csv (mm, m or in)");
   std::size_t header_index = 0;
-  while (header_index < lines.size() && Trim(lines[header_index]).empty()) ++header_index;
+  while (header_index < lines.size() && Trim(std::string(lines[header_index])).empty()) ++header_index;
   if (header_index == lines.size()) return;  // "no points" follows
   const int header_line = static_cast<int>(header_index) + 1;
-  const char delimiter = CsvDelimiter(lines[header_index]);
+  const std::string header_text(lines[header_index]);
+  const char delimiter = CsvDelimiter(header_text);
   std::vector<std::string> header;
-  if (delimiter == 0 || !SplitCsvRow(lines[header_index], delimiter, &header)) {
+  if (delimiter != 0 && std::count(header_text.begin(), header_text.end(), delimiter) >= kMaxCsvFields) {
+    problems->Add("text", LineReason(header_line, "more than " + std::to_string(kMaxCsvFields) + " columns"));
+    return;
+  }
+  if (delimiter == 0 || !SplitCsvRow(header_text, delimiter, &header)) {
     problems->Add("text", LineReason(header_line, "the header has no ',', ';' or tab between column names"));
     return;
   }
@@ -283,7 +331,7 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
     }
     if (w.index < 0) {
       problems->Add(w.field, "no column " + Shown(*w.name) + " in the header (line " + std::to_string(header_line) +
-                                 ": " + Shown(lines[header_index]) + ")");
+                                 ": " + Shown(header_text) + ")");
       columns_ok = false;
     }
   }
@@ -292,8 +340,17 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
   std::vector<std::string> fields;
   for (std::size_t i = header_index + 1; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
-    if (Trim(lines[i]).empty()) continue;
-    if (!SplitCsvRow(lines[i], delimiter, &fields)) {
+    const std::string row(lines[i]);
+    if (Trim(row).empty()) continue;
+    if (points->size() >= kMaxTrackerPoints) {
+      problems->Add("text", LineReason(line, "more than " + std::to_string(kMaxTrackerPoints) + " points"));
+      break;
+    }
+    if (std::count(row.begin(), row.end(), delimiter) >= kMaxCsvFields) {
+      problems->Add("text", LineReason(line, "more than " + std::to_string(kMaxCsvFields) + " fields"));
+      continue;
+    }
+    if (!SplitCsvRow(row, delimiter, &fields)) {
       problems->Add("text", LineReason(line, "a quote is not closed"));
       continue;
     }
@@ -419,7 +476,7 @@ void from_json(const nlohmann::json& j, ImportMeasurementsRequest& req) {
 
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems) {
   std::vector<TrackerPoint> points;
-  const std::vector<std::string> lines = Lines(request.text);
+  const std::vector<std::string_view> lines = Lines(request.text);
   if (request.format == "sa") {
     ReadSa(request, lines, &points, problems);
   } else {
@@ -433,6 +490,11 @@ int ConfigurationOfTarget(const std::string& target) {
   std::size_t start = target.size();
   while (start > 0 && std::isdigit(static_cast<unsigned char>(target[start - 1]))) --start;
   if (start == target.size()) return -1;
+  // One number only: in "P001_2" or "P7.8" the last number may be a shot or a decimal, not the configuration.
+  if (std::any_of(target.begin(), target.begin() + static_cast<std::ptrdiff_t>(start),
+                  [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+    return -2;
+  }
   const std::string digits = target.substr(start);
   // Leading zeros are padding ("P007"); more than 9 digits is no configuration of any plan.
   const std::size_t first = digits.find_first_not_of('0');
@@ -443,8 +505,25 @@ int ConfigurationOfTarget(const std::string& target) {
 MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
                                               const std::vector<TrackerPoint>& points,
                                               const std::vector<std::vector<double>>& configurations,
-                                              Problems* problems) {
+                                              Problems* problems,
+                                              const std::vector<CampaignReflectorWire>& reflectors) {
   MeasurementBatchRequest batch;
+  if (reflectors.empty() && !request.columns.reflector.empty()) {
+    problems->Add("columns.reflector", "the campaign has no reflector nests");
+    return batch;
+  }
+  if (!reflectors.empty()) {
+    std::string known;
+    for (const CampaignReflectorWire& r : reflectors) known += (known.empty() ? "" : ", ") + r.id;
+    for (const TrackerPoint& p : points) {
+      if (p.reflector.empty()) {
+        problems->Add("text", LineReason(p.line, "no nest in column " + Shown(request.columns.reflector)));
+      } else if (ReflectorIndex(reflectors, p.reflector) < 0) {
+        problems->Add("text", LineReason(p.line, "unknown nest " + Shown(p.reflector) + " (the campaign has " +
+                                                     known + ")"));
+      }
+    }
+  }
   batch.request_id = request.request_id;
   batch.role = request.role;
   const std::size_t m = configurations.size();
@@ -465,7 +544,11 @@ MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& r
   } else {
     for (std::size_t k = 0; k < points.size(); ++k) {
       const int c = ConfigurationOfTarget(points[k].target);
-      if (c < 0) {
+      if (c == -2) {
+        problems->Add("text", LineReason(points[k].line, "target " + Shown(points[k].target) +
+                                                             " holds more than one number: name a point by its "
+                                                             "configuration alone (P007), or match by order"));
+      } else if (c < 0) {
         problems->Add("text", LineReason(points[k].line, "target " + Shown(points[k].target) +
                                                              " has no configuration number (its trailing digits, 1..." +
                                                              std::to_string(m) + ")"));

@@ -113,6 +113,7 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
   api::ImportMeasurementsRequest request;
   request.format = format;
   request.text = ReadFile(in.args[1]);
+  if (request.text.empty()) throw UsageError(in.args[1] + " is empty or not a file");
   request.role = in.Enum("--role", request.role);
   request.request_id = in.Option("--request-id");
   request.plan = in.Option("--plan");
@@ -139,7 +140,12 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
       *out = item.substr(eq + 1);
     }
   }
-  const api::BatchResult r = in.Client().ImportMeasurements(in.args[0], request);
+  api::BatchResult r;
+  try {
+    r = in.Client().ImportMeasurements(in.args[0], request);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(in.args[1] + ": " + e.what());
+  }
   if (in.json) {
     PrintJson(in.out, r);
   } else {

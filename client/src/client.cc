@@ -2,6 +2,8 @@
 // non-2xx answers into ServiceError. The only translation unit of the client that includes httplib.
 #include "robocal/client/client.h"
 
+#include "robocal/api/text.h"
+
 #include <httplib.h>
 
 #include <cstdio>
@@ -395,6 +397,18 @@ api::BatchResult Client::UploadMeasurements(const std::string& campaign, const a
 }
 
 api::BatchResult Client::ImportMeasurements(const std::string& campaign, const api::ImportMeasurementsRequest& request) {
+  // JSON carries UTF-8 only: an export saved in another encoding (Windows-1252 names) is named by its line.
+  if (!api::IsValidUtf8(request.text)) {
+    std::size_t start = 0;
+    for (int line = 1;; ++line) {
+      const std::size_t end = request.text.find('\n', start);
+      if (!api::IsValidUtf8(std::string_view(request.text).substr(start, end == std::string::npos ? end : end - start))) {
+        throw std::invalid_argument("line " + std::to_string(line) + " is not UTF-8 text (save the export as UTF-8)");
+      }
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
   api::ImportMeasurementsRequest content = request;
   content.request_id.clear();
   json body = request;

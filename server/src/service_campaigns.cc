@@ -149,7 +149,19 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
                              std::to_string(options_.limits.max_array_length));
   }
   problems.ThrowIfAny("invalid tracker file");
-  const api::MeasurementBatchRequest batch = api::MatchToConfigurations(req, points, plan.configurations, &problems);
+  // A plan of a robot that was deleted and registered again with other joints matches no more.
+  const std::size_t joints = campaign.robot_definition.joints.empty()
+                                 ? static_cast<std::size_t>(api::BuildModel(campaign.robot_definition).num_joints())
+                                 : campaign.robot_definition.joints.size();
+  if (!plan.configurations.empty() && plan.configurations.front().size() != joints) {
+    throw ApiError(Status::kInvalidArgument,
+                   "plan \"" + plan_id + "\" has configurations of " +
+                       std::to_string(plan.configurations.front().size()) + " joints, the campaign's robot " +
+                       std::to_string(joints),
+                   {{"plan", "made for another robot of this name"}});
+  }
+  const api::MeasurementBatchRequest batch =
+      api::MatchToConfigurations(req, points, plan.configurations, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
   // The batch goes the way of every upload: the campaign's checks, one transaction, the request id's replay.
   return AppendMeasurements(campaign_id, nlohmann::json(batch));

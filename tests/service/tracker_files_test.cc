@@ -102,7 +102,7 @@ TEST(TrackerFilesTest, EveryBadSaLineIsNamedAndNoPointOfItKept) {
   EXPECT_EQ(reasons[2], "line 5: z 'nan' is not a finite number");
   EXPECT_EQ(reasons[3], "line 7: expected 6 fields (collection group target x y z), got 7");
   // Checked after the unit: 2000 m.
-  EXPECT_EQ(reasons[4], "line 6: the point is 2000 m from the tracker: a wrong unit or column?");
+  EXPECT_EQ(reasons[4], "line 6: the point is 2000 m from the tracker, beyond 1 km: a wrong unit or column?");
   ASSERT_EQ(points.size(), 1u);
   EXPECT_EQ(points[0].target, "P1");
 }
@@ -156,6 +156,46 @@ TEST(TrackerFilesTest, CsvProblemsNameTheColumnOrTheLine) {
   }
 }
 
+// What real exports do: lone CR line ends, comment lines that start with "Unit", units with a note after them,
+// quoted headers holding the other delimiter, tiny and huge numbers; hex is no coordinate.
+TEST(TrackerFilesTest, ExportsAsTheyComeOutOfTrackerPrograms) {
+  {
+    Problems problems;
+    const auto points = ReadTrackerPoints(
+        Request("sa", "// Unitless comment\r// Units: Millimeters (mm)\r// Unit test 12:30 ok\rA G P1 1 2 3\rA G P2 4e-320 0 1\r"),
+        &problems);
+    ASSERT_TRUE(problems.empty()) << problems.list().front().reason;
+    ASSERT_EQ(points.size(), 2u);
+    EXPECT_EQ(points[0].line, 4);
+    EXPECT_EQ(points[1].position_mm, Eigen::Vector3d(4e-320, 0, 1));
+  }
+  {
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "// Units: Meters, Degrees\nA G P1 0x10 2 3\nA G P2 1e308 1e308 1\n"
+                                    "A G P3 1e305 1e305 1\n"),
+                      &problems);
+    const auto reasons = Reasons(problems, "text");
+    ASSERT_EQ(reasons.size(), 3u);
+    EXPECT_EQ(reasons[0], "line 2: x '0x10' is not a finite number");
+    EXPECT_EQ(reasons[1], "line 3: the point is too far from the tracker for a double: a wrong unit or column?");
+    EXPECT_EQ(reasons[2], "line 4: the point is 1.41421e+305 m from the tracker, beyond 1 km: a wrong unit or column?");
+  }
+  {
+    ImportMeasurementsRequest r = Request("csv", "Punkt;\"X, mm\";\"Y, mm\";\"Z, mm\"\nP1;1;2;3\n", "mm");
+    r.columns = {"Punkt", "X, mm", "Y, mm", "Z, mm", ""};
+    Problems problems;
+    const auto points = ReadTrackerPoints(r, &problems);
+    ASSERT_TRUE(problems.empty()) << problems.list().front().field << ": " << problems.list().front().reason;
+    EXPECT_EQ(points[0].position_mm, Eigen::Vector3d(1, 2, 3));
+  }
+  {
+    // A 4 MiB line of commas is one bad line, not four million fields.
+    Problems problems;
+    ReadTrackerPoints(Request("sa", "// Units: mm\n" + std::string(1 << 22, ',')), &problems);
+    EXPECT_EQ(Reasons(problems, "text")[0], "line 2: expected 6 fields (collection group target x y z), got 7");
+  }
+}
+
 TEST(TrackerFilesTest, TargetNamesEndInTheirConfigurationNumber) {
   EXPECT_EQ(ConfigurationOfTarget("P007"), 6);
   EXPECT_EQ(ConfigurationOfTarget("12"), 11);
@@ -165,6 +205,10 @@ TEST(TrackerFilesTest, TargetNamesEndInTheirConfigurationNumber) {
   EXPECT_EQ(ConfigurationOfTarget(""), -1);
   EXPECT_EQ(ConfigurationOfTarget("P1234567890"), -1);
   EXPECT_EQ(ConfigurationOfTarget("P000000000000001"), 0);
+  // Two numbers: a shot or a decimal may follow the configuration.
+  EXPECT_EQ(ConfigurationOfTarget("P001_2"), -2);
+  EXPECT_EQ(ConfigurationOfTarget("P7.8"), -2);
+  EXPECT_EQ(ConfigurationOfTarget("Pose8_shot2"), -2);
 }
 
 std::vector<TrackerPoint> Points(const std::vector<std::string>& targets) {
@@ -204,9 +248,11 @@ TEST(TrackerFilesTest, MatchingProblemsNameTheLine) {
   const std::vector<std::vector<double>> configurations = {{10, 20}, {30, 40}};
   ImportMeasurementsRequest r = Request("sa", "-");
   Problems problems;
-  MatchToConfigurations(r, Points({"P1", "P3", "Q"}), configurations, &problems);
+  MatchToConfigurations(r, Points({"P1", "P3", "Q", "P1_2"}), configurations, &problems);
   const auto reasons = Reasons(problems, "text");
-  ASSERT_EQ(reasons.size(), 2u);
+  ASSERT_EQ(reasons.size(), 3u);
+  EXPECT_EQ(reasons[2], "line 5: target 'P1_2' holds more than one number: name a point by its configuration "
+                        "alone (P007), or match by order");
   EXPECT_EQ(reasons[0], "line 3: target 'P3' is configuration 3; the plan has 2");
   EXPECT_EQ(reasons[1], "line 4: target 'Q' has no configuration number (its trailing digits, 1...2)");
 

@@ -94,10 +94,14 @@ constexpr int kMaxXmlDepth = 64;
 // tree, and drops the model when a check fails later: links that a cycle of joints has linked (a joint whose
 // parent is its own child, or one further down) keep each other alive, and every such request would leak them.
 // So cycles are refused here, from the document as liburdfdom reads it (each joint's first <parent> and <child>),
-// before it is parsed. The walk is iterative: a document may hold tens of thousands of joints.
+// before it is parsed, from tinyxml2's reading of the document. The walk is iterative: a document may hold tens of thousands of joints.
 void RefuseJointCycles(const std::string& xml) {
   tinyxml2::XMLDocument doc;
-  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) return;  // liburdfdom reports it
+  // liburdfdom reads with the older, laxer TinyXML: a document only it takes could hide a cycle from this check,
+  // and the calibrated export edits the document with tinyxml2, so it must read there too.
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    Refuse("urdf", std::string("not a valid URDF document: not well-formed XML (") + doc.ErrorStr() + ")");
+  }
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) return;
   std::map<std::string, std::vector<std::pair<std::string, std::string>>> children;  // parent -> (child, joint)

@@ -79,14 +79,18 @@ struct TrackerPoint {
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems);
 
 /// The 0-based configuration a target name points at: its trailing number, 1-based ("P007" -> 6); -1 without
-/// trailing digits (or a number beyond any plan).
+/// trailing digits (or a number beyond any plan); -2 for a name with more than one number ("P001_2", "P7.8":
+/// the last one may be a shot or a decimal).
 int ConfigurationOfTarget(const std::string& target);
 
 /// The measurement batch of the points: each with the joints of its configuration among `configurations` (wire
-/// units, the plan's), matched by `request.match`. Problems are recorded as ReadTrackerPoints does.
+/// units, the plan's), matched by `request.match`, and its nest, one of the campaign's `reflectors` (a point
+/// without one, or naming another, is a bad line; a reflector column for a campaign without nests is refused).
+/// Problems are recorded as ReadTrackerPoints does.
 MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
                                               const std::vector<TrackerPoint>& points,
                                               const std::vector<std::vector<double>>& configurations,
-                                              Problems* problems);
+                                              Problems* problems,
+                                              const std::vector<CampaignReflectorWire>& reflectors = {});
 
 }  // namespace robocal::api

@@ -152,6 +152,7 @@ class Client {
   /// A tracker's point export (Spatial Analyzer style or CSV; docs/formats.md) matched to a plan's configurations
   /// and stored as one batch (POST .../measurements:import). Without a request_id it is derived from the content,
   /// so a repeated import is stored once. ApiError names each bad line of the file; nothing is stored then.
+  /// Throws std::invalid_argument naming the line when the text is not UTF-8 (nothing is sent).
   api::BatchResult ImportMeasurements(const std::string& campaign, const api::ImportMeasurementsRequest& request);
   /// One page of at most `limit` measurements; `role` unset: both roles; after: the sequence to continue after
   /// (the page's next_after).
