@@ -496,11 +496,23 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     if (c.outliers.empty()) {
       out << None("No outliers: no measurement was excluded.");
     } else {
+      // The largest normalised residuals first (ties: the earlier measurement), at most kMaxOutlierRows.
+      std::vector<const api::OutlierWire*> listed;
+      for (const api::OutlierWire& o : c.outliers) listed.push_back(&o);
+      std::stable_sort(listed.begin(), listed.end(), [](const api::OutlierWire* a, const api::OutlierWire* b) {
+        return a->normalized_residual > b->normalized_residual;
+      });
+      if (listed.size() > kMaxOutlierRows) {
+        out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of "
+            << listed.size() << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
+            << " more are not (GET .../calibration has them all).</p>\n";
+        listed.resize(kMaxOutlierRows);
+      }
       out << "<table id=\"outliers\">\n<thead><tr><th>sequence</th><th>reflector</th><th>normalised residual "
              "(sigmas)</th></tr></thead>\n<tbody>\n";
-      for (const api::OutlierWire& o : c.outliers) {
-        out << "<tr>" << IntCell(o.sequence, "sequence") << TextCell(o.reflector.empty() ? "-" : o.reflector)
-            << NumCell(o.normalized_residual, 2, "normalized_residual") << "</tr>\n";
+      for (const api::OutlierWire* o : listed) {
+        out << "<tr>" << IntCell(o->sequence, "sequence") << TextCell(o->reflector.empty() ? "-" : o->reflector)
+            << NumCell(o->normalized_residual, 2, "normalized_residual") << "</tr>\n";
       }
       out << "</tbody></table>\n";
     }

@@ -109,6 +109,9 @@ struct ReportData {
 inline constexpr std::size_t kTopCorrelations = 10;
 /// Bars beyond this many configurations are not drawn (the page says so); the statistics cover them all.
 inline constexpr std::size_t kMaxResidualBars = 400;
+/// The outliers table lists at most this many, the largest normalised residuals first (the page says how many
+/// more there are): a fit of 100,000 measurements with 30 % gross errors must not make a page of megabytes.
+inline constexpr std::size_t kMaxOutlierRows = 200;
 
 /// The page. Deterministic for equal data.
 std::string RenderReport(const ReportData& data);

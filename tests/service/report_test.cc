@@ -201,6 +201,31 @@ TEST(ReportHtmlTest, ManyConfigurationsDrawAtMostTheCap) {
             std::string::npos);
 }
 
+TEST(ReportHtmlTest, ManyOutliersListAtMostTheCap) {
+  report::ReportData d = HandMadeData();
+  // More outliers than the cap (the review had 30,156): only the largest normalised residuals are listed.
+  d.fit.calibration.outliers.clear();
+  const std::size_t n = report::kMaxOutlierRows + 30;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double z = 5.0 + static_cast<double>((k * 7919) % n);  // all distinct, not in sequence order
+    d.fit.calibration.outliers.push_back({static_cast<std::int64_t>(k + 1), "", z, true});
+  }
+  const std::string page = report::RenderReport(d);
+  EXPECT_EQ(Count(page, "data-key=\"normalized_residual\""), report::kMaxOutlierRows);
+  // Largest first: the first row is the largest, and no listed one is below one left out.
+  EXPECT_EQ(ValueAfter(page, "id=\"outliers\"", "normalized_residual"), 5.0 + static_cast<double>(n - 1));
+  EXPECT_EQ(page.find("data-value=\"34\">34.00</td>"), std::string::npos);
+  EXPECT_NE(page.find("data-value=\"35\">35.00</td>"), std::string::npos);
+  EXPECT_NE(page.find("The " + std::to_string(report::kMaxOutlierRows) + " largest of " + std::to_string(n) +
+                      " excluded measurements are listed; 30 more are not"),
+            std::string::npos);
+  // Below the cap every outlier is listed and nothing is said about more.
+  d.fit.calibration.outliers.resize(3);
+  const std::string small = report::RenderReport(d);
+  EXPECT_EQ(Count(small, "data-key=\"normalized_residual\""), 3u);
+  EXPECT_EQ(small.find("more are not"), std::string::npos);
+}
+
 // ---- the endpoint ---------------------------------------------------------------------------------------
 
 json Batch(const RobotModel& model, const std::vector<Measurement>& measurements, const std::string& request_id,
