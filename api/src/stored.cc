@@ -95,6 +95,7 @@ void to_json(nlohmann::json& j, const StoredCalibration& c) {
                    {"T_world_base", c.T_world_base},
                    {"T_flange_tool", c.T_flange_tool},
                    {"errors", c.errors}}}});
+  if (c.last_calibration_sequence) j["state"]["last_calibration_sequence"] = *c.last_calibration_sequence;
 }
 
 void from_json(const nlohmann::json& j, StoredCalibration& c) {
@@ -109,6 +110,8 @@ void from_json(const nlohmann::json& j, StoredCalibration& c) {
   ReadResultPose(state, "T_world_base", &c.T_world_base);
   ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
   state.Required("errors", &c.errors);
+  std::int64_t last = 0;
+  if (state.Optional("last_calibration_sequence", &last)) c.last_calibration_sequence = last;
 }
 
 StoredCalibration ToStored(const Calibration& calibration, const CalibrationResult& result) {

@@ -194,10 +194,19 @@ void Header(const ReportData& d, std::ostringstream& out) {
   out << "<tr><th>robot</th>" << TextCell(d.robot.id) << "</tr>\n";
   out << "<tr><th>measurement type</th>" << TextCell(ToString(d.measurement_type)) << "</tr>\n";
   out << "<tr><th>calibration measurements</th>" << IntCell(d.counts.calibration, "counts.calibration") << "</tr>\n";
+  out << "<tr><th>... uploaded after the fit</th>" << IntCell(d.calibration_after_fit, "counts.after_fit") << "</tr>\n";
   out << "<tr><th>validation measurements</th>" << IntCell(d.counts.validation, "counts.validation") << "</tr>\n";
   out << "<tr><th>campaign created</th>" << TextCell(UtcTime(d.created_unix_ms)) << "</tr>\n";
   out << "<tr><th>report made</th>" << TextCell(UtcTime(d.generated_unix_ms)) << "</tr>\n";
-  out << "</table>\n<nav><ol class=\"toc\"><li><a href=\"#robot\">Robot</a></li><li><a href=\"#plan\">Plan</a></li>"
+  out << "</table>\n";
+  if (d.calibration_after_fit > 0) {
+    const bool one = d.calibration_after_fit == 1;
+    out << "<p class=\"warning\" id=\"after-fit\">" << d.calibration_after_fit << " calibration measurement"
+        << (one ? " uploaded after this fit is" : "s uploaded after this fit are")
+        << " not in it; fit again. The fit and the residuals per pose below are over the "
+        << d.counts.calibration - d.calibration_after_fit << " calibration measurements it saw.</p>\n";
+  }
+  out << "<nav><ol class=\"toc\"><li><a href=\"#robot\">Robot</a></li><li><a href=\"#plan\">Plan</a></li>"
          "<li><a href=\"#fit\">Fit</a></li><li><a href=\"#residuals\">Residuals per pose</a></li>"
          "<li><a href=\"#validation\">Validation</a></li></ol></nav>\n</header>\n";
 }
@@ -496,11 +505,23 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     if (c.outliers.empty()) {
       out << None("No outliers: no measurement was excluded.");
     } else {
+      // The largest normalised residuals first (ties: the earlier measurement), at most kMaxOutlierRows.
+      std::vector<const api::OutlierWire*> listed;
+      for (const api::OutlierWire& o : c.outliers) listed.push_back(&o);
+      std::stable_sort(listed.begin(), listed.end(), [](const api::OutlierWire* a, const api::OutlierWire* b) {
+        return a->normalized_residual > b->normalized_residual;
+      });
+      if (listed.size() > kMaxOutlierRows) {
+        out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of "
+            << listed.size() << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
+            << " more are not (GET .../calibration has them all).</p>\n";
+        listed.resize(kMaxOutlierRows);
+      }
       out << "<table id=\"outliers\">\n<thead><tr><th>sequence</th><th>reflector</th><th>normalised residual "
              "(sigmas)</th></tr></thead>\n<tbody>\n";
-      for (const api::OutlierWire& o : c.outliers) {
-        out << "<tr>" << IntCell(o.sequence, "sequence") << TextCell(o.reflector.empty() ? "-" : o.reflector)
-            << NumCell(o.normalized_residual, 2, "normalized_residual") << "</tr>\n";
+      for (const api::OutlierWire* o : listed) {
+        out << "<tr>" << IntCell(o->sequence, "sequence") << TextCell(o->reflector.empty() ? "-" : o->reflector)
+            << NumCell(o->normalized_residual, 2, "normalized_residual") << "</tr>\n";
       }
       out << "</tbody></table>\n";
     }
@@ -580,6 +601,7 @@ void ResidualSection(const ReportData& d, std::ostringstream& out) {
   for (const PoseResidual& p : f.poses) outlier_poses += p.outliers > 0 ? 1 : 0;
   out << "<p class=\"note\">Each configuration's calibration shots against the nominal model with the registered "
          "base (before) and the calibrated model (after): the RMS of their residuals, on a logarithmic axis. "
+      << (d.calibration_after_fit > 0 ? "Only the measurements the fit saw. " : "")
       << f.poses.size() << " configuration(s), " << outlier_poses << " with excluded shots.";
   if (f.poses.size() > kMaxResidualBars) {
     out << " The first " << kMaxResidualBars << " configurations are drawn.";
@@ -701,6 +723,7 @@ th, td { border: 1px solid #888; padding: 2px 7px; vertical-align: top; }
 th { background: #eee; text-align: left; font-weight: bold; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 p.none { font-style: italic; border-left: 3px solid #888; padding-left: 8px; }
+p.warning { font-weight: bold; border-left: 3px solid #d00000; padding-left: 8px; max-width: 900px; }
 p.note { color: #222; max-width: 900px; }
 figure { margin: 10px 0; }
 figure.views svg { margin-right: 8px; }

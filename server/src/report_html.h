@@ -78,7 +78,7 @@ struct FitSection {
   std::vector<Correlation> correlations;
   /// Why the linearisation could not be recomputed (then the three above are empty); "" when it was.
   std::string linearization_problem;
-  /// Per joint configuration in sequence order (at most kMaxResidualBars drawn).
+  /// Per joint configuration of the measurements the fit saw, in sequence order (at most kMaxResidualBars drawn).
   std::vector<PoseResidual> poses;
 };
 
@@ -94,7 +94,10 @@ struct ReportData {
   std::string description;
   MeasurementType measurement_type = MeasurementType::kPose;
   std::int64_t created_unix_ms = 0;
+  /// Every stored measurement of each role.
   api::MeasurementCounts counts;
+  /// Of counts.calibration, those uploaded after the fit: not in it, nor in the fit's sections.
+  std::int64_t calibration_after_fit = 0;
   api::Robot robot;
   /// Absent: the campaign was not made from a plan (or the plan is gone: plan_missing says which).
   std::optional<PlanSection> plan;
@@ -109,6 +112,9 @@ struct ReportData {
 inline constexpr std::size_t kTopCorrelations = 10;
 /// Bars beyond this many configurations are not drawn (the page says so); the statistics cover them all.
 inline constexpr std::size_t kMaxResidualBars = 400;
+/// The outliers table lists at most this many, the largest normalised residuals first (the page says how many
+/// more there are): a fit of 100,000 measurements with 30 % gross errors must not make a page of megabytes.
+inline constexpr std::size_t kMaxOutlierRows = 200;
 
 /// The page. Deterministic for equal data.
 std::string RenderReport(const ReportData& data);

@@ -3,10 +3,15 @@
 
 #include "robocal/server/http_server.h"
 
+#include <algorithm>
+#include <map>
+#include <optional>
 #include <regex>
+#include <set>
 #include <variant>
 
 #include "robocal/api/json_reader.h"
+#include "robocal/api/text.h"
 
 namespace robocal::server {
 namespace {
@@ -39,6 +44,44 @@ std::string Reply(const api::CompensateResult& value) { return api::DumpCompensa
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
   return req.has_param(key) ? req.get_param_value(key) : "";
+}
+
+// The query parameters of `req` by name, each given once and named in `allowed`; anything else is
+// INVALID_ARGUMENT naming the parameter ("query" for an empty name). A name without "=" has the value "". Read
+// from the raw target: cpp-httplib's own parse drops an exact repeat and an empty name.
+std::map<std::string, std::string> StrictQuery(const httplib::Request& req, const std::set<std::string>& allowed,
+                                               const std::string& what) {
+  std::vector<std::pair<std::string, std::string>> pairs;
+  const std::size_t question = req.target.find('?');
+  for (std::size_t begin = question == std::string::npos ? req.target.size() + 1 : question + 1;
+       begin <= req.target.size();) {
+    const std::size_t end = std::min(req.target.find('&', begin), req.target.size());
+    const std::string pair = req.target.substr(begin, end - begin);
+    begin = end + 1;
+    if (pair.empty()) continue;  // "?" or "a=1&&b=2": no parameter between
+    const std::size_t equals = pair.find('=');
+    pairs.emplace_back(httplib::detail::decode_url(pair.substr(0, equals), true),
+                       equals == std::string::npos ? "" : httplib::detail::decode_url(pair.substr(equals + 1), true));
+  }
+  std::map<std::string, std::string> params;
+  for (const auto& [name, value] : pairs) {
+    const std::string field = name.empty() ? "query" : api::SafeText(name, 64);
+    if (!allowed.count(name)) {
+      std::string names;
+      for (const std::string& a : allowed) names += (names.empty() ? "" : ", ") + a;
+      throw ApiError(Status::kInvalidArgument,
+                     "invalid " + what + " request: unknown query parameter \"" + api::SafeText(name, 64) + "\"",
+                     {{field, "unknown query parameter; this route takes " + names}});
+    }
+    if (!params.emplace(name, value).second) {
+      const auto times = std::to_string(
+          std::count_if(pairs.begin(), pairs.end(), [&name = name](const auto& p) { return p.first == name; }));
+      throw ApiError(Status::kInvalidArgument,
+                     "invalid " + what + " request: query parameter " + name + " given " + times + " times",
+                     {{field, "given " + times + " times; give it once"}});
+    }
+  }
+  return params;
 }
 
 }  // namespace
@@ -110,7 +153,10 @@ const std::vector<Route>& RouteTable() {
        }},
       {"GET", R"(/v1/campaigns/([^/:]+)/report)", "/v1/campaigns/{campaign}/report",
        [](Service& s, const httplib::Request& r) -> RouteReply {
-         RouteReply reply(s.CampaignReport(Id(r), Query(r, "h_mm")), "text/html; charset=utf-8");
+         const std::map<std::string, std::string> query = StrictQuery(r, {"h_mm"}, "report");
+         const auto h_mm = query.find("h_mm");
+         RouteReply reply(s.CampaignReport(Id(r), h_mm == query.end() ? std::nullopt : std::optional(h_mm->second)),
+                          "text/html; charset=utf-8");
          // The page needs nothing but its own inline styles and SVG: a browser is told to load and run nothing
          // else, whatever a stored name might smuggle in.
          reply.headers = {{"Content-Security-Policy", "default-src 'none'; style-src 'unsafe-inline'; img-src data:"},

@@ -105,7 +105,11 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     result.created_unix_ms = NowUnixMs();
     result.stored = control.stop() == Stop::kNone;
     if (result.stored) {
-      storage_->Put(kCalibrations, campaign.id, nlohmann::json(api::ToStored(calibration, result)).dump());
+      api::StoredCalibration stored = api::ToStored(calibration, result);
+      // What the fit saw, so that what recomputes from the stored measurements (the report) leaves out the
+      // ones uploaded after it.
+      if (!sequences->empty()) stored.last_calibration_sequence = sequences->back();
+      storage_->Put(kCalibrations, campaign.id, nlohmann::json(stored).dump());
     }
     return result;
   };
@@ -146,7 +150,8 @@ Service::Calibrated Service::LoadCalibrated(const std::string& campaign_id) {
   const api::StoredCalibration stored = ReadStored<api::StoredCalibration>(*doc);
   try {
     Calibration calibration = api::Restore(model, stored);
-    return {std::move(campaign), std::move(model), std::move(calibration), stored.result};
+    return {std::move(campaign), std::move(model), std::move(calibration), stored.result,
+            stored.last_calibration_sequence};
   } catch (const api::WireError& e) {
     throw ApiError(Status::kInternal, "stored calibration of \"" + campaign_id + "\" is unreadable: " + e.what());
   }

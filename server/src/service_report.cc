@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
+#include <optional>
+#include <regex>
 #include <set>
 
 #include "report_html.h"
@@ -23,17 +25,25 @@ namespace {
 using api::ApiError;
 using api::Status;
 
-// E_tot's h from the query: "" is :evaluate's default; otherwise a number in :evaluate's range.
-double ParseReportH(const std::string& text) {
-  if (text.empty()) return api::EvaluateRequest{}.h_mm;
+// E_tot's h from the query: absent is :evaluate's default; given, a decimal number (digits, an optional fraction
+// and exponent: what JSON and printf's %g write; never hex, inf, nan, a sign +, blanks or nothing) in :evaluate's
+// range. strtod alone would take "0x10", "inf" and " 30".
+double ParseReportH(const std::optional<std::string>& text) {
+  if (!text) return api::EvaluateRequest{}.h_mm;
+  static const std::regex kDecimal(R"(-?[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?)");
+  const std::string reason = "must be a decimal number (mm), got \"" + api::SafeText(*text, 64) + "\"";
   char* end = nullptr;
   errno = 0;
-  const double value = std::strtod(text.c_str(), &end);
-  if (end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(value) || std::isspace(static_cast<unsigned char>(text[0]))) {
-    throw ApiError(Status::kInvalidArgument, "invalid report request: h_mm is not a number",
-                   {{"h_mm", "must be a number (mm), got \"" + api::SafeText(text, 64) + "\""}});
+  const double value = std::regex_match(*text, kDecimal) ? std::strtod(text->c_str(), &end) : 0.0;
+  if (end != text->c_str() + text->size() || errno == ERANGE || !std::isfinite(value)) {
+    throw ApiError(Status::kInvalidArgument, "invalid report request: h_mm: " + reason, {{"h_mm", reason}});
   }
-  return api::ParseEvaluateRequest(nlohmann::json{{"h_mm", value}}).h_mm;
+  try {
+    return api::ParseEvaluateRequest(nlohmann::json{{"h_mm", value}}).h_mm;
+  } catch (const ApiError& e) {  // :evaluate's range and its words, said of the report
+    const std::string why = e.details().empty() ? e.what() : e.details()[0].reason;
+    throw ApiError(e.status(), "invalid report request: h_mm: " + why, e.details());
+  }
 }
 
 std::array<double, 3> Minus(const Eigen::Vector3d& p, const std::array<double, 3>& origin) {
@@ -66,7 +76,7 @@ report::CellFigure DrawCell(const RobotModel& model, const api::PlanResult& plan
 
 }  // namespace
 
-std::string Service::CampaignReport(const std::string& campaign_id, const std::string& h_mm_text) {
+std::string Service::CampaignReport(const std::string& campaign_id, const std::optional<std::string>& h_mm_text) {
   const double h_mm = ParseReportH(h_mm_text);
   const Calibrated loaded = LoadCalibrated(campaign_id);
   const api::StoredCampaign& campaign = loaded.campaign;
@@ -78,7 +88,6 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::s
   data.description = campaign.description;
   data.measurement_type = campaign.measurement_type;
   data.created_unix_ms = campaign.created_unix_ms;
-  data.counts.calibration = storage_->CountMeasurements(campaign_id, "calibration");
   data.counts.validation = storage_->CountMeasurements(campaign_id, "validation");
   data.generated_unix_ms = NowUnixMs();
   const api::RegisterRobotRequest& definition = campaign.robot_definition;
@@ -106,21 +115,33 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::s
     data.plan = std::move(section);
   }
 
-  // The fit as stored, and its calibration measurements (all of them, the fit's outliers included).
+  // The fit as stored, and the calibration measurements it saw (its outliers included): those up to the last
+  // sequence it recorded; for a fit stored before it recorded one, the first (used + excluded) ones, which are
+  // the same measurements (they are append-only in sequence order). Later ones are counted, not used.
   report::FitSection& fit = data.fit;
   fit.calibration = loaded.result;
   const api::CalibrationResult& result = loaded.result;
   const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
   const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
+  const std::int64_t seen_by_fit = result.summary.num_measurements + static_cast<std::int64_t>(result.outliers.size());
   std::vector<Measurement> measurements;
   std::vector<std::int64_t> sequences;
   std::vector<std::vector<double>> joints;  // wire joints, to group the shots of one configuration exactly
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    const bool in_fit = loaded.last_calibration_sequence
+                            ? s.sequence <= *loaded.last_calibration_sequence
+                            : static_cast<std::int64_t>(measurements.size()) < seen_by_fit;
+    if (!in_fit) {
+      data.calibration_after_fit += 1;
+      return;
+    }
     api::MeasurementWire w = ReadMeasurement(s);
     measurements.push_back(MeasurementToCore(model, w, campaign.reflectors));
     sequences.push_back(s.sequence);
     joints.push_back(std::move(w.joints));
   });
+  // Counted as read, so that the header's numbers agree with each other while uploads go on.
+  data.counts.calibration = static_cast<std::int64_t>(measurements.size()) + data.calibration_after_fit;
   std::set<std::int64_t> outlier_sequences;
   for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
 

@@ -312,6 +312,12 @@ expect "... the plan's configurations" \
   "$(grep -o 'data-key="plan.configurations.[0-9]*.0"' "$work/report.html" | wc -l)" "$(jq '.configurations | length' "$work/plan.json")"
 call GET "/v1/campaigns/$campaign/report?h_mm=abc" >/dev/null
 expect "... h_mm that is not a number -> 400 naming h_mm" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 h_mm"
+call GET "/v1/campaigns/$campaign/report?h_mm=0x10" >/dev/null
+expect "... h_mm in hex -> 400 naming h_mm" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 h_mm"
+call GET "/v1/campaigns/$campaign/report?h_mm=30&h_mm=40" >/dev/null
+expect "... h_mm given twice -> 400 naming h_mm" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 h_mm"
+call GET "/v1/campaigns/$campaign/report?h_mm=30&format=pdf" >/dev/null
+expect "... an unknown query parameter -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 op=$(call POST "/v1/campaigns/$campaign:fit" '{"async": true}' | jq -r .id)
 expect "POST :fit async -> an operation of kind fit" "$(call GET "/v1/operations/$op" | jq -r .kind)" fit
 for _ in $(seq 1 100); do

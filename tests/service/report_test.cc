@@ -2,6 +2,7 @@
 // hand, sections without data), and GET /v1/campaigns/{c}/report on the real server (its numbers against the
 // calibration and :evaluate replies, the recomputed condition number against the fit's, the refusals).
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "robocal/api/calibration.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
+#include "raw_http.h"
 #include "server/src/report_html.h"
 #include "test_server.h"
 
@@ -201,6 +203,31 @@ TEST(ReportHtmlTest, ManyConfigurationsDrawAtMostTheCap) {
             std::string::npos);
 }
 
+TEST(ReportHtmlTest, ManyOutliersListAtMostTheCap) {
+  report::ReportData d = HandMadeData();
+  // More outliers than the cap (the review had 30,156): only the largest normalised residuals are listed.
+  d.fit.calibration.outliers.clear();
+  const std::size_t n = report::kMaxOutlierRows + 30;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double z = 5.0 + static_cast<double>((k * 7919) % n);  // all distinct, not in sequence order
+    d.fit.calibration.outliers.push_back({static_cast<std::int64_t>(k + 1), "", z, true});
+  }
+  const std::string page = report::RenderReport(d);
+  EXPECT_EQ(Count(page, "data-key=\"normalized_residual\""), report::kMaxOutlierRows);
+  // Largest first: the first row is the largest, and no listed one is below one left out.
+  EXPECT_EQ(ValueAfter(page, "id=\"outliers\"", "normalized_residual"), 5.0 + static_cast<double>(n - 1));
+  EXPECT_EQ(page.find("data-value=\"34\">34.00</td>"), std::string::npos);
+  EXPECT_NE(page.find("data-value=\"35\">35.00</td>"), std::string::npos);
+  EXPECT_NE(page.find("The " + std::to_string(report::kMaxOutlierRows) + " largest of " + std::to_string(n) +
+                      " excluded measurements are listed; 30 more are not"),
+            std::string::npos);
+  // Below the cap every outlier is listed and nothing is said about more.
+  d.fit.calibration.outliers.resize(3);
+  const std::string small = report::RenderReport(d);
+  EXPECT_EQ(Count(small, "data-key=\"normalized_residual\""), 3u);
+  EXPECT_EQ(small.find("more are not"), std::string::npos);
+}
+
 // ---- the endpoint ---------------------------------------------------------------------------------------
 
 json Batch(const RobotModel& model, const std::vector<Measurement>& measurements, const std::string& request_id,
@@ -316,6 +343,126 @@ TEST(ReportEndpointTest, ACampaignWithoutPlanOrValidationSaysSo) {
   EXPECT_NE(page.text.find("The campaign was not made from a plan"), std::string::npos);
   EXPECT_NE(page.text.find("No validation measurements"), std::string::npos);
   EXPECT_EQ(Count(page.text, "<g class=\"pose"), 2u * 15u);
+}
+
+
+// A campaign without a plan, `configurations` poses x 3 shots of calibration measurements and 10 validation
+// poses, fitted.
+void CalibratedCampaign(TestServer& s, const std::string& id, int configurations, json* fit) {
+  const RobotModel model = Preset("grinder5");
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", id}, {"robot", "grinder5"}}).status, 200);
+  VirtualCellOptions o;
+  o.seed = 4;
+  o.shots_per_pose = 3;
+  VirtualCell cell(model, o);
+  Rng rng(6);
+  ASSERT_EQ(s.Post("/v1/campaigns/" + id + "/measurements",
+                   Batch(model, cell.MeasureAll(RandomConfigurations(model, configurations, &rng)), "cal", "calibration"))
+                .status,
+            200);
+  ASSERT_EQ(s.Post("/v1/campaigns/" + id + "/measurements",
+                   Batch(model, cell.MeasureAll(RandomConfigurations(model, 10, &rng), 1), "val", "validation"))
+                .status,
+            200);
+  const Reply reply = s.Post("/v1/campaigns/" + id + ":fit", json::object());
+  ASSERT_EQ(reply.status, 200) << reply.text;
+  *fit = reply.body;
+}
+
+double RecomputedConditionNumber(const std::string& page) {
+  const std::string marker = "id=\"recomputed-condition-number\" data-value=\"";
+  const std::size_t at = page.find(marker);
+  return at == std::string::npos ? std::nan("") : std::stod(page.substr(at + marker.size()));
+}
+
+TEST(ReportEndpointTest, MeasurementsUploadedAfterTheFitAreNotInIt) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  json fit;
+  CalibratedCampaign(s, "late", 20, &fit);
+  ASSERT_EQ(fit["summary"]["num_measurements"], 60);
+  ASSERT_TRUE(fit["outliers"].empty()) << fit.dump();
+  const RobotModel model = Preset("grinder5");
+  const auto check = [&](const std::string& when) {
+    const Reply page = s.Get("/v1/campaigns/late/report");
+    ASSERT_EQ(page.status, 200) << page.text;
+    // The fit's sections are over the 60 measurements it used, as the fit itself computed them.
+    EXPECT_NEAR(RecomputedConditionNumber(page.text) / fit["condition_number"].get<double>(), 1.0, 1e-8) << when;
+    EXPECT_EQ(Count(page.text, "<g class=\"pose"), 2u * 20u) << when;  // position and orientation charts
+    EXPECT_EQ(ValueAfter(page.text, "id=\"campaign-summary\"", "counts.calibration"), 90.0) << when;
+    EXPECT_EQ(ValueAfter(page.text, "id=\"campaign-summary\"", "counts.after_fit"), 30.0) << when;
+    EXPECT_NE(page.text.find("30 calibration measurements uploaded after this fit are not in it; fit again."),
+              std::string::npos)
+        << when;
+  };
+
+  // Before anything is added the page says nothing about later measurements.
+  const Reply before = s.Get("/v1/campaigns/late/report");
+  ASSERT_EQ(before.status, 200);
+  EXPECT_EQ(before.text.find("uploaded after this fit"), std::string::npos);
+  EXPECT_EQ(ValueAfter(before.text, "id=\"campaign-summary\"", "counts.after_fit"), 0.0);
+
+  // 30 more calibration measurements, 5 mm off: the campaign stays calibrated by the fit of the first 60.
+  VirtualCellOptions o;
+  o.seed = 9;
+  o.shots_per_pose = 3;
+  VirtualCell cell(model, o);
+  Rng rng(8);
+  std::vector<Measurement> late = cell.MeasureAll(RandomConfigurations(model, 10, &rng));
+  for (Measurement& m : late) m.T_world_tool.translation() += Eigen::Vector3d(5.0, 0.0, 0.0);
+  ASSERT_EQ(s.Post("/v1/campaigns/late/measurements", Batch(model, late, "late", "calibration")).status, 200);
+  check("with the fit's last sequence stored");
+
+  // A fit stored before the last sequence was recorded: the first (used + excluded) measurements are its own,
+  // the storage being append-only in sequence order.
+  std::optional<Document> doc = s.storage().Get("calibrations", "late");
+  ASSERT_TRUE(doc);
+  json stored = json::parse(doc->json);
+  ASSERT_TRUE(stored["state"].contains("last_calibration_sequence")) << stored["state"].dump();
+  stored["state"].erase("last_calibration_sequence");
+  s.storage().Put("calibrations", "late", stored.dump());
+  check("an older stored fit");
+
+  // Fitted again, the page is about all 90 once more.
+  ASSERT_EQ(s.Post("/v1/campaigns/late:fit", json::object()).status, 200);
+  const Reply again = s.Get("/v1/campaigns/late/report");
+  EXPECT_EQ(again.text.find("uploaded after this fit"), std::string::npos);
+  EXPECT_EQ(Count(again.text, "<g class=\"pose"), 2u * 30u);
+}
+
+TEST(ReportEndpointTest, QueryIsStrict) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  json fit;
+  CalibratedCampaign(s, "q", 12, &fit);
+  // Decimal numbers, as the client writes them (%.17g).
+  EXPECT_NE(s.Get("/v1/campaigns/q/report").text.find("id=\"h-mm\" data-value=\"30\""), std::string::npos);
+  for (const auto& [query, h] : std::vector<std::pair<std::string, std::string>>{
+           {"h_mm=50", "50"}, {"h_mm=12.5", "12.5"}, {"h_mm=1e3", "1000"}, {"h_mm=1.0000000000000001e-05", "1.0000000000000001e-05"}}) {
+    const Reply r = s.Get("/v1/campaigns/q/report?" + query);
+    EXPECT_EQ(r.status, 200) << query;
+    EXPECT_NE(r.text.find("id=\"h-mm\" data-value=\"" + h + "\""), std::string::npos) << query;
+  }
+  // Anything else is 400 naming the parameter; raw bytes, so that no client library tidies the query first.
+  const auto refused = [&](const std::string& query, const std::string& field, const std::string& message) {
+    const RawReply r = RawConnection::Exchange(s.port(), "GET /v1/campaigns/q/report?" + query +
+                                                             " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    EXPECT_EQ(r.status, 400) << query << ": " << r.body.substr(0, 300);
+    ASSERT_TRUE(r.json.is_object()) << query << ": " << r.body.substr(0, 300);
+    EXPECT_EQ(r.json["error"]["details"][0]["field"], field) << query << ": " << r.body;
+    EXPECT_NE(r.json["error"]["message"].get<std::string>().find(message), std::string::npos)
+        << query << ": " << r.body;
+  };
+  for (const char* query : {"h_mm=0x10", "h_mm=0x1p3", "h_mm=", "h_mm", "h_mm=inf", "h_mm=nan", "h_mm=INF",
+                            "h_mm=%2030", "h_mm=30%20", "h_mm=+30", "h_mm=30.", "h_mm=.5", "h_mm=1e400", "h_mm=30mm",
+                            "h_mm=3,5"}) {
+    refused(query, "h_mm", "invalid report request: h_mm");
+  }
+  refused("h_mm=-1", "h_mm", "invalid report request: h_mm");
+  refused("h_mm=1e7", "h_mm", "invalid report request: h_mm");
+  refused("h_mm=30&h_mm=40", "h_mm", "given 2 times");
+  refused("h_mm=30&h_mm=30", "h_mm", "given 2 times");
+  refused("hmm=30", "hmm", "unknown query parameter");
+  refused("h_mm=30&format=json", "format", "unknown query parameter");
+  refused("=30", "query", "unknown query parameter");
 }
 
 }  // namespace

@@ -658,6 +658,7 @@ TEST(StoredDocumentTest, PreviousSchemaVersionStillLoads) {
   const StoredCalibration stored = FromWire<StoredCalibration>(calibration_v1);
   EXPECT_FALSE(stored.result.summary.deadline_exceeded);
   EXPECT_EQ(stored.errors.size(), static_cast<std::size_t>(model.num_error_parameters()));
+  EXPECT_FALSE(stored.last_calibration_sequence.has_value());  // unknown: the report takes the first ones
 
   json future = robot_v2;
   future["schema_version"] = kStoredSchemaVersion + 1;
@@ -667,6 +668,19 @@ TEST(StoredDocumentTest, PreviousSchemaVersionStillLoads) {
   } catch (const WireError& e) {
     EXPECT_EQ(e.path(), "schema_version");
   }
+}
+
+// The last calibration measurement a fit saw is kept when known, and absent (not 0) when not.
+TEST(StoredDocumentTest, LastCalibrationSequenceRoundTrips) {
+  const RobotModel model = Preset("ur5e");
+  const Calibration c{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {}, Transform::Identity(),
+                      Transform::Identity(), {}, {}};
+  StoredCalibration s = ToStored(c, ToWire(c));
+  EXPECT_FALSE(json(s)["state"].contains("last_calibration_sequence"));
+  EXPECT_FALSE(FromWire<StoredCalibration>(json(s)).last_calibration_sequence.has_value());
+  s.last_calibration_sequence = 90;
+  EXPECT_EQ(json(s)["state"]["last_calibration_sequence"], 90);
+  EXPECT_EQ(FromWire<StoredCalibration>(json(s)).last_calibration_sequence, std::optional<std::int64_t>(90));
 }
 
 // A stored fit that did not converge comes back as it was stored (it used to be restored as converged).

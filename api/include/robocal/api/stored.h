@@ -5,8 +5,9 @@
 // Versions: 1 is every document written before the field "schema_version" existed (the same members as version
 // 2, without it; plans and fits recorded deadline_exceeded only when true); 2 adds "schema_version"; 3 adds
 // cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and "repeatability_mm" and the fit's
-// robust-fit members (outliers, parameters_with_outliers). A document of a version newer than
-// kStoredSchemaVersion is refused by name rather than misread.
+// robust-fit members (outliers, parameters_with_outliers). A fit's state may hold "last_calibration_sequence"
+// (optional, so version 4 still: a server that does not know it ignores it, and a fit without it reads as before).
+// A document of a version newer than kStoredSchemaVersion is refused by name rather than misread.
 #pragma once
 
 #include <cstdint>
@@ -74,6 +75,10 @@ struct StoredCalibration {
   PoseWire T_flange_tool;
   /// The identified error vector (RobotModel's parameter order; mm and rad).
   std::vector<double> errors;
+  /// The sequence number of the last calibration measurement the fit saw; it saw every calibration measurement
+  /// up to it and none after (measurements are append-only in sequence order), its outliers included. Absent in
+  /// fits stored before it was recorded.
+  std::optional<std::int64_t> last_calibration_sequence;
 };
 void to_json(nlohmann::json& j, const StoredCalibration& calibration);
 void from_json(const nlohmann::json& j, StoredCalibration& calibration);

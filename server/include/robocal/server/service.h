@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <variant>
 
@@ -106,9 +107,9 @@ class Service {
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);
   /// The campaign report (service_report.cc, docs/report.md): one self-contained HTML page of the robot, the
   /// plan, the fit (with correlations, singular values and per-pose residuals recomputed from the stored
-  /// calibration and measurements) and the validation. h_mm: "" (30) or E_tot's h (as :evaluate takes it).
-  /// FAILED_PRECONDITION when the campaign is not calibrated.
-  std::string CampaignReport(const std::string& campaign, const std::string& h_mm = "");
+  /// calibration and the measurements it used) and the validation. h_mm: absent (30) or E_tot's h as the query
+  /// gave it (a decimal number in :evaluate's range). FAILED_PRECONDITION when the campaign is not calibrated.
+  std::string CampaignReport(const std::string& campaign, const std::optional<std::string>& h_mm = std::nullopt);
 
   // Operations.
   api::Operation GetOperation(const std::string& id) { return operations_.Get(id); }
@@ -151,6 +152,8 @@ class Service {
     Calibration calibration;
     /// The fit as returned and stored.
     api::CalibrationResult result;
+    /// The last calibration measurement the fit saw (api::StoredCalibration); absent in older stored fits.
+    std::optional<std::int64_t> last_calibration_sequence;
   };
   Calibrated LoadCalibrated(const std::string& campaign);
   /// The validation measurements against the nominal and the calibrated model (:evaluate's figures, with E_tot's
