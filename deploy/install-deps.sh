@@ -13,7 +13,7 @@ packages=(
   # make test-sanitize and make fuzz: clang, and its sanitizer and libFuzzer runtimes (libclang_rt.*).
   clang libclang-rt-14-dev
   # URDF import and export (POST /v1/robots with "urdf").
-  liburdfdom-dev libtinyxml2-dev
+  liburdfdom-dev libtinyxml-dev libtinyxml2-dev
   # The campaign report's browser test: headless Chromium renders GET /v1/campaigns/{c}/report to PNG.
   chromium
 )

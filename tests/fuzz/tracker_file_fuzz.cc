@@ -20,7 +20,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                                            {12, 13}};
   api::Problems problems;
   const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(request, &problems);
-  const std::size_t lines = static_cast<std::size_t>(std::count(request.text.begin(), request.text.end(), '\n')) + 1;
+  // Lines as editors count them: LF, CRLF and a lone CR each end one.
+  std::size_t lines = 1;
+  for (std::size_t k = 0; k < request.text.size(); ++k) {
+    const char c = request.text[k];
+    lines += c == '\n' || (c == '\r' && (k + 1 == request.text.size() || request.text[k + 1] != '\n'));
+  }
   int previous_line = 0;
   for (const api::TrackerPoint& p : points) {
     // A point is a line of the file, in file order, at a finite place within reach of a tracker.

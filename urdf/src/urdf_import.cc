@@ -5,6 +5,7 @@
 #include "urdf_internal.h"
 
 #include <console_bridge/console.h>
+#include <tinyxml.h>
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
@@ -93,21 +94,24 @@ constexpr int kMaxXmlDepth = 64;
 // liburdfdom links every joint's parent and child links (shared pointers, parent to child) before it checks the
 // tree, and drops the model when a check fails later: links that a cycle of joints has linked (a joint whose
 // parent is its own child, or one further down) keep each other alive, and every such request would leak them.
-// So cycles are refused here, from the document as liburdfdom reads it (each joint's first <parent> and <child>),
-// before it is parsed, from tinyxml2's reading of the document. The walk is iterative: a document may hold tens of thousands of joints.
+// So cycles are refused here before it parses, from the document as liburdfdom reads it: with the same reader
+// (TinyXML, whose reading of a damaged document differs from tinyxml2's) and each joint's first <parent> and
+// <child>. The walk is iterative: a document may hold tens of thousands of joints. The document must also read
+// with tinyxml2, which the calibrated export edits it with.
 void RefuseJointCycles(const std::string& xml) {
-  tinyxml2::XMLDocument doc;
-  // liburdfdom reads with the older, laxer TinyXML: a document only it takes could hide a cycle from this check,
-  // and the calibrated export edits the document with tinyxml2, so it must read there too.
-  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
-    Refuse("urdf", std::string("not a valid URDF document: not well-formed XML (") + doc.ErrorStr() + ")");
+  tinyxml2::XMLDocument doc2;
+  if (doc2.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    Refuse("urdf", std::string("not a valid URDF document: not well-formed XML (") + doc2.ErrorStr() + ")");
   }
-  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  TiXmlDocument doc;
+  doc.Parse(xml.c_str());
+  if (doc.Error()) return;  // liburdfdom reports it
+  const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) return;
   std::map<std::string, std::vector<std::pair<std::string, std::string>>> children;  // parent -> (child, joint)
-  for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
-    const tinyxml2::XMLElement* parent = j->FirstChildElement("parent");
-    const tinyxml2::XMLElement* child = j->FirstChildElement("child");
+  for (const TiXmlElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const TiXmlElement* parent = j->FirstChildElement("parent");
+    const TiXmlElement* child = j->FirstChildElement("child");
     const char* parent_link = parent ? parent->Attribute("link") : nullptr;
     const char* child_link = child ? child->Attribute("link") : nullptr;
     if (parent_link == nullptr || child_link == nullptr) continue;
