@@ -539,7 +539,9 @@ std::string ResidualBars(const std::vector<PoseResidual>& poses, bool orientatio
     values.push_back(before(poses[i]));
     values.push_back(after(poses[i]));
   }
-  const auto [lo, hi] = Decades(values);
+  // Plain variables, not a structured binding: the lambdas below use them (C++17 cannot capture bindings).
+  const std::pair<int, int> decades = Decades(values);
+  const int lo = decades.first, hi = decades.second;
   const double width = 900.0, height = 300.0, left = 64.0, right = 12.0, top = 28.0, bottom = 44.0;
   const double plot_w = width - left - right, plot_h = height - top - bottom;
   const std::string unit = orientation ? "deg" : "mm";
@@ -632,7 +634,8 @@ void AccuracyRow(std::ostringstream& out, const char* label, const char* key, co
 std::string Cdf(const std::vector<double>& before_mm, const std::vector<double>& after_mm) {
   std::vector<double> all = before_mm;
   all.insert(all.end(), after_mm.begin(), after_mm.end());
-  const auto [lo, hi] = Decades(all);
+  const std::pair<int, int> decades = Decades(all);
+  const int lo = decades.first, hi = decades.second;
   const double width = 640.0, height = 300.0, left = 56.0, right = 16.0, top = 28.0, bottom = 44.0;
   const double plot_w = width - left - right, plot_h = height - top - bottom;
   Svg svg(width, height, "exyz-cdf", "cumulative distribution of E_xyz before and after calibration");
