@@ -616,7 +616,8 @@ TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
   std::stringstream page;
   page << std::ifstream(Path("cal-1.html")).rdbuf();
   EXPECT_EQ(page.str().rfind("<!DOCTYPE html>", 0), 0u);
-  for (const auto& p : nlohmann::json::parse(exported_json.out).at("parameters")) {
+  const nlohmann::json calibration = nlohmann::json::parse(exported_json.out);
+  for (const auto& p : calibration.at("parameters")) {
     EXPECT_NE(page.str().find("<tr data-parameter=\"" + p.at("name").get<std::string>() + "\">"), std::string::npos);
   }
   const InProcess early = RunInProcess({"--server", server_.url(), "report", "fresh-1", "--out", Path("fresh-1.html")});
