@@ -159,15 +159,22 @@ struct Table {
   Ref RefAt(int i) const { return {frames[i].o, frames[i].x, frames[i].z.cross(frames[i].x)}; }
 };
 
+// A table of either convention before its rows: frame 0 (on the first axis) and the base pose to it.
+Table StartTable(const ChainLines& lines, const Table* nominal) {
+  Table table;
+  table.rows.resize(lines.axes.size());
+  const Frame first = FirstFrame(lines, nominal ? nominal->RefAt(0) : RefOf(lines.base));
+  table.frames.push_back(first);
+  table.T_world_base = ToTransform(first);
+  return table;
+}
+
 // The tables of the calibrated chain take the nominal table (`nominal`) as reference; the nominal table the
 // model's own frames: the calibrated base for frame 0, and the frame before each joint's error, or the flange.
 Table StandardTable(const ChainLines& lines, const Table* nominal) {
   const int n = static_cast<int>(lines.axes.size());
-  Table table;
-  table.rows.resize(n);
-  Frame prev = FirstFrame(lines, nominal ? nominal->RefAt(0) : RefOf(lines.base));
-  table.frames.push_back(prev);
-  table.T_world_base = ToTransform(prev);
+  Table table = StartTable(lines, nominal);
+  Frame prev = table.frames.front();
   for (int i = 0; i < n; ++i) {
     // Row i + 1: from frame i (on axis i + 1) to frame i + 1 (on the next axis, or the flange's z).
     const bool last = i + 1 == n;
@@ -193,11 +200,8 @@ Table StandardTable(const ChainLines& lines, const Table* nominal) {
 
 Table ModifiedTable(const ChainLines& lines, const Table* nominal) {
   const int n = static_cast<int>(lines.axes.size());
-  Table table;
-  table.rows.resize(n);
-  Frame prev = FirstFrame(lines, nominal ? nominal->RefAt(0) : RefOf(lines.base));
-  table.frames.push_back(prev);
-  table.T_world_base = ToTransform(prev);
+  Table table = StartTable(lines, nominal);
+  Frame prev = table.frames.front();
   Eigen::Vector3d prev_foot = prev.o;  // the foot on axis i of the normal from axis i - 1 (frame 0: on axis 1)
   for (int i = 0; i < n; ++i) {
     // Frame i + 1 sits on axis i + 1, its x along the normal to the next axis; the last one nearest the flange.

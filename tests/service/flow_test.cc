@@ -18,16 +18,6 @@ namespace {
 
 using nlohmann::json;
 
-json Batch(const RobotModel& model, const std::vector<Measurement>& measurements, const std::string& request_id,
-           const std::string& role) {
-  json list = json::array();
-  for (const Measurement& m : measurements) {
-    list.push_back({{"joints", api::JointsToWire(model, m.joints)},
-                    {"pose", nlohmann::json(api::TransformToPose(m.T_world_tool))}});
-  }
-  return {{"request_id", request_id}, {"role", role}, {"measurements", list}};
-}
-
 std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, const json& wire) {
   std::vector<Eigen::VectorXd> out;
   for (const auto& q : wire) out.push_back(api::JointsToCore(model, q.get<std::vector<double>>()));

@@ -230,16 +230,6 @@ TEST(ReportHtmlTest, ManyOutliersListAtMostTheCap) {
 
 // ---- the endpoint ---------------------------------------------------------------------------------------
 
-json Batch(const RobotModel& model, const std::vector<Measurement>& measurements, const std::string& request_id,
-           const std::string& role) {
-  json list = json::array();
-  for (const Measurement& m : measurements) {
-    list.push_back({{"joints", api::JointsToWire(model, m.joints)},
-                    {"pose", nlohmann::json(api::TransformToPose(m.T_world_tool))}});
-  }
-  return {{"request_id", request_id}, {"role", role}, {"measurements", list}};
-}
-
 TEST(ReportEndpointTest, NumbersEqualTheCalibrationAndTheEvaluation) {
   TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
   const RobotModel model = Preset("grinder5");

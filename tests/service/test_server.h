@@ -4,12 +4,15 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
 #include "fake_storage.h"
+#include "robocal/api/robots.h"
+#include "robocal/core/measurement.h"
 #include "robocal/server/http_server.h"
 #include "robocal/server/logging.h"
 #include "robocal/server/service.h"
@@ -94,6 +97,17 @@ inline bool NamesField(const Reply& r, const std::string& field) {
     if (d.value("field", "") == field) return true;
   }
   return false;
+}
+
+/// A measurement batch body (POST .../measurements) of core measurements: joints in wire units, full poses.
+inline nlohmann::json Batch(const RobotModel& model, const std::vector<Measurement>& measurements,
+                            const std::string& request_id, const std::string& role) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const Measurement& m : measurements) {
+    list.push_back({{"joints", api::JointsToWire(model, m.joints)},
+                    {"pose", nlohmann::json(api::TransformToPose(m.T_world_tool))}});
+  }
+  return {{"request_id", request_id}, {"role", role}, {"measurements", list}};
 }
 
 }  // namespace robocal::server::testing
