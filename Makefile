@@ -2,6 +2,9 @@
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo
+# Ninja schedules the two cores better than make; a tree already configured keeps its generator.
+GENERATOR ?= Ninja
+generator_flag = $(if $(wildcard $(1)/CMakeCache.txt),,-G $(GENERATOR))
 
 .PHONY: all deps configure build test run bench format clean demo sanitize-build test-sanitize fuzz
 
@@ -11,7 +14,7 @@ deps:
 	bash deploy/install-deps.sh
 
 configure: deps
-	cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD_DIR) $(call generator_flag,$(BUILD_DIR)) $(CMAKE_FLAGS)
 
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
@@ -27,7 +30,7 @@ SANITIZERS ?= address,undefined
 FUZZ_SECONDS ?= 300
 
 sanitize-build: deps
-	cmake -S . -B $(SANITIZE_BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	cmake -S . -B $(SANITIZE_BUILD_DIR) $(call generator_flag,$(SANITIZE_BUILD_DIR)) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
 	  -DROBOCAL_SANITIZE=$(SANITIZERS) -DROBOCAL_FUZZ=ON
 	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS)
 
