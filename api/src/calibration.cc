@@ -66,8 +66,10 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
   r.Int("max_iterations", false, &req.max_iterations, 1, 1000);
   r.Bool("reject_outliers", false, &req.reject_outliers);
   r.Number("outlier_probability", false, &req.outlier_probability, 1e-12, 0.1);
+  r.Bool("estimate_model_error", false, &req.estimate_model_error);
   r.Bool("async", false, &req.async);
-  r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability", "async"});
+  r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability",
+                   "estimate_model_error", "async"});
   problems.ThrowIfAny("invalid fit request");
   return req;
 }
@@ -78,6 +80,7 @@ void to_json(nlohmann::json& j, const FitRequest& req) {
        {"max_iterations", req.max_iterations},
        {"reject_outliers", req.reject_outliers},
        {"outlier_probability", req.outlier_probability},
+       {"estimate_model_error", req.estimate_model_error},
        {"async", req.async}};
 }
 
@@ -89,6 +92,8 @@ void from_json(const nlohmann::json& j, FitRequest& req) {
   // Absent in requests stored before the robust fit, which then did not exist.
   if (!r.Optional("reject_outliers", &req.reject_outliers)) req.reject_outliers = false;
   r.Optional("outlier_probability", &req.outlier_probability);
+  // Absent in requests stored before the model error's estimate, which then did not exist.
+  if (!r.Optional("estimate_model_error", &req.estimate_model_error)) req.estimate_model_error = false;
   r.Required("async", &req.async);
 }
 
@@ -107,6 +112,7 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   options.max_iterations = req.max_iterations;
   options.reject_outliers = req.reject_outliers;
   options.outlier_probability = req.outlier_probability;
+  options.estimate_model_error = req.estimate_model_error;
   return options;
 }
 
@@ -121,6 +127,23 @@ void from_json(const nlohmann::json& j, OutlierWire& o) {
   r.Optional("reflector", &o.reflector);
   r.Required("normalized_residual", &o.normalized_residual);
   r.Required("excluded", &o.excluded);
+}
+
+void to_json(nlohmann::json& j, const ModelErrorWire& m) {
+  j = {{"estimated", m.estimated},
+       {"model_error_mm", Num(m.model_error_mm)},
+       {"model_error_deg", Num(m.model_error_deg)},
+       {"tracker_rms_mm", Num(m.tracker_rms_mm)},
+       {"tracker_rms_deg", Num(m.tracker_rms_deg)}};
+}
+
+void from_json(const nlohmann::json& j, ModelErrorWire& m) {
+  const WireReader r(j);
+  r.Required("estimated", &m.estimated);
+  r.Required("model_error_mm", &m.model_error_mm);
+  r.Required("model_error_deg", &m.model_error_deg);
+  r.Required("tracker_rms_mm", &m.tracker_rms_mm);
+  r.Required("tracker_rms_deg", &m.tracker_rms_deg);
 }
 
 void to_json(nlohmann::json& j, const RobustFitWire& f) {
@@ -226,6 +249,7 @@ void to_json(nlohmann::json& j, const CalibrationResult& c) {
        {"robust", c.robust},
        {"outliers", c.outliers},
        {"parameters_with_outliers", c.parameters_with_outliers},
+       {"model_error", c.model_error},
        {"reflectors", c.reflectors},
        {"summary", c.summary}};
 }
@@ -249,6 +273,7 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
   r.Optional("robust", &c.robust);
   r.Optional("outliers", &c.outliers);
   r.Optional("parameters_with_outliers", &c.parameters_with_outliers);
+  r.Optional("model_error", &c.model_error);
   r.Optional("reflectors", &c.reflectors);
   r.Required("summary", &c.summary);
 }
@@ -286,6 +311,8 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
                           o.normalized_residual, true});
   }
   w.parameters_with_outliers = ToWire(s.parameters_with_outliers, n_model);
+  w.model_error = {s.model_error_estimated, s.model_error_mm, s.model_error_rad * kDegPerRad, s.tracker_rms_mm,
+                   s.tracker_rms_rad * kDegPerRad};
   w.measurement_type = s.measurement_type;
   w.dropped = ToWire(s.dropped);
   w.base = TransformToPose(c.T_world_base);

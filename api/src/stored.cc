@@ -143,6 +143,12 @@ Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) 
   c.summary.termination = stored.result.summary.termination;
   c.summary.message = stored.result.summary.message;
   c.summary.measurement_type = stored.result.measurement_type;
+  const ModelErrorWire& model_error = stored.result.model_error;
+  c.summary.model_error_estimated = model_error.estimated;
+  c.summary.model_error_mm = model_error.model_error_mm;
+  c.summary.model_error_rad = model_error.model_error_deg / kDegPerRad;
+  c.summary.tracker_rms_mm = model_error.tracker_rms_mm;
+  c.summary.tracker_rms_rad = model_error.tracker_rms_deg / kDegPerRad;
   return c;
 }
 

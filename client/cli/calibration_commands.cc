@@ -28,6 +28,14 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
       << Fixed(c.residuals_after.rms_position_mm, 4) << " mm, rms orientation "
       << Fixed(c.residuals_before.rms_orientation_deg, 5) << " deg -> "
       << Fixed(c.residuals_after.rms_orientation_deg, 5) << " deg\n";
+  if (c.model_error.estimated) {
+    const bool angle = c.measurement_type != MeasurementType::kPosition;
+    out << "robot error the geometric model does not explain: " << Fixed(c.model_error.model_error_mm, 3) << " mm";
+    if (angle) out << ", " << Fixed(c.model_error.model_error_deg, 4) << " deg";
+    out << " RMS (tracker: " << Fixed(c.model_error.tracker_rms_mm, 3) << " mm";
+    if (angle) out << ", " << Fixed(c.model_error.tracker_rms_deg, 4) << " deg";
+    out << ")\n";
+  }
   if (!c.outliers.empty()) {
     out << c.outliers.size() << " outlier(s) excluded (normalised residual over " << Fixed(c.robust.threshold, 2)
         << " sigma):";
@@ -50,6 +58,7 @@ int Fit(Invocation& in) {
   request.register_base = !in.Has("--no-register-base");
   request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
   request.reject_outliers = !in.Has("--keep-outliers");
+  request.estimate_model_error = !in.Has("--no-model-error");
   // The service checks the range and names the field.
   request.outlier_probability =
       in.Number("--outlier-probability", request.outlier_probability, std::numeric_limits<double>::lowest());

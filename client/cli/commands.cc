@@ -70,6 +70,7 @@ const std::vector<Command>& Commands() {
         {"--max-iterations", "N"},
         {"--keep-outliers"},
         {"--outlier-probability", "P"},
+        {"--no-model-error"},
         {"--async"}},
        &help::kFit,
        Fit},

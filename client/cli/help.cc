@@ -195,18 +195,21 @@ up to --limit, with sequence, batch and role of each; next_after set when --limi
 
 const HelpText kFit = {"identify the parameters; prints the parameter table", R"(
 Identifies the error parameters from the calibration measurements and prints them (value and standard
-deviation, mm or degrees), the parameters left out as unidentifiable and why, and the residuals before and after.
+deviation, mm or degrees), the parameters left out as unidentifiable and why, the residuals before and after,
+and the robot error the geometric model does not explain (estimated beside the tracker's noise; RMS).
 The fit is stored as the campaign's calibration, unless it stopped at the service's request deadline or was
 cancelled: then it is printed with "NOT stored". --json: the calibration (fit) resource.
 
   --parameters a,b,... the parameters to estimate (default: the identifiable set)
   --no-register-base   do not register the base (tracker -> base) before identifying
   --max-iterations N   Levenberg-Marquardt iterations at most (default 100)
-  --keep-outliers      plain least squares: no robust fit (by default measurements whose normalised residual
-                       exceeds the chi-square threshold are excluded and listed by sequence number)
+  --keep-outliers      plain least squares: no robust fit (by default measurements whose studentised
+                       residual exceeds the chi-square threshold are excluded and listed by sequence number)
   --outlier-probability P
                        chance that a clean measurement is flagged (default 0.001; 1e-12 to 0.1; unused
                        with --keep-outliers)
+  --no-model-error     take the campaign's noise model as the whole error (by default the robot error the
+                       geometric model does not explain is estimated beside it and weights the fit)
   --async              run as a long-running operation and wait for it with a progress bar on stderr
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};

@@ -158,8 +158,10 @@ Eigen::VectorXd MeasurementNoise::RowWeights(MeasurementType type) const {
     variance = (r * r + 2.0 * t * t) / 3.0;
   }
   const double repeatability = RepeatabilitySigmaMm();
-  w.head<3>().setConstant(1.0 / std::sqrt(variance + repeatability * repeatability));
-  w.tail(w.size() - 3).setConstant(1.0 / OrientationSigmaRad());
+  w.head<3>().setConstant(
+      1.0 / std::sqrt(variance + repeatability * repeatability + model_error_mm * model_error_mm));
+  const double t = OrientationSigmaRad();
+  w.tail(w.size() - 3).setConstant(1.0 / std::sqrt(t * t + model_error_rad * model_error_rad));
   return w;
 }
 
@@ -169,7 +171,9 @@ void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& po
   if (w.rows() != rows || w.cols() != rows) throw std::invalid_argument("MeasurementNoise::Whitening: wrong size");
   w.setZero();
   // An isotropic variance added to s_r^2 u u' + s_t^2 (I - u u') keeps its form: both sigmas grow.
-  const double shared = repeatability_visits * RepeatabilitySigmaMm() * RepeatabilitySigmaMm();
+  const double visits = static_cast<double>(repeatability_visits);
+  const double repeatability = RepeatabilitySigmaMm();
+  const double shared = visits * (repeatability * repeatability + model_error_mm * model_error_mm);
   if (tracker) {
     const double d = point_mm.norm();
     const double r = tracker->RadialSigmaMm(d), t = tracker->TransverseSigmaMm(d);
@@ -178,12 +182,22 @@ void MeasurementNoise::Whitening(MeasurementType type, const Eigen::Vector3d& po
   } else {
     w.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / std::sqrt(position_mm * position_mm + shared));
   }
-  for (int k = 3; k < rows; ++k) w(k, k) = 1.0 / OrientationSigmaRad();
+  const double t = OrientationSigmaRad();
+  const double orientation = 1.0 / std::sqrt(t * t + visits * model_error_rad * model_error_rad);
+  for (int k = 3; k < rows; ++k) w(k, k) = orientation;
 }
 
 bool MeasurementNoise::IsValid(std::string* error) const {
   if (!(repeatability_mm >= 0.0 && repeatability_mm <= 10.0)) {
     *error = "noise.repeatability_mm must be in [0, 10]";
+    return false;
+  }
+  if (!(model_error_mm >= 0.0 && model_error_mm <= 100.0)) {
+    *error = "noise.model_error_mm must be in [0, 100]";
+    return false;
+  }
+  if (!(model_error_rad >= 0.0 && model_error_rad <= 0.1)) {
+    *error = "noise.model_error_rad must be in [0, 0.1]";
     return false;
   }
   if (tracker) return tracker->IsValid(error);

@@ -38,6 +38,11 @@ Transform DrawTrackerInBase(const VirtualCellOptions& o, Rng* rng) {
   return t;
 }
 
+// The unmodelled joint harmonics: orders 2, 3 and 4 (order 0 is the joint offset, order 1 nearly a geometric
+// error; the geometric model absorbs neither kind fully, but these not at all).
+constexpr int kFirstHarmonic = 2;
+constexpr int kHarmonicOrders = 3;
+
 }  // namespace
 
 bool VirtualCellOptions::IsValid(std::string* error) const {
@@ -55,6 +60,7 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       {"noise.position_mm", noise.position_mm},
       {"noise.orientation_rad", noise.orientation_rad},
       {"outlier_min_mm", outlier_min_mm},
+      {"joint_harmonic_sigma_rad", joint_harmonic_sigma_rad},
   };
   if (!ValidateReflectors(reflectors, error)) return false;
   if (!(noise.repeatability_mm >= 0.0 && noise.repeatability_mm <= 10.0)) {
@@ -147,6 +153,27 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
     for (int a = 0; a < 3; ++a) true_reflector_errors_[3 * k + a] = options.tool_translation_sigma_mm * rng_.Normal();
   }
   true_in_tool_ = ReflectorsInTool(nominal, options.reflectors, true_reflector_errors_);
+  if (options.joint_harmonic_sigma_rad > 0.0) {
+    harmonic_sin_.resize(nominal.num_joints(), kHarmonicOrders);
+    harmonic_cos_.resize(nominal.num_joints(), kHarmonicOrders);
+    for (int j = 0; j < nominal.num_joints(); ++j) {
+      for (int k = 0; k < kHarmonicOrders; ++k) {
+        harmonic_sin_(j, k) = options.joint_harmonic_sigma_rad * rng_.Normal();
+        harmonic_cos_(j, k) = options.joint_harmonic_sigma_rad * rng_.Normal();
+      }
+    }
+  }
+}
+
+Eigen::VectorXd VirtualCell::JointError(const Eigen::VectorXd& q) const {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(q.size());
+  for (Eigen::Index j = 0; j < harmonic_sin_.rows() && j < q.size(); ++j) {
+    for (int k = 0; k < kHarmonicOrders; ++k) {
+      const double order = static_cast<double>(kFirstHarmonic + k);
+      out[j] += harmonic_sin_(j, k) * std::sin(order * q[j]) + harmonic_cos_(j, k) * std::cos(order * q[j]);
+    }
+  }
+  return out;
 }
 
 void VirtualCell::StartNoiseStream(std::uint64_t stream) {
@@ -163,7 +190,8 @@ Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
     throw std::invalid_argument("VirtualCell: q is not finite");
   }
   KinematicsWorkspace ws(true_model_);
-  return ForwardKinematics(true_model_, q, true_errors_, &ws);
+  if (harmonic_sin_.size() == 0) return ForwardKinematics(true_model_, q, true_errors_, &ws);
+  return ForwardKinematics(true_model_, q + JointError(q), true_errors_, &ws);
 }
 
 Transform VirtualCell::Land(const Eigen::VectorXd& q) {

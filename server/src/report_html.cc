@@ -425,6 +425,21 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   out << "<tr><th>condition number (stored fit)</th>" << NumCell(c.condition_number, 2, "condition_number")
       << "</tr>\n";
   out << "<tr><th>scaling</th>" << TextCell(c.scaling) << "</tr>\n";
+  if (c.model_error.estimated) {
+    // The robot error the geometric model does not explain, beside the tracker's own (RMS).
+    const bool angle = c.measurement_type != MeasurementType::kPosition;
+    out << "<tr><th>model error, RMS (mm)</th>" << NumCell(c.model_error.model_error_mm, 4, "model_error.model_error_mm")
+        << "</tr>\n<tr><th>tracker, RMS (mm)</th>" << NumCell(c.model_error.tracker_rms_mm, 4, "model_error.tracker_rms_mm")
+        << "</tr>\n";
+    if (angle) {
+      out << "<tr><th>model error, RMS (deg)</th>"
+          << NumCell(c.model_error.model_error_deg, 5, "model_error.model_error_deg")
+          << "</tr>\n<tr><th>tracker, RMS (deg)</th>"
+          << NumCell(c.model_error.tracker_rms_deg, 5, "model_error.tracker_rms_deg") << "</tr>\n";
+    }
+  } else {
+    out << "<tr><th>model error</th>" << TextCell("not estimated: the noise model is the whole error") << "</tr>\n";
+  }
   out << "<tr><th>fitted</th>" << TextCell(UtcTime(c.created_unix_ms)) << "</tr>\n</table>\n";
 
   out << "<h3>Residuals of the calibration measurements</h3>\n<table id=\"fit-residuals\">\n<thead><tr><th></th>"

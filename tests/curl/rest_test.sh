@@ -391,6 +391,17 @@ expect "reject_outliers false: every shot used, none listed" \
 call POST "/v1/campaigns/$tracked:fit" '{"outlier_probability": 0.5}' >/dev/null
 expect "outlier_probability 0.5 -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
   "400 outlier_probability"
+# The model error: estimated beside the tracker's noise by default and reported with the tracker's own RMS.
+expect "... the model error estimated, with the tracker's RMS beside it" \
+  "$(jq '.model_error.estimated and .model_error.model_error_mm >= 0 and .model_error.tracker_rms_mm > 0' "$work/robust.json")" true
+expect "... and said in the message" \
+  "$(jq '.summary.message | contains("robot error the geometric model does not explain")' "$work/robust.json")" true
+expect "estimate_model_error false: not estimated" \
+  "$(call POST "/v1/campaigns/$tracked:fit" '{"estimate_model_error": false}' | jq -c '[.model_error.estimated, .model_error.model_error_mm]')" \
+  '[false,0]'
+call POST "/v1/campaigns/$tracked:fit" '{"estimate_model_error": "yes"}' >/dev/null
+expect "estimate_model_error \"yes\" -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 estimate_model_error"
 
 # ---- several reflectors per pose (a position-only tracker sees the tool's orientation through three nests) ------
 nests='[{"id": "smr1", "position_mm": [60, 0, 20]}, {"id": "smr2", "position_mm": [-30, 52, 20]}, {"id": "smr3", "position_mm": [-30, -52, 20]}]'

@@ -246,15 +246,17 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   EXPECT_TRUE(fit_.stored);
   EXPECT_FALSE(fit_.summary.deadline_exceeded);
   ExpectRoundTrip(fit_);
-  // The robust fit's members are absent from fits stored before it; inside them every member is required.
-  ExpectEveryFieldRequired(fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "reflectors"}));
+  // The robust fit's members and the model error are absent from fits stored before them; inside them every
+  // member is required.
+  ExpectEveryFieldRequired(fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
+                                                 "reflectors"}));
   CalibrationResult with_outliers = fit_;
   with_outliers.outliers.push_back({7, "smr2", 123.5, true});
   with_outliers.reflectors.push_back({"smr2", {1.0, 2.0, 3.0}, true});
   with_outliers.parameters_with_outliers = fit_.parameters;
   ExpectRoundTrip(with_outliers);
-  ExpectEveryFieldRequired(with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "reflectors",
-                                                          "outliers[0].reflector"}));
+  ExpectEveryFieldRequired(with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
+                                                          "reflectors", "outliers[0].reflector"}));
   EXPECT_EQ(json(service_->GetCalibration("w")), json(fit_));
   const CompensateResult comp = service_->Compensate(
       "w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},

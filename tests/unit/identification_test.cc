@@ -374,12 +374,16 @@ TEST(IdentificationTest, ProgressThatContinuesChangesNothing) {
   EXPECT_EQ(watched.summary.iterations, plain.summary.iterations);
   EXPECT_EQ(watched.errors, plain.errors);
   EXPECT_EQ(watched.covariance, plain.covariance);
-  // Once per iteration that did not converge in its own step (the last one may have), increasing.
+  // Once per iteration that did not converge in its own step (the last one may have), of every fit Identify
+  // makes (the model error's cycles, the robust rounds): never going back, and up to the first fit's
+  // iterations over max_iterations at least.
   ASSERT_GE(static_cast<int>(fractions.size()), plain.summary.iterations - 1);
-  ASSERT_LE(static_cast<int>(fractions.size()), plain.summary.iterations);
   for (size_t i = 0; i < fractions.size(); ++i) {
-    EXPECT_DOUBLE_EQ(fractions[i], static_cast<double>(i + 1) / o.max_iterations);
+    EXPECT_GT(fractions[i], 0.0);
+    EXPECT_LE(fractions[i], 1.0);
+    if (i > 0) EXPECT_GE(fractions[i], fractions[i - 1]);
   }
+  EXPECT_GE(fractions.back(), static_cast<double>(plain.summary.iterations - 1) / o.max_iterations);
 }
 
 TEST(IdentificationTest, ReportsCarryTheParameterTableAndTheDroppedParameters) {

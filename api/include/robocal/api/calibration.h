@@ -39,6 +39,9 @@ struct FitRequest {
   /// chi-square threshold at 1 - outlier_probability are excluded and the fit repeated.
   bool reject_outliers = true;
   double outlier_probability = 1e-3;
+  /// Estimate the robot error the geometric model does not explain beside the tracker's noise
+  /// (docs/identification.md, "Model error"); false: the campaign's noise model is the whole error.
+  bool estimate_model_error = true;
   /// Run as a long-running operation.
   bool async = false;
 };
@@ -120,6 +123,19 @@ struct RobustFitWire {
 void to_json(nlohmann::json& j, const RobustFitWire& r);
 void from_json(const nlohmann::json& j, RobustFitWire& r);
 
+/// The robot error the geometric model does not explain, as the fit estimated it (docs/identification.md,
+/// "Model error"): RMS as a 3-D position error (mm) and as an angle (deg; 0 for position measurements), beside
+/// the tracker's own RMS over the same measurements from the campaign's noise model.
+struct ModelErrorWire {
+  bool estimated = false;
+  double model_error_mm = 0.0;
+  double model_error_deg = 0.0;
+  double tracker_rms_mm = 0.0;
+  double tracker_rms_deg = 0.0;
+};
+void to_json(nlohmann::json& j, const ModelErrorWire& m);
+void from_json(const nlohmann::json& j, ModelErrorWire& m);
+
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
   std::string campaign;
@@ -145,6 +161,8 @@ struct CalibrationResult {
   RobustFitWire robust;
   std::vector<OutlierWire> outliers;
   std::vector<ParameterEstimate> parameters_with_outliers;
+  /// Absent in fits stored before the estimate (read as not estimated).
+  ModelErrorWire model_error;
   /// The campaign's reflectors at their identified positions (flange frame; a fixed one where it was given);
   /// empty without reflectors. Their offsets are also parameters (reflector.<id>.dx, ...) when identified.
   std::vector<CampaignReflectorWire> reflectors;

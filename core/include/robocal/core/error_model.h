@@ -88,11 +88,18 @@ inline constexpr double kRepeatabilityPerSigma = 3.615;
 /// repeatability_mm > 0 (ISO 9283 RP of the robot) adds an isotropic 1-sigma RP / kRepeatabilityPerSigma per
 /// position axis that the shots of one visit share: the robot stands where it stands while the tracker shoots
 /// it several times. The fit treats the shots of one joint configuration as one visit.
+///
+/// model_error_mm and model_error_rad (1-sigma per position axis, per orientation or axis row) are the robot's
+/// error that the geometric model does not explain (compliance, gear and encoder errors, thermal drift): like
+/// the repeatability, the shots of one visit share it, since it depends on the configuration. The fit
+/// estimates them (IdentificationOptions::estimate_model_error); zero by default.
 struct MeasurementNoise {
   double position_mm = 0.015;
   double orientation_rad = 1e-4;
   std::optional<TrackerUncertainty> tracker;
   double repeatability_mm = 0.0;
+  double model_error_mm = 0.0;
+  double model_error_rad = 0.0;
 
   /// Diagonal row weights for one measurement of `type` (size MeasurementRows(type)), repeatability included.
   /// With `tracker`: the isotropic equivalent at kAssumedTrackerDistanceMm (position variance
@@ -100,13 +107,17 @@ struct MeasurementNoise {
   Eigen::VectorXd RowWeights(MeasurementType type) const;
   /// The whitening matrix of one measurement whose tool point is `point_mm` (tracker frame), rows x rows with
   /// rows = MeasurementRows(type): W' W is the inverse covariance of the residual rows, whose position part is
-  /// the tracker's plus `repeatability_visits` times the repeatability variance per axis: 1 for a shot on its
-  /// own, 0 for the tracker alone (the differences between shots of one visit), n for sqrt(n) times the mean of
-  /// n shots of one visit. Without `tracker` and repeatability it is diag(RowWeights(type)).
+  /// the tracker's plus `repeatability_visits` times the shared variance per axis (repeatability and model
+  /// error; the orientation rows likewise add the model error's): 1 for a shot on its own, 0 for the tracker
+  /// alone (the differences between shots of one visit), n for sqrt(n) times the mean of n shots of one visit.
+  /// Without `tracker`, repeatability and model error it is diag(RowWeights(type)).
   void Whitening(MeasurementType type, const Eigen::Vector3d& point_mm, Eigen::Ref<Eigen::MatrixXd> w,
                  int repeatability_visits = 1) const;
   /// 1-sigma per position axis of the repeatability (mm).
   double RepeatabilitySigmaMm() const { return repeatability_mm / kRepeatabilityPerSigma; }
+  /// Whether the shots of one visit share an error (repeatability or model error): the fit then whitens a
+  /// visit's shots together.
+  bool HasSharedError() const { return repeatability_mm > 0.0 || model_error_mm > 0.0 || model_error_rad > 0.0; }
   /// The 1-sigma orientation error (rad) the rows use.
   double OrientationSigmaRad() const { return tracker ? tracker->OrientationSigmaRad() : orientation_rad; }
   /// Positive, finite sigmas (and a valid tracker); else false and the field ("noise.position_mm",

@@ -48,7 +48,8 @@ struct FitLinearization {
 /// `calibration` as Identify returned it or as a stored one is restored (its model with the registered base,
 /// its errors, its reflectors at their identified positions); `measurements` the ones the fit used (the
 /// calibration measurements less the robust fit's outliers); `options` the fit's, with the reflectors at their
-/// GIVEN positions and `parameters` the estimated set (ascending, non-empty). For the same inputs the results
+/// GIVEN positions and `parameters` the estimated set (ascending, non-empty); its noise is weighted with the
+/// model error the calibration's summary estimated (FittedNoise). For the same inputs the results
 /// equal Identify's to round-off. Throws std::invalid_argument for empty parameters, sizes that do not match,
 /// too few rows, or a rank-deficient Jacobian (no covariance exists then).
 FitLinearization LinearizeFit(const Calibration& calibration, const std::vector<Measurement>& measurements,

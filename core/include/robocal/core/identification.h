@@ -51,11 +51,21 @@ struct IdentificationOptions {
   /// Stop when the step is smaller than parameter_tolerance * (|x| + parameter_tolerance).
   double parameter_tolerance = 1e-12;
   int max_iterations = 100;
+  /// The robot error the geometric model does not explain (docs/identification.md, "Model error"): estimated
+  /// beside the tracker's noise by variance-component estimation, one component for the position rows and one
+  /// for the orientation (or axis) rows, each a 1-sigma per row shared by the shots of one pose
+  /// (MeasurementNoise::model_error_mm, model_error_rad). The fit is then weighted, its covariance scaled and
+  /// its outliers judged with the tracker's covariance plus these. False: the noise model is taken as given
+  /// (noise.model_error_* included) and a scatter far beyond it is DEGRADED.
+  bool estimate_model_error = true;
   /// The robust fit (docs/identification.md, "Outliers"): after the least-squares fit every measurement's
-  /// normalised residual z is computed (the norm of its whitened residual over the median-based scale of all
-  /// of them, at least 0.001); those with z^2 above the chi-square quantile of their rows at 1 - outlier_probability are
-  /// excluded and the fit repeated, until the excluded set stops changing. A measurement excluded in one round
-  /// comes back when the next fit explains it. False: plain least squares over every measurement.
+  /// studentised residual z is computed (its whitened residual against the covariance of a residual, which
+  /// accounts for its leverage: z^2 = a' (I - H)^-1 a, or (I + H)^-1 for a measurement the fit left out); those
+  /// with z^2 above the chi-square quantile of their rows at 1 - outlier_probability are excluded and the fit
+  /// repeated, until the excluded set stops changing. A measurement excluded in one round comes back when the
+  /// next fit explains it. Without a model error (not estimated, or estimated as zero) z is divided by the
+  /// median-based scale of all of them (at least 0.001) where that is below 1: data more precise than the noise
+  /// model says are judged by their own scatter. False: plain least squares over every measurement.
   bool reject_outliers = true;
   /// The probability that a clean measurement is flagged (per measurement), in (0, 0.1].
   double outlier_probability = 1e-3;
@@ -80,7 +90,7 @@ struct OutlierMeasurement {
   /// Index into the measurements given to Identify, and its reflector (Measurement::reflector).
   int measurement = -1;
   int reflector = -1;
-  /// Norm of the whitened residual over the robust scale (sigma units, against the final fit).
+  /// The studentised residual (sigma units, against the final fit; over the robust scale where that applies).
   double normalized_residual = 0.0;
 };
 
@@ -136,6 +146,15 @@ struct IdentificationSummary {
   double robust_scale = 0.0;
   int rejection_rounds = 0;
   std::vector<IdentifiedParameter> parameters_with_outliers;
+  /// The model error (IdentificationOptions::estimate_model_error): whether it was estimated, and its RMS as
+  /// a 3-D position error (mm, sqrt(3) times the 1-sigma per axis) and as an angle (rad: sqrt(3), or sqrt(2)
+  /// for axis rows, times the 1-sigma per row; 0 for position measurements). Beside them the tracker's own RMS
+  /// over the same measurements, from the noise model.
+  bool model_error_estimated = false;
+  double model_error_mm = 0.0;
+  double model_error_rad = 0.0;
+  double tracker_rms_mm = 0.0;
+  double tracker_rms_rad = 0.0;
   double seconds = 0.0;
 
   std::string BriefReport() const;
@@ -171,6 +190,11 @@ struct Calibration {
 /// On FAILURE `errors` is zero and `model` the nominal one.
 Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                      const IdentificationOptions& options = {});
+
+/// The noise a fit weighted with: `noise` with the model error `summary` estimated (model_error_mm over sqrt(3)
+/// per position axis; model_error_rad over sqrt(3), or sqrt(2) for axis rows, per orientation row); `noise`
+/// itself when the summary estimated none.
+MeasurementNoise FittedNoise(const IdentificationSummary& summary, MeasurementNoise noise);
 
 /// The upper tail probability of the chi-square distribution with `dof` degrees of freedom at x (exact, closed
 /// form for integer dof), and its quantile: the x with ChiSquareSurvival(dof, x) = probability.

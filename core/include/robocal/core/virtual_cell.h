@@ -49,6 +49,11 @@ struct VirtualCellOptions {
   double outlier_rate = 0.0;
   double outlier_min_mm = 1.0;
   double outlier_max_mm = 5.0;
+  /// Robot error the geometric model cannot express (gear transmission and encoder errors): each joint's true
+  /// angle is its command plus sum over k = 2..4 of a_k sin(k q) + b_k cos(k q), every a_k, b_k drawn with
+  /// 1-sigma joint_harmonic_sigma_rad (after the other hidden errors, and only when positive, so a seed's
+  /// geometric errors stay). Zero: the robot is exactly geometric.
+  double joint_harmonic_sigma_rad = 0.0;
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
   /// Reflectors on the tool (flange frame): with any, Measure shoots each of them `shots` times per visit
@@ -97,6 +102,8 @@ class VirtualCell {
   const Eigen::VectorXd& true_errors() const { return true_errors_; }
   /// The reflectors' hidden offset errors (3 per reflector, flange frame, mm; zero for fixed ones).
   const Eigen::VectorXd& true_reflector_errors() const { return true_reflector_errors_; }
+  /// The unmodelled joint error at command q (joint_harmonic_sigma_rad; rad per joint, zero without it).
+  Eigen::VectorXd JointError(const Eigen::VectorXd& q) const;
   const VirtualCellOptions& options() const { return options_; }
 
   /// Noise-free tool pose of the true robot at joints q, tracker frame. Throws std::invalid_argument for a q of
@@ -142,6 +149,8 @@ class VirtualCell {
   Eigen::VectorXd true_errors_;
   Eigen::VectorXd true_reflector_errors_;
   std::vector<Eigen::Vector3d> true_in_tool_;
+  // Per joint, the unmodelled harmonics. sine and cosine amplitudes for orders 2, 3, 4 (rad).
+  Eigen::MatrixXd harmonic_sin_, harmonic_cos_;
   VirtualCellOptions options_;
   Rng rng_;
   std::optional<Cell> cell_;
