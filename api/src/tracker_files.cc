@@ -4,11 +4,14 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <optional>
 #include <sstream>
 #include <string_view>
 #include <utility>
+
+#include <Eigen/Geometry>
 
 #include "robocal/api/json_reader.h"
 
@@ -180,6 +183,15 @@ char CsvDelimiter(const std::string& header) {
   return best;
 }
 
+// A field's number with `decimal` as the decimal separator ("," in European exports: "0,25" is 0.25).
+std::optional<double> Number(const std::string& field, char decimal) {
+  if (decimal == '.') return Number(field);
+  std::string f = field;
+  if (f.find('.') != std::string::npos) return std::nullopt;  // with decimal commas a point is no number
+  std::replace(f.begin(), f.end(), ',', '.');
+  return Number(f);
+}
+
 // Checks a point's position (already in mm) and records its problems; true if usable.
 bool CheckPosition(const Eigen::Vector3d& p, int line, Problems* problems) {
   // Each coordinate first: the norm of coordinates near the largest double overflows.
@@ -298,7 +310,8 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
   if (header_index == lines.size()) return;  // "no points" follows
   const int header_line = static_cast<int>(header_index) + 1;
   const std::string header_text(lines[header_index]);
-  const char delimiter = CsvDelimiter(header_text);
+  const char delimiter = req.delimiter.empty() ? CsvDelimiter(header_text) : req.delimiter[0];
+  const char decimal = req.decimal == "," ? ',' : '.';
   std::vector<std::string> header;
   if (delimiter != 0 && std::count(header_text.begin(), header_text.end(), delimiter) >= kMaxCsvFields) {
     problems->Add("text", LineReason(header_line, "more than " + std::to_string(kMaxCsvFields) + " columns"));
@@ -308,36 +321,71 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
     problems->Add("text", LineReason(header_line, "the header has no ',', ';' or tab between column names"));
     return;
   }
-  // The columns the import needs.
+  if (header.size() < 3) {
+    problems->Add("text", LineReason(header_line, "the header has " + std::to_string(header.size()) +
+                                                      " column(s) at delimiter " + Shown(std::string(1, delimiter)) +
+                                                      ": is the delimiter right?"));
+    return;
+  }
+  // The columns the import needs: target (matching by name), x, y, z, the nest, the joints, the orientation.
   struct Wanted {
-    const char* field;
-    const std::string* name;
-    bool needed;
+    std::string field;
+    std::string name;
     int index = -1;
   };
-  Wanted wanted[] = {{"columns.target", &req.columns.target, req.match == "name"},
-                     {"columns.x", &req.columns.x, true},
-                     {"columns.y", &req.columns.y, true},
-                     {"columns.z", &req.columns.z, true},
-                     {"columns.reflector", &req.columns.reflector, !req.columns.reflector.empty()}};
+  const bool with_joints = !req.joints.columns.empty();
+  std::vector<Wanted> wanted;
+  const auto want = [&](const std::string& field, const std::string& name) {
+    wanted.push_back({field, name});
+    return wanted.size() - 1;
+  };
+  const std::size_t target = req.match == "name" && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
+  const std::size_t axes[3] = {want("columns.x", req.columns.x), want("columns.y", req.columns.y),
+                               want("columns.z", req.columns.z)};
+  const std::size_t reflector = req.columns.reflector.empty() ? SIZE_MAX : want("columns.reflector", req.columns.reflector);
+  std::vector<std::size_t> joint_columns, orientation_columns;
+  for (std::size_t k = 0; k < req.joints.columns.size(); ++k) {
+    joint_columns.push_back(want("joints.columns[" + std::to_string(k) + "]", req.joints.columns[k]));
+  }
+  for (std::size_t k = 0; k < req.orientation.columns.size(); ++k) {
+    orientation_columns.push_back(want("orientation.columns[" + std::to_string(k) + "]", req.orientation.columns[k]));
+  }
   bool columns_ok = true;
   for (Wanted& w : wanted) {
-    if (!w.needed) continue;
     for (std::size_t c = 0; c < header.size(); ++c) {
-      if (Lower(Trim(header[c])) == Lower(Trim(*w.name))) {
+      if (Lower(Trim(header[c])) == Lower(Trim(w.name))) {
         w.index = static_cast<int>(c);
         break;
       }
     }
     if (w.index < 0) {
-      problems->Add(w.field, "no column " + Shown(*w.name) + " in the header (line " + std::to_string(header_line) +
+      problems->Add(w.field, "no column " + Shown(w.name) + " in the header (line " + std::to_string(header_line) +
                                  ": " + Shown(header_text) + ")");
       columns_ok = false;
     }
   }
   if (!columns_ok) return;
   const double scale = UnitScale(req.unit);
+  const double joint_scale = req.joints.unit == "rad" ? 180.0 / M_PI : 1.0;
+  const double angle_scale = req.orientation.unit == "deg" ? M_PI / 180.0 : 1.0;
+  std::size_t max_index = 0;
+  for (const Wanted& w : wanted) max_index = std::max(max_index, static_cast<std::size_t>(w.index));
   std::vector<std::string> fields;
+  // A field's number, or a problem naming the line and the column.
+  const auto read = [&](const std::vector<std::string>& row, const Wanted& w, int line, double* out) {
+    const std::string& field = row[static_cast<std::size_t>(w.index)];
+    const std::optional<double> v = Number(field, decimal);
+    if (!v) {
+      std::string why = "column " + Shown(w.name) + ": " + Shown(field) + " is not a finite number";
+      if (decimal == '.' && field.find(',') != std::string::npos && Number(field, ',').has_value()) {
+        why += " (decimal commas: give decimal \",\")";
+      }
+      problems->Add("text", LineReason(line, why));
+      return false;
+    }
+    *out = *v;
+    return true;
+  };
   for (std::size_t i = header_index + 1; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
     const std::string row(lines[i]);
@@ -354,35 +402,71 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
       problems->Add("text", LineReason(line, "a quote is not closed"));
       continue;
     }
+    if (max_index >= fields.size()) {
+      for (const Wanted& w : wanted) {
+        if (static_cast<std::size_t>(w.index) < fields.size()) continue;
+        problems->Add("text", LineReason(line, "no value in column " + Shown(w.name) + " (" +
+                                                   std::to_string(fields.size()) + " fields)"));
+        break;
+      }
+      continue;
+    }
     TrackerPoint p;
     p.line = line;
     bool ok = true;
-    for (const Wanted& w : wanted) {
-      if (w.index < 0) continue;
-      if (w.index >= static_cast<int>(fields.size())) {
-        problems->Add("text", LineReason(line, "no value in column " + Shown(*w.name) + " (" +
-                                                   std::to_string(fields.size()) + " fields)"));
-        ok = false;
-        break;
-      }
-    }
-    if (!ok) continue;
-    if (wanted[0].index >= 0) p.target = fields[wanted[0].index];
-    if (wanted[4].index >= 0) p.reflector = fields[wanted[4].index];
+    if (target != SIZE_MAX) p.target = fields[wanted[target].index];
+    if (reflector != SIZE_MAX) p.reflector = fields[wanted[reflector].index];
     if (p.target.size() > kMaxTargetLength || p.reflector.size() > kMaxTargetLength) {
       problems->Add("text", LineReason(line, "target or reflector longer than " + std::to_string(kMaxTargetLength)));
       ok = false;
     }
     for (int k = 0; k < 3; ++k) {
-      const std::string& field = fields[wanted[1 + k].index];
-      const std::optional<double> v = Number(field);
-      if (!v) {
-        problems->Add("text", LineReason(line, "column " + Shown(*wanted[1 + k].name) + ": " + Shown(field) +
-                                                   " is not a finite number"));
-        ok = false;
+      double v = 0.0;
+      if (read(fields, wanted[axes[k]], line, &v)) {
+        p.position_mm[k] = v * scale;
       } else {
-        p.position_mm[k] = *v * scale;
+        ok = false;
       }
+    }
+    for (std::size_t k : joint_columns) {
+      double v = 0.0;
+      if (read(fields, wanted[k], line, &v)) {
+        p.joints_deg.push_back(v * joint_scale);
+      } else {
+        ok = false;
+      }
+    }
+    std::vector<double> angles;
+    for (std::size_t k : orientation_columns) {
+      double v = 0.0;
+      if (read(fields, wanted[k], line, &v)) {
+        angles.push_back(v);
+      } else {
+        ok = false;
+      }
+    }
+    if (ok && !angles.empty()) {
+      Eigen::Quaterniond q;
+      if (req.orientation.representation == "quaternion") {
+        const bool w_first = req.orientation.order == "wxyz";
+        q = w_first ? Eigen::Quaterniond(angles[0], angles[1], angles[2], angles[3])
+                    : Eigen::Quaterniond(angles[3], angles[0], angles[1], angles[2]);
+        const double norm = q.norm();
+        if (!(std::abs(norm - 1.0) < 1e-3)) {
+          std::ostringstream why;
+          why << "the quaternion's norm is " << norm << ", not 1: are the columns and their order right?";
+          problems->Add("text", LineReason(line, why.str()));
+          ok = false;
+        }
+        q.normalize();
+      } else {
+        q = Eigen::Quaterniond(EulerToRotation(req.orientation.sequence, req.orientation.convention == "intrinsic",
+                                               angles[0] * angle_scale, angles[1] * angle_scale,
+                                               angles[2] * angle_scale));
+      }
+      if (q.w() < 0.0) q.coeffs() *= -1.0;
+      p.has_orientation = true;
+      p.quaternion = {q.w(), q.x(), q.y(), q.z()};
     }
     if (ok && CheckPosition(p.position_mm, line, problems)) points->push_back(std::move(p));
   }
@@ -400,6 +484,30 @@ const std::vector<std::string>& TrackerFileUnits() {
 }
 const std::vector<std::string>& TrackerFileMatches() {
   static const std::vector<std::string> names = {"name", "order"};
+  return names;
+}
+const std::vector<std::string>& TrackerFileDelimiters() {
+  static const std::vector<std::string> names = {",", ";", "\t"};
+  return names;
+}
+const std::vector<std::string>& TrackerFileDecimals() {
+  static const std::vector<std::string> names = {".", ","};
+  return names;
+}
+const std::vector<std::string>& AngleUnits() {
+  static const std::vector<std::string> names = {"deg", "rad"};
+  return names;
+}
+const std::vector<std::string>& OrientationRepresentations() {
+  static const std::vector<std::string> names = {"quaternion", "euler"};
+  return names;
+}
+const std::vector<std::string>& QuaternionOrders() {
+  static const std::vector<std::string> names = {"wxyz", "xyzw"};
+  return names;
+}
+const std::vector<std::string>& EulerConventions() {
+  static const std::vector<std::string> names = {"intrinsic", "extrinsic"};
   return names;
 }
 
@@ -436,8 +544,69 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
     }
     cr.RejectUnknown({"target", "x", "y", "z", "reflector"});
   }
+  r.Enum("delimiter", false, TrackerFileDelimiters(), &req.delimiter);
+  r.Enum("decimal", false, TrackerFileDecimals(), &req.decimal);
+  if (req.decimal == "," && req.delimiter == ",") {
+    problems.Add("decimal", "a decimal comma needs another delimiter (\";\" or a tab)");
+  }
+  if ((r.Has("delimiter") || r.Has("decimal")) && req.format != "csv") {
+    problems.Add(r.Has("delimiter") ? "delimiter" : "decimal", "only with format \"csv\"");
+  }
+  // Column names: non-empty, at most 128 characters, each named once.
+  const auto names = [&](ObjectReader& reader, const std::string& path, std::size_t min, std::size_t max,
+                         std::vector<std::string>* out) {
+    const nlohmann::json* a = reader.Array("columns", true, min, max);
+    if (a == nullptr) return;
+    for (std::size_t k = 0; k < a->size(); ++k) {
+      const std::string at = JoinPath(path, "columns") + "[" + std::to_string(k) + "]";
+      const nlohmann::json& v = (*a)[k];
+      if (!v.is_string() || Trim(v.get<std::string>()).empty() || v.get<std::string>().size() > 128) {
+        problems.Add(at, "must name a column (a non-empty string of at most 128 characters)");
+      } else if (std::find(out->begin(), out->end(), v.get<std::string>()) != out->end()) {
+        problems.Add(at, "\"" + v.get<std::string>() + "\" is named twice");
+      } else {
+        out->push_back(v.get<std::string>());
+      }
+    }
+  };
+  if (const nlohmann::json* j = r.Get("joints")) {
+    if (req.format != "csv") problems.Add("joints", "only with format \"csv\"");
+    ObjectReader jr(*j, "joints", &problems);
+    names(jr, "joints", 1, static_cast<std::size_t>(kMaxJoints), &req.joints.columns);
+    jr.Enum("unit", true, AngleUnits(), &req.joints.unit);
+    jr.RejectUnknown({"columns", "unit"});
+    // Each row carries its joints: there is no plan to match.
+    for (const char* key : {"plan", "match", "shots_per_configuration"}) {
+      if (r.Has(key)) problems.Add(key, "not with joints: each row is a measurement at its own joints");
+    }
+  }
+  if (const nlohmann::json* o = r.Get("orientation")) {
+    if (!r.Has("joints")) problems.Add("orientation", "only with joints (a file matched to a plan gives points)");
+    ObjectReader orr(*o, "orientation", &problems);
+    OrientationColumns& oc = req.orientation;
+    if (orr.Enum("representation", true, OrientationRepresentations(), &oc.representation)) {
+      const bool quaternion = oc.representation == "quaternion";
+      const std::size_t count = quaternion ? 4 : 3;
+      names(orr, "orientation", count, count, &oc.columns);
+      if (quaternion) {
+        orr.Enum("order", true, QuaternionOrders(), &oc.order);
+        orr.RejectUnknown({"representation", "columns", "order"});
+      } else {
+        if (orr.String("sequence", true, &oc.sequence, 8)) {
+          try {
+            (void)EulerToRotation(oc.sequence, true, 0.0, 0.0, 0.0);
+          } catch (const std::invalid_argument& e) {
+            problems.Add("orientation.sequence", e.what());
+          }
+        }
+        orr.Enum("convention", true, EulerConventions(), &oc.convention);
+        orr.Enum("unit", true, AngleUnits(), &oc.unit);
+        orr.RejectUnknown({"representation", "columns", "sequence", "convention", "unit"});
+      }
+    }
+  }
   r.RejectUnknown({"request_id", "role", "format", "text", "unit", "plan", "match", "shots_per_configuration",
-                   "columns"});
+                   "columns", "joints", "orientation", "delimiter", "decimal"});
   problems.ThrowIfAny("invalid measurement import");
   return req;
 }
@@ -451,6 +620,19 @@ void to_json(nlohmann::json& j, const ImportMeasurementsRequest& req) {
   if (req.format == "csv") {
     j["columns"] = {{"target", req.columns.target}, {"x", req.columns.x}, {"y", req.columns.y}, {"z", req.columns.z}};
     if (!req.columns.reflector.empty()) j["columns"]["reflector"] = req.columns.reflector;
+    if (!req.delimiter.empty()) j["delimiter"] = req.delimiter;
+    j["decimal"] = req.decimal;
+  }
+  if (!req.joints.columns.empty()) {
+    j["joints"] = {{"columns", req.joints.columns}, {"unit", req.joints.unit}};
+    j.erase("match");
+  }
+  const OrientationColumns& o = req.orientation;
+  if (o.representation == "quaternion") {
+    j["orientation"] = {{"representation", o.representation}, {"columns", o.columns}, {"order", o.order}};
+  } else if (o.representation == "euler") {
+    j["orientation"] = {{"representation", o.representation}, {"columns", o.columns}, {"sequence", o.sequence},
+                        {"convention", o.convention}, {"unit", o.unit}};
   }
 }
 
@@ -460,7 +642,23 @@ void from_json(const nlohmann::json& j, ImportMeasurementsRequest& req) {
   r.Required("role", &req.role);
   r.Required("format", &req.format);
   r.Required("text", &req.text);
-  r.Required("match", &req.match);
+  r.Optional("match", &req.match);
+  r.Optional("delimiter", &req.delimiter);
+  r.Optional("decimal", &req.decimal);
+  if (r.Has("joints")) {
+    const WireReader jr(r.Member("joints"), "joints");
+    jr.Required("columns", &req.joints.columns);
+    jr.Required("unit", &req.joints.unit);
+  }
+  if (r.Has("orientation")) {
+    const WireReader o(r.Member("orientation"), "orientation");
+    o.Required("representation", &req.orientation.representation);
+    o.Required("columns", &req.orientation.columns);
+    o.Optional("order", &req.orientation.order);
+    o.Optional("sequence", &req.orientation.sequence);
+    o.Optional("convention", &req.orientation.convention);
+    o.Optional("unit", &req.orientation.unit);
+  }
   r.Optional("unit", &req.unit);
   r.Optional("plan", &req.plan);
   r.Optional("shots_per_configuration", &req.shots_per_configuration);
@@ -502,28 +700,83 @@ int ConfigurationOfTarget(const std::string& target) {
   return std::stoi(digits.substr(first)) - 1;
 }
 
+namespace {
+
+// Every point names one of the campaign's nests, and a campaign without nests has no nest column; false after a
+// problem that leaves nothing to check.
+bool CheckNests(const ImportMeasurementsRequest& request, const std::vector<TrackerPoint>& points,
+                const std::vector<CampaignReflectorWire>& reflectors, Problems* problems) {
+  if (reflectors.empty() && !request.columns.reflector.empty()) {
+    problems->Add("columns.reflector", "the campaign has no reflector nests");
+    return false;
+  }
+  if (reflectors.empty()) return true;
+  std::string known;
+  for (const CampaignReflectorWire& r : reflectors) known += (known.empty() ? "" : ", ") + r.id;
+  for (const TrackerPoint& p : points) {
+    if (p.reflector.empty()) {
+      problems->Add("text", LineReason(p.line, "no nest in column " + Shown(request.columns.reflector)));
+    } else if (ReflectorIndex(reflectors, p.reflector) < 0) {
+      problems->Add("text", LineReason(p.line, "unknown nest " + Shown(p.reflector) + " (the campaign has " +
+                                                   known + ")"));
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+Eigen::Matrix3d EulerToRotation(const std::string& sequence, bool intrinsic, double a, double b, double c) {
+  const auto axis = [&](char letter) -> Eigen::Vector3d {
+    switch (std::toupper(static_cast<unsigned char>(letter))) {
+      case 'X': return Eigen::Vector3d::UnitX();
+      case 'Y': return Eigen::Vector3d::UnitY();
+      case 'Z': return Eigen::Vector3d::UnitZ();
+      default: return Eigen::Vector3d::Zero();
+    }
+  };
+  const bool valid = sequence.size() == 3 && std::all_of(sequence.begin(), sequence.end(), [&](char l) {
+                       return !axis(l).isZero();
+                     }) && std::toupper(static_cast<unsigned char>(sequence[0])) != std::toupper(static_cast<unsigned char>(sequence[1])) &&
+                     std::toupper(static_cast<unsigned char>(sequence[1])) != std::toupper(static_cast<unsigned char>(sequence[2]));
+  if (!valid) {
+    throw std::invalid_argument("'" + sequence.substr(0, 8) +
+                                "' is not an Euler sequence: three of X, Y, Z with no axis twice in a row (XYZ, "
+                                "ZYX, ZXZ, ...)");
+  }
+  const Eigen::Matrix3d r1 = Eigen::AngleAxisd(a, axis(sequence[0])).toRotationMatrix();
+  const Eigen::Matrix3d r2 = Eigen::AngleAxisd(b, axis(sequence[1])).toRotationMatrix();
+  const Eigen::Matrix3d r3 = Eigen::AngleAxisd(c, axis(sequence[2])).toRotationMatrix();
+  return intrinsic ? Eigen::Matrix3d(r1 * r2 * r3) : Eigen::Matrix3d(r3 * r2 * r1);
+}
+
+MeasurementBatchRequest PointsWithJoints(const ImportMeasurementsRequest& request,
+                                         const std::vector<TrackerPoint>& points, Problems* problems,
+                                         const std::vector<CampaignReflectorWire>& reflectors) {
+  MeasurementBatchRequest batch;
+  if (!CheckNests(request, points, reflectors, problems) || !problems->empty()) return batch;
+  batch.request_id = request.request_id;
+  batch.role = request.role;
+  batch.measurements.reserve(points.size());
+  for (const TrackerPoint& p : points) {
+    MeasurementWire w;
+    w.joints = p.joints_deg;
+    w.pose.position_mm = {p.position_mm.x(), p.position_mm.y(), p.position_mm.z()};
+    w.pose.has_orientation = p.has_orientation;
+    w.pose.quaternion = p.quaternion;
+    w.reflector = p.reflector;
+    batch.measurements.push_back(std::move(w));
+  }
+  return batch;
+}
+
 MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
                                               const std::vector<TrackerPoint>& points,
                                               const std::vector<std::vector<double>>& configurations,
                                               Problems* problems,
                                               const std::vector<CampaignReflectorWire>& reflectors) {
   MeasurementBatchRequest batch;
-  if (reflectors.empty() && !request.columns.reflector.empty()) {
-    problems->Add("columns.reflector", "the campaign has no reflector nests");
-    return batch;
-  }
-  if (!reflectors.empty()) {
-    std::string known;
-    for (const CampaignReflectorWire& r : reflectors) known += (known.empty() ? "" : ", ") + r.id;
-    for (const TrackerPoint& p : points) {
-      if (p.reflector.empty()) {
-        problems->Add("text", LineReason(p.line, "no nest in column " + Shown(request.columns.reflector)));
-      } else if (ReflectorIndex(reflectors, p.reflector) < 0) {
-        problems->Add("text", LineReason(p.line, "unknown nest " + Shown(p.reflector) + " (the campaign has " +
-                                                     known + ")"));
-      }
-    }
-  }
+  if (!CheckNests(request, points, reflectors, problems)) return batch;
   batch.request_id = request.request_id;
   batch.role = request.role;
   const std::size_t m = configurations.size();

@@ -7,7 +7,9 @@
 
 #include "cli.h"
 #include "command.h"
+#include "robocal/api/text.h"
 #include "robocal/client/csv.h"
+#include "robocal/core/random.h"
 #include "support.h"
 
 namespace robocal::cli {
@@ -108,12 +110,42 @@ int CampaignForward(Invocation& in) {
 }
 
 // upload --format sa|csv: the tracker's own export, read and matched by the service.
+// A Latin-1 (ISO 8859-1) text as UTF-8: every byte is the code point of its value. By hand: iconv would do it
+// too, but it is two lines, and the client library stays free of locale state.
+std::string Latin1ToUtf8(const std::string& text) {
+  std::string out;
+  out.reserve(text.size() + text.size() / 8);
+  for (unsigned char c : text) {
+    if (c < 0x80) {
+      out += static_cast<char>(c);
+    } else {
+      out += static_cast<char>(0xC0 | (c >> 6));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
+}
+
+// The comma-separated list of an option (empty items refused, naming the option).
+std::vector<std::string> ListOption(Invocation& in, const char* option) {
+  return tools::SplitList(option, in.Option(option));
+}
+
 int ImportTrackerFile(Invocation& in, const std::string& format) {
   if (format != "sa" && format != "csv") throw UsageError("--format takes sa or csv, got '" + format + "'");
   api::ImportMeasurementsRequest request;
   request.format = format;
   request.text = ReadFile(in.args[1]);
   if (request.text.empty()) throw UsageError(in.args[1] + " is empty or not a file");
+  // The text goes as JSON, which is UTF-8: a Latin-1 export (µ, ° in its header) is converted first.
+  const std::string encoding = in.Option("--encoding", "auto");
+  if (encoding != "auto" && encoding != "utf-8" && encoding != "latin-1") {
+    throw UsageError("--encoding takes auto, utf-8 or latin-1, got '" + encoding + "'");
+  }
+  if (encoding == "latin-1" || (encoding == "auto" && !api::IsValidUtf8(request.text))) {
+    request.text = Latin1ToUtf8(request.text);
+    if (encoding == "auto") in.err << in.args[1] << " is not UTF-8: read as Latin-1\n";
+  }
   request.role = in.Enum("--role", request.role);
   request.request_id = in.Option("--request-id");
   request.plan = in.Option("--plan");
@@ -140,18 +172,104 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
       *out = item.substr(eq + 1);
     }
   }
-  api::BatchResult r;
-  try {
-    r = in.Client().ImportMeasurements(in.args[0], request);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(in.args[1] + ": " + e.what());
+  // A file that carries the joints (and the measured orientation): no plan; the service checks the values and
+  // names the field.
+  if (in.Has("--joints")) {
+    request.joints.columns = ListOption(in, "--joints");
+    request.joints.unit = in.Option("--joint-unit");
+    if (request.joints.unit.empty()) throw UsageError("--joints needs --joint-unit deg|rad");
+  } else if (in.Has("--joint-unit")) {
+    throw UsageError("--joint-unit is for --joints");
   }
-  if (in.json) {
-    PrintJson(in.out, r);
+  const bool quaternion = in.Has("--quaternion-order"), euler = in.Has("--euler");
+  if (quaternion && euler) throw UsageError("--quaternion-order and --euler exclude each other");
+  if ((quaternion || euler) != in.Has("--orientation-columns")) {
+    throw UsageError("--orientation-columns goes with --quaternion-order or --euler");
+  }
+  if (quaternion || euler) {
+    api::OrientationColumns& o = request.orientation;
+    o.representation = quaternion ? "quaternion" : "euler";
+    o.columns = ListOption(in, "--orientation-columns");
+    if (quaternion) {
+      o.order = in.Option("--quaternion-order");
+    } else {
+      o.sequence = in.Option("--euler");
+      o.convention = in.Option("--euler-convention");
+      o.unit = in.Option("--angle-unit");
+      if (o.convention.empty() || o.unit.empty()) {
+        throw UsageError("--euler needs --euler-convention intrinsic|extrinsic and --angle-unit deg|rad");
+      }
+    }
+  }
+  if (in.Has("--delimiter")) {
+    request.delimiter = in.Option("--delimiter");
+    if (request.delimiter == "tab") request.delimiter = "\t";
+  }
+  request.decimal = in.Option("--decimal", request.decimal);
+
+  // --calibration-rows N: N data rows drawn at random (--seed) are calibration measurements, the rest
+  // validation: two imports of the same text with the other rows blanked, so that every line keeps its number.
+  std::vector<api::ImportMeasurementsRequest> imports;
+  if (in.Has("--calibration-rows")) {
+    if (in.Has("--role")) throw UsageError("--calibration-rows sets the roles itself: leave out --role");
+    const long long wanted = in.Integer("--calibration-rows", 0, 1, 1000000);
+    const auto seed = static_cast<std::uint64_t>(in.Integer("--seed", 1, 0, std::numeric_limits<long long>::max()));
+    std::vector<std::string> lines;
+    std::vector<std::size_t> data;  // indices of the data lines (after the first non-empty one, the header)
+    {
+      std::size_t start = 0;
+      bool header = false;
+      while (start <= request.text.size()) {
+        std::size_t end = request.text.find('\n', start);
+        if (end == std::string::npos) end = request.text.size();
+        lines.push_back(request.text.substr(start, end - start));
+        const bool blank = lines.back().find_first_not_of(" \t\r") == std::string::npos;
+        if (!blank && header) data.push_back(lines.size() - 1);
+        if (!blank) header = true;
+        start = end + 1;
+      }
+    }
+    if (static_cast<std::size_t>(wanted) >= data.size()) {
+      throw UsageError("--calibration-rows " + std::to_string(wanted) + ": " + in.args[1] + " has " +
+                       std::to_string(data.size()) + " data rows; leave some for validation");
+    }
+    Rng rng(seed);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(wanted); ++k) {
+      std::swap(data[k], data[k + rng.Index(data.size() - k)]);
+    }
+    std::vector<char> calibration(lines.size(), 0);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(wanted); ++k) calibration[data[k]] = 1;
+    std::vector<char> is_data(lines.size(), 0);
+    for (std::size_t i : data) is_data[i] = 1;
+    for (const api::MeasurementRole role : {api::MeasurementRole::kCalibration, api::MeasurementRole::kValidation}) {
+      api::ImportMeasurementsRequest part = request;
+      part.role = role;
+      part.text.clear();
+      const bool want_calibration = role == api::MeasurementRole::kCalibration;
+      for (std::size_t i = 0; i < lines.size(); ++i) {
+        if (!is_data[i] || (calibration[i] != 0) == want_calibration) part.text += lines[i];
+        if (i + 1 < lines.size()) part.text += '\n';
+      }
+      if (!request.request_id.empty()) part.request_id += "-" + std::string(api::WireName(role));
+      imports.push_back(std::move(part));
+    }
   } else {
-    in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " " << api::WireName(request.role)
-           << " measurements from " << in.args[1] << ", batch " << r.batch_id << ", request id " << r.request_id
-           << "; campaign total " << r.campaign_total << "\n";
+    imports.push_back(request);
+  }
+  for (const api::ImportMeasurementsRequest& part : imports) {
+    api::BatchResult r;
+    try {
+      r = in.Client().ImportMeasurements(in.args[0], part);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(in.args[1] + ": " + e.what());
+    }
+    if (in.json) {
+      PrintJson(in.out, r);
+    } else {
+      in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " "
+             << api::WireName(part.role) << " measurements from " << in.args[1] << ", batch " << r.batch_id
+             << ", request id " << r.request_id << "; campaign total " << r.campaign_total << "\n";
+    }
   }
   return kExitOk;
 }
@@ -160,7 +278,10 @@ int Upload(Invocation& in) {
   const std::string& campaign_id = in.args[0];
   const std::string& path = in.args[1];
   if (in.Has("--format")) return ImportTrackerFile(in, in.Option("--format"));
-  for (const char* option : {"--plan", "--unit", "--columns", "--match", "--shots"}) {
+  for (const char* option : {"--plan", "--unit", "--columns", "--match", "--shots", "--joints", "--joint-unit",
+                             "--orientation-columns", "--quaternion-order", "--euler", "--euler-convention",
+                             "--angle-unit", "--delimiter", "--decimal", "--encoding", "--calibration-rows",
+                             "--seed"}) {
     if (in.Has(option)) throw UsageError(std::string(option) + " is for --format sa|csv (a tracker export)");
   }
   const std::string text = ReadFile(path);

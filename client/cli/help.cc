@@ -183,6 +183,25 @@ target=target,x=x,y=y,z=z; reflector=... for a campaign with nests). --unit mm|m
 target name's trailing number, 1-based (P007 is configuration 7); --match order: the points in file order,
 --shots N per configuration (default: points / configurations). A bad line is named by its number, and then
 nothing is stored.
+
+A csv export that carries the robot's joints needs no plan (docs/formats.md, "Files with joints"):
+  --joints C1,C2,...   the joint columns, one per joint in the robot's order
+  --joint-unit deg|rad their unit
+  --orientation-columns C1,C2,C3[,C4]
+                       the measured orientation (pose and position_axis campaigns), as a quaternion:
+  --quaternion-order wxyz|xyzw   what the four columns hold, or as Euler angles:
+  --euler SEQUENCE     the axes of the first, second and third rotation (XYZ, ZYX, ZXZ, ...)
+  --euler-convention intrinsic|extrinsic   about the turning axes or about the tracker's fixed axes
+  --angle-unit deg|rad the angles' unit
+  --delimiter ,|;|tab  the field delimiter (default: the header's most frequent of them)
+  --decimal .|,        the decimal separator (default .; European exports write 0,25)
+  --encoding auto|utf-8|latin-1   the file's encoding (default auto: UTF-8 if it is, else Latin-1)
+  --calibration-rows N N data rows drawn at random are calibration measurements, the rest validation (two
+                       imports; --seed S, default 1, makes the draw; not with --role)
+Rows with equal joints are shots of one pose. Example (the IPA UR10 files, tests/data/ipa):
+  robocal upload C series_b.csv --format csv --unit mm --decimal , --columns x=measurement_x,y=measurement_y,
+    z=measurement_z --joints shoulder_pan_joint,...,wrist_3_joint --joint-unit rad --orientation-columns
+    measurement_rx,measurement_ry,measurement_rz --euler XYZ --euler-convention intrinsic --angle-unit deg
 )"};
 
 const HelpText kMeasurements = {"the stored measurements as CSV (the upload format) or JSON", R"(

@@ -112,6 +112,7 @@ api::CampaignList Service::ListCampaigns(const std::string& page_size, const std
 api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, const nlohmann::json& body) {
   const api::ImportMeasurementsRequest req = api::ParseImportMeasurementsRequest(body);
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  if (!req.joints.columns.empty()) return ImportMeasurementsWithJoints(campaign_id, campaign, req);
   // A point export carries positions: the campaign must measure positions, with its nests named per point.
   if (campaign.measurement_type != MeasurementType::kPosition) {
     throw ApiError(Status::kFailedPrecondition,
@@ -164,6 +165,44 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
       api::MatchToConfigurations(req, points, plan.configurations, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
   // The batch goes the way of every upload: the campaign's checks, one transaction, the request id's replay.
+  return AppendMeasurements(campaign_id, nlohmann::json(batch));
+}
+
+api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campaign_id,
+                                                       const api::StoredCampaign& campaign,
+                                                       const api::ImportMeasurementsRequest& req) {
+  // An export with joints needs no plan; a 6-DoF campaign needs the measured orientation.
+  if (campaign.measurement_type != MeasurementType::kPosition && req.orientation.representation.empty()) {
+    throw ApiError(Status::kInvalidArgument,
+                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
+                       ": the file's orientation columns are needed",
+                   {{"orientation", std::string("required for a ") + api::WireName(campaign.measurement_type) + " campaign"}});
+  }
+  if (!campaign.reflectors.empty() && req.columns.reflector.empty()) {
+    throw ApiError(Status::kInvalidArgument,
+                   "campaign \"" + campaign_id + "\" has reflectors: every point must name its nest",
+                   {{"columns.reflector", "required for a campaign with reflectors (format csv)"}});
+  }
+  const std::size_t joints = campaign.robot_definition.joints.empty()
+                                 ? static_cast<std::size_t>(api::BuildModel(campaign.robot_definition).num_joints())
+                                 : campaign.robot_definition.joints.size();
+  if (req.joints.columns.size() != joints) {
+    throw ApiError(Status::kInvalidArgument,
+                   "the file names " + std::to_string(req.joints.columns.size()) + " joint columns, robot \"" +
+                       campaign.robot + "\" has " + std::to_string(joints) + " joints",
+                   {{"joints.columns", "one column per joint of the robot, in its order"}});
+  }
+  api::Problems problems;
+  const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
+  if (points.size() > options_.limits.max_array_length) {
+    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
+                             std::to_string(options_.limits.max_array_length));
+  }
+  problems.ThrowIfAny("invalid tracker file");
+  const api::MeasurementBatchRequest batch = api::PointsWithJoints(req, points, &problems, campaign.reflectors);
+  problems.ThrowIfAny("invalid tracker file");
+  // The batch goes the way of every upload: the campaign's checks (joint limits among them), one transaction,
+  // the request id's replay.
   return AppendMeasurements(campaign_id, nlohmann::json(batch));
 }
 

@@ -299,5 +299,181 @@ TEST(TrackerFilesTest, RequestFieldsAreChecked) {
   EXPECT_EQ(json(back), json(r));
 }
 
+
+// Euler angles against rotations worked by hand: R1(a) R2(b) R3(c) about the turning axes (intrinsic), R3 R2 R1
+// about the fixed ones (extrinsic).
+TEST(TrackerFilesTest, EulerAnglesAgainstHandWorkedRotations) {
+  const double q = M_PI / 2.0;
+  // Rx(90) takes y to z.
+  EXPECT_TRUE(EulerToRotation("XYZ", true, q, 0, 0).isApprox(
+      (Eigen::Matrix3d() << 1, 0, 0, 0, 0, -1, 0, 1, 0).finished(), 1e-15));
+  // Intrinsic X then Y, 90 deg each: Rx(90) Ry(90) takes x to Rx(90) (0, 0, -1) = (0, 1, 0).
+  EXPECT_TRUE((EulerToRotation("XYZ", true, q, q, 0) * Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d::UnitY(), 1e-15));
+  // Extrinsic X then Y: Ry(90) Rx(90) takes x to Ry(90) (1, 0, 0) = (0, 0, -1).
+  EXPECT_TRUE((EulerToRotation("XYZ", false, q, q, 0) * Eigen::Vector3d::UnitX())
+                  .isApprox(-Eigen::Vector3d::UnitZ(), 1e-15));
+  // Intrinsic XYZ (a, b, c) is extrinsic ZYX (c, b, a); lower case axes read as upper case; ZXZ is a sequence.
+  const Eigen::Matrix3d r = EulerToRotation("xyz", true, 0.3, -0.7, 1.9);
+  EXPECT_TRUE(r.isApprox(EulerToRotation("ZYX", false, 1.9, -0.7, 0.3), 1e-14));
+  EXPECT_TRUE(r.isApprox(Eigen::Matrix3d(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()) *
+                                         Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitY()) *
+                                         Eigen::AngleAxisd(1.9, Eigen::Vector3d::UnitZ())),
+                         1e-14));
+  EXPECT_NO_THROW(EulerToRotation("ZXZ", true, 0.1, 0.2, 0.3));
+  for (const char* bad : {"XXY", "XY", "XYW", "XYZX", ""}) {
+    EXPECT_THROW(EulerToRotation(bad, true, 0, 0, 0), std::invalid_argument) << bad;
+  }
+}
+
+// An export with joints, as the IPA files are: ';' between fields, decimal commas, CRLF, joints in rad, the
+// probe's orientation as intrinsic X-Y-Z Euler angles in degrees.
+const char* const kEuropeanExport =
+    "Stamp;j1;j2;x;y;z;rx;ry;rz;temp\r\n"
+    "1;0,5;-1,25;383,5;-3240,25;201,75;-90,5;-20,25;-90;21,8\r\n"
+    "2;0,5;-1,25;383,75;-3240;202;-90,5;-20,25;-90;21,8\r\n"
+    "3;1;0;1000;2000;3000;0;0;45;21,9\r\n";
+
+ImportMeasurementsRequest EuropeanRequest() {
+  ImportMeasurementsRequest r = Request("csv", kEuropeanExport, "mm");
+  r.decimal = ",";
+  r.joints = {{"j1", "j2"}, "rad"};
+  r.orientation = {"euler", {"rx", "ry", "rz"}, "", "XYZ", "intrinsic", "deg"};
+  return r;
+}
+
+TEST(TrackerFilesTest, AnExportWithJointsAndEulerAnglesInEuropeanCsv) {
+  Problems problems;
+  const std::vector<TrackerPoint> points = ReadTrackerPoints(EuropeanRequest(), &problems);
+  ASSERT_TRUE(problems.empty()) << problems.list().front().field << ": " << problems.list().front().reason;
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_EQ(points[0].line, 2);
+  EXPECT_EQ(points[0].position_mm, Eigen::Vector3d(383.5, -3240.25, 201.75));
+  ASSERT_EQ(points[0].joints_deg.size(), 2u);
+  EXPECT_NEAR(points[0].joints_deg[0], 0.5 * 180.0 / M_PI, 1e-12);
+  EXPECT_NEAR(points[0].joints_deg[1], -1.25 * 180.0 / M_PI, 1e-12);
+  ASSERT_TRUE(points[0].has_orientation);
+  const double d = M_PI / 180.0;
+  const Eigen::Quaterniond q(points[0].quaternion[0], points[0].quaternion[1], points[0].quaternion[2],
+                             points[0].quaternion[3]);
+  EXPECT_TRUE(q.toRotationMatrix().isApprox(EulerToRotation("XYZ", true, -90.5 * d, -20.25 * d, -90 * d), 1e-12));
+  EXPECT_GE(points[0].quaternion[0], 0.0);  // one sign per rotation
+  // 45 deg about z: (cos 22.5, 0, 0, sin 22.5).
+  EXPECT_NEAR(points[2].quaternion[0], std::cos(M_PI / 8), 1e-12);
+  EXPECT_NEAR(points[2].quaternion[3], std::sin(M_PI / 8), 1e-12);
+
+  // The batch: every row at its own joints, with its orientation, nothing matched to a plan.
+  const MeasurementBatchRequest batch = PointsWithJoints(EuropeanRequest(), points, &problems);
+  ASSERT_TRUE(problems.empty());
+  ASSERT_EQ(batch.measurements.size(), 3u);
+  EXPECT_EQ(batch.measurements[1].joints, points[1].joints_deg);
+  EXPECT_TRUE(batch.measurements[1].pose.has_orientation);
+  EXPECT_EQ(batch.measurements[1].pose.position_mm, (std::array<double, 3>{383.75, -3240, 202}));
+
+  // The same file with quaternions, scalar last, in degrees for the joints.
+  ImportMeasurementsRequest quaternions = Request("csv",
+                                                  "a,b,x,y,z,qx,qy,qz,qw\n"
+                                                  "10,20,1,2,3,0,0,0.7071067811865476,0.7071067811865476\n",
+                                                  "m");
+  quaternions.joints = {{"a", "b"}, "deg"};
+  quaternions.orientation = {"quaternion", {"qx", "qy", "qz", "qw"}, "xyzw", "", "", ""};
+  const auto q_points = ReadTrackerPoints(quaternions, &problems);
+  ASSERT_TRUE(problems.empty());
+  EXPECT_EQ(q_points[0].joints_deg, (std::vector<double>{10, 20}));
+  EXPECT_EQ(q_points[0].position_mm, Eigen::Vector3d(1000, 2000, 3000));
+  EXPECT_NEAR(q_points[0].quaternion[0], std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(q_points[0].quaternion[3], std::sqrt(0.5), 1e-15);
+}
+
+TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
+  // A decimal-comma file read with decimal points: the first bad field says what to give.
+  ImportMeasurementsRequest points_request = EuropeanRequest();
+  points_request.decimal = ".";
+  Problems problems;
+  EXPECT_EQ(ReadTrackerPoints(points_request, &problems).size(), 1u);  // line 4 has no decimal commas
+  ASSERT_FALSE(problems.empty());
+  EXPECT_EQ(problems.list().front().reason,
+            "line 2: column 'x': '383,5' is not a finite number (decimal commas: give decimal \",\")");
+
+  ImportMeasurementsRequest r = EuropeanRequest();
+  r.text = "Stamp;j1;j2;x;y;z;rx;ry;rz\n1;0,5;abc;1;2;3;0;0;0\n2;0,5;0;1;2;3;0;0;0\n";
+  Problems one;
+  const auto kept = ReadTrackerPoints(r, &one);
+  ASSERT_EQ(Reasons(one, "text").size(), 1u);
+  EXPECT_EQ(Reasons(one, "text")[0], "line 2: column 'j2': 'abc' is not a finite number");
+  EXPECT_EQ(kept.size(), 1u);  // the service stores nothing when any line is bad (it throws on problems)
+
+  // A column the header lacks is named by its field.
+  r = EuropeanRequest();
+  r.joints.columns = {"j1", "j9"};
+  Problems missing;
+  ReadTrackerPoints(r, &missing);
+  ASSERT_EQ(Reasons(missing, "joints.columns[1]").size(), 1u);
+  EXPECT_EQ(Reasons(missing, "joints.columns[1]")[0].substr(0, 34), "no column 'j9' in the header (line");
+
+  // A quaternion that is not one.
+  ImportMeasurementsRequest q = Request("csv", "a,x,y,z,qw,qx,qy,qz\n1,0,0,0,1,1,0,0\n", "mm");
+  q.joints = {{"a"}, "deg"};
+  q.orientation = {"quaternion", {"qw", "qx", "qy", "qz"}, "wxyz", "", "", ""};
+  Problems norm;
+  ReadTrackerPoints(q, &norm);
+  ASSERT_EQ(Reasons(norm, "text").size(), 1u);
+  EXPECT_EQ(Reasons(norm, "text")[0],
+            "line 2: the quaternion's norm is 1.41421, not 1: are the columns and their order right?");
+
+  // A delimiter that splits nothing.
+  ImportMeasurementsRequest tab = EuropeanRequest();
+  tab.delimiter = "\t";
+  Problems header;
+  ReadTrackerPoints(tab, &header);
+  ASSERT_EQ(Reasons(header, "text").size(), 1u);
+  EXPECT_EQ(Reasons(header, "text")[0], "line 1: the header has 1 column(s) at delimiter '?': is the delimiter right?");
+}
+
+TEST(TrackerFilesTest, RequestFieldsOfAnExportWithJointsAreChecked) {
+  auto fields = [](const json& body) {
+    std::vector<std::string> out;
+    try {
+      ParseImportMeasurementsRequest(body);
+    } catch (const ApiError& e) {
+      for (const FieldViolation& v : e.details()) out.push_back(v.field);
+    }
+    return out;
+  };
+  const json base = {{"request_id", "a"}, {"format", "csv"}, {"text", "x"}, {"unit", "mm"}};
+  const json joints = {{"columns", {"j1", "j2"}}, {"unit", "rad"}};
+  const json euler = {{"representation", "euler"}, {"columns", {"a", "b", "c"}}, {"sequence", "XYZ"},
+                      {"convention", "intrinsic"}, {"unit", "deg"}};
+  json ok = base;
+  ok["joints"] = joints;
+  ok["orientation"] = euler;
+  ok["decimal"] = ",";
+  ok["delimiter"] = ";";
+  EXPECT_EQ(fields(ok), std::vector<std::string>{});
+  json with_plan = ok;
+  with_plan["plan"] = "p";
+  with_plan["match"] = "order";
+  EXPECT_EQ(fields(with_plan), (std::vector<std::string>{"plan", "match"}));
+  json no_joints = base;
+  no_joints["orientation"] = euler;
+  EXPECT_EQ(fields(no_joints), std::vector<std::string>{"orientation"});
+  json bad = ok;
+  bad["joints"] = {{"columns", {"j1", "j1"}}};
+  bad["orientation"] = {{"representation", "euler"}, {"columns", {"a", "b"}}, {"sequence", "XXY"},
+                        {"convention", "inward"}, {"unit", "grad"}};
+  bad["delimiter"] = ",";
+  EXPECT_EQ(fields(bad), (std::vector<std::string>{"decimal", "joints.columns[1]", "joints.unit", "orientation.columns",
+                                                   "orientation.sequence", "orientation.convention",
+                                                   "orientation.unit"}));
+  json quaternion = ok;
+  quaternion["orientation"] = {{"representation", "quaternion"}, {"columns", {"w", "x", "y", "z"}}};
+  EXPECT_EQ(fields(quaternion), std::vector<std::string>{"orientation.order"});
+  json sa = ok;
+  sa["format"] = "sa";
+  EXPECT_EQ(fields(sa), (std::vector<std::string>{"delimiter", "joints"}));
+  // The request survives its own JSON form.
+  const ImportMeasurementsRequest r = EuropeanRequest();
+  EXPECT_EQ(json(ParseImportMeasurementsRequest(json(r))), json(r));
+}
+
 }  // namespace
 }  // namespace robocal::api

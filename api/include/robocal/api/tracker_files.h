@@ -3,6 +3,7 @@
 // configurations by target name or by order (docs/formats.md).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -26,6 +27,14 @@ inline constexpr double kMaxTrackerDistanceMm = 1e6;
 const std::vector<std::string>& TrackerFileFormats();
 const std::vector<std::string>& TrackerFileUnits();
 const std::vector<std::string>& TrackerFileMatches();
+/// The wire names of a csv import's delimiter and decimal separator, a joint or angle unit ("deg", "rad"), an
+/// orientation's representation, a quaternion's order and an Euler convention.
+const std::vector<std::string>& TrackerFileDelimiters();
+const std::vector<std::string>& TrackerFileDecimals();
+const std::vector<std::string>& AngleUnits();
+const std::vector<std::string>& OrientationRepresentations();
+const std::vector<std::string>& QuaternionOrders();
+const std::vector<std::string>& EulerConventions();
 
 /// The header names of a CSV export's columns (matched without regard to case or surrounding white space).
 struct CsvColumns {
@@ -35,6 +44,27 @@ struct CsvColumns {
   std::string z = "z";
   /// The reflector (nest) id of each point, for a campaign with reflectors; empty: no such column.
   std::string reflector;
+};
+
+/// A CSV export that carries the robot's joints beside the tracker's measurement: one column per joint, in the
+/// robot's joint order, and their unit ("deg" or "rad").
+struct JointColumns {
+  std::vector<std::string> columns;
+  std::string unit;
+};
+
+/// The measured orientation of a 6-DoF export (docs/formats.md, "Files with joints"): a quaternion (four
+/// columns, `order` "wxyz" or "xyzw" naming what they hold), or Euler angles (three columns, the angles of the
+/// first, second and third rotation of `sequence`, e.g. "XYZ" or "ZYX"; `convention` "intrinsic" (about the
+/// turning frame's axes) or "extrinsic" (about the fixed tracker axes); `unit` "deg" or "rad").
+struct OrientationColumns {
+  /// "quaternion" or "euler"; empty: the file's orientation is not read.
+  std::string representation;
+  std::vector<std::string> columns;
+  std::string order;
+  std::string sequence;
+  std::string convention;
+  std::string unit;
 };
 
 /// POST /v1/campaigns/{c}/measurements:import.
@@ -58,6 +88,16 @@ struct ImportMeasurementsRequest {
   /// match "order": shots per configuration; 0: the number of points over the plan's configurations.
   int shots_per_configuration = 0;
   CsvColumns columns;
+  /// csv: the joint columns of an export that carries them; then every row is a measurement at its own joints,
+  /// and no plan is used (`plan`, `match` and `shots_per_configuration` are refused). Rows with equal joints are
+  /// shots of one pose.
+  JointColumns joints;
+  /// csv with joints: the measured orientation (pose and position_axis campaigns need it).
+  OrientationColumns orientation;
+  /// csv: the field delimiter ",", ";" or "\t"; empty: the most frequent of them in the header.
+  std::string delimiter;
+  /// csv: the decimal separator, "." (default) or "," (European exports; the delimiter then cannot be ",").
+  std::string decimal = ".";
 };
 /// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);
@@ -71,6 +111,11 @@ struct TrackerPoint {
   std::string target;
   std::string reflector;
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
+  /// With joint columns: the row's joints (deg, the wire's unit).
+  std::vector<double> joints_deg;
+  /// With orientation columns: the measured orientation (w, x, y, z; unit norm).
+  bool has_orientation = false;
+  std::array<double, 4> quaternion{1.0, 0.0, 0.0, 0.0};
 };
 
 /// Reads the points of `request.text` in its format, positions converted to mm. Every bad line is recorded in
@@ -87,6 +132,17 @@ int ConfigurationOfTarget(const std::string& target);
 /// units, the plan's), matched by `request.match`, and its nest, one of the campaign's `reflectors` (a point
 /// without one, or naming another, is a bad line; a reflector column for a campaign without nests is refused).
 /// Problems are recorded as ReadTrackerPoints does.
+/// The measurement batch of the points of an export with joint columns: each at its own joints (and nest, as
+/// MatchToConfigurations checks them), with its orientation when read.
+MeasurementBatchRequest PointsWithJoints(const ImportMeasurementsRequest& request,
+                                         const std::vector<TrackerPoint>& points, Problems* problems,
+                                         const std::vector<CampaignReflectorWire>& reflectors = {});
+
+/// The rotation of Euler angles (rad) about `sequence`'s axes (three of X, Y, Z, no two neighbours equal), as
+/// `intrinsic` (R = R1(a) R2(b) R3(c), about the turning axes) or extrinsic (R = R3(c) R2(b) R1(a), about the
+/// fixed ones). Throws std::invalid_argument for a sequence that is not one.
+Eigen::Matrix3d EulerToRotation(const std::string& sequence, bool intrinsic, double a, double b, double c);
+
 MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
                                               const std::vector<TrackerPoint>& points,
                                               const std::vector<std::vector<double>>& configurations,

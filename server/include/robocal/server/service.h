@@ -17,6 +17,7 @@
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
@@ -129,6 +130,9 @@ class Service {
   };
   ResolvedRobot ResolveRobot(const std::string& id);
   api::StoredCampaign LoadCampaign(const std::string& id);
+  // An import of a file that carries its joints (no plan): ImportMeasurements' second way.
+  api::BatchResult ImportMeasurementsWithJoints(const std::string& campaign_id, const api::StoredCampaign& campaign,
+                                                const api::ImportMeasurementsRequest& request);
   /// A stored cell with the model of its robot's stored definition (NOT_FOUND for an unknown cell).
   struct LoadedCell {
     api::CellWire wire;
