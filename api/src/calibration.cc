@@ -67,9 +67,12 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
   r.Bool("reject_outliers", false, &req.reject_outliers);
   r.Number("outlier_probability", false, &req.outlier_probability, 1e-12, 0.1);
   r.Bool("estimate_model_error", false, &req.estimate_model_error);
+  if (r.Enum("scope", false, FitScopes(), &req.scope) && req.scope == "frames" && !req.parameters.empty()) {
+    problems.Add("scope", "\"frames\" chooses the parameters itself: leave out parameters");
+  }
   r.Bool("async", false, &req.async);
   r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability",
-                   "estimate_model_error", "async"});
+                   "estimate_model_error", "scope", "async"});
   problems.ThrowIfAny("invalid fit request");
   return req;
 }
@@ -81,6 +84,7 @@ void to_json(nlohmann::json& j, const FitRequest& req) {
        {"reject_outliers", req.reject_outliers},
        {"outlier_probability", req.outlier_probability},
        {"estimate_model_error", req.estimate_model_error},
+       {"scope", req.scope},
        {"async", req.async}};
 }
 
@@ -94,7 +98,13 @@ void from_json(const nlohmann::json& j, FitRequest& req) {
   r.Optional("outlier_probability", &req.outlier_probability);
   // Absent in requests stored before the model error's estimate, which then did not exist.
   if (!r.Optional("estimate_model_error", &req.estimate_model_error)) req.estimate_model_error = false;
+  r.Optional("scope", &req.scope);
   r.Required("async", &req.async);
+}
+
+const std::vector<std::string>& FitScopes() {
+  static const std::vector<std::string> names = {"all", "frames"};
+  return names;
 }
 
 IdentificationOptions ToIdentificationOptions(const FitRequest& req, const RobotModel& model, MeasurementType type,
@@ -105,6 +115,17 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   options.noise = noise;
   options.identifiability.noise = options.noise;
   for (const std::string& name : req.parameters) options.parameters.push_back(ParameterIndex(model, reflectors, name));
+  if (req.scope == "frames") {
+    // The base site's six and the tool site's translations; its rotations where the measurements see them: a
+    // point sees none, a point and an axis the two that tilt the axis, a pose (or nests about the tool) all three.
+    const int tool = 6 * (model.num_error_sites() - 1);
+    for (int k = 0; k < 6; ++k) options.parameters.push_back(k);
+    for (int k = 0; k < 3; ++k) options.parameters.push_back(tool + k);
+    const int rotations = !reflectors.empty() || type == MeasurementType::kPose ? 3
+                          : type == MeasurementType::kPositionAxis           ? 2
+                                                                              : 0;
+    for (int k = 0; k < rotations; ++k) options.parameters.push_back(tool + 3 + k);
+  }
   std::sort(options.parameters.begin(), options.parameters.end());
   options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()),
                            options.parameters.end());

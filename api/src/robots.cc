@@ -132,6 +132,7 @@ void to_json(nlohmann::json& j, const RegisterRobotRequest& req) {
   if (req.urdf) {
     j["urdf_source"] = {{"xml", req.urdf->xml}, {"base_link", req.urdf->base_link}, {"tip_link", req.urdf->tip_link}};
   }
+  if (req.calibrated_from) j["calibrated_from"] = *req.calibrated_from;
 }
 
 void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
@@ -163,6 +164,36 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
     u.Required("tip_link", &source.tip_link);
     req.urdf = std::move(source);
   }
+  CalibrationSource source;
+  if (r.Optional("calibrated_from", &source)) req.calibrated_from = source;
+}
+
+void to_json(nlohmann::json& j, const CalibrationSource& source) {
+  j = {{"campaign", source.campaign}, {"robot", source.robot}, {"created_unix_ms", source.created_unix_ms}};
+}
+
+void from_json(const nlohmann::json& j, CalibrationSource& source) {
+  const WireReader r(j);
+  r.Required("campaign", &source.campaign);
+  r.Required("robot", &source.robot);
+  r.Required("created_unix_ms", &source.created_unix_ms);
+}
+
+bool IsFromCalibration(const nlohmann::json& body) { return body.is_object() && body.contains("from_calibration"); }
+
+RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body) {
+  Problems problems;
+  RobotFromCalibrationRequest req;
+  ObjectReader r(body, "", &problems);
+  if (r.String("id", true, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
+  r.String("description", false, &req.description, 1024);
+  if (r.String("from_calibration", true, &req.campaign, 64) && !IsValidId(req.campaign)) {
+    problems.Add("from_calibration", "a campaign id: " + std::string(kIdRule));
+  }
+  // The geometry is the calibration's: a table, preset, URDF, base or tool beside it would contradict it.
+  r.RejectUnknown({"id", "description", "from_calibration"});
+  problems.ThrowIfAny("invalid robot");
+  return req;
 }
 
 bool IsUrdfImport(const nlohmann::json& body) {
@@ -267,6 +298,7 @@ void to_json(nlohmann::json& j, const Robot& robot) {
        {"flange", PoseResultJson(robot.flange)},
        {"error_parameters", robot.error_parameters}};
   if (!robot.urdf_tip_link.empty()) j["urdf"] = {{"base_link", robot.urdf_base_link}, {"tip_link", robot.urdf_tip_link}};
+  if (robot.calibrated_from) j["calibrated_from"] = *robot.calibrated_from;
 }
 
 void from_json(const nlohmann::json& j, Robot& robot) {
@@ -298,6 +330,8 @@ void from_json(const nlohmann::json& j, Robot& robot) {
     u.Required("base_link", &robot.urdf_base_link);
     u.Required("tip_link", &robot.urdf_tip_link);
   }
+  CalibrationSource source;
+  if (r.Optional("calibrated_from", &source)) robot.calibrated_from = source;
   r.Required("error_parameters", &robot.error_parameters);
 }
 

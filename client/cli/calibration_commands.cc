@@ -59,6 +59,7 @@ int Fit(Invocation& in) {
   request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
   request.reject_outliers = !in.Has("--keep-outliers");
   request.estimate_model_error = !in.Has("--no-model-error");
+  request.scope = in.Option("--scope", request.scope);  // the service names a bad value
   // The service checks the range and names the field.
   request.outlier_probability =
       in.Number("--outlier-probability", request.outlier_probability, std::numeric_limits<double>::lowest());

@@ -110,7 +110,8 @@ Invocation Resolve(const tools::CommandLine& line, std::ostream& out, std::ostre
     std::string family;
     for (const Command* c : Family(line.positional[0])) {
       const std::vector<std::string> words = Words(c->name);
-      if (words.size() < 2) continue;
+      // A command with two forms ("robot register FILE.json", "robot register --from-calibration") is named once.
+      if (words.size() < 2 || (", " + family + ",").find(", " + words[1] + ",") != std::string::npos) continue;
       if (!family.empty()) family += ", ";
       family += words[1];
     }

@@ -107,6 +107,7 @@ void PrintJson(std::ostream& out, const T& resource) {
 // The commands, by family.
 int Robots(Invocation& in);
 int RobotRegister(Invocation& in);
+int RobotFromCalibration(Invocation& in);
 int RobotImport(Invocation& in);
 int Export(Invocation& in);
 int RobotGet(Invocation& in);

@@ -42,6 +42,15 @@ or a full table: {"id": ..., "convention": "dh"|"mdh"|"transform", "joints": [..
 Prints the robot as `robot get` does.
 )"};
 
+const HelpText kRobotFromCalibration = {"register a campaign's calibrated robot as a robot of its own", R"(
+robot register --from-calibration CAMPAIGN --id ID: the robot as CAMPAIGN calibrated it (POST /v1/robots with
+"from_calibration"), for a new cell or session: its calibrated kinematics, joint names and limits, the nominal
+base and the calibrated tool. The tracker -> base registration stays with the campaign: after the tracker moved
+or the probe was re-seated, create a campaign of ID, upload a few poses and `fit --scope frames` (the base and
+the tool only). --description says what it is (default: where it came from). Prints the robot; `robot get`
+shows its source as "calibrated from".
+)"};
+
 const HelpText kRobotImport = {"register a robot from its URDF file (the chain from --base down to --tip)", R"(
 Sends FILE.urdf to POST /v1/robots: the joints from link --base down to link --tip become the robot, with the
 URDF's joint names; fixed joints are folded into the next moving joint, an axis other than +z into a fixed
@@ -227,6 +236,9 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
   --outlier-probability P
                        chance that a clean measurement is flagged (default 0.001; 1e-12 to 0.1; unused
                        with --keep-outliers)
+  --scope all|frames   all (default): the identifiable parameters; frames: the base and the tool only, the
+                       robot's kinematics held (a calibrated robot in a new cell: robot register
+                       --from-calibration)
   --no-model-error     take the campaign's noise model as the whole error (by default the robot error the
                        geometric model does not explain is estimated beside it and weights the fit)
   --async              run as a long-running operation and wait for it with a progress bar on stderr

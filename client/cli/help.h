@@ -20,6 +20,7 @@ extern const char* const kGlobal;
 
 extern const HelpText kRobots;
 extern const HelpText kRobotRegister;
+extern const HelpText kRobotFromCalibration;
 extern const HelpText kRobotImport;
 extern const HelpText kExport;
 extern const HelpText kRobotGet;

@@ -14,6 +14,10 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
   out << robot.id << ": " << robot.joints.size() << " joints (" << api::WireName(robot.convention) << "), "
       << robot.error_parameters.size() << " error parameters";
   if (!robot.urdf_tip_link.empty()) out << ", from URDF " << robot.urdf_base_link << " -> " << robot.urdf_tip_link;
+  if (robot.calibrated_from) {
+    out << ", calibrated from campaign " << robot.calibrated_from->campaign << " (robot " << robot.calibrated_from->robot
+        << ")";
+  }
   out << "\n";
   std::size_t width = 8;
   for (const api::RobotJoint& j : robot.joints) width = std::max(width, j.joint.name.size() + 1);
@@ -56,6 +60,15 @@ int RobotRegister(Invocation& in) {
   } catch (const nlohmann::json::parse_error& e) {
     throw UsageError(in.args[0] + " is not JSON: " + e.what());
   }
+  return Show(in, in.Client().RegisterRobot(body));
+}
+
+int RobotFromCalibration(Invocation& in) {
+  if (!in.Has("--from-calibration") || !in.Has("--id")) {
+    throw UsageError("robot register without FILE.json needs --from-calibration CAMPAIGN and --id ID");
+  }
+  nlohmann::json body = {{"id", in.Option("--id")}, {"from_calibration", in.Option("--from-calibration")}};
+  if (in.Has("--description")) body["description"] = in.Option("--description");
   return Show(in, in.Client().RegisterRobot(body));
 }
 

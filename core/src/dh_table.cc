@@ -445,4 +445,26 @@ RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& 
   return spec;
 }
 
+RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::VectorXd& errors) {
+  if (errors.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("CalibratedTransformSpec: errors has " + std::to_string(errors.size()) +
+                                " values, the model has " + std::to_string(model.num_error_parameters()));
+  }
+  RobotModelSpec spec = model.spec();
+  spec.convention = GeometryConvention::kTransform;
+  const int n = model.num_joints();
+  for (int i = 0; i < n; ++i) {
+    // ForwardKinematics: ... * fixed(i) * E(site i + 1) * motion(q_i); the base site's E(0) stands before the
+    // first fixed transform.
+    Transform fixed = model.fixed_transform(i) * ErrorTransform(errors.data() + 6 * (i + 1));
+    if (i == 0) fixed = ErrorTransform(errors.data()) * fixed;
+    spec.joints[i].xyz_mm = fixed.translation();
+    spec.joints[i].rpy_rad = RpyFromRotation(fixed.linear());
+    spec.joints[i].a_mm = spec.joints[i].alpha_rad = spec.joints[i].d_mm = spec.joints[i].theta_rad = 0.0;
+  }
+  spec.T_lastjoint_flange = model.T_lastjoint_flange();
+  spec.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
+  return spec;
+}
+
 }  // namespace robocal

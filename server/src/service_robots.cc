@@ -1,6 +1,7 @@
 // The service's robots: presets and registered robots, forward kinematics.
 #include <algorithm>
 
+#include "robocal/core/dh_table.h"
 #include "robocal/core/presets.h"
 #include "robocal/urdf/urdf_import.h"
 #include "robocal/server/service.h"
@@ -75,10 +76,37 @@ api::RobotList Service::ListRobots(const std::string& page_size, const std::stri
   return list;
 }
 
+api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFromCalibrationRequest& req) {
+  const Calibrated loaded = [&] {
+    try {
+      return LoadCalibrated(req.campaign);
+    } catch (const ApiError& e) {
+      if (e.status() == Status::kNotFound) {
+        throw ApiError(Status::kInvalidArgument, "campaign \"" + req.campaign + "\" does not exist",
+                       {{"from_calibration", "unknown campaign"}});
+      }
+      if (e.status() == Status::kFailedPrecondition) {
+        throw ApiError(Status::kFailedPrecondition, e.what(), {{"from_calibration", "the campaign is not calibrated"}});
+      }
+      throw;
+    }
+  }();
+  // The calibrated chain from the nominal base (the tracker -> base registration belongs to the campaign's cell);
+  // the tool as calibrated, a start for the next cell's frames fit.
+  const RobotModelSpec spec = CalibratedTransformSpec(loaded.model, loaded.calibration.errors);
+  const std::string description =
+      !req.description.empty() ? req.description
+                               : "robot " + loaded.campaign.robot + " as calibrated in campaign " + req.campaign;
+  api::RegisterRobotRequest definition = api::DefinitionOf(req.id, spec, description);
+  definition.calibrated_from = api::CalibrationSource{req.campaign, loaded.campaign.robot, loaded.result.created_unix_ms};
+  return definition;
+}
+
 api::Robot Service::CreateRobot(const nlohmann::json& body) {
-  const api::RegisterRobotRequest req = api::IsUrdfImport(body)
-                                            ? urdf::ImportUrdf(api::ParseImportUrdfRequest(body, options_.limits))
-                                            : api::ParseRegisterRobotRequest(body, options_.limits);
+  const api::RegisterRobotRequest req =
+      api::IsFromCalibration(body) ? DefinitionFromCalibration(api::ParseRobotFromCalibrationRequest(body))
+      : api::IsUrdfImport(body)    ? urdf::ImportUrdf(api::ParseImportUrdfRequest(body, options_.limits))
+                                   : api::ParseRegisterRobotRequest(body, options_.limits);
   if (IsPreset(req.id)) {
     throw ApiError(Status::kAlreadyExists, "\"" + req.id + "\" is a preset", {{"id", "taken by a preset"}});
   }

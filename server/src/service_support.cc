@@ -109,6 +109,7 @@ api::Robot RobotResource(const std::string& id, const RobotModel& model, const a
     robot.urdf_base_link = definition.urdf->base_link;
     robot.urdf_tip_link = definition.urdf->tip_link;
   }
+  robot.calibrated_from = definition.calibrated_from;
   return robot;
 }
 

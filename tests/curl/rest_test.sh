@@ -233,6 +233,32 @@ expect "... whose forward kinematics are the calibrated campaign's (to 1e-6 mm)"
   "$(jq -n --argjson a "$(call POST /v1/robots/grinder5-calibrated:forward "$q" | jq -c '.poses[0].position_mm')" \
      --argjson b "$(call POST "/v1/campaigns/$campaign:forward" "$q" | jq -c '.poses[0].position_mm')" \
      '[range(3) | ($a[.] - $b[.]) | fabs] | max < 1e-6')" true
+# The calibrated robot as a robot of its own (a new cell): in a new campaign with the same shots, the frames fit
+# (base and tool only) needs nothing more, and lands where the campaign's calibration does.
+call POST /v1/robots "{\"id\": \"grinder5-cell2\", \"from_calibration\": \"$campaign\"}" >"$work/from_cal.json"
+expect "POST /v1/robots from_calibration" "$(status) $(jq -r '.calibrated_from.campaign == "'"$campaign"'"' "$work/from_cal.json")" \
+  "200 true"
+expect "... GET says where it came from" "$(call GET /v1/robots/grinder5-cell2 | jq -r .calibrated_from.robot)" grinder5
+cell2=$(call POST /v1/campaigns '{"robot": "grinder5-cell2", "measurement_type": "pose"}' | jq -r .id)
+call POST "/v1/campaigns/$cell2/measurements" "@$work/calibration.json" >/dev/null
+call POST "/v1/campaigns/$cell2:fit" '{"scope": "frames"}' >"$work/frames.json"
+expect "fit scope frames: the base and the tool, 12 parameters" \
+  "$(status) $(jq -c '[.parameters[].name | split(".")[0]] | unique' "$work/frames.json") $(jq '.parameters | length' "$work/frames.json")" \
+  '200 ["base","tool"] 12'
+expect "... the robot's kinematics need no more: the residuals are the full fit's (within 1 %)" \
+  "$(jq -n --argjson a "$(jq .residuals_after.rms_position_mm "$work/frames.json")" \
+     --argjson b "$(jq .residuals_after.rms_position_mm "$work/fit.json")" '($a - $b) | fabs < 0.01 * $b')" true
+expect "from_calibration of an unknown campaign -> 400 naming it" \
+  "$(call POST /v1/robots '{"id": "x2", "from_calibration": "no-such"}' | jq -r '.error.details[0].field') $(status)" \
+  "from_calibration 400"
+expect "from_calibration with a table beside it -> 400 naming the table" \
+  "$(call POST /v1/robots "{\"id\": \"x3\", \"from_calibration\": \"$campaign\", \"joints\": []}" | jq -r '.error.details[0].field')" \
+  joints
+expect "scope frames with parameters -> 400 naming scope" \
+  "$(call POST "/v1/campaigns/$cell2:fit" '{"scope": "frames", "parameters": ["base.dx"]}' | jq -r '.error.details[0].field')" \
+  scope
+expect "scope \"joints\" -> 400 naming scope" \
+  "$(call POST "/v1/campaigns/$cell2:fit" '{"scope": "joints"}' | jq -r '.error.details[0].field')" scope
 # A DH table: the grinder's Z and C axes are one line, which the calibration moves apart, so there is none.
 call GET "/v1/campaigns/$campaign/calibration?format=dh" >/dev/null
 expect "GET /calibration?format=dh of the grinder -> 400 naming format, and the axes" \

@@ -581,7 +581,7 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"shoulder", {ShoulderName(1), ShoulderName(-1)}},  {"elbow", {ElbowName(1), ElbowName(-1)}},
       {"wrist", {WristName(1), WristName(-1)}},          {"delimiter", TrackerFileDelimiters()},
       {"decimal", TrackerFileDecimals()},                {"representation", OrientationRepresentations()},
-      {"order", QuaternionOrders()}};
+      {"order", QuaternionOrders()},                     {"scope", FitScopes()}};
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
       {"/components/schemas/ImportMeasurementsRequest/properties/joints.unit", AngleUnits()},

@@ -144,6 +144,31 @@ TEST(DhTableTest, CalibratedTablesHaveTheCalibratedKinematics) {
   }
 }
 
+// The transform convention takes every calibrated geometry, parallel axes tilted apart included: the presets
+// (standard DH, modified DH, a transform chain) with errors on every parameter keep their calibrated kinematics,
+// names and limits.
+TEST(DhTableTest, CalibratedTransformSpecsHaveTheCalibratedKinematics) {
+  for (const std::string& name : PresetNames()) {
+    const RobotModel model = Preset(name);
+    for (std::uint64_t seed : {1, 2}) {
+      SCOPED_TRACE(name + " seed " + std::to_string(seed));
+      const Eigen::VectorXd errors = RandomErrors(model, seed, 0.5, 3e-3);
+      const RobotModelSpec spec = CalibratedTransformSpec(model, errors);
+      EXPECT_EQ(spec.convention, GeometryConvention::kTransform);
+      const RobotModel calibrated = RobotModel::Build(spec);
+      const auto [position, rotation] = LargestDifference(model, errors, calibrated, 200);
+      EXPECT_LT(position, 1e-9);
+      EXPECT_LT(rotation, 1e-12);
+      for (int i = 0; i < model.num_joints(); ++i) {
+        EXPECT_EQ(spec.joints[i].name, model.spec().joints[i].name);
+        EXPECT_EQ(spec.joints[i].min, model.spec().joints[i].min);
+        EXPECT_EQ(spec.joints[i].max, model.spec().joints[i].max);
+      }
+    }
+  }
+  EXPECT_THROW(CalibratedTransformSpec(Preset("ur5e"), Eigen::VectorXd::Zero(3)), std::invalid_argument);
+}
+
 TEST(DhTableTest, ParallelAxesThatStayParallelAreWritten) {
   // ur5e: axes 2, 3 and 4 are parallel. Errors that keep them parallel (all but the tilts of axes 3 and 4,
   // joint3.rx/ry and joint4.rx/ry) have a table, in both conventions.

@@ -42,6 +42,10 @@ struct FitRequest {
   /// Estimate the robot error the geometric model does not explain beside the tracker's noise
   /// (docs/identification.md, "Model error"); false: the campaign's noise model is the whole error.
   bool estimate_model_error = true;
+  /// "all" (default): the identifiable parameters (or `parameters`); "frames": the base and the tool only
+  /// (the robot's kinematics held as they are: a calibrated robot in a new cell, docs/api.md), i.e. base.* and
+  /// tool.dx/dy/dz, with tool.rx/ry for position_axis and tool.rx/ry/rz for pose measurements or nests.
+  std::string scope = "all";
   /// Run as a long-running operation.
   bool async = false;
 };
@@ -51,6 +55,8 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
                            const std::vector<Reflector>& reflectors = {});
 void to_json(nlohmann::json& j, const FitRequest& request);
 void from_json(const nlohmann::json& j, FitRequest& request);
+/// The wire names of a fit's scope ("all", "frames").
+const std::vector<std::string>& FitScopes();
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
 /// empty) and `reflectors`. Parameters named in the request become sorted, unique indices of the fit's space.
 IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model,

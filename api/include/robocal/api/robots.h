@@ -2,6 +2,7 @@
 // (of a robot or of a calibrated campaign), and joint vectors between wire units (deg / mm) and the core's.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,6 +34,16 @@ struct UrdfSource {
   std::string tip_link;
 };
 
+/// Where a robot registered from a campaign's calibration came from (POST /v1/robots with "from_calibration"):
+/// the campaign, its robot and when the calibration was made.
+struct CalibrationSource {
+  std::string campaign;
+  std::string robot;
+  std::int64_t created_unix_ms = 0;
+};
+void to_json(nlohmann::json& j, const CalibrationSource& source);
+void from_json(const nlohmann::json& j, CalibrationSource& source);
+
 /// POST /v1/robots, and the definition stored for a robot (and copied into each campaign). Either a full table
 /// (convention + joints) or `from_preset` (a preset's geometry, with base / tool optionally replaced).
 struct RegisterRobotRequest {
@@ -48,6 +59,8 @@ struct RegisterRobotRequest {
   std::optional<PoseWire> flange;
   /// A robot imported from a URDF: the document and the chain, kept for the calibrated URDF export.
   std::optional<UrdfSource> urdf;
+  /// A robot registered from a calibration: its provenance (set by the service, never by a request).
+  std::optional<CalibrationSource> calibrated_from;
 };
 /// Validates a request body (every problem with its field; the geometry through the core).
 RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
@@ -76,6 +89,19 @@ bool IsUrdfImport(const nlohmann::json& body);
 ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits& limits);
 void to_json(nlohmann::json& j, const ImportUrdfRequest& request);
 void from_json(const nlohmann::json& j, ImportUrdfRequest& request);
+
+/// POST /v1/robots {"id", "description"?, "from_calibration": CAMPAIGN}: the campaign's calibrated robot as a
+/// robot of its own (docs/api.md, "A calibration in a new session"): the calibrated chain in the transform
+/// convention, the joints' names and limits, the nominal base and the calibrated tool; the tracker -> base
+/// registration stays with the campaign.
+struct RobotFromCalibrationRequest {
+  std::string id;
+  std::string description;
+  std::string campaign;
+};
+/// True for a body with a "from_calibration" member.
+bool IsFromCalibration(const nlohmann::json& body);
+RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body);
 
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);
@@ -107,6 +133,8 @@ struct Robot {
   PoseWire flange;  // last joint frame -> flange (identity but for an imported URDF's tip)
   /// For a robot imported from a URDF: its base and tip links (empty otherwise).
   std::string urdf_base_link, urdf_tip_link;
+  /// For a robot registered from a calibration: where it came from.
+  std::optional<CalibrationSource> calibrated_from;
   std::vector<std::string> error_parameters;
 };
 void to_json(nlohmann::json& j, const Robot& robot);

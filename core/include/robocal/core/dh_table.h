@@ -48,4 +48,11 @@ class DhTableError : public std::runtime_error {
 RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& errors,
                                 GeometryConvention convention);
 
+/// The spec of `model` with `errors` (num_error_parameters, mm / rad) folded in, in the transform convention,
+/// which takes any calibrated geometry (parallel axes included): each joint's fixed transform with its site's
+/// error, the base site's error folded into the first joint, the tool site's into the tool; base and flange
+/// the model's. Its forward kinematics equal ForwardKinematics(model, q, errors) for every q, to round-off.
+/// Joint names, types and limits are the model's. Throws std::invalid_argument for a wrong size of `errors`.
+RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::VectorXd& errors);
+
 }  // namespace robocal

@@ -130,6 +130,8 @@ class Service {
   };
   ResolvedRobot ResolveRobot(const std::string& id);
   api::StoredCampaign LoadCampaign(const std::string& id);
+  // POST /v1/robots with "from_calibration": the definition of the campaign's calibrated robot.
+  api::RegisterRobotRequest DefinitionFromCalibration(const api::RobotFromCalibrationRequest& request);
   // An import of a file that carries its joints (no plan): ImportMeasurements' second way.
   api::BatchResult ImportMeasurementsWithJoints(const std::string& campaign_id, const api::StoredCampaign& campaign,
                                                 const api::ImportMeasurementsRequest& request);

@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# The IPA UR10 (tests/data/ipa, real laser-tracker data) through the CLI, as a user runs it: the robot imported
+# from its public URDF, the tracker's export files uploaded as they are, fits, validation. Prints the figures
+# (docs/real-data.md) and checks them:
+#   Series B, N calibration poses drawn at random (N = 100 and 400), the rest validation: held-out E_xyz mean at
+#   most 0.42 / 0.41 mm, CONVERGENCE (no DEGRADED), outliers at most 1 % of the calibration poses, the model
+#   error within 20 % of the held-out RMS;
+#   cross-session: the B calibration registered as a robot, its base and tool fitted on 30 poses of Series D (a
+#   later session, the tracker elsewhere), the rest of D validated: better than the nominal robot's frames fit.
+# Usage: ipa.sh BUILD_DIR
+set -euo pipefail
+build=$(cd "$1" && pwd)
+here=$(cd "$(dirname "$0")" && pwd)
+data="$here/../data"
+# shellcheck source=../curl/server.sh
+source "$here/../curl/server.sh"
+start_server "$build"
+export ROBOCAL_SERVER=$ROBOCAL_URL
+cli() { "$build/client/robocal" "$@"; }
+work=$(mktemp -d)
+trap 'rm -rf "$work"; stop_server' EXIT
+failures=0
+check() {  # check NAME CONDITION(python expression) ... prints and counts
+  local name=$1 expr=$2
+  if python3 -c "import sys; sys.exit(0 if ($expr) else 1)"; then
+    echo "ok   $name"
+  else
+    echo "FAIL $name ($expr)"
+    failures=$((failures + 1))
+  fi
+}
+jqv() { jq -r "$1" "$2"; }
+
+# The robot: the public UR10 URDF (ur_description), base_link -> tool0, with the T-Mac probe 109 mm out of the
+# flange, turned -90 deg about it (the dataset's Trafo_TM_F_init).
+jq -n --rawfile urdf "$data/urdf/ur10_robot.urdf" \
+  '{id: "ur10", urdf: $urdf, base_link: "base_link", tip_link: "tool0",
+    tool: {position_mm: [0, 0, 109], rpy_deg: [0, 0, -90]}}' >"$work/robot.json"
+cli robot register "$work/robot.json" >/dev/null
+# The files as published: ';' and decimal commas, joints in rad, the probe's pose as mm and intrinsic X-Y-Z
+# Euler angles in degrees.
+columns=(--format csv --unit mm --decimal , --columns x=measurement_x,y=measurement_y,z=measurement_z
+  --joints shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint
+  --joint-unit rad --orientation-columns measurement_rx,measurement_ry,measurement_rz --euler XYZ
+  --euler-convention intrinsic --angle-unit deg)
+
+for n in 100 400; do
+  c=b$n
+  cli campaign create ur10 pose --id "$c" --tracker datasheet >/dev/null
+  cli upload "$c" "$data/ipa/series_b_joint_configurations.csv" "${columns[@]}" --calibration-rows "$n" --seed 1 >/dev/null
+  cli --json fit "$c" >"$work/$c.fit.json"
+  cli --json evaluate "$c" >"$work/$c.eval.json"
+  termination=$(jqv .summary.termination "$work/$c.fit.json")
+  outliers=$(jqv '.outliers | length' "$work/$c.fit.json")
+  model_error=$(jqv .model_error.model_error_mm "$work/$c.fit.json")
+  mean=$(jqv .calibrated.e_xyz_mm.mean "$work/$c.eval.json")
+  rms=$(jq -r ".calibrated.e_xyz_mm | ((.mean * .mean + .std * .std) | sqrt)" "$work/$c.eval.json")
+  bar=$([ "$n" = 100 ] && echo 0.42 || echo 0.41)
+  echo "Series B, $n calibration poses (seed 1): $termination, $outliers outlier(s), model error $model_error mm RMS;" \
+    "held-out E_xyz mean $mean mm, RMS $rms mm (nominal $(jqv .nominal.e_xyz_mm.mean "$work/$c.eval.json") mm)"
+  check "B N=$n: CONVERGENCE" "'$termination' == 'CONVERGENCE'"
+  check "B N=$n: outliers <= 1 % of the calibration poses" "$outliers <= 0.01 * $n"
+  check "B N=$n: held-out E_xyz mean <= $bar mm" "$mean <= $bar"
+  check "B N=$n: model error within 20 % of the held-out RMS" "abs($model_error - $rms) <= 0.2 * $rms"
+done
+
+# Cross-session: the calibrated robot of b400 in Series D's cell: base and tool from 30 poses.
+cli robot register --from-calibration b400 --id ur10-b400 >/dev/null
+cli --json robot get ur10-b400 >"$work/robot_b400.json"
+check "the calibrated robot says where it came from" \
+  "'$(jqv .calibrated_from.campaign "$work/robot_b400.json")' == 'b400'"
+for robot in ur10-b400 ur10; do
+  c=d-$robot
+  cli campaign create "$robot" pose --id "$c" --tracker datasheet >/dev/null
+  cli upload "$c" "$data/ipa/series_d_iso_cubes.csv" "${columns[@]}" --calibration-rows 30 --seed 1 >/dev/null
+  cli --json fit "$c" --scope frames >"$work/$c.fit.json"
+  cli --json evaluate "$c" >"$work/$c.eval.json"
+  echo "Series D, robot $robot, frames from 30 poses: $(jqv .summary.termination "$work/$c.fit.json")," \
+    "held-out E_xyz mean $(jqv .calibrated.e_xyz_mm.mean "$work/$c.eval.json") mm," \
+    "max $(jqv .calibrated.e_xyz_mm.max "$work/$c.eval.json") mm"
+done
+calibrated=$(jqv .calibrated.e_xyz_mm.mean "$work/d-ur10-b400.eval.json")
+nominal=$(jqv .calibrated.e_xyz_mm.mean "$work/d-ur10.eval.json")
+check "D: the B calibration with new frames beats the nominal robot with new frames" "$calibrated < 0.8 * $nominal"
+check "D: the frames fit of the calibrated robot converges" \
+  "'$(jqv .summary.termination "$work/d-ur10-b400.fit.json")' == 'CONVERGENCE'"
+exit $((failures > 0))
