@@ -196,6 +196,11 @@ RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::jso
   return req;
 }
 
+void to_json(nlohmann::json& j, const RobotFromCalibrationRequest& req) {
+  j = {{"id", req.id}, {"from_calibration", req.campaign}};
+  if (!req.description.empty()) j["description"] = req.description;
+}
+
 bool IsUrdfImport(const nlohmann::json& body) {
   return body.is_object() && (body.contains("urdf") || body.contains("base_link") || body.contains("tip_link"));
 }

@@ -67,9 +67,8 @@ int RobotFromCalibration(Invocation& in) {
   if (!in.Has("--from-calibration") || !in.Has("--id")) {
     throw UsageError("robot register without FILE.json needs --from-calibration CAMPAIGN and --id ID");
   }
-  nlohmann::json body = {{"id", in.Option("--id")}, {"from_calibration", in.Option("--from-calibration")}};
-  if (in.Has("--description")) body["description"] = in.Option("--description");
-  return Show(in, in.Client().RegisterRobot(body));
+  return Show(in, in.Client().RegisterRobotFromCalibration(
+                     {in.Option("--id"), in.Option("--description"), in.Option("--from-calibration")}));
 }
 
 int RobotImport(Invocation& in) {

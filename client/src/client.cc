@@ -310,6 +310,10 @@ api::Robot Client::RegisterRobot(const json& body) {
 
 api::Robot Client::ImportRobot(const api::ImportUrdfRequest& request) { return RegisterRobot(json(request)); }
 
+api::Robot Client::RegisterRobotFromCalibration(const api::RobotFromCalibrationRequest& request) {
+  return RegisterRobot(json(request));
+}
+
 void Client::DeleteRobot(const std::string& robot) { Call("DELETE", "/v1/robots/" + Segment(robot), nullptr, false); }
 
 api::CellWire Client::CreateCell(const api::CellWire& request) { return CreateCell(json(request)); }

@@ -576,6 +576,84 @@ TEST_F(CliTest, UploadTrackerExports) {
   EXPECT_EQ(nlohmann::json::parse(campaign.out).at("counts").at("calibration"), 6);
 }
 
+// An export that carries its joints, as real ones do: European CSV (';', decimal commas), a Latin-1 header
+// (the degree sign), joints in rad and the pose as extrinsic X-Y-Z Euler angles in degrees; 40 rows of a
+// virtual cell's exact poses, 25 drawn as calibration and the rest validation. Then the calibration moves to a
+// new robot, whose frames fit on the same shots needs nothing more.
+TEST_F(CliTest, UploadAnExportWithJointsAndMoveTheCalibration) {
+  const std::string server = "--server " + server_.url();
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 3;
+  o.noise = {0.0, 0.0};
+  VirtualCell cell(model, o);
+  Rng rng(11);
+  std::string text = "n;q1 [rad];q2;q3;q4;q5;q6;X;Y;Z;A [\xB0];B;C\r\n";  // \xB0: the degree sign in Latin-1
+  const auto european = [](double v) {
+    std::ostringstream s;
+    s << std::setprecision(17) << v;
+    std::string t = s.str();
+    std::replace(t.begin(), t.end(), '.', ',');
+    return t;
+  };
+  for (int k = 0; k < 40; ++k) {
+    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+    const Transform pose = cell.TruePose(q);
+    // R = Rz(yaw) Ry(pitch) Rx(roll): extrinsic X-Y-Z with the angles (roll, pitch, yaw).
+    const Eigen::Vector3d rpy = RpyFromRotation(pose.linear());
+    text += std::to_string(k);
+    for (int j = 0; j < 6; ++j) text += ";" + european(q[j]);
+    for (int j = 0; j < 3; ++j) text += ";" + european(pose.translation()[j]);
+    for (int j = 0; j < 3; ++j) text += ";" + european(rpy[j] * 180.0 / M_PI);
+    text += "\r\n";
+  }
+  std::ofstream(Path("export.csv"), std::ios::binary) << text;
+  ASSERT_EQ(Trim(RunCli(server + " campaign create ur5e pose --id joints-1").out), "joints-1");
+  const InProcess stored = RunInProcess(
+      {"--server", server_.url(), "upload", "joints-1", Path("export.csv"), "--format", "csv", "--unit", "mm",
+       "--decimal", ",", "--columns", "x=X,y=Y,z=Z", "--joints", "q1 [rad],q2,q3,q4,q5,q6", "--joint-unit", "rad",
+       "--orientation-columns", "A [\xC2\xB0],B,C", "--euler", "XYZ", "--euler-convention", "extrinsic",
+       "--angle-unit", "deg", "--calibration-rows", "25", "--seed", "4"});
+  ASSERT_EQ(stored.exit_code, 0) << stored.err;
+  EXPECT_NE(stored.err.find("is not UTF-8: read as Latin-1"), std::string::npos) << stored.err;
+  EXPECT_NE(stored.out.find("stored 25 calibration measurements"), std::string::npos) << stored.out;
+  EXPECT_NE(stored.out.find("stored 15 validation measurements"), std::string::npos) << stored.out;
+  // The exact poses fit to round-off: the joints, units and angles were read right.
+  const Result fit = RunCli(server + " --json fit joints-1");
+  ASSERT_EQ(fit.exit_code, 0);
+  const nlohmann::json calibration = nlohmann::json::parse(fit.out);
+  EXPECT_LT(calibration.at("residuals_after").at("rms_position_mm").get<double>(), 1e-6) << fit.out;
+  EXPECT_LT(calibration.at("residuals_after").at("rms_orientation_deg").get<double>(), 1e-6) << fit.out;
+
+  // The calibration as a robot of its own, and a frames fit on its shots: nothing left to fit.
+  const Result robot = RunCli(server + " robot register --from-calibration joints-1 --id ur5e-cal");
+  ASSERT_EQ(robot.exit_code, 0);
+  EXPECT_NE(robot.out.find("calibrated from campaign joints-1 (robot ur5e)"), std::string::npos) << robot.out;
+  ASSERT_EQ(Trim(RunCli(server + " campaign create ur5e-cal pose --id joints-2").out), "joints-2");
+  ASSERT_EQ(RunInProcess({"--server", server_.url(), "upload", "joints-2", Path("export.csv"), "--format", "csv",
+                          "--unit", "mm", "--decimal", ",", "--columns", "x=X,y=Y,z=Z", "--joints",
+                          "q1 [rad],q2,q3,q4,q5,q6", "--joint-unit", "rad", "--orientation-columns",
+                          "A [\xC2\xB0],B,C", "--euler", "XYZ", "--euler-convention", "extrinsic", "--angle-unit",
+                          "deg", "--encoding", "latin-1"})
+                .exit_code,
+            0);
+  const Result frames = RunCli(server + " --json fit joints-2 --scope frames");
+  ASSERT_EQ(frames.exit_code, 0);
+  const nlohmann::json moved = nlohmann::json::parse(frames.out);
+  EXPECT_EQ(moved.at("parameters").size(), 12u);
+  EXPECT_LT(moved.at("residuals_after").at("rms_position_mm").get<double>(), 1e-6) << frames.out;
+  // Usage errors: a joint unit without joints, both orientation forms, a split with a role.
+  EXPECT_EQ(RunCli(server + " upload joints-2 " + Path("export.csv") + " --format csv --joint-unit rad").exit_code, 2);
+  EXPECT_EQ(RunCli(server + " upload joints-2 " + Path("export.csv") +
+                   " --format csv --euler XYZ --quaternion-order wxyz --orientation-columns a,b,c")
+                .exit_code,
+            2);
+  EXPECT_EQ(RunCli(server + " upload joints-2 " + Path("export.csv") +
+                   " --format csv --calibration-rows 5 --role validation")
+                .exit_code,
+            2);
+}
+
 // campaign list says which campaigns are calibrated, in its table and as JSON (list items once carried no
 // calibrated, and every campaign read as uncalibrated).
 TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {

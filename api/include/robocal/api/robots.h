@@ -102,6 +102,7 @@ struct RobotFromCalibrationRequest {
 /// True for a body with a "from_calibration" member.
 bool IsFromCalibration(const nlohmann::json& body);
 RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body);
+void to_json(nlohmann::json& j, const RobotFromCalibrationRequest& request);
 
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);

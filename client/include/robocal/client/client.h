@@ -115,6 +115,8 @@ class Client {
   api::Robot RegisterRobot(const api::RegisterRobotRequest& request);
   /// The body as read from a robot definition file (same fields as RegisterRobotRequest).
   api::Robot RegisterRobot(const nlohmann::json& body);
+  /// POST /v1/robots with "from_calibration": the campaign's calibrated robot as a robot of its own.
+  api::Robot RegisterRobotFromCalibration(const api::RobotFromCalibrationRequest& request);
   /// POST /v1/robots with a URDF document: the chain base_link -> tip_link (docs/formats.md).
   api::Robot ImportRobot(const api::ImportUrdfRequest& request);
   void DeleteRobot(const std::string& robot);
