@@ -109,6 +109,39 @@ api::CampaignList Service::ListCampaigns(const std::string& page_size, const std
   return list;
 }
 
+namespace {
+
+// A campaign with nests needs every imported point's nest.
+void RequireNestColumn(const std::string& campaign_id, const api::StoredCampaign& campaign,
+                       const api::ImportMeasurementsRequest& req) {
+  if (!campaign.reflectors.empty() && req.columns.reflector.empty()) {
+    throw ApiError(Status::kInvalidArgument,
+                   "campaign \"" + campaign_id + "\" has reflectors: every point must name its nest",
+                   {{"columns.reflector", "required for a campaign with reflectors (format csv)"}});
+  }
+}
+
+// The joints of the campaign's robot, as its definition has them.
+std::size_t RobotJoints(const api::StoredCampaign& campaign) {
+  return campaign.robot_definition.joints.empty()
+             ? static_cast<std::size_t>(api::BuildModel(campaign.robot_definition).num_joints())
+             : campaign.robot_definition.joints.size();
+}
+
+// The points of a tracker file; every bad line (and too many points for one batch) thrown as one error.
+std::vector<api::TrackerPoint> ReadPoints(const api::ImportMeasurementsRequest& req, std::size_t max_points) {
+  api::Problems problems;
+  std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
+  if (points.size() > max_points) {
+    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
+                             std::to_string(max_points));
+  }
+  problems.ThrowIfAny("invalid tracker file");
+  return points;
+}
+
+}  // namespace
+
 api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, const nlohmann::json& body) {
   const api::ImportMeasurementsRequest req = api::ParseImportMeasurementsRequest(body);
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
@@ -120,11 +153,7 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
                        "; a tracker point export carries positions only",
                    {{"format", "points only: import into a position campaign"}});
   }
-  if (!campaign.reflectors.empty() && req.columns.reflector.empty()) {
-    throw ApiError(Status::kInvalidArgument,
-                   "campaign \"" + campaign_id + "\" has reflectors: every point must name its nest",
-                   {{"columns.reflector", "required for a campaign with reflectors (format csv)"}});
-  }
+  RequireNestColumn(campaign_id, campaign, req);
   const std::string plan_id = !req.plan.empty() ? req.plan : campaign.plan.value_or("");
   if (plan_id.empty()) {
     throw ApiError(Status::kInvalidArgument, "no plan: the points are matched to a plan's configurations",
@@ -143,17 +172,9 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
                        campaign.robot + "\"",
                    {{"plan", "a plan of another robot"}});
   }
-  api::Problems problems;
-  const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
-  if (points.size() > options_.limits.max_array_length) {
-    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
-                             std::to_string(options_.limits.max_array_length));
-  }
-  problems.ThrowIfAny("invalid tracker file");
+  const std::vector<api::TrackerPoint> points = ReadPoints(req, options_.limits.max_array_length);
   // A plan of a robot that was deleted and registered again with other joints matches no more.
-  const std::size_t joints = campaign.robot_definition.joints.empty()
-                                 ? static_cast<std::size_t>(api::BuildModel(campaign.robot_definition).num_joints())
-                                 : campaign.robot_definition.joints.size();
+  const std::size_t joints = RobotJoints(campaign);
   if (!plan.configurations.empty() && plan.configurations.front().size() != joints) {
     throw ApiError(Status::kInvalidArgument,
                    "plan \"" + plan_id + "\" has configurations of " +
@@ -161,6 +182,7 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
                        std::to_string(joints),
                    {{"plan", "made for another robot of this name"}});
   }
+  api::Problems problems;
   const api::MeasurementBatchRequest batch =
       api::MatchToConfigurations(req, points, plan.configurations, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
@@ -178,27 +200,16 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
                        ": the file's orientation columns are needed",
                    {{"orientation", std::string("required for a ") + api::WireName(campaign.measurement_type) + " campaign"}});
   }
-  if (!campaign.reflectors.empty() && req.columns.reflector.empty()) {
-    throw ApiError(Status::kInvalidArgument,
-                   "campaign \"" + campaign_id + "\" has reflectors: every point must name its nest",
-                   {{"columns.reflector", "required for a campaign with reflectors (format csv)"}});
-  }
-  const std::size_t joints = campaign.robot_definition.joints.empty()
-                                 ? static_cast<std::size_t>(api::BuildModel(campaign.robot_definition).num_joints())
-                                 : campaign.robot_definition.joints.size();
+  RequireNestColumn(campaign_id, campaign, req);
+  const std::size_t joints = RobotJoints(campaign);
   if (req.joints.columns.size() != joints) {
     throw ApiError(Status::kInvalidArgument,
                    "the file names " + std::to_string(req.joints.columns.size()) + " joint columns, robot \"" +
                        campaign.robot + "\" has " + std::to_string(joints) + " joints",
                    {{"joints.columns", "one column per joint of the robot, in its order"}});
   }
+  const std::vector<api::TrackerPoint> points = ReadPoints(req, options_.limits.max_array_length);
   api::Problems problems;
-  const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
-  if (points.size() > options_.limits.max_array_length) {
-    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
-                             std::to_string(options_.limits.max_array_length));
-  }
-  problems.ThrowIfAny("invalid tracker file");
   const api::MeasurementBatchRequest batch = api::PointsWithJoints(req, points, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
   // The batch goes the way of every upload: the campaign's checks (joint limits among them), one transaction,

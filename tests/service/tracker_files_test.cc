@@ -267,16 +267,19 @@ TEST(TrackerFilesTest, MatchingProblemsNameTheLine) {
   EXPECT_EQ(Reasons(shots, "text")[0], "3 points for the plan's 2 configurations at 2 shots each (match \"order\")");
 }
 
+// The fields an import request is refused for, in order (none: accepted).
+std::vector<std::string> RefusedFields(const json& body) {
+  std::vector<std::string> out;
+  try {
+    ParseImportMeasurementsRequest(body);
+  } catch (const ApiError& e) {
+    for (const FieldViolation& v : e.details()) out.push_back(v.field);
+  }
+  return out;
+}
+
 TEST(TrackerFilesTest, RequestFieldsAreChecked) {
-  auto fields = [](const json& body) {
-    std::vector<std::string> out;
-    try {
-      ParseImportMeasurementsRequest(body);
-    } catch (const ApiError& e) {
-      for (const FieldViolation& v : e.details()) out.push_back(v.field);
-    }
-    return out;
-  };
+  const auto fields = RefusedFields;
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "A G P1 1 2 3"}}), std::vector<std::string>{});
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "dxf"}, {"text", "x"}}), std::vector<std::string>{"format"});
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", " \n "}}), std::vector<std::string>{"text"});
@@ -430,15 +433,7 @@ TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
 }
 
 TEST(TrackerFilesTest, RequestFieldsOfAnExportWithJointsAreChecked) {
-  auto fields = [](const json& body) {
-    std::vector<std::string> out;
-    try {
-      ParseImportMeasurementsRequest(body);
-    } catch (const ApiError& e) {
-      for (const FieldViolation& v : e.details()) out.push_back(v.field);
-    }
-    return out;
-  };
+  const auto fields = RefusedFields;
   const json base = {{"request_id", "a"}, {"format", "csv"}, {"text", "x"}, {"unit", "mm"}};
   const json joints = {{"columns", {"j1", "j2"}}, {"unit", "rad"}};
   const json euler = {{"representation", "euler"}, {"columns", {"a", "b", "c"}}, {"sequence", "XYZ"},

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/core/fit_diagnostics.h"
+#include "test_util.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
@@ -16,10 +17,7 @@ namespace robocal {
 namespace {
 
 std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
-  return out;
+  return test::RandomConfigurations(model, count, seed);
 }
 
 // Fits `data`, then recomputes the linearisation from what a stored calibration keeps (the calibration, the

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/core/identification.h"
+#include "test_util.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
@@ -18,10 +19,7 @@ namespace robocal {
 namespace {
 
 std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
-  return out;
+  return test::RandomConfigurations(model, count, seed);
 }
 
 // 2e-4 rad per harmonic coefficient: about 0.02 deg per joint, a few tenths of a mm at the tool of a ur5e,

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/core/identification.h"
+#include "test_util.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
@@ -18,10 +19,7 @@ namespace robocal {
 namespace {
 
 std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
-  return out;
+  return test::RandomConfigurations(model, count, seed);
 }
 
 // Mean distance between the calibrated model's tool point and the true robot's over `validation`: what

@@ -1,7 +1,9 @@
 // Shared helpers for the core tests: finite differences and random draws.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -19,6 +21,14 @@ inline Eigen::VectorXd RandomErrors(const RobotModel& model, Rng* rng, double si
     eps[k] = (RobotModel::IsTranslationParameter(k) ? sigma_mm : sigma_rad) * rng->Normal();
   }
   return eps;
+}
+
+/// `count` configurations drawn uniformly within the joint limits from `seed`.
+inline std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, std::uint64_t seed) {
+  Rng rng(seed);
+  std::vector<Eigen::VectorXd> out;
+  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
+  return out;
 }
 
 /// Central differences of f: R^n -> R^m around x with per-coordinate steps h.
