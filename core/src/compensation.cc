@@ -38,6 +38,12 @@ struct Errors {
   double orientation_rad = 0.0;
 };
 
+// The one convergence test, wherever a result is judged: both remaining errors within the options' tolerances.
+// The Jacobian's conditioning plays no part: a result this close to its target is an answer, singular or not.
+bool WithinTolerance(const Errors& e, const CompensationOptions& options) {
+  return e.position_mm <= options.position_tolerance_mm && e.orientation_rad <= options.orientation_tolerance_rad;
+}
+
 // The position error and the angle over the matched rotations, computed exactly (not from the linearised rows).
 Errors MatchedErrors(MeasurementType type, const Transform& reached, const Transform& target) {
   Errors e;
@@ -185,8 +191,7 @@ class Solver {
     out.cost = cost_of(reached, &residual);
     double mu = -1.0, nu = 2.0;
     for (;; ++out.iterations) {
-      const Errors e = MatchedErrors(type_, reached, T_world_target);
-      if (e.position_mm < options_.position_tolerance_mm && e.orientation_rad < options_.orientation_tolerance_rad) {
+      if (WithinTolerance(MatchedErrors(type_, reached, T_world_target), options_)) {
         out.converged = true;
         break;
       }
@@ -421,7 +426,6 @@ CompensationResult SolveFrom(const Context& ctx, const Transform& T_world_target
   const Eigen::VectorXd start = q_start.cwiseMax(model.lower_limits()).cwiseMin(model.upper_limits());
   const Solver::Outcome outcome = solver.Solve(T_world_target, start, ctx.options.max_iterations);
   const Eigen::VectorXd& q = outcome.q;
-  result.converged = outcome.converged;
   result.joints = q;
   result.iterations = outcome.iterations;
   const Transform reached = solver.Reached(q);
@@ -429,6 +433,8 @@ CompensationResult SolveFrom(const Context& ctx, const Transform& T_world_target
   result.position_error_mm = e.position_mm;
   result.orientation_error_rad = e.orientation_rad;
   if (ctx.type == MeasurementType::kPositionAxis) result.free_rotation_rad = FreeRotation(reached, T_world_target);
+  // Judged on the errors handed out, by the solver's own test.
+  result.converged = WithinTolerance(e, ctx.options);
   // Not expected (inputs are checked and every accepted step has a finite cost), but never handed out as usable.
   if (!q.allFinite() || !std::isfinite(e.position_mm) || !std::isfinite(e.orientation_rad)) {
     result.converged = false;
@@ -506,7 +512,8 @@ CompensationResult NoSolution(int iterations, std::string message) {
 }
 
 // A pose target on a robot with named branches: the nominal closed-form solutions in order of preference,
-// refined on the calibrated model until one converges with the demanded flags.
+// refined on the calibrated model until one converges with the demanded flags. A result that converged is never
+// given up for one that did not: the wanted branch is a preference, only the demanded flags are a condition.
 CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
                                    const Eigen::VectorXd& previous) {
   const RobotModel& model = ctx.calibration.model;
@@ -521,12 +528,20 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
   if (demanded.wrist != 0) wanted.wrist = demanded.wrist;
   int iterations = 0;
   // The hint first: joints that (nearly) reach the target are the user's own answer, kept exactly when the
-  // solver converges from them on the wanted branch (no other turn of a joint, no neighbouring branch).
+  // solver converges from them on the wanted branch (no other turn of a joint, no neighbouring branch). Converged
+  // on another branch with the demanded flags (within the errors' size of a boundary the nominal chain's branch
+  // and the calibrated robot's differ), it is the answer if no nominal solution converges with them.
+  std::optional<CompensationResult> from_hint;
   if (hint != nullptr) {
     CompensationResult r = SolveFrom(ctx, T_world_target, *hint);
     iterations += r.iterations;
     if (r.converged && r.configuration == wanted) return r;
+    if (r.converged && r.configuration && demanded.Admits(*r.configuration)) from_hint = std::move(r);
   }
+  auto hint_answer = [&] {
+    from_hint->iterations = iterations;
+    return std::move(*from_hint);
+  };
   struct Candidate {
     Eigen::VectorXd q;
     ArmConfiguration configuration;
@@ -561,6 +576,7 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
   });
   const std::string asked = demanded.ToString();
   if (candidates.empty()) {
+    if (from_hint) return hint_answer();
     return NoSolution(iterations, asked.empty() ? "no solution on any branch: the target is beyond the arm's reach"
                                                 : "no solution with " + asked + ": the target is beyond the arm's reach");
   }
@@ -579,6 +595,7 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
       any = true;
     }
   }
+  if (from_hint) return hint_answer();
   if (!any) {
     return NoSolution(iterations, on_branch == 0
                                       ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"

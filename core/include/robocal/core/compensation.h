@@ -34,8 +34,8 @@ struct CompensationOptions {
   double initial_damping = 1e-9;
   double max_damping = 1e6;
   int max_iterations = 100;
-  /// Converged when the position error < position_tolerance_mm and the matched orientation error <
-  /// orientation_tolerance_rad.
+  /// Converged when the position error <= position_tolerance_mm and the matched orientation error <=
+  /// orientation_tolerance_rad: the one test for every result, whatever the Jacobian's conditioning there.
   double position_tolerance_mm = 1e-7;
   double orientation_tolerance_rad = 1e-9;
   /// How 1 rad of orientation error weighs against 1 mm of position error in the solver (mm / rad).
@@ -57,7 +57,7 @@ struct CompensationResult {
   /// (-pi, pi]): the angle about the reached tool axis from the target's x axis to the reached one. 0 otherwise.
   double free_rotation_rad = 0.0;
   /// How the solver ended; `joints` are written unless kFailure.
-  /// - kConvergence: both tolerances met.
+  /// - kConvergence: both tolerances met (near a singularity too: the conditioning decides nothing).
   /// - kDegraded: not met, and a joint is held at a limit that the error pulls outward: the limits, not the
   ///   solver, keep the robot from the target; `joints` are the closest it found within the limits.
   /// - kNoConvergence: not met, with no joint held at a limit: max_iterations reached, or no step lowers the
@@ -96,15 +96,16 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
 
 /// One target: a nominal joint command (as CompensateJoints) unless `pose` is set, then a pose in `frame`.
 ///
-/// A pose target is solved on a branch chosen by, in order: `configuration` (a demand: a flag given is never
-/// given up; a target the calibrated robot does not reach with it ends NO_CONVERGENCE or, with no nominal
-/// solution on it at all, FAILURE, saying so), then the branch of `start` if given, then that of the previous
-/// target's result in a sequence, else shoulder front, elbow up, wrist noflip. The branches' nominal closed-form
-/// solutions (ArmSolver), each placed in the joint limits nearest the reference joints (start, previous, or
-/// DefaultJoints), are refined on the calibrated model in that order of preference until one converges with the
-/// demanded flags. A robot of no known family has no named branches: its pose target is solved from `start`,
-/// else from the previous result, else from DefaultJoints and then a fixed grid of starts (the quarter and
-/// three-quarter points of every joint range, nearest first) until one converges.
+/// A pose target is solved on a branch chosen by, in order: `configuration` (a demand: a flag given is never given
+/// up; a target the calibrated robot does not reach with it ends NO_CONVERGENCE or, with no nominal solution on it
+/// at all, FAILURE, saying so), then the branch of `start` if given, then that of the previous target's result in a
+/// sequence, else shoulder front, elbow up, wrist noflip. The branches' nominal closed-form solutions (ArmSolver),
+/// each placed in the joint limits nearest the reference joints (start, previous, or DefaultJoints), are refined on
+/// the calibrated model in that order of preference until one converges with the demanded flags; failing that, a
+/// result converged from `start` (or the previous result) on another branch with them is the answer (a converged
+/// result is never given up for one that did not converge). A robot of no known family has no named branches: its
+/// pose target is solved from `start`, else from the previous result, else from DefaultJoints and then a fixed grid
+/// of starts (the quarter and three-quarter points of every joint range, nearest first) until one converges.
 struct CompensationTarget {
   Eigen::VectorXd joints;
   std::optional<Transform> pose;
