@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <thread>
 #include <tuple>
+#include <utility>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/kinematics.h"
@@ -169,7 +170,9 @@ class Solver {
   // error (rho: actual over predicted decrease), and grows by nu (doubling each time) after one that does not. A
   // joint at a limit whose descent direction points out of the range is held there (an active set), so the
   // other joints still make the progress they can.
-  Outcome Solve(const Transform& T_world_target, const Eigen::VectorXd& q0, int max_iterations) {
+  // `initial_damping` takes the place of options_.initial_damping (the start of mu, relative to J'J).
+  Outcome Solve(const Transform& T_world_target, const Eigen::VectorXd& q0, int max_iterations,
+                double initial_damping) {
     const Rows rows(type_, T_world_target, options_.orientation_weight_mm_per_rad);
     const int n = model_.num_joints();
     const Eigen::VectorXd& lower = model_.lower_limits();
@@ -202,7 +205,7 @@ class Solver {
       std::array<bool, kMaxJoints> held{};
       for (int i = 0; i < n; ++i) held[i] = AtLowerLimit(q, gradient, i) || AtUpperLimit(q, gradient, i);
       const JointMatrix normal = jacobian.transpose() * jacobian;
-      if (mu < 0.0) mu = std::max(options_.initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
+      if (mu < 0.0) mu = std::max(initial_damping * normal.diagonal().maxCoeff(), kMinDamping);
       bool accepted = false;
       while (!accepted) {
         JointMatrix a = normal;
@@ -352,8 +355,9 @@ bool CompensationOptions::IsValid(std::string* error) const {
   if (!(initial_damping > 0.0) || !std::isfinite(initial_damping)) {
     return fail("initial_damping must be positive and finite");
   }
-  if (!(max_damping > initial_damping) || !std::isfinite(max_damping)) {
-    return fail("max_damping must be finite and greater than initial_damping");
+  if (!(start_damping > 0.0) || !std::isfinite(start_damping)) return fail("start_damping must be positive and finite");
+  if (!(max_damping > initial_damping) || !(max_damping > start_damping) || !std::isfinite(max_damping)) {
+    return fail("max_damping must be finite and greater than initial_damping and start_damping");
   }
   if (max_iterations < 1 || max_iterations > 100000) return fail("max_iterations must be in [1, 100000]");
   if (!(position_tolerance_mm > 0.0) || !std::isfinite(position_tolerance_mm)) {
@@ -417,14 +421,16 @@ void CheckJoints(const RobotModel& model, const Eigen::VectorXd& q, const char* 
 }
 
 // One solver run from `start` (projected into the limits first), with the result's errors and, when not
-// converged, why not.
-CompensationResult SolveFrom(const Context& ctx, const Transform& T_world_target, const Eigen::VectorXd& q_start) {
+// converged, why not. `initial_damping`: options.initial_damping unless given.
+CompensationResult SolveFrom(const Context& ctx, const Transform& T_world_target, const Eigen::VectorXd& q_start,
+                             std::optional<double> initial_damping = std::nullopt) {
   const RobotModel& model = ctx.calibration.model;
   Solver solver(model, ctx.chain, ctx.type, ctx.options);
   CompensationResult result;
   // A start outside the limits (e.g. a nominal command at a limit plus round-off) is projected inside.
   const Eigen::VectorXd start = q_start.cwiseMax(model.lower_limits()).cwiseMin(model.upper_limits());
-  const Solver::Outcome outcome = solver.Solve(T_world_target, start, ctx.options.max_iterations);
+  const Solver::Outcome outcome = solver.Solve(T_world_target, start, ctx.options.max_iterations,
+                                               initial_damping.value_or(ctx.options.initial_damping));
   const Eigen::VectorXd& q = outcome.q;
   result.joints = q;
   result.iterations = outcome.iterations;
@@ -511,9 +517,18 @@ CompensationResult NoSolution(int iterations, std::string message) {
   return none;
 }
 
-// A pose target on a robot with named branches: the nominal closed-form solutions in order of preference,
-// refined on the calibrated model until one converges with the demanded flags. A result that converged is never
-// given up for one that did not: the wanted branch is a preference, only the demanded flags are a condition.
+// A pose target on a robot with named branches. With a hint (start or previous joints) the answer is, of the
+// converged results with the demanded flags, the one on the wanted branch (else the one missing the fewest and
+// least important wanted flags: shoulder before elbow before wrist) nearest the hint, each joint at its turn
+// nearest it within the limits. The runs that look for it:
+// 1. from the hint, with options.start_damping: when it converges on the wanted branch, the solution the hint
+//    leads to is the answer (hint joints that reach the target come back as they are, without an iteration);
+// 2. else from the nominal closed-form solutions, in their order of preference: every one until a result is on
+//    the wanted branch, then the rest of those on it, so that the nearest of its solutions is found (near a
+//    singularity several converge on one branch; the offset wrist adds a start at every 30 deg of joint 6).
+// Without a hint, the first nominal solution in that order to converge with the demanded flags is the answer.
+// A converged result is never given up for one that did not converge: the wanted branch is a preference, only
+// the demanded flags are a condition.
 CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
                                    const Eigen::VectorXd& previous) {
   const RobotModel& model = ctx.calibration.model;
@@ -526,22 +541,52 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
   if (demanded.shoulder != 0) wanted.shoulder = demanded.shoulder;
   if (demanded.elbow != 0) wanted.elbow = demanded.elbow;
   if (demanded.wrist != 0) wanted.wrist = demanded.wrist;
-  int iterations = 0;
-  // The hint first: joints that (nearly) reach the target are the user's own answer, kept exactly when the
-  // solver converges from them on the wanted branch (no other turn of a joint, no neighbouring branch). Converged
-  // on another branch with the demanded flags (within the errors' size of a boundary the nominal chain's branch
-  // and the calibrated robot's differ), it is the answer if no nominal solution converges with them.
-  std::optional<CompensationResult> from_hint;
-  if (hint != nullptr) {
-    CompensationResult r = SolveFrom(ctx, T_world_target, *hint);
-    iterations += r.iterations;
-    if (r.converged && r.configuration == wanted) return r;
-    if (r.converged && r.configuration && demanded.Admits(*r.configuration)) from_hint = std::move(r);
-  }
-  auto hint_answer = [&] {
-    from_hint->iterations = iterations;
-    return std::move(*from_hint);
+  // Flags differing from the wanted ones, the shoulder weighing most.
+  auto mismatch = [&](const ArmConfiguration& c) {
+    return 4 * (c.shoulder != wanted.shoulder) + 2 * (c.elbow != wanted.elbow) + (c.wrist != wanted.wrist);
   };
+  int iterations = 0;
+  // The answer so far (converged, demanded flags), its joints at the turns nearest the reference, and its rank.
+  std::optional<CompensationResult> answer;
+  Eigen::VectorXd answer_joints;
+  std::pair<int, double> answer_rank;
+  // The best result with the demanded flags that did not converge: what is said when none does.
+  CompensationResult best;
+  bool any = false;
+  auto consider = [&](CompensationResult r) {
+    iterations += r.iterations;
+    if (!r.configuration || !demanded.Admits(*r.configuration)) return;
+    if (!r.converged) {
+      if (!any || Better(r, best, ctx.options.orientation_weight_mm_per_rad)) best = std::move(r);
+      any = true;
+      return;
+    }
+    // A revolute joint's other turns reach the same pose: the one nearest the reference counts.
+    Eigen::VectorXd q = r.joints;
+    PlaceInLimits(model, reference, &q);
+    const std::pair<int, double> rank{mismatch(*r.configuration), (q - reference).squaredNorm()};
+    if (!answer || rank < answer_rank) {
+      answer = std::move(r);
+      answer_joints = std::move(q);
+      answer_rank = rank;
+    }
+  };
+  // The answer with its joints at their nearest turns, its errors evaluated there (the same pose to round-off, so
+  // no iteration in practice), and every run's iterations.
+  auto finish = [&]() {
+    CompensationResult r = std::move(*answer);
+    if (answer_joints != r.joints) {
+      CompensationResult placed = SolveFrom(ctx, T_world_target, answer_joints);
+      iterations += placed.iterations;
+      if (placed.converged && placed.configuration == r.configuration) r = std::move(placed);
+    }
+    r.iterations = iterations;
+    return r;
+  };
+  if (hint != nullptr) {
+    consider(SolveFrom(ctx, T_world_target, *hint, ctx.options.start_damping));
+    if (answer && answer_rank.first == 0) return finish();
+  }
   struct Candidate {
     Eigen::VectorXd q;
     ArmConfiguration configuration;
@@ -559,9 +604,7 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
     // nominal chain's branch and the calibrated robot's differ, and the solver may cross to the asked one.
     c.other_branch = demanded.Admits(c.configuration) ? 0 : 1;
     on_branch += 1 - c.other_branch;
-    // Flags differing from the wanted ones, the shoulder weighing most.
-    c.mismatch = 4 * (c.configuration.shoulder != wanted.shoulder) + 2 * (c.configuration.elbow != wanted.elbow) +
-                 (c.configuration.wrist != wanted.wrist);
+    c.mismatch = mismatch(c.configuration);
     c.outside = PlaceInLimits(model, reference, &c.q);
     // A pose just beyond the nominal reach gives a stretched start, tried after the exact solutions.
     c.inexact = s.position_error_mm > 1e-6 ? 1 : 0;
@@ -575,27 +618,19 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
            std::tie(b.other_branch, b.mismatch, b.outside, b.inexact, b.distance);
   });
   const std::string asked = demanded.ToString();
-  if (candidates.empty()) {
-    if (from_hint) return hint_answer();
+  if (candidates.empty() && !answer) {
     return NoSolution(iterations, asked.empty() ? "no solution on any branch: the target is beyond the arm's reach"
                                                 : "no solution with " + asked + ": the target is beyond the arm's reach");
   }
-  CompensationResult best;
-  bool any = false;
   for (const Candidate& c : candidates) {
-    CompensationResult r = SolveFrom(ctx, T_world_target, c.q);
-    iterations += r.iterations;
-    const bool admitted = r.configuration && demanded.Admits(*r.configuration);
-    if (r.converged && admitted) {
-      r.iterations = iterations;
-      return r;
-    }
-    if (admitted && (!any || Better(r, best, ctx.options.orientation_weight_mm_per_rad))) {
-      best = std::move(r);
-      any = true;
-    }
+    // Without a hint the first result to converge is the answer (the order is the preference). With one, every
+    // start is tried until the wanted branch is reached (near a boundary the stretched starts either side of it
+    // often converge on the other side), then the rest of that branch's, for the nearest of its solutions (away
+    // from boundaries the solver stays on a start's branch).
+    if (answer && (hint == nullptr || (answer_rank.first == 0 && (c.other_branch > 0 || c.mismatch > 0)))) break;
+    consider(SolveFrom(ctx, T_world_target, c.q));
   }
-  if (from_hint) return hint_answer();
+  if (answer) return finish();
   if (!any) {
     return NoSolution(iterations, on_branch == 0
                                       ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"
@@ -603,8 +638,6 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
                                             std::to_string(on_branch) + " nominal solutions");
   }
   best.iterations = iterations;
-  best.converged = false;
-  if (best.termination == Termination::kConvergence) best.termination = Termination::kNoConvergence;
   best.message = (asked.empty() ? std::string("no branch reaches the target: ")
                                  : "the calibrated robot does not reach the target with " + asked + ": ") +
                  best.message;

@@ -32,6 +32,12 @@ struct CompensationOptions {
   /// of J'J (a scale-free start); when it would exceed max_damping^2 no step lowers the error any more and
   /// the first phase stops (not converged).
   double initial_damping = 1e-9;
+  /// The same start of mu for the run from start joints (or the previous result in a sequence) towards a pose
+  /// target, whose solution on the start's branch is wanted nearest the start. Near a singularity a nearly
+  /// undamped first step follows the Jacobian's nearly null directions far along the branch, to another of its
+  /// solutions; a damped one goes down the error's steep directions first. 1e-3 is the start Madsen, Nielsen &
+  /// Tingleff (2004, section 3.2) suggest for a start not known to be close.
+  double start_damping = 1e-3;
   double max_damping = 1e6;
   int max_iterations = 100;
   /// Converged when the position error <= position_tolerance_mm and the matched orientation error <=
@@ -99,13 +105,17 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
 /// A pose target is solved on a branch chosen by, in order: `configuration` (a demand: a flag given is never given
 /// up; a target the calibrated robot does not reach with it ends NO_CONVERGENCE or, with no nominal solution on it
 /// at all, FAILURE, saying so), then the branch of `start` if given, then that of the previous target's result in a
-/// sequence, else shoulder front, elbow up, wrist noflip. The branches' nominal closed-form solutions (ArmSolver),
-/// each placed in the joint limits nearest the reference joints (start, previous, or DefaultJoints), are refined on
-/// the calibrated model in that order of preference until one converges with the demanded flags; failing that, a
-/// result converged from `start` (or the previous result) on another branch with them is the answer (a converged
-/// result is never given up for one that did not converge). A robot of no known family has no named branches: its
-/// pose target is solved from `start`, else from the previous result, else from DefaultJoints and then a fixed grid
-/// of starts (the quarter and three-quarter points of every joint range, nearest first) until one converges.
+/// sequence, else shoulder front, elbow up, wrist noflip. With `start` (or a previous result) the answer is the
+/// converged solution on that branch nearest those joints, every revolute joint at its turn nearest them within the
+/// limits; failing that branch, the converged one with the fewest and least important other flags (shoulder before
+/// elbow before wrist), nearest. It is looked for from those joints first (with options.start_damping; joints that
+/// reach the target come back as they are), then from the branches' nominal closed-form solutions (ArmSolver), each
+/// placed in the joint limits nearest the reference joints (start, previous, or DefaultJoints) and refined on the
+/// calibrated model in that order of preference; without start or previous joints the first of those to converge
+/// with the demanded flags is the answer. A converged result is never given up for one that did not converge. A
+/// robot of no known family has no named branches: its pose target is solved from `start`, else from the previous
+/// result, else from DefaultJoints and then a fixed grid of starts (the quarter and three-quarter points of every
+/// joint range, nearest first) until one converges.
 struct CompensationTarget {
   Eigen::VectorXd joints;
   std::optional<Transform> pose;
