@@ -380,7 +380,7 @@ struct Context {
       : calibration(c),
         nominal(n),
         options(o),
-        chain(c.model, c.errors),
+        chain(c.model, c.errors),  // no payload: SolveTarget puts a target's own on it
         nominal_chain(n, Eigen::VectorXd()),
         T_base_world(n.T_world_base().inverse()),
         type(MatchedRows(c.model)),
@@ -712,6 +712,14 @@ void CheckNominal(const Calibration& calibration, const RobotModel& nominal) {
 }
 
 CompensationResult SolveTarget(const Context& ctx, const CompensationTarget& t, const Eigen::VectorXd& previous) {
+  std::string error;
+  if (!t.payload.IsValid("payload", &error)) throw std::invalid_argument("Compensate: " + error);
+  if (ctx.chain.deflects() && t.payload != Payload()) {
+    // The calibrated robot deflects under this target's payload: its own chain.
+    Context loaded = ctx;
+    loaded.chain = ctx.chain.WithPayload(t.payload);
+    return t.pose ? SolvePose(loaded, t, previous) : SolveJoints(loaded, t.joints);
+  }
   return t.pose ? SolvePose(ctx, t, previous) : SolveJoints(ctx, t.joints);
 }
 
@@ -726,13 +734,17 @@ Eigen::VectorXd DefaultJoints(const RobotModel& model) {
 }
 
 CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
-                                  const Eigen::VectorXd& q_start, const CompensationOptions& options) {
+                                  const Eigen::VectorXd& q_start, const CompensationOptions& options,
+                                  const Payload& payload) {
   CheckCalibration(calibration, options);
   CheckJoints(calibration.model, q_start, "q_start");
   if (!IsValidRigidTransform(target, 1e-6)) {
     throw std::invalid_argument("CompensatePose: target is not a finite rigid transform");
   }
-  const Context ctx(calibration, calibration.model, options);
+  std::string error;
+  if (!payload.IsValid("payload", &error)) throw std::invalid_argument("CompensatePose: " + error);
+  Context ctx(calibration, calibration.model, options);
+  ctx.chain = ctx.chain.WithPayload(payload);
   const Transform T_world_target = frame == TargetFrame::kBase ? calibration.T_world_base * target : target;
   return SolveFrom(ctx, T_world_target, q_start);
 }

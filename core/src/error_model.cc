@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "robocal/core/joint_errors.h"
+
 namespace robocal {
 namespace {
 
@@ -242,10 +244,29 @@ void MeasurementResidual(MeasurementType type, const Transform& measured, const 
   }
 }
 
+namespace {
+
+// Column `col` of joint i's unit motion at the frames in `ws` (after ForwardKinematics): a rotation about its
+// axis, or a translation along it.
+void WriteJointColumn(const RobotModel& model, const KinematicsWorkspace& ws, const RowWriter& writer, int i,
+                      Eigen::Ref<Eigen::MatrixXd> jacobian, int col) {
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  const Transform& frame = ws.T_world_joint[i];
+  const Eigen::Vector3d axis = frame.linear().col(2);
+  if (model.joint_type(i) == JointType::kRevolute) {
+    writer.Write(axis, frame.translation(), zero, jacobian, col);
+  } else {
+    writer.Write(zero, zero, axis, jacobian, col);
+  }
+}
+
+}  // namespace
+
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
+                            const Payload& payload) {
   CheckJacobianSize(jacobian, MeasurementRows(type), model.num_error_parameters(), "IdentificationJacobian");
-  const Transform& tool = ForwardKinematics(model, q, eps, ws);
+  const Transform& tool = ForwardKinematics(model, q, eps, ws, payload);
   const RowWriter writer = MakeWriter(type, tool);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
   for (int s = 0; s < model.num_error_sites(); ++s) {
@@ -266,23 +287,31 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
     writer.Write(r1.col(1), point, zero, jacobian, 6 * s + 4);
     writer.Write(r2.col(2), point, zero, jacobian, 6 * s + 5);
   }
+  // A joint term turns its joint by (parameter x factor): its column is the joint's motion times the factor
+  // (the factor does not depend on the parameters: JointTermFactors).
+  const std::vector<JointTermParameter>& terms = model.joint_terms();
+  if (terms.empty()) return;
+  const Eigen::VectorXd factor = JointTermFactors(model, q, payload);
+  const int first = model.num_geometric_parameters();
+  for (size_t t = 0; t < terms.size(); ++t) {
+    const int col = first + static_cast<int>(t);
+    WriteJointColumn(model, *ws, writer, terms[t].joint, jacobian, col);
+    jacobian.col(col) *= factor[static_cast<Eigen::Index>(t)];
+  }
 }
 
 void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps, MeasurementType type,
-                   KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+                   KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian, const Payload& payload) {
   CheckJacobianSize(jacobian, MeasurementRows(type), model.num_joints(), "JointJacobian");
-  const Transform& tool = ForwardKinematics(model, q, eps, ws);
+  const Transform& tool = ForwardKinematics(model, q, eps, ws, payload);
   const RowWriter writer = MakeWriter(type, tool);
-  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-  for (int i = 0; i < model.num_joints(); ++i) {
-    const Transform& frame = ws->T_world_joint[i];
-    const Eigen::Vector3d axis = frame.linear().col(2);
-    if (model.joint_type(i) == JointType::kRevolute) {
-      writer.Write(axis, frame.translation(), zero, jacobian, i);
-    } else {
-      writer.Write(zero, zero, axis, jacobian, i);
-    }
-  }
+  for (int i = 0; i < model.num_joints(); ++i) WriteJointColumn(model, *ws, writer, i, jacobian, i);
+  if (model.joint_terms().empty() || eps.size() == 0) return;
+  // The chain moves with the deflected joints q + dq(q): d/dq = J(q + dq) (I + d(dq)/dq).
+  Eigen::MatrixXd ddq_dq;
+  JointDeflection(model, q, eps, payload, &ddq_dq);
+  const Eigen::MatrixXd at_deflected = jacobian;
+  jacobian = at_deflected * (Eigen::MatrixXd::Identity(model.num_joints(), model.num_joints()) + ddq_dq);
 }
 
 }  // namespace robocal

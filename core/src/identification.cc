@@ -15,6 +15,7 @@
 
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/fit_diagnostics.h"
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 
 namespace robocal {
@@ -67,7 +68,8 @@ struct ShotGroups {
     int reflector = -1;
     std::vector<int> shots;
   };
-  std::vector<Eigen::VectorXd> poses;  // distinct joint configurations
+  std::vector<Eigen::VectorXd> poses;  // distinct joint configurations (under distinct payloads)
+  std::vector<Payload> payloads;       // per pose
   std::vector<Group> groups;
   std::vector<int> group_of;  // per measurement
 
@@ -77,8 +79,14 @@ struct ShotGroups {
     group_of.reserve(measurements.size());
     for (size_t i = 0; i < measurements.size(); ++i) {
       const Measurement& m = measurements[i];
-      const auto [pose, new_pose] = pose_index.emplace(m.joints, static_cast<int>(poses.size()));
-      if (new_pose) poses.push_back(m.joints);
+      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise.
+      Eigen::VectorXd key(m.joints.size() + 4);
+      key << m.joints, m.payload.mass_kg, m.payload.com_mm;
+      const auto [pose, new_pose] = pose_index.emplace(key, static_cast<int>(poses.size()));
+      if (new_pose) {
+        poses.push_back(m.joints);
+        payloads.push_back(m.payload);
+      }
       const auto [group, new_group] =
           group_index.emplace(std::make_pair(pose->second, m.reflector), static_cast<int>(groups.size()));
       if (new_group) groups.push_back({pose->second, m.reflector, {}});
@@ -105,6 +113,7 @@ class Problem {
         n_model_(model.num_error_parameters()),
         ws_(model),
         poses_(shot_groups.poses),
+        payloads_(shot_groups.payloads),
         groups_(shot_groups.groups),
         group_of_(shot_groups.group_of) {
     if (o.noise.HasSharedError()) {
@@ -197,11 +206,12 @@ class Problem {
     std::vector<Eigen::MatrixXd> pose_full(with_jacobian ? poses_.size() : 0);
     for (size_t p = 0; p < poses_.size(); ++p) {
       if (with_jacobian) {
-        IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full);
+        IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full,
+                               payloads_[p]);
         pose_full[p] = full;
         pose_model[p] = ws_.T_world_tool;
       } else {
-        pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_);
+        pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, payloads_[p]);
       }
     }
     prediction->resize(groups_.size());
@@ -278,6 +288,7 @@ class Problem {
   int n_model_;
   KinematicsWorkspace ws_;
   const std::vector<Eigen::VectorXd>& poses_;
+  const std::vector<Payload>& payloads_;
   const std::vector<Group>& groups_;
   const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
@@ -496,7 +507,7 @@ void ForEachResidual(const RobotModel& model, const Eigen::VectorXd& errors,
   KinematicsWorkspace ws(model);
   Eigen::VectorXd r(rows);
   for (const Measurement& m : measurements) {
-    const Transform& tool = ForwardKinematics(model, m.joints, errors, &ws);
+    const Transform& tool = ForwardKinematics(model, m.joints, errors, &ws, m.payload);
     const Transform predicted = m.reflector < 0 ? tool : AtReflector(tool, reflectors_in_tool.at(m.reflector));
     MeasurementResidual(type, m.T_world_tool, predicted, r);
     noise.Whitening(type, m.T_world_tool.translation(), w);
@@ -1179,9 +1190,97 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
 
 namespace {
 
+// A joint term whose column at the measured configurations keeps less than this fraction of its norm outside
+// the span of the other chosen columns is not observed by the data: its standard deviation would be 1e5 times
+// that of a parameter observed on its own, and its value whatever the noise makes it.
+constexpr double kJointTermObservedFraction = 1e-5;
+
+// The joint terms (compliance, harmonics) the measurements observe: structural identifiability (random
+// configurations, no payload) cannot know which payloads and configurations a campaign holds, so their
+// columns are tested again at the measured poses. `parameters` (ascending) loses the unobserved ones, which join
+// `dropped`.
+void DropUnobservedJointTerms(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                              const IdentificationOptions& options, std::vector<int>* parameters,
+                              std::vector<DroppedParameter>* dropped) {
+  const int first_term = nominal.num_geometric_parameters();
+  const int n_all = nominal.num_error_parameters();
+  if (nominal.joint_terms().empty()) return;
+  const ShotGroups groups(measurements);
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
+  const Eigen::VectorXd weights = options.noise.RowWeights(type);
+  const Eigen::Index num_rows = static_cast<Eigen::Index>(groups.poses.size()) * rows;
+  std::vector<int> model_columns;
+  for (int j : *parameters) {
+    if (j < n_all) model_columns.push_back(j);
+  }
+  Eigen::MatrixXd full(rows, n_all);
+  Eigen::MatrixXd a(num_rows, static_cast<Eigen::Index>(model_columns.size()));
+  KinematicsWorkspace ws(nominal);
+  for (size_t p = 0; p < groups.poses.size(); ++p) {
+    IdentificationJacobian(nominal, groups.poses[p], Eigen::VectorXd(), type, &ws, full, groups.payloads[p]);
+    for (size_t c = 0; c < model_columns.size(); ++c) {
+      a.block(static_cast<Eigen::Index>(p) * rows, static_cast<Eigen::Index>(c), rows, 1) =
+          weights.cwiseProduct(full.col(model_columns[c]));
+    }
+  }
+  std::vector<int> geometric, terms;
+  for (size_t c = 0; c < model_columns.size(); ++c) (model_columns[c] < first_term ? geometric : terms).push_back(c);
+  if (terms.empty()) return;
+  // Unit columns; the terms' parts outside the geometric span, then a pivoted QR among those parts.
+  for (Eigen::Index c = 0; c < a.cols(); ++c) {
+    const double norm = a.col(c).norm();
+    if (norm > 0.0) a.col(c) /= norm;
+  }
+  Eigen::MatrixXd g(num_rows, static_cast<Eigen::Index>(geometric.size()));
+  for (size_t c = 0; c < geometric.size(); ++c) g.col(static_cast<Eigen::Index>(c)) = a.col(geometric[c]);
+  Eigen::MatrixXd t(num_rows, static_cast<Eigen::Index>(terms.size()));
+  for (size_t c = 0; c < terms.size(); ++c) t.col(static_cast<Eigen::Index>(c)) = a.col(terms[c]);
+  if (g.cols() > 0) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(g);
+    const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(num_rows, g.cols());
+    t -= q * (q.transpose() * t);
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> pivoted(t);
+  const Eigen::MatrixXd r = pivoted.matrixR().template triangularView<Eigen::Upper>();
+  std::vector<int> unobserved;
+  for (Eigen::Index k = 0; k < std::min(r.rows(), r.cols()); ++k) {
+    if (std::abs(r(k, k)) < kJointTermObservedFraction) {
+      for (Eigen::Index rest = k; rest < r.cols(); ++rest) {
+        unobserved.push_back(model_columns[terms[pivoted.colsPermutation().indices()[rest]]]);
+      }
+      break;
+    }
+  }
+  if (r.rows() < r.cols()) {
+    for (Eigen::Index rest = r.rows(); rest < r.cols(); ++rest)
+      unobserved.push_back(model_columns[terms[pivoted.colsPermutation().indices()[rest]]]);
+  }
+  if (unobserved.empty()) return;
+  std::sort(unobserved.begin(), unobserved.end());
+  unobserved.erase(std::unique(unobserved.begin(), unobserved.end()), unobserved.end());
+  for (int j : unobserved) {
+    const JointTermParameter& term = nominal.joint_terms()[static_cast<size_t>(j - first_term)];
+    dropped->push_back(
+        {j, nominal.parameter_name(j),
+         term.kind == JointTermParameter::Kind::kCompliance
+             ? "not observed by these measurements: its gravity torques move the tool as the other parameters do "
+               "(measure under a second payload, or at more varied arm postures)"
+             : "not observed by these measurements: its effect is that of the other parameters (measure the joint "
+               "over more of its range)"});
+    parameters->erase(std::find(parameters->begin(), parameters->end(), j));
+  }
+}
+
 ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                                     const IdentificationOptions& options) {
   ParameterSelection out;
+  if (nominal.error_terms().compliance && !nominal.has_masses()) {
+    out.failure = "model.compliance: robot '" + nominal.name() +
+                  "' has no link masses (set joints[].mass_kg and com_mm, or import a URDF with <inertial> "
+                  "elements): its gravity torques are unknown";
+    return out;
+  }
   const int n_all = nominal.num_error_parameters();
   const int num_reflectors = static_cast<int>(options.reflectors.size());
   // The fit's index space: the model's parameters, then 3 offset errors per reflector.
@@ -1235,6 +1334,7 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
     }
   }
   std::sort(out.parameters.begin(), out.parameters.end());
+  DropUnobservedJointTerms(nominal, measurements, options, &out.parameters, &out.dropped);
   std::sort(out.dropped.begin(), out.dropped.end(),
             [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
   if (!free_nests && !original.empty()) {
@@ -1288,6 +1388,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
                   {}};
   IdentificationSummary& s = cal.summary;
   s.measurement_type = type;
+  s.model = nominal.error_terms();
   s.num_measurements = static_cast<int>(measurements.size());
   s.num_residuals = MeasurementRows(type) * s.num_measurements;
   s.scaling = DescribeScaling(options.noise);
@@ -1439,6 +1540,10 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   int count = 0;
   for (const IdentifiedParameter& p : cal.parameters) {
     const bool mm = IsTranslationName(p.name);
+    if (p.index >= 0 && p.index < nominal.num_error_parameters() &&
+        nominal.parameter_unit(p.index) == ParameterUnit::kRadPerNm) {
+      continue;  // a compliance: a joint term, judged by the model choice, not against a geometric size
+    }
     if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
       if (++count <= 3) {
         std::ostringstream one;
@@ -1505,8 +1610,9 @@ std::string IdentificationSummary::FullReport() const {
         << "  units\n";
     for (const IdentifiedParameter& p : parameters) {
       const bool mm = IsTranslationName(p.name);
+      const bool compliance = p.name.size() > 11 && p.name.compare(p.name.size() - 11, 11, ".compliance") == 0;
       out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
-          << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : "rad") << "\n";
+          << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : compliance ? "rad/(N*m)" : "rad") << "\n";
     }
   }
   if (rejection_rounds > 0) {
@@ -1516,6 +1622,18 @@ std::string IdentificationSummary::FullReport() const {
       out << (&o == &outliers.front() ? ": " : ", ") << "#" << o.measurement << " (" << o.normalized_residual << ")";
     }
     out << "\n";
+  }
+  out << "  model: " << model.Describe() << "\n";
+  for (size_t k = 0; k < model_candidates.size(); ++k) {
+    const ModelCandidate& c = model_candidates[k];
+    out << "    " << (static_cast<int>(k) == model_chosen ? "* " : "  ") << std::left << std::setw(28)
+        << c.terms.Describe() << std::right << std::setw(5) << c.num_parameters << " parameters";
+    if (c.failed_folds > 0) {
+      out << ", " << c.failed_folds << " of " << model_folds << " folds failed: " << c.note << "\n";
+    } else {
+      out << ", held-out mean " << std::setprecision(4) << c.cv_mean_mm << " +- " << c.cv_standard_error_mm
+          << " mm, RMS " << c.cv_rms_mm << " mm\n";
+    }
   }
   out << "  dropped (" << dropped.size() << "):\n";
   for (const DroppedParameter& d : dropped) out << "    " << d.name << ": " << d.reason << "\n";

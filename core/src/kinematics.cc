@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/random.h"
 
 namespace robocal {
@@ -38,10 +39,13 @@ Transform ErrorTransform(const double* delta) {
   return t;
 }
 
-const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                                   KinematicsWorkspace* ws) {
-  CheckSizes(model, q, eps);
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q_command,
+                                   const Eigen::VectorXd& eps, KinematicsWorkspace* ws, const Payload& payload) {
+  CheckSizes(model, q_command, eps);
   const bool with_errors = eps.size() != 0;
+  ws->q_effective = q_command;
+  if (with_errors && !model.joint_terms().empty()) ws->q_effective += JointDeflection(model, q_command, eps, payload);
+  const Eigen::VectorXd& q = ws->q_effective;
   const int n = model.num_joints();
   auto apply_error = [&](int site, Transform* t) {
     if (with_errors) *t = *t * ErrorTransform(eps.data() + 6 * site);
@@ -80,10 +84,15 @@ void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Trans
   *T_base_flange = t * model.T_lastjoint_flange();
 }
 
-FoldedChain::FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps) {
+FoldedChain::FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps, const Payload& payload) {
   const int n = model.num_joints();
   CheckSizes(model, Eigen::VectorXd::Zero(n), eps);
   const bool with_errors = eps.size() != 0;
+  if (with_errors && !model.joint_terms().empty()) {
+    model_ = std::make_shared<const RobotModel>(model);
+    eps_ = eps;
+    payload_ = payload;
+  }
   auto error = [&](int site) { return with_errors ? ErrorTransform(eps.data() + 6 * site) : Transform::Identity(); };
   Transform t = model.T_world_base() * error(0);
   for (int i = 0; i < n; ++i) {
@@ -95,7 +104,20 @@ FoldedChain::FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps) {
   if (n == 0) after_ = t * after_;
 }
 
+FoldedChain FoldedChain::WithPayload(const Payload& payload) const {
+  FoldedChain out = *this;
+  out.payload_ = payload;
+  return out;
+}
+
 Transform FoldedChain::Forward(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const {
+  if (model_ == nullptr) return ForwardAt(q, T_world_joint);
+  const Eigen::VectorXd command = q;
+  const Eigen::VectorXd deflected = command + JointDeflection(*model_, command, eps_, payload_);
+  return ForwardAt(deflected, T_world_joint);
+}
+
+Transform FoldedChain::ForwardAt(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const {
   const int n = num_joints();
   Transform t = before_.empty() ? Transform::Identity() : before_[0];
   for (int i = 0; i < n; ++i) {

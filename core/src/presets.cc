@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 namespace robocal {
 namespace {
@@ -23,6 +24,22 @@ JointSpec DhJoint(const std::string& name, double a_mm, double alpha_rad, double
   return j;
 }
 
+// Plausible mass properties (documented as such in docs/robots.md): link i's mass at the midpoint between its
+// joint's origin and the next joint's (the flange for the last), in link frame i. Enough for the compliance model,
+// whose compliances absorb an error of scale in the masses; a real robot's figures come from its URDF or datasheet.
+void SetLinkMassesAtMidpoints(RobotModelSpec* spec, const std::vector<double>& masses_kg) {
+  const RobotModel model = RobotModel::Build(*spec);
+  const int n = model.num_joints();
+  for (int i = 0; i < n; ++i) {
+    // Link frame i in joint i's frame after its motion is model.link_frame(i); the next joint's origin there is
+    // the next fixed transform's (or the flange's) translation.
+    const Transform to_link = model.link_frame(i).inverse();
+    const Eigen::Vector3d next = (i + 1 < n ? model.fixed_transform(i + 1) : model.T_lastjoint_flange()).translation();
+    spec->joints[i].mass_kg = masses_kg[i];
+    spec->joints[i].com_mm = 0.5 * (to_link * Eigen::Vector3d::Zero() + to_link * next);
+  }
+}
+
 // The tool used for calibration on the 6R presets: a reflector nest 120 mm out along the flange z axis and
 // 30 mm off it, so that every wrist joint moves the measured point (a point on the last axis would leave
 // joint 6 unobservable from positions).
@@ -39,6 +56,14 @@ RobotModelSpec Puma560() {
       DhJoint("joint5", 0.0, -M_PI / 2, 0.0, 0.0, -100, 100),    DhJoint("joint6", 0.0, 0.0, 0.0, 0.0, -266, 266),
   };
   s.T_flange_tool = CalibrationTool6R();
+  // Link masses and centres of mass of the same model (Armstrong, Khatib & Burdick 1986, as Corke tabulates
+  // them; DH frame i, mm).
+  const double mass[6] = {0.0, 17.4, 4.8, 0.82, 0.34, 0.09};
+  const double com[6][3] = {{0, 0, 0}, {-363.8, 6, 227.5}, {-20.3, -14.1, 70}, {0, 19, 0}, {0, 0, 0}, {0, 0, 32}};
+  for (int i = 0; i < 6; ++i) {
+    s.joints[i].mass_kg = mass[i];
+    s.joints[i].com_mm = Eigen::Vector3d(com[i][0], com[i][1], com[i][2]);
+  }
   return s;
 }
 
@@ -53,6 +78,8 @@ RobotModelSpec Ur5e() {
       DhJoint("joint5", 0.0, -M_PI / 2, 99.7, 0.0, -360, 360),  DhJoint("joint6", 0.0, 0.0, 99.6, 0.0, -360, 360),
   };
   s.T_flange_tool = CalibrationTool6R();
+  // Universal Robots' published link masses (kg); centres of mass at the links' midpoints (plausible).
+  SetLinkMassesAtMidpoints(&s, {3.761, 8.058, 2.846, 1.37, 1.3, 0.365});
   return s;
 }
 
@@ -97,6 +124,10 @@ RobotModelSpec Grinder5() {
   Transform world_tool = Rotation(RotX(M_PI));
   world_tool.translation() = Eigen::Vector3d(20, 150, -370);
   s.T_flange_tool = previous.inverse() * world_tool;
+  // Plausible masses (kg) of the carriages, the C head and the spindle; the spindle's centre of mass halfway to
+  // the tool centre point, so that gravity loads the A axis.
+  SetLinkMassesAtMidpoints(&s, {120.0, 80.0, 60.0, 25.0, 15.0});
+  s.joints[4].com_mm = 0.5 * s.T_flange_tool.translation();
   return s;
 }
 

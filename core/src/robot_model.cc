@@ -65,6 +65,10 @@ void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention,
     errors->push_back({prefix + ".max", "must be greater than min (min " + Num(joint.min) + ", max " +
                                             Num(joint.max) + ")"});
   }
+  if (!std::isfinite(joint.mass_kg) || joint.mass_kg < 0.0) {
+    errors->push_back({prefix + ".mass_kg", "must be a finite number >= 0 (kg), got " + Num(joint.mass_kg)});
+  }
+  if (!joint.com_mm.allFinite()) errors->push_back({prefix + ".com_mm", "must contain only finite numbers"});
   // Four turns: industrial wrists turn +-400 degrees (ABB) and more; a range beyond is a unit error.
   if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 8.0 * M_PI + 1e-9) {
     errors->push_back({prefix + ".max", "revolute range max - min must not exceed 1440 degrees (four turns)"});
@@ -122,6 +126,13 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
       !spec.T_lastjoint_flange.matrix().isIdentity(0.0)) {
     errors.push_back({"flange", "only the transform convention takes a flange transform (DH derives it)"});
   }
+  if (!spec.gravity_base.allFinite() || std::abs(spec.gravity_base.norm() - 1.0) > 1e-6) {
+    errors.push_back({"gravity", "must be a unit vector (the direction of gravity in the base frame)"});
+  }
+  if (spec.error_terms.joint_harmonics < 0 || spec.error_terms.joint_harmonics > kMaxJointHarmonics) {
+    errors.push_back({"model.joint_harmonics", "must be 0, 1 or " + std::to_string(kMaxJointHarmonics) + ", got " +
+                                                   std::to_string(spec.error_terms.joint_harmonics)});
+  }
   if (!errors.empty()) throw InvalidModelError(std::move(errors));
 
   RobotModel model;
@@ -130,11 +141,13 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   if (spec.convention == GeometryConvention::kTransform) model.flange_ = spec.T_lastjoint_flange;
   model.lower_.resize(n);
   model.upper_.resize(n);
+  model.link_frame_.assign(n, Transform::Identity());
   for (int i = 0; i < n; ++i) {
     const JointSpec& j = spec.joints[i];
     model.lower_[i] = j.min;
     model.upper_[i] = j.max;
     const Transform fixed = Motionless(j, spec.convention);
+    if (spec.convention == GeometryConvention::kStandardDh) model.link_frame_[i] = fixed;
     if (spec.convention == GeometryConvention::kStandardDh) {
       // In standard DH the motion comes first in each row (Rz(q) and Tz(q) commute with Rz(theta) Tz(d)),
       // so the row's fixed part belongs before the *next* joint's motion.
@@ -155,7 +168,64 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   add_site("base");
   for (const JointSpec& j : spec.joints) add_site(j.name);
   add_site("tool");
+  using Kind = JointTermParameter::Kind;
+  if (spec.error_terms.compliance) {
+    for (int i = 0; i < n; ++i) {
+      if (spec.joints[i].type != JointType::kRevolute) continue;
+      model.joint_terms_.push_back({Kind::kCompliance, i, 0});
+      model.parameter_names_.push_back(spec.joints[i].name + ".compliance");
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    if (spec.joints[i].type != JointType::kRevolute) continue;
+    for (int k = 1; k <= spec.error_terms.joint_harmonics; ++k) {
+      model.joint_terms_.push_back({Kind::kSin, i, k});
+      model.parameter_names_.push_back(spec.joints[i].name + ".sin" + std::to_string(k));
+      model.joint_terms_.push_back({Kind::kCos, i, k});
+      model.parameter_names_.push_back(spec.joints[i].name + ".cos" + std::to_string(k));
+    }
+  }
   return model;
+}
+
+std::string JointErrorTerms::Describe() const {
+  std::string out = compliance ? "compliance" : "";
+  if (joint_harmonics > 0) {
+    out += (out.empty() ? "" : " + ") + std::string("harmonics ") + std::to_string(joint_harmonics);
+  }
+  return out.empty() ? "geometric" : out;
+}
+
+bool Payload::IsValid(const std::string& prefix, std::string* error) const {
+  if (!std::isfinite(mass_kg) || mass_kg < 0.0) {
+    *error = prefix + ".mass_kg: must be a finite number >= 0 (kg), got " + Num(mass_kg);
+    return false;
+  }
+  if (!com_mm.allFinite()) {
+    *error = prefix + ".com_mm: must contain only finite numbers";
+    return false;
+  }
+  return true;
+}
+
+ParameterUnit RobotModel::parameter_unit(int k) const {
+  if (k < num_geometric_parameters()) return IsTranslationParameter(k) ? ParameterUnit::kMm : ParameterUnit::kRad;
+  return joint_terms_[k - num_geometric_parameters()].kind == JointTermParameter::Kind::kCompliance
+             ? ParameterUnit::kRadPerNm
+             : ParameterUnit::kRad;
+}
+
+bool RobotModel::has_masses() const {
+  for (const JointSpec& j : spec_.joints) {
+    if (j.mass_kg > 0.0) return true;
+  }
+  return false;
+}
+
+RobotModel RobotModel::WithErrorTerms(const JointErrorTerms& terms) const {
+  RobotModelSpec spec = spec_;
+  spec.error_terms = terms;
+  return Build(spec);
 }
 
 bool RobotModel::WithinLimits(const Eigen::VectorXd& q) const {

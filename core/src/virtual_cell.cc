@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 
 namespace robocal {
@@ -38,10 +39,12 @@ Transform DrawTrackerInBase(const VirtualCellOptions& o, Rng* rng) {
   return t;
 }
 
-// The unmodelled joint harmonics: orders 2, 3 and 4 (order 0 is the joint offset, order 1 nearly a geometric
-// error; the geometric model absorbs neither kind fully, but these not at all).
-constexpr int kFirstHarmonic = 2;
-constexpr int kHarmonicOrders = 3;
+// The joint harmonics go up to order 4 at most (by default orders 2-4: order 0 is the joint offset and order 1
+// nearly a geometric error; the geometric model absorbs neither kind fully, orders 2-4 not at all).
+constexpr int kLastHarmonic = 4;
+
+// Configurations probed for a joint's largest gravity torque and the robot's reach (compliance_deflection_mm).
+constexpr int kComplianceProbes = 200;
 
 }  // namespace
 
@@ -54,6 +57,7 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       {"joint_translation_sigma_mm", joint_translation_sigma_mm},
       {"joint_rotation_sigma_rad", joint_rotation_sigma_rad},
       {"tool_translation_sigma_mm", tool_translation_sigma_mm},
+      {"compliance_deflection_mm", compliance_deflection_mm},
       {"tool_rotation_sigma_rad", tool_rotation_sigma_rad},
       {"tracker_distance_mm", tracker_distance_mm},
       {"tracker_tilt_sigma_rad", tracker_tilt_sigma_rad},
@@ -97,6 +101,17 @@ bool VirtualCellOptions::IsValid(std::string* error) const {
       *error = std::string(n.name) + " must be <= 0.1 rad (got " + std::to_string(n.value) + ")";
       return false;
     }
+  }
+  if (joint_harmonic_min_order < 1 || joint_harmonic_max_order > kLastHarmonic ||
+      joint_harmonic_min_order > joint_harmonic_max_order) {
+    *error = "joint_harmonic_min_order and joint_harmonic_max_order must satisfy 1 <= min <= max <= " +
+             std::to_string(kLastHarmonic) + " (got " + std::to_string(joint_harmonic_min_order) + ", " +
+             std::to_string(joint_harmonic_max_order) + ")";
+    return false;
+  }
+  if (compliance_deflection_mm > 10.0) {
+    *error = "compliance_deflection_mm must be <= 10 mm (got " + std::to_string(compliance_deflection_mm) + ")";
+    return false;
   }
   if (shots_per_pose < 1 || shots_per_pose > 1000) {
     *error = "shots_per_pose must be in [1, 1000] (got " + std::to_string(shots_per_pose) + ")";
@@ -153,14 +168,42 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
     for (int a = 0; a < 3; ++a) true_reflector_errors_[3 * k + a] = options.tool_translation_sigma_mm * rng_.Normal();
   }
   true_in_tool_ = ReflectorsInTool(nominal, options.reflectors, true_reflector_errors_);
+  const int orders = options.joint_harmonic_max_order - options.joint_harmonic_min_order + 1;
   if (options.joint_harmonic_sigma_rad > 0.0) {
-    harmonic_sin_.resize(nominal.num_joints(), kHarmonicOrders);
-    harmonic_cos_.resize(nominal.num_joints(), kHarmonicOrders);
+    harmonic_sin_.resize(nominal.num_joints(), orders);
+    harmonic_cos_.resize(nominal.num_joints(), orders);
     for (int j = 0; j < nominal.num_joints(); ++j) {
-      for (int k = 0; k < kHarmonicOrders; ++k) {
+      for (int k = 0; k < orders; ++k) {
         harmonic_sin_(j, k) = options.joint_harmonic_sigma_rad * rng_.Normal();
         harmonic_cos_(j, k) = options.joint_harmonic_sigma_rad * rng_.Normal();
       }
+    }
+  }
+  true_compliance_ = Eigen::VectorXd::Zero(nominal.num_joints());
+  if (options.compliance_deflection_mm > 0.0) {
+    if (!nominal.has_masses()) {
+      throw std::invalid_argument("VirtualCellOptions: compliance_deflection_mm needs a robot with link masses ('" +
+                                  nominal.name() + "' has none)");
+    }
+    // Each joint's compliance turns the tool by about compliance_deflection_mm at the largest gravity torque it
+    // bears (over probe configurations, no payload) and the robot's reach: c_i = d U / (tau_max,i reach), U
+    // drawn from [0.5, 1.5]. The probes draw from their own generator, so the noise after them is unchanged.
+    Rng probe(options.seed + 0x5DEECE66Dull);
+    Eigen::VectorXd tau_max = Eigen::VectorXd::Zero(nominal.num_joints());
+    double reach = 0.0;
+    std::vector<Transform> joints(nominal.num_joints());
+    Transform flange;
+    for (int p = 0; p < kComplianceProbes; ++p) {
+      const Eigen::VectorXd q = RandomConfiguration(nominal, &probe);
+      tau_max = tau_max.cwiseMax(GravityTorques(nominal, q, Payload()).cwiseAbs());
+      NominalChainInBase(nominal, q, joints.data(), &flange);
+      reach = std::max(reach, (flange.translation() - joints[0].translation()).norm());
+    }
+    for (int j = 0; j < nominal.num_joints(); ++j) {
+      const double u = rng_.Uniform(0.5, 1.5);
+      // A joint gravity hardly loads (the vertical first axis) gets none: tau_max is round-off there.
+      if (nominal.joint_type(j) != JointType::kRevolute || tau_max[j] < 1e-6 * tau_max.maxCoeff()) continue;
+      true_compliance_[j] = options.compliance_deflection_mm * u / (tau_max[j] * std::max(reach, 1.0));
     }
   }
 }
@@ -168,8 +211,8 @@ VirtualCell::VirtualCell(const RobotModel& nominal, const VirtualCellOptions& op
 Eigen::VectorXd VirtualCell::JointError(const Eigen::VectorXd& q) const {
   Eigen::VectorXd out = Eigen::VectorXd::Zero(q.size());
   for (Eigen::Index j = 0; j < harmonic_sin_.rows() && j < q.size(); ++j) {
-    for (int k = 0; k < kHarmonicOrders; ++k) {
-      const double order = static_cast<double>(kFirstHarmonic + k);
+    for (Eigen::Index k = 0; k < harmonic_sin_.cols(); ++k) {
+      const double order = static_cast<double>(options_.joint_harmonic_min_order + k);
       out[j] += harmonic_sin_(j, k) * std::sin(order * q[j]) + harmonic_cos_(j, k) * std::cos(order * q[j]);
     }
   }
@@ -184,18 +227,29 @@ void VirtualCell::StartNoiseStream(std::uint64_t stream) {
   rng_ = Rng(z ^ (z >> 31));
 }
 
-Transform VirtualCell::TruePose(const Eigen::VectorXd& q) const {
+Eigen::VectorXd VirtualCell::JointDeflection(const Eigen::VectorXd& q, const Payload& payload) const {
+  Eigen::VectorXd dq = JointError(q);
+  if (options_.compliance_deflection_mm > 0.0) dq += true_compliance_.cwiseProduct(GravityTorques(nominal_, q, payload));
+  return dq;
+}
+
+Transform VirtualCell::TruePose(const Eigen::VectorXd& q, const Payload& payload) const {
   // Sizes are checked by ForwardKinematics; a NaN joint would pass it and come back as a NaN "measurement".
   if (q.size() == true_model_.num_joints() && !q.allFinite()) {
     throw std::invalid_argument("VirtualCell: q is not finite");
   }
+  std::string error;
+  if (!payload.IsValid("payload", &error)) throw std::invalid_argument("VirtualCell: " + error);
   KinematicsWorkspace ws(true_model_);
-  if (harmonic_sin_.size() == 0) return ForwardKinematics(true_model_, q, true_errors_, &ws);
-  return ForwardKinematics(true_model_, q + JointError(q), true_errors_, &ws);
+  if (harmonic_sin_.size() == 0 && options_.compliance_deflection_mm == 0.0) {
+    return ForwardKinematics(true_model_, q, true_errors_, &ws);
+  }
+  if (q.size() != true_model_.num_joints()) return ForwardKinematics(true_model_, q, true_errors_, &ws);  // throws
+  return ForwardKinematics(true_model_, q + JointDeflection(q, payload), true_errors_, &ws);
 }
 
-Transform VirtualCell::Land(const Eigen::VectorXd& q) {
-  Transform pose = TruePose(q);
+Transform VirtualCell::Land(const Eigen::VectorXd& q, const Payload& payload) {
+  Transform pose = TruePose(q, payload);
   if (options_.noise.repeatability_mm > 0.0) {
     const double sigma = options_.noise.RepeatabilitySigmaMm();
     for (int k = 0; k < 3; ++k) pose.translation()[k] += sigma * rng_.Normal();
@@ -211,8 +265,8 @@ bool VirtualCell::Measurable(const Eigen::VectorXd& q) const {
   return IsFeasible(nominal_, *cell_, q);
 }
 
-std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shots) {
-  const Transform truth = TruePose(q);
+std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shots, const Payload& payload) {
+  const Transform truth = TruePose(q, payload);
   if (!Measurable(q)) {
     ++unmeasured_;
     return {};
@@ -239,6 +293,7 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
     for (int s = 0; s < count; ++s) {
       Measurement m;
       m.joints = q;
+      m.payload = payload;
       m.reflector = options_.reflectors.empty() ? -1 : target;
       Eigen::Vector3d n, dw;
       for (int k = 0; k < 3; ++k) n[k] = rng_.Normal();
@@ -264,13 +319,13 @@ std::vector<Measurement> VirtualCell::Measure(const Eigen::VectorXd& q, int shot
 }
 
 std::vector<Measurement> VirtualCell::MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots,
-                                                 std::vector<int>* lost) {
+                                                 std::vector<int>* lost, const Payload& payload) {
   std::vector<Measurement> out;
   if (lost != nullptr) lost->clear();
   for (size_t i = 0; i < configurations.size(); ++i) {
     const Eigen::VectorXd& q = configurations[i];
     const int before = unmeasured_;
-    std::vector<Measurement> shots_at_q = Measure(q, shots);
+    std::vector<Measurement> shots_at_q = Measure(q, shots, payload);
     if (lost != nullptr && unmeasured_ > before) lost->push_back(static_cast<int>(i));
     out.insert(out.end(), std::make_move_iterator(shots_at_q.begin()), std::make_move_iterator(shots_at_q.end()));
   }

@@ -52,7 +52,7 @@ HonestyFigures NormalisedErrors(const std::string& preset, MeasurementType type,
     std::vector<Measurement> geometric;
     KinematicsWorkspace ws(cell.true_model());
     for (const Eigen::VectorXd& q : configurations) {
-      geometric.push_back({q, ForwardKinematics(cell.true_model(), q, cell.true_errors(), &ws)});
+      geometric.push_back({q, ForwardKinematics(cell.true_model(), q, cell.true_errors(), &ws), -1, {}});
     }
     IdentificationOptions o;
     o.measurement_type = type;

@@ -92,8 +92,11 @@ struct CompensationResult {
 /// limits; a joint at a limit that the error pulls outward is held there and named in the message (and the
 /// result is kDegraded if it is still held at the end).
 /// Throws std::invalid_argument for invalid options, wrong sizes, a non-finite start or a non-rigid target.
+/// A calibration with a compliance model deflects under `payload` (joint_errors.h): the joints returned bring the
+/// loaded robot to the target.
 CompensationResult CompensatePose(const Calibration& calibration, const Transform& target, TargetFrame frame,
-                                  const Eigen::VectorXd& q_start, const CompensationOptions& options = {});
+                                  const Eigen::VectorXd& q_start, const CompensationOptions& options = {},
+                                  const Payload& payload = Payload());
 
 /// "Go where the nominal model says": the target is the nominal model's tool pose at `q_nominal`, in the base
 /// frame, and the answer is the joints that take the calibrated robot there.
@@ -124,6 +127,9 @@ struct CompensationTarget {
   Eigen::VectorXd start;
   /// Demanded flags of a pose target (0: not demanded). Only for a robot with named branches (ArmSolver::For).
   ArmConfiguration configuration;
+  /// The payload the robot carries at this target (mass 0: none): a calibration with a compliance model
+  /// deflects under it, and the joints returned bring the loaded robot to the target.
+  Payload payload;
 };
 
 /// Zero (the robot's home) for every joint whose range holds it, else the middle of the range.

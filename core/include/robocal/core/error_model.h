@@ -140,13 +140,17 @@ void TangentBasis(const Eigen::Vector3d& u, Eigen::Vector3d* t1, Eigen::Vector3d
 /// MeasurementResidual, so that residual(eps + d) ~= residual(eps) - J d.
 /// J must be MeasurementRows(type) x model.num_error_parameters(); eps empty means eps = 0 (the paper's e).
 /// Columns are exact at any eps (each error parameter is one elementary screw motion, differentiated
-/// in the twist form), not only at eps = 0. Fills `ws` with the forward kinematics of (q, eps).
+/// in the twist form), not only at eps = 0. A joint term's column (compliance, harmonic) is its joint's motion
+/// times its factor (JointTermFactors at q under `payload`). Fills `ws` with the forward kinematics of (q, eps).
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian);
+                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
+                            const Payload& payload = Payload());
 
 /// The joint Jacobian at (q, eps): d(model prediction)/dq in the same rows, MeasurementRows(type) x
-/// num_joints. Used by compensation (inverse kinematics on the calibrated model).
+/// num_joints, including the joint terms' dependence on q (under `payload`). Used by compensation (inverse
+/// kinematics on the calibrated model).
 void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                   MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian);
+                   MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
+                   const Payload& payload = Payload());
 
 }  // namespace robocal

@@ -106,6 +106,22 @@ struct ResidualStatistics {
   double rms_weighted = 0.0;
 };
 
+/// One model of the choice by cross-validation (model_choice.h): its joint terms, how many parameters it has
+/// (the model's, geometric and joint terms), and its held-out position error over the folds.
+struct ModelCandidate {
+  JointErrorTerms terms;
+  int num_parameters = 0;
+  /// Mean and RMS over every held-out measurement of the distance between measured and predicted position
+  /// (E_xyz, mm), and the standard error of the mean: the standard deviation of the folds' means over
+  /// sqrt(folds).
+  double cv_mean_mm = 0.0;
+  double cv_rms_mm = 0.0;
+  double cv_standard_error_mm = 0.0;
+  /// Folds whose training fit failed (FAILURE): a candidate with any is not eligible, and `note` says why.
+  int failed_folds = 0;
+  std::string note;
+};
+
 struct IdentificationSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
@@ -155,6 +171,13 @@ struct IdentificationSummary {
   double model_error_rad = 0.0;
   double tracker_rms_mm = 0.0;
   double tracker_rms_rad = 0.0;
+  /// The model the fit used (the nominal model's RobotModelSpec::error_terms) and, when it was chosen by
+  /// cross-validation (IdentifyWithModelChoice), every candidate's held-out error, the folds and the chosen
+  /// candidate's index; empty candidates otherwise.
+  JointErrorTerms model;
+  std::vector<ModelCandidate> model_candidates;
+  int model_folds = 0;
+  int model_chosen = -1;
   double seconds = 0.0;
 
   std::string BriefReport() const;

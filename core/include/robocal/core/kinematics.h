@@ -1,6 +1,7 @@
 // Forward kinematics of a RobotModel with geometric error parameters, and the workspace it fills.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -21,6 +22,8 @@ struct KinematicsWorkspace {
   std::vector<Transform> T_world_joint;
   /// Result of the last ForwardKinematics call.
   Transform T_world_tool = Transform::Identity();
+  /// The joints the last ForwardKinematics call moved the chain to: q plus the joint terms' deflection.
+  Eigen::VectorXd q_effective;
 };
 
 /// The small error transform of one site: Trans(dx, dy, dz) * Rx(rx) * Ry(ry) * Rz(rz).
@@ -29,9 +32,11 @@ Transform ErrorTransform(const double* delta);
 
 /// Tool pose T_world_tool for joints q (num_joints: rad or mm per joint) and error parameters eps
 /// (num_error_parameters, mm and rad; an empty vector means the nominal model). Fills `ws`.
-/// Throws std::invalid_argument on wrong sizes.
+/// A model with joint terms (RobotModelSpec::error_terms) moves each joint by its deflection first
+/// (JointDeflection: q + dq(q, eps, payload)); `ws` then holds the frames at the deflected joints, and
+/// ws->q_effective those joints. Throws std::invalid_argument on wrong sizes.
 const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
-                                   KinematicsWorkspace* ws);
+                                   KinematicsWorkspace* ws, const Payload& payload = Payload());
 
 /// Nominal tool pose (no errors), convenience form that allocates its own workspace.
 Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q);
@@ -49,9 +54,12 @@ void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Trans
 /// chain serves any number of threads.
 class FoldedChain {
  public:
-  /// eps: num_error_parameters values, or empty for the nominal model. Throws std::invalid_argument on a
-  /// wrong size.
-  FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps);
+  /// eps: num_error_parameters values, or empty for the nominal model. With joint terms in the model, Forward
+  /// moves each joint by its deflection under `payload` first (as ForwardKinematics). Throws
+  /// std::invalid_argument on a wrong size.
+  FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps, const Payload& payload = Payload());
+  /// The same chain under another payload.
+  FoldedChain WithPayload(const Payload& payload) const;
 
   int num_joints() const { return static_cast<int>(types_.size()); }
   JointType joint_type(int i) const { return types_[i]; }
@@ -60,8 +68,15 @@ class FoldedChain {
   /// points at num_joints transforms and receives each joint's frame before its motion (as
   /// KinematicsWorkspace::T_world_joint).
   Transform Forward(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const;
+  /// Whether Forward deflects the joints (the model has joint terms).
+  bool deflects() const { return model_ != nullptr; }
 
  private:
+  Transform ForwardAt(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const;
+  // With joint terms: the model (shared, immutable), its parameters and the payload, for the deflection.
+  std::shared_ptr<const RobotModel> model_;
+  Eigen::VectorXd eps_;
+  Payload payload_;
   // before_[0] = T_world_base E_0 F_0 E_1, before_[i] = F_i E_(i+1): what precedes joint i's motion;
   // after_ = T_lastjoint_flange T_flange_tool E_(n+1).
   std::vector<Transform> before_;

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 
+#include "robocal/core/robot_model.h"
 #include "robocal/core/transforms.h"
 
 namespace robocal {
@@ -21,6 +22,9 @@ struct Measurement {
   /// With several reflectors on the tool (IdentificationOptions::reflectors, position measurements): the index
   /// of the reflector this shot measured, whose point is T_world_tool's translation. -1: the tool point.
   int reflector = -1;
+  /// The payload on the flange during the shot (mass 0: none). With a compliance model it sets the gravity
+  /// torques the joints deflect under (joint_errors.h).
+  Payload payload;
 };
 
 }  // namespace robocal

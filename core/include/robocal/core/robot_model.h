@@ -45,6 +45,39 @@ struct JointSpec {
   // Joint limits, in the joint's unit (rad or mm).
   double min = 0.0;
   double max = 0.0;
+  /// Mass properties of the link this joint moves (up to the next joint): its mass (kg, >= 0; 0 with every
+  /// other joint's 0 means the robot's masses are unknown) and its centre of mass (mm) in the link frame:
+  /// the joint's frame after its motion (for standard DH: DH frame i, at the end of the row's fixed part).
+  /// They give the gravity torques of the compliance model (joint_errors.h).
+  double mass_kg = 0.0;
+  Eigen::Vector3d com_mm = Eigen::Vector3d::Zero();
+};
+
+/// Which joint errors beyond the geometric ones a model carries (joint_errors.h): one compliance per revolute
+/// joint (a rotation about its axis proportional to the gravity torque on it), and harmonics of each revolute
+/// joint's own angle up to `joint_harmonics` (0, 1 or 2). The default is the geometric model.
+struct JointErrorTerms {
+  bool compliance = false;
+  int joint_harmonics = 0;
+  bool operator==(const JointErrorTerms& other) const {
+    return compliance == other.compliance && joint_harmonics == other.joint_harmonics;
+  }
+  bool operator!=(const JointErrorTerms& other) const { return !(*this == other); }
+  /// "geometric", "compliance", "harmonics 2", "compliance + harmonics 1".
+  std::string Describe() const;
+};
+
+/// The highest joint harmonic order a model takes.
+inline constexpr int kMaxJointHarmonics = 2;
+
+/// A payload on the flange: its mass (kg, >= 0; 0 is no payload) and centre of mass (mm, flange frame).
+struct Payload {
+  double mass_kg = 0.0;
+  Eigen::Vector3d com_mm = Eigen::Vector3d::Zero();
+  bool operator==(const Payload& other) const { return mass_kg == other.mass_kg && com_mm == other.com_mm; }
+  bool operator!=(const Payload& other) const { return !(*this == other); }
+  /// A finite mass >= 0 and a finite centre of mass; else false and the field under `prefix` ("payload.mass_kg").
+  bool IsValid(const std::string& prefix, std::string* error) const;
 };
 
 /// Everything needed to build a RobotModel. Plain data: edit a preset's spec, then build.
@@ -61,6 +94,10 @@ struct RobotModelSpec {
   /// Flange (last joint frame, after the last link's fixed geometry) -> tool frame. The tool frame's origin
   /// is the measured point (tracker reflector / tool centre point); its z axis is the tool axis.
   Transform T_flange_tool = Transform::Identity();
+  /// The direction of gravity in the robot's base frame (a unit vector; a floor-mounted robot's -z).
+  Eigen::Vector3d gravity_base = Eigen::Vector3d(0.0, 0.0, -1.0);
+  /// The joint errors beyond geometry the model's error parameters include.
+  JointErrorTerms error_terms;
 };
 
 /// One problem found in a spec: which field (e.g. "joints[2].max") and why.
@@ -84,6 +121,19 @@ inline constexpr int kMaxJoints = 12;
 
 /// Where a group of six error parameters sits in the chain.
 enum class ErrorSiteKind { kBase, kJoint, kTool };
+
+/// The unit of an error parameter: a translation (mm), a rotation or joint angle (rad), or a compliance
+/// (rad per N*m).
+enum class ParameterUnit { kMm, kRad, kRadPerNm };
+
+/// One error parameter beyond the geometric sites (RobotModelSpec::error_terms): joint `joint`'s compliance,
+/// or the sine or cosine amplitude (rad) of its harmonic of order `order`.
+struct JointTermParameter {
+  enum class Kind { kCompliance, kSin, kCos };
+  Kind kind = Kind::kCompliance;
+  int joint = 0;
+  int order = 0;
+};
 
 /// An immutable serial robot model.
 ///
@@ -116,16 +166,31 @@ class RobotModel {
   const Transform& T_world_base() const { return spec_.T_world_base; }
   const Transform& T_flange_tool() const { return spec_.T_flange_tool; }
 
-  /// Error parameters: 6 per site, sites ordered base, joints 1..n, tool.
+  /// Error parameters: 6 per site, sites ordered base, joints 1..n, tool (the geometric ones), then the joint
+  /// terms of spec().error_terms: every revolute joint's compliance, then every revolute joint's harmonics
+  /// (order 1 sine, cosine, order 2 sine, cosine).
   int num_error_sites() const { return num_joints() + 2; }
-  int num_error_parameters() const { return 6 * num_error_sites(); }
-  /// Name of error parameter k, e.g. "base.dx", "joint3.rz", "tool.dz".
+  int num_geometric_parameters() const { return 6 * num_error_sites(); }
+  int num_error_parameters() const { return static_cast<int>(parameter_names_.size()); }
+  /// The joint terms, in parameter order: parameter num_geometric_parameters() + t is joint_terms()[t].
+  const std::vector<JointTermParameter>& joint_terms() const { return joint_terms_; }
+  const JointErrorTerms& error_terms() const { return spec_.error_terms; }
+  /// Name of error parameter k, e.g. "base.dx", "joint3.rz", "tool.dz", "joint2.compliance", "joint4.sin1".
   const std::string& parameter_name(int k) const { return parameter_names_[k]; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   /// Index of a parameter by name, or -1.
   int ParameterIndex(const std::string& name) const;
-  /// True if parameter k is a translation (mm); false for a rotation (rad).
+  /// For a geometric parameter k (k < num_geometric_parameters()): true if it is a translation (mm), false for a
+  /// rotation (rad). parameter_unit() covers every parameter.
   static bool IsTranslationParameter(int k) { return k % 6 < 3; }
+  ParameterUnit parameter_unit(int k) const;
+  /// Whether any link has a mass (the compliance model needs them).
+  bool has_masses() const;
+  /// Link frame i (JointSpec::com_mm's frame) relative to joint i's frame after its motion: the identity
+  /// except for standard DH, where it is the row's fixed part.
+  const Transform& link_frame(int i) const { return link_frame_[i]; }
+  /// The same robot with other joint error terms (the geometry, masses and limits kept).
+  RobotModel WithErrorTerms(const JointErrorTerms& terms) const;
 
  private:
   RobotModel() = default;
@@ -135,6 +200,8 @@ class RobotModel {
   Transform flange_ = Transform::Identity();
   Eigen::VectorXd lower_, upper_;
   std::vector<std::string> parameter_names_;
+  std::vector<JointTermParameter> joint_terms_;
+  std::vector<Transform> link_frame_;
 };
 
 }  // namespace robocal

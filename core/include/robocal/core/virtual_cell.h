@@ -50,10 +50,20 @@ struct VirtualCellOptions {
   double outlier_min_mm = 1.0;
   double outlier_max_mm = 5.0;
   /// Robot error the geometric model cannot express (gear transmission and encoder errors): each joint's true
-  /// angle is its command plus sum over k = 2..4 of a_k sin(k q) + b_k cos(k q), every a_k, b_k drawn with
-  /// 1-sigma joint_harmonic_sigma_rad (after the other hidden errors, and only when positive, so a seed's
+  /// angle is its command plus sum over the orders k (below) of a_k sin(k q) + b_k cos(k q), every a_k, b_k drawn
+  /// with 1-sigma joint_harmonic_sigma_rad (after the other hidden errors, and only when positive, so a seed's
   /// geometric errors stay). Zero: the robot is exactly geometric.
   double joint_harmonic_sigma_rad = 0.0;
+  /// The orders of those harmonics, 1 <= min <= max <= 4 (2..4 by default): 1..2 simulates errors a model with
+  /// joint harmonics of order 2 (RobotModelSpec::error_terms) expresses exactly.
+  int joint_harmonic_min_order = 2;
+  int joint_harmonic_max_order = 4;
+  /// Joint compliance (joint_errors.h): every revolute joint's true angle also moves by c_i tau_i, tau_i the gravity
+  /// torque of the nominal robot's link masses and the shot's payload. Each c_i is drawn so that at the largest
+  /// gravity torque the joint bears (no payload) it moves the tool, at the robot's reach, by
+  /// compliance_deflection_mm times a uniform draw from [0.5, 1.5] (after the other hidden errors, so a seed's
+  /// geometric errors stay). Needs a robot with masses. Zero: no compliance; at most 10 mm.
+  double compliance_deflection_mm = 0.0;
   /// Shots per pose (the paper measures each pose 10 times).
   int shots_per_pose = 10;
   /// Reflectors on the tool (flange frame): with any, Measure shoots each of them `shots` times per visit
@@ -104,15 +114,23 @@ class VirtualCell {
   const Eigen::VectorXd& true_reflector_errors() const { return true_reflector_errors_; }
   /// The unmodelled joint error at command q (joint_harmonic_sigma_rad; rad per joint, zero without it).
   Eigen::VectorXd JointError(const Eigen::VectorXd& q) const;
+  /// The true harmonic amplitudes (rad): row = joint, column = order - joint_harmonic_min_order; empty without
+  /// joint_harmonic_sigma_rad.
+  const Eigen::MatrixXd& true_harmonic_sin() const { return harmonic_sin_; }
+  const Eigen::MatrixXd& true_harmonic_cos() const { return harmonic_cos_; }
+  /// The true joint compliances (rad per N*m, per joint; zero without compliance_deflection_mm).
+  const Eigen::VectorXd& true_compliance() const { return true_compliance_; }
+  /// The true robot's joint deflection at command q under `payload`: JointError plus the compliance's.
+  Eigen::VectorXd JointDeflection(const Eigen::VectorXd& q, const Payload& payload = Payload()) const;
   const VirtualCellOptions& options() const { return options_; }
 
   /// Noise-free tool pose of the true robot at joints q, tracker frame. Throws std::invalid_argument for a q of
   /// the wrong size or with a non-finite value (Measure too).
-  Transform TruePose(const Eigen::VectorXd& q) const;
+  Transform TruePose(const Eigen::VectorXd& q, const Payload& payload = Payload()) const;
   /// Where the true robot's tool lands when commanded q: TruePose displaced by one draw of the robot's
   /// repeatability (noise.repeatability_mm; none when 0, and then nothing is drawn). What a validation of the
   /// calibrated robot sees, by an ideal observer.
-  Transform Land(const Eigen::VectorXd& q);
+  Transform Land(const Eigen::VectorXd& q, const Payload& payload = Payload());
 
   /// The built measurement cell, or nullptr when options.measurement_cell is unset.
   const Cell* measurement_cell() const { return cell_ ? &*cell_ : nullptr; }
@@ -123,12 +141,13 @@ class VirtualCell {
   /// `shots` noisy tracker shots of the tool at joints q (shots <= 0 means options.shots_per_pose); none, and
   /// unmeasured() counts one more, when q is not Measurable. Noise is drawn from the cell's own generator, so a
   /// sequence of calls is reproducible from the seed (an unmeasured configuration draws nothing).
-  std::vector<Measurement> Measure(const Eigen::VectorXd& q, int shots = 0);
+  /// Every shot carries `payload` (Measurement::payload), and the true robot deflects under it.
+  std::vector<Measurement> Measure(const Eigen::VectorXd& q, int shots = 0, const Payload& payload = Payload());
 
   /// Measure() for every configuration, concatenated in order. If `lost` is given, it receives the indices of
   /// the configurations that were not measurable (in order; empty when all were).
   std::vector<Measurement> MeasureAll(const std::vector<Eigen::VectorXd>& configurations, int shots = 0,
-                                      std::vector<int>* lost = nullptr);
+                                      std::vector<int>* lost = nullptr, const Payload& payload = Payload());
 
   /// From here on, noise (and outliers and repeatability) is drawn from a generator seeded by options.seed and
   /// `stream` (stream 0 is not the construction's). Two processes that simulate one cell, one shooting the
@@ -149,8 +168,9 @@ class VirtualCell {
   Eigen::VectorXd true_errors_;
   Eigen::VectorXd true_reflector_errors_;
   std::vector<Eigen::Vector3d> true_in_tool_;
-  // Per joint, the unmodelled harmonics. sine and cosine amplitudes for orders 2, 3, 4 (rad).
+  // Per joint, the harmonics: sine and cosine amplitudes for orders joint_harmonic_min_order..4 (rad).
   Eigen::MatrixXd harmonic_sin_, harmonic_cos_;
+  Eigen::VectorXd true_compliance_;
   VirtualCellOptions options_;
   Rng rng_;
   std::optional<Cell> cell_;

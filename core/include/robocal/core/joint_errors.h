@@ -1,0 +1,38 @@
+// Joint errors beyond geometry: joint compliance under gravity (links and payload) and harmonics of a joint's own
+// angle. Both turn a joint by a small angle on top of its command, so the calibrated robot's joints are q + dq(q).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "robocal/core/robot_model.h"
+
+namespace robocal {
+
+/// Standard gravity (m/s^2).
+inline constexpr double kStandardGravity = 9.80665;
+
+/// The gravity torques tau_i (N*m) about every revolute joint's axis at joints q: the torque gravity exerts about
+/// joint i's axis on everything beyond it (the links it and the later joints move, each of JointSpec::mass_kg at
+/// JointSpec::com_mm, and `payload` on the flange), by the NOMINAL chain in the base frame, gravity along
+/// RobotModelSpec::gravity_base. Positive about +z of the joint; zero for a prismatic joint. The nominal chain is
+/// used on purpose: it makes tau independent of the error parameters (the geometric errors move a centre of mass
+/// by tenths of a mm, a torque by 1e-4 of itself), so a compliance's Jacobian column is exact.
+/// dtau_dq, if not null, receives the n x n derivative d tau_i / d q_j (N*m per rad or per mm).
+/// Throws std::invalid_argument if q does not have num_joints values.
+Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
+                               Eigen::MatrixXd* dtau_dq = nullptr);
+
+/// The factor by which each joint term of `model` (RobotModel::joint_terms(), in order) turns its joint per unit
+/// of its parameter at command q: tau_i (N*m) for a compliance (parameter rad per N*m), sin(k q_i) and cos(k q_i)
+/// for a harmonic of order k (parameter rad). Empty for a model without joint terms.
+/// dfactor_dq, if not null, receives its derivative (terms x num_joints).
+Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
+                                 Eigen::MatrixXd* dfactor_dq = nullptr);
+
+/// The joint deflection dq (rad per joint; zero for prismatic joints) of error parameters eps (num_error_parameters,
+/// or empty for none) at command q: sum over the joint terms of parameter times factor. The calibrated robot's
+/// joints are q + dq. ddq_dq, if not null, receives d(dq)/dq (n x n).
+Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                                const Payload& payload, Eigen::MatrixXd* ddq_dq = nullptr);
+
+}  // namespace robocal

@@ -1,0 +1,57 @@
+// The model of a calibration chosen by k-fold cross-validation: geometric only, or with joint compliance and
+// joint harmonics (joint_errors.h), whichever predicts held-out measurements best for its simplicity.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "robocal/core/identification.h"
+#include "robocal/core/measurement.h"
+#include "robocal/core/robot_model.h"
+
+namespace robocal {
+
+struct ModelChoiceOptions {
+  /// Folds of the cross-validation (2..20). The calibration set's distinct poses (a configuration under a
+  /// payload, with all its shots and reflectors) are shuffled with `seed` and dealt to the folds in turn.
+  int folds = 5;
+  std::uint64_t seed = 1;
+  /// The candidates: the geometric model, with compliance (robots with masses only), with joint harmonics of
+  /// order 1 .. max_joint_harmonics, and compliance with each harmonic order.
+  int max_joint_harmonics = kMaxJointHarmonics;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// The candidates of `nominal` for these options, simplest first (fewest parameters).
+std::vector<JointErrorTerms> ModelCandidates(const RobotModel& nominal, const ModelChoiceOptions& options);
+
+struct ModelChoice {
+  std::vector<ModelCandidate> candidates;  // simplest first
+  /// The candidate with the lowest cross-validated mean error, and the chosen one: the simplest candidate whose
+  /// mean is within one standard error of the best's (the one-standard-error rule, Hastie, Tibshirani & Friedman,
+  /// The Elements of Statistical Learning, 2009, section 7.10). -1 when none could be evaluated.
+  int best = -1;
+  int chosen = -1;
+  int folds = 0;
+  /// Why the choice is what it is, or why there is none.
+  std::string message;
+  /// The options' progress callback asked to stop.
+  bool cancelled = false;
+};
+
+/// Fits every candidate model on all folds but one and measures its position error on the fold left out, in
+/// turn. Each fit uses `options` (noise, outliers, model error; `options.parameters` must be empty, since the
+/// parameters differ between models; options.progress sees the fraction of all fits). Throws
+/// std::invalid_argument for invalid options or a nominal model that already has joint terms.
+ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                        const IdentificationOptions& options, const ModelChoiceOptions& choice = {});
+
+/// ChooseModel, then Identify with the chosen model on every measurement; the calibration's summary holds the
+/// comparison (model_candidates, model_folds, model_chosen). With no candidate evaluated the fit is FAILURE
+/// and says why.
+Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                    const IdentificationOptions& options, const ModelChoiceOptions& choice = {});
+
+}  // namespace robocal

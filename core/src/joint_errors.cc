@@ -1,0 +1,127 @@
+// Gravity torques of the nominal chain and the joint deflections of the compliance and harmonic terms.
+#include "robocal/core/joint_errors.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "robocal/core/kinematics.h"
+
+namespace robocal {
+
+Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
+                               Eigen::MatrixXd* dtau_dq) {
+  const int n = model.num_joints();
+  if (q.size() != n) {
+    throw std::invalid_argument("GravityTorques: q has " + std::to_string(q.size()) + " values, robot '" +
+                                model.name() + "' has " + std::to_string(n) + " joints");
+  }
+  std::vector<Transform> joint(n);
+  Transform flange;
+  NominalChainInBase(model, q, joint.data(), &flange);
+  // Bodies: link b (b < n, moved by joints 0..b) and the payload (b = n, moved by every joint). Their weights (N)
+  // and centres of mass (mm, base frame).
+  const Eigen::Vector3d g = kStandardGravity * model.spec().gravity_base;
+  std::vector<Eigen::Vector3d> com(n + 1), force(n + 1);
+  for (int b = 0; b < n; ++b) {
+    const JointSpec& j = model.spec().joints[b];
+    const Transform motion = j.type == JointType::kRevolute ? Rotation(RotZ(q[b])) : Translation(0, 0, q[b]);
+    com[b] = joint[b] * motion * model.link_frame(b) * j.com_mm;
+    force[b] = j.mass_kg * g;
+  }
+  com[n] = flange * payload.com_mm;
+  force[n] = payload.mass_kg * g;
+  // Moments are in N*mm; 1e-3 makes them N*m.
+  constexpr double kNmPerNmm = 1e-3;
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(n);
+  if (dtau_dq != nullptr) dtau_dq->setZero(n, n);
+  for (int i = 0; i < n; ++i) {
+    if (model.joint_type(i) != JointType::kRevolute) continue;
+    const Eigen::Vector3d z = joint[i].linear().col(2);
+    const Eigen::Vector3d o = joint[i].translation();
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+    for (int b = i; b <= n; ++b) moment += (com[b] - o).cross(force[b]);
+    tau[i] = kNmPerNmm * z.dot(moment);
+    if (dtau_dq == nullptr) continue;
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3d zj = joint[j].linear().col(2);
+      const Eigen::Vector3d oj = joint[j].translation();
+      double d = 0.0;
+      if (model.joint_type(j) == JointType::kRevolute) {
+        if (j <= i) {
+          // Joint j turns joint i's axis and everything beyond it rigidly: d z = zj x z, d (c - o) = zj x (c - o).
+          d = zj.cross(z).dot(moment);
+          for (int b = i; b <= n; ++b) d += z.dot(zj.cross(com[b] - o).cross(force[b]));
+        } else {
+          // Joint j turns only the bodies beyond it, about its own axis.
+          for (int b = j; b <= n; ++b) d += z.dot(zj.cross(com[b] - oj).cross(force[b]));
+        }
+      } else if (j > i) {
+        // A prismatic joint beyond i slides the bodies beyond it along its axis; one before i moves joint i's
+        // axis and its bodies together (no change).
+        for (int b = j; b <= n; ++b) d += z.dot(zj.cross(force[b]));
+      }
+      (*dtau_dq)(i, j) = kNmPerNmm * d;
+    }
+  }
+  return tau;
+}
+
+Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
+                                 Eigen::MatrixXd* dfactor_dq) {
+  const std::vector<JointTermParameter>& terms = model.joint_terms();
+  const int n = model.num_joints();
+  Eigen::VectorXd factor(static_cast<Eigen::Index>(terms.size()));
+  if (dfactor_dq != nullptr) dfactor_dq->setZero(static_cast<Eigen::Index>(terms.size()), n);
+  if (terms.empty()) return factor;
+  Eigen::VectorXd tau;
+  Eigen::MatrixXd dtau;
+  if (model.error_terms().compliance) tau = GravityTorques(model, q, payload, dfactor_dq != nullptr ? &dtau : nullptr);
+  for (size_t t = 0; t < terms.size(); ++t) {
+    const JointTermParameter& term = terms[t];
+    const int i = term.joint;
+    const double k = static_cast<double>(term.order);
+    const Eigen::Index row = static_cast<Eigen::Index>(t);
+    switch (term.kind) {
+      case JointTermParameter::Kind::kCompliance:
+        factor[row] = tau[i];
+        if (dfactor_dq != nullptr) dfactor_dq->row(row) = dtau.row(i);
+        break;
+      case JointTermParameter::Kind::kSin:
+        factor[row] = std::sin(k * q[i]);
+        if (dfactor_dq != nullptr) (*dfactor_dq)(row, i) = k * std::cos(k * q[i]);
+        break;
+      case JointTermParameter::Kind::kCos:
+        factor[row] = std::cos(k * q[i]);
+        if (dfactor_dq != nullptr) (*dfactor_dq)(row, i) = -k * std::sin(k * q[i]);
+        break;
+    }
+  }
+  return factor;
+}
+
+Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                                const Payload& payload, Eigen::MatrixXd* ddq_dq) {
+  const int n = model.num_joints();
+  Eigen::VectorXd dq = Eigen::VectorXd::Zero(n);
+  if (ddq_dq != nullptr) ddq_dq->setZero(n, n);
+  const std::vector<JointTermParameter>& terms = model.joint_terms();
+  if (terms.empty() || eps.size() == 0) return dq;
+  if (eps.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("JointDeflection: eps has " + std::to_string(eps.size()) + " values, expected " +
+                                std::to_string(model.num_error_parameters()) + " or 0");
+  }
+  Eigen::MatrixXd dfactor;
+  const Eigen::VectorXd factor = JointTermFactors(model, q, payload, ddq_dq != nullptr ? &dfactor : nullptr);
+  const int first = model.num_geometric_parameters();
+  for (size_t t = 0; t < terms.size(); ++t) {
+    const double value = eps[first + static_cast<Eigen::Index>(t)];
+    const Eigen::Index row = static_cast<Eigen::Index>(t);
+    dq[terms[t].joint] += value * factor[row];
+    if (ddq_dq != nullptr) ddq_dq->row(terms[t].joint) += value * dfactor.row(row);
+  }
+  return dq;
+}
+
+}  // namespace robocal
