@@ -12,6 +12,8 @@ namespace {
 // Values beyond these are typing mistakes, not geometry: 1000 km in mm, a million degrees.
 constexpr double kMaxLengthMm = 1e9;
 constexpr double kMaxAngleDeg = 1e6;
+// A link heavier than 100 t is a unit mistake.
+constexpr double kMaxMassKg = 1e5;
 
 const char* MinKey(JointType type) { return type == JointType::kRevolute ? "min_deg" : "min_mm"; }
 const char* MaxKey(JointType type) { return type == JointType::kRevolute ? "max_deg" : "max_mm"; }
@@ -30,6 +32,10 @@ nlohmann::json JointJson(const JointWire& jw, GeometryConvention convention) {
   }
   o[MinKey(jw.type)] = jw.min;
   o[MaxKey(jw.type)] = jw.max;
+  if (jw.mass_kg > 0.0) {
+    o["mass_kg"] = jw.mass_kg;
+    o["com_mm"] = jw.com_mm;
+  }
   return o;
 }
 
@@ -53,6 +59,8 @@ JointWire JointFromJson(const WireReader& r, GeometryConvention convention, bool
   }
   r.Required(MinKey(jw.type), &jw.min);
   r.Required(MaxKey(jw.type), &jw.max);
+  r.Optional("mass_kg", &jw.mass_kg);
+  r.Optional("com_mm", &jw.com_mm);
   return jw;
 }
 
@@ -90,6 +98,8 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         jr.Number("theta_deg", false, &j.theta_deg, -360.0, 360.0);
         jr.FixedNumbers("xyz_mm", false, j.xyz_mm.data(), 3);
         jr.FixedNumbers("rpy_deg", false, j.rpy_deg.data(), 3);
+        jr.Number("mass_kg", false, &j.mass_kg, 0.0, kMaxMassKg);
+        jr.FixedNumbers("com_mm", false, j.com_mm.data(), 3);
         const bool revolute = j.type == JointType::kRevolute;
         const double bound = revolute ? kMaxAngleDeg : kMaxLengthMm;
         jr.Number(MinKey(j.type), true, &j.min, -bound, bound);
@@ -100,12 +110,20 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
                                  MinKey(j.type) + "/" + MaxKey(j.type));
         }
         jr.RejectUnknown({"name", "type", "a_mm", "alpha_deg", "d_mm", "theta_deg", "xyz_mm", "rpy_deg", "min_deg",
-                          "max_deg", "min_mm", "max_mm"});
+                          "max_deg", "min_mm", "max_mm", "mass_kg", "com_mm"});
         req.joints.push_back(j);
       }
     }
   }
-  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool", "flange"});
+  std::array<double, 3> gravity{};
+  if (r.FixedNumbers("gravity", false, gravity.data(), 3)) {
+    if (Eigen::Vector3d(gravity[0], gravity[1], gravity[2]).norm() > 0.0) {
+      req.gravity = gravity;
+    } else {
+      problems.Add("gravity", "must be a non-zero vector (the direction of gravity in the base frame)");
+    }
+  }
+  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool", "flange", "gravity"});
   problems.ThrowIfAny("invalid robot");
   (void)BuildModel(req);
   return req;
@@ -129,6 +147,7 @@ void to_json(nlohmann::json& j, const RegisterRobotRequest& req) {
   if (req.base) j["base"] = *req.base;
   if (req.tool) j["tool"] = *req.tool;
   if (req.flange) j["flange"] = *req.flange;
+  if (req.gravity) j["gravity"] = *req.gravity;
   if (req.urdf) {
     j["urdf_source"] = {{"xml", req.urdf->xml}, {"base_link", req.urdf->base_link}, {"tip_link", req.urdf->tip_link}};
   }
@@ -156,6 +175,8 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
   if (r.Optional("base", &pose)) req.base = pose;
   if (r.Optional("tool", &pose)) req.tool = pose;
   if (r.Optional("flange", &pose)) req.flange = pose;
+  std::array<double, 3> gravity{};
+  if (r.Optional("gravity", &gravity)) req.gravity = gravity;
   if (r.Has("urdf_source")) {
     const WireReader u(r.Member("urdf_source"), "urdf_source");
     UrdfSource source;
@@ -262,6 +283,8 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
       const double scale = js.type == JointType::kRevolute ? kRadPerDeg : 1.0;
       js.min = jw.min * scale;
       js.max = jw.max * scale;
+      js.mass_kg = jw.mass_kg;
+      js.com_mm = Eigen::Vector3d(jw.com_mm[0], jw.com_mm[1], jw.com_mm[2]);
       spec.joints.push_back(js);
     }
   }
@@ -269,6 +292,11 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
   if (req.base) spec.T_world_base = PoseToTransform(*req.base);
   if (req.tool) spec.T_flange_tool = PoseToTransform(*req.tool);
   if (req.flange) spec.T_lastjoint_flange = PoseToTransform(*req.flange);
+  if (req.gravity) {
+    const Eigen::Vector3d g((*req.gravity)[0], (*req.gravity)[1], (*req.gravity)[2]);
+    // A zero vector stays zero, for the core to refuse by name ("gravity").
+    spec.gravity_base = g.norm() > 0.0 ? Eigen::Vector3d(g.normalized()) : g;
+  }
   return spec;
 }
 
@@ -289,6 +317,9 @@ void to_json(nlohmann::json& j, const Robot& robot) {
   nlohmann::json joints = nlohmann::json::array();
   for (const RobotJoint& rj : robot.joints) {
     nlohmann::json o = JointJson(rj.joint, robot.convention);
+    // The resource states the mass properties of every joint (0: unknown); a definition only those it has.
+    o["mass_kg"] = rj.joint.mass_kg;
+    o["com_mm"] = rj.joint.com_mm;
     o["unit"] = rj.unit;
     joints.push_back(std::move(o));
   }
@@ -301,6 +332,8 @@ void to_json(nlohmann::json& j, const Robot& robot) {
        {"base", PoseResultJson(robot.base)},
        {"tool", PoseResultJson(robot.tool)},
        {"flange", PoseResultJson(robot.flange)},
+       {"gravity", robot.gravity},
+       {"has_masses", robot.has_masses},
        {"error_parameters", robot.error_parameters}};
   if (!robot.urdf_tip_link.empty()) j["urdf"] = {{"base_link", robot.urdf_base_link}, {"tip_link", robot.urdf_tip_link}};
   if (robot.calibrated_from) j["calibrated_from"] = *robot.calibrated_from;
@@ -321,6 +354,8 @@ void from_json(const nlohmann::json& j, Robot& robot) {
     try {
       const WireReader jr(joints[i]);
       RobotJoint rj{JointFromJson(jr, robot.convention, true), ""};
+      jr.Required("mass_kg", &rj.joint.mass_kg);
+      jr.Required("com_mm", &rj.joint.com_mm);
       jr.Required("unit", &rj.unit);
       robot.joints.push_back(std::move(rj));
     } catch (const WireError& e) {
@@ -337,6 +372,8 @@ void from_json(const nlohmann::json& j, Robot& robot) {
   }
   CalibrationSource source;
   if (r.Optional("calibrated_from", &source)) robot.calibrated_from = source;
+  r.Required("gravity", &robot.gravity);
+  r.Required("has_masses", &robot.has_masses);
   r.Required("error_parameters", &robot.error_parameters);
 }
 
@@ -353,6 +390,8 @@ JointWire JointToWire(const JointSpec& js) {
   jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
   jw.min = js.min * scale;
   jw.max = js.max * scale;
+  jw.mass_kg = js.mass_kg;
+  jw.com_mm = {js.com_mm.x(), js.com_mm.y(), js.com_mm.z()};
   return jw;
 }
 
@@ -365,6 +404,9 @@ RegisterRobotRequest DefinitionOf(const std::string& id, const RobotModelSpec& s
   req.base = TransformToPose(spec.T_world_base);
   req.tool = TransformToPose(spec.T_flange_tool);
   if (spec.convention == GeometryConvention::kTransform) req.flange = TransformToPose(spec.T_lastjoint_flange);
+  if (spec.gravity_base != Eigen::Vector3d(0.0, 0.0, -1.0)) {
+    req.gravity = std::array<double, 3>{spec.gravity_base.x(), spec.gravity_base.y(), spec.gravity_base.z()};
+  }
   return req;
 }
 
@@ -380,6 +422,8 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   robot.base = TransformToPose(spec.T_world_base);
   robot.tool = TransformToPose(spec.T_flange_tool);
   robot.flange = TransformToPose(spec.T_lastjoint_flange);
+  robot.gravity = {spec.gravity_base.x(), spec.gravity_base.y(), spec.gravity_base.z()};
+  robot.has_masses = model.has_masses();
   robot.error_parameters = model.parameter_names();
   return robot;
 }

@@ -79,6 +79,36 @@ TEST(GravityTorqueTest, DerivativesMatchFiniteDifferences) {
   }
 }
 
+// Gravity torques are minus the derivatives of the potential energy of the links and the payload (each mass at its
+// centre of mass, placed by the nominal chain and the link frames): an independent check of sign and frames.
+TEST(GravityTorqueTest, TorquesAreMinusThePotentialEnergysDerivatives) {
+  for (const char* name : {"ur5e", "puma560", "grinder5"}) {
+    const RobotModel model = Preset(name);
+    const Payload payload{3.0, Eigen::Vector3d(15, -25, 70)};
+    const auto potential = [&](const Eigen::VectorXd& q) {  // N*m
+      std::vector<Transform> joints(model.num_joints());
+      Transform flange;
+      NominalChainInBase(model, q, joints.data(), &flange);
+      const Eigen::Vector3d g = kStandardGravity * model.spec().gravity_base;
+      double v = -payload.mass_kg * g.dot(flange * payload.com_mm);
+      for (int i = 0; i < model.num_joints(); ++i) {
+        const JointSpec& j = model.spec().joints[i];
+        const Transform motion = j.type == JointType::kRevolute ? Rotation(RotZ(q[i])) : Translation(0, 0, q[i]);
+        v -= j.mass_kg * g.dot(joints[i] * motion * model.link_frame(i) * j.com_mm);
+      }
+      return Eigen::VectorXd::Constant(1, v / 1000.0);
+    };
+    for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 10, 8)) {
+      const Eigen::VectorXd tau = GravityTorques(model, q, payload);
+      const Eigen::MatrixXd dv = test::CentralDifferences(potential, q, Eigen::VectorXd::Constant(q.size(), 1e-6));
+      for (int i = 0; i < model.num_joints(); ++i) {
+        if (model.joint_type(i) != JointType::kRevolute) continue;  // a slide's force is not a joint torque
+        EXPECT_NEAR(tau[i], -dv(0, i), 1e-6 * (1.0 + tau.cwiseAbs().maxCoeff())) << name << " joint " << i;
+      }
+    }
+  }
+}
+
 // Error parameters with joint terms: geometric ones of realistic size, compliances of 1e-5 rad/(N*m) and
 // harmonic amplitudes of 1e-4 rad.
 Eigen::VectorXd RandomErrorsWithTerms(const RobotModel& model, Rng* rng) {

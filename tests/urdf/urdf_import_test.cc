@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/api/error.h"
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
@@ -188,6 +189,50 @@ TEST(UrdfImportTest, PublicRobotDescriptionsMatchTheirKinematics) {
   EXPECT_EQ(ur5.joints[0].name, "shoulder_pan_joint");
   EXPECT_EQ(ur5.joints[5].name, "wrist_3_joint");
   EXPECT_NEAR(ur5.joints[0].max, 360.0, 1e-5);  // 6.2831853 rad
+}
+
+// The gravity torques of an imported robot are minus the derivatives of the potential energy of the URDF's own
+// links (each <inertial> mass at its <origin>, placed by the URDF's kinematics): the masses, centres of mass and
+// frames the import wrote hold.
+TEST(UrdfImportTest, InertialsGiveTheGravityTorquesOfTheUrdfsLinks) {
+  for (const char* file : {"ur10_robot.urdf", "ur5_robot.urdf"}) {
+    SCOPED_TRACE(file);
+    const std::string xml = ReadData(file);
+    const RobotModel robot = api::BuildModel(urdf::ImportUrdf(Request(xml, "base_link", "tool0")));
+    ASSERT_TRUE(robot.has_masses());
+    const ::urdf::ModelInterfaceSharedPtr model = ::urdf::parseURDF(xml);
+    std::vector<::urdf::LinkSharedPtr> links;
+    model->getLinks(links);
+    const auto below_base = [&](const ::urdf::Link& link) {
+      for (::urdf::LinkConstSharedPtr l = model->getLink(link.name); l; ) {
+        if (l->name == "base_link") return true;
+        if (!l->parent_joint) return false;
+        l = model->getLink(l->parent_joint->parent_link_name);
+      }
+      return false;
+    };
+    const auto potential = [&](const Eigen::VectorXd& q) {  // N*mm
+      double v = 0.0;
+      for (const auto& link : links) {
+        if (!link->inertial || link->name == "base_link" || !below_base(*link)) continue;
+        const Eigen::Vector3d com = UrdfForward(*model, "base_link", link->name, q) * PoseOf(link->inertial->origin).translation();
+        v += link->inertial->mass * kStandardGravity * com.z();
+      }
+      return v;
+    };
+    Rng rng(4);
+    for (int k = 0; k < 10; ++k) {
+      const Eigen::VectorXd q = RandomConfiguration(robot, &rng);
+      const Eigen::VectorXd tau = GravityTorques(robot, q, Payload());
+      for (int i = 0; i < 6; ++i) {
+        Eigen::VectorXd plus = q, minus = q;
+        plus[i] += 1e-6;
+        minus[i] -= 1e-6;
+        const double expected = -(potential(plus) - potential(minus)) / 2e-6 / 1000.0;
+        EXPECT_NEAR(tau[i], expected, 1e-5 * (1.0 + tau.cwiseAbs().maxCoeff())) << "joint " << i;
+      }
+    }
+  }
 }
 
 TEST(UrdfImportTest, KeepsNamesAndConvertsLimitsAndUnits) {

@@ -233,6 +233,31 @@ std::vector<::urdf::JointConstSharedPtr> Chain(const ::urdf::ModelInterface& mod
   return chain;
 }
 
+// The mass (kg) and first moment (kg mm, in `link`'s frame) of `link` and of every link fixed to it (through
+// fixed joints, recursively): the body a moving joint carries up to the next moving joint, side branches included.
+void BodyMass(const ::urdf::Link& link, const Transform& T_body_link, double* mass, Eigen::Vector3d* moment) {
+  if (link.inertial) {
+    const double m = link.inertial->mass;
+    if (!std::isfinite(m) || m < 0.0) {
+      Refuse("urdf", "<link name=\"" + link.name + "\">: <inertial> <mass> must be a finite number >= 0 (kg)");
+    }
+    const Eigen::Vector3d com = T_body_link * ToTransform(link.inertial->origin).translation();
+    if (!com.allFinite() || !(com.norm() <= kMaxOffsetMm)) {
+      Refuse("urdf", "<link name=\"" + link.name + "\">: <inertial> <origin> must be finite and within 1000 m");
+    }
+    *mass += m;
+    *moment += m * com;
+  }
+  for (const ::urdf::JointSharedPtr& joint : link.child_joints) {
+    if (!joint || joint->type != ::urdf::Joint::FIXED) continue;
+    for (const ::urdf::LinkSharedPtr& child : link.child_links) {
+      if (child && child->name == joint->child_link_name) {
+        BodyMass(*child, T_body_link * ToTransform(joint->parent_to_joint_origin_transform), mass, moment);
+      }
+    }
+  }
+}
+
 }  // namespace internal
 
 using namespace internal;
@@ -320,6 +345,18 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
 
     api::JointWire j;
     j.name = joint->name;
+    // The body this joint moves, in robocal's joint frame after the motion: the URDF child link's frame is that
+    // frame turned back by the axis alignment (child = after-motion * align', as `pending` says).
+    if (const ::urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name)) {
+      double mass = 0.0;
+      Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+      BodyMass(*child, Rotation(align.transpose()), &mass, &moment);
+      if (mass > 0.0) {
+        const Eigen::Vector3d com = moment / mass;
+        j.mass_kg = mass;
+        j.com_mm = {com.x(), com.y(), com.z()};
+      }
+    }
     j.type = joint->type == ::urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
     const Eigen::Vector3d rpy = RpyFromRotation(fixed.linear()) * kDegPerRad;
     j.xyz_mm = {fixed.translation().x(), fixed.translation().y(), fixed.translation().z()};

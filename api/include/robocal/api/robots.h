@@ -25,6 +25,9 @@ struct JointWire {
   std::array<double, 3> xyz_mm{0.0, 0.0, 0.0};
   std::array<double, 3> rpy_deg{0.0, 0.0, 0.0};
   double min = 0.0, max = 0.0;
+  /// The link this joint moves: mass (kg; 0: unknown) and centre of mass (mm, link frame: JointSpec::com_mm).
+  double mass_kg = 0.0;
+  std::array<double, 3> com_mm{0.0, 0.0, 0.0};
 };
 
 /// Where an imported robot came from: the URDF document and the chain taken from it.
@@ -61,6 +64,8 @@ struct RegisterRobotRequest {
   std::optional<UrdfSource> urdf;
   /// A robot registered from a calibration: its provenance (set by the service, never by a request).
   std::optional<CalibrationSource> calibrated_from;
+  /// The direction of gravity in the base frame (any non-zero length; normalised): -z when not given.
+  std::optional<std::array<double, 3>> gravity;
 };
 /// Validates a request body (every problem with its field; the geometry through the core).
 RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
@@ -136,6 +141,9 @@ struct Robot {
   std::string urdf_base_link, urdf_tip_link;
   /// For a robot registered from a calibration: where it came from.
   std::optional<CalibrationSource> calibrated_from;
+  /// The direction of gravity in the base frame (unit vector), and whether the links have masses.
+  std::array<double, 3> gravity{0.0, 0.0, -1.0};
+  bool has_masses = false;
   std::vector<std::string> error_parameters;
 };
 void to_json(nlohmann::json& j, const Robot& robot);
