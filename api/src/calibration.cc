@@ -36,11 +36,92 @@ namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- fit
 
-FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits&,
+void to_json(nlohmann::json& j, const ModelWire& m) {
+  j = {{"compliance", m.compliance}, {"joint_harmonics", m.joint_harmonics}};
+}
+
+void from_json(const nlohmann::json& j, ModelWire& m) {
+  const WireReader r(j);
+  r.Required("compliance", &m.compliance);
+  r.Required("joint_harmonics", &m.joint_harmonics);
+}
+
+JointErrorTerms ToCore(const ModelWire& model) { return {model.compliance, model.joint_harmonics}; }
+
+ModelWire ToWire(const JointErrorTerms& terms) { return {terms.compliance, terms.joint_harmonics}; }
+
+const std::vector<std::string>& ParameterUnits() {
+  static const std::vector<std::string> names = {"mm", "deg", "deg/(N*m)"};
+  return names;
+}
+
+const std::string& ParameterUnitName(ParameterUnit unit) {
+  switch (unit) {
+    case ParameterUnit::kMm:
+      return ParameterUnits()[0];
+    case ParameterUnit::kRad:
+      return ParameterUnits()[1];
+    case ParameterUnit::kRadPerNm:
+      return ParameterUnits()[2];
+  }
+  return ParameterUnits()[0];
+}
+
+double ParameterUnitScale(ParameterUnit unit) { return unit == ParameterUnit::kMm ? 1.0 : kDegPerRad; }
+
+RobotModel FitModel(const FitRequest& request, const RobotModel& nominal) {
+  if (request.model_auto) return nominal;
+  return nominal.WithErrorTerms(ToCore(request.model));
+}
+
+namespace {
+
+// "model": "geometric" | "auto" | {"compliance", "joint_harmonics"}, and "cross_validation" for "auto".
+void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, FitRequest* req) {
+  if (const nlohmann::json* v = r.Get("model")) {
+    if (v->is_string()) {
+      const std::string name = v->get<std::string>();
+      if (name == "auto") {
+        req->model_auto = true;
+      } else if (name != "geometric") {
+        problems->Add("model", "expected \"geometric\", \"auto\" or {\"compliance\": bool, \"joint_harmonics\": 0..2}");
+      }
+    } else if (v->is_object()) {
+      ObjectReader m(*v, "model", problems);
+      m.Bool("compliance", false, &req->model.compliance);
+      m.Int("joint_harmonics", false, &req->model.joint_harmonics, 0, kMaxJointHarmonics);
+      m.RejectUnknown({"compliance", "joint_harmonics"});
+      if (req->model.compliance && !model.has_masses()) {
+        problems->Add("model.compliance", "robot \"" + model.name() +
+                                              "\" has no link masses: give its joints mass_kg and com_mm, or "
+                                              "import it from a URDF with <inertial> elements");
+      }
+    } else {
+      problems->Add("model", "expected \"geometric\", \"auto\" or an object");
+    }
+  }
+  if (const nlohmann::json* v = r.Get("cross_validation")) {
+    ObjectReader cv(*v, "cross_validation", problems);
+    cv.Int("folds", false, &req->folds, 2, 20);
+    std::int64_t seed = 1;
+    if (cv.Int("seed", false, &seed, 0, std::numeric_limits<std::int64_t>::max())) {
+      req->seed = static_cast<std::uint64_t>(seed);
+    }
+    cv.RejectUnknown({"folds", "seed"});
+    if (!req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
+  }
+}
+
+}  // namespace
+
+FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal, const Limits&,
                            const std::vector<Reflector>& reflectors) {
   Problems problems;
   FitRequest req;
   ObjectReader r(body, "", &problems);
+  ParseModel(r, nominal, &problems, &req);
+  // Parameters are named in the model the fit estimates (joint terms included).
+  const RobotModel model = problems.empty() ? FitModel(req, nominal) : nominal;
   if (const nlohmann::json* a =
           r.Array("parameters", false, 0, model.parameter_names().size() + 3 * reflectors.size())) {
     for (std::size_t i = 0; i < a->size(); ++i) {
@@ -71,8 +152,14 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
     problems.Add("scope", "\"frames\" chooses the parameters itself: leave out parameters");
   }
   r.Bool("async", false, &req.async);
+  if (req.model_auto && !req.parameters.empty()) {
+    problems.Add("parameters", "\"model\": \"auto\" chooses the parameters with the model: leave out parameters");
+  }
+  if (req.scope == "frames" && (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0)) {
+    problems.Add("scope", "\"frames\" fits the base and the tool of the robot as it is: leave out \"model\"");
+  }
   r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability",
-                   "estimate_model_error", "scope", "async"});
+                   "estimate_model_error", "scope", "model", "cross_validation", "async"});
   problems.ThrowIfAny("invalid fit request");
   return req;
 }
@@ -86,6 +173,12 @@ void to_json(nlohmann::json& j, const FitRequest& req) {
        {"estimate_model_error", req.estimate_model_error},
        {"scope", req.scope},
        {"async", req.async}};
+  if (req.model_auto) {
+    j["model"] = "auto";
+    j["cross_validation"] = {{"folds", req.folds}, {"seed", req.seed}};
+  } else {
+    j["model"] = req.model;
+  }
 }
 
 void from_json(const nlohmann::json& j, FitRequest& req) {
@@ -100,6 +193,18 @@ void from_json(const nlohmann::json& j, FitRequest& req) {
   if (!r.Optional("estimate_model_error", &req.estimate_model_error)) req.estimate_model_error = false;
   r.Optional("scope", &req.scope);
   r.Required("async", &req.async);
+  // Absent in requests stored before models beyond geometry: the geometric model.
+  if (r.Has("model")) {
+    const nlohmann::json& model = r.Member("model");
+    if (model.is_string() && model.get<std::string>() == "auto") {
+      req.model_auto = true;
+      const WireReader cv(r.Member("cross_validation"), "cross_validation");
+      cv.Required("folds", &req.folds);
+      cv.Required("seed", &req.seed);
+    } else {
+      r.Required("model", &req.model);
+    }
+  }
 }
 
 const std::vector<std::string>& FitScopes() {
@@ -271,8 +376,43 @@ void to_json(nlohmann::json& j, const CalibrationResult& c) {
        {"outliers", c.outliers},
        {"parameters_with_outliers", c.parameters_with_outliers},
        {"model_error", c.model_error},
+       {"model", c.model},
        {"reflectors", c.reflectors},
        {"summary", c.summary}};
+  if (c.model_choice) j["model_choice"] = *c.model_choice;
+}
+
+void to_json(nlohmann::json& j, const ModelCandidateWire& c) {
+  j = {{"model", c.model},
+       {"description", c.description},
+       {"num_parameters", c.num_parameters},
+       {"cv_mean_mm", Num(c.cv_mean_mm)},
+       {"cv_rms_mm", Num(c.cv_rms_mm)},
+       {"cv_standard_error_mm", Num(c.cv_standard_error_mm)},
+       {"failed_folds", c.failed_folds},
+       {"note", c.note},
+       {"chosen", c.chosen}};
+}
+
+void from_json(const nlohmann::json& j, ModelCandidateWire& c) {
+  const WireReader r(j);
+  r.Required("model", &c.model);
+  r.Required("description", &c.description);
+  r.Required("num_parameters", &c.num_parameters);
+  r.Required("cv_mean_mm", &c.cv_mean_mm);
+  r.Required("cv_rms_mm", &c.cv_rms_mm);
+  r.Required("cv_standard_error_mm", &c.cv_standard_error_mm);
+  r.Required("failed_folds", &c.failed_folds);
+  r.Required("note", &c.note);
+  r.Required("chosen", &c.chosen);
+}
+
+void to_json(nlohmann::json& j, const ModelChoiceWire& c) { j = {{"folds", c.folds}, {"candidates", c.candidates}}; }
+
+void from_json(const nlohmann::json& j, ModelChoiceWire& c) {
+  const WireReader r(j);
+  r.Required("folds", &c.folds);
+  r.Required("candidates", &c.candidates);
 }
 
 void from_json(const nlohmann::json& j, CalibrationResult& c) {
@@ -295,6 +435,10 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
   r.Optional("outliers", &c.outliers);
   r.Optional("parameters_with_outliers", &c.parameters_with_outliers);
   r.Optional("model_error", &c.model_error);
+  // Absent in fits stored before models beyond geometry: geometric.
+  r.Optional("model", &c.model);
+  ModelChoiceWire choice;
+  if (r.Optional("model_choice", &choice)) c.model_choice = std::move(choice);
   r.Optional("reflectors", &c.reflectors);
   r.Required("summary", &c.summary);
 }
@@ -302,12 +446,13 @@ void from_json(const nlohmann::json& j, CalibrationResult& c) {
 namespace {
 
 // `num_model_parameters`: indices from there on are reflector offsets (mm).
-std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& parameters, int num_model_parameters) {
+std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& parameters, const RobotModel& model,
+                                      int num_model_parameters) {
   std::vector<ParameterEstimate> out;
   for (const IdentifiedParameter& p : parameters) {
-    const bool translation = p.index >= num_model_parameters || RobotModel::IsTranslationParameter(p.index);
-    const double scale = translation ? 1.0 : kDegPerRad;
-    out.push_back({p.name, translation ? "mm" : "deg", p.value * scale, p.std * scale});
+    const ParameterUnit unit = p.index >= num_model_parameters ? ParameterUnit::kMm : model.parameter_unit(p.index);
+    const double scale = ParameterUnitScale(unit);
+    out.push_back({p.name, ParameterUnitName(unit), p.value * scale, p.std * scale});
   }
   return out;
 }
@@ -317,7 +462,19 @@ std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& pa
 CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& sequences) {
   CalibrationResult w;
   const int n_model = static_cast<int>(c.errors.size());
-  w.parameters = ToWire(c.parameters, n_model);
+  w.parameters = ToWire(c.parameters, c.model, n_model);
+  w.model = ToWire(c.model.error_terms());
+  if (!c.summary.model_candidates.empty()) {
+    ModelChoiceWire choice;
+    choice.folds = c.summary.model_folds;
+    for (std::size_t k = 0; k < c.summary.model_candidates.size(); ++k) {
+      const ModelCandidate& m = c.summary.model_candidates[k];
+      choice.candidates.push_back({ToWire(m.terms), m.terms.Describe(), m.num_parameters, m.cv_mean_mm, m.cv_rms_mm,
+                                   m.cv_standard_error_mm, m.failed_folds, m.note,
+                                   static_cast<int>(k) == c.summary.model_chosen});
+    }
+    w.model_choice = std::move(choice);
+  }
   w.reflectors = ToWire(c.reflectors);
   const IdentificationSummary& s = c.summary;
   w.robust.enabled = s.rejection_rounds > 0;
@@ -331,7 +488,7 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
                           named ? c.reflectors[static_cast<std::size_t>(o.reflector)].id : std::string(),
                           o.normalized_residual, true});
   }
-  w.parameters_with_outliers = ToWire(s.parameters_with_outliers, n_model);
+  w.parameters_with_outliers = ToWire(s.parameters_with_outliers, c.model, n_model);
   w.model_error = {s.model_error_estimated, s.model_error_mm, s.model_error_rad * kDegPerRad, s.tracker_rms_mm,
                    s.tracker_rms_rad * kDegPerRad};
   w.measurement_type = s.measurement_type;
@@ -387,6 +544,7 @@ void to_json(nlohmann::json& j, const CompensationTargetWire& t) {
   } else {
     j = {{"joints", t.joints}};
   }
+  if (t.payload) j["payload"] = *t.payload;
 }
 
 void from_json(const nlohmann::json& j, CompensationTargetWire& t) {
@@ -398,6 +556,7 @@ void from_json(const nlohmann::json& j, CompensationTargetWire& t) {
   } else {
     r.Required("joints", &t.joints);
   }
+  r.Optional("payload", &t.payload);
 }
 
 CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model,
@@ -437,7 +596,11 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
           }
         }
       }
-      t.RejectUnknown({"joints", "pose", "frame", "start_joints", "configuration"});
+      PayloadWire payload;
+      if (const nlohmann::json* v = t.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
+        w.payload = payload;
+      }
+      t.RejectUnknown({"joints", "pose", "frame", "start_joints", "configuration", "payload"});
       if (problems.size() > 100) break;
     }
   }

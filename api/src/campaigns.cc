@@ -94,11 +94,16 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
   r.Number("repeatability_mm", false, &req.repeatability_mm, 0.0, 10.0);
   ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors, kMaxFitReflectors);
+  PayloadWire payload;
+  if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+    req.payload = payload;
+  }
   if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
     problems.Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
   }
   r.RejectUnknown(
-      {"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm", "reflectors"});
+      {"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm", "reflectors",
+       "payload"});
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
@@ -112,6 +117,7 @@ void to_json(nlohmann::json& j, const CreateCampaignRequest& req) {
   if (req.tracker) j["tracker"] = *req.tracker;
   if (req.repeatability_mm != 0.0) j["repeatability_mm"] = req.repeatability_mm;
   if (!req.reflectors.empty()) j["reflectors"] = req.reflectors;
+  if (req.payload) j["payload"] = *req.payload;
 }
 
 void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
@@ -125,6 +131,7 @@ void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
   r.Optional("tracker", &req.tracker);
   r.Optional("repeatability_mm", &req.repeatability_mm);
   r.Optional("reflectors", &req.reflectors);
+  r.Optional("payload", &req.payload);
 }
 
 void to_json(nlohmann::json& j, const MeasurementCounts& c) {
@@ -147,6 +154,7 @@ void to_json(nlohmann::json& j, const Campaign& c) {
        {"tracker", c.tracker ? nlohmann::json(*c.tracker) : nlohmann::json()},
        {"repeatability_mm", c.repeatability_mm},
        {"reflectors", c.reflectors},
+       {"payload", c.payload ? nlohmann::json(*c.payload) : nlohmann::json()},
        {"created_unix_ms", c.created_unix_ms},
        {"counts", c.counts},
        {"calibrated", c.calibrated}};
@@ -163,6 +171,7 @@ void from_json(const nlohmann::json& j, Campaign& c) {
   r.Required("tracker", &c.tracker);
   r.Required("repeatability_mm", &c.repeatability_mm);
   r.Required("reflectors", &c.reflectors);
+  r.Required("payload", &c.payload);
   r.Required("created_unix_ms", &c.created_unix_ms);
   r.Required("counts", &c.counts);
   r.Required("calibrated", &c.calibrated);
@@ -184,6 +193,7 @@ void from_json(const nlohmann::json& j, CampaignList& list) {
 void to_json(nlohmann::json& j, const MeasurementWire& m) {
   j = {{"joints", m.joints}, {"pose", m.pose}};
   if (!m.reflector.empty()) j["reflector"] = m.reflector;
+  if (m.payload) j["payload"] = *m.payload;
 }
 
 void from_json(const nlohmann::json& j, MeasurementWire& m) {
@@ -191,6 +201,7 @@ void from_json(const nlohmann::json& j, MeasurementWire& m) {
   r.Required("joints", &m.joints);
   r.Required("pose", &m.pose);
   r.Optional("reflector", &m.reflector);
+  r.Optional("payload", &m.payload);
 }
 
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
@@ -235,7 +246,11 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
                        "unknown reflector \"" + w.reflector + "\" (the campaign has " + known + ")");
         }
       }
-      m.RejectUnknown({"joints", "pose", "reflector"});
+      PayloadWire payload;
+      if (const nlohmann::json* v = m.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
+        w.payload = payload;
+      }
+      m.RejectUnknown({"joints", "pose", "reflector", "payload"});
       // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
       if (problems.size() > 100) break;
     }
@@ -284,6 +299,7 @@ void to_json(nlohmann::json& j, const StoredMeasurementWire& m) {
        {"joints", m.measurement.joints},
        {"pose", m.measurement.pose}};
   if (!m.measurement.reflector.empty()) j["reflector"] = m.measurement.reflector;
+  if (m.measurement.payload) j["payload"] = *m.measurement.payload;
 }
 
 void from_json(const nlohmann::json& j, StoredMeasurementWire& m) {

@@ -442,11 +442,11 @@ void from_json(const nlohmann::json& j, RobotList& list) {
 // ---------------------------------------------------------------------------------------------- forward
 
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
-  return ParseJointsRequest(body, model, limits.max_array_length, "invalid forward request");
+  return ParseJointsRequest(body, model, limits.max_array_length, "invalid forward request", true);
 }
 
 ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& model, std::size_t max_vectors,
-                                  const char* refusal) {
+                                  const char* refusal, bool with_payload) {
   Problems problems;
   ForwardRequest req;
   ObjectReader r(body, "", &problems);
@@ -456,14 +456,29 @@ ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& 
       ReadJointVector((*a)[i], IndexPath("joints", i), model, &problems, &req.joints[i]);
     }
   }
-  r.RejectUnknown({"joints"});
+  PayloadWire payload;
+  if (with_payload) {
+    if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+      req.payload = payload;
+    }
+    r.RejectUnknown({"joints", "payload"});
+  } else {
+    r.RejectUnknown({"joints"});
+  }
   problems.ThrowIfAny(refusal);
   return req;
 }
 
-void to_json(nlohmann::json& j, const ForwardRequest& req) { j = {{"joints", req.joints}}; }
+void to_json(nlohmann::json& j, const ForwardRequest& req) {
+  j = {{"joints", req.joints}};
+  if (req.payload) j["payload"] = *req.payload;
+}
 
-void from_json(const nlohmann::json& j, ForwardRequest& req) { WireReader(j).Required("joints", &req.joints); }
+void from_json(const nlohmann::json& j, ForwardRequest& req) {
+  const WireReader r(j);
+  r.Required("joints", &req.joints);
+  r.Optional("payload", &req.payload);
+}
 
 void to_json(nlohmann::json& j, const ForwardResult& result) {
   nlohmann::json poses = nlohmann::json::array();

@@ -48,6 +48,7 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
   if (c.tracker) j["tracker"] = *c.tracker;
   if (c.repeatability_mm != 0.0) j["repeatability_mm"] = c.repeatability_mm;
   if (!c.reflectors.empty()) j["reflectors"] = c.reflectors;
+  if (c.payload) j["payload"] = *c.payload;
 }
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
@@ -63,6 +64,7 @@ void from_json(const nlohmann::json& j, StoredCampaign& c) {
   r.Optional("tracker", &c.tracker);
   r.Optional("repeatability_mm", &c.repeatability_mm);
   r.Optional("reflectors", &c.reflectors);
+  r.Optional("payload", &c.payload);
   r.Required("created_unix_ms", &c.created_unix_ms);
 }
 
@@ -124,7 +126,9 @@ StoredCalibration ToStored(const Calibration& calibration, const CalibrationResu
   return s;
 }
 
-Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored) {
+Calibration Restore(const RobotModel& geometric, const StoredCalibration& stored) {
+  // The model the fit estimated: the campaign's robot with the fit's joint terms (none in older fits).
+  const RobotModel nominal = geometric.WithErrorTerms(ToCore(stored.result.model));
   if (static_cast<int>(stored.errors.size()) != nominal.num_error_parameters()) {
     throw WireError("state.errors", "expected " + std::to_string(nominal.num_error_parameters()) +
                                         " values for the campaign's robot, got " +

@@ -205,6 +205,36 @@ void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out) {
   ReadResultPose(pose, out);
 }
 
+bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out) {
+  const std::size_t before = problems->size();
+  ObjectReader r(value, path, problems);
+  if (!r.ok()) return false;
+  PayloadWire payload;
+  r.Number("mass_kg", true, &payload.mass_kg, 0.0, kMaxPayloadKg);
+  if (r.FixedNumbers("com_mm", false, payload.com_mm.data(), 3)) {
+    for (double v : payload.com_mm) {
+      if (!(std::abs(v) <= 1e5)) {
+        problems->Add(JoinPath(path, "com_mm"), "must lie within 100 m (1e5 mm) of the flange");
+        break;
+      }
+    }
+  }
+  r.RejectUnknown({"mass_kg", "com_mm"});
+  if (problems->size() != before) return false;
+  *out = payload;
+  return true;
+}
+
+void to_json(nlohmann::json& j, const PayloadWire& p) { j = {{"mass_kg", p.mass_kg}, {"com_mm", p.com_mm}}; }
+
+void from_json(const nlohmann::json& j, PayloadWire& p) {
+  const WireReader r(j);
+  r.Required("mass_kg", &p.mass_kg);
+  r.Optional("com_mm", &p.com_mm);
+}
+
+Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
+
 nlohmann::json PoseResultJson(const PoseWire& pose) {
   nlohmann::json j = pose;
   if (pose.has_orientation) {

@@ -13,12 +13,25 @@
 namespace robocal::cli {
 namespace {
 
+// "geometric", "compliance", "harmonics 2", "compliance + harmonics 1".
+std::string ModelName(const api::ModelWire& m) { return api::ToCore(m).Describe(); }
+
 void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
   out << std::left << std::setw(14) << "parameter" << std::right << std::setw(14) << "value" << std::setw(14) << "std"
       << "  unit\n";
   for (const api::ParameterEstimate& p : c.parameters) {
-    out << std::left << std::setw(14) << p.name << std::right << std::setw(14) << Fixed(p.value, 5) << std::setw(14)
-        << Fixed(p.std, 5) << "  " << p.unit << "\n";
+    // A compliance is some 1e-5 deg/(N*m): in significant digits.
+    const bool small = p.unit != "mm" && p.unit != "deg";
+    std::ostringstream value, std;
+    if (small) {
+      value << std::setprecision(4) << p.value;
+      std << std::setprecision(3) << p.std;
+    } else {
+      value << Fixed(p.value, 5);
+      std << Fixed(p.std, 5);
+    }
+    out << std::left << std::setw(14) << p.name << std::right << std::setw(14) << value.str() << std::setw(14)
+        << std.str() << "  " << p.unit << "\n";
   }
   if (!c.dropped.empty()) {
     out << "not identifiable (left out):\n";
@@ -36,6 +49,19 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
     if (angle) out << ", " << Fixed(c.model_error.tracker_rms_deg, 4) << " deg";
     out << ")\n";
   }
+  out << "model: " << ModelName(c.model) << "\n";
+  if (c.model_choice) {
+    out << "chosen by " << c.model_choice->folds << "-fold cross-validation (held-out E_xyz, mm):\n";
+    for (const api::ModelCandidateWire& m : c.model_choice->candidates) {
+      out << (m.chosen ? "  * " : "    ") << m.description << ", " << m.num_parameters << " parameters: ";
+      if (m.failed_folds > 0) {
+        out << m.failed_folds << " fold(s) failed: " << m.note << "\n";
+      } else {
+        out << "mean " << Fixed(m.cv_mean_mm, 4) << " +- " << Fixed(m.cv_standard_error_mm, 4) << ", RMS "
+            << Fixed(m.cv_rms_mm, 4) << "\n";
+      }
+    }
+  }
   if (!c.outliers.empty()) {
     out << c.outliers.size() << " outlier(s) excluded (normalised residual over " << Fixed(c.robust.threshold, 2)
         << " sigma):";
@@ -50,6 +76,25 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
   if (!c.stored) out << "NOT stored as the campaign's calibration: " << c.summary.message << "\n";
 }
 
+// --model auto | geometric | a comma list of compliance and harmonics=N (e.g. compliance,harmonics=2).
+void ParseModelOption(const std::string& text, api::FitRequest* request) {
+  if (text == "auto") {
+    request->model_auto = true;
+    return;
+  }
+  if (text == "geometric") return;
+  for (const std::string& part : tools::SplitList("--model", text)) {
+    if (part == "compliance") {
+      request->model.compliance = true;
+    } else if (part.rfind("harmonics=", 0) == 0 && part.size() == 11 && part[10] >= '0' && part[10] <= '9') {
+      request->model.joint_harmonics = part[10] - '0';  // the service names a value out of range
+    } else {
+      throw UsageError("--model takes auto, geometric or a list of compliance and harmonics=N (e.g. "
+                       "compliance,harmonics=2), got \"" + text + "\"");
+    }
+  }
+}
+
 }  // namespace
 
 int Fit(Invocation& in) {
@@ -60,6 +105,13 @@ int Fit(Invocation& in) {
   request.reject_outliers = !in.Has("--keep-outliers");
   request.estimate_model_error = !in.Has("--no-model-error");
   request.scope = in.Option("--scope", request.scope);  // the service names a bad value
+  if (in.Has("--model")) ParseModelOption(in.Option("--model"), &request);
+  if (in.Has("--folds") || in.Has("--cv-seed")) {
+    if (!request.model_auto) throw UsageError("--folds and --cv-seed apply with --model auto only");
+    // Any integer: the service checks the range and names cross_validation.folds.
+    request.folds = static_cast<int>(in.Integer("--folds", request.folds, 0, 1000));
+    request.seed = static_cast<std::uint64_t>(in.Integer("--cv-seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+  }
   // The service checks the range and names the field.
   request.outlier_probability =
       in.Number("--outlier-probability", request.outlier_probability, std::numeric_limits<double>::lowest());

@@ -241,6 +241,13 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        --from-calibration)
   --no-model-error     take the campaign's noise model as the whole error (by default the robot error the
                        geometric model does not explain is estimated beside it and weights the fit)
+  --model M            the model: geometric (default); a list of compliance (one per revolute joint,
+                       rotation = c x gravity torque; the robot needs link masses) and harmonics=N (N = 1 or
+                       2: sin and cos of each joint's own angle up to order N), e.g. compliance,harmonics=2;
+                       or auto: every candidate cross-validated on the calibration measurements, the
+                       simplest within one standard error of the best chosen, and the comparison printed
+  --folds N            auto: cross-validation folds (default 5; 2 to 20)
+  --cv-seed S          auto: the seed that deals the poses to the folds (default 1)
   --async              run as a long-running operation and wait for it with a progress bar on stderr
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};

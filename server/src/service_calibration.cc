@@ -8,6 +8,7 @@
 #include "robocal/core/dh_table.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
+#include "robocal/core/model_choice.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
 #include "robocal/urdf/urdf_export.h"
@@ -47,9 +48,14 @@ void CheckFitSize(const RobotModel& model, const IdentificationOptions& options,
 
 FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body) {
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
-  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  const RobotModel nominal = api::BuildModel(campaign.robot_definition);
   const std::vector<Reflector> reflectors = api::ToCore(campaign.reflectors);
-  const api::FitRequest req = api::ParseFitRequest(body, model, options_.limits, reflectors);
+  const api::FitRequest req = api::ParseFitRequest(body, nominal, options_.limits, reflectors);
+  // The model the fit estimates: the robot with the request's joint terms ("auto" starts from the geometric one,
+  // and the largest candidate sizes the fit).
+  const RobotModel model = api::FitModel(req, nominal);
+  const RobotModel largest =
+      req.model_auto ? nominal.WithErrorTerms({nominal.has_masses(), kMaxJointHarmonics}) : model;
   const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
   if (count == 0) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
@@ -58,13 +64,13 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   IdentificationOptions options = api::ToIdentificationOptions(
       req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm),
       reflectors);
-  CheckFitSize(model, options, count, !req.parameters.empty(), options_.limits);
+  CheckFitSize(largest, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();
   measurements->reserve(static_cast<std::size_t>(count));
   sequences->reserve(static_cast<std::size_t>(count));
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    measurements->push_back(MeasurementToCore(model, ReadMeasurement(s), campaign.reflectors));
+    measurements->push_back(MeasurementToCore(model, ReadMeasurement(s), campaign));
     sequences->push_back(s.sequence);
   });
   // An offset named for a nest without shots cannot be estimated: say so by the request's field.
@@ -87,13 +93,17 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
 
   // Identifies and returns the fit; stores it as the calibration only if `control` never stopped it: a fit cut
   // short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
-  auto fit = [this, campaign, model, measurements, sequences, options](WorkControl& control) {
+  auto fit = [this, campaign, model, measurements, sequences, options, req](WorkControl& control) {
     IdentificationOptions o = options;
     o.progress = [this, &control](double fraction) {
       if (options_.on_fit_progress) options_.on_fit_progress();
       return control(fraction);
     };
-    const Calibration calibration = Identify(model, *measurements, o);
+    ModelChoiceOptions choice;
+    choice.folds = req.folds;
+    choice.seed = req.seed;
+    const Calibration calibration =
+        req.model_auto ? IdentifyWithModelChoice(model, *measurements, o, choice) : Identify(model, *measurements, o);
     if (calibration.summary.termination == Termination::kFailure) {
       throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
                      {{"measurements", calibration.summary.message}});
@@ -202,7 +212,11 @@ api::ForwardResult Service::CampaignForward(const std::string& campaign_id, cons
   api::ForwardResult result;
   result.campaign = campaign_id;
   result.frame = "tracker";
-  result.poses = ForwardPoses(loaded.calibration.model, loaded.calibration.errors, req);
+  // Under the request's payload, else the campaign's (a compliance model deflects under it).
+  const Payload payload = req.payload            ? api::ToCore(*req.payload)
+                          : loaded.campaign.payload ? api::ToCore(*loaded.campaign.payload)
+                                                    : Payload();
+  result.poses = ForwardPoses(loaded.calibration.model, loaded.calibration.errors, req, payload);
   return result;
 }
 
@@ -224,6 +238,11 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
       target.configuration = t.configuration;
     } else {
       target.joints = api::JointsToCore(model, t.joints);
+    }
+    if (t.payload) {
+      target.payload = api::ToCore(*t.payload);
+    } else if (loaded.campaign.payload) {
+      target.payload = api::ToCore(*loaded.campaign.payload);
     }
     targets.push_back(std::move(target));
   }
@@ -275,7 +294,7 @@ api::Evaluation Service::EvaluateLoaded(const Calibrated& loaded, double h_mm, A
   const std::vector<Eigen::Vector3d> identified =
       ReflectorsInTool(loaded.model, calibration.reflectors, Eigen::VectorXd());
   ForEachMeasurement(storage_, campaign_id, "validation", [&](const StoredMeasurement& s) {
-    const Measurement m = MeasurementToCore(loaded.model, ReadMeasurement(s), loaded.campaign.reflectors);
+    const Measurement m = MeasurementToCore(loaded.model, ReadMeasurement(s), loaded.campaign);
     measured.push_back(m.T_world_tool);
     const Transform& before = ForwardKinematics(calibration.model, m.joints, Eigen::VectorXd(), &ws);
     nominal.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= given.size()

@@ -43,6 +43,7 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   c.tracker = s.tracker;
   c.repeatability_mm = s.repeatability_mm;
   c.reflectors = s.reflectors;
+  c.payload = s.payload;
   c.created_unix_ms = s.created_unix_ms;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
@@ -78,6 +79,7 @@ api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
   campaign.tracker = req.tracker;
   campaign.repeatability_mm = req.repeatability_mm;
   campaign.reflectors = req.reflectors;
+  campaign.payload = req.payload;
   if (!campaign.reflectors.empty() && campaign.measurement_type != MeasurementType::kPosition) {
     throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
                    {{"reflectors", std::string("need position measurements; measurement_type is ") +

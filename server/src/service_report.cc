@@ -136,7 +136,7 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
       return;
     }
     api::MeasurementWire w = ReadMeasurement(s);
-    measurements.push_back(MeasurementToCore(model, w, campaign.reflectors));
+    measurements.push_back(MeasurementToCore(model, w, campaign));
     sequences.push_back(s.sequence);
     joints.push_back(std::move(w.joints));
   });
@@ -152,22 +152,26 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   for (std::size_t i = 0; i < measurements.size(); ++i) {
     if (!outlier_sequences.count(sequences[i])) used.push_back(measurements[i]);
   }
+  // Parameter names are the fitted model's (the robot's with the fit's joint terms).
+  const RobotModel& fitted = loaded.calibration.model;
   bool names_known = true;
-  for (const api::ParameterEstimate& p : result.parameters) names_known = names_known && ParameterIndex(model, given, p.name) >= 0;
+  for (const api::ParameterEstimate& p : result.parameters) {
+    names_known = names_known && ParameterIndex(fitted, given, p.name) >= 0;
+  }
   if (result.parameters.empty()) {
     fit.linearization_problem = "the fit estimated no parameters";
   } else if (!names_known) {
     fit.linearization_problem = "the stored fit names parameters this robot does not have";
   } else {
     const IdentificationOptions options =
-        api::ToIdentificationOptions(request, model, campaign.measurement_type, noise, given);
+        api::ToIdentificationOptions(request, fitted, campaign.measurement_type, noise, given);
     try {
       const FitLinearization lin = LinearizeFit(loaded.calibration, used, options);
       fit.singular_values.assign(lin.singular_values.data(), lin.singular_values.data() + lin.singular_values.size());
       fit.condition_number = lin.condition_number;
       // Names in the linearisation's (ascending index) order, which the covariance follows.
       std::vector<std::string> names;
-      for (int index : lin.parameters) names.push_back(ParameterName(model, given, index));
+      for (int index : lin.parameters) names.push_back(ParameterName(fitted, given, index));
       fit.correlations = report::TopCorrelations(names, CorrelationOf(lin.covariance), report::kTopCorrelations);
     } catch (const std::invalid_argument& e) {
       fit.linearization_problem = e.what();

@@ -138,7 +138,8 @@ void Service::DeleteRobot(const std::string& id) {
 
 api::ForwardResult Service::RobotForward(const std::string& id, const nlohmann::json& body) {
   const RobotModel model = ResolveRobot(id).model;
-  const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
+  const api::ForwardRequest req =
+      api::ParseJointsRequest(body, model, options_.limits.max_array_length, "invalid forward request");
   const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   api::ForwardResult result;
   result.robot = id;

@@ -79,12 +79,12 @@ void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const 
 }
 
 std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
-                                        const api::ForwardRequest& req) {
+                                        const api::ForwardRequest& req, const Payload& payload) {
   KinematicsWorkspace ws(model);
   std::vector<api::PoseWire> poses;
   poses.reserve(req.joints.size());
   for (const auto& q : req.joints) {
-    poses.push_back(api::TransformToPose(ForwardKinematics(model, api::JointsToCore(model, q), errors, &ws)));
+    poses.push_back(api::TransformToPose(ForwardKinematics(model, api::JointsToCore(model, q), errors, &ws, payload)));
   }
   return poses;
 }
@@ -114,11 +114,16 @@ api::Robot RobotResource(const std::string& id, const RobotModel& model, const a
 }
 
 Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWire& w,
-                              const std::vector<api::CampaignReflectorWire>& reflectors) {
+                              const api::StoredCampaign& campaign) {
   Measurement m;
   m.joints = api::JointsToCore(model, w.joints);
   m.T_world_tool = api::PoseToTransform(w.pose);
-  m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(reflectors, w.reflector);
+  m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(campaign.reflectors, w.reflector);
+  if (w.payload) {
+    m.payload = api::ToCore(*w.payload);
+  } else if (campaign.payload) {
+    m.payload = api::ToCore(*campaign.payload);
+  }
   return m;
 }
 

@@ -12,6 +12,7 @@
 #include "robocal/api/campaigns.h"
 #include "robocal/api/error.h"
 #include "robocal/api/robots.h"
+#include "robocal/api/stored.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/measurement.h"
 #include "robocal/server/memory_trimmer.h"
@@ -67,14 +68,14 @@ void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const 
 /// A stored measurement as the core takes it; `reflectors`: the campaign's, by which the measurement's reflector
 /// id becomes an index.
 Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWire& w,
-                              const std::vector<api::CampaignReflectorWire>& reflectors);
+                              const api::StoredCampaign& campaign);
 
 /// A registered robot's resource: its model, and the links of the URDF it was imported from.
 api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition);
 
 /// Tool poses of `model` with `errors` (empty: nominal) for the request's joint vectors.
 std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
-                                        const api::ForwardRequest& req);
+                                        const api::ForwardRequest& req, const Payload& payload = Payload());
 
 /// Requests with at least this many elements (measurements, joint vectors, targets) count as large.
 inline constexpr std::size_t kLargeRequest = 1000;

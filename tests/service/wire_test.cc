@@ -246,17 +246,25 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   EXPECT_TRUE(fit_.stored);
   EXPECT_FALSE(fit_.summary.deadline_exceeded);
   ExpectRoundTrip(fit_);
-  // The robust fit's members and the model error are absent from fits stored before them; inside them every
-  // member is required.
+  // The robust fit's members, the model error and the model are absent from fits stored before them; inside
+  // them every member is required.
   ExpectEveryFieldRequired(fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
-                                                 "reflectors"}));
+                                                 "reflectors", "model"}));
   CalibrationResult with_outliers = fit_;
   with_outliers.outliers.push_back({7, "smr2", 123.5, true});
   with_outliers.reflectors.push_back({"smr2", {1.0, 2.0, 3.0}, true});
   with_outliers.parameters_with_outliers = fit_.parameters;
   ExpectRoundTrip(with_outliers);
   ExpectEveryFieldRequired(with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
-                                                          "reflectors", "outliers[0].reflector"}));
+                                                          "reflectors", "outliers[0].reflector", "model"}));
+  // A fit with its model chosen by cross-validation: the comparison round-trips, every member required.
+  CalibrationResult chosen = fit_;
+  chosen.model = {true, 2};
+  chosen.model_choice = ModelChoiceWire{5, {{{false, 0}, "geometric", 42, 0.4, 0.45, 0.01, 0, "", false},
+                                            {{true, 2}, "compliance + harmonics 2", 72, 0.33, 0.37, 0.011, 0, "", true}}};
+  ExpectRoundTrip(chosen);
+  ExpectEveryFieldRequired(chosen, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
+                                                   "reflectors", "model", "model_choice"}));
   EXPECT_EQ(json(service_->GetCalibration("w")), json(fit_));
   const CompensateResult comp = service_->Compensate(
       "w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
@@ -582,11 +590,14 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"wrist", {WristName(1), WristName(-1)}},          {"delimiter", TrackerFileDelimiters()},
       {"decimal", TrackerFileDecimals()},                {"representation", OrientationRepresentations()},
       {"order", QuaternionOrders()},                     {"scope", FitScopes()}};
+  // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
       {"/components/schemas/ImportMeasurementsRequest/properties/joints.unit", AngleUnits()},
       {"/components/schemas/ImportMeasurementsRequest/properties/orientation.unit", AngleUnits()},
-      {"/components/schemas/ImportMeasurementsRequest/properties/orientation.convention", EulerConventions()}};
+      {"/components/schemas/ImportMeasurementsRequest/properties/orientation.convention", EulerConventions()},
+      {"/components/schemas/Calibration/properties/parameters/items.unit", ParameterUnits()},
+      {"/components/schemas/Calibration/properties/parameters_with_outliers/items.unit", ParameterUnits()}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {
       {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

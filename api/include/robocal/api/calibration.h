@@ -30,6 +30,17 @@ void from_json(const nlohmann::json& j, ArmConfiguration& c);
 namespace robocal::api {
 
 /// POST /v1/campaigns/{c}:fit.
+/// The model of a fit beyond geometry (docs/identification.md, "Beyond geometry"): joint compliance under gravity
+/// and the payload, and joint harmonics of order up to 2. Both off: the geometric model.
+struct ModelWire {
+  bool compliance = false;
+  int joint_harmonics = 0;
+};
+void to_json(nlohmann::json& j, const ModelWire& m);
+void from_json(const nlohmann::json& j, ModelWire& m);
+JointErrorTerms ToCore(const ModelWire& model);
+ModelWire ToWire(const JointErrorTerms& terms);
+
 struct FitRequest {
   /// Parameter names to estimate (e.g. "joint2.dz"); empty: the identifiable set.
   std::vector<std::string> parameters;
@@ -46,9 +57,20 @@ struct FitRequest {
   /// (the robot's kinematics held as they are: a calibrated robot in a new cell, docs/api.md), i.e. base.* and
   /// tool.dx/dy/dz, with tool.rx/ry for position_axis and tool.rx/ry/rz for pose measurements or nests.
   std::string scope = "all";
+  /// The model: on the wire "model" is "geometric" (the default), "auto" (chosen by k-fold cross-validation on
+  /// the calibration measurements: the simplest candidate within one standard error of the best) or an object
+  /// {"compliance": bool, "joint_harmonics": 0..2}. `model_auto` is true for "auto".
+  ModelWire model;
+  bool model_auto = false;
+  /// "cross_validation": {"folds": 2..20, "seed"} for "auto" (5 folds, seed 1 by default).
+  int folds = 5;
+  std::uint64_t seed = 1;
   /// Run as a long-running operation.
   bool async = false;
 };
+/// The model a fit estimates: `nominal` with the request's joint terms (the geometric one for "auto", whose
+/// candidates are built by the core).
+RobotModel FitModel(const FitRequest& request, const RobotModel& nominal);
 /// `parameters` name the model's error parameters and, in a campaign with reflectors, their offsets
 /// ("reflector.<id>.dx").
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,
@@ -63,7 +85,13 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& request, const R
                                               MeasurementType type, const MeasurementNoise& noise,
                                               const std::vector<Reflector>& reflectors = {});
 
-/// One identified parameter: value and standard deviation in `unit` (mm or deg).
+/// The units of identified parameters on the wire: "mm", "deg", "deg/(N*m)" (a compliance).
+const std::vector<std::string>& ParameterUnits();
+/// The wire unit of a parameter of `unit`, and the factor from the core's value (mm, rad, rad/(N*m)) to it.
+const std::string& ParameterUnitName(ParameterUnit unit);
+double ParameterUnitScale(ParameterUnit unit);
+
+/// One identified parameter: value and standard deviation in `unit` (mm, deg or deg/(N*m)).
 struct ParameterEstimate {
   std::string name;
   std::string unit;
@@ -142,6 +170,30 @@ struct ModelErrorWire {
 void to_json(nlohmann::json& j, const ModelErrorWire& m);
 void from_json(const nlohmann::json& j, ModelErrorWire& m);
 
+/// One candidate of a model chosen by cross-validation: its model, how many parameters it has, and its held-out
+/// position error over the folds (E_xyz: mean, RMS, the standard error of the mean), or the folds that failed.
+struct ModelCandidateWire {
+  ModelWire model;
+  std::string description;
+  int num_parameters = 0;
+  double cv_mean_mm = 0.0;
+  double cv_rms_mm = 0.0;
+  double cv_standard_error_mm = 0.0;
+  int failed_folds = 0;
+  std::string note;
+  bool chosen = false;
+};
+void to_json(nlohmann::json& j, const ModelCandidateWire& c);
+void from_json(const nlohmann::json& j, ModelCandidateWire& c);
+
+/// The choice of a fit with "model": "auto": the folds and every candidate, simplest first.
+struct ModelChoiceWire {
+  int folds = 0;
+  std::vector<ModelCandidateWire> candidates;
+};
+void to_json(nlohmann::json& j, const ModelChoiceWire& c);
+void from_json(const nlohmann::json& j, ModelChoiceWire& c);
+
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
   std::string campaign;
@@ -169,6 +221,10 @@ struct CalibrationResult {
   std::vector<ParameterEstimate> parameters_with_outliers;
   /// Absent in fits stored before the estimate (read as not estimated).
   ModelErrorWire model_error;
+  /// The model the fit estimated (absent in fits stored before models beyond geometry: geometric), and for
+  /// "model": "auto" the comparison it was chosen by.
+  ModelWire model;
+  std::optional<ModelChoiceWire> model_choice;
   /// The campaign's reflectors at their identified positions (flange frame; a fixed one where it was given);
   /// empty without reflectors. Their offsets are also parameters (reflector.<id>.dx, ...) when identified.
   std::vector<CampaignReflectorWire> reflectors;
@@ -189,6 +245,9 @@ struct CompensationTargetWire {
   std::vector<double> start_joints;
   /// Flags demanded (0: free); only for a robot with named branches.
   ArmConfiguration configuration;
+  /// The payload at this target (a calibration with a compliance model deflects under it); unset: the
+  /// campaign's payload, or none.
+  std::optional<PayloadWire> payload;
 };
 void to_json(nlohmann::json& j, const CompensationTargetWire& target);
 void from_json(const nlohmann::json& j, CompensationTargetWire& target);

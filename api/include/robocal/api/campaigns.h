@@ -52,6 +52,9 @@ struct CreateCampaignRequest {
   /// Several reflectors on the tool (position campaigns, at most kMaxFitReflectors): every measurement then
   /// names the one it shot.
   std::vector<CampaignReflectorWire> reflectors;
+  /// The payload the robot carries while it is measured (and, unless a target says otherwise, while it is
+  /// compensated), for measurements that do not state their own; unset: none.
+  std::optional<PayloadWire> payload;
 };
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
@@ -78,6 +81,8 @@ struct Campaign {
   std::optional<TrackerModelWire> tracker;
   double repeatability_mm = 0.0;
   std::vector<CampaignReflectorWire> reflectors;
+  /// The campaign's default payload (null on the wire when none).
+  std::optional<PayloadWire> payload;
   std::int64_t created_unix_ms = 0;
   MeasurementCounts counts;
   /// Whether the campaign has a stored calibration (a fit that finished).
@@ -101,6 +106,8 @@ struct MeasurementWire {
   PoseWire pose;
   /// The reflector shot (a campaign with reflectors); empty (absent on the wire) otherwise.
   std::string reflector;
+  /// The payload during the shot; unset (absent on the wire): the campaign's.
+  std::optional<PayloadWire> payload;
 };
 void to_json(nlohmann::json& j, const MeasurementWire& measurement);
 void from_json(const nlohmann::json& j, MeasurementWire& measurement);

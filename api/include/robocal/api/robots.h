@@ -162,13 +162,16 @@ void from_json(const nlohmann::json& j, RobotList& list);
 /// POST /v1/robots/{robot}:forward and /v1/campaigns/{c}:forward: {"joints": [[...], ...]} (deg / mm per joint).
 struct ForwardRequest {
   std::vector<std::vector<double>> joints;
+  /// :forward of a calibration only: the payload the calibrated robot carries (a compliance model deflects
+  /// under it); unset: the campaign's, or none.
+  std::optional<PayloadWire> payload;
 };
 /// Validates sizes and joint limits against `model`.
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
 /// The same body, {"joints": [[...]]}, with 1 to max_vectors vectors within the robot's limits; a refusal's
 /// message starts with `refusal` (e.g. "invalid forward request"). The parser of every joints-only request.
 ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& model, std::size_t max_vectors,
-                                  const char* refusal);
+                                  const char* refusal, bool with_payload = false);
 void to_json(nlohmann::json& j, const ForwardRequest& request);
 void from_json(const nlohmann::json& j, ForwardRequest& request);
 

@@ -52,6 +52,7 @@ struct StoredCampaign {
   std::optional<TrackerModelWire> tracker;
   double repeatability_mm = 0.0;
   std::vector<CampaignReflectorWire> reflectors;
+  std::optional<PayloadWire> payload;
   std::int64_t created_unix_ms = 0;
 };
 void to_json(nlohmann::json& j, const StoredCampaign& campaign);

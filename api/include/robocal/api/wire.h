@@ -328,6 +328,22 @@ void to_json(nlohmann::json& j, const PoseWire& pose);
 void from_json(const nlohmann::json& j, PoseWire& pose);
 /// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
 nlohmann::json PoseResultJson(const PoseWire& pose);
+
+/// A payload on the flange: {"mass_kg": m, "com_mm": [x, y, z]} (kg; centre of mass in mm, flange frame; com_mm
+/// may be left out for a payload centred on the flange). With a compliance model the robot deflects under it
+/// (docs/identification.md, "Beyond geometry").
+struct PayloadWire {
+  double mass_kg = 0.0;
+  std::array<double, 3> com_mm{0.0, 0.0, 0.0};
+};
+/// The heaviest payload taken (kg): more than any industrial robot lifts.
+inline constexpr double kMaxPayloadKg = 10000.0;
+/// Validates a request payload at `path` (mass in [0, kMaxPayloadKg], finite centre of mass within 100 m); false
+/// (with problems recorded) if invalid.
+bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out);
+void to_json(nlohmann::json& j, const PayloadWire& payload);
+void from_json(const nlohmann::json& j, PayloadWire& payload);
+Payload ToCore(const PayloadWire& payload);
 /// Reads a pose of a response (as PoseResultJson writes it: the quaternion required, rpy_deg derived): the
 /// object `pose`, or the member `key` of `parent`.
 void ReadResultPose(const WireReader& pose, PoseWire* out);
