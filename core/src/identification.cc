@@ -1191,9 +1191,11 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
 namespace {
 
 // A joint term whose column at the measured configurations keeps less than this fraction of its norm outside
-// the span of the other chosen columns is not observed by the data: its standard deviation would be 1e5 times
-// that of a parameter observed on its own, and its value whatever the noise makes it.
-constexpr double kJointTermObservedFraction = 1e-5;
+// the span of the other chosen columns is not observed by the data: its standard deviation would be over 100
+// times that of a parameter observed on its own, and its value whatever the noise makes it (then extrapolated to
+// other poses). A harmonic of order 1 of a joint measured over only a degree or two, or one of order 2 over a few
+// degrees, stays below it; so does a compliance whose gravity torque hardly changes between the measured poses.
+constexpr double kJointTermObservedFraction = 1e-2;
 
 // The joint terms (compliance, harmonics) the measurements observe: structural identifiability (random
 // configurations, no payload) cannot know which payloads and configurations a campaign holds, so their
@@ -1540,9 +1542,17 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   int count = 0;
   for (const IdentifiedParameter& p : cal.parameters) {
     const bool mm = IsTranslationName(p.name);
-    if (p.index >= 0 && p.index < nominal.num_error_parameters() &&
-        nominal.parameter_unit(p.index) == ParameterUnit::kRadPerNm) {
-      continue;  // a compliance: a joint term, judged by the model choice, not against a geometric size
+    if (p.index >= nominal.num_geometric_parameters() && p.index < nominal.num_error_parameters()) {
+      // A joint term: a compliance beyond kImplausibleComplianceRadPerNm is no robot joint, a harmonic beyond
+      // kImplausibleHarmonicRad no gear; the data then hold too little of its effect to say what it is (a term
+      // that is nearly constant over the measured poses, fitted to the noise), and it extrapolates wildly.
+      const bool compliance = nominal.parameter_unit(p.index) == ParameterUnit::kRadPerNm;
+      if (std::abs(p.value) > (compliance ? kImplausibleComplianceRadPerNm : kImplausibleHarmonicRad)) {
+        std::ostringstream one;
+        one << std::setprecision(4) << p.name << " " << p.value * 180.0 / M_PI << (compliance ? " deg/(N*m)" : " deg");
+        s.implausible_joint_terms.push_back(one.str());
+      }
+      continue;
     }
     if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
       if (++count <= 3) {
@@ -1556,6 +1566,13 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
     msg << "; implausible geometric errors (" << implausible << (count > 3 ? ", ..." : "")
         << "): the nominal geometry, the tool or a reflector position is likely wrong";
+  }
+  if (!s.implausible_joint_terms.empty()) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    msg << "; implausible joint terms (";
+    for (size_t k = 0; k < s.implausible_joint_terms.size(); ++k) msg << (k ? ", " : "") << s.implausible_joint_terms[k];
+    msg << "): the measured poses hardly vary what drives them (a payload, the arm's posture, the joint's angle); "
+           "fit a simpler model or measure more varied poses";
   }
   s.message = msg.str();
   s.seconds = Seconds(start);

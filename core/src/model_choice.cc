@@ -131,6 +131,14 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
         if (candidate.note.empty()) candidate.note = "fold " + std::to_string(f + 1) + ": " + c.summary.message;
         continue;
       }
+      if (!c.summary.implausible_joint_terms.empty()) {
+        // Fitted, but with a joint term no robot has: its error on this fold says nothing about other poses.
+        ++candidate.failed_folds;
+        if (candidate.note.empty()) {
+          candidate.note = "fold " + std::to_string(f + 1) + ": implausible " + c.summary.implausible_joint_terms[0];
+        }
+        continue;
+      }
       const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(c.model, c.reflectors, Eigen::VectorXd());
       KinematicsWorkspace ws(c.model);
       double fold_sum = 0.0;

@@ -350,6 +350,39 @@ TEST(ModelChoiceTest, AutoPicksComplianceWhenTheRobotHasIt) {
   EXPECT_EQ(again.candidates[mc.chosen].cv_mean_mm, mc.candidates[mc.chosen].cv_mean_mm);
 }
 
+// A compliance no robot joint has (here put into exact data on purpose, as a term the poses hardly drive ends up
+// after fitting the noise) makes the fit DEGRADED, says which, and keeps its model from being chosen.
+TEST(ModelChoiceTest, ImplausibleJointTermsAreDegradedAndNotChosen) {
+  const RobotModel model = Preset("ur5e").WithErrorTerms({true, 0});
+  Eigen::VectorXd eps = Eigen::VectorXd::Zero(model.num_error_parameters());
+  const int wrist = model.ParameterIndex("joint4.compliance");
+  ASSERT_GE(wrist, 0);
+  eps[wrist] = 5.0 * kImplausibleComplianceRadPerNm;
+  std::vector<Measurement> shots;
+  KinematicsWorkspace ws(model);
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 80, 600)) {
+    Measurement m;
+    m.joints = q;
+    m.payload = kPayloadB;
+    m.T_world_tool = ForwardKinematics(model, q, eps, &ws, m.payload);
+    shots.push_back(m);
+  }
+  IdentificationOptions options;
+  options.reject_outliers = false;
+  const Calibration c = Identify(model, shots, options);
+  EXPECT_EQ(c.summary.termination, Termination::kDegraded);
+  ASSERT_EQ(c.summary.implausible_joint_terms.size(), 1u);
+  EXPECT_THAT(c.summary.implausible_joint_terms[0], ::testing::HasSubstr("joint4.compliance"));
+  EXPECT_THAT(c.summary.message, ::testing::HasSubstr("implausible joint terms"));
+  ModelChoiceOptions choice;
+  choice.max_joint_harmonics = 0;
+  const ModelChoice mc = ChooseModel(Preset("ur5e"), shots, options, choice);
+  ASSERT_EQ(mc.candidates.size(), 2u);
+  EXPECT_EQ(mc.candidates[1].failed_folds, choice.folds);
+  EXPECT_THAT(mc.candidates[1].note, ::testing::HasSubstr("implausible"));
+  EXPECT_EQ(mc.chosen, 0);
+}
+
 TEST(JointTermInputTest, BadMassesOrdersAndMissingMassesAreRefusedByField) {
   RobotModelSpec spec = PresetSpec("ur5e");
   spec.joints[2].mass_kg = -1.0;

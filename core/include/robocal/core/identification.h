@@ -27,6 +27,11 @@ Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::ve
 /// is DEGRADED and says so (mm; rad, 10 degrees).
 inline constexpr double kImplausibleErrorMm = 100.0;
 inline constexpr double kImplausibleErrorRad = 0.17453292519943295;
+/// Beyond these a joint term is no robot's (DEGRADED, said, and the model choice does not take its model): a
+/// compliance of 0.01 rad per N*m is a joint stiffness of 100 N*m/rad, some hundred times softer than a small
+/// robot's wrist; a gear or encoder harmonic of 0.01 rad (0.57 deg) a broken gear.
+inline constexpr double kImplausibleComplianceRadPerNm = 1e-2;
+inline constexpr double kImplausibleHarmonicRad = 1e-2;
 
 struct IdentificationOptions {
   MeasurementType measurement_type = MeasurementType::kPose;
@@ -117,7 +122,8 @@ struct ModelCandidate {
   double cv_mean_mm = 0.0;
   double cv_rms_mm = 0.0;
   double cv_standard_error_mm = 0.0;
-  /// Folds whose training fit failed (FAILURE): a candidate with any is not eligible, and `note` says why.
+  /// Folds whose training fit failed (FAILURE) or found an implausible joint term (kImplausibleCompliance...):
+  /// a candidate with any is not eligible, and `note` says why.
   int failed_folds = 0;
   std::string note;
 };
@@ -175,6 +181,8 @@ struct IdentificationSummary {
   /// cross-validation (IdentifyWithModelChoice), every candidate's held-out error, the folds and the chosen
   /// candidate's index; empty candidates otherwise.
   JointErrorTerms model;
+  /// Joint terms beyond kImplausibleComplianceRadPerNm / kImplausibleHarmonicRad ("name value unit").
+  std::vector<std::string> implausible_joint_terms;
   std::vector<ModelCandidate> model_candidates;
   int model_folds = 0;
   int model_chosen = -1;
