@@ -428,6 +428,59 @@ expect "estimate_model_error false: not estimated" \
 call POST "/v1/campaigns/$tracked:fit" '{"estimate_model_error": "yes"}' >/dev/null
 expect "estimate_model_error \"yes\" -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
   "400 estimate_model_error"
+# Beyond geometry: grinder5's masses load its A axis, so a compliance is estimated (deg/(N*m)); its gravity torque
+# follows the A angle alone (a first harmonic of it), so beside A's first harmonic one of the three is dropped.
+call POST "/v1/campaigns/$tracked:fit" '{"model": {"compliance": true}}' >"$work/compliant.json"
+expect "fit with model compliance" "$(status) $(jq -c .model "$work/compliant.json")" \
+  '200 {"compliance":true,"joint_harmonics":0}'
+expect "... estimates A's compliance in deg/(N*m)" \
+  "$(jq -r '.parameters[] | select(.name == "A.compliance") | .unit' "$work/compliant.json")" "deg/(N*m)"
+expect "... and drops C's (gravity along its axis)" \
+  "$(jq -r '[.dropped[] | select(.name == "C.compliance")] | length' "$work/compliant.json")" 1
+call POST "/v1/campaigns/$tracked:fit" '{"model": {"compliance": true, "joint_harmonics": 1}}' >"$work/compliant1.json"
+expect "... beside A's first harmonic one of them is dropped, named by the other" \
+  "$(jq -r '[.dropped[] | select((.name | test("^A[.](sin1|cos1|compliance)$")) and (.reason | test("A[.](sin1|cos1|compliance)")))] | length' "$work/compliant1.json")" 1
+call POST "/v1/campaigns/$tracked:fit" '{"model": "auto", "cross_validation": {"folds": 3, "seed": 2}}' >"$work/auto.json"
+expect "fit with model auto: 6 candidates over 3 folds, one chosen" \
+  "$(status) $(jq -c '[.model_choice.folds, (.model_choice.candidates | length), ([.model_choice.candidates[] | select(.chosen)] | length)]' "$work/auto.json")" \
+  "200 [3,6,1]"
+expect "... the fitted model is the chosen candidate's" \
+  "$(jq -c '(.model_choice.candidates[] | select(.chosen) | .model) == .model' "$work/auto.json")" true
+for bad in '{"model": {"joint_harmonics": 3}}|model.joint_harmonics' '{"model": "rich"}|model' \
+  '{"model": "auto", "parameters": ["A.rz"]}|parameters' '{"cross_validation": {"folds": 3}}|cross_validation' \
+  '{"model": "auto", "cross_validation": {"folds": 1}}|cross_validation.folds' \
+  '{"model": {"compliance": true}, "scope": "frames"}|scope'; do
+  call POST "/v1/campaigns/$tracked:fit" "${bad%%|*}" >/dev/null
+  expect "fit ${bad%%|*} -> 400 naming ${bad##*|}" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+    "400 ${bad##*|}"
+done
+# Masses and payloads: a robot without masses takes no compliance; bad masses and payloads are named.
+call POST /v1/robots '{"id": "massless", "convention": "dh", "joints": [
+  {"type": "revolute", "a_mm": 0, "alpha_deg": 90, "d_mm": 0, "theta_deg": 0, "min_deg": -160, "max_deg": 160},
+  {"type": "revolute", "a_mm": 431.8, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -45, "max_deg": 225}]}' >/dev/null
+expect "a robot without masses" "$(status) $(call GET /v1/robots/massless | jq -c '[.has_masses, .gravity]')" \
+  "200 [false,[0,0,-1]]"
+massless=$(call POST /v1/campaigns '{"robot": "massless", "measurement_type": "position"}' | jq -r .id)
+call POST "/v1/campaigns/$massless:fit" '{"model": {"compliance": true}}' >/dev/null
+expect "compliance on a robot without masses -> 400 naming model.compliance" \
+  "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 model.compliance"
+call POST /v1/robots '{"id": "heavy", "convention": "dh", "joints": [
+  {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
+   "mass_kg": -2, "com_mm": [50, 0, 0]}]}' >/dev/null
+expect "a negative link mass -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 joints[0].mass_kg"
+call POST /v1/campaigns '{"robot": "grinder5", "payload": {"mass_kg": -1}}' >/dev/null
+expect "a negative payload -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 payload.mass_kg"
+loaded=$(call POST /v1/campaigns '{"robot": "grinder5", "payload": {"mass_kg": 4, "com_mm": [0, 0, 80]}}' | jq -r .id)
+expect "a campaign's payload" "$(call GET "/v1/campaigns/$loaded" | jq -c '[.payload.mass_kg, .payload.com_mm]')" \
+  '[4,[0,0,80]]'
+call POST "/v1/campaigns/$tracked:compensate" \
+  '{"targets": [{"joints": [100, 200, 100, 10, 20], "payload": {"mass_kg": 2, "com_mm": [0, 0, 50]}}]}' >/dev/null
+expect "compensate with a target's payload" "$(status)" 200
+call POST "/v1/campaigns/$tracked:compensate" '{"targets": [{"joints": [100, 200, 100, 10, 20], "payload": {"com_mm": [0, 0, 50]}}]}' >/dev/null
+expect "a payload without mass -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 targets[0].payload.mass_kg"
 
 # ---- several reflectors per pose (a position-only tracker sees the tool's orientation through three nests) ------
 nests='[{"id": "smr1", "position_mm": [60, 0, 20]}, {"id": "smr2", "position_mm": [-30, 52, 20]}, {"id": "smr3", "position_mm": [-30, -52, 20]}]'
