@@ -174,15 +174,35 @@ api::CalibrationResult Service::GetCalibration(const std::string& campaign_id) {
   return ReadStored<api::StoredCalibration>(*doc).result;
 }
 
+namespace {
+
+// What a geometric export of a calibration with joint terms leaves out, said in the export.
+std::string JointTermsNote(const Calibration& c) {
+  return "the calibration's " + c.model.error_terms().Describe() +
+         " terms (joint deflections) cannot be written here: this is its geometry only; compensate through robocal "
+         "for the rest";
+}
+
+}  // namespace
+
 std::string Service::CalibrationUrdf(const std::string& campaign_id) {
   const Calibrated loaded = LoadCalibrated(campaign_id);
   const Calibration& c = loaded.calibration;
+  // The geometric part of the errors (a model's joint terms follow them; a URDF has no place for them).
+  const Eigen::VectorXd geometric = c.errors.head(loaded.model.num_geometric_parameters());
   // The nominal model with the calibrated base registration; the URDF holds the chain, not the registration.
-  if (loaded.campaign.robot_definition.urdf) {
-    return urdf::ExportCalibratedUrdf(*loaded.campaign.robot_definition.urdf, loaded.model, c.errors,
-                                      c.model.T_world_base());
+  std::string text = loaded.campaign.robot_definition.urdf
+                         ? urdf::ExportCalibratedUrdf(*loaded.campaign.robot_definition.urdf, loaded.model, geometric,
+                                                      c.model.T_world_base())
+                         : urdf::GenerateCalibratedUrdf(loaded.model, geometric, c.model.T_world_base());
+  if (!c.model.joint_terms().empty()) {
+    // After the XML declaration, if any: a comment may stand anywhere after it.
+    const std::size_t declaration = text.rfind("<?xml", 0) == 0 ? text.find("?>") : std::string::npos;
+    const std::size_t at = declaration == std::string::npos ? 0 : declaration + 2;
+    text.insert(at, (at == 0 ? "" : "\n") + std::string("<!-- robocal: ") + JointTermsNote(c) + " -->" +
+                        (at == 0 ? "\n" : ""));
   }
-  return urdf::GenerateCalibratedUrdf(loaded.model, c.errors, c.model.T_world_base());
+  return text;
 }
 
 api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id, GeometryConvention convention) {
@@ -190,13 +210,15 @@ api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id,
   const Calibration& c = loaded.calibration;
   const char* name = ToString(convention);
   try {
-    const RobotModelSpec spec = CalibratedDhSpec(c.model, c.errors, convention);
+    const RobotModelSpec spec = CalibratedDhSpec(c.model.WithErrorTerms({}),
+                                                 c.errors.head(c.model.num_geometric_parameters()), convention);
     // An id that registers as it is: the campaign's, with the convention (ids are at most 64 characters).
     const std::string suffix = std::string("-") + name;
     const std::string id = campaign_id.substr(0, 64 - suffix.size()) + suffix;
     return api::DefinitionOf(id, spec,
                              "robot '" + loaded.campaign.robot + "' as calibrated by campaign '" + campaign_id +
-                                 "': " + name + " table from the calibrated joint axes, base = tracker -> frame 0");
+                                 "': " + name + " table from the calibrated joint axes, base = tracker -> frame 0" +
+                                 (c.model.joint_terms().empty() ? "" : "; " + JointTermsNote(c)));
   } catch (const DhTableError& e) {
     throw ApiError(Status::kFailedPrecondition,
                    "the calibration of \"" + campaign_id + "\" has no " + name + " table: " + e.what(),
@@ -300,7 +322,7 @@ api::Evaluation Service::EvaluateLoaded(const Calibrated& loaded, double h_mm, A
     nominal.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= given.size()
                           ? before
                           : AtReflector(before, given[m.reflector]));
-    const Transform& after = ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws);
+    const Transform& after = ForwardKinematics(calibration.model, m.joints, calibration.errors, &ws, m.payload);
     calibrated.push_back(m.reflector < 0 || static_cast<std::size_t>(m.reflector) >= identified.size()
                              ? after
                              : AtReflector(after, identified[m.reflector]));

@@ -93,6 +93,13 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
   }();
   // The calibrated chain from the nominal base (the tracker -> base registration belongs to the campaign's cell);
   // the tool as calibrated, a start for the next cell's frames fit.
+  if (!loaded.calibration.model.joint_terms().empty()) {
+    const std::string reason = "its calibration's model (" + loaded.calibration.model.error_terms().Describe() +
+                               ") has joint terms a robot definition does not hold yet; a geometric fit of the "
+                               "campaign (model geometric) registers";
+    throw ApiError(Status::kFailedPrecondition, "campaign \"" + req.campaign + "\": " + reason,
+                   {{"from_calibration", reason}});
+  }
   const RobotModelSpec spec = CalibratedTransformSpec(loaded.model, loaded.calibration.errors);
   const std::string description =
       !req.description.empty() ? req.description

@@ -446,6 +446,15 @@ expect "fit with model auto: 6 candidates over 3 folds, one chosen" \
   "200 [3,6,1]"
 expect "... the fitted model is the chosen candidate's" \
   "$(jq -c '(.model_choice.candidates[] | select(.chosen) | .model) == .model' "$work/auto.json")" true
+# A compliant calibration's exports hold its geometry and say what they leave out; a robot definition cannot
+# carry its joint terms yet, so registering it is refused by name.
+call POST "/v1/campaigns/$tracked:fit" '{"model": {"compliance": true}}' >/dev/null
+expect "the URDF export of a compliant calibration says the compliance is not in it" \
+  "$(call GET "/v1/campaigns/$tracked/calibration?format=urdf" | grep -c 'robocal: the calibration.s compliance terms')" 1
+call POST /v1/robots "{\"id\": \"grinder5-compliant\", \"from_calibration\": \"$tracked\"}" >/dev/null
+expect "registering a compliant calibration as a robot -> FAILED_PRECONDITION naming from_calibration" \
+  "$(status) $(jq -r '.error.status, .error.details[0].field' "$work/body" | tr '\n' ' ')" "400 FAILED_PRECONDITION from_calibration "
+call POST "/v1/campaigns/$tracked:fit" '{}' >/dev/null
 for bad in '{"model": {"joint_harmonics": 3}}|model.joint_harmonics' '{"model": "rich"}|model' \
   '{"model": "auto", "parameters": ["A.rz"]}|parameters' '{"cross_validation": {"folds": 3}}|cross_validation' \
   '{"model": "auto", "cross_validation": {"folds": 1}}|cross_validation.folds' \
