@@ -149,6 +149,10 @@ int Compensate(Invocation& in) {
   }
   if (request.targets.empty()) throw UsageError(in.args[1] + ": no rows");
   if (in.Has("--frame") && !request.targets[0].pose) throw UsageError("--frame applies to pose targets only");
+  if (in.Has("--payload")) {
+    const api::PayloadWire payload = ParsePayloadFlag(in.Option("--payload"));
+    for (api::CompensationTargetWire& t : request.targets) t.payload = payload;
+  }
   // Any positive number: the service says which it takes (its error names max_joint_jump_deg).
   request.sequence = in.Has("--sequence");
   request.max_joint_jump_deg = in.Number("--max-jump", request.max_joint_jump_deg, 0.0);

@@ -28,6 +28,10 @@ int Show(Invocation& in, const api::Campaign& campaign) {
              << " deg (MPE = " << t->mpe_sigmas << " sigma)\n";
     }
     if (campaign.repeatability_mm > 0.0) in.out << "robot repeatability " << campaign.repeatability_mm << " mm\n";
+    if (const auto& p = campaign.payload) {
+      in.out << "payload " << p->mass_kg << " kg at " << p->com_mm[0] << " " << p->com_mm[1] << " " << p->com_mm[2]
+             << " mm (flange)\n";
+    }
     for (const api::CampaignReflectorWire& r : campaign.reflectors) {
       in.out << "reflector " << r.id << " at " << r.position_mm[0] << " " << r.position_mm[1] << " "
              << r.position_mm[2] << " mm (flange)" << (r.fixed ? ", fixed" : ", offset identified") << "\n";
@@ -68,6 +72,7 @@ int CampaignCreate(Invocation& in) {
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));
   request.repeatability_mm = in.Number("--repeatability-mm", 0.0, std::numeric_limits<double>::lowest());
   if (in.Has("--reflectors")) request.reflectors = ParseReflectorsFlag(in.Option("--reflectors"));
+  if (in.Has("--payload")) request.payload = ParsePayloadFlag(in.Option("--payload"));
   const api::Campaign campaign = in.Client().CreateCampaign(request);
   if (in.json) return Show(in, campaign);
   in.out << campaign.id << "\n";

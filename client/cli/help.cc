@@ -153,7 +153,10 @@ shots of one configuration share (the fit then does not count them as independen
 reflector nests on the tool (position campaigns; TYPE position), each ID:X,Y,Z in mm in the flange frame,
 separated by "/", ":fixed" for a nest whose position is known (held; the others' offsets are identified), e.g.
 smr1:60,0,20/smr2:-30,52,20/smr3:-30,-52,20; every measurement then names its reflector. Free nests locate
-themselves, not the tool point; fixed ones calibrate it. Prints the campaign id; --json: the campaign.
+themselves, not the tool point; fixed ones calibrate it. --payload KG[@X,Y,Z]: the payload the robot carries while
+it is measured (kg; centre of mass in mm, flange frame, default its origin), which a compliance model deflects
+under (fit --model); compensation takes it too unless told otherwise. Prints the campaign id; --json: the
+campaign.
 )"};
 
 const HelpText kCampaignList = {"every campaign, with its measurement counts and whether it is calibrated", R"(
@@ -266,6 +269,8 @@ iterations, message, configuration).
 previous row's result, deg; empty on the first row), joint_jump (1 when it exceeds --max-jump DEG, default
 30) and branch_change (1 when the branch differs from the previous row's), so that you see where the
 compensated program would swing the robot.
+--payload KG[@X,Y,Z]: the payload at every target (kg; centre of mass in mm, flange frame); a calibration with a
+compliance model brings the robot loaded so to the targets. Default: the campaign's payload, or none.
 )"};
 
 const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements", R"(

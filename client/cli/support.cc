@@ -76,6 +76,21 @@ std::vector<api::CampaignReflectorWire> ParseReflectorsFlag(const std::string& t
   return out;
 }
 
+api::PayloadWire ParsePayloadFlag(const std::string& text) {
+  api::PayloadWire payload;
+  const std::size_t at = text.find('@');
+  payload.mass_kg =
+      tools::ParseDoubleFlag("--payload", text.substr(0, at), std::numeric_limits<double>::lowest());
+  if (at != std::string::npos) {
+    const std::vector<std::string> xyz = tools::SplitList("--payload", text.substr(at + 1));
+    if (xyz.size() != 3) throw UsageError("--payload takes KG or KG@X,Y,Z (mm, flange frame), got \"" + text + "\"");
+    for (int k = 0; k < 3; ++k) {
+      payload.com_mm[k] = tools::ParseDoubleFlag("--payload", xyz[k], std::numeric_limits<double>::lowest());
+    }
+  }
+  return payload;
+}
+
 std::string Fixed(double v, int digits) {
   if (!std::isfinite(v)) return "-";
   std::ostringstream s;

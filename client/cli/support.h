@@ -23,6 +23,9 @@ api::TrackerModelWire ParseTrackerFlag(const std::string& text);
 /// --reflectors ID:X,Y,Z[:fixed]/...: reflector nests on the flange (mm, flange frame); ids and ranges are
 /// left to the service, which names the field.
 std::vector<api::CampaignReflectorWire> ParseReflectorsFlag(const std::string& text);
+/// --payload KG or KG@X,Y,Z: a payload's mass (kg) and centre of mass (mm, flange frame; default the flange
+/// origin). The service checks the ranges and names the field.
+api::PayloadWire ParsePayloadFlag(const std::string& text);
 
 /// `out_file` opened for writing, or `out` when it is empty.
 class Output {

@@ -501,6 +501,30 @@ TEST_F(CliTest, CampaignCreateWithReflectors) {
   EXPECT_NE(pose.err.find("reflectors: need position measurements"), std::string::npos) << pose.err;
 }
 
+// campaign create --payload: the payload the robot carries (campaign get shows it); bad ones are named.
+TEST_F(CliTest, CampaignCreateWithAPayload) {
+  const std::string server = "--server " + server_.url();
+  const Result created = RunCli(server + " campaign create ur5e pose --id loaded-1 --json --payload 4.5@0,10,80");
+  ASSERT_EQ(created.exit_code, 0) << created.out;
+  const nlohmann::json campaign = nlohmann::json::parse(created.out);
+  EXPECT_EQ(campaign.at("payload").at("mass_kg"), 4.5);
+  EXPECT_EQ(campaign["payload"]["com_mm"], nlohmann::json::parse("[0, 10, 80]"));
+  const Result shown = RunCli(server + " campaign get loaded-1");
+  EXPECT_NE(shown.out.find("payload 4.5 kg at 0 10 80 mm (flange)"), std::string::npos) << shown.out;
+  const Result plain = RunCli(server + " campaign create ur5e pose --id loaded-2 --json --payload 2");
+  ASSERT_EQ(plain.exit_code, 0) << plain.out;
+  EXPECT_EQ(nlohmann::json::parse(plain.out)["payload"]["com_mm"], nlohmann::json::parse("[0, 0, 0]"));
+  for (const char* bad : {"x", "2@1,2", "2@1,2,z"}) {
+    const InProcess r = RunInProcess({"--server", server_.url(), "campaign", "create", "ur5e", "pose", "--payload", bad});
+    EXPECT_EQ(r.exit_code, 2) << bad;
+    EXPECT_NE(r.err.find("--payload"), std::string::npos) << r.err;
+  }
+  const InProcess negative =
+      RunInProcess({"--server", server_.url(), "campaign", "create", "ur5e", "pose", "--payload", "-1"});
+  EXPECT_EQ(negative.exit_code, 1);
+  EXPECT_NE(negative.err.find("payload.mass_kg"), std::string::npos) << negative.err;
+}
+
 // export --format dh|mdh of a robot without parallel neighbouring axes: a definition that robot register takes.
 TEST_F(CliTest, ExportDhTableRegistersAsARobot) {
   const std::string server = "--server " + server_.url();
