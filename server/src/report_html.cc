@@ -82,7 +82,8 @@ std::string UtcTime(std::int64_t unix_ms) {
 }
 
 // Decimals for a value in mm or deg in the parameter table: 0.1 um, 0.00001 deg (0.036 arcsec).
-int DigitsOfUnit(const std::string& unit) { return unit == "mm" ? 4 : 5; }
+// mm and deg to a tenth of a micrometre and 1e-5 deg; a compliance (deg/(N*m), some 1e-4) to three digits more.
+int DigitsOfUnit(const std::string& unit) { return unit == "mm" ? 4 : unit == "deg" ? 5 : 8; }
 
 // ---- SVG ------------------------------------------------------------------------------------------------
 
@@ -440,7 +441,31 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   } else {
     out << "<tr><th>model error</th>" << TextCell("not estimated: the noise model is the whole error") << "</tr>\n";
   }
+  out << "<tr><th>model</th>" << TextCell(api::ToCore(c.model).Describe() +
+                                           (c.model_choice ? " (chosen by cross-validation, below)" : ""))
+      << "</tr>\n";
   out << "<tr><th>fitted</th>" << TextCell(UtcTime(c.created_unix_ms)) << "</tr>\n</table>\n";
+
+  if (c.model_choice) {
+    // Every candidate's held-out error over the folds: the comparison the model was chosen by.
+    out << "<h3>Model choice: " << c.model_choice->folds << "-fold cross-validation</h3>\n<table id=\"model-choice\">\n"
+        << "<thead><tr><th>model</th><th>parameters</th><th>held-out E_xyz mean (mm)</th><th>standard error (mm)</th>"
+           "<th>held-out RMS (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
+    for (const api::ModelCandidateWire& m : c.model_choice->candidates) {
+      out << "<tr" << Attr("data-model", m.description) << ">" << TextCell(m.description)
+          << IntCell(m.num_parameters, "num_parameters");
+      if (m.failed_folds > 0) {
+        out << "<td colspan=\"3\">" << EscapeHtml(std::to_string(m.failed_folds) + " fold(s) not eligible: " + m.note)
+            << "</td>";
+      } else {
+        out << NumCell(m.cv_mean_mm, 4, "cv_mean_mm") << NumCell(m.cv_standard_error_mm, 4, "cv_standard_error_mm")
+            << NumCell(m.cv_rms_mm, 4, "cv_rms_mm");
+      }
+      out << TextCell(m.chosen ? "chosen" : "") << "</tr>\n";
+    }
+    out << "</tbody></table>\n<p>The chosen model is the simplest whose mean is within one standard error of the "
+           "best's (docs/identification.md, \"Beyond geometry\").</p>\n";
+  }
 
   out << "<h3>Residuals of the calibration measurements</h3>\n<table id=\"fit-residuals\">\n<thead><tr><th></th>"
          "<th>measurements</th><th>RMS position (mm)</th><th>max position (mm)</th><th>RMS orientation (deg)</th>"

@@ -68,6 +68,28 @@ report::ReportData HandMadeData() {
   return d;
 }
 
+// A fit whose model was chosen by cross-validation: the model and every candidate's held-out error are shown, a
+// compliance in its own unit with its significant digits.
+TEST(ReportHtmlTest, TheModelChoiceIsShown) {
+  report::ReportData d = HandMadeData();
+  api::CalibrationResult& c = d.fit.calibration;
+  c.model = {true, 2};
+  c.model_choice = api::ModelChoiceWire{
+      5, {{{false, 0}, "geometric", 48, 0.41, 0.46, 0.017, 0, "", false},
+          {{true, 0}, "compliance", 54, 0, 0, 0, 2, "fold 1: implausible joint4.compliance 31 deg/(N*m)", false},
+          {{true, 2}, "compliance + harmonics 2", 78, 0.342, 0.38, 0.0165, 0, "", true}}};
+  c.parameters.push_back({"joint2.compliance", "deg/(N*m)", 6.3147e-4, 3.38e-5});
+  const std::string page = report::RenderReport(d);
+  EXPECT_NE(page.find("<td>compliance + harmonics 2 (chosen by cross-validation, below)</td>"), std::string::npos);
+  EXPECT_NE(page.find("5-fold cross-validation"), std::string::npos);
+  EXPECT_EQ(ValueAfter(page, "data-model=\"geometric\"", "cv_mean_mm"), 0.41);
+  EXPECT_EQ(ValueAfter(page, "data-model=\"compliance + harmonics 2\"", "cv_standard_error_mm"), 0.0165);
+  EXPECT_NE(page.find("2 fold(s) not eligible: fold 1: implausible joint4.compliance"), std::string::npos);
+  EXPECT_EQ(Count(page, "<td>chosen</td>"), 1u);
+  EXPECT_EQ(ValueAfter(page, "data-parameter=\"joint2.compliance\"", "value"), 6.3147e-4);
+  EXPECT_NE(page.find("\">0.00063147</td>"), std::string::npos);
+}
+
 TEST(ReportHtmlTest, EscapesEveryUserString) {
   EXPECT_EQ(report::EscapeHtml("<script>alert(\"x\")&'</script>"),
             "&lt;script&gt;alert(&quot;x&quot;)&amp;&#39;&lt;/script&gt;");
