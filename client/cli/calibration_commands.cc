@@ -8,6 +8,7 @@
 #include "command.h"
 #include "robocal/client/csv.h"
 #include "robocal/core/accuracy.h"
+#include "robocal/core/model_choice.h"
 #include "support.h"
 
 namespace robocal::cli {
@@ -78,21 +79,10 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
 
 // --model auto | geometric | a comma list of compliance and harmonics=N (e.g. compliance,harmonics=2).
 void ParseModelOption(const std::string& text, api::FitRequest* request) {
-  if (text == "auto") {
-    request->model_auto = true;
-    return;
-  }
-  if (text == "geometric") return;
-  for (const std::string& part : tools::SplitList("--model", text)) {
-    if (part == "compliance") {
-      request->model.compliance = true;
-    } else if (part.rfind("harmonics=", 0) == 0 && part.size() == 11 && part[10] >= '0' && part[10] <= '9') {
-      request->model.joint_harmonics = part[10] - '0';  // the service names a value out of range
-    } else {
-      throw UsageError("--model takes auto, geometric or a list of compliance and harmonics=N (e.g. "
-                       "compliance,harmonics=2), got \"" + text + "\"");
-    }
-  }
+  JointErrorTerms terms;
+  std::string error;
+  if (!ParseModelName(text, &terms, &request->model_auto, &error)) throw UsageError("--model: " + error);
+  request->model = api::ToWire(terms);
 }
 
 }  // namespace

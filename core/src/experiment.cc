@@ -15,6 +15,7 @@
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/model_choice.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
 
@@ -94,6 +95,13 @@ bool ExperimentOptions::IsValid(std::string* error) const {
     *error = message;
     return false;
   };
+  if (models.empty()) return fail("models must name at least one model");
+  for (const std::string& model : models) {
+    JointErrorTerms terms;
+    bool automatic = false;
+    std::string why;
+    if (!ParseModelName(model, &terms, &automatic, &why)) return fail("models: " + why);
+  }
   const std::vector<std::string> presets = PresetNames();
   if (std::find(presets.begin(), presets.end(), robot) == presets.end()) {
     std::string names;
@@ -157,8 +165,17 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
     feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, *measurement_cell, q); };
   }
   const int num_methods = measurement_cell ? kAllMethods : kPaperMethods;
+  const int num_models = static_cast<int>(options.models.size());
+  std::vector<JointErrorTerms> model_terms(num_models);
+  std::vector<char> model_auto(num_models, 0);
+  for (int j = 0; j < num_models; ++j) {
+    bool automatic = false;
+    std::string error;
+    ParseModelName(options.models[j], &model_terms[j], &automatic, &error);  // checked by IsValid
+    model_auto[j] = automatic ? 1 : 0;
+  }
 
-  Pool pools[kAllMethods];
+  std::vector<Pool> pools(static_cast<size_t>(kAllMethods * num_models));
   std::vector<Transform> before_reached, before_target;
 
   for (int trial = 0; trial < options.trials; ++trial) {
@@ -205,25 +222,39 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
       }
     }
 
-    std::vector<const Calibration*> calibrations(num_methods, nullptr);
+    // Calibration (method k, model j) is slot k * num_models + j.
+    std::vector<const Calibration*> calibrations(static_cast<size_t>(num_methods * num_models), nullptr);
     std::vector<Calibration> storage;
-    storage.reserve(num_methods);
+    storage.reserve(static_cast<size_t>(num_methods * num_models));
     for (int k = 0; k < num_methods; ++k) {
       const Plan& plan = plans[k];
-      pools[k].planned_poses += m;
       if (plan.summary.termination == Termination::kFailure) {
-        ++pools[k].failed_trials;
+        for (int j = 0; j < num_models; ++j) {
+          pools[k * num_models + j].planned_poses += m;
+          ++pools[k * num_models + j].failed_trials;
+        }
         continue;
       }
-      pools[k].condition_numbers.push_back(plan.summary.final.condition_number);
       std::vector<int> lost;
       const std::vector<Measurement> measurements = cell.MeasureAll(plan.configurations, 0, &lost);
-      pools[k].unmeasured_poses += static_cast<int>(lost.size());
-      storage.push_back(Identify(nominal, measurements, identification));
-      if (storage.back().summary.termination == Termination::kFailure) {
-        ++pools[k].failed_trials;
-      } else {
-        calibrations[k] = &storage.back();
+      for (int j = 0; j < num_models; ++j) {
+        Pool& pool = pools[k * num_models + j];
+        pool.planned_poses += m;
+        pool.condition_numbers.push_back(plan.summary.final.condition_number);
+        pool.unmeasured_poses += static_cast<int>(lost.size());
+        const bool geometric = !model_auto[j] && model_terms[j] == JointErrorTerms{};
+        // The geometric fit estimates the planned set; a richer model chooses its own (its joint terms are tested
+        // against these measurements).
+        IdentificationOptions o = identification;
+        if (!geometric) o.parameters.clear();
+        storage.push_back(model_auto[j] ? IdentifyWithModelChoice(nominal, measurements, o)
+                          : geometric   ? Identify(nominal, measurements, o)
+                                        : Identify(nominal.WithErrorTerms(model_terms[j]), measurements, o));
+        if (storage.back().summary.termination == Termination::kFailure) {
+          ++pool.failed_trials;
+        } else {
+          calibrations[k * num_models + j] = &storage.back();
+        }
       }
     }
 
@@ -239,7 +270,7 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
       const Transform target = T_world_true_base * nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
       before_reached.push_back(cell.Land(q));
       before_target.push_back(target);
-      for (int k = 0; k < num_methods; ++k) {
+      for (int k = 0; k < num_methods * num_models; ++k) {
         if (calibrations[k] == nullptr) continue;
         const CompensationResult r = CompensatePose(*calibrations[k], target, TargetFrame::kTracker, q);
         // Not converged (a target beyond a singularity's fold, or a joint at its limit): the robot is still sent
@@ -256,9 +287,10 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   result.options = options;
   result.options.progress = nullptr;
   result.before = ComputeAccuracy(before_reached, before_target, options.h_mm);
-  for (int k = 0; k < num_methods; ++k) {
+  for (int k = 0; k < num_methods * num_models; ++k) {
     MethodResult method;
-    method.method = kMethods[k].name;
+    method.method = kMethods[k / num_models].name;
+    method.model = options.models[k % num_models];
     method.planned_poses = pools[k].planned_poses;
     method.unmeasured_poses = pools[k].unmeasured_poses;
     method.median_condition_number = Median(pools[k].condition_numbers);
@@ -325,11 +357,16 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
   const MethodResult* solis_wets = nullptr;
   const MethodResult* random = nullptr;
   const MethodResult* exchange = nullptr;
+  const bool several_models = o.models.size() > 1 || o.models.front() != "geometric";
   for (const MethodResult& m : result.methods) {
-    if (m.method == "solis_wets") solis_wets = &m;
-    if (m.method == "random") random = &m;
-    if (m.method == "exchange") exchange = &m;
+    // The planners are compared on the first model's fits.
+    if (m.model == o.models.front()) {
+      if (m.method == "solis_wets") solis_wets = &m;
+      if (m.method == "random") random = &m;
+      if (m.method == "exchange") exchange = &m;
+    }
     std::string title = "After calibration, " + m.method + " configurations";
+    if (several_models) title += ", model " + m.model;
     if (o.cell.measurement_cell) {
       std::snprintf(line, sizeof(line), "%s: %d of %d planned poses could not be measured\n", m.method.c_str(),
                     m.unmeasured_poses, m.planned_poses);

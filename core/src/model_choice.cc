@@ -54,6 +54,29 @@ std::string Mm(double value) {
 
 }  // namespace
 
+bool ParseModelName(const std::string& text, JointErrorTerms* terms, bool* automatic, std::string* error) {
+  *terms = {};
+  *automatic = text == "auto";
+  if (*automatic || text == "geometric") return true;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string part = text.substr(start, comma - start);
+    if (part == "compliance") {
+      terms->compliance = true;
+    } else if (part.size() == 11 && part.rfind("harmonics=", 0) == 0 && part[10] >= '0' &&
+               part[10] <= '0' + kMaxJointHarmonics) {
+      terms->joint_harmonics = part[10] - '0';
+    } else {
+      *error = "'" + text + "' is not auto, geometric or a comma list of compliance and harmonics=N (N 0 to " +
+               std::to_string(kMaxJointHarmonics) + "), e.g. compliance,harmonics=2";
+      return false;
+    }
+    start = comma + 1;
+  }
+  return true;
+}
+
 bool ModelChoiceOptions::IsValid(std::string* error) const {
   if (folds < 2 || folds > 20) {
     *error = "folds must be in [2, 20], got " + std::to_string(folds);

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "robocal/core/cell.h"
+#include "robocal/core/model_choice.h"
 
 #include "flags.h"
 
@@ -48,6 +49,29 @@ void Apply(const std::string& flag, const std::string& value, ExperimentOptions*
       options->cell.outlier_rate = 0.0;
     }
     options->cell.measurement_cell = cell;
+  } else if (flag == "--model") {
+    // A comma list of models would clash with compliance,harmonics=N: models are separated by '/'.
+    options->models.clear();
+    std::size_t start = 0;
+    while (start <= value.size()) {
+      const std::size_t slash = std::min(value.find('/', start), value.size());
+      const std::string model = value.substr(start, slash - start);
+      JointErrorTerms terms;
+      bool automatic = false;
+      std::string error;
+      if (!ParseModelName(model, &terms, &automatic, &error)) throw BadFlag("--model: " + error);
+      options->models.push_back(model);
+      start = slash + 1;
+    }
+  } else if (flag == "--compliance-mm") {
+    options->cell.compliance_deflection_mm = ParseDoubleFlag(flag, value, 0.0);
+  } else if (flag == "--harmonics-rad") {
+    options->cell.joint_harmonic_sigma_rad = ParseDoubleFlag(flag, value, 0.0);
+  } else if (flag == "--harmonic-orders") {
+    const std::size_t dash = value.find('-');
+    if (dash == std::string::npos) throw BadFlag("--harmonic-orders takes MIN-MAX (1 to 4), got '" + value + "'");
+    options->cell.joint_harmonic_min_order = static_cast<int>(ParseIntegerFlag(flag, value.substr(0, dash), 1, 4));
+    options->cell.joint_harmonic_max_order = static_cast<int>(ParseIntegerFlag(flag, value.substr(dash + 1), 1, 4));
   } else if (flag == "--shots") {
     options->cell.shots_per_pose = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000));
   } else if (flag == "--outliers" || flag == "--outlier-size") {
@@ -69,6 +93,13 @@ const char* const kExperimentFlagsHelp = R"(  --robot NAME           grinder5 (d
   --noise-mm SIGMA       tracker position noise per axis, 1-sigma, mm (default 0.015)
   --noise-deg SIGMA      tracker orientation noise per axis, 1-sigma, degrees (default 0.0057)
   --shots N              tracker shots per pose (default 10, the paper's)
+  --model M[/M...]       the models every plan is fitted with, side by side: geometric (default),
+                         compliance, harmonics=N, compliance,harmonics=N, auto (docs/identification.md,
+                         "Beyond geometry"); e.g. geometric/compliance,harmonics=2/auto
+  --compliance-mm D      the simulated robot's joint compliance: each joint moves the tool by about D mm at
+                         the largest gravity torque it bears (default 0: none)
+  --harmonics-rad S      the simulated robot's joint harmonics, 1-sigma per coefficient, rad (default 0)
+  --harmonic-orders A-B  their orders, 1 <= A <= B <= 4 (default 2-4)
   --cell preset|realistic|none
                          preset: measure in the robot's preset cell (docs/cells.md): plans in the cell, random
                          poses that ignore it (and the poses the tracker loses), every planner with every

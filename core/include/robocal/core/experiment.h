@@ -30,6 +30,10 @@ struct ExperimentOptions {
   /// PresetCellSpec(robot)), the planners plan inside that cell and its tracker measures only measurable poses;
   /// see RunExperiment.
   VirtualCellOptions cell;
+  /// The models every plan is fitted with, side by side (ParseModelName: "geometric", "compliance,harmonics=2",
+  /// "auto", ...); each method's accuracy is reported per model. Richer models need masses (compliance) and more
+  /// configurations than parameters; with joint terms the fit chooses its parameters itself.
+  std::vector<std::string> models = {"geometric"};
   /// Called after each trial with (trials done, trials); for progress output.
   std::function<void(int, int)> progress;
 
@@ -55,6 +59,8 @@ struct MethodResult {
   /// measurement cell, and for every method that plans in the cell).
   int planned_poses = 0;
   int unmeasured_poses = 0;
+  /// The model it was fitted with (ExperimentOptions::models).
+  std::string model = "geometric";
 };
 
 struct ExperimentResult {

@@ -24,6 +24,11 @@ struct ModelChoiceOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// A model by name: "auto" (*automatic true), "geometric", or a comma list of "compliance" and "harmonics=N"
+/// (e.g. "compliance,harmonics=2"); false (and the reason in *error) for anything else. The CLI's and the
+/// experiment's --model.
+bool ParseModelName(const std::string& text, JointErrorTerms* terms, bool* automatic, std::string* error);
+
 /// The candidates of `nominal` for these options, simplest first (fewest parameters).
 std::vector<JointErrorTerms> ModelCandidates(const RobotModel& nominal, const ModelChoiceOptions& options);
 
