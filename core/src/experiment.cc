@@ -334,6 +334,14 @@ std::string FormatExperimentReport(const ExperimentResult& result) {
                   o.cell.noise.repeatability_mm, 100.0 * o.cell.outlier_rate, o.cell.outlier_min_mm, o.cell.outlier_max_mm);
     out << line;
   }
+  if (o.cell.compliance_deflection_mm > 0.0 || o.cell.joint_harmonic_sigma_rad > 0.0) {
+    std::snprintf(line, sizeof(line),
+                  "simulated robot beyond geometry: joint compliance %g mm at the largest gravity torque, joint "
+                  "harmonics %g rad per coefficient (orders %d-%d)\n",
+                  o.cell.compliance_deflection_mm, o.cell.joint_harmonic_sigma_rad, o.cell.joint_harmonic_min_order,
+                  o.cell.joint_harmonic_max_order);
+    out << line;
+  }
   if (!o.cell.reflectors.empty()) {
     out << o.cell.reflectors.size() << " reflector nests shot at every pose (";
     for (size_t k = 0; k < o.cell.reflectors.size(); ++k) {
