@@ -605,8 +605,12 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
       }
     }
   }
+  PayloadWire payload;
+  if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+    req.payload = payload;
+  }
   r.RejectUnknown({"request_id", "role", "format", "text", "unit", "plan", "match", "shots_per_configuration",
-                   "columns", "joints", "orientation", "delimiter", "decimal"});
+                   "columns", "joints", "orientation", "delimiter", "decimal", "payload"});
   problems.ThrowIfAny("invalid measurement import");
   return req;
 }
@@ -627,6 +631,7 @@ void to_json(nlohmann::json& j, const ImportMeasurementsRequest& req) {
     j["joints"] = {{"columns", req.joints.columns}, {"unit", req.joints.unit}};
     j.erase("match");
   }
+  if (req.payload) j["payload"] = *req.payload;
   const OrientationColumns& o = req.orientation;
   if (o.representation == "quaternion") {
     j["orientation"] = {{"representation", o.representation}, {"columns", o.columns}, {"order", o.order}};
@@ -645,6 +650,7 @@ void from_json(const nlohmann::json& j, ImportMeasurementsRequest& req) {
   r.Optional("match", &req.match);
   r.Optional("delimiter", &req.delimiter);
   r.Optional("decimal", &req.decimal);
+  r.Optional("payload", &req.payload);
   if (r.Has("joints")) {
     const WireReader jr(r.Member("joints"), "joints");
     jr.Required("columns", &req.joints.columns);

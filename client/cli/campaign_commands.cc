@@ -211,6 +211,7 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
     if (request.delimiter == "tab") request.delimiter = "\t";
   }
   request.decimal = in.Option("--decimal", request.decimal);
+  if (in.Has("--payload")) request.payload = ParsePayloadFlag(in.Option("--payload"));
 
   // --calibration-rows N: N data rows drawn at random (--seed) are calibration measurements, the rest
   // validation: two imports of the same text with the other rows blanked, so that every line keeps its number.
@@ -305,6 +306,10 @@ int Upload(Invocation& in) {
   }
   batch.role = in.Enum("--role", batch.role);
   batch.request_id = in.Option("--request-id", batch.request_id);
+  if (in.Has("--payload")) {
+    const api::PayloadWire payload = ParsePayloadFlag(in.Option("--payload"));
+    for (api::MeasurementWire& m : batch.measurements) m.payload = payload;
+  }
   const api::BatchResult r = in.Client().UploadMeasurements(campaign_id, batch);
   if (in.json) {
     PrintJson(in.out, r);

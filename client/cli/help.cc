@@ -210,6 +210,8 @@ A csv export that carries the robot's joints needs no plan (docs/formats.md, "Fi
   --encoding auto|utf-8|latin-1   the file's encoding (default auto: UTF-8 if it is, else Latin-1)
   --calibration-rows N N data rows drawn at random are calibration measurements, the rest validation (two
                        imports; --seed S, default 1, makes the draw; not with --role)
+  --payload KG[@X,Y,Z] the payload the robot carried for every measurement of the file (kg; centre of mass in
+                       mm, flange frame); default: the campaign's (any file format)
 Rows with equal joints are shots of one pose. Example (the IPA UR10 files, tests/data/ipa):
   robocal upload C series_b.csv --format csv --unit mm --decimal , --columns x=measurement_x,y=measurement_y,
     z=measurement_z --joints shoulder_pan_joint,...,wrist_3_joint --joint-unit rad --orientation-columns

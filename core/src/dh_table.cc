@@ -461,6 +461,9 @@ RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::Vec
     spec.joints[i].xyz_mm = fixed.translation();
     spec.joints[i].rpy_rad = RpyFromRotation(fixed.linear());
     spec.joints[i].a_mm = spec.joints[i].alpha_rad = spec.joints[i].d_mm = spec.joints[i].theta_rad = 0.0;
+    // The centre of mass from the link frame (standard DH: DH frame i) into the joint frame after its motion,
+    // the transform convention's link frame.
+    spec.joints[i].com_mm = model.link_frame(i) * model.spec().joints[i].com_mm;
   }
   spec.T_lastjoint_flange = model.T_lastjoint_flange();
   spec.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));

@@ -44,6 +44,8 @@ struct JointsLess {
 // Checks the parts of a measurement that `type` uses; an empty string if it is usable.
 std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
   if (!m.joints.allFinite()) return "non-finite joint values";
+  std::string payload;
+  if (!m.payload.IsValid("payload", &payload)) return payload;
   if (!m.T_world_tool.translation().allFinite()) return "non-finite position";
   const Eigen::Matrix3d r = m.T_world_tool.linear();
   if (type == MeasurementType::kPositionAxis) {
@@ -79,9 +81,10 @@ struct ShotGroups {
     group_of.reserve(measurements.size());
     for (size_t i = 0; i < measurements.size(); ++i) {
       const Measurement& m = measurements[i];
-      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise.
+      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise (a
+      // payload of no mass is none, wherever its centre).
       Eigen::VectorXd key(m.joints.size() + 4);
-      key << m.joints, m.payload.mass_kg, m.payload.com_mm;
+      key << m.joints, m.payload.mass_kg, (m.payload.mass_kg > 0.0 ? m.payload.com_mm : Eigen::Vector3d::Zero());
       const auto [pose, new_pose] = pose_index.emplace(key, static_cast<int>(poses.size()));
       if (new_pose) {
         poses.push_back(m.joints);
@@ -999,7 +1002,7 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   }
   const ParameterSelection selection = SelectParameters(nominal, measurements, options);
   // A cancelled fit (progress returned false) is not refitted.
-  const auto cancelled = [](const Calibration& c) { return c.summary.message == "cancelled"; };
+  const auto cancelled = [](const Calibration& c) { return c.summary.message.rfind("cancelled", 0) == 0; };
   // The options of the fits: the model error's components are the estimate so far.
   IdentificationOptions current_options = options;
   // Identify makes several fits (the model error's cycles, the robust rounds): the progress it reports is the
@@ -1040,7 +1043,9 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   };
   // Writes the model error into a summary (and the sentence into its message).
   const auto report_model_error = [&](IdentificationSummary* s) {
-    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->message == "cancelled") return;
+    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->message.rfind("cancelled", 0) == 0) {
+      return;
+    }
     const int angle_rows = MeasurementRows(options.measurement_type) - 3;
     s->model_error_estimated = true;
     s->model_error_mm = std::sqrt(3.0) * current_options.noise.model_error_mm;
@@ -1208,7 +1213,9 @@ void DropUnobservedJointTerms(const RobotModel& nominal, const std::vector<Measu
   const int n_all = nominal.num_error_parameters();
   if (nominal.joint_terms().empty()) return;
   const ShotGroups groups(measurements);
-  const MeasurementType type = options.measurement_type;
+  // With reflector nests the fit sees the tool's whole pose through them (nests off the tool point see it turn):
+  // the pose rows then stand for them, as in the fit's own Jacobian before it is carried to each nest.
+  const MeasurementType type = options.reflectors.empty() ? options.measurement_type : MeasurementType::kPose;
   const int rows = MeasurementRows(type);
   const Eigen::VectorXd weights = options.noise.RowWeights(type);
   const Eigen::Index num_rows = static_cast<Eigen::Index>(groups.poses.size()) * rows;

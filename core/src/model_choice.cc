@@ -29,7 +29,7 @@ std::vector<int> AssignFolds(const std::vector<Measurement>& measurements, int f
   for (size_t i = 0; i < measurements.size(); ++i) {
     const Measurement& m = measurements[i];
     Eigen::VectorXd key(m.joints.size() + 4);
-    key << m.joints, m.payload.mass_kg, m.payload.com_mm;
+    key << m.joints, m.payload.mass_kg, (m.payload.mass_kg > 0.0 ? m.payload.com_mm : Eigen::Vector3d::Zero());
     pose[i] = pose_of.emplace(key, static_cast<int>(pose_of.size())).first->second;
   }
   *num_poses = static_cast<int>(pose_of.size());
@@ -125,7 +125,8 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
                   " folds";
     return out;
   }
-  const double total_fits = static_cast<double>(terms.size() * static_cast<size_t>(choice.folds));
+  // Progress counts one fit more than the folds': the final fit on every pose (IdentifyWithModelChoice).
+  const double total_fits = static_cast<double>(terms.size() * static_cast<size_t>(choice.folds)) + 1.0;
   int fits_done = 0;
   for (const JointErrorTerms& t : terms) {
     const RobotModel model = nominal.WithErrorTerms(t);
@@ -233,6 +234,14 @@ Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector
   if (mc.chosen < 0) {
     // Nothing to choose from: the geometric fit says what is wrong with the data (or the cancellation).
     IdentificationOptions o = options;
+    if (mc.cancelled) {
+      // Asked to stop: no fit beyond the one iteration that says so.
+      o.progress = [](double) { return false; };
+    } else if (options.progress) {
+      // After the folds: the last share of the way, never back.
+      const double done = static_cast<double>(mc.candidates.size() * static_cast<size_t>(mc.folds));
+      o.progress = [&options, done](double fraction) { return options.progress((done + fraction) / (done + 1.0)); };
+    }
     Calibration c = Identify(nominal, measurements, o);
     attach(&c);
     if (mc.cancelled) {

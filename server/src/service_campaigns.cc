@@ -185,9 +185,10 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
                    {{"plan", "made for another robot of this name"}});
   }
   api::Problems problems;
-  const api::MeasurementBatchRequest batch =
+  api::MeasurementBatchRequest batch =
       api::MatchToConfigurations(req, points, plan.configurations, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
+  for (api::MeasurementWire& m : batch.measurements) m.payload = req.payload;
   // The batch goes the way of every upload: the campaign's checks, one transaction, the request id's replay.
   return AppendMeasurements(campaign_id, nlohmann::json(batch));
 }
@@ -212,8 +213,9 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
   }
   const std::vector<api::TrackerPoint> points = ReadPoints(req, options_.limits.max_array_length);
   api::Problems problems;
-  const api::MeasurementBatchRequest batch = api::PointsWithJoints(req, points, &problems, campaign.reflectors);
+  api::MeasurementBatchRequest batch = api::PointsWithJoints(req, points, &problems, campaign.reflectors);
   problems.ThrowIfAny("invalid tracker file");
+  for (api::MeasurementWire& m : batch.measurements) m.payload = req.payload;
   // The batch goes the way of every upload: the campaign's checks (joint limits among them), one transaction,
   // the request id's replay.
   return AppendMeasurements(campaign_id, nlohmann::json(batch));

@@ -484,6 +484,17 @@ expect "a negative payload -> 400 naming it" "$(status) $(jq -r '.error.details[
 loaded=$(call POST /v1/campaigns '{"robot": "grinder5", "payload": {"mass_kg": 4, "com_mm": [0, 0, 80]}}' | jq -r .id)
 expect "a campaign's payload" "$(call GET "/v1/campaigns/$loaded" | jq -c '[.payload.mass_kg, .payload.com_mm]')" \
   '[4,[0,0,80]]'
+call POST "/v1/campaigns/$loaded/measurements" '{"request_id": "loaded-1", "measurements": [
+  {"joints": [100, 200, 100, 10, 20], "pose": {"position_mm": [1, 2, 3], "quaternion": [1, 0, 0, 0]},
+   "payload": {"mass_kg": 7.5, "com_mm": [0, 5, 60]}},
+  {"joints": [110, 200, 100, 10, 20], "pose": {"position_mm": [1, 2, 3], "quaternion": [1, 0, 0, 0]}}]}' >/dev/null
+expect "a measurement's own payload is stored; one without keeps none (the campaign's applies)" \
+  "$(call GET "/v1/campaigns/$loaded/measurements" | jq -c '[.measurements[] | .payload.mass_kg]')" '[7.5,null]'
+call POST "/v1/campaigns/$loaded/measurements" '{"request_id": "loaded-2", "measurements": [
+  {"joints": [100, 200, 100, 10, 20], "pose": {"position_mm": [1, 2, 3], "quaternion": [1, 0, 0, 0]},
+   "payload": {"mass_kg": 1, "com_mm": [0, 5]}}]}' >/dev/null
+expect "a measurement's bad payload -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 measurements[0].payload.com_mm"
 call POST "/v1/campaigns/$tracked:compensate" \
   '{"targets": [{"joints": [100, 200, 100, 10, 20], "payload": {"mass_kg": 2, "com_mm": [0, 0, 50]}}]}' >/dev/null
 expect "compensate with a target's payload" "$(status)" 200

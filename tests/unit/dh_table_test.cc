@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/core/dh_table.h"
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
@@ -348,6 +349,29 @@ TEST(DhTableTest, OtherConventionsAndSizesAreProgrammerErrors) {
   EXPECT_THROW(CalibratedDhSpec(model, Eigen::VectorXd(), GeometryConvention::kTransform), std::invalid_argument);
   EXPECT_THROW(CalibratedDhSpec(model, Eigen::VectorXd::Zero(5), GeometryConvention::kStandardDh),
                std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace robocal
+
+namespace robocal {
+namespace {
+
+// The calibrated robot in the transform convention keeps the masses where they are: its gravity torques are the
+// nominal ones (standard DH centres of mass, given in DH frame i, are carried into the joint frame).
+TEST(CalibratedTransformSpecTest, MassesStayWhereTheyAre) {
+  for (const char* name : {"ur5e", "puma560", "grinder5"}) {
+    const RobotModel model = Preset(name);
+    const RobotModel transform =
+        RobotModel::Build(CalibratedTransformSpec(model, Eigen::VectorXd::Zero(model.num_error_parameters())));
+    Rng rng(12);
+    for (int k = 0; k < 10; ++k) {
+      const Eigen::VectorXd q = RandomConfiguration(model, &rng);
+      const Payload payload{2.0, Eigen::Vector3d(10, 20, 30)};
+      EXPECT_LT((GravityTorques(transform, q, payload) - GravityTorques(model, q, payload)).cwiseAbs().maxCoeff(), 1e-9)
+          << name;
+    }
+  }
 }
 
 }  // namespace

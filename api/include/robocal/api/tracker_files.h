@@ -98,6 +98,8 @@ struct ImportMeasurementsRequest {
   std::string delimiter;
   /// csv: the decimal separator, "." (default) or "," (European exports; the delimiter then cannot be ",").
   std::string decimal = ".";
+  /// The payload the robot carried for every point of the file; unset: the campaign's.
+  std::optional<PayloadWire> payload;
 };
 /// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);

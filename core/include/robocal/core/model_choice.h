@@ -48,7 +48,8 @@ struct ModelChoice {
 
 /// Fits every candidate model on all folds but one and measures its position error on the fold left out, in
 /// turn. Each fit uses `options` (noise, outliers, model error; `options.parameters` must be empty, since the
-/// parameters differ between models; options.progress sees the fraction of all fits). Throws
+/// parameters differ between models; options.progress sees the fraction of all fits, the final fit on every pose
+/// of IdentifyWithModelChoice counted). Throws
 /// std::invalid_argument for invalid options or a nominal model that already has joint terms.
 ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                         const IdentificationOptions& options, const ModelChoiceOptions& choice = {});
