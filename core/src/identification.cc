@@ -34,12 +34,6 @@ std::string Num(double value) {
   return out.str();
 }
 
-// Lexicographic order on joint vectors, to count distinct poses and share their kinematics.
-struct JointsLess {
-  bool operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
-    return std::lexicographical_compare(a.data(), a.data() + a.size(), b.data(), b.data() + b.size());
-  }
-};
 
 // Checks the parts of a measurement that `type` uses; an empty string if it is usable.
 std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
@@ -76,16 +70,13 @@ struct ShotGroups {
   std::vector<int> group_of;  // per measurement
 
   explicit ShotGroups(const std::vector<Measurement>& measurements) {
-    std::map<Eigen::VectorXd, int, JointsLess> pose_index;
+    std::map<Eigen::VectorXd, int, LexicographicLess> pose_index;
     std::map<std::pair<int, int>, int> group_index;
     group_of.reserve(measurements.size());
     for (size_t i = 0; i < measurements.size(); ++i) {
       const Measurement& m = measurements[i];
-      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise (a
-      // payload of no mass is none, wherever its centre).
-      Eigen::VectorXd key(m.joints.size() + 4);
-      key << m.joints, m.payload.mass_kg, (m.payload.mass_kg > 0.0 ? m.payload.com_mm : Eigen::Vector3d::Zero());
-      const auto [pose, new_pose] = pose_index.emplace(key, static_cast<int>(poses.size()));
+      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise.
+      const auto [pose, new_pose] = pose_index.emplace(PoseKey(m), static_cast<int>(poses.size()));
       if (new_pose) {
         poses.push_back(m.joints);
         payloads.push_back(m.payload);
@@ -566,6 +557,12 @@ ResidualStatistics ComputeResidualStatistics(const RobotModel& model, const Eige
   s.rms_orientation_rad = std::sqrt(sum_orientation / count);
   s.rms_weighted = std::sqrt(sum_weighted / (count * rows));
   return s;
+}
+
+Eigen::VectorXd PoseKey(const Measurement& m) {
+  Eigen::VectorXd key(m.joints.size() + 4);
+  key << m.joints, m.payload.mass_kg, (m.payload.mass_kg > 0.0 ? m.payload.com_mm : Eigen::Vector3d::Zero());
+  return key;
 }
 
 MeasurementNoise FittedNoise(const IdentificationSummary& summary, MeasurementNoise noise) {

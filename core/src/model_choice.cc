@@ -14,23 +14,13 @@
 namespace robocal {
 namespace {
 
-// Lexicographic order on a pose's key (joints, then payload mass and centre of mass).
-struct KeyLess {
-  bool operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
-    return std::lexicographical_compare(a.data(), a.data() + a.size(), b.data(), b.data() + b.size());
-  }
-};
-
 // The fold of every measurement: distinct poses shuffled and dealt in turn.
 std::vector<int> AssignFolds(const std::vector<Measurement>& measurements, int folds, std::uint64_t seed,
                              int* num_poses) {
-  std::map<Eigen::VectorXd, int, KeyLess> pose_of;
+  std::map<Eigen::VectorXd, int, LexicographicLess> pose_of;
   std::vector<int> pose(measurements.size());
   for (size_t i = 0; i < measurements.size(); ++i) {
-    const Measurement& m = measurements[i];
-    Eigen::VectorXd key(m.joints.size() + 4);
-    key << m.joints, m.payload.mass_kg, (m.payload.mass_kg > 0.0 ? m.payload.com_mm : Eigen::Vector3d::Zero());
-    pose[i] = pose_of.emplace(key, static_cast<int>(pose_of.size())).first->second;
+    pose[i] = pose_of.emplace(PoseKey(measurements[i]), static_cast<int>(pose_of.size())).first->second;
   }
   *num_poses = static_cast<int>(pose_of.size());
   std::vector<int> order(pose_of.size());

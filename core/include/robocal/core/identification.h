@@ -2,6 +2,7 @@
 // least squares (Levenberg-Marquardt), after registering the unknown tracker -> base frame.
 #pragma once
 
+#include <algorithm>
 #include <functional>
 #include <string>
 #include <vector>
@@ -231,6 +232,16 @@ MeasurementNoise FittedNoise(const IdentificationSummary& summary, MeasurementNo
 /// form for integer dof), and its quantile: the x with ChiSquareSurvival(dof, x) = probability.
 double ChiSquareSurvival(int dof, double x);
 double ChiSquareQuantile(int dof, double upper_probability);
+
+/// The key of a measurement's pose, a configuration under a payload: its joints, then the payload's mass and centre
+/// of mass (a payload of no mass is none, wherever its centre). Shots with equal keys are shots of one pose.
+Eigen::VectorXd PoseKey(const Measurement& measurement);
+/// Lexicographic order on joint vectors and pose keys.
+struct LexicographicLess {
+  bool operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
+    return std::lexicographical_compare(a.data(), a.data() + a.size(), b.data(), b.data() + b.size());
+  }
+};
 
 /// Residual statistics of (model, errors) against measurements of `type`.
 /// With reflectors, `reflectors_in_tool` (ReflectorsInTool) gives each Measurement::reflector's point.
