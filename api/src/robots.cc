@@ -2,6 +2,7 @@
 #include "robocal/api/robots.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "robocal/api/json_reader.h"
 #include "robocal/core/presets.h"
@@ -14,6 +15,9 @@ constexpr double kMaxLengthMm = 1e9;
 constexpr double kMaxAngleDeg = 1e6;
 // A link heavier than 100 t is a unit mistake.
 constexpr double kMaxMassKg = 1e5;
+// Joint terms a robot may hold: the core's bounds of a plausible joint (robot_model.h) in wire units.
+constexpr double kMaxComplianceDegPerNm = kImplausibleComplianceRadPerNm * kDegPerRad;
+constexpr double kMaxHarmonicDeg = kImplausibleHarmonicRad * kDegPerRad;
 
 const char* MinKey(JointType type) { return type == JointType::kRevolute ? "min_deg" : "min_mm"; }
 const char* MaxKey(JointType type) { return type == JointType::kRevolute ? "max_deg" : "max_mm"; }
@@ -36,6 +40,8 @@ nlohmann::json JointJson(const JointWire& jw, GeometryConvention convention) {
     o["mass_kg"] = jw.mass_kg;
     o["com_mm"] = jw.com_mm;
   }
+  if (jw.compliance_deg_per_nm != 0.0) o["compliance_deg_per_nm"] = jw.compliance_deg_per_nm;
+  if (jw.harmonics_deg != std::array<double, 4>{}) o["harmonics_deg"] = jw.harmonics_deg;
   return o;
 }
 
@@ -61,6 +67,8 @@ JointWire JointFromJson(const WireReader& r, GeometryConvention convention, bool
   r.Required(MaxKey(jw.type), &jw.max);
   r.Optional("mass_kg", &jw.mass_kg);
   r.Optional("com_mm", &jw.com_mm);
+  r.Optional("compliance_deg_per_nm", &jw.compliance_deg_per_nm);
+  r.Optional("harmonics_deg", &jw.harmonics_deg);
   return jw;
 }
 
@@ -100,6 +108,18 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         jr.FixedNumbers("rpy_deg", false, j.rpy_deg.data(), 3);
         jr.Number("mass_kg", false, &j.mass_kg, 0.0, kMaxMassKg);
         jr.FixedNumbers("com_mm", false, j.com_mm.data(), 3);
+        jr.Number("compliance_deg_per_nm", false, &j.compliance_deg_per_nm, -kMaxComplianceDegPerNm,
+                  kMaxComplianceDegPerNm);
+        if (jr.FixedNumbers("harmonics_deg", false, j.harmonics_deg.data(), 4)) {
+          for (double h : j.harmonics_deg) {
+            if (std::abs(h) > kMaxHarmonicDeg) {
+              problems.Add(path + ".harmonics_deg",
+                           "each amplitude must lie within +-0.573 degrees (0.01 rad): beyond is no robot joint's "
+                           "harmonic");
+              break;
+            }
+          }
+        }
         const bool revolute = j.type == JointType::kRevolute;
         const double bound = revolute ? kMaxAngleDeg : kMaxLengthMm;
         jr.Number(MinKey(j.type), true, &j.min, -bound, bound);
@@ -110,7 +130,8 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
                                  MinKey(j.type) + "/" + MaxKey(j.type));
         }
         jr.RejectUnknown({"name", "type", "a_mm", "alpha_deg", "d_mm", "theta_deg", "xyz_mm", "rpy_deg", "min_deg",
-                          "max_deg", "min_mm", "max_mm", "mass_kg", "com_mm"});
+                          "max_deg", "min_mm", "max_mm", "mass_kg", "com_mm", "compliance_deg_per_nm",
+                          "harmonics_deg"});
         req.joints.push_back(j);
       }
     }
@@ -191,6 +212,7 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
 
 void to_json(nlohmann::json& j, const CalibrationSource& source) {
   j = {{"campaign", source.campaign}, {"robot", source.robot}, {"created_unix_ms", source.created_unix_ms}};
+  if (!source.joint_ranges.empty()) j["joint_ranges"] = source.joint_ranges;
 }
 
 void from_json(const nlohmann::json& j, CalibrationSource& source) {
@@ -198,6 +220,7 @@ void from_json(const nlohmann::json& j, CalibrationSource& source) {
   r.Required("campaign", &source.campaign);
   r.Required("robot", &source.robot);
   r.Required("created_unix_ms", &source.created_unix_ms);
+  r.Optional("joint_ranges", &source.joint_ranges);
 }
 
 bool IsFromCalibration(const nlohmann::json& body) { return body.is_object() && body.contains("from_calibration"); }
@@ -285,6 +308,8 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
       js.max = jw.max * scale;
       js.mass_kg = jw.mass_kg;
       js.com_mm = Eigen::Vector3d(jw.com_mm[0], jw.com_mm[1], jw.com_mm[2]);
+      js.compliance_rad_per_nm = jw.compliance_deg_per_nm * kRadPerDeg;
+      js.harmonics_rad = Eigen::Vector4d(jw.harmonics_deg.data()) * kRadPerDeg;
       spec.joints.push_back(js);
     }
   }
@@ -320,6 +345,8 @@ void to_json(nlohmann::json& j, const Robot& robot) {
     // The resource states the mass properties of every joint (0: unknown); a definition only those it has.
     o["mass_kg"] = rj.joint.mass_kg;
     o["com_mm"] = rj.joint.com_mm;
+    o["compliance_deg_per_nm"] = rj.joint.compliance_deg_per_nm;
+    o["harmonics_deg"] = rj.joint.harmonics_deg;
     o["unit"] = rj.unit;
     joints.push_back(std::move(o));
   }
@@ -356,6 +383,8 @@ void from_json(const nlohmann::json& j, Robot& robot) {
       RobotJoint rj{JointFromJson(jr, robot.convention, true), ""};
       jr.Required("mass_kg", &rj.joint.mass_kg);
       jr.Required("com_mm", &rj.joint.com_mm);
+      jr.Required("compliance_deg_per_nm", &rj.joint.compliance_deg_per_nm);
+      jr.Required("harmonics_deg", &rj.joint.harmonics_deg);
       jr.Required("unit", &rj.unit);
       robot.joints.push_back(std::move(rj));
     } catch (const WireError& e) {
@@ -392,6 +421,8 @@ JointWire JointToWire(const JointSpec& js) {
   jw.max = js.max * scale;
   jw.mass_kg = js.mass_kg;
   jw.com_mm = {js.com_mm.x(), js.com_mm.y(), js.com_mm.z()};
+  jw.compliance_deg_per_nm = js.compliance_rad_per_nm * kDegPerRad;
+  for (int k = 0; k < 4; ++k) jw.harmonics_deg[static_cast<size_t>(k)] = js.harmonics_rad[k] * kDegPerRad;
   return jw;
 }
 

@@ -111,7 +111,9 @@ int CampaignForward(Invocation& in) {
   const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);
   const api::Robot robot = in.Client().GetRobot(campaign.robot);
   const auto joints = ReadJointsFile(in.args[1], robot);
-  return WriteForward(in, robot, joints, in.Client().CampaignForward(campaign.id, joints));
+  std::optional<api::PayloadWire> payload;
+  if (in.Has("--payload")) payload = ParsePayloadFlag(in.Option("--payload"));
+  return WriteForward(in, robot, joints, in.Client().CampaignForward(campaign.id, joints, payload));
 }
 
 // upload --format sa|csv: the tracker's own export, read and matched by the service.

@@ -45,7 +45,9 @@ Prints the robot as `robot get` does.
 const HelpText kRobotFromCalibration = {"register a campaign's calibrated robot as a robot of its own", R"(
 robot register --from-calibration CAMPAIGN --id ID: the robot as CAMPAIGN calibrated it (POST /v1/robots with
 "from_calibration"), for a new cell or session: its calibrated kinematics, joint names and limits, the nominal
-base and the calibrated tool. The tracker -> base registration stays with the campaign: after the tracker moved
+base and the calibrated tool, and the joint terms of a fit with compliance or harmonics (each joint then holds
+its compliance in deg/(N*m) and its harmonics in degrees, and the robot deflects under a payload as the
+calibration does). The tracker -> base registration stays with the campaign: after the tracker moved
 or the probe was re-seated, create a campaign of ID, upload a few poses and `fit --scope frames` (the base and
 the tool only). --description says what it is (default: where it came from). Prints the robot; `robot get`
 shows its source as "calibrated from".
@@ -82,7 +84,9 @@ Campaigns keep their copy of the robot's definition. --json: the service's reply
 const HelpText kRobotForward = {"nominal tool poses for joint vectors (CSV in, CSV out)", R"(
 IN.csv is a joints CSV (header, one row per configuration, degrees / mm); writes the nominal model's tool poses
 (world frame: the nominal base) as the joint columns, x_mm,y_mm,z_mm,qw,qx,qy,qz to OUT.csv or stdout.
---json: the forward result (frame and poses).
+--payload KG[@X,Y,Z]: the payload on the flange (kg, centre of mass in mm, flange frame) under which a robot
+holding joint compliances (registered from a compliant calibration) deflects. --json: the forward result
+(frame and poses).
 )"};
 
 const HelpText kCellCreate = {"register a measurement cell (tracker, reflectors, obstacles; docs/cells.md)", R"(
@@ -173,7 +177,9 @@ model, repeatability and reflectors where it has them.
 
 const HelpText kCampaignForward = {"tool poses of the calibrated robot (tracker frame), CSV in, CSV out", R"(
 IN.csv is a joints CSV; writes the calibrated robot's tool poses in the tracker frame (the joint columns, then
-x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit. --json: the forward result.
+x_mm,y_mm,z_mm,qw,qx,qy,qz) to OUT.csv or stdout. Needs a fit. --payload KG[@X,Y,Z]: the payload on the
+flange under which a calibration with compliance deflects (default: the campaign's, or none). --json: the
+forward result.
 )"};
 
 const HelpText kUpload = {"upload tracker measurements (CSV or JSON, or the tracker's own export)", R"(

@@ -1,5 +1,6 @@
 // robocal robots, robot register | get | delete | forward.
 #include <algorithm>
+#include <array>
 #include <iomanip>
 #include <limits>
 
@@ -24,7 +25,23 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
   for (const api::RobotJoint& j : robot.joints) {
     out << "  " << std::left << std::setw(static_cast<int>(width)) << j.joint.name << std::setw(10)
         << api::WireName(j.joint.type)
-        << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit << "\n";
+        << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit;
+    // Joint terms the robot holds (a compliant calibration registered as a robot).
+    if (j.joint.compliance_deg_per_nm != 0.0) out << ", compliance " << j.joint.compliance_deg_per_nm << " deg/(N*m)";
+    if (j.joint.harmonics_deg != std::array<double, 4>{}) {
+      const std::array<double, 4>& h = j.joint.harmonics_deg;
+      out << ", harmonics sin1 " << h[0] << " cos1 " << h[1] << " sin2 " << h[2] << " cos2 " << h[3] << " deg";
+    }
+    out << "\n";
+  }
+  if (robot.calibrated_from && robot.calibrated_from->joint_ranges.size() == robot.joints.size()) {
+    out << "  calibrated over:";
+    for (std::size_t i = 0; i < robot.joints.size(); ++i) {
+      const std::array<double, 2>& r = robot.calibrated_from->joint_ranges[i];
+      out << (i == 0 ? " " : ", ") << robot.joints[i].joint.name << " " << Fixed(r[0], 1) << " .. " << Fixed(r[1], 1)
+          << " " << robot.joints[i].unit;
+    }
+    out << "\n";
   }
 }
 
@@ -106,7 +123,9 @@ int RobotDelete(Invocation& in) {
 int RobotForward(Invocation& in) {
   const api::Robot robot = in.Client().GetRobot(in.args[0]);
   const auto joints = ReadJointsFile(in.args[1], robot);
-  return WriteForward(in, robot, joints, in.Client().RobotForward(robot.id, joints));
+  std::optional<api::PayloadWire> payload;
+  if (in.Has("--payload")) payload = ParsePayloadFlag(in.Option("--payload"));
+  return WriteForward(in, robot, joints, in.Client().RobotForward(robot.id, joints, payload));
 }
 
 }  // namespace robocal::cli

@@ -351,8 +351,9 @@ api::CellCheckResult Client::CheckCell(const std::string& cell, const std::vecto
   return result;
 }
 
-api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints) {
-  const json body = JointsBody(joints);
+api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints,
+                                        const std::optional<api::PayloadWire>& payload) {
+  const json body = api::ForwardRequest{joints, payload};
   // Forward kinematics changes nothing on the server: safe to retry.
   return Parse<api::ForwardResult>(Call("POST", "/v1/robots/" + Segment(robot) + ":forward", &body, true),
                                    "forward");
@@ -491,9 +492,9 @@ api::CompensateResult Client::CompensateJoints(const std::string& campaign,
   return Compensate(campaign, request);
 }
 
-api::ForwardResult Client::CampaignForward(const std::string& campaign,
-                                           const std::vector<std::vector<double>>& joints) {
-  const json body = JointsBody(joints);
+api::ForwardResult Client::CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints,
+                                           const std::optional<api::PayloadWire>& payload) {
+  const json body = api::ForwardRequest{joints, payload};
   return Parse<api::ForwardResult>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":forward", &body, true),
                                    "forward");
 }

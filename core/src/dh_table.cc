@@ -467,6 +467,26 @@ RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::Vec
   }
   spec.T_lastjoint_flange = model.T_lastjoint_flange();
   spec.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
+  // The joint terms' parameters join the joint terms the joints hold (JointDeflection adds both alike); the
+  // result is a robot, its fit's error terms are the next calibration's choice.
+  const int first = model.num_geometric_parameters();
+  for (size_t t = 0; t < model.joint_terms().size(); ++t) {
+    const JointTermParameter& term = model.joint_terms()[t];
+    const double value = errors[first + static_cast<Eigen::Index>(t)];
+    JointSpec& joint = spec.joints[static_cast<size_t>(term.joint)];
+    switch (term.kind) {
+      case JointTermParameter::Kind::kCompliance:
+        joint.compliance_rad_per_nm += value;
+        break;
+      case JointTermParameter::Kind::kSin:
+        joint.harmonics_rad[2 * (term.order - 1)] += value;
+        break;
+      case JointTermParameter::Kind::kCos:
+        joint.harmonics_rad[2 * (term.order - 1) + 1] += value;
+        break;
+    }
+  }
+  spec.error_terms = JointErrorTerms();
   return spec;
 }
 

@@ -306,7 +306,7 @@ void JointJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eige
   const Transform& tool = ForwardKinematics(model, q, eps, ws, payload);
   const RowWriter writer = MakeWriter(type, tool);
   for (int i = 0; i < model.num_joints(); ++i) WriteJointColumn(model, *ws, writer, i, jacobian, i);
-  if (model.joint_terms().empty() || eps.size() == 0) return;
+  if (!model.deflects()) return;
   // The chain moves with the deflected joints q + dq(q): d/dq = J(q + dq) (I + d(dq)/dq).
   Eigen::MatrixXd ddq_dq;
   JointDeflection(model, q, eps, payload, &ddq_dq);

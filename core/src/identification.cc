@@ -1456,7 +1456,8 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     to.reserve(measurements.size());
     KinematicsWorkspace ws(nominal);
     for (const Measurement& m : measurements) {
-      const Transform& tool = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws);
+      // Under the shot's payload: a robot holding compliances sags under it.
+      const Transform& tool = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws, m.payload);
       from.push_back(m.reflector < 0 ? tool.translation() : tool * nominal_in_tool.at(m.reflector));
       to.push_back(m.T_world_tool.translation());
     }

@@ -101,11 +101,39 @@ Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd&
   return factor;
 }
 
+namespace {
+
+// The deflection of the joint terms the robot holds (JointSpec::compliance_rad_per_nm, harmonics_rad), added to
+// dq and its derivative to ddq_dq (if not null).
+void AddFixedDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload, Eigen::VectorXd* dq,
+                        Eigen::MatrixXd* ddq_dq) {
+  const std::vector<JointSpec>& joints = model.spec().joints;
+  bool compliance = false;
+  for (const JointSpec& j : joints) compliance = compliance || j.compliance_rad_per_nm != 0.0;
+  Eigen::VectorXd tau;
+  Eigen::MatrixXd dtau;
+  if (compliance) tau = GravityTorques(model, q, payload, ddq_dq != nullptr ? &dtau : nullptr);
+  for (int i = 0; i < model.num_joints(); ++i) {
+    const JointSpec& j = joints[static_cast<size_t>(i)];
+    if (j.type != JointType::kRevolute) continue;
+    const Eigen::Vector4d& h = j.harmonics_rad;
+    const double s1 = std::sin(q[i]), c1 = std::cos(q[i]), s2 = std::sin(2.0 * q[i]), c2 = std::cos(2.0 * q[i]);
+    (*dq)[i] += h[0] * s1 + h[1] * c1 + h[2] * s2 + h[3] * c2;
+    if (j.compliance_rad_per_nm != 0.0) (*dq)[i] += j.compliance_rad_per_nm * tau[i];
+    if (ddq_dq == nullptr) continue;
+    (*ddq_dq)(i, i) += h[0] * c1 - h[1] * s1 + 2.0 * h[2] * c2 - 2.0 * h[3] * s2;
+    if (j.compliance_rad_per_nm != 0.0) ddq_dq->row(i) += j.compliance_rad_per_nm * dtau.row(i);
+  }
+}
+
+}  // namespace
+
 Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                                 const Payload& payload, Eigen::MatrixXd* ddq_dq) {
   const int n = model.num_joints();
   Eigen::VectorXd dq = Eigen::VectorXd::Zero(n);
   if (ddq_dq != nullptr) ddq_dq->setZero(n, n);
+  if (model.has_fixed_joint_terms()) AddFixedDeflection(model, q, payload, &dq, ddq_dq);
   const std::vector<JointTermParameter>& terms = model.joint_terms();
   if (terms.empty() || eps.size() == 0) return dq;
   if (eps.size() != model.num_error_parameters()) {

@@ -44,7 +44,7 @@ const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorX
   CheckSizes(model, q_command, eps);
   const bool with_errors = eps.size() != 0;
   ws->q_effective = q_command;
-  if (with_errors && !model.joint_terms().empty()) ws->q_effective += JointDeflection(model, q_command, eps, payload);
+  if (model.deflects()) ws->q_effective += JointDeflection(model, q_command, eps, payload);
   const Eigen::VectorXd& q = ws->q_effective;
   const int n = model.num_joints();
   auto apply_error = [&](int site, Transform* t) {
@@ -88,7 +88,7 @@ FoldedChain::FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps, co
   const int n = model.num_joints();
   CheckSizes(model, Eigen::VectorXd::Zero(n), eps);
   const bool with_errors = eps.size() != 0;
-  if (with_errors && !model.joint_terms().empty()) {
+  if (model.deflects()) {
     model_ = std::make_shared<const RobotModel>(model);
     eps_ = eps;
     payload_ = payload;

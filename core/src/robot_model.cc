@@ -69,6 +69,24 @@ void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention,
     errors->push_back({prefix + ".mass_kg", "must be a finite number >= 0 (kg), got " + Num(joint.mass_kg)});
   }
   if (!joint.com_mm.allFinite()) errors->push_back({prefix + ".com_mm", "must contain only finite numbers"});
+  if (!std::isfinite(joint.compliance_rad_per_nm)) {
+    errors->push_back({prefix + ".compliance", "must be a finite number"});
+  } else if (std::abs(joint.compliance_rad_per_nm) > kImplausibleComplianceRadPerNm) {
+    errors->push_back({prefix + ".compliance", "beyond " + Num(kImplausibleComplianceRadPerNm) +
+                                                   " rad per N*m, no robot joint's compliance, got " +
+                                                   Num(joint.compliance_rad_per_nm)});
+  }
+  if (!joint.harmonics_rad.allFinite()) {
+    errors->push_back({prefix + ".harmonics", "must contain only finite numbers"});
+  } else if (joint.harmonics_rad.cwiseAbs().maxCoeff() > kImplausibleHarmonicRad) {
+    errors->push_back({prefix + ".harmonics", "an amplitude beyond " + Num(kImplausibleHarmonicRad) +
+                                                  " rad, no robot joint's harmonic, got " +
+                                                  Num(joint.harmonics_rad.cwiseAbs().maxCoeff())});
+  }
+  if (joint.type != JointType::kRevolute &&
+      (joint.compliance_rad_per_nm != 0.0 || !joint.harmonics_rad.isZero(0.0))) {
+    errors->push_back({prefix + ".type", "a prismatic joint holds no joint terms (compliance, harmonics)"});
+  }
   // Four turns: industrial wrists turn +-400 degrees (ABB) and more; a range beyond is a unit error.
   if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 8.0 * M_PI + 1e-9) {
     errors->push_back({prefix + ".max", "revolute range max - min must not exceed 1440 degrees (four turns)"});
@@ -129,6 +147,15 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   if (!spec.gravity_base.allFinite() || std::abs(spec.gravity_base.norm() - 1.0) > 1e-6) {
     errors.push_back({"gravity", "must be a unit vector (the direction of gravity in the base frame)"});
   }
+  bool masses = false, fixed_compliance = false;
+  for (const JointSpec& j : spec.joints) {
+    masses = masses || j.mass_kg > 0.0;
+    fixed_compliance = fixed_compliance || j.compliance_rad_per_nm != 0.0;
+  }
+  if (fixed_compliance && !masses) {
+    errors.push_back({"joints", "a joint's compliance needs the links' masses (mass_kg, com_mm): without them there "
+                                "is no gravity torque to deflect it"});
+  }
   if (spec.error_terms.joint_harmonics < 0 || spec.error_terms.joint_harmonics > kMaxJointHarmonics) {
     errors.push_back({"model.joint_harmonics", "must be 0, 1 or " + std::to_string(kMaxJointHarmonics) + ", got " +
                                                    std::to_string(spec.error_terms.joint_harmonics)});
@@ -144,6 +171,8 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   model.link_frame_.assign(n, Transform::Identity());
   for (int i = 0; i < n; ++i) {
     const JointSpec& j = spec.joints[i];
+    model.has_fixed_joint_terms_ =
+        model.has_fixed_joint_terms_ || j.compliance_rad_per_nm != 0.0 || !j.harmonics_rad.isZero(0.0);
     model.lower_[i] = j.min;
     model.upper_[i] = j.max;
     const Transform fixed = Motionless(j, spec.convention);

@@ -178,8 +178,11 @@ namespace {
 
 // What a geometric export of a calibration with joint terms leaves out, said in the export.
 std::string JointTermsNote(const Calibration& c) {
-  return "the calibration's " + c.model.error_terms().Describe() +
-         " terms (joint deflections) cannot be written here: this is its geometry only; compensate through robocal "
+  const std::string fitted =
+      c.model.joint_terms().empty() ? "" : "the calibration's " + c.model.error_terms().Describe() + " terms";
+  const std::string held = c.model.has_fixed_joint_terms() ? "the joint terms the robot holds" : "";
+  return fitted + (fitted.empty() || held.empty() ? "" : " and ") + held +
+         " (joint deflections) cannot be written here: this is its geometry only; compensate through robocal "
          "for the rest";
 }
 
@@ -195,7 +198,7 @@ std::string Service::CalibrationUrdf(const std::string& campaign_id) {
                          ? urdf::ExportCalibratedUrdf(*loaded.campaign.robot_definition.urdf, loaded.model, geometric,
                                                       c.model.T_world_base())
                          : urdf::GenerateCalibratedUrdf(loaded.model, geometric, c.model.T_world_base());
-  if (!c.model.joint_terms().empty()) {
+  if (c.model.deflects()) {
     // After the XML declaration, if any: a comment may stand anywhere after it.
     const std::size_t declaration = text.rfind("<?xml", 0) == 0 ? text.find("?>") : std::string::npos;
     const std::size_t at = declaration == std::string::npos ? 0 : declaration + 2;
@@ -218,7 +221,7 @@ api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id,
     return api::DefinitionOf(id, spec,
                              "robot '" + loaded.campaign.robot + "' as calibrated by campaign '" + campaign_id +
                                  "': " + name + " table from the calibrated joint axes, base = tracker -> frame 0" +
-                                 (c.model.joint_terms().empty() ? "" : "; " + JointTermsNote(c)));
+                                 (c.model.deflects() ? "; " + JointTermsNote(c) : ""));
   } catch (const DhTableError& e) {
     throw ApiError(Status::kFailedPrecondition,
                    "the calibration of \"" + campaign_id + "\" has no " + name + " table: " + e.what(),

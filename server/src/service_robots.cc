@@ -1,5 +1,8 @@
 // The service's robots: presets and registered robots, forward kinematics.
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
 
 #include "robocal/core/dh_table.h"
 #include "robocal/core/presets.h"
@@ -92,20 +95,32 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
     }
   }();
   // The calibrated chain from the nominal base (the tracker -> base registration belongs to the campaign's cell);
-  // the tool as calibrated, a start for the next cell's frames fit.
-  if (!loaded.calibration.model.joint_terms().empty()) {
-    const std::string reason = "its calibration's model (" + loaded.calibration.model.error_terms().Describe() +
-                               ") has joint terms a robot definition does not hold yet; a geometric fit of the "
-                               "campaign (model geometric) registers";
-    throw ApiError(Status::kFailedPrecondition, "campaign \"" + req.campaign + "\": " + reason,
-                   {{"from_calibration", reason}});
-  }
-  const RobotModelSpec spec = CalibratedTransformSpec(loaded.model, loaded.calibration.errors);
+  // the tool as calibrated, a start for the next cell's frames fit; the joint terms held by the joints.
+  const RobotModelSpec spec = CalibratedTransformSpec(
+      loaded.model.WithErrorTerms(loaded.calibration.model.error_terms()), loaded.calibration.errors);
   const std::string description =
       !req.description.empty() ? req.description
                                : "robot " + loaded.campaign.robot + " as calibrated in campaign " + req.campaign;
   api::RegisterRobotRequest definition = api::DefinitionOf(req.id, spec, description);
   definition.calibrated_from = api::CalibrationSource{req.campaign, loaded.campaign.robot, loaded.result.created_unix_ms};
+  // Where the calibration holds: the joint ranges of the measurements the fit saw.
+  std::vector<std::array<double, 2>>& ranges = definition.calibrated_from->joint_ranges;
+  ForEachMeasurement(storage_, req.campaign, "calibration", [&](const StoredMeasurement& s) {
+    if (loaded.last_calibration_sequence && s.sequence > *loaded.last_calibration_sequence) return;
+    const std::vector<double> joints = ReadMeasurement(s).joints;
+    if (ranges.empty()) ranges.assign(joints.size(), {HUGE_VAL, -HUGE_VAL});
+    for (std::size_t i = 0; i < joints.size() && i < ranges.size(); ++i) {
+      ranges[i] = {std::min(ranges[i][0], joints[i]), std::max(ranges[i][1], joints[i])};
+    }
+  });
+  try {
+    (void)api::BuildModel(definition);
+  } catch (const ApiError& e) {
+    // E.g. an implausible joint term of a DEGRADED fit: no robot holds it.
+    const std::string reason = std::string("its calibration is no robot definition: ") + e.what();
+    throw ApiError(Status::kFailedPrecondition, "campaign \"" + req.campaign + "\": " + reason,
+                   {{"from_calibration", reason}});
+  }
   return definition;
 }
 
@@ -145,13 +160,13 @@ void Service::DeleteRobot(const std::string& id) {
 
 api::ForwardResult Service::RobotForward(const std::string& id, const nlohmann::json& body) {
   const RobotModel model = ResolveRobot(id).model;
-  const api::ForwardRequest req =
-      api::ParseJointsRequest(body, model, options_.limits.max_array_length, "invalid forward request");
+  const api::ForwardRequest req = api::ParseForwardRequest(body, model, options_.limits);
   const TrimWhenDone trim(&trimmer_, req.joints.size() >= kLargeRequest);
   api::ForwardResult result;
   result.robot = id;
   result.frame = "world (nominal base)";
-  result.poses = ForwardPoses(model, Eigen::VectorXd(), req);
+  // Under the request's payload (a robot holding compliances deflects under it).
+  result.poses = ForwardPoses(model, Eigen::VectorXd(), req, req.payload ? api::ToCore(*req.payload) : Payload());
   return result;
 }
 

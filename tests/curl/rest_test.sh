@@ -446,14 +446,30 @@ expect "fit with model auto: 6 candidates over 3 folds, one chosen" \
   "200 [3,6,1]"
 expect "... the fitted model is the chosen candidate's" \
   "$(jq -c '(.model_choice.candidates[] | select(.chosen) | .model) == .model' "$work/auto.json")" true
-# A compliant calibration's exports hold its geometry and say what they leave out; a robot definition cannot
-# carry its joint terms yet, so registering it is refused by name.
+# A compliant calibration's exports hold its geometry and say what they leave out. Registered as a robot it holds
+# its joint terms: the robot deflects under a payload as the calibration does (their bases differ by the
+# registration, a rigid motion, so the deflection's length is the same).
 call POST "/v1/campaigns/$tracked:fit" '{"model": {"compliance": true}}' >/dev/null
 expect "the URDF export of a compliant calibration says the compliance is not in it" \
   "$(call GET "/v1/campaigns/$tracked/calibration?format=urdf" | grep -c 'robocal: the calibration.s compliance terms')" 1
-call POST /v1/robots "{\"id\": \"grinder5-compliant\", \"from_calibration\": \"$tracked\"}" >/dev/null
-expect "registering a compliant calibration as a robot -> FAILED_PRECONDITION naming from_calibration" \
-  "$(status) $(jq -r '.error.status, .error.details[0].field' "$work/body" | tr '\n' ' ')" "400 FAILED_PRECONDITION from_calibration "
+call POST /v1/robots "{\"id\": \"grinder5-compliant\", \"from_calibration\": \"$tracked\"}" >"$work/compliant_robot.json"
+expect "registering a compliant calibration as a robot: A holds its compliance" \
+  "$(status) $(jq -r '.joints[] | select(.name == "A") | .compliance_deg_per_nm != 0' "$work/compliant_robot.json")" \
+  "200 true"
+expect "... and the robot's error parameters are the geometric ones" \
+  "$(jq -r '[.error_parameters[] | select(endswith(".compliance"))] | length' "$work/compliant_robot.json")" 0
+deflection() {  # the tool's move under 20 kg off the A axis at joints (100, 200, 100, 10, 20), by :forward at $1
+  local loaded unloaded
+  loaded=$(call POST "$1" '{"joints": [[100, 200, 100, 10, 20]], "payload": {"mass_kg": 20, "com_mm": [60, 0, 80]}}' |
+    jq -c '.poses[0].position_mm')
+  unloaded=$(call POST "$1" '{"joints": [[100, 200, 100, 10, 20]], "payload": {"mass_kg": 0}}' |
+    jq -c '.poses[0].position_mm')
+  jq -n --argjson a "$loaded" --argjson b "$unloaded" '[range(3) as $i | ($a[$i] - $b[$i]) * ($a[$i] - $b[$i])] | add | sqrt'
+}
+robot_deflection=$(deflection /v1/robots/grinder5-compliant:forward)
+campaign_deflection=$(deflection "/v1/campaigns/$tracked:forward")
+expect "... it deflects under a payload as the calibration does" \
+  "$(jq -n "$robot_deflection > 1e-4 and ($robot_deflection - $campaign_deflection | fabs) < 0.01 * $robot_deflection")" true
 call POST "/v1/campaigns/$tracked:fit" '{}' >/dev/null
 for bad in '{"model": {"joint_harmonics": 3}}|model.joint_harmonics' '{"model": "rich"}|model' \
   '{"model": "auto", "parameters": ["A.rz"]}|parameters' '{"cross_validation": {"folds": 3}}|cross_validation' \
@@ -473,6 +489,16 @@ massless=$(call POST /v1/campaigns '{"robot": "massless", "measurement_type": "p
 call POST "/v1/campaigns/$massless:fit" '{"model": {"compliance": true}}' >/dev/null
 expect "compliance on a robot without masses -> 400 naming model.compliance" \
   "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 model.compliance"
+call POST /v1/robots '{"id": "soft-massless", "convention": "dh", "joints": [
+  {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
+   "compliance_deg_per_nm": 0.001}]}' >/dev/null
+expect "a held compliance on a robot without masses -> 400 naming joints" \
+  "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 joints"
+call POST /v1/robots '{"id": "worn", "convention": "dh", "joints": [
+  {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
+   "harmonics_deg": [0, 2, 0, 0]}]}' >/dev/null
+expect "a held harmonic of 2 degrees -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 joints[0].harmonics_deg"
 call POST /v1/robots '{"id": "heavy", "convention": "dh", "joints": [
   {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
    "mass_kg": -2, "com_mm": [50, 0, 0]}]}' >/dev/null

@@ -9,7 +9,9 @@
 #   later session, the tracker elsewhere), the rest of D validated: better than the nominal robot's frames fit;
 #   beyond geometry (masses from the URDF): B with 400 and D with 200 calibration poses fitted geometric, auto and
 #   with compliance and harmonics of order 2: auto no worse than geometric on the held-out poses of either, the
-#   richest model at least 15 % better than geometric on B.
+#   richest model at least 15 % better than geometric on B; B's auto calibration registered as a robot holding its
+#   joint terms and the joint ranges they hold over, its frames fitted on the same 30 poses of D (printed: D lies
+#   outside B's ranges, where harmonics extrapolate).
 # KEEP_WORK=1 keeps the replies (the script says where).
 # Usage: ipa.sh BUILD_DIR
 set -euo pipefail
@@ -100,6 +102,8 @@ for c in b400 d200; do
     # (instrumented) build.
     cli --json fit "$c" --model "$model" --async >"$work/$c.$model.fit.json" 2>/dev/null
     check "$c, model $model: the fit is stored as the calibration" "'$(jq .stored "$work/$c.$model.fit.json")' == 'true'"
+    # B's chosen model registered as a robot (its joint terms held by the joints), for the cross-session test below.
+    [ "$c.$model" = b400.auto ] && cli robot register --from-calibration b400 --id ur10-b400-auto >/dev/null
     cli --json evaluate "$c" >"$work/$c.$model.eval.json"
     echo "$c, model $model: $(jqv .summary.termination "$work/$c.$model.fit.json"), fitted" \
       "$(jq -r '.model | (if .compliance then "compliance " else "" end) + "harmonics \(.joint_harmonics)"' \
@@ -120,4 +124,26 @@ geometric=$(jqv .calibrated.e_xyz_mm.mean "$work/b400.geometric.eval.json")
 check "B N=400: compliance and harmonics cut the held-out mean by at least 15 %" "$richest <= 0.85 * $geometric"
 check "B N=400: the compliant fit's model error is below the geometric one's" \
   "$(jqv .model_error.model_error_mm "$work/b400.compliance,harmonics=2.fit.json") < $(jqv .model_error.model_error_mm "$work/b400.geometric.fit.json")"
+
+# Cross-session beyond geometry: B's auto calibration as a robot holding its joint terms, in Series D's cell with
+# base and tool from the same 30 poses as the geometric one above.
+cli --json robot get ur10-b400-auto >"$work/robot_b400_auto.json"
+check "the robot of B's auto calibration holds its harmonics" \
+  "$(jq '[.joints[].harmonics_deg[] | select(. != 0)] | length' "$work/robot_b400_auto.json") > 0"
+check "... and says the joint ranges they were identified over" \
+  "$(jq '.calibrated_from.joint_ranges | length' "$work/robot_b400_auto.json") == 6"
+echo "B's 400 calibration poses cover (deg): $(jq -c '[.calibrated_from.joint_ranges[] | map(. * 10 | round / 10)]' \
+  "$work/robot_b400_auto.json"); every pose of D leaves them in at least one joint (D's shoulder_pan_joint spans" \
+  "-82 .. 322 deg), so there B's harmonics extrapolate"
+c=d-ur10-b400-auto
+cli campaign create ur10-b400-auto pose --id "$c" --tracker datasheet >/dev/null
+cli upload "$c" "$data/ipa/series_d_iso_cubes.csv" "${columns[@]}" --calibration-rows 30 --seed 1 >/dev/null
+cli --json fit "$c" --scope frames >"$work/$c.fit.json"
+cli --json evaluate "$c" >"$work/$c.eval.json"
+transferred=$(jqv .calibrated.e_xyz_mm.mean "$work/$c.eval.json")
+echo "Series D, robot ur10-b400-auto (B's auto calibration, joint terms held), frames from 30 poses:" \
+  "$(jqv .summary.termination "$work/$c.fit.json"), held-out E_xyz mean $transferred mm," \
+  "max $(jqv .calibrated.e_xyz_mm.max "$work/$c.eval.json") mm (geometric B calibration: $calibrated mm)"
+check "D: the frames fit of the robot holding joint terms ends (beyond its ranges it may say DEGRADED)" \
+  "'$(jqv .summary.termination "$work/$c.fit.json")' in ('CONVERGENCE', 'DEGRADED')"
 exit $((failures > 0))

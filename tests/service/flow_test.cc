@@ -1,5 +1,8 @@
 // The whole calibration flow over HTTP with measurements from the core's virtual cell: plan -> campaign ->
 // upload -> fit -> forward -> compensate -> evaluate, on the real SQLite storage (in memory).
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 
 #include <gtest/gtest.h>
@@ -142,6 +145,99 @@ TEST(FlowTest, CalibratedDhTablesRegisterWithTheCalibratedKinematics) {
   EXPECT_NE(message.find("joint 'Z' and joint 'C' are"), std::string::npos) << message;
   // It names identified parameters of C.
   EXPECT_NE(message.find("identified C."), std::string::npos) << message;
+}
+
+// A calibration with compliance and harmonics registered as a robot (from_calibration): the robot holds the joint
+// terms, moves under a payload as the calibration does, and a geometric fit of it in a new campaign on the same
+// (true) robot has nothing left to explain that the first fit explained.
+TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  const RobotModel model = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 17;
+  o.shots_per_pose = 1;
+  o.noise.position_mm = 0.0;
+  o.noise.orientation_rad = 0.0;
+  o.compliance_deflection_mm = 0.3;
+  o.joint_harmonic_sigma_rad = 5e-5;
+  o.joint_harmonic_min_order = 1;
+  o.joint_harmonic_max_order = 1;
+  VirtualCell cell(model, o);
+  Rng rng(23);
+  // The joint ranges of campaign "soft"'s calibration measurements (deg).
+  std::vector<std::array<double, 2>> ranges(6, {HUGE_VAL, -HUGE_VAL});
+  const auto upload = [&](const std::string& campaign, const std::string& request, int count, double mass_kg) {
+    const Payload payload{mass_kg, Eigen::Vector3d(0, 20, 60)};
+    json batch = Batch(model, cell.MeasureAll(RandomConfigurations(model, count, &rng), 0, nullptr, payload), request,
+                       "calibration");
+    for (json& m : batch["measurements"]) {
+      m["payload"] = {{"mass_kg", mass_kg}, {"com_mm", {0, 20, 60}}};
+      for (std::size_t i = 0; campaign == "soft" && i < ranges.size(); ++i) {
+        ranges[i] = {std::min(ranges[i][0], m["joints"][i].get<double>()),
+                     std::max(ranges[i][1], m["joints"][i].get<double>())};
+      }
+    }
+    return s.Post("/v1/campaigns/" + campaign + "/measurements", batch).status;
+  };
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "soft"}, {"robot", "ur5e"}}).status, 200);
+  ASSERT_EQ(upload("soft", "light", 60, 0.0), 200);
+  ASSERT_EQ(upload("soft", "heavy", 60, 5.0), 200);
+  const Reply fit = s.Post("/v1/campaigns/soft:fit", {{"model", {{"compliance", true}, {"joint_harmonics", 1}}}});
+  ASSERT_EQ(fit.status, 200) << fit.text;
+
+  const Reply robot = s.Post("/v1/robots", {{"id", "ur5e-soft"}, {"from_calibration", "soft"}});
+  ASSERT_EQ(robot.status, 200) << robot.text;
+  EXPECT_NE(robot.body["joints"][1]["compliance_deg_per_nm"].get<double>(), 0.0) << robot.text;
+  EXPECT_NE(robot.body["joints"][0]["harmonics_deg"][0].get<double>(), 0.0) << robot.text;
+  EXPECT_EQ(robot.body["error_parameters"].size(), 48u);  // geometric only: the terms are held, not fitted
+  // Where the calibration was measured: the joint ranges of its measurements.
+  EXPECT_EQ(robot.body["calibrated_from"]["joint_ranges"], json(ranges)) << robot.text;
+
+  // The robot and the calibration under a payload it never saw. The calibration's frame is the tracker's (its
+  // registered base), the robot's its nominal base: compared where a rigid motion does not count, in the distances
+  // between the poses and in each tool's deflection under the payload, in its own frame.
+  json q = json::array();
+  for (int k = 0; k < 5; ++k) q.push_back(api::JointsToWire(model, RandomConfiguration(model, &rng)));
+  const json payload = {{"mass_kg", 2.5}, {"com_mm", {40, -20, 90}}};
+  const json none = {{"mass_kg", 0}};
+  const auto poses = [&](const std::string& path, const json& p) {
+    const Reply reply = s.Post(path, {{"joints", q}, {"payload", p}});
+    EXPECT_EQ(reply.status, 200) << reply.text;
+    std::vector<Transform> out;
+    for (const json& pose : reply.body["poses"]) out.push_back(api::PoseToTransform(pose.get<api::PoseWire>()));
+    return out;
+  };
+  const std::vector<Transform> calibrated = poses("/v1/campaigns/soft:forward", payload);
+  const std::vector<Transform> calibrated_unloaded = poses("/v1/campaigns/soft:forward", none);
+  const std::vector<Transform> held = poses("/v1/robots/ur5e-soft:forward", payload);
+  const std::vector<Transform> held_unloaded = poses("/v1/robots/ur5e-soft:forward", none);
+  ASSERT_EQ(held.size(), q.size());
+  for (std::size_t k = 0; k < q.size(); ++k) {
+    EXPECT_NEAR((held[k].translation() - held[0].translation()).norm(),
+                (calibrated[k].translation() - calibrated[0].translation()).norm(), 1e-2);
+    const Eigen::Vector3d deflection = held_unloaded[k].inverse() * held[k].translation();
+    const Eigen::Vector3d expected = calibrated_unloaded[k].inverse() * calibrated[k].translation();
+    EXPECT_GT(deflection.norm(), 0.01);
+    // The torques come from the registered robot's own (calibrated) chain: a hundredth of the deflection.
+    EXPECT_LT((deflection - expected).norm(), 0.01 * expected.norm() + 1e-6) << deflection.transpose();
+  }
+
+  // A new campaign of the registered robot: the geometric fit explains the (noise-free) robot but for the torques'
+  // chain (a few micrometres); the same fit of the rigid ur5e is left with the deflections.
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "reuse"}, {"robot", "ur5e-soft"}}).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "rigid"}, {"robot", "ur5e"}}).status, 200);
+  const Rng before_upload = rng;
+  ASSERT_EQ(upload("reuse", "load", 40, 3.0), 200);
+  rng = before_upload;
+  ASSERT_EQ(upload("rigid", "load", 40, 3.0), 200);
+  const Reply reuse = s.Post("/v1/campaigns/reuse:fit", json::object());
+  const Reply rigid = s.Post("/v1/campaigns/rigid:fit", json::object());
+  ASSERT_EQ(reuse.status, 200) << reuse.text;
+  ASSERT_EQ(rigid.status, 200) << rigid.text;
+  const double reused = reuse.body["residuals_after"]["max_position_mm"].get<double>();
+  const double rigid_left = rigid.body["residuals_after"]["max_position_mm"].get<double>();
+  EXPECT_LT(reused, 0.01) << reuse.text;
+  EXPECT_LT(reused, 0.1 * rigid_left) << rigid.text;
 }
 
 // A tracker's own point export (measurements:import), matched to the plan by target name: stored as one batch

@@ -1,5 +1,6 @@
 // The wire shapes of api/: every resource the service returns survives wire -> typed -> wire unchanged, every
 // required field is required by name, and stored documents of the previous schema version still load.
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -496,6 +497,74 @@ TEST_F(WireTest, CellsKeepToTheRobotTheyWereMadeFor) {
   } catch (const ApiError& e) {
     EXPECT_EQ(e.details().at(0).field, "obstacles");
   }
+}
+
+// Joint terms a robot holds (e.g. from a compliant calibration) in wire units: written in a definition only when
+// held, always in the resource; bad ones refused naming the field.
+TEST_F(WireTest, RobotsHoldJointTermsInWireUnits) {
+  const json joints = json::parse(R"([
+      {"name":"s","type":"revolute","xyz_mm":[0,0,100],"rpy_deg":[0,0,0],"min_deg":-90,"max_deg":90,
+       "mass_kg":4,"com_mm":[0,0,50],"harmonics_deg":[0.01,-0.02,0,0.005]},
+      {"name":"e","type":"revolute","xyz_mm":[0,0,200],"rpy_deg":[90,0,0],"min_deg":-90,"max_deg":90,
+       "mass_kg":2,"com_mm":[100,0,0],"compliance_deg_per_nm":0.002}])");
+  const json body = {{"id", "held"}, {"convention", "transform"}, {"joints", joints},
+                     {"tool", {{"position_mm", {150, 0, 0}}, {"rpy_deg", {0, 0, 0}}}}};
+  const Robot robot = service_->CreateRobot(body);
+  ExpectRoundTrip(robot);
+  ExpectEveryFieldRequired(robot, kDerived);
+  EXPECT_DOUBLE_EQ(robot.joints[1].joint.compliance_deg_per_nm, 0.002);
+  EXPECT_DOUBLE_EQ(robot.joints[0].joint.harmonics_deg[1], -0.02);
+  EXPECT_EQ(json(robot)["joints"][0]["compliance_deg_per_nm"], 0.0);
+  EXPECT_EQ(json(robot)["joints"][1]["harmonics_deg"], json::array({0.0, 0.0, 0.0, 0.0}));
+  const RegisterRobotRequest definition = ParseRegisterRobotRequest(body, Limits{});
+  EXPECT_EQ(json(definition)["joints"][0]["harmonics_deg"], joints[0]["harmonics_deg"]);
+  EXPECT_FALSE(json(definition)["joints"][0].contains("compliance_deg_per_nm"));
+  EXPECT_FALSE(json(definition)["joints"][1].contains("harmonics_deg"));
+  EXPECT_EQ(json(ParseRegisterRobotRequest(json(definition), Limits{})), json(definition));
+  const RobotModel model = BuildModel(definition);
+  EXPECT_TRUE(model.has_fixed_joint_terms());
+  EXPECT_NEAR(model.spec().joints[1].compliance_rad_per_nm, 0.002 * kRadPerDeg, 1e-18);
+  // The robot's :forward deflects under a payload; without held terms it would not.
+  const ForwardResult light = service_->RobotForward("held", {{"joints", {{30, 40}}}});
+  const ForwardResult heavy =
+      service_->RobotForward("held", {{"joints", {{30, 40}}}, {"payload", {{"mass_kg", 5}, {"com_mm", {100, 0, 0}}}}});
+  const double moved = std::hypot(heavy.poses[0].position_mm[0] - light.poses[0].position_mm[0],
+                                  heavy.poses[0].position_mm[1] - light.poses[0].position_mm[1],
+                                  heavy.poses[0].position_mm[2] - light.poses[0].position_mm[2]);
+  EXPECT_GT(moved, 1e-3);
+
+  const auto refused_field = [&](json joint_0, json joint_1) {
+    json bad = body;
+    bad["id"] = "bad-held";
+    bad["joints"][0] = std::move(joint_0);
+    bad["joints"][1] = std::move(joint_1);
+    try {
+      (void)service_->CreateRobot(bad);
+    } catch (const ApiError& e) {
+      EXPECT_EQ(e.status(), Status::kInvalidArgument);
+      return e.details().empty() ? std::string() : e.details()[0].field;
+    }
+    return std::string("accepted");
+  };
+  json j0 = joints[0], j1 = joints[1];
+  j1["compliance_deg_per_nm"] = 0.6;  // beyond 0.01 rad/(N*m)
+  EXPECT_EQ(refused_field(j0, j1), "joints[1].compliance_deg_per_nm");
+  j1 = joints[1];
+  j0["harmonics_deg"] = {0, 0, 0.6, 0};
+  EXPECT_EQ(refused_field(j0, j1), "joints[0].harmonics_deg");
+  j0["harmonics_deg"] = {0, 0, 0};
+  EXPECT_EQ(refused_field(j0, j1), "joints[0].harmonics_deg");
+  j0 = joints[0];
+  j0.erase("mass_kg");
+  j1.erase("mass_kg");
+  EXPECT_EQ(refused_field(j0, j1), "joints");  // a compliance needs masses
+  j1 = joints[1];
+  j1["type"] = "prismatic";
+  j1.erase("min_deg");
+  j1.erase("max_deg");
+  j1["min_mm"] = 0;
+  j1["max_mm"] = 100;
+  EXPECT_EQ(refused_field(joints[0], j1), "joints[1].type");
 }
 
 TEST(WireRequestTest, RequestsRoundTrip) {

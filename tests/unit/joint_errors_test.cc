@@ -2,6 +2,7 @@
 // Jacobian columns against finite differences, recovery from a simulated cell, compensation under a payload the
 // calibration never saw, and the model choice by cross-validation.
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "robocal/core/compensation.h"
+#include "robocal/core/dh_table.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
@@ -415,6 +417,203 @@ TEST(JointTermInputTest, BadMassesOrdersAndMissingMassesAreRefusedByField) {
   std::string error;
   EXPECT_FALSE((Payload{-2.0, Eigen::Vector3d::Zero()}.IsValid("payload", &error)));
   EXPECT_EQ(error.rfind("payload.mass_kg", 0), 0u);
+}
+
+// ---------------------------------------------------------------------------------------------- fixed joint terms
+
+double LargestPoseDifference(const Transform& a, const Transform& b) {
+  return (a.matrix() - b.matrix()).cwiseAbs().maxCoeff();
+}
+
+// The registered robot's gravity torques come from its own nominal chain, the calibrated one, where the
+// calibration's came from the nominal robot's (the geometric errors tilt the links by up to 3e-3 rad here): with
+// compliances it is the calibration at joints shifted by compliance times that difference of the torques (a few
+// microradians). Geometry and harmonics carry over exactly.
+TEST(FixedJointTermTest, ACalibrationsSpecHoldsItsJointTermsAndMovesAsTheCalibration) {
+  for (const char* name : {"ur5e", "puma560", "grinder5"}) {
+    for (const JointErrorTerms terms : {JointErrorTerms{false, 2}, JointErrorTerms{true, 2}}) {
+      SCOPED_TRACE(std::string(name) + " " + terms.Describe());
+      const RobotModel model = Preset(name).WithErrorTerms(terms);
+      Rng rng(41);
+      const Eigen::VectorXd eps = RandomErrorsWithTerms(model, &rng);
+      const RobotModelSpec spec = CalibratedTransformSpec(model, eps);
+      EXPECT_EQ(spec.error_terms, JointErrorTerms());
+      const RobotModel robot = RobotModel::Build(spec);
+      EXPECT_TRUE(robot.has_fixed_joint_terms());
+      EXPECT_TRUE(robot.deflects());
+      EXPECT_TRUE(robot.joint_terms().empty());
+      // Every term's parameter is in its joint.
+      for (size_t t = 0; t < model.joint_terms().size(); ++t) {
+        const JointTermParameter& term = model.joint_terms()[t];
+        const Eigen::Index k = model.num_geometric_parameters() + static_cast<Eigen::Index>(t);
+        const JointSpec& joint = spec.joints[static_cast<size_t>(term.joint)];
+        const double held = term.kind == JointTermParameter::Kind::kCompliance ? joint.compliance_rad_per_nm
+                            : term.kind == JointTermParameter::Kind::kSin
+                                ? joint.harmonics_rad[2 * (term.order - 1)]
+                                : joint.harmonics_rad[2 * term.order - 1];
+        EXPECT_EQ(held, eps[k]) << model.parameter_name(static_cast<int>(k));
+      }
+      Eigen::VectorXd compliance(model.num_joints());
+      for (int i = 0; i < model.num_joints(); ++i) {
+        compliance[i] = spec.joints[static_cast<size_t>(i)].compliance_rad_per_nm;
+      }
+      const FoldedChain chain(robot, Eigen::VectorXd());
+      EXPECT_TRUE(chain.deflects());
+      for (const Payload& payload : {kPayloadA, kPayloadB, kPayloadC}) {
+        for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 10, 43)) {
+          KinematicsWorkspace ws(model), robot_ws(robot);
+          const Eigen::VectorXd shift = compliance.cwiseProduct(GravityTorques(robot, q, payload) -
+                                                               GravityTorques(model, q, payload));
+          EXPECT_LE(shift.cwiseAbs().maxCoeff(), terms.compliance ? 1e-5 : 0.0);
+          const Transform calibrated = ForwardKinematics(model, q + shift, eps, &ws, payload);
+          Eigen::MatrixXd expected(6, model.num_joints()), held(6, model.num_joints());
+          JointJacobian(model, q + shift, eps, MeasurementType::kPose, &ws, expected, payload);
+          // Second order in the shift (its own deflection's change, c dtau/dq shift): 1e-3 of the first-order 1e-3 mm.
+          const double tolerance = terms.compliance ? 1e-5 : 1e-9;
+          EXPECT_LT(LargestPoseDifference(ForwardKinematics(robot, q, Eigen::VectorXd(), &robot_ws, payload),
+                                          calibrated),
+                    tolerance);
+          EXPECT_LT(LargestPoseDifference(chain.WithPayload(payload).Forward(q, nullptr), calibrated), tolerance);
+          JointJacobian(robot, q, Eigen::VectorXd(), MeasurementType::kPose, &robot_ws, held, payload);
+          EXPECT_LT((expected - held).cwiseAbs().maxCoeff(), terms.compliance ? 1e-2 : 1e-9);
+        }
+      }
+    }
+  }
+}
+
+TEST(FixedJointTermTest, FittedTermsStackOnHeldOnesAndTheJacobiansMatchFiniteDifferences) {
+  // Held terms of the largest plausible size, so that their dependence on the joints is far above the
+  // differences' error; fitted terms and geometric errors on top.
+  RobotModelSpec spec = PresetSpec("ur5e");
+  for (size_t i = 0; i < spec.joints.size(); ++i) {
+    spec.joints[i].compliance_rad_per_nm = (i % 2 == 0 ? 0.5 : -0.3) * kImplausibleComplianceRadPerNm / 10.0;
+    spec.joints[i].harmonics_rad = Eigen::Vector4d(3e-3, -2e-3, 1e-3, 4e-3) * (1.0 + 0.1 * static_cast<double>(i));
+  }
+  spec.error_terms = {true, 2};
+  const RobotModel model = RobotModel::Build(spec);
+  Rng rng(45);
+  const Payload payload{6.0, Eigen::Vector3d(10, 40, 80)};
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 5, 47)) {
+    const Eigen::VectorXd eps = RandomErrorsWithTerms(model, &rng);
+    KinematicsWorkspace ws(model);
+    Eigen::MatrixXd analytic(6, model.num_error_parameters()), joints(6, model.num_joints());
+    IdentificationJacobian(model, q, eps, MeasurementType::kPose, &ws, analytic, payload);
+    JointJacobian(model, q, eps, MeasurementType::kPose, &ws, joints, payload);
+    const Transform at = ForwardKinematics(model, q, eps, &ws, payload);
+    auto residual = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& e) {
+      KinematicsWorkspace w(model);
+      Eigen::VectorXd r(6);
+      MeasurementResidual(MeasurementType::kPose, at, ForwardKinematics(model, x, e, &w, payload), r);
+      return r;
+    };
+    Eigen::VectorXd steps(eps.size());
+    for (int k = 0; k < eps.size(); ++k) {
+      steps[k] = model.parameter_unit(k) == ParameterUnit::kMm    ? 1e-3
+                 : model.parameter_unit(k) == ParameterUnit::kRad ? 1e-6
+                                                                  : 1e-8;
+    }
+    const Eigen::MatrixXd numeric =
+        -test::CentralDifferences([&](const Eigen::VectorXd& e) { return residual(q, e); }, eps, steps);
+    EXPECT_LT(test::MaxRelativeColumnError(analytic, numeric), 1e-5);
+    const Eigen::MatrixXd numeric_joints = -test::CentralDifferences(
+        [&](const Eigen::VectorXd& x) { return residual(x, eps); }, q, Eigen::VectorXd::Constant(q.size(), 1e-6));
+    EXPECT_LT(test::MaxRelativeColumnError(joints, numeric_joints), 1e-6);
+    // The held terms deflect the joints as fitted terms of the same values would.
+    RobotModelSpec bare = spec;
+    for (JointSpec& j : bare.joints) {
+      j.compliance_rad_per_nm = 0.0;
+      j.harmonics_rad.setZero();
+    }
+    const RobotModel fitted_only = RobotModel::Build(bare);
+    Eigen::VectorXd sum = eps;
+    for (size_t t = 0; t < model.joint_terms().size(); ++t) {
+      const JointTermParameter& term = model.joint_terms()[t];
+      const JointSpec& joint = spec.joints[static_cast<size_t>(term.joint)];
+      sum[model.num_geometric_parameters() + static_cast<Eigen::Index>(t)] +=
+          term.kind == JointTermParameter::Kind::kCompliance ? joint.compliance_rad_per_nm
+          : term.kind == JointTermParameter::Kind::kSin      ? joint.harmonics_rad[2 * (term.order - 1)]
+                                                             : joint.harmonics_rad[2 * term.order - 1];
+    }
+    KinematicsWorkspace bare_ws(fitted_only);
+    EXPECT_LT(LargestPoseDifference(ForwardKinematics(fitted_only, q, sum, &bare_ws, payload), at), 1e-9);
+  }
+}
+
+TEST(FixedJointTermTest, ARegisteredCompliantCalibrationNeedsNoJointTermsOfItsOwn) {
+  // Noise-free truth with compliance and harmonics; calibrated once with them, the result registered as a robot;
+  // a geometric fit of that robot on new measurements then explains them (to round-off) and finds nothing left.
+  const RobotModel nominal = Preset("ur5e");
+  VirtualCellOptions o = NoisyCell(51, 0.3);
+  o.noise.position_mm = 0.0;
+  o.noise.orientation_rad = 0.0;
+  o.joint_harmonic_sigma_rad = 5e-5;
+  o.joint_harmonic_min_order = 1;
+  o.joint_harmonic_max_order = 2;
+  VirtualCell cell(nominal, o);
+  std::vector<Measurement> shots = MeasureUnder(&cell, nominal, 80, 300, kPayloadA);
+  const std::vector<Measurement> loaded = MeasureUnder(&cell, nominal, 80, 301, kPayloadB);
+  shots.insert(shots.end(), loaded.begin(), loaded.end());
+  IdentificationOptions options;
+  options.reject_outliers = false;
+  options.estimate_model_error = false;
+  const Calibration first = Identify(nominal.WithErrorTerms({true, 2}), shots, options);
+  ASSERT_NE(first.summary.termination, Termination::kFailure) << first.summary.message;
+  RobotModelSpec spec = CalibratedTransformSpec(first.model, first.errors);
+  spec.name = "ur5e-calibrated";
+  const RobotModel robot = RobotModel::Build(spec);
+  const std::vector<Measurement> fresh = MeasureUnder(&cell, robot, 60, 302, kPayloadC);
+  const Calibration again = Identify(robot, fresh, options);
+  ASSERT_NE(again.summary.termination, Termination::kFailure) << again.summary.message;
+  // Left: the torques' chain (see above), some 1e-3 mm against deflections of 0.3 mm; a hundredth of them here.
+  EXPECT_LT(again.summary.before.max_position_mm, 3e-3) << again.summary.FullReport();
+  EXPECT_LT(again.errors.head(again.model.num_geometric_parameters()).cwiseAbs().maxCoeff(), 3e-3);
+  // The same robot without its held terms is off by the deflections (tenths of a mm).
+  RobotModelSpec rigid = spec;
+  for (JointSpec& j : rigid.joints) {
+    j.compliance_rad_per_nm = 0.0;
+    j.harmonics_rad.setZero();
+  }
+  const Calibration without = Identify(RobotModel::Build(rigid), fresh, options);
+  EXPECT_GT(without.summary.before.max_position_mm, 0.05) << without.summary.FullReport();
+}
+
+TEST(FixedJointTermTest, BadHeldTermsAreRefusedByField) {
+  auto refused_field = [](const RobotModelSpec& spec) -> std::string {
+    try {
+      RobotModel::Build(spec);
+    } catch (const InvalidModelError& e) {
+      return e.errors().at(0).field;
+    }
+    return "accepted";
+  };
+  RobotModelSpec spec = PresetSpec("ur5e");
+  spec.joints[1].compliance_rad_per_nm = 2.0 * kImplausibleComplianceRadPerNm;
+  EXPECT_EQ(refused_field(spec), "joints[1].compliance");
+  spec = PresetSpec("ur5e");
+  spec.joints[1].compliance_rad_per_nm = std::nan("");
+  EXPECT_EQ(refused_field(spec), "joints[1].compliance");
+  spec = PresetSpec("ur5e");
+  spec.joints[4].harmonics_rad[2] = -2.0 * kImplausibleHarmonicRad;
+  EXPECT_EQ(refused_field(spec), "joints[4].harmonics");
+  spec = PresetSpec("ur5e");
+  spec.joints[4].harmonics_rad[0] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(refused_field(spec), "joints[4].harmonics");
+  spec = PresetSpec("ur5e");
+  for (JointSpec& j : spec.joints) j.mass_kg = 0.0;
+  spec.joints[1].compliance_rad_per_nm = 1e-5;
+  EXPECT_EQ(refused_field(spec), "joints");
+  spec.joints[1].compliance_rad_per_nm = 0.0;
+  spec.joints[1].harmonics_rad[0] = 1e-4;  // a harmonic needs no masses
+  EXPECT_EQ(refused_field(spec), "accepted");
+  spec = PresetSpec("grinder5");
+  int prismatic = -1;
+  for (size_t i = 0; i < spec.joints.size(); ++i) {
+    if (spec.joints[i].type == JointType::kPrismatic) prismatic = static_cast<int>(i);
+  }
+  ASSERT_GE(prismatic, 0);
+  spec.joints[static_cast<size_t>(prismatic)].harmonics_rad[1] = 1e-4;
+  EXPECT_EQ(refused_field(spec), "joints[" + std::to_string(prismatic) + "].type");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // (of a robot or of a calibrated campaign), and joint vectors between wire units (deg / mm) and the core's.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -28,6 +29,11 @@ struct JointWire {
   /// The link this joint moves: mass (kg; 0: unknown) and centre of mass (mm, link frame: JointSpec::com_mm).
   double mass_kg = 0.0;
   std::array<double, 3> com_mm{0.0, 0.0, 0.0};
+  /// Joint terms the robot holds (JointSpec::compliance_rad_per_nm, harmonics_rad), in wire units: the compliance
+  /// in degrees per N*m, the harmonic amplitudes in degrees of sin q, cos q, sin 2q, cos 2q (0: none). A robot
+  /// registered from a calibration with joint terms holds them.
+  double compliance_deg_per_nm = 0.0;
+  std::array<double, 4> harmonics_deg{0.0, 0.0, 0.0, 0.0};
 };
 
 /// Where an imported robot came from: the URDF document and the chain taken from it.
@@ -43,6 +49,10 @@ struct CalibrationSource {
   std::string campaign;
   std::string robot;
   std::int64_t created_unix_ms = 0;
+  /// Per joint, the range [min, max] its calibration measurements covered (deg / mm, the joint's unit): the
+  /// calibration was identified there; joint harmonics especially hold only there (docs/robots.md). Empty in
+  /// definitions stored before it was kept.
+  std::vector<std::array<double, 2>> joint_ranges;
 };
 void to_json(nlohmann::json& j, const CalibrationSource& source);
 void from_json(const nlohmann::json& j, CalibrationSource& source);

@@ -120,8 +120,10 @@ class Client {
   /// POST /v1/robots with a URDF document: the chain base_link -> tip_link (docs/formats.md).
   api::Robot ImportRobot(const api::ImportUrdfRequest& request);
   void DeleteRobot(const std::string& robot);
-  /// Nominal tool poses (frame "world (nominal base)") for joint vectors (deg / mm), one per vector in order.
-  api::ForwardResult RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints);
+  /// Nominal tool poses (frame "world (nominal base)") for joint vectors (deg / mm), one per vector in order,
+  /// under `payload` (a robot holding compliances deflects under it; none if unset).
+  api::ForwardResult RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints,
+                                  const std::optional<api::PayloadWire>& payload = std::nullopt);
 
   // Cells.
   api::CellWire CreateCell(const api::CellWire& request);
@@ -183,8 +185,10 @@ class Client {
   /// Convenience: compensated joints for nominal joint commands (deg / mm).
   api::CompensateResult CompensateJoints(const std::string& campaign,
                                          const std::vector<std::vector<double>>& nominal_joints);
-  /// Tool poses of the calibrated robot (frame "tracker") for joint vectors.
-  api::ForwardResult CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints);
+  /// Tool poses of the calibrated robot (frame "tracker") for joint vectors, under `payload` (unset: the
+  /// campaign's, or none).
+  api::ForwardResult CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints,
+                                     const std::optional<api::PayloadWire>& payload = std::nullopt);
   api::Evaluation Evaluate(const std::string& campaign, const api::EvaluateRequest& request = {});
 
   // Operations.

@@ -28,11 +28,6 @@ Transform RegisterPoints(const std::vector<Eigen::Vector3d>& from, const std::ve
 /// is DEGRADED and says so (mm; rad, 10 degrees).
 inline constexpr double kImplausibleErrorMm = 100.0;
 inline constexpr double kImplausibleErrorRad = 0.17453292519943295;
-/// Beyond these a joint term is no robot's (DEGRADED, said, and the model choice does not take its model): a
-/// compliance of 0.01 rad per N*m is a joint stiffness of 100 N*m/rad, some hundred times softer than a small
-/// robot's wrist; a gear or encoder harmonic of 0.01 rad (0.57 deg) a broken gear.
-inline constexpr double kImplausibleComplianceRadPerNm = 1e-2;
-inline constexpr double kImplausibleHarmonicRad = 1e-2;
 
 struct IdentificationOptions {
   MeasurementType measurement_type = MeasurementType::kPose;

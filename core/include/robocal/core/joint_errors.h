@@ -29,9 +29,10 @@ Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q
 Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
                                  Eigen::MatrixXd* dfactor_dq = nullptr);
 
-/// The joint deflection dq (rad per joint; zero for prismatic joints) of error parameters eps (num_error_parameters,
-/// or empty for none) at command q: sum over the joint terms of parameter times factor. The calibrated robot's
-/// joints are q + dq. ddq_dq, if not null, receives d(dq)/dq (n x n).
+/// The joint deflection dq (rad per joint; zero for prismatic joints) at command q: the joint terms the robot holds
+/// (JointSpec::compliance_rad_per_nm, harmonics_rad), plus, for error parameters eps (num_error_parameters, or
+/// empty for none), the sum over the model's joint terms of parameter times factor. The robot's joints are
+/// q + dq. ddq_dq, if not null, receives d(dq)/dq (n x n).
 Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                                 const Payload& payload, Eigen::MatrixXd* ddq_dq = nullptr);
 

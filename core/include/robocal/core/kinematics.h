@@ -32,19 +32,20 @@ Transform ErrorTransform(const double* delta);
 
 /// Tool pose T_world_tool for joints q (num_joints: rad or mm per joint) and error parameters eps
 /// (num_error_parameters, mm and rad; an empty vector means the nominal model). Fills `ws`.
-/// A model with joint terms (RobotModelSpec::error_terms) moves each joint by its deflection first
-/// (JointDeflection: q + dq(q, eps, payload)); `ws` then holds the frames at the deflected joints, and
-/// ws->q_effective those joints. Throws std::invalid_argument on wrong sizes.
+/// A model with joint terms (fixed ones in its joints, or RobotModelSpec::error_terms) moves each joint by its
+/// deflection first (JointDeflection: q + dq(q, eps, payload)); `ws` then holds the frames at the deflected
+/// joints, and ws->q_effective those joints. Throws std::invalid_argument on wrong sizes.
 const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                                    KinematicsWorkspace* ws, const Payload& payload = Payload());
 
-/// Nominal tool pose (no errors), convenience form that allocates its own workspace.
+/// Nominal tool pose (no errors; the joint terms a robot holds, under no payload), convenience form that allocates
+/// its own workspace.
 Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q);
 
-/// The nominal chain in the robot's BASE frame (no T_world_base, no error parameters), allocating nothing (the
-/// cell's per-candidate checks): T_base_joint[i], i < num_joints, is joint i's frame before its motion (as
-/// T_world_joint of ForwardKinematics), *T_base_flange the flange (before T_flange_tool). `T_base_joint` points
-/// at num_joints transforms. Throws std::invalid_argument if q does not have num_joints values.
+/// The nominal chain in the robot's BASE frame (no T_world_base, no error parameters, no joint terms), allocating
+/// nothing (the cell's per-candidate checks): T_base_joint[i], i < num_joints, is joint i's frame before its motion
+/// (as T_world_joint of ForwardKinematics), *T_base_flange the flange (before T_flange_tool). `T_base_joint`
+/// points at num_joints transforms. Throws std::invalid_argument if q does not have num_joints values.
 void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Transform* T_base_joint,
                         Transform* T_base_flange);
 
@@ -54,9 +55,9 @@ void NominalChainInBase(const RobotModel& model, const Eigen::VectorXd& q, Trans
 /// chain serves any number of threads.
 class FoldedChain {
  public:
-  /// eps: num_error_parameters values, or empty for the nominal model. With joint terms in the model, Forward
-  /// moves each joint by its deflection under `payload` first (as ForwardKinematics). Throws
-  /// std::invalid_argument on a wrong size.
+  /// eps: num_error_parameters values, or empty for the nominal model. With joint terms in the model (fixed or
+  /// error parameters), Forward moves each joint by its deflection under `payload` first (as ForwardKinematics).
+  /// Throws std::invalid_argument on a wrong size.
   FoldedChain(const RobotModel& model, const Eigen::VectorXd& eps, const Payload& payload = Payload());
   /// The same chain under another payload.
   FoldedChain WithPayload(const Payload& payload) const;
@@ -68,7 +69,7 @@ class FoldedChain {
   /// points at num_joints transforms and receives each joint's frame before its motion (as
   /// KinematicsWorkspace::T_world_joint).
   Transform Forward(const Eigen::Ref<const Eigen::VectorXd>& q, Transform* T_world_joint) const;
-  /// Whether Forward deflects the joints (the model has joint terms).
+  /// Whether Forward deflects the joints (RobotModel::deflects()).
   bool deflects() const { return model_ != nullptr; }
 
  private:

@@ -51,6 +51,13 @@ struct JointSpec {
   /// They give the gravity torques of the compliance model (joint_errors.h).
   double mass_kg = 0.0;
   Eigen::Vector3d com_mm = Eigen::Vector3d::Zero();
+  /// Joint terms the robot holds as part of its kinematics (joint_errors.h), e.g. those of a calibration
+  /// registered as a robot of its own: the compliance (rad per N*m; needs the robot's masses) and the harmonic
+  /// amplitudes (rad) of sin q, cos q, sin 2q, cos 2q of the joint's own angle. The joint turns by
+  /// compliance * tau + the harmonics on top of its command, before any error parameter's term. Zero: none;
+  /// revolute joints only, within kImplausibleComplianceRadPerNm / kImplausibleHarmonicRad.
+  double compliance_rad_per_nm = 0.0;
+  Eigen::Vector4d harmonics_rad = Eigen::Vector4d::Zero();
 };
 
 /// Which joint errors beyond the geometric ones a model carries (joint_errors.h): one compliance per revolute
@@ -69,6 +76,13 @@ struct JointErrorTerms {
 
 /// The highest joint harmonic order a model takes.
 inline constexpr int kMaxJointHarmonics = 2;
+
+/// Beyond these a joint term is no robot's: a compliance of 0.01 rad per N*m is a joint stiffness of 100 N*m/rad,
+/// some hundred times softer than a small robot's wrist; a gear or encoder harmonic of 0.01 rad (0.57 deg) a
+/// broken gear. A fit that identifies one is DEGRADED (and the model choice does not take its model); a robot
+/// definition holding one is refused.
+inline constexpr double kImplausibleComplianceRadPerNm = 1e-2;
+inline constexpr double kImplausibleHarmonicRad = 1e-2;
 
 /// A payload on the flange: its mass (kg, >= 0; 0 is no payload) and centre of mass (mm, flange frame).
 struct Payload {
@@ -186,6 +200,10 @@ class RobotModel {
   ParameterUnit parameter_unit(int k) const;
   /// Whether any link has a mass (the compliance model needs them).
   bool has_masses() const;
+  /// Whether any joint holds fixed joint terms (JointSpec::compliance_rad_per_nm, harmonics_rad).
+  bool has_fixed_joint_terms() const { return has_fixed_joint_terms_; }
+  /// Whether the joints deflect: fixed joint terms, or joint-term error parameters.
+  bool deflects() const { return has_fixed_joint_terms_ || !joint_terms_.empty(); }
   /// Link frame i (JointSpec::com_mm's frame) relative to joint i's frame after its motion: the identity
   /// except for standard DH, where it is the row's fixed part.
   const Transform& link_frame(int i) const { return link_frame_[i]; }
@@ -202,6 +220,7 @@ class RobotModel {
   std::vector<std::string> parameter_names_;
   std::vector<JointTermParameter> joint_terms_;
   std::vector<Transform> link_frame_;
+  bool has_fixed_joint_terms_ = false;
 };
 
 }  // namespace robocal
