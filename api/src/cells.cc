@@ -247,8 +247,7 @@ void to_json(nlohmann::json& j, const CellWire& c) {
   for (const ObstacleWire& o : c.obstacles) {
     obstacles.push_back({{"id", o.id}, {"box", {{"min_mm", o.min_mm}, {"max_mm", o.max_mm}}}});
   }
-  nlohmann::json ranges = nlohmann::json::array();
-  for (const JointRangeWire& r : c.joint_ranges) ranges.push_back({{"min", r.min}, {"max", r.max}});
+  const nlohmann::json ranges = c.joint_ranges;
   j = {{"id", c.id},
        {"description", c.description},
        {"robot", c.robot},
@@ -258,7 +257,7 @@ void to_json(nlohmann::json& j, const CellWire& c) {
        {"clearance_mm", c.clearance_mm}};
   // A request may leave the radii and ranges to the server (empty here); a resource always has them.
   if (!c.link_radii_mm.empty()) j["link_radii_mm"] = c.link_radii_mm;
-  if (!c.joint_ranges.empty()) j["joint_ranges"] = std::move(ranges);
+  if (!c.joint_ranges.empty()) j["joint_ranges"] = ranges;
   if (c.tool_radius_mm) j["tool_radius_mm"] = *c.tool_radius_mm;
 }
 
@@ -282,11 +281,6 @@ void from_json(const nlohmann::json& j, ObstacleWire& w) {
   const WireReader box(r.Member("box"), "box");
   box.Required("min_mm", &w.min_mm);
   box.Required("max_mm", &w.max_mm);
-}
-void from_json(const nlohmann::json& j, JointRangeWire& w) {
-  const WireReader r(j);
-  r.Required("min", &w.min);
-  r.Required("max", &w.max);
 }
 
 void from_json(const nlohmann::json& j, CellWire& c) {

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "robocal/api/json_reader.h"
 #include "robocal/core/presets.h"
@@ -111,12 +113,10 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         jr.Number("compliance_deg_per_nm", false, &j.compliance_deg_per_nm, -kMaxComplianceDegPerNm,
                   kMaxComplianceDegPerNm);
         if (jr.FixedNumbers("harmonics_deg", false, j.harmonics_deg.data(), 4)) {
-          for (double h : j.harmonics_deg) {
-            if (std::abs(h) > kMaxHarmonicDeg) {
-              problems.Add(path + ".harmonics_deg",
-                           "each amplitude must lie within +-0.573 degrees (0.01 rad): beyond is no robot joint's "
-                           "harmonic");
-              break;
+          for (std::size_t k = 0; k < j.harmonics_deg.size(); ++k) {
+            if (std::abs(j.harmonics_deg[k]) > kMaxHarmonicDeg) {
+              problems.Add(IndexPath(path + ".harmonics_deg", k),
+                           "must lie within +-0.573 degrees (0.01 rad): beyond is no robot joint's harmonic");
             }
           }
         }
@@ -323,6 +323,20 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
     spec.gravity_base = g.norm() > 0.0 ? Eigen::Vector3d(g.normalized()) : g;
   }
   return spec;
+}
+
+std::string ImplausibleJointTerms(const JointWire& joint) {
+  std::ostringstream out;
+  out << std::setprecision(4);
+  if (std::abs(joint.compliance_deg_per_nm) > kMaxComplianceDegPerNm) {
+    out << "compliance_deg_per_nm " << joint.compliance_deg_per_nm << " is beyond +-0.573 deg/(N*m) (0.01 rad/(N*m))";
+  }
+  for (std::size_t k = 0; k < joint.harmonics_deg.size(); ++k) {
+    if (std::abs(joint.harmonics_deg[k]) <= kMaxHarmonicDeg) continue;
+    out << (out.tellp() > 0 ? "; " : "") << "harmonics_deg[" << k << "] " << joint.harmonics_deg[k]
+        << " is beyond +-0.573 deg (0.01 rad)";
+  }
+  return out.str();
 }
 
 RobotModel BuildModel(const RegisterRobotRequest& req) {

@@ -366,8 +366,8 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
   }
   if (!columns_ok) return;
   const double scale = UnitScale(req.unit);
-  const double joint_scale = req.joints.unit == "rad" ? 180.0 / M_PI : 1.0;
-  const double angle_scale = req.orientation.unit == "deg" ? M_PI / 180.0 : 1.0;
+  const double joint_scale = req.joints.unit == "rad" ? kDegPerRad : 1.0;
+  const double angle_scale = req.orientation.unit == "deg" ? kRadPerDeg : 1.0;
   std::size_t max_index = 0;
   for (const Wanted& w : wanted) max_index = std::max(max_index, static_cast<std::size_t>(w.index));
   std::vector<std::string> fields;

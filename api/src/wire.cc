@@ -225,6 +225,14 @@ bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems
   return true;
 }
 
+void to_json(nlohmann::json& j, const JointRangeWire& range) { j = {{"min", range.min}, {"max", range.max}}; }
+
+void from_json(const nlohmann::json& j, JointRangeWire& range) {
+  const WireReader r(j);
+  r.Required("min", &range.min);
+  r.Required("max", &range.max);
+}
+
 void to_json(nlohmann::json& j, const PayloadWire& p) { j = {{"mass_kg", p.mass_kg}, {"com_mm", p.com_mm}}; }
 
 void from_json(const nlohmann::json& j, PayloadWire& p) {

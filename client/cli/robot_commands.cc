@@ -37,8 +37,8 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
   if (robot.calibrated_from && robot.calibrated_from->joint_ranges.size() == robot.joints.size()) {
     out << "  calibrated over:";
     for (std::size_t i = 0; i < robot.joints.size(); ++i) {
-      const std::array<double, 2>& r = robot.calibrated_from->joint_ranges[i];
-      out << (i == 0 ? " " : ", ") << robot.joints[i].joint.name << " " << Fixed(r[0], 1) << " .. " << Fixed(r[1], 1)
+      const api::JointRangeWire& r = robot.calibrated_from->joint_ranges[i];
+      out << (i == 0 ? " " : ", ") << robot.joints[i].joint.name << " " << Fixed(r.min, 1) << " .. " << Fixed(r.max, 1)
           << " " << robot.joints[i].unit;
     }
     out << "\n";

@@ -50,7 +50,7 @@ CampaignOutcome RunCampaign(client::Client& client, VirtualCell* cell, const std
   plan_request.seed = plan_seed;
   if (cell_id != nullptr) plan_request.cell = *cell_id;
   plan_request.noise.position_mm = cell->options().noise.position_mm;
-  plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * api::kDegPerRad;
+  plan_request.noise.orientation_deg = cell->options().noise.orientation_rad * kDegPerRad;
   if (const auto& t = cell->options().noise.tracker) {
     plan_request.tracker = api::TrackerModelWire{{t->radial_um, t->radial_um_per_m},
                                                  {t->transverse_um, t->transverse_um_per_m},

@@ -11,6 +11,7 @@
 #include "robocal/core/geometry.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/random.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
@@ -19,7 +20,6 @@ namespace {
 constexpr double kAtTrackerMm = 1e-3;
 
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr int kNumRules = 6;
 constexpr CellRule kRules[kNumRules] = {CellRule::kJointRange, CellRule::kObstacle,  CellRule::kSelfCollision,
                                         CellRule::kDistance,   CellRule::kIncidence, CellRule::kBeam};
@@ -34,12 +34,12 @@ std::string Fixed(double value, int digits = 1) {
 
 // A joint value as a user reads it: degrees for a revolute joint, mm for a prismatic one.
 std::string JointValue(const RobotModel& model, int joint, double value) {
-  return model.joint_type(joint) == JointType::kRevolute ? Fixed(value * kRadToDeg) + " deg" : Fixed(value) + " mm";
+  return model.joint_type(joint) == JointType::kRevolute ? Fixed(value * kDegPerRad) + " deg" : Fixed(value) + " mm";
 }
 
 std::string JointRange(const RobotModel& model, int joint, double lo, double hi) {
   const bool revolute = model.joint_type(joint) == JointType::kRevolute;
-  const double scale = revolute ? kRadToDeg : 1.0;
+  const double scale = revolute ? kDegPerRad : 1.0;
   return "[" + Fixed(lo * scale) + ", " + Fixed(hi * scale) + "] " + (revolute ? "deg" : "mm");
 }
 
@@ -337,9 +337,9 @@ ConfigurationCheck CellKernel::Check(const RobotModel& model, const Cell& cell, 
                                                    : reflector.id + " is at the tracker itself");
     }
     if (!sights[t].facing) {
-      add(CellRule::kIncidence, reflector.id + " faces " + Fixed(r.incidence_rad * kRadToDeg) +
+      add(CellRule::kIncidence, reflector.id + " faces " + Fixed(r.incidence_rad * kDegPerRad) +
                                     " deg away from the tracker, beyond its acceptance of " +
-                                    Fixed(reflector.acceptance_half_angle_rad * kRadToDeg) + " deg");
+                                    Fixed(reflector.acceptance_half_angle_rad * kDegPerRad) + " deg");
     }
     if (sights[t].blocker >= 0) add(CellRule::kBeam, "the beam to " + reflector.id + " is blocked by " + r.blocked_by);
   }
@@ -492,7 +492,7 @@ Cell Cell::Build(const RobotModel& model, CellSpec spec) {
     }
     if (!(r.acceptance_half_angle_rad > 0.0 && r.acceptance_half_angle_rad <= M_PI)) {
       error(prefix + ".acceptance_half_angle_deg",
-            "must be in (0, 180] degrees, got " + Fixed(r.acceptance_half_angle_rad * kRadToDeg));
+            "must be in (0, 180] degrees, got " + Fixed(r.acceptance_half_angle_rad * kDegPerRad));
     }
   }
 

@@ -19,6 +19,7 @@
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
@@ -26,7 +27,6 @@ namespace {
 // Damping never goes below this: a singular J'J (e.g. the 5-axis robot's C axis parallel to the tool axis) must
 // still give a finite step.
 constexpr double kMinDamping = 1e-9;
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 // Rows matched: the full pose for 6 or more joints; position and tool axis for fewer, since a 5-joint robot
 // cannot reach an arbitrary 6-D pose (the rotation about the tool axis is then free).

@@ -17,11 +17,11 @@
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
 
-constexpr double kDeg = 180.0 / std::numbers::pi;
 
 // The robot the study calibrates: 3 m from the tracker and turned, as a registered robot would be.
 RobotModel StudyRobot(const std::string& name) {
@@ -67,7 +67,7 @@ double DistanceToSingularity(const RobotModel& model, const Eigen::VectorXd& q, 
                              KinematicsWorkspace* ws) {
   Eigen::VectorXd x = q;
   double value = MinSingular(model, x, ws);
-  for (double step = 0.5 / kDeg; step >= 0.01 / kDeg && value >= threshold; step /= 2.0) {
+  for (double step = 0.5 / kDegPerRad; step >= 0.01 / kDegPerRad && value >= threshold; step /= 2.0) {
     for (bool improved = true; improved && value >= threshold;) {
       improved = false;
       for (int i = 0; i < x.size() && value >= threshold; ++i) {
@@ -75,7 +75,7 @@ double DistanceToSingularity(const RobotModel& model, const Eigen::VectorXd& q, 
         for (double sign : {1.0, -1.0}) {
           Eigen::VectorXd y = x;
           y[i] += sign * step;
-          if ((y - q).cwiseAbs().maxCoeff() > 10.0 / kDeg) continue;
+          if ((y - q).cwiseAbs().maxCoeff() > 10.0 / kDegPerRad) continue;
           const double v = MinSingular(model, y, ws);
           if (v < value) {
             x = y;
@@ -87,7 +87,7 @@ double DistanceToSingularity(const RobotModel& model, const Eigen::VectorXd& q, 
       }
     }
   }
-  return value < threshold ? (x - q).cwiseAbs().maxCoeff() * kDeg : -1.0;
+  return value < threshold ? (x - q).cwiseAbs().maxCoeff() * kDegPerRad : -1.0;
 }
 
 // The smallest move of one revolute joint (deg, steps of 0.02 deg, at most 10 deg) that changes a flag of the
@@ -98,7 +98,7 @@ double DistanceToBoundary(const ArmSolver& arm, const Eigen::VectorXd& q) {
     for (int i = 0; i < q.size(); ++i) {
       for (double sign : {1.0, -1.0}) {
         Eigen::VectorXd moved = q;
-        moved[i] += sign * step * 0.02 / kDeg;
+        moved[i] += sign * step * 0.02 / kDegPerRad;
         if (arm.ConfigurationOf(moved) != own) return step * 0.02;
       }
     }
@@ -218,11 +218,11 @@ void SmoothPath(const Calibration& calibration, const RobotModel& nominal, const
     const CompensationResult& r = results[k];
     if (!r.converged) continue;
     ++row->path_converged;
-    row->path_max_deviation_deg = std::max(row->path_max_deviation_deg, (r.joints - path[k]).cwiseAbs().maxCoeff() * kDeg);
+    row->path_max_deviation_deg = std::max(row->path_max_deviation_deg, (r.joints - path[k]).cwiseAbs().maxCoeff() * kDegPerRad);
     if (k == 0 || results[k - 1].joints.size() != n) continue;
     if (*r.configuration != *results[k - 1].configuration) ++row->path_branch_changes;
     row->path_max_joint_step_deg =
-        std::max(row->path_max_joint_step_deg, (r.joints - results[k - 1].joints).cwiseAbs().maxCoeff() * kDeg);
+        std::max(row->path_max_joint_step_deg, (r.joints - results[k - 1].joints).cwiseAbs().maxCoeff() * kDegPerRad);
   }
 }
 
@@ -240,7 +240,7 @@ RobotModelSpec Ur10LikeMdhSpec() {
   RobotModelSpec s;
   s.name = "ur10_mdh";
   s.convention = GeometryConvention::kModifiedDh;
-  const double limit = 170.0 * std::numbers::pi / 180.0;
+  const double limit = 170.0 * kRadPerDeg;
   const double pi2 = std::numbers::pi / 2.0;
   struct Row {
     double alpha, a, d;

@@ -6,7 +6,9 @@
 #include <utility>
 
 #include "robocal/core/identification.h"
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
@@ -279,7 +281,7 @@ std::string AxisName(const RobotModel& model, int k) {
 }
 
 std::string Shown(double value, bool length) {
-  return length ? Format(value, 8) + " mm" : Format(value * 180.0 / M_PI, 8) + " deg";
+  return length ? Format(value, 8) + " mm" : Format(value * kDegPerRad, 8) + " deg";
 }
 
 // The distance (mm) between two parallel lines.
@@ -307,16 +309,16 @@ std::string PairExplanation(const RobotModel& model, const ChainLines& nominal, 
                               "lies where they pass closest";
   if (nominal_angle > kNominallyParallel) {
     if (nominal_angle > 1e-3) return "";
-    return pair + " are " + Format(nominal_angle * 180.0 / M_PI) + " deg from parallel in the nominal model" + closest;
+    return pair + " are " + Format(nominal_angle * kDegPerRad) + " deg from parallel in the nominal model" + closest;
   }
   if (DistanceOfParallel(na, nb) <= kNominallyCoincident) {
     if (angle <= kParallel && DistanceOfParallel(a, b) <= kNominallyCoincident) return "";
-    return pair + " are one line in the nominal model and " + Format(angle * 180.0 / M_PI) + " deg from parallel and " +
+    return pair + " are one line in the nominal model and " + Format(angle * kDegPerRad) + " deg from parallel and " +
            Format(DistanceOfParallel(a, b)) + " mm apart in the calibrated one, and the x axis of a DH frame follows" +
            " the direction of their common normal, which turns with that small difference";
   }
   if (angle <= kParallel) return "";
-  return pair + " are parallel in the nominal model and " + Format(angle * 180.0 / M_PI) +
+  return pair + " are parallel in the nominal model and " + Format(angle * kDegPerRad) +
          " deg from parallel in the calibrated one" + closest;
 }
 
@@ -369,7 +371,7 @@ std::string PairExplanation(const RobotModel& model, const ChainLines& nominal, 
     for (std::size_t i = 0; i < parameters.size(); ++i) {
       const int p = model.ParameterIndex(parameters[i]);
       const bool mm = RobotModel::IsTranslationParameter(p);
-      reason << (i ? ", " : "") << parameters[i] << " = " << Format(mm ? errors[p] : errors[p] * 180.0 / M_PI)
+      reason << (i ? ", " : "") << parameters[i] << " = " << Format(mm ? errors[p] : errors[p] * kDegPerRad)
              << (mm ? " mm" : " deg");
     }
     if (one_suffices) {
@@ -471,20 +473,7 @@ RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::Vec
   // result is a robot, its fit's error terms are the next calibration's choice.
   const int first = model.num_geometric_parameters();
   for (size_t t = 0; t < model.joint_terms().size(); ++t) {
-    const JointTermParameter& term = model.joint_terms()[t];
-    const double value = errors[first + static_cast<Eigen::Index>(t)];
-    JointSpec& joint = spec.joints[static_cast<size_t>(term.joint)];
-    switch (term.kind) {
-      case JointTermParameter::Kind::kCompliance:
-        joint.compliance_rad_per_nm += value;
-        break;
-      case JointTermParameter::Kind::kSin:
-        joint.harmonics_rad[2 * (term.order - 1)] += value;
-        break;
-      case JointTermParameter::Kind::kCos:
-        joint.harmonics_rad[2 * (term.order - 1) + 1] += value;
-        break;
-    }
+    HeldJointTerm(&spec, model.joint_terms()[t]) += errors[first + static_cast<Eigen::Index>(t)];
   }
   spec.error_terms = JointErrorTerms();
   return spec;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "robocal/core/joint_errors.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
@@ -96,7 +97,7 @@ double TrackerUncertainty::TransverseSigmaMm(double distance_mm) const {
   return (transverse_um + transverse_um_per_m * distance_mm * 1e-3) * 1e-3 / mpe_sigmas;
 }
 
-double TrackerUncertainty::OrientationSigmaRad() const { return orientation_deg * (M_PI / 180.0) / mpe_sigmas; }
+double TrackerUncertainty::OrientationSigmaRad() const { return orientation_deg * kRadPerDeg / mpe_sigmas; }
 
 namespace {
 

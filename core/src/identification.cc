@@ -17,6 +17,7 @@
 #include "robocal/core/fit_diagnostics.h"
 #include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
@@ -1052,9 +1053,9 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
     std::ostringstream note;
     note << std::setprecision(2) << "; robot error the geometric model does not explain: " << s->model_error_mm
          << " mm";
-    if (angle_rows > 0) note << ", " << s->model_error_rad * 180.0 / M_PI << " deg";
+    if (angle_rows > 0) note << ", " << s->model_error_rad * kDegPerRad << " deg";
     note << " RMS (tracker: " << s->tracker_rms_mm << " mm";
-    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * 180.0 / M_PI << " deg";
+    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * kDegPerRad << " deg";
     note << ")";
     s->message += note.str();
   };
@@ -1551,10 +1552,15 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
       // A joint term: a compliance beyond kImplausibleComplianceRadPerNm is no robot joint, a harmonic beyond
       // kImplausibleHarmonicRad no gear; the data then hold too little of its effect to say what it is (a term
       // that is nearly constant over the measured poses, fitted to the noise), and it extrapolates wildly.
+      // Judged on the joint's whole term: what the robot holds (a calibration registered as a robot) and the
+      // fitted correction on top.
       const bool compliance = nominal.parameter_unit(p.index) == ParameterUnit::kRadPerNm;
-      if (std::abs(p.value) > (compliance ? kImplausibleComplianceRadPerNm : kImplausibleHarmonicRad)) {
+      const double held = HeldJointTerm(nominal, nominal.joint_terms()[p.index - nominal.num_geometric_parameters()]);
+      if (std::abs(held + p.value) > (compliance ? kImplausibleComplianceRadPerNm : kImplausibleHarmonicRad)) {
         std::ostringstream one;
-        one << std::setprecision(4) << p.name << " " << p.value * 180.0 / M_PI << (compliance ? " deg/(N*m)" : " deg");
+        one << std::setprecision(4) << p.name << " " << (held + p.value) * kDegPerRad
+            << (compliance ? " deg/(N*m)" : " deg");
+        if (held != 0.0) one << " (held " << held * kDegPerRad << " + fitted " << p.value * kDegPerRad << ")";
         s.implausible_joint_terms.push_back(one.str());
       }
       continue;
@@ -1562,7 +1568,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
       if (++count <= 3) {
         std::ostringstream one;
-        one << std::setprecision(4) << p.name << " " << (mm ? p.value : p.value * 180.0 / M_PI) << (mm ? " mm" : " deg");
+        one << std::setprecision(4) << p.name << " " << (mm ? p.value : p.value * kDegPerRad) << (mm ? " mm" : " deg");
         implausible += (implausible.empty() ? "" : ", ") + one.str();
       }
     }

@@ -103,6 +103,35 @@ Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd&
 
 namespace {
 
+// Where a joint term's held value sits in its joint: the element of harmonics_rad, or -1 for the compliance.
+int HarmonicIndex(const JointTermParameter& term) {
+  switch (term.kind) {
+    case JointTermParameter::Kind::kSin:
+      return 2 * (term.order - 1);
+    case JointTermParameter::Kind::kCos:
+      return 2 * (term.order - 1) + 1;
+    case JointTermParameter::Kind::kCompliance:
+      break;
+  }
+  return -1;
+}
+
+}  // namespace
+
+double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term) {
+  JointSpec& joint = spec->joints.at(static_cast<size_t>(term.joint));
+  const int h = HarmonicIndex(term);
+  return h < 0 ? joint.compliance_rad_per_nm : joint.harmonics_rad[h];
+}
+
+double HeldJointTerm(const RobotModel& model, const JointTermParameter& term) {
+  const JointSpec& joint = model.spec().joints.at(static_cast<size_t>(term.joint));
+  const int h = HarmonicIndex(term);
+  return h < 0 ? joint.compliance_rad_per_nm : joint.harmonics_rad[h];
+}
+
+namespace {
+
 // The deflection of the joint terms the robot holds (JointSpec::compliance_rad_per_nm, harmonics_rad), added to
 // dq and its derivative to ddq_dq (if not null).
 void AddFixedDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload, Eigen::VectorXd* dq,

@@ -5,10 +5,11 @@
 #include <stdexcept>
 #include <vector>
 
+#include "robocal/core/units.h"
+
 namespace robocal {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 
 JointSpec DhJoint(const std::string& name, double a_mm, double alpha_rad, double d_mm, double theta_rad,
                   double min_deg, double max_deg) {
@@ -19,8 +20,8 @@ JointSpec DhJoint(const std::string& name, double a_mm, double alpha_rad, double
   j.alpha_rad = alpha_rad;
   j.d_mm = d_mm;
   j.theta_rad = theta_rad;
-  j.min = min_deg * kDeg;
-  j.max = max_deg * kDeg;
+  j.min = min_deg * kRadPerDeg;
+  j.max = max_deg * kRadPerDeg;
   return j;
 }
 
@@ -99,8 +100,8 @@ RobotModelSpec Grinder5() {
       {"X", JointType::kPrismatic, {0, 0, 0}, RotY(M_PI / 2), 0.0, 800.0},
       {"Y", JointType::kPrismatic, {0, 0, 200}, RotX(-M_PI / 2), 0.0, 600.0},
       {"Z", JointType::kPrismatic, {0, 150, 200}, Eigen::Matrix3d::Identity(), 0.0, 400.0},
-      {"C", JointType::kRevolute, {0, 150, -100}, Eigen::Matrix3d::Identity(), -180 * kDeg, 180 * kDeg},
-      {"A", JointType::kRevolute, {0, 150, -220}, RotY(M_PI / 2), -110 * kDeg, 110 * kDeg},
+      {"C", JointType::kRevolute, {0, 150, -100}, Eigen::Matrix3d::Identity(), -180 * kRadPerDeg, 180 * kRadPerDeg},
+      {"A", JointType::kRevolute, {0, 150, -220}, RotY(M_PI / 2), -110 * kRadPerDeg, 110 * kRadPerDeg},
   };
   RobotModelSpec s;
   s.name = "grinder5";

@@ -6,6 +6,7 @@
 
 #include "robocal/core/cell.h"
 #include "robocal/core/model_choice.h"
+#include "robocal/core/units.h"
 
 #include "flags.h"
 
@@ -32,7 +33,7 @@ void Apply(const std::string& flag, const std::string& value, ExperimentOptions*
   } else if (flag == "--noise-mm") {
     options->cell.noise.position_mm = ParseDoubleFlag(flag, value, 0.0);
   } else if (flag == "--noise-deg") {
-    options->cell.noise.orientation_rad = ParseDoubleFlag(flag, value, 0.0) * std::numbers::pi / 180.0;
+    options->cell.noise.orientation_rad = ParseDoubleFlag(flag, value, 0.0) * kRadPerDeg;
   } else if (flag == "--cell") {
     // Resolved after every flag is read, when the robot is known.
     if (value != "preset" && value != "realistic" && value != "none") {

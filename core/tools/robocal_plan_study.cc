@@ -12,6 +12,7 @@
 #include "flags.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/planning_study.h"
+#include "robocal/core/units.h"
 
 namespace {
 
@@ -81,11 +82,11 @@ void Apply(const std::string& flag, const std::string& value, robocal::PlanningS
   } else if (flag == "--noise-mm") {
     o->noise.position_mm = ParseDoubleFlag(flag, value, 1e-12);
   } else if (flag == "--noise-deg") {
-    o->noise.orientation_rad = ParseDoubleFlag(flag, value, 1e-12) * std::numbers::pi / 180.0;
+    o->noise.orientation_rad = ParseDoubleFlag(flag, value, 1e-12) * robocal::kRadPerDeg;
   } else if (flag == "--expected-mm") {
     o->expected_translation_mm = ParseDoubleFlag(flag, value, 1e-12);
   } else if (flag == "--expected-deg") {
-    o->expected_rotation_rad = ParseDoubleFlag(flag, value, 1e-12) * std::numbers::pi / 180.0;
+    o->expected_rotation_rad = ParseDoubleFlag(flag, value, 1e-12) * robocal::kRadPerDeg;
   } else if (flag == "--validation") {
     o->num_validation = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000000));
   } else if (flag == "--exchange-candidates") {

@@ -425,5 +425,8 @@ void HttpServer::Stop() {
 
 bool HttpServer::is_running() const { return impl_->server->is_running(); }
 bool HttpServer::tls() const { return impl_->tls; }
+HttpServer::ConnectionCounts HttpServer::connection_counts() const {
+  return {impl_->connections.active.load(), impl_->connections.queued.load()};
+}
 
 }  // namespace robocal::server

@@ -182,7 +182,7 @@ std::string JointTermsNote(const Calibration& c) {
       c.model.joint_terms().empty() ? "" : "the calibration's " + c.model.error_terms().Describe() + " terms";
   const std::string held = c.model.has_fixed_joint_terms() ? "the joint terms the robot holds" : "";
   return fitted + (fitted.empty() || held.empty() ? "" : " and ") + held +
-         " (joint deflections) cannot be written here: this is its geometry only; compensate through robocal "
+         " (joint deflections) are not written here: this is its geometry only; compensate through robocal "
          "for the rest";
 }
 
@@ -285,7 +285,7 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
       double jump = -1.0;
       for (int k = 0; k < model.num_joints(); ++k) {
         if (model.joint_type(k) != JointType::kRevolute) continue;
-        jump = std::max(jump, std::abs(solved[i].joints[k] - solved[i - 1].joints[k]) * api::kDegPerRad);
+        jump = std::max(jump, std::abs(solved[i].joints[k] - solved[i - 1].joints[k]) * kDegPerRad);
       }
       if (jump >= 0.0) {
         c.joint_jump_deg = jump;

@@ -215,8 +215,8 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
     const double n = p.shots;
     p.before_position_mm = std::sqrt(sums[k].before_p / n);
     p.after_position_mm = std::sqrt(sums[k].after_p / n);
-    p.before_orientation_deg = std::sqrt(sums[k].before_o / n) * api::kDegPerRad;
-    p.after_orientation_deg = std::sqrt(sums[k].after_o / n) * api::kDegPerRad;
+    p.before_orientation_deg = std::sqrt(sums[k].before_o / n) * kDegPerRad;
+    p.after_orientation_deg = std::sqrt(sums[k].after_o / n) * kDegPerRad;
   }
 
   // The validation, as :evaluate answers it.

@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <set>
 #include <vector>
 
 #include "robocal/core/dh_table.h"
@@ -103,16 +105,34 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
                                : "robot " + loaded.campaign.robot + " as calibrated in campaign " + req.campaign;
   api::RegisterRobotRequest definition = api::DefinitionOf(req.id, spec, description);
   definition.calibrated_from = api::CalibrationSource{req.campaign, loaded.campaign.robot, loaded.result.created_unix_ms};
-  // Where the calibration holds: the joint ranges of the measurements the fit saw.
-  std::vector<std::array<double, 2>>& ranges = definition.calibrated_from->joint_ranges;
+  // Where the calibration holds: the joint ranges of the measurements the fit used (those it saw: up to the last
+  // sequence it recorded, or for a fit stored before it recorded one the first used + excluded ones; less the
+  // outliers it excluded).
+  std::set<std::int64_t> excluded;
+  for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
+  const std::int64_t seen_by_fit =
+      loaded.result.summary.num_measurements + static_cast<std::int64_t>(loaded.result.outliers.size());
+  std::int64_t seen = 0;
+  std::vector<api::JointRangeWire>& ranges = definition.calibrated_from->joint_ranges;
   ForEachMeasurement(storage_, req.campaign, "calibration", [&](const StoredMeasurement& s) {
-    if (loaded.last_calibration_sequence && s.sequence > *loaded.last_calibration_sequence) return;
+    const bool in_fit = loaded.last_calibration_sequence ? s.sequence <= *loaded.last_calibration_sequence
+                                                          : seen < seen_by_fit;
+    ++seen;
+    if (!in_fit || excluded.count(s.sequence) > 0) return;
     const std::vector<double> joints = ReadMeasurement(s).joints;
     if (ranges.empty()) ranges.assign(joints.size(), {HUGE_VAL, -HUGE_VAL});
     for (std::size_t i = 0; i < joints.size() && i < ranges.size(); ++i) {
-      ranges[i] = {std::min(ranges[i][0], joints[i]), std::max(ranges[i][1], joints[i])};
+      ranges[i] = {std::min(ranges[i].min, joints[i]), std::max(ranges[i].max, joints[i])};
     }
   });
+  // Joint terms beyond a robot joint's (a DEGRADED fit's) are refused by joint, in the wire's units.
+  for (const api::JointWire& joint : definition.joints) {
+    if (const std::string problem = api::ImplausibleJointTerms(joint); !problem.empty()) {
+      const std::string reason = "its calibration's joint " + joint.name + ": " + problem + ", no robot joint's";
+      throw ApiError(Status::kFailedPrecondition, "campaign \"" + req.campaign + "\": " + reason,
+                     {{"from_calibration", reason}});
+    }
+  }
   try {
     (void)api::BuildModel(definition);
   } catch (const ApiError& e) {

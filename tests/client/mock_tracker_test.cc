@@ -99,7 +99,7 @@ TEST_F(MockTrackerTest, CompareRandom) {
   const auto after = api::FromWire<api::Accuracy>(j.at("planned").at("after"));
   EXPECT_EQ(after.e_xyz_mm.count, report.planned.after.e_xyz_mm.count);
   EXPECT_DOUBLE_EQ(after.e_xyz_mm.mean, report.planned.after.e_xyz_mm.mean);
-  EXPECT_NEAR(after.e_cos_deg.mean, report.planned.after.e_cos_rad.mean * api::kDegPerRad, 1e-12);
+  EXPECT_NEAR(after.e_cos_deg.mean, report.planned.after.e_cos_rad.mean * kDegPerRad, 1e-12);
   const auto evaluation = api::FromWire<api::Evaluation>(j.at("trials")[0].at("planned").at("service_evaluation"));
   EXPECT_EQ(evaluation.campaign, report.trials[0].planned.campaign.id);
   EXPECT_NE(mock::FormatReport(report, options).find("note: one trial"), std::string::npos);

@@ -498,7 +498,7 @@ call POST /v1/robots '{"id": "worn", "convention": "dh", "joints": [
   {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
    "harmonics_deg": [0, 2, 0, 0]}]}' >/dev/null
 expect "a held harmonic of 2 degrees -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
-  "400 joints[0].harmonics_deg"
+  "400 joints[0].harmonics_deg[1]"
 call POST /v1/robots '{"id": "heavy", "convention": "dh", "joints": [
   {"type": "revolute", "a_mm": 100, "alpha_deg": 0, "d_mm": 0, "theta_deg": 0, "min_deg": -90, "max_deg": 90,
    "mass_kg": -2, "com_mm": [50, 0, 0]}]}' >/dev/null

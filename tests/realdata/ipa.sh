@@ -132,7 +132,7 @@ check "the robot of B's auto calibration holds its harmonics" \
   "$(jq '[.joints[].harmonics_deg[] | select(. != 0)] | length' "$work/robot_b400_auto.json") > 0"
 check "... and says the joint ranges they were identified over" \
   "$(jq '.calibrated_from.joint_ranges | length' "$work/robot_b400_auto.json") == 6"
-echo "B's 400 calibration poses cover (deg): $(jq -c '[.calibrated_from.joint_ranges[] | map(. * 10 | round / 10)]' \
+echo "B's 400 calibration poses cover (deg): $(jq -c '[.calibrated_from.joint_ranges[] | [.min, .max] | map(. * 10 | round / 10)]' \
   "$work/robot_b400_auto.json"); every pose of D leaves them in at least one joint (D's shoulder_pan_joint spans" \
   "-82 .. 322 deg), so there B's harmonics extrapolate"
 c=d-ur10-b400-auto

@@ -152,14 +152,13 @@ TEST(EdgeTest, ATricklingClientCannotExtendTheDeadline) {
   config.request_read_timeout_s = 1;
   TestServer server(config);
   RawConnection c(server.port());
-  // One byte every 200 ms: each read is quick, the request never completes.
+  // One byte every 200 ms (the pace, cut short by the server's answer): each read is quick, the request never
+  // completes.
   const std::string request = Get("/healthz");
   std::size_t sent = 0;
-  const auto start = std::chrono::steady_clock::now();
-  while (sent + 1 < request.size() && std::chrono::steady_clock::now() - start < 4s &&
-         c.Send(request.substr(sent, 1))) {
+  while (sent + 1 < request.size() && c.Send(request.substr(sent, 1))) {
     ++sent;
-    std::this_thread::sleep_for(200ms);
+    if (c.Answered(200ms)) break;
   }
   const RawReply r = c.Read(2000ms);
   EXPECT_EQ(r.status, 408) << r.head;
@@ -177,7 +176,7 @@ TEST(EdgeTest, StalledConnectionsDoNotStopHealthProbes) {
     stalled.push_back(std::make_unique<RawConnection>(server.port()));
     stalled.back()->Send(i % 2 == 0 ? "GET /v1/rob" : "POST /v1/robots HTTP/1.1\r\nContent-Length: 10\r\n\r\n{");
   }
-  std::this_thread::sleep_for(200ms);
+  ASSERT_TRUE(server.WaitForConnections([](const auto& c) { return c.active + c.queued >= 40; }));
   for (int i = 0; i < 5; ++i) {
     const RawReply r = RawConnection::Exchange(server.port(), Get("/healthz"), 2000ms);
     EXPECT_EQ(r.status, 200);
@@ -199,13 +198,14 @@ TEST(EdgeTest, AFullPoolRefusesNewConnectionsAtOnce) {
     stalled.push_back(std::make_unique<RawConnection>(server.port()));
     stalled.back()->Send("GET /healthz HTTP/1.1\r\n");
   }
-  std::this_thread::sleep_for(300ms);
+  // Both connection threads busy and the one queue place taken.
+  ASSERT_TRUE(server.WaitForConnections([](const auto& c) { return c.active == 2 && c.queued == 1; }));
   const RawReply r = RawConnection::Exchange(server.port(), Get("/healthz"), 2000ms);
   ExpectErrorBody(r, 503, "connection");
   EXPECT_NE(r.head.find("Retry-After: 1"), std::string::npos) << r.head;
   // Once the stalled clients go, the server serves again.
   stalled.clear();
-  std::this_thread::sleep_for(300ms);
+  ASSERT_TRUE(server.WaitForConnections([](const auto& c) { return c.active == 0 && c.queued == 0; }));
   ExpectHealthy(server.port());
 }
 

@@ -13,6 +13,7 @@
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/units.h"
 #include "robocal/core/virtual_cell.h"
 #include "test_server.h"
 
@@ -165,7 +166,7 @@ TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
   VirtualCell cell(model, o);
   Rng rng(23);
   // The joint ranges of campaign "soft"'s calibration measurements (deg).
-  std::vector<std::array<double, 2>> ranges(6, {HUGE_VAL, -HUGE_VAL});
+  std::vector<api::JointRangeWire> ranges(6, {HUGE_VAL, -HUGE_VAL});
   const auto upload = [&](const std::string& campaign, const std::string& request, int count, double mass_kg) {
     const Payload payload{mass_kg, Eigen::Vector3d(0, 20, 60)};
     json batch = Batch(model, cell.MeasureAll(RandomConfigurations(model, count, &rng), 0, nullptr, payload), request,
@@ -173,8 +174,8 @@ TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
     for (json& m : batch["measurements"]) {
       m["payload"] = {{"mass_kg", mass_kg}, {"com_mm", {0, 20, 60}}};
       for (std::size_t i = 0; campaign == "soft" && i < ranges.size(); ++i) {
-        ranges[i] = {std::min(ranges[i][0], m["joints"][i].get<double>()),
-                     std::max(ranges[i][1], m["joints"][i].get<double>())};
+        ranges[i] = {std::min(ranges[i].min, m["joints"][i].get<double>()),
+                     std::max(ranges[i].max, m["joints"][i].get<double>())};
       }
     }
     return s.Post("/v1/campaigns/" + campaign + "/measurements", batch).status;
@@ -182,8 +183,16 @@ TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
   ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "soft"}, {"robot", "ur5e"}}).status, 200);
   ASSERT_EQ(upload("soft", "light", 60, 0.0), 200);
   ASSERT_EQ(upload("soft", "heavy", 60, 5.0), 200);
+  // A shot beyond the others' range of joint 1, 5 mm off: the fit excludes it, and the range leaves it out.
+  Eigen::VectorXd odd = RandomConfiguration(model, &rng);
+  odd[0] = ranges[0].max * kRadPerDeg + 0.5 * (model.upper_limits()[0] - ranges[0].max * kRadPerDeg);
+  Measurement moved = cell.MeasureAll({odd}, 0, nullptr, Payload())[0];
+  moved.T_world_tool.translation().x() += 5.0;
+  ASSERT_EQ(s.Post("/v1/campaigns/soft/measurements", Batch(model, {moved}, "odd", "calibration")).status, 200);
   const Reply fit = s.Post("/v1/campaigns/soft:fit", {{"model", {{"compliance", true}, {"joint_harmonics", 1}}}});
   ASSERT_EQ(fit.status, 200) << fit.text;
+  ASSERT_EQ(fit.body["outliers"].size(), 1u) << fit.text;
+  EXPECT_EQ(fit.body["outliers"][0]["sequence"], 121) << fit.text;
 
   const Reply robot = s.Post("/v1/robots", {{"id", "ur5e-soft"}, {"from_calibration", "soft"}});
   ASSERT_EQ(robot.status, 200) << robot.text;
@@ -218,8 +227,9 @@ TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
     const Eigen::Vector3d deflection = held_unloaded[k].inverse() * held[k].translation();
     const Eigen::Vector3d expected = calibrated_unloaded[k].inverse() * calibrated[k].translation();
     EXPECT_GT(deflection.norm(), 0.01);
-    // The torques come from the registered robot's own (calibrated) chain: a hundredth of the deflection.
-    EXPECT_LT((deflection - expected).norm(), 0.01 * expected.norm() + 1e-6) << deflection.transpose();
+    // The torques come from the registered robot's own (calibrated) chain, its links tilted by the calibration's
+    // errors: a few hundredths of the deflection at most.
+    EXPECT_LT((deflection - expected).norm(), 0.03 * expected.norm() + 1e-6) << deflection.transpose();
   }
 
   // A new campaign of the registered robot: the geometric fit explains the (noise-free) robot but for the torques'

@@ -236,7 +236,7 @@ TEST(ProcessTest, SigtermCancelsOperationsAndExitsZero) {
     line.Send("GET /v1/rob");
     RawConnection body(server.port());
     body.Send("POST /v1/robots HTTP/1.1\r\nContent-Type: application/json\r\nContent-Length: 50\r\n\r\n{");
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ASSERT_TRUE(server.WaitForConnections(2)) << "the server never took the two clients";
     EXPECT_EQ(server.Terminate(), 0);
     const RawReply line_reply = line.Read(std::chrono::milliseconds(100));
     const RawReply body_reply = body.Read(std::chrono::milliseconds(100));

@@ -77,6 +77,12 @@ class RawConnection {
     }
     return Parse(data);
   }
+  /// True once the server has something to say (a reply, or its close) within `wait`; reads nothing.
+  bool Answered(std::chrono::milliseconds wait) {
+    if (!pending_.empty()) return true;
+    pollfd p{fd_, POLLIN, 0};
+    return ::poll(&p, 1, static_cast<int>(wait.count())) > 0;
+  }
   /// True once the server has closed its side (reads EOF or a reset within `wait`).
   bool ClosedByServer(std::chrono::milliseconds wait) {
     const auto until = std::chrono::steady_clock::now() + wait;

@@ -3,15 +3,18 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <httplib.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <regex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace robocal::server::testing {
@@ -73,6 +76,23 @@ class ServerProcess {
   }
   int port() const { return port_; }
   pid_t pid() const { return pid_; }
+  /// Waits until the server's /metrics count at least `n` connections served or queued besides the one asking:
+  /// the server's own state (it has taken a test's stalled clients), not a time. False after 30 s (plain http).
+  bool WaitForConnections(int n) const {
+    httplib::Client client("127.0.0.1", port_);
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (std::chrono::steady_clock::now() < give_up) {
+      if (const auto r = client.Get("/metrics"); r && r->status == 200) {
+        long long active = 0, queued = 0;
+        std::smatch m;
+        if (std::regex_search(r->body, m, std::regex(R"(\nrobocal_http_connections_active (\d+))"))) active = std::stoll(m[1]);
+        if (std::regex_search(r->body, m, std::regex(R"(\nrobocal_http_connections_queued (\d+))"))) queued = std::stoll(m[1]);
+        if (active + queued >= n + 1) return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return false;
+  }
   /// "http" or "https", from the listening line.
   const std::string& scheme() const { return scheme_; }
 

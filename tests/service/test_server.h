@@ -1,6 +1,8 @@
 // The real HTTP server in-process on a free port, stopped on scope exit, and a small JSON client for it.
 #pragma once
 
+#include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -48,6 +50,18 @@ class TestServer {
   }
 
   void set_token(const std::string& token) { token_ = token; }
+
+  /// Waits until `done` holds for the server's connection counts: the event a test waits on (the server has
+  /// taken its stalled clients, or let them go), not a time. False after 30 s, so that a server that never gets
+  /// there fails the test instead of hanging it.
+  bool WaitForConnections(const std::function<bool(const HttpServer::ConnectionCounts&)>& done) const {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (!done(server_->connection_counts())) {
+      if (std::chrono::steady_clock::now() > give_up) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return true;
+  }
 
   Reply Request(const std::string& method, const std::string& path, const std::string& body = "") {
     httplib::Headers headers;

@@ -551,7 +551,7 @@ TEST_F(WireTest, RobotsHoldJointTermsInWireUnits) {
   EXPECT_EQ(refused_field(j0, j1), "joints[1].compliance_deg_per_nm");
   j1 = joints[1];
   j0["harmonics_deg"] = {0, 0, 0.6, 0};
-  EXPECT_EQ(refused_field(j0, j1), "joints[0].harmonics_deg");
+  EXPECT_EQ(refused_field(j0, j1), "joints[0].harmonics_deg[2]");
   j0["harmonics_deg"] = {0, 0, 0};
   EXPECT_EQ(refused_field(j0, j1), "joints[0].harmonics_deg");
   j0 = joints[0];

@@ -20,6 +20,7 @@
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/units.h"
 #include "robocal/core/virtual_cell.h"
 
 namespace robocal {
@@ -52,7 +53,6 @@ Calibration MakeCalibration(const std::string& preset, std::uint64_t seed) {
   return MakeCalibration(PresetSpec(preset), seed);
 }
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 RobotModelSpec DhSpec(const std::string& name, const std::vector<std::array<double, 6>>& rows) {
   RobotModelSpec s;
@@ -63,11 +63,11 @@ RobotModelSpec DhSpec(const std::string& name, const std::vector<std::array<doub
     JointSpec j;
     j.name = "joint" + std::to_string(i + 1);
     j.a_mm = a_mm;
-    j.alpha_rad = alpha_deg * kDeg;
+    j.alpha_rad = alpha_deg * kRadPerDeg;
     j.d_mm = d_mm;
-    j.theta_rad = theta_deg * kDeg;
-    j.min = min_deg * kDeg;
-    j.max = max_deg * kDeg;
+    j.theta_rad = theta_deg * kRadPerDeg;
+    j.min = min_deg * kRadPerDeg;
+    j.max = max_deg * kRadPerDeg;
     s.joints.push_back(j);
   }
   s.T_flange_tool = Translation(30.0, 0.0, 120.0);
@@ -864,10 +864,10 @@ TEST(CompensationTest, ResultWithinToleranceAtAStretchedElbowIsConverged) {
   for (int i = 0; i < 300; ++i) {
     Eigen::VectorXd q(6);
     // Joint 2 at -101.1 deg puts the stretched arm's wrist centre on joint 1's axis.
-    q << rng.Uniform(-3.0, 3.0), -(101.1 + rng.Uniform(-1.0, 1.0)) * kDeg, stretched + rng.Uniform(-0.05, 0.05) * kDeg,
+    q << rng.Uniform(-3.0, 3.0), -(101.1 + rng.Uniform(-1.0, 1.0)) * kRadPerDeg, stretched + rng.Uniform(-0.05, 0.05) * kRadPerDeg,
         rng.Uniform(-3.0, 3.0), rng.Uniform(-2.0, 2.0), rng.Uniform(-3.0, 3.0);
     Eigen::VectorXd start = q;
-    for (int k = 0; k < 6; ++k) start[k] += 0.1 * kDeg * rng.Normal();
+    for (int k = 0; k < 6; ++k) start[k] += 0.1 * kRadPerDeg * rng.Normal();
     start[2] = 2.0 * stretched - q[2];
     CompensationTarget t;
     t.pose = calibrated.Forward(q, nullptr);
@@ -903,10 +903,10 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
       const double side = rng.Uniform() < 0.5 ? -1.0 : 1.0;
       const double offset_deg = side * rng.Uniform(0.0, 5.0);
       const double boundary_deg = rng.Uniform() < 0.5 ? 0.0 : (rng.Uniform() < 0.5 ? 180.0 : -180.0);
-      q[i % 3 == 1 ? 2 : 4] = (boundary_deg + offset_deg) * kDeg;
+      q[i % 3 == 1 ? 2 : 4] = (boundary_deg + offset_deg) * kRadPerDeg;
     }
     Eigen::VectorXd start = q;
-    for (int k = 0; k < 6; ++k) start[k] += 3.0 * kDeg * rng.Normal();
+    for (int k = 0; k < 6; ++k) start[k] += 3.0 * kRadPerDeg * rng.Normal();
     CompensationTarget t;
     t.pose = calibrated.Forward(q, nullptr);
     t.start = start;
@@ -926,15 +926,15 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
     }
     ++same;
     EXPECT_EQ(*r.configuration, own) << i;
-    if ((r.joints - q).cwiseAbs().maxCoeff() <= kDeg) continue;
+    if ((r.joints - q).cwiseAbs().maxCoeff() <= kRadPerDeg) continue;
     if ((r.joints - start).norm() < (q - start).norm()) {
       ++other_nearer;
       continue;
     }
     ++misses;
-    ADD_FAILURE() << i << ": " << (r.joints - q).cwiseAbs().maxCoeff() / kDeg << " deg from the true joints\n  true "
-                  << q.transpose() / kDeg << "\n start " << start.transpose() / kDeg << "\n   got "
-                  << r.joints.transpose() / kDeg;
+    ADD_FAILURE() << i << ": " << (r.joints - q).cwiseAbs().maxCoeff() / kRadPerDeg << " deg from the true joints\n  true "
+                  << q.transpose() / kRadPerDeg << "\n start " << start.transpose() / kRadPerDeg << "\n   got "
+                  << r.joints.transpose() / kRadPerDeg;
   }
   EXPECT_EQ(misses, 0);
   EXPECT_EQ(left_branch, 0);

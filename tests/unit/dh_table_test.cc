@@ -10,11 +10,11 @@
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 
 // The largest position (mm) and rotation (rad) difference between the model with errors and the rebuilt table,
 // over `count` random configurations.
@@ -54,10 +54,10 @@ RobotModel SkewArm() {
     j.name = "j" + std::to_string(i + 1);
     j.a_mm = a[i];
     j.d_mm = d[i];
-    j.alpha_rad = alpha[i] * kDeg;
-    j.theta_rad = theta[i] * kDeg;
-    j.min = -170 * kDeg;
-    j.max = 170 * kDeg;
+    j.alpha_rad = alpha[i] * kRadPerDeg;
+    j.theta_rad = theta[i] * kRadPerDeg;
+    j.min = -170 * kRadPerDeg;
+    j.max = 170 * kRadPerDeg;
     spec.joints.push_back(j);
   }
   spec.T_world_base = TransformFromXyzRpy({2000, -500, 300}, {0.1, -0.2, 0.7});
@@ -97,12 +97,12 @@ TEST(DhTableTest, AModifiedDhModelWithoutErrorsGetsItsOwnTable) {
   for (int i = 0; i < 6; ++i) {
     JointSpec j;
     j.name = "j" + std::to_string(i + 1);
-    j.alpha_rad = alpha[i] * kDeg;
+    j.alpha_rad = alpha[i] * kRadPerDeg;
     j.a_mm = a[i];
     j.d_mm = d[i];
-    j.theta_rad = theta[i] * kDeg;
-    j.min = -170 * kDeg;
-    j.max = 170 * kDeg;
+    j.theta_rad = theta[i] * kRadPerDeg;
+    j.min = -170 * kRadPerDeg;
+    j.max = 170 * kRadPerDeg;
     spec.joints.push_back(j);
   }
   spec.T_world_base = TransformFromXyzRpy({100, 200, 300}, {0.0, 0.0, 0.5});
@@ -112,8 +112,8 @@ TEST(DhTableTest, AModifiedDhModelWithoutErrorsGetsItsOwnTable) {
   for (int i = 0; i < 6; ++i) {
     EXPECT_NEAR(out.joints[i].a_mm, a[i], 1e-9) << i;
     EXPECT_NEAR(out.joints[i].d_mm, d[i], 1e-9) << i;
-    EXPECT_NEAR(out.joints[i].alpha_rad, alpha[i] * kDeg, 1e-12) << i;
-    EXPECT_NEAR(out.joints[i].theta_rad, theta[i] * kDeg, 1e-12) << i;
+    EXPECT_NEAR(out.joints[i].alpha_rad, alpha[i] * kRadPerDeg, 1e-12) << i;
+    EXPECT_NEAR(out.joints[i].theta_rad, theta[i] * kRadPerDeg, 1e-12) << i;
   }
   EXPECT_TRUE(out.T_world_base.isApprox(spec.T_world_base, 1e-12));
   EXPECT_TRUE(out.T_flange_tool.isApprox(spec.T_flange_tool, 1e-12));
@@ -258,11 +258,11 @@ RobotModel CraigPuma() {
   for (int i = 0; i < 6; ++i) {
     JointSpec j;
     j.name = "j" + std::to_string(i + 1);
-    j.alpha_rad = alpha[i] * kDeg;
+    j.alpha_rad = alpha[i] * kRadPerDeg;
     j.a_mm = a[i];
     j.d_mm = d[i];
-    j.min = -170 * kDeg;
-    j.max = 170 * kDeg;
+    j.min = -170 * kRadPerDeg;
+    j.max = 170 * kRadPerDeg;
     spec.joints.push_back(j);
   }
   return RobotModel::Build(spec);
@@ -319,7 +319,7 @@ TEST(DhTableTest, NearlyParallelNominalAxesHaveNoTable) {
   spec.name = "nearly";
   spec.convention = GeometryConvention::kTransform;
   const Eigen::Vector3d xyz[4] = {{0, 0, 0}, {0, 0, 300}, {400, 0, 0}, {0, 0, 100}};
-  const Eigen::Vector3d rpy[4] = {{0, 0, 0}, {M_PI / 2, 0, 0}, {0, 1e-7 * kDeg, 0}, {-M_PI / 2, 0, 0}};
+  const Eigen::Vector3d rpy[4] = {{0, 0, 0}, {M_PI / 2, 0, 0}, {0, 1e-7 * kRadPerDeg, 0}, {-M_PI / 2, 0, 0}};
   for (int i = 0; i < 4; ++i) {
     JointSpec j;
     j.name = "joint" + std::to_string(i + 1);

@@ -16,6 +16,7 @@
 #include "robocal/core/kinematics.h"
 #include "robocal/core/model_choice.h"
 #include "robocal/core/presets.h"
+#include "robocal/core/units.h"
 #include "robocal/core/virtual_cell.h"
 #include "test_util.h"
 
@@ -211,10 +212,10 @@ const Payload kPayloadA{0.0, Eigen::Vector3d::Zero()};
 const Payload kPayloadB{5.0, Eigen::Vector3d(0, 30, 60)};
 const Payload kPayloadC{2.5, Eigen::Vector3d(40, -20, 90)};  // never in a calibration
 
-TEST(JointTermRecoveryTest, NoiseFreeRecoversComplianceHarmonicsAndGeometryAndCompensatesUnderANewPayload) {
-  const RobotModel nominal = Preset("ur5e");
+// A noise-free cell whose robot has compliance (0.3 mm of deflection) and joint harmonics of orders 1 and 2.
+VirtualCellOptions NoiseFreeCompliantCell(std::uint64_t seed) {
   VirtualCellOptions o;
-  o.seed = 21;
+  o.seed = seed;
   o.noise.position_mm = 0.0;
   o.noise.orientation_rad = 0.0;
   o.shots_per_pose = 1;
@@ -222,14 +223,25 @@ TEST(JointTermRecoveryTest, NoiseFreeRecoversComplianceHarmonicsAndGeometryAndCo
   o.joint_harmonic_sigma_rad = 5e-5;
   o.joint_harmonic_min_order = 1;
   o.joint_harmonic_max_order = 2;
-  VirtualCell cell(nominal, o);
-  std::vector<Measurement> shots = MeasureUnder(&cell, nominal, 80, 100, kPayloadA);
-  const std::vector<Measurement> loaded = MeasureUnder(&cell, nominal, 80, 101, kPayloadB);
+  return o;
+}
+
+// The fit with compliance and harmonics 2 of 80 unloaded and 80 loaded (payload B) poses measured by `cell`
+// (configurations from `seed` and seed + 1), every shot kept, no model error.
+Calibration FitCompliantly(VirtualCell* cell, const RobotModel& nominal, std::uint64_t seed) {
+  std::vector<Measurement> shots = MeasureUnder(cell, nominal, 80, seed, kPayloadA);
+  const std::vector<Measurement> loaded = MeasureUnder(cell, nominal, 80, seed + 1, kPayloadB);
   shots.insert(shots.end(), loaded.begin(), loaded.end());
   IdentificationOptions options;
   options.reject_outliers = false;
   options.estimate_model_error = false;
-  const Calibration c = Identify(nominal.WithErrorTerms({true, 2}), shots, options);
+  return Identify(nominal.WithErrorTerms({true, 2}), shots, options);
+}
+
+TEST(JointTermRecoveryTest, NoiseFreeRecoversComplianceHarmonicsAndGeometryAndCompensatesUnderANewPayload) {
+  const RobotModel nominal = Preset("ur5e");
+  VirtualCell cell(nominal, NoiseFreeCompliantCell(21));
+  const Calibration c = FitCompliantly(&cell, nominal, 100);
   ASSERT_NE(c.summary.termination, Termination::kFailure) << c.summary.message;
   EXPECT_LT(c.summary.after.max_position_mm, 1e-6) << c.summary.FullReport();
   const RobotModel& model = c.model;
@@ -544,25 +556,16 @@ TEST(FixedJointTermTest, ARegisteredCompliantCalibrationNeedsNoJointTermsOfItsOw
   // Noise-free truth with compliance and harmonics; calibrated once with them, the result registered as a robot;
   // a geometric fit of that robot on new measurements then explains them (to round-off) and finds nothing left.
   const RobotModel nominal = Preset("ur5e");
-  VirtualCellOptions o = NoisyCell(51, 0.3);
-  o.noise.position_mm = 0.0;
-  o.noise.orientation_rad = 0.0;
-  o.joint_harmonic_sigma_rad = 5e-5;
-  o.joint_harmonic_min_order = 1;
-  o.joint_harmonic_max_order = 2;
-  VirtualCell cell(nominal, o);
-  std::vector<Measurement> shots = MeasureUnder(&cell, nominal, 80, 300, kPayloadA);
-  const std::vector<Measurement> loaded = MeasureUnder(&cell, nominal, 80, 301, kPayloadB);
-  shots.insert(shots.end(), loaded.begin(), loaded.end());
-  IdentificationOptions options;
-  options.reject_outliers = false;
-  options.estimate_model_error = false;
-  const Calibration first = Identify(nominal.WithErrorTerms({true, 2}), shots, options);
+  VirtualCell cell(nominal, NoiseFreeCompliantCell(51));
+  const Calibration first = FitCompliantly(&cell, nominal, 300);
   ASSERT_NE(first.summary.termination, Termination::kFailure) << first.summary.message;
   RobotModelSpec spec = CalibratedTransformSpec(first.model, first.errors);
   spec.name = "ur5e-calibrated";
   const RobotModel robot = RobotModel::Build(spec);
   const std::vector<Measurement> fresh = MeasureUnder(&cell, robot, 60, 302, kPayloadC);
+  IdentificationOptions options;
+  options.reject_outliers = false;
+  options.estimate_model_error = false;
   const Calibration again = Identify(robot, fresh, options);
   ASSERT_NE(again.summary.termination, Termination::kFailure) << again.summary.message;
   // Left: the torques' chain (see above), some 1e-3 mm against deflections of 0.3 mm; a hundredth of them here.
@@ -576,6 +579,35 @@ TEST(FixedJointTermTest, ARegisteredCompliantCalibrationNeedsNoJointTermsOfItsOw
   }
   const Calibration without = Identify(RobotModel::Build(rigid), fresh, options);
   EXPECT_GT(without.summary.before.max_position_mm, 0.05) << without.summary.FullReport();
+}
+
+// The implausibility of a joint term is judged on the joint's whole term, held + fitted: a large correction of a
+// held term to a plausible total is fine, a plausible correction to an implausible total is not.
+TEST(FixedJointTermTest, ImplausibleJointTermsAreJudgedOnHeldPlusFitted) {
+  const auto fit = [](double held_deg, double correction_deg) {
+    RobotModelSpec spec = PresetSpec("ur5e");
+    spec.joints[1].harmonics_rad[0] = held_deg * kRadPerDeg;
+    const RobotModel robot = RobotModel::Build(spec).WithErrorTerms({false, 1});
+    Eigen::VectorXd truth = Eigen::VectorXd::Zero(robot.num_error_parameters());
+    truth[robot.ParameterIndex(robot.joint_name(1) + ".sin1")] = correction_deg * kRadPerDeg;
+    std::vector<Measurement> shots;
+    for (const Eigen::VectorXd& q : test::RandomConfigurations(robot, 60, 61)) {
+      KinematicsWorkspace ws(robot);
+      shots.push_back({q, ForwardKinematics(robot, q, truth, &ws), -1, Payload()});
+    }
+    IdentificationOptions options;
+    options.reject_outliers = false;
+    options.estimate_model_error = false;
+    return Identify(robot, shots, options);
+  };
+  const Calibration plausible = fit(-0.3, 0.8);  // total 0.5 deg
+  ASSERT_NE(plausible.summary.termination, Termination::kFailure) << plausible.summary.message;
+  EXPECT_TRUE(plausible.summary.implausible_joint_terms.empty()) << plausible.summary.FullReport();
+  EXPECT_EQ(plausible.summary.termination, Termination::kConvergence) << plausible.summary.message;
+  const Calibration implausible = fit(0.5, 0.4);  // total 0.9 deg, beyond 0.573
+  ASSERT_EQ(implausible.summary.implausible_joint_terms.size(), 1u) << implausible.summary.FullReport();
+  EXPECT_THAT(implausible.summary.implausible_joint_terms[0], ::testing::HasSubstr("held 0.5"));
+  EXPECT_EQ(implausible.summary.termination, Termination::kDegraded);
 }
 
 TEST(FixedJointTermTest, BadHeldTermsAreRefusedByField) {

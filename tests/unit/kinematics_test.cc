@@ -5,12 +5,12 @@
 
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
+#include "robocal/core/units.h"
 #include "test_util.h"
 
 namespace robocal {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 
 RobotModel WithoutTool(const std::string& preset) {
   RobotModelSpec spec = PresetSpec(preset);
@@ -33,7 +33,7 @@ TEST(KinematicsTest, Puma560MatchesRoboticsToolboxAtZero) {
 TEST(KinematicsTest, Puma560MatchesRoboticsToolboxAtReady) {
   const RobotModel puma = WithoutTool("puma560");
   Eigen::VectorXd qr(6);
-  qr << 0, 90 * kDeg, -90 * kDeg, 0, 0, 0;
+  qr << 0, 90 * kRadPerDeg, -90 * kRadPerDeg, 0, 0, 0;
   // Upper arm and forearm straight up: joints 2 and 3 cancel in rotation.
   ExpectPose(ForwardKinematics(puma, qr), Eigen::Matrix3d::Identity(), {20.3, -150.05, 863.6});
 }
@@ -41,7 +41,7 @@ TEST(KinematicsTest, Puma560MatchesRoboticsToolboxAtReady) {
 TEST(KinematicsTest, Puma560MatchesRoboticsToolboxAtStretch) {
   const RobotModel puma = WithoutTool("puma560");
   Eigen::VectorXd qs(6);
-  qs << 0, 0, -90 * kDeg, 0, 0, 0;
+  qs << 0, 0, -90 * kRadPerDeg, 0, 0, 0;
   Eigen::Matrix3d r;
   r << 0, 0, 1, 0, 1, 0, -1, 0, 0;
   ExpectPose(ForwardKinematics(puma, qs), r, {863.6, -150.05, -20.3});

@@ -21,6 +21,7 @@
 
 #include "robocal/api/error.h"
 #include "robocal/core/transforms.h"
+#include "robocal/core/units.h"
 
 namespace robocal::urdf {
 namespace internal {
@@ -29,7 +30,6 @@ constexpr double kMmPerM = 1000.0;
 // The longest offset a joint origin (or a prismatic joint's travel) may have: no robot cell is a kilometre.
 constexpr double kMaxOffsetM = 1000.0;
 constexpr double kMaxOffsetMm = kMaxOffsetM * kMmPerM;
-constexpr double kDegPerRad = 180.0 / M_PI;
 
 [[noreturn]] void Refuse(const std::string& field, const std::string& reason) {
   throw api::ApiError(api::Status::kInvalidArgument, "invalid URDF robot: " + field + ": " + reason,

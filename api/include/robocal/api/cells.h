@@ -38,16 +38,9 @@ struct ObstacleWire {
   std::array<double, 3> max_mm{0.0, 0.0, 0.0};
 };
 
-/// A joint range in the joint's wire unit (deg or mm).
-struct JointRangeWire {
-  double min = 0.0;
-  double max = 0.0;
-};
-
 void from_json(const nlohmann::json& j, TrackerWire& tracker);
 void from_json(const nlohmann::json& j, ReflectorWire& reflector);
 void from_json(const nlohmann::json& j, ObstacleWire& obstacle);
-void from_json(const nlohmann::json& j, JointRangeWire& range);
 
 /// POST /v1/cells, and the cell resource (which has every default filled in: reflectors, link radii, tool
 /// radius, joint ranges).

@@ -52,7 +52,7 @@ struct CalibrationSource {
   /// Per joint, the range [min, max] its calibration measurements covered (deg / mm, the joint's unit): the
   /// calibration was identified there; joint harmonics especially hold only there (docs/robots.md). Empty in
   /// definitions stored before it was kept.
-  std::vector<std::array<double, 2>> joint_ranges;
+  std::vector<JointRangeWire> joint_ranges;
 };
 void to_json(nlohmann::json& j, const CalibrationSource& source);
 void from_json(const nlohmann::json& j, CalibrationSource& source);
@@ -118,6 +118,11 @@ struct RobotFromCalibrationRequest {
 bool IsFromCalibration(const nlohmann::json& body);
 RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body);
 void to_json(nlohmann::json& j, const RobotFromCalibrationRequest& request);
+
+/// Why a joint's held terms are no robot joint's, in wire units (e.g. "harmonics_deg[0] 0.9 is beyond +-0.573
+/// deg (0.01 rad)"), or empty: the bounds of RobotModel::Build (kImplausibleComplianceRadPerNm,
+/// kImplausibleHarmonicRad).
+std::string ImplausibleJointTerms(const JointWire& joint);
 
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);

@@ -30,6 +30,7 @@
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 #include "robocal/core/transforms.h"
+#include "robocal/core/units.h"
 
 namespace robocal::api {
 
@@ -329,6 +330,15 @@ void from_json(const nlohmann::json& j, PoseWire& pose);
 /// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
 nlohmann::json PoseResultJson(const PoseWire& pose);
 
+/// A joint range {"min", "max"} in the joint's wire unit (deg or mm): a cell's allowed ranges, the ranges a
+/// calibration was measured over.
+struct JointRangeWire {
+  double min = 0.0;
+  double max = 0.0;
+};
+void to_json(nlohmann::json& j, const JointRangeWire& range);
+void from_json(const nlohmann::json& j, JointRangeWire& range);
+
 /// A payload on the flange: {"mass_kg": m, "com_mm": [x, y, z]} (kg; centre of mass in mm, flange frame; com_mm
 /// may be left out for a payload centred on the flange). With a compliance model the robot deflects under it
 /// (docs/identification.md, "Beyond geometry").
@@ -393,9 +403,5 @@ TrackerUncertainty ToCore(const TrackerModelWire& tracker);
 /// (ISO 9283 RP, mm), shared by the shots of one joint configuration.
 MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker,
                         double repeatability_mm = 0.0);
-
-/// Degrees per radian and back, for the conversions between core (rad) and wire (deg).
-inline constexpr double kDegPerRad = 57.295779513082320876798154814105;
-inline constexpr double kRadPerDeg = 0.017453292519943295769236907684886;
 
 }  // namespace robocal::api

@@ -54,8 +54,8 @@ RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& 
 /// the model's; the joint terms' parameters added to the joint terms the joints hold, the error terms none (the
 /// next fit's choice). Its forward kinematics equal ForwardKinematics(model, q, errors, payload) for every q and
 /// payload, to round-off; with compliances, to the change the errors make to the gravity torques (its own chain,
-/// the calibrated one, gives them: about 1e-3 of the deflections for errors of a few mrad). Joint names, types,
-/// limits and masses are the model's. Throws std::invalid_argument for a wrong size of `errors`.
+/// the calibrated one, gives them: the links' tilt by the errors, some 0.1-2 % of the deflections). Joint names,
+/// types, limits and masses are the model's. Throws std::invalid_argument for a wrong size of `errors`.
 RobotModelSpec CalibratedTransformSpec(const RobotModel& model, const Eigen::VectorXd& errors);
 
 }  // namespace robocal

@@ -29,6 +29,12 @@ Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q
 Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
                                  Eigen::MatrixXd* dfactor_dq = nullptr);
 
+/// The value the robot holds for joint term `term` (JointSpec::compliance_rad_per_nm, or harmonics_rad's element
+/// for its order and kind): a fitted parameter of that term is a correction on top of it.
+double HeldJointTerm(const RobotModel& model, const JointTermParameter& term);
+/// The same element, writable, in a spec's joints.
+double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term);
+
 /// The joint deflection dq (rad per joint; zero for prismatic joints) at command q: the joint terms the robot holds
 /// (JointSpec::compliance_rad_per_nm, harmonics_rad), plus, for error parameters eps (num_error_parameters, or
 /// empty for none), the sum over the model's joint terms of parameter times factor. The robot's joints are

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,6 +46,13 @@ class HttpServer {
   void Stop();
   bool is_running() const;
   bool tls() const;
+  /// Connections being served and accepted connections waiting for a connection thread (the /metrics gauges
+  /// robocal_http_connections_active and _queued): the server's own state, for a caller that waits on it.
+  struct ConnectionCounts {
+    std::int64_t active = 0;
+    std::int64_t queued = 0;
+  };
+  ConnectionCounts connection_counts() const;
 
  private:
   struct Impl;

@@ -1,0 +1,33 @@
+# docs/architecture.md names every source folder: each top-level folder of the repository and each folder one
+# level below core/, api/, urdf/, server/, client/ and tests/ appears there as `folder/` (the architecture
+# document describes the system as it is; a new folder without its line fails here). Build trees (a
+# CMakeCache.txt) and hidden folders are not source. Run: cmake -DROOT=<source dir> -P architecture_folders.cmake
+file(READ "${ROOT}/docs/architecture.md" doc)
+file(GLOB top LIST_DIRECTORIES true RELATIVE "${ROOT}" "${ROOT}/*")
+set(folders "")
+foreach(name IN LISTS top)
+  if(IS_DIRECTORY "${ROOT}/${name}" AND NOT name MATCHES "^\\." AND NOT EXISTS "${ROOT}/${name}/CMakeCache.txt"
+     AND NOT name STREQUAL "var")
+    list(APPEND folders "${name}")
+    if(name MATCHES "^(core|api|urdf|server|client|tests)$")
+      file(GLOB below LIST_DIRECTORIES true RELATIVE "${ROOT}" "${ROOT}/${name}/*")
+      foreach(sub IN LISTS below)
+        if(IS_DIRECTORY "${ROOT}/${sub}")
+          list(APPEND folders "${sub}")
+        endif()
+      endforeach()
+    endif()
+  endif()
+endforeach()
+set(missing "")
+foreach(folder IN LISTS folders)
+  string(FIND "${doc}" "`${folder}/" at)
+  if(at EQUAL -1)
+    list(APPEND missing "${folder}/")
+  endif()
+endforeach()
+if(missing)
+  message(FATAL_ERROR "docs/architecture.md does not name: ${missing}")
+endif()
+list(LENGTH folders count)
+message(STATUS "docs/architecture.md names all ${count} source folders")
