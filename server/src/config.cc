@@ -4,6 +4,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 
+#include <cctype>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
@@ -57,14 +58,34 @@ std::string OneOf(const std::string& key, const std::string& text, const std::ve
   throw std::invalid_argument(key + ": expected " + list + ", got \"" + text + "\"");
 }
 
+// The database robocal serves: an SQLite file path or ":memory:". A URL of another store (postgresql://...) is
+// refused at start by its scheme, never opened as a file of that name (it once became a directory "postgresql:"
+// shared, silently, by every instance given the URL).
+std::string CheckDb(const std::string& value) {
+  if (value.empty()) throw std::invalid_argument("db: must not be empty (an SQLite file path, or :memory:)");
+  const std::size_t colon = value.find("://");
+  if (colon != std::string::npos) {
+    const std::string scheme = value.substr(0, colon);
+    // RFC 3986: a letter, then letters, digits, '+', '-' or '.'.
+    const char* const kSchemeCharacters = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789+.-";
+    const bool is_scheme = !scheme.empty() && std::isalpha(static_cast<unsigned char>(scheme[0])) &&
+                           scheme.find_first_not_of(kSchemeCharacters) == std::string::npos;
+    if (is_scheme) {
+      throw std::invalid_argument("db: \"" + scheme + "://\" is not a database robocal serves (it stores in SQLite: " +
+                                  "give a file path or :memory:); the URL is not taken as a file name");
+    }
+  }
+  return value;
+}
+
 const std::vector<Option>& Options() {
   static const std::vector<Option> options = {
       {"host", Kind::kString, "address to bind (default 127.0.0.1)",
        [](ServerConfig& c, const std::string& v) { c.host = v; }},
       {"port", Kind::kInt, "port (default 8080; 0 picks a free one)",
        [](ServerConfig& c, const std::string& v) { c.port = static_cast<int>(ToInt("port", v, 0, 65535)); }},
-      {"db", Kind::kString, "SQLite database path (default ./var/robocal.db)",
-       [](ServerConfig& c, const std::string& v) { c.db = v; }},
+      {"db", Kind::kString, "SQLite database path (default ./var/robocal.db); a URL (scheme://...) is refused",
+       [](ServerConfig& c, const std::string& v) { c.db = CheckDb(v); }},
       {"tokens_file", Kind::kString, "bearer tokens, one per line, '#' comments (default: no auth)",
        [](ServerConfig& c, const std::string& v) { c.tokens_file = v; }},
       {"allow_insecure_bind", Kind::kBool, "allow a non-loopback host without tokens",

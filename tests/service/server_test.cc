@@ -883,6 +883,30 @@ TEST(ConfigTest, PrecedenceFlagsEnvFileDefaults) {
   EXPECT_EQ(env_file.config.port, 9000);
 }
 
+// A --db of another store's URL is refused at start by its scheme, from a flag, the environment or a file, and
+// never opened as an SQLite file of that name.
+TEST(ConfigTest, ADatabaseUrlRobocalDoesNotServeIsRefused) {
+  for (const char* url : {"postgresql://postgres@/robocal?host=/tmp/s&port=5433", "mysql://db/robocal",
+                          "postgres://x"}) {
+    const ConfigResult flag = LoadConfig({"--db", url}, {});
+    EXPECT_FALSE(flag.run) << url;
+    EXPECT_EQ(flag.exit_code, 2) << url;
+    EXPECT_NE(flag.message.find("db: \""), std::string::npos) << flag.message;
+    EXPECT_NE(flag.message.find("is not a database robocal serves"), std::string::npos) << flag.message;
+    EXPECT_EQ(LoadConfig({}, {{"ROBOCAL_DB", url}}).exit_code, 2) << url;
+  }
+  const std::string file = ::testing::TempDir() + "robocal_db_url_test.json";
+  std::ofstream(file) << R"({"db": "postgresql://localhost/robocal"})";
+  EXPECT_EQ(LoadConfig({"--config", file}, {}).exit_code, 2);
+  EXPECT_EQ(LoadConfig({"--db", ""}, {}).exit_code, 2);
+  // Paths and SQLite's own names stay as they are.
+  for (const char* path : {"./var/robocal.db", ":memory:", "/tmp/a:b.db", "file.db"}) {
+    const ConfigResult r = LoadConfig({"--db", path}, {});
+    ASSERT_TRUE(r.run) << path << ": " << r.message;
+    EXPECT_EQ(r.config.db, path);
+  }
+}
+
 TEST(ConfigTest, EveryLimitIsConfigurable) {
   const ConfigResult r = LoadConfig({"--max-array-length", "50", "--max-plan-evaluations=5000",
                                      "--max-running-operations", "4", "--request-timeout-s", "2"},
