@@ -2,6 +2,8 @@
 // of the calibrated robot, accuracy on the validation measurements).
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "robocal/core/accuracy.h"
 #include "robocal/core/compensation.h"
@@ -19,6 +21,46 @@ namespace {
 
 using api::ApiError;
 using api::Status;
+
+// For a robot holding joint harmonics (a calibration registered as a robot): which of the fit's poses leave the
+// joint ranges they were identified over (calibrated_from.joint_ranges), where a harmonic fitted over part of a
+// turn extrapolates (docs/robots.md). Empty when none does, or the robot holds none.
+std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, const RobotModel& model,
+                                   const std::vector<Measurement>& measurements) {
+  if (!definition.calibrated_from || definition.calibrated_from->joint_ranges.size() !=
+                                         static_cast<std::size_t>(model.num_joints())) {
+    return "";
+  }
+  const std::vector<api::JointRangeWire>& ranges = definition.calibrated_from->joint_ranges;
+  std::vector<int> left(ranges.size(), 0);
+  int poses = 0;
+  for (const Measurement& m : measurements) {
+    const std::vector<double> q = api::JointsToWire(model, m.joints);
+    bool outside = false;
+    for (std::size_t i = 0; i < ranges.size(); ++i) {
+      if (model.spec().joints[i].harmonics_rad.isZero(0.0)) continue;
+      // 1e-6 deg / mm: the round trip through the core's radians moves a range's own end by an ulp.
+      if (q[i] < ranges[i].min - 1e-6 || q[i] > ranges[i].max + 1e-6) {
+        ++left[i];
+        outside = true;
+      }
+    }
+    poses += outside ? 1 : 0;
+  }
+  if (poses == 0) return "";
+  std::ostringstream out;
+  out << std::setprecision(4) << poses << " of " << measurements.size()
+      << " shots leave the joint ranges the robot's joint harmonics were identified over (";
+  bool first = true;
+  for (std::size_t i = 0; i < ranges.size(); ++i) {
+    if (left[i] == 0) continue;
+    out << (first ? "" : ", ") << model.joint_name(static_cast<int>(i)) << " " << ranges[i].min << " .. "
+        << ranges[i].max << " " << api::JointUnit(model, static_cast<int>(i)) << ": " << left[i] << " beyond";
+    first = false;
+  }
+  out << "); there its harmonics extrapolate";
+  return out.str();
+}
 
 // Refuses, before any measurement is loaded, a fit whose Jacobian (rows x measurements x parameters) exceeds
 // max_fit_jacobian_entries: its size bounds the fit's memory and the time of each iteration.
@@ -109,6 +151,11 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
                      {{"measurements", calibration.summary.message}});
     }
     api::CalibrationResult result = api::ToWire(calibration, *sequences);
+    if (const std::string beyond = BeyondCalibratedRanges(campaign.robot_definition, model, *measurements);
+        !beyond.empty()) {
+      result.summary.message += "; " + beyond;
+      result.summary.brief += "; " + beyond;
+    }
     result.campaign = campaign.id;
     result.robot = campaign.robot;
     result.measurement_type = campaign.measurement_type;

@@ -146,4 +146,6 @@ echo "Series D, robot ur10-b400-auto (B's auto calibration, joint terms held), f
   "max $(jqv .calibrated.e_xyz_mm.max "$work/$c.eval.json") mm (geometric B calibration: $calibrated mm)"
 check "D: the frames fit of the robot holding joint terms ends (beyond its ranges it may say DEGRADED)" \
   "'$(jqv .summary.termination "$work/$c.fit.json")' in ('CONVERGENCE', 'DEGRADED')"
+check "... and says its 30 poses leave the ranges B's harmonics were identified over" \
+  "'$(jq '.summary.message | contains("30 of 30 shots leave the joint ranges the robot'"'"'s joint harmonics were identified over")' "$work/$c.fit.json")' == 'true'"
 exit $((failures > 0))

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -148,22 +149,28 @@ TEST(FlowTest, CalibratedDhTablesRegisterWithTheCalibratedKinematics) {
   EXPECT_NE(message.find("identified C."), std::string::npos) << message;
 }
 
+// A noise-free cell, one shot per pose, whose robot has joint harmonics of order 1 (1-sigma `harmonic_rad`) and a
+// compliance deflecting it by `compliance_mm`.
+VirtualCellOptions NoiseFreeCell(std::uint64_t seed, double compliance_mm, double harmonic_rad) {
+  VirtualCellOptions o;
+  o.seed = seed;
+  o.shots_per_pose = 1;
+  o.noise.position_mm = 0.0;
+  o.noise.orientation_rad = 0.0;
+  o.compliance_deflection_mm = compliance_mm;
+  o.joint_harmonic_sigma_rad = harmonic_rad;
+  o.joint_harmonic_min_order = 1;
+  o.joint_harmonic_max_order = 1;
+  return o;
+}
+
 // A calibration with compliance and harmonics registered as a robot (from_calibration): the robot holds the joint
 // terms, moves under a payload as the calibration does, and a geometric fit of it in a new campaign on the same
 // (true) robot has nothing left to explain that the first fit explained.
 TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
   TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
   const RobotModel model = Preset("ur5e");
-  VirtualCellOptions o;
-  o.seed = 17;
-  o.shots_per_pose = 1;
-  o.noise.position_mm = 0.0;
-  o.noise.orientation_rad = 0.0;
-  o.compliance_deflection_mm = 0.3;
-  o.joint_harmonic_sigma_rad = 5e-5;
-  o.joint_harmonic_min_order = 1;
-  o.joint_harmonic_max_order = 1;
-  VirtualCell cell(model, o);
+  VirtualCell cell(model, NoiseFreeCell(17, 0.3, 5e-5));
   Rng rng(23);
   // The joint ranges of campaign "soft"'s calibration measurements (deg).
   std::vector<api::JointRangeWire> ranges(6, {HUGE_VAL, -HUGE_VAL});
@@ -248,6 +255,51 @@ TEST(FlowTest, ACompliantCalibrationRegistersAsARobotHoldingItsJointTerms) {
   const double rigid_left = rigid.body["residuals_after"]["max_position_mm"].get<double>();
   EXPECT_LT(reused, 0.01) << reuse.text;
   EXPECT_LT(reused, 0.1 * rigid_left) << rigid.text;
+}
+
+// A robot holding joint harmonics identified over part of a joint's turn: a fit of its poses beyond that range
+// says so (there the harmonics extrapolate); a fit within it does not.
+TEST(FlowTest, AFitBeyondTheRangesOfARobotsHeldHarmonicsSaysSo) {
+  TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
+  const RobotModel model = Preset("ur5e");
+  VirtualCell cell(model, NoiseFreeCell(29, 0.0, 1e-4));
+  Rng rng(31);
+  // 40 configurations with the first joint within +-30 degrees; the same, moved to 60 .. 120 degrees.
+  std::vector<Eigen::VectorXd> narrow, moved;
+  for (int k = 0; k < 40; ++k) {
+    narrow.push_back(RandomConfiguration(model, &rng));
+    narrow.back()[0] = rng.Uniform(-30.0, 30.0) * kRadPerDeg;
+    moved.push_back(narrow.back());
+    moved.back()[0] += 90.0 * kRadPerDeg;
+  }
+  const auto upload = [&](const std::string& campaign, const std::vector<Eigen::VectorXd>& q) {
+    return s.Post("/v1/campaigns/" + campaign + "/measurements", Batch(model, cell.MeasureAll(q), "b", "calibration"))
+        .status;
+  };
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "narrow"}, {"robot", "ur5e"}}).status, 200);
+  ASSERT_EQ(upload("narrow", narrow), 200);
+  const Reply first = s.Post("/v1/campaigns/narrow:fit", {{"model", {{"joint_harmonics", 1}}}});
+  ASSERT_EQ(first.status, 200) << first.text;
+  const Reply robot = s.Post("/v1/robots", {{"id", "ur5e-narrow"}, {"from_calibration", "narrow"}});
+  ASSERT_EQ(robot.status, 200) << robot.text;
+  ASSERT_NE(robot.body["joints"][0]["harmonics_deg"], json::array({0.0, 0.0, 0.0, 0.0})) << robot.text;
+  EXPECT_LE(robot.body["calibrated_from"]["joint_ranges"][0]["max"].get<double>(), 30.0);
+  for (const auto& [campaign, q] : {std::tuple{"inside", narrow}, std::tuple{"outside", moved}}) {
+    ASSERT_EQ(s.Post("/v1/campaigns", {{"id", campaign}, {"robot", "ur5e-narrow"}}).status, 200);
+    ASSERT_EQ(upload(campaign, q), 200);
+    const Reply fit = s.Post(std::string("/v1/campaigns/") + campaign + ":fit", json::object());
+    ASSERT_EQ(fit.status, 200) << fit.text;
+    const std::string message = fit.body["summary"]["message"];
+    if (std::string(campaign) == "inside") {
+      EXPECT_EQ(message.find("leave the joint ranges"), std::string::npos) << message;
+    } else {
+      EXPECT_NE(message.find("40 of 40 shots leave the joint ranges the robot's joint harmonics were identified over "
+                             "(joint1 "),
+                std::string::npos)
+          << message;
+      EXPECT_NE(message.find(" deg: 40 beyond)"), std::string::npos) << message;
+    }
+  }
 }
 
 // A tracker's own point export (measurements:import), matched to the plan by target name: stored as one batch
