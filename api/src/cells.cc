@@ -247,7 +247,6 @@ void to_json(nlohmann::json& j, const CellWire& c) {
   for (const ObstacleWire& o : c.obstacles) {
     obstacles.push_back({{"id", o.id}, {"box", {{"min_mm", o.min_mm}, {"max_mm", o.max_mm}}}});
   }
-  const nlohmann::json ranges = c.joint_ranges;
   j = {{"id", c.id},
        {"description", c.description},
        {"robot", c.robot},
@@ -257,7 +256,7 @@ void to_json(nlohmann::json& j, const CellWire& c) {
        {"clearance_mm", c.clearance_mm}};
   // A request may leave the radii and ranges to the server (empty here); a resource always has them.
   if (!c.link_radii_mm.empty()) j["link_radii_mm"] = c.link_radii_mm;
-  if (!c.joint_ranges.empty()) j["joint_ranges"] = ranges;
+  if (!c.joint_ranges.empty()) j["joint_ranges"] = c.joint_ranges;
   if (c.tool_radius_mm) j["tool_radius_mm"] = *c.tool_radius_mm;
 }
 

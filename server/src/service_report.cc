@@ -123,15 +123,12 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   const api::CalibrationResult& result = loaded.result;
   const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
   const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
-  const std::int64_t seen_by_fit = result.summary.num_measurements + static_cast<std::int64_t>(result.outliers.size());
   std::vector<Measurement> measurements;
   std::vector<std::int64_t> sequences;
   std::vector<std::vector<double>> joints;  // wire joints, to group the shots of one configuration exactly
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    const bool in_fit = loaded.last_calibration_sequence
-                            ? s.sequence <= *loaded.last_calibration_sequence
-                            : static_cast<std::int64_t>(measurements.size()) < seen_by_fit;
-    if (!in_fit) {
+    if (!SeenByFit(result, loaded.last_calibration_sequence, s.sequence,
+                   static_cast<std::int64_t>(measurements.size()))) {
       data.calibration_after_fit += 1;
       return;
     }

@@ -110,14 +110,10 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
   // outliers it excluded).
   std::set<std::int64_t> excluded;
   for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
-  const std::int64_t seen_by_fit =
-      loaded.result.summary.num_measurements + static_cast<std::int64_t>(loaded.result.outliers.size());
-  std::int64_t seen = 0;
+  std::int64_t index = 0;
   std::vector<api::JointRangeWire>& ranges = definition.calibrated_from->joint_ranges;
   ForEachMeasurement(storage_, req.campaign, "calibration", [&](const StoredMeasurement& s) {
-    const bool in_fit = loaded.last_calibration_sequence ? s.sequence <= *loaded.last_calibration_sequence
-                                                          : seen < seen_by_fit;
-    ++seen;
+    const bool in_fit = SeenByFit(loaded.result, loaded.last_calibration_sequence, s.sequence, index++);
     if (!in_fit || excluded.count(s.sequence) > 0) return;
     const std::vector<double> joints = ReadMeasurement(s).joints;
     if (ranges.empty()) ranges.assign(joints.size(), {HUGE_VAL, -HUGE_VAL});

@@ -89,6 +89,12 @@ std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::Ve
   return poses;
 }
 
+bool SeenByFit(const api::CalibrationResult& result, const std::optional<std::int64_t>& last_calibration_sequence,
+               std::int64_t sequence, std::int64_t index) {
+  if (last_calibration_sequence) return sequence <= *last_calibration_sequence;
+  return index < result.summary.num_measurements + static_cast<std::int64_t>(result.outliers.size());
+}
+
 std::int64_t NowUnixMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();

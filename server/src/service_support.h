@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -64,6 +65,12 @@ api::MeasurementWire ReadMeasurement(const StoredMeasurement& stored);
 /// campaign's stored text is never all in memory at once (only what the caller keeps of it).
 void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const std::string& role,
                         const std::function<void(const StoredMeasurement&)>& visit);
+
+/// Whether the stored fit `result` saw the calibration measurement with `sequence`, the `index`-th (from 0) in
+/// sequence order: up to the last sequence the fit recorded, or, for a fit stored before it recorded one, among its
+/// first used + excluded ones (the same measurements: they are append-only in sequence order).
+bool SeenByFit(const api::CalibrationResult& result, const std::optional<std::int64_t>& last_calibration_sequence,
+               std::int64_t sequence, std::int64_t index);
 
 /// A stored measurement as the core takes it; `reflectors`: the campaign's, by which the measurement's reflector
 /// id becomes an index.
