@@ -16,6 +16,9 @@ packages=(
   liburdfdom-dev libtinyxml-dev libtinyxml2-dev
   # The campaign report's browser test: headless Chromium renders GET /v1/campaigns/{c}/report to PNG.
   chromium
+  # The PostgreSQL storage (--db postgresql://...): libpq to build with; the server for the tests, which start
+  # a private cluster of their own (tests/storage/pg_cluster.sh).
+  libpq-dev postgresql
 )
 
 missing=()
@@ -32,6 +35,12 @@ fi
 echo "install-deps: installing ${missing[*]}"
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+# Installing the PostgreSQL server would create and start a system-wide cluster; robocal's tests start their
+# own and a deployment configures its database itself (docs/scaling.md), so none is created here.
+if [[ " ${missing[*]} " == *" postgresql "* ]] && [ ! -e /etc/postgresql-common/createcluster.d/robocal.conf ]; then
+  "${sudo_cmd[@]}" mkdir -p /etc/postgresql-common/createcluster.d
+  echo "create_main_cluster = false" | "${sudo_cmd[@]}" tee /etc/postgresql-common/createcluster.d/robocal.conf >/dev/null
+fi
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -q
 "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"

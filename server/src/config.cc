@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/storage/storage.h"
+
 extern char** environ;
 
 namespace robocal::server {
@@ -58,11 +60,14 @@ std::string OneOf(const std::string& key, const std::string& text, const std::ve
   throw std::invalid_argument(key + ": expected " + list + ", got \"" + text + "\"");
 }
 
-// The database robocal serves: an SQLite file path or ":memory:". A URL of another store (postgresql://...) is
-// refused at start by its scheme, never opened as a file of that name (it once became a directory "postgresql:"
-// shared, silently, by every instance given the URL).
+// The database robocal serves: a PostgreSQL URL (postgresql:// or postgres://), an SQLite file path or
+// ":memory:". A URL of any other store is refused at start by its scheme, never opened as a file of that name
+// (mysql://... once became a directory "mysql:" shared, silently, by every instance given the URL).
 std::string CheckDb(const std::string& value) {
-  if (value.empty()) throw std::invalid_argument("db: must not be empty (an SQLite file path, or :memory:)");
+  if (value.empty()) {
+    throw std::invalid_argument("db: must not be empty (a postgresql:// URL, an SQLite file path, or :memory:)");
+  }
+  if (IsPostgresUrl(value)) return value;
   const std::size_t colon = value.find("://");
   if (colon != std::string::npos) {
     const std::string scheme = value.substr(0, colon);
@@ -71,8 +76,8 @@ std::string CheckDb(const std::string& value) {
     const bool is_scheme = !scheme.empty() && std::isalpha(static_cast<unsigned char>(scheme[0])) &&
                            scheme.find_first_not_of(kSchemeCharacters) == std::string::npos;
     if (is_scheme) {
-      throw std::invalid_argument("db: \"" + scheme + "://\" is not a database robocal serves (it stores in SQLite: " +
-                                  "give a file path or :memory:); the URL is not taken as a file name");
+      throw std::invalid_argument("db: \"" + scheme + "://\" is not a database robocal serves (give a postgresql:// " +
+                                  "URL, an SQLite file path or :memory:); the URL is not taken as a file name");
     }
   }
   return value;
@@ -84,8 +89,18 @@ const std::vector<Option>& Options() {
        [](ServerConfig& c, const std::string& v) { c.host = v; }},
       {"port", Kind::kInt, "port (default 8080; 0 picks a free one)",
        [](ServerConfig& c, const std::string& v) { c.port = static_cast<int>(ToInt("port", v, 0, 65535)); }},
-      {"db", Kind::kString, "SQLite database path (default ./var/robocal.db); a URL (scheme://...) is refused",
+      {"db", Kind::kString,
+       "SQLite file path (default ./var/robocal.db) or postgresql://user@host/dbname URL; other URLs are refused",
        [](ServerConfig& c, const std::string& v) { c.db = CheckDb(v); }},
+      {"db_pool_size", Kind::kInt, "PostgreSQL connections this instance holds open (default 8)",
+       [](ServerConfig& c, const std::string& v) {
+         c.db_pool_size = static_cast<int>(ToInt("db_pool_size", v, 1, 1000));
+       }},
+      {"operation_lease_s", Kind::kInt,
+       "lease of a running async operation; another instance fails it this long after its own stopped (default 10)",
+       [](ServerConfig& c, const std::string& v) {
+         c.operation_lease_s = static_cast<int>(ToInt("operation_lease_s", v, 1, 3600));
+       }},
       {"tokens_file", Kind::kString, "bearer tokens, one per line, '#' comments (default: no auth)",
        [](ServerConfig& c, const std::string& v) { c.tokens_file = v; }},
       {"allow_insecure_bind", Kind::kBool, "allow a non-loopback host without tokens",

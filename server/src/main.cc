@@ -55,11 +55,13 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
+  // A URL's password stays out of the logs and the banner.
+  const std::string db_shown = RedactUrl(config.db);
   std::unique_ptr<Storage> storage;
   try {
-    storage = OpenSqliteStorage(config.db);
+    storage = OpenStorage(config.db, StorageOptions{.pool_size = config.db_pool_size});
   } catch (const std::exception& e) {
-    LogEvent(spdlog::level::critical, "cannot open the database", {{"db", config.db}, {"error", e.what()}});
+    LogEvent(spdlog::level::critical, "cannot open the database", {{"db", db_shown}, {"error", e.what()}});
     return 1;
   }
   ServiceOptions options;
@@ -72,9 +74,10 @@ int main(int argc, char** argv) {
   options.max_running_operations = config.max_running_operations;
   options.max_measurements_per_campaign = config.max_measurements_per_campaign;
   options.request_deadline = std::chrono::seconds(config.request_timeout_s);
+  options.operation_lease = std::chrono::seconds(config.operation_lease_s);
   auto service = std::make_unique<Service>(storage.get(), options);
   if (const int aborted = service->RecoverOperations(); aborted > 0) {
-    LogEvent(spdlog::level::warn, "operations from a previous run marked FAILED", {{"count", aborted}});
+    LogEvent(spdlog::level::warn, "operations no live instance runs marked FAILED", {{"count", aborted}});
   }
 
   std::unique_ptr<HttpServer> server;
@@ -92,10 +95,10 @@ int main(int argc, char** argv) {
   const std::string url = std::string(server->tls() ? "https" : "http") + "://" +
                           (config.host.find(':') != std::string::npos ? "[" + config.host + "]" : config.host) +
                           ":" + std::to_string(port);
-  std::printf("robocal-server listening on %s (db %s)\n", url.c_str(), config.db.c_str());
+  std::printf("robocal-server listening on %s (db %s)\n", url.c_str(), db_shown.c_str());
   std::fflush(stdout);
   LogEvent(spdlog::level::info, "listening",
-           {{"url", url}, {"db", config.db}, {"auth", tokens.empty() ? "off" : "bearer"}, {"version", ROBOCAL_VERSION}});
+           {{"url", url}, {"db", db_shown}, {"auth", tokens.empty() ? "off" : "bearer"}, {"version", ROBOCAL_VERSION}});
 
   std::thread waiter([&] {
     int signal = 0;

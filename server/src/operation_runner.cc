@@ -1,9 +1,13 @@
 // Operations: async work on its own thread with a stored document; deadlines of synchronous work.
 #include "robocal/server/operation_runner.h"
 
+#include <unistd.h>
+
+#include <random>
 #include <vector>
 
 #include "robocal/api/stored.h"
+#include "robocal/server/logging.h"
 #include "robocal/server/service.h"
 #include "service_support.h"
 
@@ -14,8 +18,9 @@ using api::Status;
 
 WorkControl::WorkControl(std::chrono::steady_clock::time_point deadline) : deadline_(deadline) {}
 
-WorkControl::WorkControl(std::atomic<double>* progress, const std::atomic<bool>* cancel)
-    : progress_(progress), cancel_(cancel) {}
+WorkControl::WorkControl(std::atomic<double>* progress, const std::atomic<bool>* cancel,
+                         std::function<bool()> still_owned)
+    : progress_(progress), cancel_(cancel), still_owned_(std::move(still_owned)) {}
 
 bool WorkControl::operator()(double fraction) {
   if (progress_ != nullptr) *progress_ = fraction;
@@ -25,10 +30,90 @@ bool WorkControl::operator()(double fraction) {
   return stop_ == Stop::kNone;
 }
 
+namespace {
+
+/// host:pid:random, unique among the instances on one database (a restarted process on the same host and
+/// pid differs by the random part).
+std::string DefaultOwner() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  std::random_device random;
+  char tail[16];
+  std::snprintf(tail, sizeof tail, "%08x", static_cast<unsigned>(random()));
+  return std::string(host) + ":" + std::to_string(::getpid()) + ":" + tail;
+}
+
+/// An operation document `json` ended as FAILED (UNAVAILABLE) with `message`; unchanged if it had ended.
+std::string FailedDocument(const Document& doc, const std::string& message) {
+  api::Operation op = ReadStored<api::StoredOperation>(doc).operation;
+  if (op.done) return doc.json;
+  op.state = api::OperationState::kFailed;
+  op.done = true;
+  op.error = api::MakeErrorInfo(Status::kUnavailable, api::HttpStatusOf(Status::kUnavailable), message);
+  op.updated_unix_ms = NowUnixMs();
+  return nlohmann::json(api::StoredOperation{op}).dump();
+}
+
+std::int64_t Ms(std::chrono::milliseconds d) { return static_cast<std::int64_t>(d.count()); }
+
+}  // namespace
+
 OperationRunner::OperationRunner(Storage* storage, MemoryTrimmer* trimmer, OperationRunnerOptions options)
-    : storage_(storage), trimmer_(trimmer), options_(options) {}
+    : storage_(storage), trimmer_(trimmer), options_(std::move(options)) {
+  if (options_.owner.empty()) options_.owner = DefaultOwner();
+  keeper_ = std::thread([this] { KeeperLoop(); });
+}
+
+void OperationRunner::KeeperLoop() {
+  std::unique_lock lock(keeper_mutex_);
+  while (!keeper_wake_.wait_for(lock, options_.lease / 3, [this] { return stopping_; })) {
+    lock.unlock();
+    try {
+      KeepLeases();
+    } catch (const std::exception& e) {
+      // The database is unreachable; the next round tries again (an operation whose lease lapses meanwhile is
+      // failed by another instance, and this one's finish is then refused).
+      LogEvent(spdlog::level::warn, "cannot renew operation leases", {{"error", e.what()}});
+    }
+    lock.lock();
+  }
+}
+
+int OperationRunner::KeepLeases() {
+  struct Held {
+    std::string id;
+    std::shared_ptr<Running> running;
+  };
+  std::vector<Held> held;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, r] : running_) {
+      if (!r->finished) held.push_back({id, r});
+    }
+  }
+  // An operation that finishes meanwhile has ended its lease: renewing finds none and changes nothing.
+  for (const Held& h : held) {
+    const auto lease = storage_->RenewLease(h.id, options_.owner, Ms(options_.lease), h.running->progress.load());
+    if (!lease || lease->cancel_requested) h.running->cancel = true;
+  }
+  const auto ended = storage_->ExpireLeases(false, [](const Document& doc) {
+    return FailedDocument(doc, "aborted: the server instance running it stopped renewing its lease "
+                               "(operation_lease_s); plans and fits are deterministic from their request: "
+                               "resubmit it to run it again");
+  });
+  for (const std::string& id : ended) {
+    LogEvent(spdlog::level::warn, "operation of a stopped instance marked FAILED", {{"operation", id}});
+  }
+  return static_cast<int>(ended.size());
+}
 
 OperationRunner::~OperationRunner() {
+  {
+    std::lock_guard lock(keeper_mutex_);
+    stopping_ = true;
+  }
+  keeper_wake_.notify_all();
+  keeper_.join();
   // Threads never touch running_, so joining outside the lock cannot deadlock.
   std::vector<std::thread*> threads;
   {
@@ -66,12 +151,20 @@ api::Operation OperationRunner::Start(api::Operation op, Work work) {
   op.done = false;
   op.progress = 0.0;
   op.created_unix_ms = op.updated_unix_ms = NowUnixMs();
-  storage_->Create(kOperations, op.id, nlohmann::json(api::StoredOperation{op}).dump());
-  auto running = std::make_unique<Running>();
+  storage_->CreateLeased(op.id, nlohmann::json(api::StoredOperation{op}).dump(), options_.owner, Ms(options_.lease));
+  auto running = std::make_shared<Running>();
   Running* r = running.get();
   running->thread = std::thread([this, work = std::move(work), op, r]() mutable {
     const TrimWhenDone trim(trimmer_, true);  // plans and fits
-    WorkControl control(&r->progress, &r->cancel);
+    WorkControl control(&r->progress, &r->cancel, [this, &op, r] {
+      try {
+        if (storage_->RenewLease(op.id, options_.owner, Ms(options_.lease), r->progress.load())) return true;
+      } catch (const StorageError&) {
+        // Unreachable: the result could not be written either.
+      }
+      r->cancel = true;
+      return false;
+    });
     try {
       work(control, &op);
       const bool cancelled = control.stop() == Stop::kCancel;
@@ -87,9 +180,14 @@ api::Operation OperationRunner::Start(api::Operation op, Work work) {
     op.done = true;
     op.updated_unix_ms = NowUnixMs();
     try {
-      storage_->Put(kOperations, op.id, nlohmann::json(api::StoredOperation{op}).dump());
+      if (!storage_->FinishLeased(op.id, options_.owner, nlohmann::json(api::StoredOperation{op}).dump())) {
+        // Its lease lapsed (the database was out of reach longer than the lease) and another instance marked it
+        // FAILED; that state stands, so that an operation ends once.
+        LogEvent(spdlog::level::warn, "operation finished after its lease was taken; it stays FAILED",
+                 {{"operation", op.id}});
+      }
     } catch (const std::exception&) {
-      // The next start marks it FAILED; nothing else can be done without storage.
+      // Its lease expires and an instance (this one, or the next start) marks it FAILED.
     }
     r->finished = true;
   });
@@ -103,10 +201,18 @@ api::Operation OperationRunner::Get(const std::string& id) {
   if (!doc) throw ApiError(Status::kNotFound, "operation \"" + id + "\" not found");
   api::Operation op = ReadStored<api::StoredOperation>(*doc).operation;
   if (!op.done) {
-    std::lock_guard lock(mutex_);
-    if (auto it = running_.find(id); it != running_.end()) {
-      op.progress = it->second->progress.load();
-      op.cancel_requested = it->second->cancel.load();
+    {
+      std::lock_guard lock(mutex_);
+      if (auto it = running_.find(id); it != running_.end()) {
+        op.progress = it->second->progress.load();
+        op.cancel_requested = it->second->cancel.load();
+        return op;
+      }
+    }
+    // Another instance runs it: progress as of its last renewal.
+    if (const auto lease = storage_->GetLease(id)) {
+      op.progress = lease->progress;
+      op.cancel_requested = lease->cancel_requested;
     }
   }
   return op;
@@ -118,6 +224,7 @@ api::Operation OperationRunner::Cancel(const std::string& id) {
     std::lock_guard lock(mutex_);
     if (auto it = running_.find(id); it != running_.end()) it->second->cancel = true;
   }
+  storage_->RequestCancel(id);  // for the instance that runs it, if another; false once it has ended
   return Get(id);
 }
 
@@ -131,21 +238,25 @@ int OperationRunner::running() {
 }
 
 int OperationRunner::Recover() {
-  int marked = 0;
+  // One process owns an unshared database: every lease in it belongs to a process that is gone.
+  const std::string message = storage_->Shared() ? "aborted: the server instance running it stopped"
+                                                 : "aborted: the server stopped while it ran";
+  int marked = static_cast<int>(
+      storage_->ExpireLeases(!storage_->Shared(), [&](const Document& doc) { return FailedDocument(doc, message); })
+          .size());
+  // Operations RUNNING without a lease were stored before leases existed (otherwise a document and its lease are
+  // created, and ended, in one transaction). The version check leaves alone one that changed meanwhile.
   std::string after;
   for (;;) {
     const auto docs = storage_->List(kOperations, after, 1000);
     if (docs.empty()) break;
     for (const Document& d : docs) {
-      api::Operation op = ReadStored<api::StoredOperation>(d).operation;
-      if (op.state == api::OperationState::kRunning) {
-        op.state = api::OperationState::kFailed;
-        op.done = true;
-        op.error = api::MakeErrorInfo(Status::kUnavailable, api::HttpStatusOf(Status::kUnavailable),
-                                      "aborted: the server stopped while it ran");
-        op.updated_unix_ms = NowUnixMs();
-        storage_->Put(kOperations, d.id, nlohmann::json(api::StoredOperation{op}).dump());
+      if (ReadStored<api::StoredOperation>(d).operation.done || storage_->GetLease(d.id)) continue;
+      try {
+        storage_->Update(kOperations, d.id, FailedDocument(d, message), d.version);
         ++marked;
+      } catch (const StorageError& e) {
+        if (e.kind() != StorageError::Kind::kAlreadyExists && e.kind() != StorageError::Kind::kNotFound) throw;
       }
     }
     after = docs.back().id;

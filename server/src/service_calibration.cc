@@ -160,7 +160,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     result.robot = campaign.robot;
     result.measurement_type = campaign.measurement_type;
     result.created_unix_ms = NowUnixMs();
-    result.stored = control.stop() == Stop::kNone;
+    result.stored = control.stop() == Stop::kNone && control.StillOwned();
     if (result.stored) {
       api::StoredCalibration stored = api::ToStored(calibration, result);
       // What the fit saw, so that what recomputes from the stored measurements (the report) leaves out the

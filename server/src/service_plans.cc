@@ -188,6 +188,7 @@ PlanReply Service::CreatePlan(const nlohmann::json& body) {
   op.plan_request = req;
   return operations_.Start(op, [this, planned, req, plan_id, cell](WorkControl& control, api::Operation* done) {
     const api::PlanResult plan = RunPlan(planned, req, plan_id, control, cell.get());
+    if (!control.StillOwned()) return;  // taken over and marked FAILED: nothing of it is stored
     storage_->Create(kPlans, plan_id, nlohmann::json(api::StoredPlan{plan}).dump());
     done->plan = plan_id;
   });

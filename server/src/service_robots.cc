@@ -28,7 +28,10 @@ bool IsPreset(const std::string& id) {
 Service::Service(Storage* storage, ServiceOptions options)
     : storage_(storage),
       options_(std::move(options)),
-      operations_(storage, &trimmer_, OperationRunnerOptions{options_.max_running_operations}) {}
+      operations_(storage, &trimmer_,
+                  OperationRunnerOptions{.max_running = options_.max_running_operations,
+                                         .lease = options_.operation_lease,
+                                         .owner = {}}) {}
 
 Service::~Service() = default;
 
@@ -104,7 +107,10 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
       !req.description.empty() ? req.description
                                : "robot " + loaded.campaign.robot + " as calibrated in campaign " + req.campaign;
   api::RegisterRobotRequest definition = api::DefinitionOf(req.id, spec, description);
-  definition.calibrated_from = api::CalibrationSource{req.campaign, loaded.campaign.robot, loaded.result.created_unix_ms};
+  definition.calibrated_from = api::CalibrationSource{.campaign = req.campaign,
+                                                     .robot = loaded.campaign.robot,
+                                                     .created_unix_ms = loaded.result.created_unix_ms,
+                                                     .joint_ranges = {}};
   // Where the calibration holds: the joint ranges of the measurements the fit used (those it saw: up to the last
   // sequence it recorded, or for a fit stored before it recorded one the first used + excluded ones; less the
   // outliers it excluded).

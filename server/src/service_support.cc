@@ -102,7 +102,13 @@ std::int64_t NowUnixMs() {
 
 std::string NewId(const std::string& prefix) {
   static std::mutex mutex;
-  static std::mt19937_64 engine{std::random_device{}()};
+  // Seeded with 256 bits of the system's entropy: one random_device() is 32 bits, and two processes (instances,
+  // restarts) that drew the same seed would hand out the same ids.
+  static std::mt19937_64 engine = [] {
+    std::random_device device;
+    std::seed_seq seed{device(), device(), device(), device(), device(), device(), device(), device()};
+    return std::mt19937_64(seed);
+  }();
   std::lock_guard lock(mutex);
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(engine()));

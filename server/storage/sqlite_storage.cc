@@ -1,5 +1,6 @@
 // The SQLite implementation of Storage: one connection in WAL mode with synchronous=FULL, every write one
-// BEGIN IMMEDIATE transaction, the schema versioned in PRAGMA user_version. docs/storage.md has the schema
+// BEGIN IMMEDIATE transaction, the schema versioned in PRAGMA user_version. One process owns the file
+// (Shared() is false), so operation leases are timed by this host's clock. docs/storage.md has the schema
 // and the durability argument.
 #include <sqlite3.h>
 
@@ -9,13 +10,13 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <random>
 #include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include "server/storage/storage.h"
+#include "server/storage/storage_common.h"
 
 namespace robocal::server {
 namespace {
@@ -23,7 +24,7 @@ namespace {
 using Kind = StorageError::Kind;
 
 /// The schema version this build writes; Migrate() brings older databases up to it step by step.
-constexpr int kSchemaVersion = 1;
+constexpr int kSchemaVersion = 2;
 
 /// How long a statement waits for a lock held by another process (e.g. a backup) before failing with
 /// kUnavailable. Within the process the mutex already serialises access.
@@ -73,6 +74,10 @@ class Statement {
     Check(sqlite3_bind_int64(stmt_, index, value));
     return *this;
   }
+  Statement& Bind(int index, double value) {
+    Check(sqlite3_bind_double(stmt_, index, value));
+    return *this;
+  }
   Statement& BindNull(int index) {
     Check(sqlite3_bind_null(stmt_, index));
     return *this;
@@ -93,6 +98,7 @@ class Statement {
   }
 
   std::int64_t Int(int column) const { return sqlite3_column_int64(stmt_, column); }
+  double Double(int column) const { return sqlite3_column_double(stmt_, column); }
   std::string Text(int column) const {
     const auto* text = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, column));
     return text ? std::string(text, static_cast<std::size_t>(sqlite3_column_bytes(stmt_, column))) : std::string();
@@ -109,7 +115,7 @@ class Statement {
 
 class SqliteStorage final : public Storage {
  public:
-  explicit SqliteStorage(const std::string& path) : random_(std::random_device{}()) {
+  explicit SqliteStorage(const std::string& path) {
     try {
       Open(path);
       Migrate();
@@ -181,6 +187,7 @@ class SqliteStorage final : public Storage {
       Prepare("DELETE FROM measurements WHERE campaign_id = ?1").Bind(1, id).Run();
       Prepare("DELETE FROM batches WHERE campaign_id = ?1").Bind(1, id).Run();
     }
+    if (deleted && collection == "operations") Prepare("DELETE FROM operation_leases WHERE id = ?1").Bind(1, id).Run();
     tx.Commit();
     return deleted;
   }
@@ -287,6 +294,90 @@ class SqliteStorage final : public Storage {
     stmt.Bind(1, campaign_id).Bind(2, role);
     return stmt.Step() ? stmt.Int(0) : 0;
   }
+
+  Document CreateLeased(const std::string& id, const std::string& json, const std::string& owner,
+                        std::int64_t lease_ms) override {
+    std::lock_guard lock(mutex_);
+    Transaction tx(*this);
+    Document doc;
+    try {
+      doc = InsertLocked("operations", id, json);
+    } catch (const StorageError& e) {
+      if (e.kind() != Kind::kAlreadyExists) throw;
+      throw StorageError(Kind::kAlreadyExists, "operations/" + id + " already exists");
+    }
+    Prepare(
+        "INSERT OR REPLACE INTO operation_leases (id, owner, expires_unix_ms, cancel_requested, progress) "
+        "VALUES (?1, ?2, ?3, 0, 0)")
+        .Bind(1, id)
+        .Bind(2, owner)
+        .Bind(3, NowUnixMs() + lease_ms)
+        .Run();
+    tx.Commit();
+    return doc;
+  }
+
+  std::optional<OperationLease> RenewLease(const std::string& id, const std::string& owner, std::int64_t lease_ms,
+                                           double progress) override {
+    std::lock_guard lock(mutex_);
+    Transaction tx(*this);
+    Prepare("UPDATE operation_leases SET expires_unix_ms = ?3, progress = ?4 WHERE id = ?1 AND owner = ?2")
+        .Bind(1, id)
+        .Bind(2, owner)
+        .Bind(3, NowUnixMs() + lease_ms)
+        .Bind(4, progress)
+        .Run();
+    if (sqlite3_changes(db_) == 0) return std::nullopt;
+    std::optional<OperationLease> lease = LeaseLocked(id);
+    tx.Commit();
+    return lease;
+  }
+
+  std::optional<OperationLease> GetLease(const std::string& id) override {
+    std::lock_guard lock(mutex_);
+    return LeaseLocked(id);
+  }
+
+  bool RequestCancel(const std::string& id) override {
+    std::lock_guard lock(mutex_);
+    Transaction tx(*this);
+    Prepare("UPDATE operation_leases SET cancel_requested = 1 WHERE id = ?1").Bind(1, id).Run();
+    const bool found = sqlite3_changes(db_) > 0;
+    tx.Commit();
+    return found;
+  }
+
+  bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) override {
+    std::lock_guard lock(mutex_);
+    Transaction tx(*this);
+    Prepare("DELETE FROM operation_leases WHERE id = ?1 AND owner = ?2").Bind(1, id).Bind(2, owner).Run();
+    if (sqlite3_changes(db_) == 0) return false;  // rolled back: nothing written
+    std::optional<Document> doc = GetLocked("operations", id);
+    if (!doc) throw StorageError(Kind::kNotFound, "operations/" + id + " not found");
+    WriteLocked(*doc, json);
+    tx.Commit();
+    return true;
+  }
+
+  std::vector<std::string> ExpireLeases(bool all,
+                                        const std::function<std::string(const Document&)>& expire) override {
+    std::lock_guard lock(mutex_);
+    std::vector<std::string> ended;
+    Transaction tx(*this);
+    {
+      Statement stmt = Prepare("SELECT id FROM operation_leases WHERE ?1 OR expires_unix_ms < ?2 ORDER BY id");
+      stmt.Bind(1, static_cast<std::int64_t>(all ? 1 : 0)).Bind(2, NowUnixMs());
+      while (stmt.Step()) ended.push_back(stmt.Text(0));
+    }
+    for (const std::string& id : ended) {
+      if (std::optional<Document> doc = GetLocked("operations", id)) WriteLocked(*doc, expire(*doc));
+      Prepare("DELETE FROM operation_leases WHERE id = ?1").Bind(1, id).Run();
+    }
+    tx.Commit();
+    return ended;
+  }
+
+  bool Shared() const override { return false; }
 
   std::string IntegrityCheck() override {
     std::lock_guard lock(mutex_);
@@ -420,9 +511,29 @@ class SqliteStorage final : public Storage {
           CREATE INDEX measurements_by_batch ON measurements (batch_id);
         )sql");
         return;
+      case 1:
+        // Leases on running operations (Storage::CreateLeased and the calls after it).
+        Exec(R"sql(
+          CREATE TABLE operation_leases (
+            id TEXT PRIMARY KEY,
+            owner TEXT NOT NULL,
+            expires_unix_ms INTEGER NOT NULL,
+            cancel_requested INTEGER NOT NULL DEFAULT 0,
+            progress REAL NOT NULL DEFAULT 0
+          ) WITHOUT ROWID;
+        )sql");
+        return;
       default:
         throw StorageError(Kind::kInternal, "no migration from schema version " + std::to_string(from));
     }
+  }
+
+  std::optional<OperationLease> LeaseLocked(const std::string& id) {
+    Statement stmt = Prepare(
+        "SELECT owner, progress, cancel_requested, expires_unix_ms - ?2 FROM operation_leases WHERE id = ?1");
+    stmt.Bind(1, id).Bind(2, NowUnixMs());
+    if (!stmt.Step()) return std::nullopt;
+    return OperationLease{stmt.Text(0), stmt.Double(1), stmt.Int(2) != 0, stmt.Int(3)};
   }
 
   int UserVersion() {
@@ -492,22 +603,12 @@ class SqliteStorage final : public Storage {
     doc.updated_unix_ms = now;
   }
 
-  /// Batch ids only need to be unique, not reproducible, so the generator is seeded from the system.
-  std::string NewBatchId() {
-    static constexpr char kHex[] = "0123456789abcdef";
-    std::uint64_t bits = random_();
-    std::string id = "b-";
-    for (int i = 0; i < 16; ++i, bits >>= 4) id += kHex[bits & 0xf];
-    return id;
-  }
-
   // One connection behind one mutex: SQLite admits a single writer at a time anyway, every call is short
   // (milliseconds), and a connection must not interleave two threads' transactions. A reader pool would only
   // pay off under read loads far beyond a calibration cell's.
   std::mutex mutex_;
   sqlite3* db_ = nullptr;
   std::unordered_map<std::string, sqlite3_stmt*> statements_;
-  std::mt19937_64 random_;
 };
 
 }  // namespace

@@ -1,9 +1,11 @@
-// The storage interface of the calibration service: JSON documents by collection, and append-only
-// measurement batches that are atomic and idempotent by request id. SQLite implements it (sqlite_storage.cc);
-// the interface leaves room for another database.
+// The storage interface of the calibration service: JSON documents by collection, append-only measurement
+// batches that are atomic and idempotent by request id, and leases on running operations. SQLite
+// (sqlite_storage.cc, one process) and PostgreSQL (pg_storage.cc, several instances on one database) implement
+// it; OpenStorage picks one by the --db value.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -64,6 +66,16 @@ struct BatchResult {
   std::int64_t campaign_total = 0;
 };
 
+/// The live state of a running operation, shared by every instance on the database: who runs it, how far it
+/// got, whether a cancel was asked for (by any instance).
+struct OperationLease {
+  std::string owner;
+  double progress = 0.0;
+  bool cancel_requested = false;
+  /// Milliseconds until the lease expires by the database's clock; negative once expired.
+  std::int64_t expires_in_ms = 0;
+};
+
 /// Thread-safe; every write is one transaction that is durable (fsynced) when the call returns.
 class Storage {
  public:
@@ -101,11 +113,58 @@ class Storage {
                                                           int limit = 1000000) = 0;
   virtual std::int64_t CountMeasurements(const std::string& campaign_id, const std::string& role = "") = 0;
 
+  /// Operation leases. A lease belongs to a document of the "operations" collection and is held by one
+  /// `owner` (a server instance) until it expires, `lease_ms` after its last renewal by the database's clock.
+  /// Creates the document and its lease in one transaction (kAlreadyExists if the id is taken).
+  virtual Document CreateLeased(const std::string& id, const std::string& json, const std::string& owner,
+                                std::int64_t lease_ms) = 0;
+  /// Extends `owner`'s lease by `lease_ms` from now and records `progress`; returns the lease (with
+  /// cancel_requested), or nullopt if `owner` no longer holds it (it expired and was taken, or it ended).
+  virtual std::optional<OperationLease> RenewLease(const std::string& id, const std::string& owner,
+                                                   std::int64_t lease_ms, double progress) = 0;
+  virtual std::optional<OperationLease> GetLease(const std::string& id) = 0;
+  /// Records a cancel request on the lease for its owner to see; false if the operation holds no lease.
+  virtual bool RequestCancel(const std::string& id) = 0;
+  /// Replaces the document's json and ends the lease, in one transaction, if `owner` still holds the lease;
+  /// false (nothing written) if it does not: an expired lease was taken and the document already ended.
+  virtual bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) = 0;
+  /// Ends every expired lease (every lease when `all`): in one transaction per lease, the document's json is
+  /// replaced by `expire(document)` and the lease deleted. Instances may call it at once; each lease is ended by
+  /// one of them. Returns the ids ended.
+  virtual std::vector<std::string> ExpireLeases(bool all,
+                                                const std::function<std::string(const Document&)>& expire) = 0;
+  /// True if several server processes may use this database at once (PostgreSQL); false if one process owns
+  /// it (an SQLite file, memory), so that at start every lease found belongs to a process that is gone.
+  virtual bool Shared() const = 0;
+
   /// "ok" if the database passes its integrity check, else the problems found.
   virtual std::string IntegrityCheck() = 0;
   /// Schema version of the open database.
   virtual int SchemaVersion() = 0;
 };
+
+/// Settings of OpenStorage that only some databases use.
+struct StorageOptions {
+  /// PostgreSQL: connections held open (each request, operation and lease renewal borrows one).
+  int pool_size = 8;
+  /// PostgreSQL: how long a call waits for a free connection before kUnavailable.
+  std::int64_t pool_wait_ms = 10000;
+};
+
+/// `db` with any password in it replaced by "***", for logs, banners and error messages.
+std::string RedactUrl(const std::string& db);
+
+/// Whether `db` names a PostgreSQL database (a postgresql:// or postgres:// URL).
+bool IsPostgresUrl(const std::string& db);
+
+/// Opens the database `db` names: a PostgreSQL URL (OpenPostgresStorage), else an SQLite path or ":memory:"
+/// (OpenSqliteStorage). Never falls back from one to the other. Throws StorageError (kUnavailable).
+std::unique_ptr<Storage> OpenStorage(const std::string& db, const StorageOptions& options = {});
+
+/// Connects `options.pool_size` times to the PostgreSQL database at `url` (a libpq connection URI), then creates
+/// or migrates the schema in one transaction under an advisory lock, so that instances starting together do not
+/// race. Throws StorageError (kUnavailable) if it cannot connect, or if the schema is newer than this build.
+std::unique_ptr<Storage> OpenPostgresStorage(const std::string& url, const StorageOptions& options = {});
 
 /// Opens (creating if needed, with parent directories) a SQLite database at `path` in WAL mode with
 /// synchronous=FULL; ":memory:" gives a private in-memory database for tests. Throws StorageError

@@ -688,6 +688,134 @@ TEST(ServerTest, AsyncFitCanBeCancelledAndCountsAsARunningOperation) {
   EXPECT_EQ(s.Get("/v1/campaigns/cf/calibration").status, 200);
 }
 
+// Operations are shared by every instance on one database through their leases (OperationRunner): two Services
+// on one storage stand for two instances. The tests drive the lease keeper's round (KeepOperationLeases) by
+// hand, and the fit hook holds the work at a known point, so nothing races the clock.
+class HeldFit {
+ public:
+  HeldFit() {
+    options.max_running_operations = 1;
+    options.operation_lease = std::chrono::seconds(600);  // the keeper's own rounds stay out of the test
+    // Held at its second iteration, so that the first one's progress has been recorded.
+    options.on_fit_progress = [this] {
+      if (calls_++ == 1) {
+        reached_.set_value();
+        released_.wait();
+      }
+    };
+  }
+  ~HeldFit() { Release(); }
+  bool WaitReached() { return reached_.get_future().wait_for(std::chrono::seconds(120)) == std::future_status::ready; }
+  void Release() {
+    if (!released_flag_.exchange(true)) release_.set_value();
+  }
+  ServiceOptions options;
+
+ private:
+  std::promise<void> reached_, release_;
+  std::shared_future<void> released_ = release_.get_future().share();
+  std::atomic<int> calls_{0};
+  std::atomic<bool> released_flag_{false};
+};
+
+TEST(OperationLeaseTest, AnotherInstanceSeesProgressAndCancelsThroughTheLease) {
+  HeldFit held;
+  TestServer a({}, {}, held.options);
+  CreateFitCampaign(a);
+  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(op.status, 200) << op.text;
+  const std::string id = op.body["id"];
+  ASSERT_TRUE(held.WaitReached());
+  Service b(&a.storage(), ServiceOptions{});
+
+  EXPECT_EQ(b.GetOperation(id).state, api::OperationState::kRunning);
+  EXPECT_EQ(b.GetOperation(id).progress, 0.0) << "no renewal yet";
+  a.service().KeepOperationLeases();
+  const double progress = a.service().GetOperation(id).progress;
+  EXPECT_GT(progress, 0.0);
+  EXPECT_EQ(b.GetOperation(id).progress, progress) << "b reads the progress a renewed its lease with";
+
+  EXPECT_TRUE(b.CancelOperation(id).cancel_requested);
+  EXPECT_FALSE(a.service().GetOperation(id).cancel_requested) << "a has not renewed since";
+  a.service().KeepOperationLeases();
+  EXPECT_TRUE(a.service().GetOperation(id).cancel_requested);
+  held.Release();
+  const Reply done = WaitDone(a, id);
+  EXPECT_EQ(done.body["state"], "CANCELLED") << done.text;
+  EXPECT_EQ(b.GetOperation(id).state, api::OperationState::kCancelled);
+  EXPECT_FALSE(a.storage().GetLease(id).has_value());
+}
+
+// Instance a runs a fit; its lease lapses and instance b marks it FAILED. With `owner_renews`, a's lease keeper
+// runs before the fit goes on (a learns it lost the lease and stops the work); without, the fit runs to its end
+// and finds out only when it is about to store the calibration. Either way a's finish changes nothing.
+void TakeOverAHeldFit(bool owner_renews) {
+  HeldFit held;
+  TestServer a({}, {}, held.options);
+  CreateFitCampaign(a);
+  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(op.status, 200) << op.text;
+  const std::string id = op.body["id"];
+  ASSERT_TRUE(held.WaitReached());
+  Service b(&a.storage(), ServiceOptions{});
+  EXPECT_EQ(b.KeepOperationLeases(), 0) << "a live lease is left alone";
+
+  // a stops renewing (here: its lease is made to lapse, as when a's host stalls longer than the lease).
+  auto& storage = dynamic_cast<FakeStorage&>(a.storage());
+  storage.LapseLease(id);
+  EXPECT_EQ(b.KeepOperationLeases(), 1);
+  const api::Operation failed = b.GetOperation(id);
+  EXPECT_EQ(failed.state, api::OperationState::kFailed);
+  ASSERT_TRUE(failed.error.has_value());
+  EXPECT_NE(failed.error->message.find("stopped renewing its lease"), std::string::npos) << failed.error->message;
+  EXPECT_NE(failed.error->message.find("resubmit"), std::string::npos) << failed.error->message;
+
+  if (owner_renews) {
+    a.service().KeepOperationLeases();
+    EXPECT_TRUE(a.service().GetOperation(id).done);
+  }
+  held.Release();
+  for (int i = 0; i < 12000 && a.service().running_operations() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(a.service().running_operations(), 0);
+  EXPECT_EQ(a.service().GetOperation(id).state, api::OperationState::kFailed) << "an operation ends once";
+  EXPECT_EQ(a.Get("/v1/campaigns/cf/calibration").status, 404) << "a fit taken over stores nothing";
+}
+
+TEST(OperationLeaseTest, AnExpiredLeaseIsFailedByAnotherInstanceAndItsOwnerStopsAtItsNextRenewal) {
+  TakeOverAHeldFit(true);
+}
+
+TEST(OperationLeaseTest, AFitTakenOverThatRunsToItsEndStoresNothing) { TakeOverAHeldFit(false); }
+
+std::string RunningOperationJson(const std::string& id) {
+  api::Operation op;
+  op.id = id;
+  op.plan_request = api::PlanRequest{};
+  op.state = api::OperationState::kRunning;
+  return nlohmann::json(api::StoredOperation{op}).dump();
+}
+
+TEST(OperationLeaseTest, RecoveryAtStartFailsOnlyOperationsNoLiveInstanceRuns) {
+  for (const bool shared : {true, false}) {
+    FakeStorage storage;
+    storage.shared = shared;
+    storage.CreateLeased("op-live", RunningOperationJson("op-live"), "another-instance", 600000);
+    storage.CreateLeased("op-lapsed", RunningOperationJson("op-lapsed"), "a-stopped-instance", -1);
+    storage.Create("operations", "op-old", RunningOperationJson("op-old"));  // stored before leases existed
+    Service service(&storage, ServiceOptions{});
+    // Shared: the live lease belongs to a running instance. Unshared: one process owns the database, so every
+    // operation found RUNNING at start belongs to a process that is gone.
+    EXPECT_EQ(service.RecoverOperations(), shared ? 2 : 3) << "shared " << shared;
+    EXPECT_EQ(service.GetOperation("op-live").state,
+              shared ? api::OperationState::kRunning : api::OperationState::kFailed);
+    EXPECT_EQ(service.GetOperation("op-lapsed").state, api::OperationState::kFailed);
+    EXPECT_EQ(service.GetOperation("op-old").state, api::OperationState::kFailed);
+    EXPECT_EQ(service.RecoverOperations(), 0) << "ended once";
+  }
+}
+
 TEST(ServerTest, FormEncodedBodyGetsAContentTypeHint) {
   // curl -d sends application/x-www-form-urlencoded: the reply must say what to change, whatever the size.
   TestServer s;
@@ -886,8 +1014,7 @@ TEST(ConfigTest, PrecedenceFlagsEnvFileDefaults) {
 // A --db of another store's URL is refused at start by its scheme, from a flag, the environment or a file, and
 // never opened as an SQLite file of that name.
 TEST(ConfigTest, ADatabaseUrlRobocalDoesNotServeIsRefused) {
-  for (const char* url : {"postgresql://postgres@/robocal?host=/tmp/s&port=5433", "mysql://db/robocal",
-                          "postgres://x"}) {
+  for (const char* url : {"mysql://db/robocal", "sqlite:///var/robocal.db", "postgresq://typo/robocal"}) {
     const ConfigResult flag = LoadConfig({"--db", url}, {});
     EXPECT_FALSE(flag.run) << url;
     EXPECT_EQ(flag.exit_code, 2) << url;
@@ -896,8 +1023,20 @@ TEST(ConfigTest, ADatabaseUrlRobocalDoesNotServeIsRefused) {
     EXPECT_EQ(LoadConfig({}, {{"ROBOCAL_DB", url}}).exit_code, 2) << url;
   }
   const std::string file = ::testing::TempDir() + "robocal_db_url_test.json";
-  std::ofstream(file) << R"({"db": "postgresql://localhost/robocal"})";
+  std::ofstream(file) << R"({"db": "mysql://localhost/robocal"})";
   EXPECT_EQ(LoadConfig({"--config", file}, {}).exit_code, 2);
+  // PostgreSQL URLs are taken as they are (OpenStorage connects, and never falls back to a file).
+  for (const char* url : {"postgresql://postgres@/robocal?host=/tmp/s&port=5433", "postgres://u:pw@db:5432/robocal"}) {
+    const ConfigResult r = LoadConfig({"--db", url}, {});
+    ASSERT_TRUE(r.run) << url << ": " << r.message;
+    EXPECT_EQ(r.config.db, url);
+  }
+  const ConfigResult pool = LoadConfig({"--db-pool-size", "3", "--operation-lease-s", "4"}, {});
+  ASSERT_TRUE(pool.run) << pool.message;
+  EXPECT_EQ(pool.config.db_pool_size, 3);
+  EXPECT_EQ(pool.config.operation_lease_s, 4);
+  EXPECT_EQ(LoadConfig({"--db-pool-size", "0"}, {}).exit_code, 2);
+  EXPECT_EQ(LoadConfig({"--operation-lease-s", "0"}, {}).exit_code, 2);
   EXPECT_EQ(LoadConfig({"--db", ""}, {}).exit_code, 2);
   // Paths and SQLite's own names stay as they are.
   for (const char* path : {"./var/robocal.db", ":memory:", "/tmp/a:b.db", "file.db"}) {

@@ -85,6 +85,7 @@ class TestServer {
   Reply PostText(const std::string& path, const std::string& body) { return Request("POST", path, body); }
 
   Storage& storage() { return *storage_; }
+  Service& service() { return *service_; }
   int port() const { return port_; }
 
  private:

@@ -1,4 +1,5 @@
-// A child process for the kill -9 durability test: opens the database given as argv[1], creates campaign "c"
+// A child process for the kill -9 durability tests: opens the database given as argv[1] (an SQLite path or a
+// PostgreSQL URL, as --db takes it), creates campaign "c"
 // and appends batches until it is killed, printing "<request_id> <first_sequence> <count>" for every batch
 // after AppendMeasurements returned, i.e. after the write was acknowledged.
 #include <cstdio>
@@ -14,7 +15,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    auto storage = robocal::server::OpenSqliteStorage(argv[1]);
+    auto storage = robocal::server::OpenStorage(argv[1]);
     storage->Put("campaigns", "c", R"({"robot":"r"})");
     // Bounded so that a test that fails to kill it does not leave it running for ever.
     for (int i = 0; i < 100000; ++i) {

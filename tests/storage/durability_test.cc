@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "pg_test_database.h"
 #include "server/storage/storage.h"
 #include "temp_dir.h"
 
@@ -22,10 +23,9 @@ struct Acknowledged {
   long long count = 0;
 };
 
-TEST(DurabilityTest, AcknowledgedBatchesSurviveKill9) {
-  testing::TempDir dir;
-  const std::string db = dir.File("var/robocal.db");
-
+/// Runs the crash helper on `db`, kills it with SIGKILL while it writes, and checks that every batch it
+/// reported as acknowledged is in the database, whole, and that nothing else was stored in part.
+void AcknowledgedBatchesSurviveKill9(const std::string& db) {
   int pipe_fds[2];
   ASSERT_EQ(::pipe(pipe_fds), 0);
   const pid_t child = ::fork();
@@ -68,7 +68,7 @@ TEST(DurabilityTest, AcknowledgedBatchesSurviveKill9) {
   ASSERT_TRUE(WIFSIGNALED(status)) << "the helper exited on its own; status " << status;
   ASSERT_GE(acknowledged.size(), static_cast<std::size_t>(kWanted));
 
-  auto storage = OpenSqliteStorage(db);
+  auto storage = OpenStorage(db);
   EXPECT_EQ(storage->IntegrityCheck(), "ok");
   const auto measurements = storage->ListMeasurements("c");
   ASSERT_GE(measurements.size(), acknowledged.size() * 20);
@@ -90,6 +90,16 @@ TEST(DurabilityTest, AcknowledgedBatchesSurviveKill9) {
     EXPECT_EQ(first.json, R"({"i":)" + std::to_string(i) + R"(,"k":0})");
     EXPECT_EQ(first.batch_id, replay.batch_id);
   }
+}
+
+TEST(DurabilityTest, AcknowledgedBatchesSurviveKill9OnSqlite) {
+  testing::TempDir dir;
+  AcknowledgedBatchesSurviveKill9(dir.File("var/robocal.db"));
+}
+
+TEST(DurabilityTest, AcknowledgedBatchesSurviveKill9OnPostgres) {
+  testing::PgTestDatabase database;
+  AcknowledgedBatchesSurviveKill9(database.Url());
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // it and against SQLite, so that the service tests never pass on behaviour SQLite does not have.
 #pragma once
 
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -53,6 +54,7 @@ class FakeStorage : public Storage {
   bool Delete(const std::string& collection, const std::string& id) override {
     std::lock_guard lock(mutex_);
     if (docs_[collection].erase(id) == 0) return false;
+    if (collection == "operations") leases_.erase(id);
     if (collection == "campaigns") {
       // A campaign's measurements and batch keys go with it, as in SQLite.
       measurements_.erase(id);
@@ -122,6 +124,74 @@ class FakeStorage : public Storage {
     for (const auto& m : measurements_[campaign_id]) n += role.empty() || m.role == role;
     return n;
   }
+  Document CreateLeased(const std::string& id, const std::string& json, const std::string& owner,
+                        std::int64_t lease_ms) override {
+    Document doc = Create("operations", id, json);
+    std::lock_guard lock(mutex_);
+    leases_[id] = Lease{OperationLease{owner, 0.0, false, 0}, NowMs() + lease_ms};
+    return doc;
+  }
+  std::optional<OperationLease> RenewLease(const std::string& id, const std::string& owner, std::int64_t lease_ms,
+                                           double progress) override {
+    std::lock_guard lock(mutex_);
+    auto it = leases_.find(id);
+    if (it == leases_.end() || it->second.lease.owner != owner) return std::nullopt;
+    it->second.expires_ms = NowMs() + lease_ms;
+    it->second.lease.progress = progress;
+    return LeaseOf(it->second);
+  }
+  std::optional<OperationLease> GetLease(const std::string& id) override {
+    std::lock_guard lock(mutex_);
+    auto it = leases_.find(id);
+    if (it == leases_.end()) return std::nullopt;
+    return LeaseOf(it->second);
+  }
+  bool RequestCancel(const std::string& id) override {
+    std::lock_guard lock(mutex_);
+    auto it = leases_.find(id);
+    if (it == leases_.end()) return false;
+    it->second.lease.cancel_requested = true;
+    return true;
+  }
+  bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) override {
+    {
+      std::lock_guard lock(mutex_);
+      auto it = leases_.find(id);
+      if (it == leases_.end() || it->second.lease.owner != owner) return false;
+      leases_.erase(it);
+    }
+    Update("operations", id, json, 0);
+    return true;
+  }
+  std::vector<std::string> ExpireLeases(bool all,
+                                        const std::function<std::string(const Document&)>& expire) override {
+    std::lock_guard lock(mutex_);
+    std::vector<std::string> ended;
+    const std::int64_t now = NowMs();
+    for (auto it = leases_.begin(); it != leases_.end();) {
+      if (!all && it->second.expires_ms >= now) {
+        ++it;
+        continue;
+      }
+      auto& ops = docs_["operations"];
+      if (auto doc = ops.find(it->first); doc != ops.end()) {
+        doc->second.json = expire(doc->second);
+        ++doc->second.version;
+        doc->second.updated_unix_ms = ++clock_;
+      }
+      ended.push_back(it->first);
+      it = leases_.erase(it);
+    }
+    return ended;
+  }
+  bool Shared() const override { return shared; }
+  /// Tests: Shared()'s answer (a fake standing for a database several instances use).
+  bool shared = false;
+  /// Tests: makes the lease of `id` expired now, as when its owner stopped renewing it.
+  void LapseLease(const std::string& id) {
+    std::lock_guard lock(mutex_);
+    if (auto it = leases_.find(id); it != leases_.end()) it->second.expires_ms = NowMs() - 1;
+  }
   std::string IntegrityCheck() override { return "ok"; }
   int SchemaVersion() override { return 1; }
 
@@ -136,6 +206,21 @@ class FakeStorage : public Storage {
     BatchResult result;
   };
   std::map<std::pair<std::string, std::string>, Batch> batches_;  // (campaign, request_id)
+  struct Lease {
+    OperationLease lease;
+    std::int64_t expires_ms = 0;  // steady clock
+  };
+  static std::int64_t NowMs() {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+  OperationLease LeaseOf(const Lease& l) const {
+    OperationLease out = l.lease;
+    out.expires_in_ms = l.expires_ms - NowMs();
+    return out;
+  }
+  std::map<std::string, Lease> leases_;
 };
 
 }  // namespace robocal::server::testing

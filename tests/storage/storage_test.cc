@@ -1,6 +1,7 @@
-// One contract suite for every Storage implementation (SQLite in memory, SQLite in a file, and the in-memory
-// fake the service tests use): documents, versions, measurement batches (atomicity, idempotency, limits,
-// roles). Then what only a file database has: concurrency, reopening, schema versions, the integrity check.
+// One contract suite for every Storage implementation (SQLite in memory, SQLite in a file, PostgreSQL, and the
+// in-memory fake the service tests use): documents, versions, measurement batches (atomicity, idempotency,
+// limits, roles), operation leases. Then what only a file database has: concurrency, reopening, schema
+// versions, the integrity check. pg_storage_test.cc has what only a shared database has.
 #include "server/storage/storage.h"
 
 #include <gtest/gtest.h>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "fake_storage.h"
+#include "pg_test_database.h"
 #include "temp_dir.h"
 
 namespace robocal::server {
@@ -41,7 +43,7 @@ std::optional<Kind> ErrorKind(F&& f) {
   return std::nullopt;
 }
 
-enum class Implementation { kSqliteMemory, kSqliteFile, kFake };
+enum class Implementation { kSqliteMemory, kSqliteFile, kPostgres, kFake };
 
 class StorageTest : public ::testing::TestWithParam<Implementation> {
  protected:
@@ -53,12 +55,17 @@ class StorageTest : public ::testing::TestWithParam<Implementation> {
       case Implementation::kSqliteFile:
         storage_ = OpenSqliteStorage(dir_.File("contract.db"));
         break;
+      case Implementation::kPostgres:
+        database_ = std::make_unique<testing::PgTestDatabase>();
+        storage_ = OpenPostgresStorage(database_->Url(), StorageOptions{.pool_size = 2});
+        break;
       case Implementation::kFake:
         storage_ = std::make_unique<testing::FakeStorage>();
         break;
     }
   }
   testing::TempDir dir_;
+  std::unique_ptr<testing::PgTestDatabase> database_;
   std::unique_ptr<Storage> storage_;
 };
 
@@ -252,15 +259,83 @@ TEST_P(StorageTest, DeletingACampaignDeletesItsMeasurements) {
   EXPECT_EQ(fresh.first_sequence, 1);
 }
 
+TEST_P(StorageTest, ALeaseIsHeldRenewedCancelledAndFinishedByItsOwnerOnly) {
+  const Document created = storage_->CreateLeased("op-1", R"({"state":"RUNNING"})", "instance-a", 60000);
+  EXPECT_EQ(created.version, 1);
+  EXPECT_EQ(storage_->Get("operations", "op-1")->json, R"({"state":"RUNNING"})");
+  EXPECT_EQ(ErrorKind([&] { storage_->CreateLeased("op-1", "{}", "instance-b", 60000); }), Kind::kAlreadyExists);
+
+  auto lease = storage_->GetLease("op-1");
+  ASSERT_TRUE(lease.has_value());
+  EXPECT_EQ(lease->owner, "instance-a");
+  EXPECT_EQ(lease->progress, 0.0);
+  EXPECT_FALSE(lease->cancel_requested);
+  EXPECT_GT(lease->expires_in_ms, 50000);
+  EXPECT_LE(lease->expires_in_ms, 60000);
+
+  lease = storage_->RenewLease("op-1", "instance-a", 90000, 0.25);
+  ASSERT_TRUE(lease.has_value());
+  EXPECT_EQ(lease->progress, 0.25);
+  EXPECT_GT(lease->expires_in_ms, 80000);
+  EXPECT_EQ(storage_->GetLease("op-1")->progress, 0.25);
+  EXPECT_FALSE(storage_->RenewLease("op-1", "instance-b", 90000, 0.5).has_value()) << "b does not hold it";
+
+  EXPECT_TRUE(storage_->RequestCancel("op-1"));
+  EXPECT_TRUE(storage_->GetLease("op-1")->cancel_requested);
+  EXPECT_TRUE(storage_->RenewLease("op-1", "instance-a", 90000, 0.5)->cancel_requested);
+
+  EXPECT_FALSE(storage_->FinishLeased("op-1", "instance-b", R"({"state":"SUCCEEDED"})"));
+  EXPECT_EQ(storage_->Get("operations", "op-1")->json, R"({"state":"RUNNING"})") << "a refused finish writes nothing";
+  EXPECT_TRUE(storage_->FinishLeased("op-1", "instance-a", R"({"state":"CANCELLED"})"));
+  const auto finished = storage_->Get("operations", "op-1");
+  EXPECT_EQ(finished->json, R"({"state":"CANCELLED"})");
+  EXPECT_EQ(finished->version, 2);
+  EXPECT_FALSE(storage_->GetLease("op-1").has_value());
+  EXPECT_FALSE(storage_->RenewLease("op-1", "instance-a", 90000, 1.0).has_value());
+  EXPECT_FALSE(storage_->RequestCancel("op-1"));
+  EXPECT_FALSE(storage_->FinishLeased("op-1", "instance-a", "{}")) << "a lease ends once";
+}
+
+TEST_P(StorageTest, ExpiringLeasesEndsTheExpiredOnesOnlyAndOnce) {
+  storage_->CreateLeased("op-live", R"({"state":"RUNNING"})", "a", 60000);
+  // A lease of -1 ms has expired when it is created: the owner stopped renewing.
+  storage_->CreateLeased("op-dead", R"({"state":"RUNNING"})", "b", -1);
+  const auto failed = [](const Document& d) { return R"({"was":)" + d.json + "}"; };
+
+  EXPECT_EQ(storage_->ExpireLeases(false, failed), std::vector<std::string>{"op-dead"});
+  EXPECT_EQ(storage_->Get("operations", "op-dead")->json, R"({"was":{"state":"RUNNING"}})");
+  EXPECT_FALSE(storage_->GetLease("op-dead").has_value());
+  EXPECT_FALSE(storage_->FinishLeased("op-dead", "b", R"({"state":"SUCCEEDED"})")) << "its owner came back too late";
+  EXPECT_FALSE(storage_->RenewLease("op-dead", "b", 60000, 0.9).has_value());
+  EXPECT_EQ(storage_->Get("operations", "op-dead")->json, R"({"was":{"state":"RUNNING"}})");
+  EXPECT_TRUE(storage_->GetLease("op-live").has_value());
+  EXPECT_TRUE(storage_->ExpireLeases(false, failed).empty()) << "ended once";
+
+  // All: what a process that owns its database does at start (every lease found belongs to a process gone).
+  EXPECT_EQ(storage_->ExpireLeases(true, failed), std::vector<std::string>{"op-live"});
+  EXPECT_FALSE(storage_->GetLease("op-live").has_value());
+}
+
+TEST_P(StorageTest, DeletingAnOperationEndsItsLease) {
+  storage_->CreateLeased("op-1", "{}", "a", 60000);
+  EXPECT_TRUE(storage_->Delete("operations", "op-1"));
+  EXPECT_FALSE(storage_->GetLease("op-1").has_value());
+  // The id can be used again, with a lease of its own.
+  storage_->CreateLeased("op-1", "{}", "b", 60000);
+  EXPECT_EQ(storage_->GetLease("op-1")->owner, "b");
+}
+
 INSTANTIATE_TEST_SUITE_P(EveryImplementation, StorageTest,
                          ::testing::Values(Implementation::kSqliteMemory, Implementation::kSqliteFile,
-                                           Implementation::kFake),
+                                           Implementation::kPostgres, Implementation::kFake),
                          [](const ::testing::TestParamInfo<Implementation>& info) {
                            switch (info.param) {
                              case Implementation::kSqliteMemory:
                                return std::string("SqliteMemory");
                              case Implementation::kSqliteFile:
                                return std::string("SqliteFile");
+                             case Implementation::kPostgres:
+                               return std::string("Postgres");
                              case Implementation::kFake:
                                return std::string("Fake");
                            }
@@ -319,7 +394,7 @@ TEST(StorageFileTest, ReopenFindsEverythingAndCreatesParentDirectories) {
   }
   EXPECT_TRUE(std::filesystem::exists(path));
   auto storage = OpenSqliteStorage(path);
-  EXPECT_EQ(storage->SchemaVersion(), 1);
+  EXPECT_EQ(storage->SchemaVersion(), 2);
   const auto robot = storage->Get("robots", "r");
   ASSERT_TRUE(robot.has_value());
   EXPECT_EQ(robot->json, R"({"dh":[1]})");
@@ -376,7 +451,37 @@ TEST(StorageFileTest, NotADatabaseIsUnavailable) {
 
 TEST(StorageFileTest, FreshDatabaseIsAtTheCurrentVersionAndPassesIntegrityCheck) {
   auto storage = OpenSqliteStorage(":memory:");
-  EXPECT_EQ(storage->SchemaVersion(), 1);
+  EXPECT_EQ(storage->SchemaVersion(), 2);
+  EXPECT_EQ(storage->IntegrityCheck(), "ok");
+}
+
+TEST(StorageFileTest, AVersion1DatabaseIsMigratedWithItsContents) {
+  testing::TempDir dir;
+  const std::string path = dir.File("v1.db");
+  {
+    // Version 1 as released: documents, batches, measurements; no operation leases.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, R"sql(
+      CREATE TABLE documents (collection TEXT NOT NULL, id TEXT NOT NULL, json TEXT NOT NULL, version INTEGER NOT NULL,
+        created_unix_ms INTEGER NOT NULL, updated_unix_ms INTEGER NOT NULL, PRIMARY KEY (collection, id)) WITHOUT ROWID;
+      CREATE TABLE batches (batch_id TEXT PRIMARY KEY, campaign_id TEXT NOT NULL, request_id TEXT,
+        content_hash TEXT NOT NULL, role TEXT NOT NULL, first_sequence INTEGER NOT NULL, count INTEGER NOT NULL,
+        created_unix_ms INTEGER NOT NULL, UNIQUE (campaign_id, request_id));
+      CREATE TABLE measurements (campaign_id TEXT NOT NULL, sequence INTEGER NOT NULL,
+        batch_id TEXT NOT NULL REFERENCES batches (batch_id), role TEXT NOT NULL, json TEXT NOT NULL,
+        PRIMARY KEY (campaign_id, sequence)) WITHOUT ROWID;
+      INSERT INTO documents VALUES ('operations', 'op-old', '{"state":"RUNNING"}', 1, 1, 1);
+      PRAGMA user_version = 1;
+    )sql", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  auto storage = OpenSqliteStorage(path);
+  EXPECT_EQ(storage->SchemaVersion(), 2);
+  EXPECT_EQ(storage->Get("operations", "op-old")->json, R"({"state":"RUNNING"})");
+  EXPECT_FALSE(storage->GetLease("op-old").has_value()) << "an operation from before leases holds none";
+  storage->CreateLeased("op-new", "{}", "a", 60000);
+  EXPECT_EQ(storage->GetLease("op-new")->owner, "a");
   EXPECT_EQ(storage->IntegrityCheck(), "ok");
 }
 

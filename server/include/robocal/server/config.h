@@ -11,7 +11,13 @@ namespace robocal::server {
 struct ServerConfig {
   std::string host = "127.0.0.1";
   int port = 8080;
+  /// An SQLite file path (one process owns it) or a PostgreSQL URL postgresql://... (instances may share it).
   std::string db = "./var/robocal.db";
+  /// PostgreSQL: connections each instance holds open.
+  int db_pool_size = 8;
+  /// A running async operation's lease, renewed every third of it; when its instance stops renewing, another
+  /// instance on the same database marks the operation FAILED once the lease has expired.
+  int operation_lease_s = 10;
   /// One bearer token per line, '#' starts a comment; empty: no authentication.
   std::string tokens_file;
   /// Allow binding a non-loopback address without tokens.

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <map>
 #include <memory>
@@ -28,8 +29,10 @@ class WorkControl {
  public:
   /// Work bound by a deadline (synchronous requests).
   explicit WorkControl(std::chrono::steady_clock::time_point deadline);
-  /// Work of an operation: progress goes to `progress`, `cancel` stops it.
-  WorkControl(std::atomic<double>* progress, const std::atomic<bool>* cancel);
+  /// Work of an operation: progress goes to `progress`, `cancel` stops it, `still_owned` renews the
+  /// operation's lease and says whether this instance still holds it.
+  WorkControl(std::atomic<double>* progress, const std::atomic<bool>* cancel,
+              std::function<bool()> still_owned = {});
 
   /// Records `fraction` (0..1); false when the work must stop.
   bool operator()(double fraction);
@@ -38,11 +41,17 @@ class WorkControl {
     return [this](double fraction) { return (*this)(fraction); };
   }
   Stop stop() const { return stop_; }
+  /// Asked right before work writes its result (a calibration, a plan): true for work bound by a deadline; for
+  /// an operation, renews its lease and is false if another instance has taken it over (its lease lapsed), so
+  /// that the work of an operation already marked FAILED writes nothing. The renewal leaves a whole lease for
+  /// the write.
+  bool StillOwned() const { return !still_owned_ || still_owned_(); }
 
  private:
   std::optional<std::chrono::steady_clock::time_point> deadline_;
   std::atomic<double>* progress_ = nullptr;
   const std::atomic<bool>* cancel_ = nullptr;
+  std::function<bool()> still_owned_;
   Stop stop_ = Stop::kNone;
 };
 
@@ -64,10 +73,22 @@ void DescribeDeadlineStop(std::chrono::milliseconds deadline, const std::string&
 }
 
 struct OperationRunnerOptions {
-  /// Operations running at once; more is UNAVAILABLE.
+  /// Operations running at once (on this instance); more is UNAVAILABLE.
   int max_running = 2;
+  /// Every running operation holds a lease in the storage, renewed every third of this; an operation whose
+  /// lease has expired is marked FAILED by whichever instance on the database sees it first.
+  std::chrono::milliseconds lease{10000};
+  /// This instance's name in the leases it holds; empty: host name, process id and 32 random bits.
+  std::string owner;
 };
 
+/// Operations are rows of the storage, shared by every instance on the database: the instance that starts one
+/// runs it under a lease it renews (writing progress and reading cancel requests), GET and :cancel work from
+/// any instance, and an operation whose instance stopped renewing is marked FAILED with the reason once its
+/// lease has expired. FAILED rather than run again: the work was resolved from the robot and campaign as they
+/// were when it was submitted (a campaign may have grown since), and a request that brought an instance down
+/// would bring down each instance that took it over. Plans and fits are deterministic from their request, so
+/// the client resubmits.
 class OperationRunner {
  public:
   /// The work of an operation: runs under `control` and fills the operation's result (op->plan or op->fit).
@@ -85,13 +106,20 @@ class OperationRunner {
   api::Operation Start(api::Operation op, Work work);
   /// The stored operation with the live progress of a running one.
   api::Operation Get(const std::string& id);
-  /// Asks a running operation to stop; returns it.
+  /// Asks a running operation to stop, on whichever instance runs it (that instance sees the request at its
+  /// next renewal); returns it.
   api::Operation Cancel(const std::string& id);
-  /// Operations still running.
+  /// Operations still running on this instance.
   int running();
-  /// Marks operations left RUNNING by a previous process as FAILED ("aborted: the server stopped"). Returns how
-  /// many were marked.
+  /// At start: marks FAILED the operations no live instance runs: those whose lease has expired, those left
+  /// RUNNING without a lease, and, on a database one process owns (SQLite), every one left RUNNING (its
+  /// process is gone). Returns how many were marked.
   int Recover();
+  /// Renews this instance's leases (progress out, cancel requests in) and marks FAILED the operations whose
+  /// lease has expired. The lease keeper calls it every third of the lease; public for tests. Returns how many
+  /// operations were marked FAILED.
+  int KeepLeases();
+  const std::string& owner() const { return options_.owner; }
 
  private:
   struct Running {
@@ -101,12 +129,18 @@ class OperationRunner {
     std::thread thread;
   };
   void JoinFinished();  // with mutex_ held
+  void KeeperLoop();
 
   Storage* storage_;
   MemoryTrimmer* trimmer_;
   OperationRunnerOptions options_;
   std::mutex mutex_;
-  std::map<std::string, std::unique_ptr<Running>> running_;
+  std::map<std::string, std::shared_ptr<Running>> running_;
+  // The lease keeper: wakes every third of the lease, or at once to stop.
+  std::mutex keeper_mutex_;
+  std::condition_variable keeper_wake_;
+  bool stopping_ = false;
+  std::thread keeper_;
 };
 
 }  // namespace robocal::server

@@ -38,6 +38,8 @@ struct ServiceOptions {
   std::chrono::milliseconds request_deadline{60000};
   /// Operations (async plans and fits) running at once; more is UNAVAILABLE.
   int max_running_operations = 2;
+  /// The lease of a running operation (OperationRunnerOptions::lease).
+  std::chrono::milliseconds operation_lease{10000};
   /// Threads that solve the targets of one :compensate (0: as many as the hardware runs at once). The results
   /// do not depend on it.
   int compensation_threads = 0;
@@ -58,8 +60,11 @@ class Service {
   /// Cancels running operations and waits for them.
   ~Service();
 
-  /// Marks operations left RUNNING by a previous process as FAILED. Returns how many were marked.
+  /// Marks FAILED the operations no live instance runs (OperationRunner::Recover). Returns how many.
   int RecoverOperations() { return operations_.Recover(); }
+  /// Renews this instance's operation leases and fails expired ones now (the runner does it every third of
+  /// the lease); for tests.
+  int KeepOperationLeases() { return operations_.KeepLeases(); }
 
   // Robots (service_robots.cc). page_size: "" (default 100) or 1..1000; page_token: "" or the next_page_token
   // of the previous page. Presets come first, then registered robots in id order.

@@ -1,0 +1,187 @@
+#!/usr/bin/env bash
+# Several instances on one PostgreSQL database against one instance, and PostgreSQL against SQLite
+# (docs/scaling.md, "Measured"); run by hand, never by ctest. Starts a private PostgreSQL cluster
+# (tests/storage/pg_cluster.sh), then for each setup (SQLite x 1, PostgreSQL x 1, PostgreSQL x 3) starts the
+# instances on free ports and measures with wrk, one wrk process per instance running at once, the same total
+# connections in every setup:
+#   - uploads: POST .../measurements, batches of 50, a new request_id each, every instance its own campaign
+#     (cells of a plant);
+#   - :compensate of 10 joint targets on a calibrated campaign;
+#   - p99 latency of a small request (GET /v1/campaigns/{c}) on one instance while another instance (or, with
+#     one instance, the same one) runs a long async fit, and without it.
+#
+#   tests/bench/instances_load.sh build/server/robocal-server build/client/robocal-mock-tracker
+#
+# Environment: DURATION (wrk -d, default 10s), CONNECTIONS (total, default 9).
+set -euo pipefail
+
+server=${1:-build/server/robocal-server}
+tracker=${2:-build/client/robocal-mock-tracker}
+duration=${DURATION:-10s}
+connections=${CONNECTIONS:-9}
+here=$(cd "$(dirname "$0")" && pwd)
+command -v wrk >/dev/null || { echo "instances_load: wrk is not installed (Debian package wrk)" >&2; exit 2; }
+command -v psql >/dev/null || { echo "instances_load: psql is not installed (Debian package postgresql-client)" >&2; exit 2; }
+[ -x "$server" ] || { echo "instances_load: no server binary at $server" >&2; exit 2; }
+[ -x "$tracker" ] || { echo "instances_load: no mock tracker at $tracker" >&2; exit 2; }
+
+work=$(mktemp -d)
+chmod 0755 "$work"
+pids=()
+stop_instances() {
+  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
+  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+  pids=()
+}
+trap 'stop_instances; bash "$here/../storage/pg_cluster.sh" stop "$work/pg" >/dev/null; rm -rf "$work"' EXIT
+bash "$here/../storage/pg_cluster.sh" start "$work/pg" >/dev/null
+socket=$(cat "$work/pg/socket_dir")
+
+urls=()
+# start_instances N DB: N instances on DB; sets urls.
+start_instances() {
+  local n=$1 db=$2
+  urls=()
+  for i in $(seq "$n"); do
+    "$server" --port 0 --db "$db" --log-level warn --threads 8 --db-pool-size 8 \
+      --max-measurements-per-campaign 100000000 >"$work/out$i" 2>"$work/err$i" &
+    pids+=($!)
+    for _ in $(seq 100); do grep -q 'listening on' "$work/out$i" 2>/dev/null && break; sleep 0.1; done
+    local u
+    u=$(sed -n 's/.*listening on \(http[^ ]*\).*/\1/p' "$work/out$i")
+    [ -n "$u" ] || { echo "instances_load: instance $i did not start" >&2; cat "$work/err$i" >&2; exit 1; }
+    urls+=("$u")
+  done
+}
+
+fresh_database() {  # NAME: an empty PostgreSQL database; prints its URL
+  psql -q -h "$socket" -U robocal -d postgres -c "DROP DATABASE IF EXISTS $1 WITH (FORCE)" -c "CREATE DATABASE $1"
+  echo "postgresql://robocal@/$1?host=$socket"
+}
+
+cat >"$work/batch.lua" <<'LUA'
+-- Batches of 50 measurements to campaign args[1], request ids unique per wrk process (args[2]) and thread.
+local counter = 0
+local next_thread = 0
+function setup(thread)
+  thread:set("thread_id", next_thread)
+  next_thread = next_thread + 1
+end
+function init(args)
+  campaign = args[1]
+  prefix = args[2]
+end
+local rows = {}
+for i = 1, 50 do
+  rows[i] = string.format('{"joints":[%d,-90,90,0,90,0],"pose":{"position_mm":[%d.5,-120.25,640.75],' ..
+                          '"quaternion":[1,0,0,0]}}', i, 300 + i)
+end
+local measurements = '"role":"calibration","measurements":[' .. table.concat(rows, ",") .. ']}'
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+function request()
+  counter = counter + 1
+  return wrk.format(nil, "/v1/campaigns/" .. campaign .. "/measurements", nil,
+                    '{"request_id":"' .. prefix .. '-' .. (thread_id or 0) .. '-' .. counter .. '",' .. measurements)
+end
+LUA
+python3 - >"$work/compensate.json" <<'PY'
+import json, random
+random.seed(1)
+print(json.dumps({"targets": [{"joints": [round(random.uniform(-170, 170), 6) for _ in range(6)]} for _ in range(10)]}))
+PY
+cat >"$work/compensate.lua" <<LUA
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+local f = io.open("$work/compensate.json")
+wrk.body = f:read("*a")
+f:close()
+LUA
+
+# wrk_all PATH SCRIPT ARGS...: one wrk per instance at once, connections split; prints the summed requests/s.
+wrk_all() {
+  local path=$1 script=$2
+  shift 2
+  local n=${#urls[@]} each=$((connections / ${#urls[@]})) i=0
+  local outs=()
+  for u in "${urls[@]}"; do
+    i=$((i + 1))
+    wrk -t1 -c"$each" -d"$duration" -s "$script" "$u$path" -- "$@" "w$i" >"$work/wrk$i" 2>&1 &
+    outs+=("$work/wrk$i")
+  done
+  wait_wrk
+  local total=0 non2xx=0
+  for o in "${outs[@]}"; do
+    total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))")
+    non2xx=$((non2xx + $(sed -n 's/.*Non-2xx or 3xx responses: *//p' "$o" | tr -d ' ' | sed 's/^$/0/')))
+  done
+  printf '%.0f requests/s (%d instance(s), %d connections each, non-2xx %d)\n' "$total" "$n" "$each" "$non2xx"
+}
+wait_wrk() { while pgrep -P $$ -x wrk >/dev/null; do sleep 0.2; done; }
+
+calibrate() {  # URL: a calibrated ur5e campaign made by the mock tracker; prints its id
+  "$tracker" --server "$1" --robot ur5e --count 30 --json >"$work/report.json"
+  python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["trials"][0]["planned"]["campaign"])' "$work/report.json"
+}
+
+# A campaign with a long fit to run: 3000 shots (60 poses x 50) of the mock cell, a model chosen by 20-fold cross-validation.
+long_fit_campaign() {  # URL
+  "$tracker" --server "$1" --robot ur5e --count 60 --shots 50 --optimiser random --json >"$work/long.json"
+  python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["trials"][0]["planned"]["campaign"])' "$work/long.json"
+}
+
+# p99 of GET /v1/campaigns/{c} on the last instance, with and without a long fit running on the first.
+latency() {
+  local small=$1 long=$2 target=${urls[${#urls[@]}-1]}
+  wrk -t1 -c2 -d"$duration" --latency "$target/v1/campaigns/$small" >"$work/idle" 2>&1
+  echo "  idle:             p50 $(sed -n 's/^ *50% *//p' "$work/idle"), p99 $(sed -n 's/^ *99% *//p' "$work/idle")"
+  curl -sf -XPOST -H 'Content-Type: application/json' \
+    -d '{"async":true,"model":"auto","cross_validation":{"folds":20,"seed":1}}' \
+    "${urls[0]}/v1/campaigns/$long:fit" >"$work/op.json"
+  local op
+  op=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$work/op.json")
+  wrk -t1 -c2 -d"$duration" --latency "$target/v1/campaigns/$small" >"$work/busy" 2>&1
+  local state
+  state=$(curl -sf "${urls[0]}/v1/operations/$op" | python3 -c 'import json,sys; print(json.load(sys.stdin)["state"])')
+  echo "  during a long fit: p50 $(sed -n 's/^ *50% *//p' "$work/busy"), p99 $(sed -n 's/^ *99% *//p' "$work/busy") (the fit was $state when wrk ended)"
+  curl -sf -XPOST "${urls[0]}/v1/operations/$op:cancel" >/dev/null || true
+}
+
+run_setup() {  # LABEL N DB
+  local label=$1 n=$2 db=$3
+  echo
+  echo "== $label"
+  start_instances "$n" "$db"
+  local i=0
+  for u in "${urls[@]}"; do
+    i=$((i + 1))
+    curl -sf -XPOST "$u/v1/campaigns" -H 'Content-Type: application/json' -d "{\"id\":\"cell$i\",\"robot\":\"ur5e\"}" >/dev/null
+  done
+  local calibrated long
+  calibrated=$(calibrate "${urls[0]}")
+  long=$(long_fit_campaign "${urls[0]}")
+  # The wrk processes upload each to its own campaign (cell1 through instance 1, ...).
+  local n_urls=${#urls[@]} all_urls=("${urls[@]}") j
+  echo -n "uploads, 50 per batch: "
+  local outs=() each=$((connections / n_urls))
+  for j in $(seq "$n_urls"); do
+    wrk -t1 -c"$each" -d"$duration" -s "$work/batch.lua" "${all_urls[$((j - 1))]}/v1/campaigns/cell$j/measurements" \
+      -- "cell$j" "w$j" >"$work/up$j" 2>&1 &
+    outs+=("$work/up$j")
+  done
+  wait_wrk
+  local total=0
+  for o in "${outs[@]}"; do total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))"); done
+  printf '%.0f batches/s = %.0f measurements/s (%d instance(s), %d connections each)\n' "$total" \
+    "$(python3 -c "print($total * 50)")" "$n_urls" "$each"
+  echo -n ":compensate, 10 targets: "
+  wrk_all "/v1/campaigns/$calibrated:compensate" "$work/compensate.lua"
+  echo "p99 of GET /v1/campaigns/{c} on instance $n_urls (a long async fit on instance 1):"
+  latency "$calibrated" "$long"
+  stop_instances
+}
+
+echo "server $server; wrk -d$duration, $connections connections in all; $(nproc) cores"
+run_setup "SQLite, 1 instance" 1 "$work/sqlite/robocal.db"
+run_setup "PostgreSQL, 1 instance" 1 "$(fresh_database bench_one)"
+run_setup "PostgreSQL, 3 instances" 3 "$(fresh_database bench_three)"
