@@ -287,6 +287,11 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       } catch (const ApiError& e) {
         WriteError(res, e.status(), e.what(), e.details());
       } catch (const StorageError& e) {
+        // The database's own text (statements, driver messages) goes to the log only.
+        if (!e.detail().empty()) {
+          LogEvent(spdlog::level::warn, "storage error",
+                   {{"request_id", request_id}, {"error", api::SafeText(e.what())}, {"detail", api::SafeText(e.detail())}});
+        }
         switch (e.kind()) {
           case StorageError::Kind::kNotFound:
             WriteError(res, Status::kNotFound, e.what());
@@ -298,6 +303,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
             WriteError(res, Status::kResourceExhausted, e.what());
             break;
           case StorageError::Kind::kUnavailable:
+            res.set_header("Retry-After", "1");
             WriteError(res, Status::kUnavailable, std::string("storage unavailable: ") + e.what());
             break;
           case StorageError::Kind::kInternal:

@@ -61,7 +61,11 @@ int main(int argc, char** argv) {
   try {
     storage = OpenStorage(config.db, StorageOptions{.pool_size = config.db_pool_size});
   } catch (const std::exception& e) {
-    LogEvent(spdlog::level::critical, "cannot open the database", {{"db", db_shown}, {"error", e.what()}});
+    const auto* storage_error = dynamic_cast<const StorageError*>(&e);
+    LogEvent(spdlog::level::critical, "cannot open the database",
+             {{"db", db_shown},
+              {"error", e.what()},
+              {"detail", storage_error != nullptr ? storage_error->detail() : std::string()}});
     return 1;
   }
   ServiceOptions options;
@@ -76,8 +80,13 @@ int main(int argc, char** argv) {
   options.request_deadline = std::chrono::seconds(config.request_timeout_s);
   options.operation_lease = std::chrono::seconds(config.operation_lease_s);
   auto service = std::make_unique<Service>(storage.get(), options);
-  if (const int aborted = service->RecoverOperations(); aborted > 0) {
-    LogEvent(spdlog::level::warn, "operations no live instance runs marked FAILED", {{"count", aborted}});
+  try {
+    if (const int aborted = service->RecoverOperations(); aborted > 0) {
+      LogEvent(spdlog::level::warn, "operations no live instance runs marked FAILED", {{"count", aborted}});
+    }
+  } catch (const std::exception& e) {
+    // The database went away between opening and here; the lease keeper ends the same operations later.
+    LogEvent(spdlog::level::err, "cannot recover operations at start", {{"error", e.what()}});
   }
 
   std::unique_ptr<HttpServer> server;

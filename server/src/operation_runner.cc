@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "robocal/api/stored.h"
+#include "robocal/api/text.h"
 #include "robocal/server/logging.h"
 #include "robocal/server/service.h"
 #include "service_support.h"
@@ -43,9 +44,18 @@ std::string DefaultOwner() {
   return std::string(host) + ":" + std::to_string(::getpid()) + ":" + tail;
 }
 
-/// An operation document `json` ended as FAILED (UNAVAILABLE) with `message`; unchanged if it had ended.
+/// An operation document `json` ended as FAILED (UNAVAILABLE) with `message`; unchanged if it had ended, or
+/// if it cannot be read (a build that does not know its kind wrote it): its lease still ends, and one unreadable
+/// document never holds up the leases after it.
 std::string FailedDocument(const Document& doc, const std::string& message) {
-  api::Operation op = ReadStored<api::StoredOperation>(doc).operation;
+  api::Operation op;
+  try {
+    op = ReadStored<api::StoredOperation>(doc).operation;
+  } catch (const std::exception& e) {
+    LogEvent(spdlog::level::err, "unreadable operation document; its lease ends, the document stays",
+             {{"operation", doc.id}, {"error", api::SafeText(e.what())}});
+    return doc.json;
+  }
   if (op.done) return doc.json;
   op.state = api::OperationState::kFailed;
   op.done = true;
@@ -96,6 +106,9 @@ int OperationRunner::KeepLeases() {
     const auto lease = storage_->RenewLease(h.id, options_.owner, Ms(options_.lease), h.running->progress.load());
     if (!lease || lease->cancel_requested) h.running->cancel = true;
   }
+  // A database one process owns has no other instance whose leases could lapse (Recover ended its
+  // predecessor's at start).
+  if (!storage_->Shared()) return 0;
   const auto ended = storage_->ExpireLeases(false, [](const Document& doc) {
     return FailedDocument(doc, "aborted: the server instance running it stopped renewing its lease "
                                "(operation_lease_s); plans and fits are deterministic from their request: "
@@ -157,13 +170,21 @@ api::Operation OperationRunner::Start(api::Operation op, Work work) {
   running->thread = std::thread([this, work = std::move(work), op, r]() mutable {
     const TrimWhenDone trim(trimmer_, true);  // plans and fits
     WorkControl control(&r->progress, &r->cancel, [this, &op, r] {
-      try {
-        if (storage_->RenewLease(op.id, options_.owner, Ms(options_.lease), r->progress.load())) return true;
-      } catch (const StorageError&) {
-        // Unreachable: the result could not be written either.
+      // Owned, lost, or unknown (the database did not answer): unknown is tried twice more, then the operation
+      // fails rather than end SUCCEEDED without its result.
+      for (int attempt = 0;; ++attempt) {
+        try {
+          if (storage_->RenewLease(op.id, options_.owner, Ms(options_.lease), r->progress.load())) return true;
+          r->cancel = true;
+          return false;
+        } catch (const StorageError& e) {
+          if (attempt == 2) {
+            throw ApiError(Status::kUnavailable,
+                           std::string("cannot confirm this operation's lease before storing its result (") +
+                               e.what() + "); nothing was stored: resubmit it");
+          }
+        }
       }
-      r->cancel = true;
-      return false;
     });
     try {
       work(control, &op);
@@ -251,7 +272,13 @@ int OperationRunner::Recover() {
     const auto docs = storage_->List(kOperations, after, 1000);
     if (docs.empty()) break;
     for (const Document& d : docs) {
-      if (ReadStored<api::StoredOperation>(d).operation.done || storage_->GetLease(d.id)) continue;
+      try {
+        if (ReadStored<api::StoredOperation>(d).operation.done || storage_->GetLease(d.id)) continue;
+      } catch (const ApiError& e) {
+        LogEvent(spdlog::level::err, "unreadable operation document left as it is",
+                 {{"operation", d.id}, {"error", api::SafeText(e.what())}});
+        continue;
+      }
       try {
         storage_->Update(kOperations, d.id, FailedDocument(d, message), d.version);
         ++marked;

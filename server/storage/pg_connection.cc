@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <utility>
 
+#include "server/storage/storage_common.h"
+
 namespace robocal::server::pg {
 
 using Kind = StorageError::Kind;
@@ -45,17 +47,35 @@ std::int64_t Result::Int(int row, int column) const {
 
 double Result::Double(int row, int column) const { return std::strtod(PQgetvalue(result_.get(), row, column), nullptr); }
 
-Connection::Connection(const std::string& url) : url_(url), conn_(PQconnectdb(url.c_str()), &PQfinish) {
+namespace {
+
+std::string Trimmed(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return text;
+}
+
+// Notices (e.g. "relation ... already exists, skipping" at start) are libpq's to print on stderr, which would
+// break the server's JSON log lines; robocal acts on results, not notices.
+void DropNotice(void* /*arg*/, const char* /*message*/) {}
+
+}  // namespace
+
+Connection::Connection(const std::string& url, std::int64_t lock_timeout_ms)
+    : url_(url), lock_timeout_ms_(lock_timeout_ms), conn_(PQconnectdb(url.c_str()), &PQfinish) {
   Setup();
 }
 
 void Connection::Setup() {
   if (!conn_ || PQstatus(conn_.get()) != CONNECTION_OK) {
-    std::string message = conn_ ? PQerrorMessage(conn_.get()) : "out of memory";
-    while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
-    throw StorageError(Kind::kUnavailable, "cannot connect to " + RedactUrl(url_) + ": " + message);
+    const std::string message = conn_ ? Trimmed(PQerrorMessage(conn_.get())) : "out of memory";
+    // The reply says only that; the log gets where and why, any password scrubbed (libpq echoes parts of a
+    // URL it cannot parse).
+    throw StorageError(Kind::kUnavailable, "cannot connect to the database",
+                       "cannot connect to " + RedactUrl(url_) + ": " + Scrub(message, PasswordsIn(url_)));
   }
+  PQsetNoticeProcessor(conn_.get(), &DropNotice, nullptr);
   prepared_.clear();
+  Exec("SET lock_timeout = " + std::to_string(lock_timeout_ms_));
   // A 2xx means committed: a server whose default is synchronous_commit=off would acknowledge commits it can
   // still lose, so the session raises it to on. Other values (local, remote_write, on, remote_apply) wait at
   // least for the local flush and are kept as the administrator set them.
@@ -77,13 +97,23 @@ void Connection::Fail(PGresult* result, const std::string& what) {
     PQclear(result);
   }
   if (message.empty()) message = PQerrorMessage(conn_.get());
-  while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
-  // No SQLSTATE: the statement never reached the server (connection lost).
-  const Kind kind = sqlstate.empty() || !ok() ? Kind::kUnavailable : KindOfSqlState(sqlstate);
-  throw StorageError(kind, "postgresql: " + what + ": " + message + (sqlstate.empty() ? "" : " [" + sqlstate + "]"));
+  const std::string detail = "postgresql: " + what + ": " + Trimmed(message) +
+                             (sqlstate.empty() ? "" : " [" + sqlstate + "]");
+  // No SQLSTATE, or the connection is gone: the statement did not complete (connection lost).
+  if (sqlstate.empty() || !ok()) {
+    lost_at_first_ = statements_ == 1;
+    throw StorageError(Kind::kUnavailable, "the connection to the database was lost; retry", detail);
+  }
+  const Kind kind = KindOfSqlState(sqlstate);
+  // The caller's text names no statement: the log has it (detail).
+  const std::string reason = kind == Kind::kAlreadyExists ? "a unique key is taken"
+                             : kind == Kind::kUnavailable ? "the database is busy or shutting down; retry"
+                                                          : "the database refused a statement";
+  throw StorageError(kind, reason + " (SQLSTATE " + sqlstate + ")", detail);
 }
 
 void Connection::Exec(const std::string& sql) {
+  ++statements_;
   PGresult* result = PQexec(conn_.get(), sql.c_str());
   const ExecStatusType status = result ? PQresultStatus(result) : PGRES_FATAL_ERROR;
   if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK) Fail(result, sql.substr(0, 40));
@@ -91,11 +121,12 @@ void Connection::Exec(const std::string& sql) {
 }
 
 Result Connection::Run(const std::string& sql, const std::vector<Param>& params) {
+  ++statements_;
   auto it = prepared_.find(sql);
   if (it == prepared_.end()) {
     const std::string name = "robocal_" + std::to_string(prepared_.size() + 1);
     PGresult* prepared = PQprepare(conn_.get(), name.c_str(), sql.c_str(), 0, nullptr);
-    if (prepared == nullptr || PQresultStatus(prepared) != PGRES_COMMAND_OK) Fail(prepared, "prepare");
+    if (prepared == nullptr || PQresultStatus(prepared) != PGRES_COMMAND_OK) Fail(prepared, "prepare " + sql.substr(0, 60));
     PQclear(prepared);
     it = prepared_.emplace(sql, name).first;
   }
@@ -125,9 +156,10 @@ void Transaction::Commit() {
   connection_.Exec("COMMIT");
 }
 
-Pool::Pool(const std::string& url, int size, std::chrono::milliseconds wait) : wait_(wait), size_(size) {
+Pool::Pool(const std::string& url, int size, std::chrono::milliseconds wait, std::int64_t lock_timeout_ms)
+    : wait_(wait), size_(size) {
   if (size < 1) throw StorageError(Kind::kInternal, "db_pool_size must be at least 1");
-  for (int i = 0; i < size; ++i) idle_.push_back(std::make_unique<Connection>(url));
+  for (int i = 0; i < size; ++i) idle_.push_back(std::make_unique<Connection>(url, lock_timeout_ms));
 }
 
 Pool::Lease::~Lease() {
@@ -147,6 +179,7 @@ Pool::Lease Pool::Borrow() {
   }
   Lease lease(this, std::move(connection));
   if (!lease->ok()) lease->Reconnect();  // throws kUnavailable; the lease returns the connection to the pool
+  lease->Borrowed();
   return lease;
 }
 

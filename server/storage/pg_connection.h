@@ -50,8 +50,10 @@ class Result {
 /// One connection. Not thread-safe: the pool hands it to one thread at a time.
 class Connection {
  public:
-  /// Connects; throws StorageError (kUnavailable) naming the redacted URL if it cannot.
-  explicit Connection(const std::string& url);
+  /// Connects; throws StorageError (kUnavailable) naming the URL, its password hidden, if it cannot. Every
+  /// session gets lock_timeout = `lock_timeout_ms` (a call waits no longer for a row another holds, and fails
+  /// kUnavailable) and keeps notices off stderr.
+  explicit Connection(const std::string& url, std::int64_t lock_timeout_ms = 5000);
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
 
@@ -63,12 +65,23 @@ class Connection {
   bool ok() const { return PQstatus(conn_.get()) == CONNECTION_OK; }
   /// Re-establishes a lost connection (its prepared statements are gone with it). Throws kUnavailable.
   void Reconnect();
+  /// Called by the pool when it hands the connection out.
+  void Borrowed() {
+    statements_ = 0;
+    lost_at_first_ = false;
+  }
+  /// True if the first statement since it was borrowed found the connection lost: it had died while idle in
+  /// the pool (a database restart, a failover, an administrator ending sessions), and that statement never ran.
+  bool lost_at_first() const { return lost_at_first_; }
 
  private:
   [[noreturn]] void Fail(PGresult* result, const std::string& what);
   void Setup();
 
   std::string url_;
+  std::int64_t lock_timeout_ms_;
+  int statements_ = 0;
+  bool lost_at_first_ = false;
   std::unique_ptr<PGconn, void (*)(PGconn*)> conn_;
   /// SQL text -> prepared statement name.
   std::unordered_map<std::string, std::string> prepared_;
@@ -92,7 +105,7 @@ class Transaction {
 /// `size` connections opened at construction; Borrow() waits up to `wait` for a free one.
 class Pool {
  public:
-  Pool(const std::string& url, int size, std::chrono::milliseconds wait);
+  Pool(const std::string& url, int size, std::chrono::milliseconds wait, std::int64_t lock_timeout_ms = 5000);
 
   /// A borrowed connection, returned to the pool on scope exit.
   class Lease {
@@ -112,6 +125,22 @@ class Pool {
 
   /// A connection (re-established first if it was lost); kUnavailable if none is free within the wait.
   Lease Borrow();
+
+  /// Runs `work(connection)` on a borrowed connection. If its first statement found the connection dead (it
+  /// died while idle in the pool), nothing of the work reached the database, so it runs once more on the
+  /// connection re-established: a restart of the database costs no request. Work must therefore begin with
+  /// BEGIN, a read, or a write that may be repeated.
+  template <typename Work>
+  auto Run(Work&& work) {
+    for (int attempt = 0;; ++attempt) {
+      Lease connection = Borrow();
+      try {
+        return work(*connection);
+      } catch (const StorageError&) {
+        if (attempt > 0 || !connection->lost_at_first()) throw;
+      }
+    }
+  }
 
  private:
   void Return(std::unique_ptr<Connection> connection);

@@ -3,6 +3,7 @@
 // start under an advisory lock and versioned in robocal_schema, operation leases timed by the database's clock.
 // docs/storage.md has the schema; docs/scaling.md how instances share it.
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,6 +20,13 @@ using Kind = StorageError::Kind;
 using pg::Int;
 using pg::Param;
 
+/// A double in text form that reads back as the same double.
+Param Double(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return std::string(text);
+}
+
 /// The schema version this build writes; Migrate() brings older databases up to it step by step.
 constexpr int kSchemaVersion = 1;
 
@@ -33,268 +41,309 @@ constexpr const char* kNowMs = "(extract(epoch from clock_timestamp()) * 1000)::
 class PgStorage final : public Storage {
  public:
   PgStorage(const std::string& url, const StorageOptions& options)
-      : pool_(url, options.pool_size, std::chrono::milliseconds(options.pool_wait_ms)) {
-    auto connection = pool_.Borrow();
-    Migrate(*connection);
+      : pool_(url, options.pool_size, std::chrono::milliseconds(options.pool_wait_ms)),
+        lease_pool_(url, 1, std::chrono::milliseconds(options.pool_wait_ms)) {
+    pool_.Run([&](pg::Connection& c) { Migrate(c); });
   }
 
   Document Create(const std::string& collection, const std::string& id, const std::string& json) override {
-    auto c = pool_.Borrow();
-    try {
-      return InsertDocument(*c, collection, id, json);
-    } catch (const StorageError& e) {
-      if (e.kind() != Kind::kAlreadyExists) throw;
-      throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " already exists");
-    }
+    return pool_.Run([&](pg::Connection& conn) -> Document {
+      pg::Connection* c = &conn;
+      try {
+        // In a transaction, so that the statement repeated on a re-established connection (Pool::Run) is
+        // never one that may have committed.
+        pg::Transaction tx(*c);
+        Document doc = InsertDocument(*c, collection, id, json);
+        tx.Commit();
+        return doc;
+      } catch (const StorageError& e) {
+        if (e.kind() != Kind::kAlreadyExists) throw;
+        throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " already exists");
+      }
+    });
   }
 
   std::optional<Document> Get(const std::string& collection, const std::string& id) override {
-    auto c = pool_.Borrow();
-    return GetDocument(*c, collection, id, false);
+    return pool_.Run([&](pg::Connection& conn) -> std::optional<Document> {
+      pg::Connection* c = &conn;
+      return GetDocument(*c, collection, id, false);
+    });
   }
 
   Document Update(const std::string& collection, const std::string& id, const std::string& json,
                   std::int64_t expected_version) override {
-    auto c = pool_.Borrow();
-    pg::Transaction tx(*c);
-    std::optional<Document> doc = GetDocument(*c, collection, id, true);
-    if (!doc) throw StorageError(Kind::kNotFound, collection + "/" + id + " not found");
-    if (expected_version > 0 && expected_version != doc->version) {
-      throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " is at version " +
-                                                   std::to_string(doc->version) + ", not " +
-                                                   std::to_string(expected_version) + " (a concurrent update won)");
-    }
-    WriteDocument(*c, *doc, json);
-    tx.Commit();
-    return *doc;
+    return pool_.Run([&](pg::Connection& conn) -> Document {
+      pg::Connection* c = &conn;
+      pg::Transaction tx(*c);
+      std::optional<Document> doc = GetDocument(*c, collection, id, true);
+      if (!doc) throw StorageError(Kind::kNotFound, collection + "/" + id + " not found");
+      if (expected_version > 0 && expected_version != doc->version) {
+        throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " is at version " +
+                                                     std::to_string(doc->version) + ", not " +
+                                                     std::to_string(expected_version) + " (a concurrent update won)");
+      }
+      WriteDocument(*c, *doc, json);
+      tx.Commit();
+      return *doc;
+    });
   }
 
   Document Put(const std::string& collection, const std::string& id, const std::string& json) override {
-    auto c = pool_.Borrow();
-    const pg::Result r = c->Run(
-        std::string("INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
-                    "VALUES ($1::text, $2::text, $3::text, 1, ") +
-            kNowMs + ", " + kNowMs +
-            ") ON CONFLICT (collection, id) DO UPDATE SET json = excluded.json, "
-            "version = documents.version + 1, updated_unix_ms = excluded.updated_unix_ms "
-            "RETURNING version, created_unix_ms, updated_unix_ms",
-        {collection, id, json});
-    return Document{collection, id, json, r.Int(0, 0), r.Int(0, 1), r.Int(0, 2)};
+    return pool_.Run([&](pg::Connection& conn) -> Document {
+      pg::Connection* c = &conn;
+      const pg::Result r = c->Run(
+          std::string("INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
+                      "VALUES ($1::text, $2::text, $3::text, 1, ") +
+              kNowMs + ", " + kNowMs +
+              ") ON CONFLICT (collection, id) DO UPDATE SET json = excluded.json, "
+              "version = documents.version + 1, updated_unix_ms = excluded.updated_unix_ms "
+              "RETURNING version, created_unix_ms, updated_unix_ms",
+          {collection, id, json});
+      return Document{collection, id, json, r.Int(0, 0), r.Int(0, 1), r.Int(0, 2)};
+    });
   }
 
   bool Delete(const std::string& collection, const std::string& id) override {
-    auto c = pool_.Borrow();
-    pg::Transaction tx(*c);
-    const bool deleted =
-        c->Run("DELETE FROM documents WHERE collection = $1::text AND id = $2::text RETURNING 1", {collection, id})
-            .rows() > 0;
-    if (deleted && collection == "campaigns") {
-      // A campaign's measurements go with it, so that a campaign created later under the same id starts empty.
-      c->Run("DELETE FROM measurements WHERE campaign_id = $1::text", {id});
-      c->Run("DELETE FROM batches WHERE campaign_id = $1::text", {id});
-    }
-    if (deleted && collection == "operations") c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
-    tx.Commit();
-    return deleted;
+    return pool_.Run([&](pg::Connection& conn) -> bool {
+      pg::Connection* c = &conn;
+      pg::Transaction tx(*c);
+      const bool deleted =
+          c->Run("DELETE FROM documents WHERE collection = $1::text AND id = $2::text RETURNING 1", {collection, id})
+              .rows() > 0;
+      if (deleted && collection == "campaigns") {
+        // A campaign's measurements go with it, so that a campaign created later under the same id starts empty.
+        c->Run("DELETE FROM measurements WHERE campaign_id = $1::text", {id});
+        c->Run("DELETE FROM batches WHERE campaign_id = $1::text", {id});
+      }
+      if (deleted && collection == "operations") c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
+      tx.Commit();
+      return deleted;
+    });
   }
 
   std::vector<Document> List(const std::string& collection, const std::string& after_id, int limit) override {
     std::vector<Document> docs;
     if (limit <= 0) return docs;
-    auto c = pool_.Borrow();
-    const pg::Result r = c->Run(
-        "SELECT id, json, version, created_unix_ms, updated_unix_ms FROM documents "
-        "WHERE collection = $1::text AND id > $2::text ORDER BY id LIMIT $3::bigint",
-        {collection, after_id, Int(limit)});
-    for (int i = 0; i < r.rows(); ++i) {
-      docs.push_back(Document{collection, r.Text(i, 0), r.Text(i, 1), r.Int(i, 2), r.Int(i, 3), r.Int(i, 4)});
-    }
-    return docs;
+    return pool_.Run([&](pg::Connection& conn) -> std::vector<Document> {
+      pg::Connection* c = &conn;
+      const pg::Result r = c->Run(
+          "SELECT id, json, version, created_unix_ms, updated_unix_ms FROM documents "
+          "WHERE collection = $1::text AND id > $2::text ORDER BY id LIMIT $3::bigint",
+          {collection, after_id, Int(limit)});
+      for (int i = 0; i < r.rows(); ++i) {
+        docs.push_back(Document{collection, r.Text(i, 0), r.Text(i, 1), r.Int(i, 2), r.Int(i, 3), r.Int(i, 4)});
+      }
+      return docs;
+    });
   }
 
   BatchResult AppendMeasurements(const std::string& campaign_id, const std::string& request_id,
                                  const std::string& content_hash, const std::string& role,
                                  const std::vector<std::string>& measurements_json,
                                  std::int64_t max_campaign_total) override {
-    auto c = pool_.Borrow();
-    pg::Transaction tx(*c);
-    // The campaign's row lock serialises appends to one campaign across instances: sequences stay dense, and
-    // a batch retried through another instance finds the first one's row (the unique key on (campaign_id,
-    // request_id) stands behind it).
-    if (c->Run("SELECT 1 FROM documents WHERE collection = 'campaigns' AND id = $1::text FOR UPDATE", {campaign_id})
-            .rows() == 0) {
-      throw StorageError(Kind::kNotFound, "campaign " + campaign_id + " not found");
-    }
-    // Sequences are dense from 1 and single measurements are never deleted: the largest is the total.
-    const std::int64_t total =
-        c->Run("SELECT COALESCE(MAX(sequence), 0) FROM measurements WHERE campaign_id = $1::text", {campaign_id})
-            .Int(0, 0);
-    if (!request_id.empty()) {
-      const pg::Result r = c->Run(
-          "SELECT batch_id, content_hash, role, first_sequence, count FROM batches "
-          "WHERE campaign_id = $1::text AND request_id = $2::text",
-          {campaign_id, request_id});
-      if (r.rows() > 0) {
-        if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
-          throw StorageError(Kind::kAlreadyExists, "request_id " + request_id + " of campaign " + campaign_id +
-                                                       " was used before for a different batch");
-        }
-        return BatchResult{r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
+    return pool_.Run([&](pg::Connection& conn) -> BatchResult {
+      pg::Connection* c = &conn;
+      pg::Transaction tx(*c);
+      // The campaign's row lock serialises appends to one campaign across instances: sequences stay dense, and
+      // a batch retried through another instance finds the first one's row (the unique key on (campaign_id,
+      // request_id) stands behind it).
+      if (c->Run("SELECT 1 FROM documents WHERE collection = 'campaigns' AND id = $1::text FOR UPDATE", {campaign_id})
+              .rows() == 0) {
+        throw StorageError(Kind::kNotFound, "campaign " + campaign_id + " not found");
       }
-    }
-    const auto count = static_cast<std::int64_t>(measurements_json.size());
-    if (max_campaign_total > 0 && total + count > max_campaign_total) {
-      throw StorageError(Kind::kResourceExhausted, "campaign " + campaign_id + " holds " + std::to_string(total) +
-                                                       " measurements; " + std::to_string(count) +
-                                                       " more would exceed the limit of " +
-                                                       std::to_string(max_campaign_total));
-    }
-    const std::string batch_id = NewBatchId();
-    const std::int64_t first_sequence = total + 1;
-    // NULL, not "", so that batches without a request id never collide on the unique key.
-    const Param request = request_id.empty() ? Param() : Param(request_id);
-    c->Run(std::string("INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, first_sequence, "
-                       "count, created_unix_ms) VALUES ($1::text, $2::text, $3::text, $4::text, $5::text, $6::bigint, "
-                       "$7::bigint, ") +
-               kNowMs + ")",
-           {batch_id, campaign_id, request, content_hash, role, Int(first_sequence), Int(count)});
-    if (count > 0) {
-      c->Run(
-          "INSERT INTO measurements (campaign_id, sequence, batch_id, role, json) "
-          "SELECT $1::text, $2::bigint + t.ordinal - 1, $3::text, $4::text, t.json "
-          "FROM unnest($5::text[]) WITH ORDINALITY AS t(json, ordinal)",
-          {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
-    }
-    tx.Commit();
-    return BatchResult{batch_id, request_id, false, first_sequence, count, total + count};
+      // Sequences are dense from 1 and single measurements are never deleted: the largest is the total.
+      const std::int64_t total =
+          c->Run("SELECT COALESCE(MAX(sequence), 0) FROM measurements WHERE campaign_id = $1::text", {campaign_id})
+              .Int(0, 0);
+      if (!request_id.empty()) {
+        const pg::Result r = c->Run(
+            "SELECT batch_id, content_hash, role, first_sequence, count FROM batches "
+            "WHERE campaign_id = $1::text AND request_id = $2::text",
+            {campaign_id, request_id});
+        if (r.rows() > 0) {
+          if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
+            throw StorageError(Kind::kAlreadyExists, "request_id " + request_id + " of campaign " + campaign_id +
+                                                         " was used before for a different batch");
+          }
+          return BatchResult{r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
+        }
+      }
+      const auto count = static_cast<std::int64_t>(measurements_json.size());
+      if (max_campaign_total > 0 && total + count > max_campaign_total) {
+        throw StorageError(Kind::kResourceExhausted, "campaign " + campaign_id + " holds " + std::to_string(total) +
+                                                         " measurements; " + std::to_string(count) +
+                                                         " more would exceed the limit of " +
+                                                         std::to_string(max_campaign_total));
+      }
+      const std::string batch_id = NewBatchId();
+      const std::int64_t first_sequence = total + 1;
+      // NULL, not "", so that batches without a request id never collide on the unique key.
+      const Param request = request_id.empty() ? Param() : Param(request_id);
+      c->Run(std::string("INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, first_sequence, "
+                         "count, created_unix_ms) VALUES ($1::text, $2::text, $3::text, $4::text, $5::text, $6::bigint, "
+                         "$7::bigint, ") +
+                 kNowMs + ")",
+             {batch_id, campaign_id, request, content_hash, role, Int(first_sequence), Int(count)});
+      if (count > 0) {
+        c->Run(
+            "INSERT INTO measurements (campaign_id, sequence, batch_id, role, json) "
+            "SELECT $1::text, $2::bigint + t.ordinal - 1, $3::text, $4::text, t.json "
+            "FROM unnest($5::text[]) WITH ORDINALITY AS t(json, ordinal)",
+            {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
+      }
+      tx.Commit();
+      return BatchResult{batch_id, request_id, false, first_sequence, count, total + count};
+    });
   }
 
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,
                                                   std::int64_t after_sequence, int limit) override {
     std::vector<StoredMeasurement> out;
     if (limit <= 0) return out;
-    auto c = pool_.Borrow();
-    const pg::Result r = c->Run(
-        "SELECT sequence, batch_id, role, json FROM measurements WHERE campaign_id = $1::text "
-        "AND ($2::text = '' OR role = $2::text) AND sequence > $3::bigint ORDER BY sequence LIMIT $4::bigint",
-        {campaign_id, role, Int(after_sequence), Int(limit)});
-    out.reserve(static_cast<std::size_t>(r.rows()));
-    for (int i = 0; i < r.rows(); ++i) out.push_back(StoredMeasurement{r.Int(i, 0), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3)});
-    return out;
+    return pool_.Run([&](pg::Connection& conn) -> std::vector<StoredMeasurement> {
+      pg::Connection* c = &conn;
+      const pg::Result r = c->Run(
+          "SELECT sequence, batch_id, role, json FROM measurements WHERE campaign_id = $1::text "
+          "AND ($2::text = '' OR role = $2::text) AND sequence > $3::bigint ORDER BY sequence LIMIT $4::bigint",
+          {campaign_id, role, Int(after_sequence), Int(limit)});
+      out.reserve(static_cast<std::size_t>(r.rows()));
+      for (int i = 0; i < r.rows(); ++i) out.push_back(StoredMeasurement{r.Int(i, 0), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3)});
+      return out;
+    });
   }
 
   std::int64_t CountMeasurements(const std::string& campaign_id, const std::string& role) override {
-    auto c = pool_.Borrow();
-    return c
-        ->Run("SELECT COUNT(*) FROM measurements WHERE campaign_id = $1::text AND ($2::text = '' OR role = $2::text)",
-              {campaign_id, role})
-        .Int(0, 0);
+    return pool_.Run([&](pg::Connection& conn) -> std::int64_t {
+      pg::Connection* c = &conn;
+      return c
+          ->Run("SELECT COUNT(*) FROM measurements WHERE campaign_id = $1::text AND ($2::text = '' OR role = $2::text)",
+                {campaign_id, role})
+          .Int(0, 0);
+    });
   }
 
   Document CreateLeased(const std::string& id, const std::string& json, const std::string& owner,
                         std::int64_t lease_ms) override {
-    auto c = pool_.Borrow();
-    pg::Transaction tx(*c);
-    Document doc;
-    try {
-      doc = InsertDocument(*c, "operations", id, json);
-    } catch (const StorageError& e) {
-      if (e.kind() != Kind::kAlreadyExists) throw;
-      throw StorageError(Kind::kAlreadyExists, "operations/" + id + " already exists");
-    }
-    c->Run(
-        "INSERT INTO operation_leases (id, owner, expires_at) VALUES ($1::text, $2::text, "
-        "clock_timestamp() + $3::bigint * interval '1 millisecond') ON CONFLICT (id) DO UPDATE SET "
-        "owner = excluded.owner, expires_at = excluded.expires_at, cancel_requested = false, progress = 0",
-        {id, owner, Int(lease_ms)});
-    tx.Commit();
-    return doc;
+    return pool_.Run([&](pg::Connection& conn) -> Document {
+      pg::Connection* c = &conn;
+      pg::Transaction tx(*c);
+      Document doc;
+      try {
+        doc = InsertDocument(*c, "operations", id, json);
+      } catch (const StorageError& e) {
+        if (e.kind() != Kind::kAlreadyExists) throw;
+        throw StorageError(Kind::kAlreadyExists, "operations/" + id + " already exists");
+      }
+      c->Run(
+          "INSERT INTO operation_leases (id, owner, expires_at) VALUES ($1::text, $2::text, "
+          "clock_timestamp() + $3::bigint * interval '1 millisecond') ON CONFLICT (id) DO UPDATE SET "
+          "owner = excluded.owner, expires_at = excluded.expires_at, cancel_requested = false, progress = 0",
+          {id, owner, Int(lease_ms)});
+      tx.Commit();
+      return doc;
+    });
   }
 
   std::optional<OperationLease> RenewLease(const std::string& id, const std::string& owner, std::int64_t lease_ms,
                                            double progress) override {
-    auto c = pool_.Borrow();
-    const pg::Result r = c->Run(
-        "UPDATE operation_leases SET expires_at = clock_timestamp() + $3::bigint * interval '1 millisecond', "
-        "progress = $4::double precision WHERE id = $1::text AND owner = $2::text RETURNING " +
-            std::string(kLeaseColumns),
-        {id, owner, Int(lease_ms), std::to_string(progress)});
-    if (r.rows() == 0) return std::nullopt;
-    return LeaseOf(r);
+    // Renewals and expiry run on a connection of their own, so that requests holding every pooled connection
+    // cannot delay a renewal until the lease lapses.
+    return lease_pool_.Run([&](pg::Connection& conn) -> std::optional<OperationLease> {
+      pg::Connection* c = &conn;
+      const pg::Result r = c->Run(
+          "UPDATE operation_leases SET expires_at = clock_timestamp() + $3::bigint * interval '1 millisecond', "
+          "progress = $4::double precision WHERE id = $1::text AND owner = $2::text RETURNING " +
+              std::string(kLeaseColumns),
+          {id, owner, Int(lease_ms), Double(progress)});
+      if (r.rows() == 0) return std::nullopt;
+      return LeaseOf(r);
+    });
   }
 
   std::optional<OperationLease> GetLease(const std::string& id) override {
-    auto c = pool_.Borrow();
-    const pg::Result r =
-        c->Run("SELECT " + std::string(kLeaseColumns) + " FROM operation_leases WHERE id = $1::text", {id});
-    if (r.rows() == 0) return std::nullopt;
-    return LeaseOf(r);
+    return pool_.Run([&](pg::Connection& conn) -> std::optional<OperationLease> {
+      pg::Connection* c = &conn;
+      const pg::Result r =
+          c->Run("SELECT " + std::string(kLeaseColumns) + " FROM operation_leases WHERE id = $1::text", {id});
+      if (r.rows() == 0) return std::nullopt;
+      return LeaseOf(r);
+    });
   }
 
   bool RequestCancel(const std::string& id) override {
-    auto c = pool_.Borrow();
-    return c->Run("UPDATE operation_leases SET cancel_requested = true WHERE id = $1::text RETURNING 1", {id}).rows() >
-           0;
+    return pool_.Run([&](pg::Connection& conn) -> bool {
+      pg::Connection* c = &conn;
+      return c->Run("UPDATE operation_leases SET cancel_requested = true WHERE id = $1::text RETURNING 1", {id}).rows() >
+             0;
+    });
   }
 
   bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) override {
-    auto c = pool_.Borrow();
-    pg::Transaction tx(*c);
-    if (c->Run("DELETE FROM operation_leases WHERE id = $1::text AND owner = $2::text RETURNING 1", {id, owner})
-            .rows() == 0) {
-      return false;  // rolled back: nothing written
-    }
-    std::optional<Document> doc = GetDocument(*c, "operations", id, true);
-    if (!doc) throw StorageError(Kind::kNotFound, "operations/" + id + " not found");
-    WriteDocument(*c, *doc, json);
-    tx.Commit();
-    return true;
+    return pool_.Run([&](pg::Connection& conn) -> bool {
+      pg::Connection* c = &conn;
+      pg::Transaction tx(*c);
+      if (c->Run("DELETE FROM operation_leases WHERE id = $1::text AND owner = $2::text RETURNING 1", {id, owner})
+              .rows() == 0) {
+        return false;  // rolled back: nothing written
+      }
+      std::optional<Document> doc = GetDocument(*c, "operations", id, true);
+      if (!doc) throw StorageError(Kind::kNotFound, "operations/" + id + " not found");
+      WriteDocument(*c, *doc, json);
+      tx.Commit();
+      return true;
+    });
   }
 
   std::vector<std::string> ExpireLeases(bool all,
                                         const std::function<std::string(const Document&)>& expire) override {
     std::vector<std::string> ended;
-    auto c = pool_.Borrow();
-    for (;;) {
-      pg::Transaction tx(*c);
-      // SKIP LOCKED: a lease another instance is ending (or its owner renewing) is left to it.
-      const pg::Result r = c->Run(
-          "SELECT id FROM operation_leases WHERE $1::boolean OR expires_at < clock_timestamp() "
-          "ORDER BY expires_at LIMIT 1 FOR UPDATE SKIP LOCKED",
-          {all ? "true" : "false"});
-      if (r.rows() == 0) break;
-      const std::string id = r.Text(0, 0);
-      if (std::optional<Document> doc = GetDocument(*c, "operations", id, true)) WriteDocument(*c, *doc, expire(*doc));
-      c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
-      tx.Commit();
-      ended.push_back(id);
-    }
-    return ended;
+    return lease_pool_.Run([&](pg::Connection& conn) -> std::vector<std::string> {
+      pg::Connection* c = &conn;
+      for (;;) {
+        pg::Transaction tx(*c);
+        // SKIP LOCKED: a lease another instance is ending (or its owner renewing) is left to it.
+        const pg::Result r = c->Run(
+            "SELECT id FROM operation_leases WHERE $1::boolean OR expires_at < clock_timestamp() "
+            "ORDER BY expires_at LIMIT 1 FOR UPDATE SKIP LOCKED",
+            {all ? "true" : "false"});
+        if (r.rows() == 0) break;
+        const std::string id = r.Text(0, 0);
+        if (std::optional<Document> doc = GetDocument(*c, "operations", id, true)) WriteDocument(*c, *doc, expire(*doc));
+        c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
+        tx.Commit();
+        ended.push_back(id);
+      }
+      return ended;
+    });
   }
 
   bool Shared() const override { return true; }
 
   std::string IntegrityCheck() override {
-    auto c = pool_.Borrow();
-    std::string problems;
-    const auto check = [&](const std::string& what, const std::string& sql) {
-      const pg::Result r = c->Run(sql);
-      for (int i = 0; i < r.rows(); ++i) problems += (problems.empty() ? "" : "\n") + what + " " + r.Text(i, 0);
-    };
-    check("campaign with missing sequences:",
-          "SELECT campaign_id FROM measurements GROUP BY campaign_id HAVING COUNT(*) <> MAX(sequence) LIMIT 20");
-    check("batch whose count differs from its measurements:",
-          "SELECT b.batch_id FROM batches b LEFT JOIN measurements m ON m.batch_id = b.batch_id "
-          "GROUP BY b.batch_id, b.count HAVING COUNT(m.sequence) <> b.count LIMIT 20");
-    check("measurements of a campaign that does not exist:",
-          "SELECT DISTINCT m.campaign_id FROM measurements m WHERE NOT EXISTS (SELECT 1 FROM documents d "
-          "WHERE d.collection = 'campaigns' AND d.id = m.campaign_id) LIMIT 20");
-    return problems.empty() ? "ok" : problems;
+    return pool_.Run([&](pg::Connection& conn) -> std::string {
+      pg::Connection* c = &conn;
+      std::string problems;
+      const auto check = [&](const std::string& what, const std::string& sql) {
+        const pg::Result r = c->Run(sql);
+        for (int i = 0; i < r.rows(); ++i) problems += (problems.empty() ? "" : "\n") + what + " " + r.Text(i, 0);
+      };
+      check("campaign with missing sequences:",
+            "SELECT campaign_id FROM measurements GROUP BY campaign_id HAVING COUNT(*) <> MAX(sequence) LIMIT 20");
+      check("batch whose count differs from its measurements:",
+            "SELECT b.batch_id FROM batches b LEFT JOIN measurements m ON m.batch_id = b.batch_id "
+            "GROUP BY b.batch_id, b.count HAVING COUNT(m.sequence) <> b.count LIMIT 20");
+      check("measurements of a campaign that does not exist:",
+            "SELECT DISTINCT m.campaign_id FROM measurements m WHERE NOT EXISTS (SELECT 1 FROM documents d "
+            "WHERE d.collection = 'campaigns' AND d.id = m.campaign_id) LIMIT 20");
+      return problems.empty() ? "ok" : problems;
+    });
   }
 
   int SchemaVersion() override {
-    auto c = pool_.Borrow();
-    return static_cast<int>(c->Run("SELECT version FROM robocal_schema").Int(0, 0));
+    return pool_.Run([&](pg::Connection& conn) -> int {
+      pg::Connection* c = &conn;
+      return static_cast<int>(c->Run("SELECT version FROM robocal_schema").Int(0, 0));
+    });
   }
 
  private:
@@ -354,6 +403,7 @@ class PgStorage final : public Storage {
                          "database schema version " + std::to_string(version) + " is newer than this build supports (" +
                              std::to_string(kSchemaVersion) + "); run a newer robocal-server");
     }
+    if (version == kSchemaVersion) return;  // nothing to do: the transaction rolls back
     for (; version < kSchemaVersion; ++version) MigrateStep(c, version);
     c.Run("UPDATE robocal_schema SET version = $1::integer", {Int(kSchemaVersion)});
     tx.Commit();
@@ -412,6 +462,7 @@ class PgStorage final : public Storage {
   }
 
   pg::Pool pool_;
+  pg::Pool lease_pool_;
 };
 
 }  // namespace

@@ -1,4 +1,6 @@
 // Choosing a database by the --db value, and what the implementations share (storage_common.h).
+#include <algorithm>
+#include <cctype>
 #include <mutex>
 #include <random>
 #include <string>
@@ -17,27 +19,78 @@ std::unique_ptr<Storage> OpenStorage(const std::string& db, const StorageOptions
   return OpenSqliteStorage(db);
 }
 
-std::string RedactUrl(const std::string& url) {
-  std::string out = url;
-  // URI form: scheme://user:password@host...
-  const std::size_t scheme = out.find("://");
-  if (scheme != std::string::npos) {
-    const std::size_t start = scheme + 3;
-    const std::size_t at = out.find('@', start);
-    const std::size_t slash = out.find('/', start);
-    if (at != std::string::npos && (slash == std::string::npos || at < slash)) {
-      const std::size_t colon = out.find(':', start);
-      if (colon != std::string::npos && colon < at) out.replace(colon + 1, at - colon - 1, "***");
+namespace {
+
+/// RFC 3986 percent-decoding, as libpq applies to a URI's parts; an invalid escape is kept as written.
+std::string PercentDecoded(const std::string& text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '%' && i + 2 < text.size() && std::isxdigit(static_cast<unsigned char>(text[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(text[i + 2]))) {
+      out += static_cast<char>(std::stoi(text.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += text[i];
     }
-  }
-  // Parameter form, in the query string or a keyword/value string: password=...
-  for (std::size_t at = out.find("password="); at != std::string::npos; at = out.find("password=", at + 12)) {
-    const std::size_t value = at + 9;
-    const std::size_t end = out.find_first_of("& ", value);
-    out.replace(value, (end == std::string::npos ? out.size() : end) - value, "***");
   }
   return out;
 }
+
+}  // namespace
+
+// Written here rather than taken from libpq's PQconninfoParse: that refuses a URL it cannot parse (a stray '%',
+// an '@' in the password), which is exactly when its error message echoes the password back.
+std::vector<std::string> PasswordsIn(const std::string& url) {
+  std::vector<std::string> found;
+  const auto add = [&](const std::string& raw) {
+    if (raw.empty()) return;
+    found.push_back(raw);
+    if (const std::string decoded = PercentDecoded(raw); decoded != raw) found.push_back(decoded);
+    // libpq splits a URL at its first '@' and ':', so its messages may echo only the part of a password after
+    // one of them.
+    for (std::size_t at = raw.find_first_of("@:"); at != std::string::npos; at = raw.find_first_of("@:", at + 1)) {
+      if (raw.size() - at > 3) found.push_back(raw.substr(at + 1));
+    }
+  };
+  const std::size_t scheme = url.find("://");
+  if (scheme != std::string::npos) {
+    // The user information ends at the last '@' before the path or the parameters.
+    const std::size_t start = scheme + 3;
+    const std::size_t end = std::min(url.find('/', start), url.find('?', start));
+    const std::size_t at = url.rfind('@', end == std::string::npos ? std::string::npos : end);
+    if (at != std::string::npos && at >= start) {
+      const std::size_t colon = url.find(':', start);
+      if (colon != std::string::npos && colon < at) add(url.substr(colon + 1, at - colon - 1));
+    }
+  }
+  // Parameters: password=... (the key itself may be percent-encoded).
+  const std::size_t query = url.find('?');
+  std::size_t from = query == std::string::npos ? 0 : query + 1;
+  while (from <= url.size()) {
+    const std::size_t amp = url.find_first_of("& ", from);
+    const std::string pair = url.substr(from, amp == std::string::npos ? std::string::npos : amp - from);
+    if (const std::size_t eq = pair.find('='); eq != std::string::npos && PercentDecoded(pair.substr(0, eq)) == "password") {
+      add(pair.substr(eq + 1));
+    }
+    if (amp == std::string::npos) break;
+    from = amp + 1;
+  }
+  return found;
+}
+
+std::string Scrub(std::string text, std::vector<std::string> secrets) {
+  // Longest first: a decoded password may be part of its written form.
+  std::sort(secrets.begin(), secrets.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+  for (const std::string& secret : secrets) {
+    if (secret.empty()) continue;
+    for (std::size_t at = text.find(secret); at != std::string::npos; at = text.find(secret, at + 3)) {
+      text.replace(at, secret.size(), "***");
+    }
+  }
+  return text;
+}
+
+std::string RedactUrl(const std::string& db) { return Scrub(db, PasswordsIn(db)); }
 
 std::string NewBatchId() {
   static std::mutex mutex;

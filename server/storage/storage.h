@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace robocal::server {
@@ -24,11 +25,16 @@ class StorageError : public std::runtime_error {
     kUnavailable,        ///< the database cannot be opened / is busy / disk full
     kInternal,           ///< corruption or a bug
   };
-  StorageError(Kind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
+  /// `message` is for the caller (a reply's text); `detail`, if any, is the database's own text for the log
+  /// (statements, driver messages), never sent to a client.
+  StorageError(Kind kind, const std::string& message, std::string detail = {})
+      : std::runtime_error(message), kind_(kind), detail_(std::move(detail)) {}
   Kind kind() const { return kind_; }
+  const std::string& detail() const { return detail_; }
 
  private:
   Kind kind_;
+  std::string detail_;
 };
 
 /// A stored JSON document. `json` is opaque text to the storage.

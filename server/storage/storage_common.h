@@ -2,11 +2,19 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace robocal::server {
 
 /// A batch id ("b-" and 16 hex digits, 64 random bits). Batch ids only need to be unique, not reproducible, so
 /// the generator is seeded from the system; the primary key on batch_id stands behind the odds.
 std::string NewBatchId();
+
+/// Every password a database URL holds (in its user information or a password parameter), as written and
+/// percent-decoded as libpq reads it, so that messages echoing part of the URL (libpq's among them) can be
+/// scrubbed of them.
+std::vector<std::string> PasswordsIn(const std::string& url);
+/// `text` with every non-empty string of `secrets` replaced by "***".
+std::string Scrub(std::string text, std::vector<std::string> secrets);
 
 }  // namespace robocal::server

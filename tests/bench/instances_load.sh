@@ -34,8 +34,27 @@ stop_instances() {
   pids=()
 }
 trap 'stop_instances; bash "$here/../storage/pg_cluster.sh" stop "$work/pg" >/dev/null; rm -rf "$work"' EXIT
-bash "$here/../storage/pg_cluster.sh" start "$work/pg" >/dev/null
+# fsync on: a 2xx means on disk, as with SQLite's synchronous=FULL.
+PG_CLUSTER_FSYNC=on bash "$here/../storage/pg_cluster.sh" start "$work/pg" >/dev/null
 socket=$(cat "$work/pg/socket_dir")
+
+# CPU seconds used so far by the instances and by the PostgreSQL cluster (its postmaster and every backend),
+# for the per-request costs: "server_s postgres_s".
+clk=$(getconf CLK_TCK)
+cpu_seconds() {
+  local server=0 pg=0 p postmaster
+  for p in "${pids[@]}"; do server=$((server + $(awk '{print $14 + $15}' "/proc/$p/stat" 2>/dev/null || echo 0))); done
+  postmaster=$(head -1 "$socket/data/postmaster.pid" 2>/dev/null || true)
+  if [ -n "$postmaster" ]; then
+    for p in $postmaster $(pgrep -P "$postmaster"); do pg=$((pg + $(awk '{print $14 + $15}' "/proc/$p/stat" 2>/dev/null || echo 0))); done
+  fi
+  echo "$(python3 -c "print($server / $clk)") $(python3 -c "print($pg / $clk)")"
+}
+# per_request BEFORE AFTER REQUESTS: CPU milliseconds per request in the instances and in PostgreSQL.
+per_request() {
+  python3 -c "b='$1'.split(); a='$2'.split(); n=$3
+print('CPU per request: instances %.2f ms, PostgreSQL %.2f ms' % ((float(a[0])-float(b[0]))*1000/n, (float(a[1])-float(b[1]))*1000/n))"
+}
 
 urls=()
 # start_instances N DB: N instances on DB; sets urls.
@@ -103,19 +122,23 @@ wrk_all() {
   local path=$1 script=$2
   shift 2
   local n=${#urls[@]} each=$((connections / ${#urls[@]})) i=0
-  local outs=()
+  local outs=() before
+  before=$(cpu_seconds)
   for u in "${urls[@]}"; do
     i=$((i + 1))
     wrk -t1 -c"$each" -d"$duration" -s "$script" "$u$path" -- "$@" "w$i" >"$work/wrk$i" 2>&1 &
     outs+=("$work/wrk$i")
   done
   wait_wrk
-  local total=0 non2xx=0
+  local after total=0 non2xx=0 requests=0
+  after=$(cpu_seconds)
   for o in "${outs[@]}"; do
     total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))")
+    requests=$((requests + $(sed -n 's/^ *\([0-9]*\) requests in.*/\1/p' "$o")))
     non2xx=$((non2xx + $(sed -n 's/.*Non-2xx or 3xx responses: *//p' "$o" | tr -d ' ' | sed 's/^$/0/')))
   done
-  printf '%.0f requests/s (%d instance(s), %d connections each, non-2xx %d)\n' "$total" "$n" "$each" "$non2xx"
+  printf '%.0f requests/s (%d instance(s), %d connections each, non-2xx %d); ' "$total" "$n" "$each" "$non2xx"
+  per_request "$before" "$after" "$requests"
 }
 wait_wrk() { while pgrep -P $$ -x wrk >/dev/null; do sleep 0.2; done; }
 
@@ -163,17 +186,23 @@ run_setup() {  # LABEL N DB
   # The wrk processes upload each to its own campaign (cell1 through instance 1, ...).
   local n_urls=${#urls[@]} all_urls=("${urls[@]}") j
   echo -n "uploads, 50 per batch: "
-  local outs=() each=$((connections / n_urls))
+  local outs=() each=$((connections / n_urls)) before after requests=0
+  before=$(cpu_seconds)
   for j in $(seq "$n_urls"); do
     wrk -t1 -c"$each" -d"$duration" -s "$work/batch.lua" "${all_urls[$((j - 1))]}/v1/campaigns/cell$j/measurements" \
       -- "cell$j" "w$j" >"$work/up$j" 2>&1 &
     outs+=("$work/up$j")
   done
   wait_wrk
+  after=$(cpu_seconds)
   local total=0
-  for o in "${outs[@]}"; do total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))"); done
-  printf '%.0f batches/s = %.0f measurements/s (%d instance(s), %d connections each)\n' "$total" \
+  for o in "${outs[@]}"; do
+    total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))")
+    requests=$((requests + $(sed -n 's/^ *\([0-9]*\) requests in.*/\1/p' "$o")))
+  done
+  printf '%.0f batches/s = %.0f measurements/s (%d instance(s), %d connections each); ' "$total" \
     "$(python3 -c "print($total * 50)")" "$n_urls" "$each"
+  per_request "$before" "$after" "$requests"
   echo -n ":compensate, 10 targets: "
   wrk_all "/v1/campaigns/$calibrated:compensate" "$work/compensate.lua"
   echo "p99 of GET /v1/campaigns/{c} on instance $n_urls (a long async fit on instance 1):"

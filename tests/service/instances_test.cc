@@ -149,10 +149,12 @@ TEST(InstancesTest, ThreeInstancesShareUploadsAndOperationsAndSurviveOneKilled) 
   const std::string second_path = "/v1/operations/" + Parse(second)["id"].get<std::string>();
   const auto cancel = clients[2]->Post(second_path + ":cancel", "", "application/json");
   ASSERT_TRUE(cancel && cancel->status == 200) << (cancel ? cancel->body : "no reply");
+  EXPECT_TRUE(Parse(cancel).value("cancel_requested", false)) << cancel->body;
   ASSERT_TRUE(WaitFor([&] { return Parse(clients[2]->Get(second_path)).value("done", false); },
                       std::chrono::seconds(60)));
+  // The fit (20 folds over 2,400 shots) runs far longer than the owner's renewal period (a third of the lease).
   const json cancelled = Parse(clients[1]->Get(second_path));
-  EXPECT_TRUE(cancelled["state"] == "CANCELLED" || cancelled["state"] == "SUCCEEDED") << cancelled.dump();
+  EXPECT_EQ(cancelled["state"], "CANCELLED") << cancelled.dump();
 
   // Every acknowledged measurement is there, once, where its acknowledgement said.
   auto storage = OpenStorage(database.Url());

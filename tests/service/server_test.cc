@@ -746,6 +746,14 @@ TEST(OperationLeaseTest, AnotherInstanceSeesProgressAndCancelsThroughTheLease) {
   EXPECT_FALSE(a.storage().GetLease(id).has_value());
 }
 
+std::string RunningOperationJson(const std::string& id) {
+  api::Operation op;
+  op.id = id;
+  op.plan_request = api::PlanRequest{};
+  op.state = api::OperationState::kRunning;
+  return nlohmann::json(api::StoredOperation{op}).dump();
+}
+
 // Instance a runs a fit; its lease lapses and instance b marks it FAILED. With `owner_renews`, a's lease keeper
 // runs before the fit goes on (a learns it lost the lease and stops the work); without, the fit runs to its end
 // and finds out only when it is about to store the calibration. Either way a's finish changes nothing.
@@ -757,11 +765,12 @@ void TakeOverAHeldFit(bool owner_renews) {
   ASSERT_EQ(op.status, 200) << op.text;
   const std::string id = op.body["id"];
   ASSERT_TRUE(held.WaitReached());
+  auto& storage = dynamic_cast<FakeStorage&>(a.storage());
+  storage.shared = true;  // a and b are two instances on one database
   Service b(&a.storage(), ServiceOptions{});
   EXPECT_EQ(b.KeepOperationLeases(), 0) << "a live lease is left alone";
 
   // a stops renewing (here: its lease is made to lapse, as when a's host stalls longer than the lease).
-  auto& storage = dynamic_cast<FakeStorage&>(a.storage());
   storage.LapseLease(id);
   EXPECT_EQ(b.KeepOperationLeases(), 1);
   const api::Operation failed = b.GetOperation(id);
@@ -789,13 +798,40 @@ TEST(OperationLeaseTest, AnExpiredLeaseIsFailedByAnotherInstanceAndItsOwnerStops
 
 TEST(OperationLeaseTest, AFitTakenOverThatRunsToItsEndStoresNothing) { TakeOverAHeldFit(false); }
 
-std::string RunningOperationJson(const std::string& id) {
-  api::Operation op;
-  op.id = id;
-  op.plan_request = api::PlanRequest{};
-  op.state = api::OperationState::kRunning;
-  return nlohmann::json(api::StoredOperation{op}).dump();
+TEST(OperationLeaseTest, AFitThatCannotConfirmItsLeaseFailsRatherThanSucceedWithoutItsResult) {
+  HeldFit held;
+  TestServer a({}, {}, held.options);
+  CreateFitCampaign(a);
+  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  ASSERT_EQ(op.status, 200) << op.text;
+  const std::string id = op.body["id"];
+  ASSERT_TRUE(held.WaitReached());
+  auto& storage = dynamic_cast<FakeStorage&>(a.storage());
+  storage.fail_renewals = true;  // the database stops answering renewals
+  held.Release();
+  const Reply done = WaitDone(a, id);
+  EXPECT_EQ(done.body["state"], "FAILED") << done.text;
+  EXPECT_EQ(done.body["error"]["status"], "UNAVAILABLE") << done.text;
+  EXPECT_NE(done.body["error"]["message"].get<std::string>().find("nothing was stored"), std::string::npos)
+      << done.text;
+  storage.fail_renewals = false;
+  EXPECT_EQ(a.Get("/v1/campaigns/cf/calibration").status, 404);
 }
+
+TEST(OperationLeaseTest, AnUnreadableOperationNeverHoldsUpTheOthersLeases) {
+  FakeStorage storage;
+  storage.shared = true;
+  // Written by a build that knows another kind of operation; both instances that ran them stopped.
+  storage.CreateLeased("op-alien", R"({"schema_version":4,"id":"op-alien","kind":"teleport"})", "gone", -1);
+  storage.CreateLeased("op-fit", RunningOperationJson("op-fit"), "gone", -1);
+  storage.Create("operations", "op-alien-old", R"({"kind":"teleport"})");  // unreadable, no lease: left alone
+  Service service(&storage, ServiceOptions{});
+  EXPECT_NO_THROW(service.RecoverOperations());
+  EXPECT_FALSE(storage.GetLease("op-alien").has_value());
+  EXPECT_EQ(storage.Get("operations", "op-alien")->json, R"({"schema_version":4,"id":"op-alien","kind":"teleport"})");
+  EXPECT_EQ(service.GetOperation("op-fit").state, api::OperationState::kFailed);
+}
+
 
 TEST(OperationLeaseTest, RecoveryAtStartFailsOnlyOperationsNoLiveInstanceRuns) {
   for (const bool shared : {true, false}) {

@@ -3,6 +3,7 @@
 // it and against SQLite, so that the service tests never pass on behaviour SQLite does not have.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -134,6 +135,7 @@ class FakeStorage : public Storage {
   std::optional<OperationLease> RenewLease(const std::string& id, const std::string& owner, std::int64_t lease_ms,
                                            double progress) override {
     std::lock_guard lock(mutex_);
+    if (fail_renewals) throw StorageError(StorageError::Kind::kUnavailable, "the database did not answer");
     auto it = leases_.find(id);
     if (it == leases_.end() || it->second.lease.owner != owner) return std::nullopt;
     it->second.expires_ms = NowMs() + lease_ms;
@@ -187,6 +189,8 @@ class FakeStorage : public Storage {
   bool Shared() const override { return shared; }
   /// Tests: Shared()'s answer (a fake standing for a database several instances use).
   bool shared = false;
+  /// Tests: RenewLease fails kUnavailable, as when the database does not answer.
+  std::atomic<bool> fail_renewals{false};
   /// Tests: makes the lease of `id` expired now, as when its owner stopped renewing it.
   void LapseLease(const std::string& id) {
     std::lock_guard lock(mutex_);

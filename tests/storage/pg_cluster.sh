@@ -4,7 +4,8 @@
 # server on a unix socket there with no TCP listener, and writes the socket directory to DIR/socket_dir;
 # `pg_cluster.sh stop DIR` stops it and removes it. Run as root, the server runs as the unprivileged "postgres"
 # user (PostgreSQL refuses root). fsync is off: the tests check robocal's transactions, not the disk, and the
-# cluster is thrown away. Tests connect as "robocal" (trust authentication on the private socket only).
+# cluster is thrown away; benchmarks set PG_CLUSTER_FSYNC=on to measure with the durability a deployment has.
+# Tests connect as "robocal" (trust authentication on the private socket only).
 set -euo pipefail
 command=${1:?usage: pg_cluster.sh start|stop DIR}
 dir=${2:?usage: pg_cluster.sh start|stop DIR}
@@ -14,6 +15,8 @@ if [ -z "$bin" ] || [ ! -x "$bin/initdb" ]; then
   echo "pg_cluster.sh: no PostgreSQL server found under /usr/lib/postgresql (deploy/install-deps.sh installs it)" >&2
   exit 1
 fi
+fsync=${PG_CLUSTER_FSYNC:-off}
+case "$fsync" in on | off) ;; *) echo "pg_cluster.sh: PG_CLUSTER_FSYNC must be on or off" >&2; exit 2 ;; esac
 as_server=()
 if [ "$(id -u)" -eq 0 ]; then as_server=(runuser -u postgres --); fi
 
@@ -42,7 +45,7 @@ case "$command" in
       exit 1
     fi
     if ! "${as_server[@]}" "$bin/pg_ctl" -D "$root/data" -l "$root/server.log" -w -t 60 \
-        -o "-k $root -c listen_addresses='' -c fsync=off -c full_page_writes=off -c max_connections=300" \
+        -o "-k $root -c listen_addresses='' -c fsync=$fsync -c full_page_writes=$fsync -c max_connections=300" \
         start >/dev/null; then
       cat "$root/server.log" >&2 || true
       rm -rf "$root"
