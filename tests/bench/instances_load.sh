@@ -2,8 +2,9 @@
 # Several instances on one PostgreSQL database against one instance, and PostgreSQL against SQLite
 # (docs/scaling.md, "Measured"); run by hand, never by ctest. Starts a private PostgreSQL cluster
 # (tests/storage/pg_cluster.sh), then for each setup (SQLite x 1, PostgreSQL x 1, PostgreSQL x 3) starts the
-# instances on free ports and measures with wrk, one wrk process per instance running at once, the same total
-# connections in every setup:
+# instances on free ports and measures with wrk: always WRKS wrk processes at once (default 3, each 3
+# connections), process j sending to instance j mod N, so that the load generator costs the same in every
+# setup and only the servers differ:
 #   - uploads: POST .../measurements, batches of 50, a new request_id each, every instance its own campaign
 #     (cells of a plant);
 #   - :compensate of 10 joint targets on a calibrated campaign;
@@ -12,13 +13,14 @@
 #
 #   tests/bench/instances_load.sh build/server/robocal-server build/client/robocal-mock-tracker
 #
-# Environment: DURATION (wrk -d, default 10s), CONNECTIONS (total, default 9).
+# Environment: DURATION (wrk -d, default 10s), WRKS (wrk processes, default 3), CONNECTIONS (each, default 3).
 set -euo pipefail
 
 server=${1:-build/server/robocal-server}
 tracker=${2:-build/client/robocal-mock-tracker}
 duration=${DURATION:-10s}
-connections=${CONNECTIONS:-9}
+wrks=${WRKS:-3}
+connections=${CONNECTIONS:-3}
 here=$(cd "$(dirname "$0")" && pwd)
 command -v wrk >/dev/null || { echo "instances_load: wrk is not installed (Debian package wrk)" >&2; exit 2; }
 command -v psql >/dev/null || { echo "instances_load: psql is not installed (Debian package postgresql-client)" >&2; exit 2; }
@@ -74,7 +76,7 @@ start_instances() {
 }
 
 fresh_database() {  # NAME: an empty PostgreSQL database; prints its URL
-  psql -q -h "$socket" -U robocal -d postgres -c "DROP DATABASE IF EXISTS $1 WITH (FORCE)" -c "CREATE DATABASE $1"
+  psql -q -h "$socket" -U robocal -d postgres -c "CREATE DATABASE $1" >/dev/null
   echo "postgresql://robocal@/$1?host=$socket"
 }
 
@@ -117,16 +119,14 @@ wrk.body = f:read("*a")
 f:close()
 LUA
 
-# wrk_all PATH SCRIPT ARGS...: one wrk per instance at once, connections split; prints the summed requests/s.
+# wrk_all PATH SCRIPT: the wrk processes at once over the instances; prints the summed requests/s.
 wrk_all() {
   local path=$1 script=$2
-  shift 2
-  local n=${#urls[@]} each=$((connections / ${#urls[@]})) i=0
+  local n=${#urls[@]} each=$connections i
   local outs=() before
   before=$(cpu_seconds)
-  for u in "${urls[@]}"; do
-    i=$((i + 1))
-    wrk -t1 -c"$each" -d"$duration" -s "$script" "$u$path" -- "$@" "w$i" >"$work/wrk$i" 2>&1 &
+  for i in $(seq "$wrks"); do
+    wrk -t1 -c"$each" -d"$duration" -s "$script" "${urls[$(((i - 1) % n))]}$path" >"$work/wrk$i" 2>&1 &
     outs+=("$work/wrk$i")
   done
   wait_wrk
@@ -135,21 +135,23 @@ wrk_all() {
   for o in "${outs[@]}"; do
     total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))")
     requests=$((requests + $(sed -n 's/^ *\([0-9]*\) requests in.*/\1/p' "$o")))
-    non2xx=$((non2xx + $(sed -n 's/.*Non-2xx or 3xx responses: *//p' "$o" | tr -d ' ' | sed 's/^$/0/')))
+    local bad
+    bad=$(sed -n 's/.*Non-2xx or 3xx responses: *//p' "$o" | tr -d ' ')
+    non2xx=$((non2xx + ${bad:-0}))
   done
-  printf '%.0f requests/s (%d instance(s), %d connections each, non-2xx %d); ' "$total" "$n" "$each" "$non2xx"
+  printf '%.0f requests/s (%d instance(s), %d wrk x %d connections, non-2xx %d); ' "$total" "$n" "$wrks" "$each" "$non2xx"
   per_request "$before" "$after" "$requests"
 }
 wait_wrk() { while pgrep -P $$ -x wrk >/dev/null; do sleep 0.2; done; }
 
 calibrate() {  # URL: a calibrated ur5e campaign made by the mock tracker; prints its id
-  "$tracker" --server "$1" --robot ur5e --count 30 --json >"$work/report.json"
+  "$tracker" --server "$1" --robot ur5e --count 30 --json >"$work/report.json" 2>/dev/null
   python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["trials"][0]["planned"]["campaign"])' "$work/report.json"
 }
 
 # A campaign with a long fit to run: 3000 shots (60 poses x 50) of the mock cell, a model chosen by 20-fold cross-validation.
 long_fit_campaign() {  # URL
-  "$tracker" --server "$1" --robot ur5e --count 60 --shots 50 --optimiser random --json >"$work/long.json"
+  "$tracker" --server "$1" --robot ur5e --count 60 --shots 50 --optimiser random --json >"$work/long.json" 2>/dev/null
   python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["trials"][0]["planned"]["campaign"])' "$work/long.json"
 }
 
@@ -175,21 +177,21 @@ run_setup() {  # LABEL N DB
   echo
   echo "== $label"
   start_instances "$n" "$db"
-  local i=0
-  for u in "${urls[@]}"; do
-    i=$((i + 1))
-    curl -sf -XPOST "$u/v1/campaigns" -H 'Content-Type: application/json' -d "{\"id\":\"cell$i\",\"robot\":\"ur5e\"}" >/dev/null
+  local i
+  for i in $(seq "$wrks"); do
+    curl -sf -XPOST "${urls[0]}/v1/campaigns" -H 'Content-Type: application/json' \
+      -d "{\"id\":\"cell$i\",\"robot\":\"ur5e\"}" >/dev/null
   done
   local calibrated long
   calibrated=$(calibrate "${urls[0]}")
   long=$(long_fit_campaign "${urls[0]}")
-  # The wrk processes upload each to its own campaign (cell1 through instance 1, ...).
-  local n_urls=${#urls[@]} all_urls=("${urls[@]}") j
+  # Wrk process j uploads to its own campaign, cell<j> (a plant's cells), through instance j mod N.
+  local n_urls=${#urls[@]} j
   echo -n "uploads, 50 per batch: "
-  local outs=() each=$((connections / n_urls)) before after requests=0
+  local outs=() each=$connections before after requests=0
   before=$(cpu_seconds)
-  for j in $(seq "$n_urls"); do
-    wrk -t1 -c"$each" -d"$duration" -s "$work/batch.lua" "${all_urls[$((j - 1))]}/v1/campaigns/cell$j/measurements" \
+  for j in $(seq "$wrks"); do
+    wrk -t1 -c"$each" -d"$duration" -s "$work/batch.lua" "${urls[$(((j - 1) % n_urls))]}/v1/campaigns/cell$j/measurements" \
       -- "cell$j" "w$j" >"$work/up$j" 2>&1 &
     outs+=("$work/up$j")
   done
@@ -200,8 +202,8 @@ run_setup() {  # LABEL N DB
     total=$(python3 -c "print($total + $(sed -n 's/^Requests\/sec: *//p' "$o"))")
     requests=$((requests + $(sed -n 's/^ *\([0-9]*\) requests in.*/\1/p' "$o")))
   done
-  printf '%.0f batches/s = %.0f measurements/s (%d instance(s), %d connections each); ' "$total" \
-    "$(python3 -c "print($total * 50)")" "$n_urls" "$each"
+  printf '%.0f batches/s = %.0f measurements/s (%d instance(s), %d wrk x %d connections); ' "$total" \
+    "$(python3 -c "print($total * 50)")" "$n_urls" "$wrks" "$each"
   per_request "$before" "$after" "$requests"
   echo -n ":compensate, 10 targets: "
   wrk_all "/v1/campaigns/$calibrated:compensate" "$work/compensate.lua"
@@ -210,7 +212,7 @@ run_setup() {  # LABEL N DB
   stop_instances
 }
 
-echo "server $server; wrk -d$duration, $connections connections in all; $(nproc) cores"
+echo "server $server; $wrks wrk processes x $connections connections, -d$duration; $(nproc) cores"
 run_setup "SQLite, 1 instance" 1 "$work/sqlite/robocal.db"
 run_setup "PostgreSQL, 1 instance" 1 "$(fresh_database bench_one)"
 run_setup "PostgreSQL, 3 instances" 3 "$(fresh_database bench_three)"
