@@ -162,19 +162,13 @@ class PgStorage final : public Storage {
             {campaign_id, request_id});
         if (r.rows() > 0) {
           if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
-            throw StorageError(Kind::kAlreadyExists, "request_id " + request_id + " of campaign " + campaign_id +
-                                                         " was used before for a different batch");
+            throw BatchConflict(campaign_id, request_id);
           }
           return BatchResult{r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
         }
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
-      if (max_campaign_total > 0 && total + count > max_campaign_total) {
-        throw StorageError(Kind::kResourceExhausted, "campaign " + campaign_id + " holds " + std::to_string(total) +
-                                                         " measurements; " + std::to_string(count) +
-                                                         " more would exceed the limit of " +
-                                                         std::to_string(max_campaign_total));
-      }
+      CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
       const std::string batch_id = NewBatchId();
       const std::int64_t first_sequence = total + 1;
       // NULL, not "", so that batches without a request id never collide on the unique key.

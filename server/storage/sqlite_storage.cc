@@ -231,8 +231,7 @@ class SqliteStorage final : public Storage {
       stmt.Bind(1, campaign_id).Bind(2, request_id);
       if (stmt.Step()) {
         if (stmt.Text(1) != content_hash || stmt.Text(2) != role) {
-          throw StorageError(Kind::kAlreadyExists, "request_id " + request_id + " of campaign " + campaign_id +
-                                                       " was used before for a different batch");
+          throw BatchConflict(campaign_id, request_id);
         }
         // Nothing written: the transaction rolls back (a no-op) when tx goes out of scope.
         return BatchResult{stmt.Text(0), request_id, true, stmt.Int(3), stmt.Int(4), total};
@@ -240,12 +239,7 @@ class SqliteStorage final : public Storage {
     }
 
     const auto count = static_cast<std::int64_t>(measurements_json.size());
-    if (max_campaign_total > 0 && total + count > max_campaign_total) {
-      throw StorageError(Kind::kResourceExhausted, "campaign " + campaign_id + " holds " + std::to_string(total) +
-                                                       " measurements; " + std::to_string(count) +
-                                                       " more would exceed the limit of " +
-                                                       std::to_string(max_campaign_total));
-    }
+    CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
 
     const std::string batch_id = NewBatchId();
     const std::int64_t first_sequence = total + 1;

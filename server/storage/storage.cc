@@ -92,6 +92,21 @@ std::string Scrub(std::string text, std::vector<std::string> secrets) {
 
 std::string RedactUrl(const std::string& db) { return Scrub(db, PasswordsIn(db)); }
 
+StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id) {
+  return StorageError(StorageError::Kind::kAlreadyExists,
+                      "request_id " + request_id + " of campaign " + campaign_id + " was used before for a different batch");
+}
+
+void CheckCampaignTotal(const std::string& campaign_id, std::int64_t total, std::int64_t count,
+                        std::int64_t max_campaign_total) {
+  if (max_campaign_total > 0 && total + count > max_campaign_total) {
+    throw StorageError(StorageError::Kind::kResourceExhausted,
+                       "campaign " + campaign_id + " holds " + std::to_string(total) + " measurements; " +
+                           std::to_string(count) + " more would exceed the limit of " +
+                           std::to_string(max_campaign_total));
+  }
+}
+
 std::string NewBatchId() {
   static std::mutex mutex;
   // 256 bits of the system's entropy (one random_device() is 32): instances drawing the same seed would

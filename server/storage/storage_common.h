@@ -1,14 +1,24 @@
 // What the storage implementations share and the service does not see.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
+
+#include "server/storage/storage.h"
 
 namespace robocal::server {
 
 /// A batch id ("b-" and 16 hex digits, 64 random bits). Batch ids only need to be unique, not reproducible, so
 /// the generator is seeded from the system; the primary key on batch_id stands behind the odds.
 std::string NewBatchId();
+
+/// The error of a request_id used before for a batch of other content or role (kAlreadyExists).
+StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id);
+/// Throws kResourceExhausted if `count` more measurements would take a campaign holding `total` beyond
+/// `max_campaign_total` (0: no limit).
+void CheckCampaignTotal(const std::string& campaign_id, std::int64_t total, std::int64_t count,
+                        std::int64_t max_campaign_total);
 
 /// Every password a database URL holds (in its user information or a password parameter), as written and
 /// percent-decoded as libpq reads it, so that messages echoing part of the URL (libpq's among them) can be

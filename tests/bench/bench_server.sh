@@ -25,3 +25,35 @@ bench_stop_server() {
   if [ -n "$server_pid" ]; then kill -TERM "$server_pid" 2>/dev/null || true; wait "$server_pid" 2>/dev/null || true; fi
   server_pid=
 }
+
+# write_batch_lua FILE: a wrk script that POSTs batches of 50 measurements, each with a request_id of its own
+# (so that every request is stored, none replayed), to campaign args[1] (default "load"); args[2] (default "t")
+# prefixes the request ids, so that several wrk processes never share one.
+write_batch_lua() {
+  cat >"$1" <<'LUA'
+-- thread_id is a global that setup() gives each thread (a local here would hide it).
+local counter = 0
+local next_thread = 0
+function setup(thread)
+  thread:set("thread_id", next_thread)
+  next_thread = next_thread + 1
+end
+function init(args)
+  campaign = args[1] or "load"
+  prefix = args[2] or "t"
+end
+local rows = {}
+for i = 1, 50 do
+  rows[i] = string.format('{"joints":[%d,-90,90,0,90,0],"pose":{"position_mm":[%d.5,-120.25,640.75],' ..
+                          '"quaternion":[1,0,0,0]}}', i, 300 + i)
+end
+local measurements = '"role":"calibration","measurements":[' .. table.concat(rows, ",") .. ']}'
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+function request()
+  counter = counter + 1
+  return wrk.format(nil, "/v1/campaigns/" .. campaign .. "/measurements", nil,
+                    '{"request_id":"' .. prefix .. (thread_id or 0) .. '-' .. counter .. '",' .. measurements)
+end
+LUA
+}

@@ -80,32 +80,9 @@ fresh_database() {  # NAME: an empty PostgreSQL database; prints its URL
   echo "postgresql://robocal@/$1?host=$socket"
 }
 
-cat >"$work/batch.lua" <<'LUA'
--- Batches of 50 measurements to campaign args[1], request ids unique per wrk process (args[2]) and thread.
-local counter = 0
-local next_thread = 0
-function setup(thread)
-  thread:set("thread_id", next_thread)
-  next_thread = next_thread + 1
-end
-function init(args)
-  campaign = args[1]
-  prefix = args[2]
-end
-local rows = {}
-for i = 1, 50 do
-  rows[i] = string.format('{"joints":[%d,-90,90,0,90,0],"pose":{"position_mm":[%d.5,-120.25,640.75],' ..
-                          '"quaternion":[1,0,0,0]}}', i, 300 + i)
-end
-local measurements = '"role":"calibration","measurements":[' .. table.concat(rows, ",") .. ']}'
-wrk.method = "POST"
-wrk.headers["Content-Type"] = "application/json"
-function request()
-  counter = counter + 1
-  return wrk.format(nil, "/v1/campaigns/" .. campaign .. "/measurements", nil,
-                    '{"request_id":"' .. prefix .. '-' .. (thread_id or 0) .. '-' .. counter .. '",' .. measurements)
-end
-LUA
+# shellcheck source=bench_server.sh
+source "$here/bench_server.sh"
+write_batch_lua "$work/batch.lua"
 python3 - >"$work/compensate.json" <<'PY'
 import json, random
 random.seed(1)
@@ -192,7 +169,7 @@ run_setup() {  # LABEL N DB
   before=$(cpu_seconds)
   for j in $(seq "$wrks"); do
     wrk -t1 -c"$each" -d"$duration" -s "$work/batch.lua" "${urls[$(((j - 1) % n_urls))]}/v1/campaigns/cell$j/measurements" \
-      -- "cell$j" "w$j" >"$work/up$j" 2>&1 &
+      -- "cell$j" "w$j-" >"$work/up$j" 2>&1 &
     outs+=("$work/up$j")
   done
   wait_wrk

@@ -33,28 +33,7 @@ plan='{"robot":"grinder5","num_configurations":10,"measurement_type":"pose","see
 echo "$plan" >"$work/plan.json"
 
 # A batch of 50 measurements; every request gets its own request_id, so each one is stored (no replays).
-cat >"$work/batch.lua" <<'LUA'
--- thread_id is a global that setup() gives each thread (a local here would hide it).
-local counter = 0
-local next_thread = 0
-function setup(thread)
-  thread:set("thread_id", next_thread)
-  next_thread = next_thread + 1
-end
-local rows = {}
-for i = 1, 50 do
-  rows[i] = string.format('{"joints":[%d,-90,90,0,90,0],"pose":{"position_mm":[%d.5,-120.25,640.75],' ..
-                          '"quaternion":[1,0,0,0]}}', i, 300 + i)
-end
-local measurements = '"role":"calibration","measurements":[' .. table.concat(rows, ",") .. ']}'
-wrk.method = "POST"
-wrk.headers["Content-Type"] = "application/json"
-function request()
-  counter = counter + 1
-  return wrk.format(nil, "/v1/campaigns/load/measurements", nil,
-                    '{"request_id":"t' .. (thread_id or 0) .. '-' .. counter .. '",' .. measurements)
-end
-LUA
+write_batch_lua "$work/batch.lua"
 
 post_lua() {  # a wrk script that POSTs the JSON file $1
   cat <<LUA

@@ -17,23 +17,13 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "measurement_batch.h"
 #include "server_process.h"
 
 namespace robocal::server::testing {
 namespace {
 
 using nlohmann::json;
-
-json Batch(const RobotModel& model, const std::string& request_id, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  json list = json::array();
-  for (int i = 0; i < count; ++i) {
-    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
-    list.push_back({{"joints", api::JointsToWire(model, q)},
-                    {"pose", nlohmann::json(api::TransformToPose(ForwardKinematics(model, q)))}});
-  }
-  return {{"request_id", request_id}, {"measurements", list}};
-}
 
 TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
   const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / ("robocal_dur_" +
@@ -56,7 +46,7 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
     operation = json::parse(op->body)["id"];
     for (int b = 0; b < 20; ++b) {
       auto r = client.Post("/v1/campaigns/dur/measurements",
-                           Batch(model, "batch-" + std::to_string(b), 5, static_cast<std::uint64_t>(b)).dump(),
+                           MeasurementBatch(model, "batch-" + std::to_string(b), 5, static_cast<std::uint64_t>(b)).dump(),
                            "application/json");
       ASSERT_TRUE(r && r->status == 200);
       acknowledged = json::parse(r->body)["campaign_total"];

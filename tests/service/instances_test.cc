@@ -21,6 +21,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "measurement_batch.h"
 #include "pg_test_database.h"
 #include "server_process.h"
 
@@ -28,19 +29,6 @@ namespace robocal::server::testing {
 namespace {
 
 using nlohmann::json;
-
-/// Measurements of the nominal robot with 0.02 mm of noise, so that a fit has work to do.
-json Batch(const RobotModel& model, const std::string& request_id, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  json list = json::array();
-  for (int i = 0; i < count; ++i) {
-    const Eigen::VectorXd q = RandomConfiguration(model, &rng);
-    Transform t = ForwardKinematics(model, q);
-    t.translation() += 0.02 * Eigen::Vector3d(rng.Normal(), rng.Normal(), rng.Normal());
-    list.push_back({{"joints", api::JointsToWire(model, q)}, {"pose", json(api::TransformToPose(t))}});
-  }
-  return {{"request_id", request_id}, {"measurements", list}};
-}
 
 json Parse(const httplib::Result& r) { return r ? json::parse(r->body, nullptr, false) : json(); }
 
@@ -79,7 +67,7 @@ TEST(InstancesTest, ThreeInstancesShareUploadsAndOperationsAndSurviveOneKilled) 
   constexpr int kPerBatch = 100;
   for (int b = 0; b < kBatches; ++b) {
     const std::string request = "upload-" + std::to_string(b);
-    const std::string body = Batch(model, request, kPerBatch, 100 + b).dump();
+    const std::string body = MeasurementBatch(model, request, kPerBatch, 100 + b, 0.02).dump();
     const auto first = clients[b % 3]->Post("/v1/campaigns/cell/measurements", body, "application/json");
     ASSERT_TRUE(first && first->status == 200) << (first ? first->body : "no reply");
     const auto retry = clients[(b + 1) % 3]->Post("/v1/campaigns/cell/measurements", body, "application/json");
@@ -119,7 +107,7 @@ TEST(InstancesTest, ThreeInstancesShareUploadsAndOperationsAndSurviveOneKilled) 
       [&] {
         const std::string request = "upload-" + std::to_string(b);
         const auto r = clients[1 + b % 2]->Post("/v1/campaigns/cell/measurements",
-                                                Batch(model, request, 5, 100 + b).dump(), "application/json");
+                                                MeasurementBatch(model, request, 5, 100 + b, 0.02).dump(), "application/json");
         EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no reply");
         if (r && r->status == 200) {
           const json a = Parse(r);

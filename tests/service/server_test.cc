@@ -718,14 +718,20 @@ class HeldFit {
   std::atomic<bool> released_flag_{false};
 };
 
+// Campaign "cf" of `a`, an async fit of it held at its second iteration; the operation's id ("" if it failed).
+std::string StartHeldFit(TestServer& a, HeldFit& held) {
+  CreateFitCampaign(a);
+  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
+  EXPECT_EQ(op.status, 200) << op.text;
+  if (op.status != 200 || !held.WaitReached()) return "";
+  return op.body["id"];
+}
+
 TEST(OperationLeaseTest, AnotherInstanceSeesProgressAndCancelsThroughTheLease) {
   HeldFit held;
   TestServer a({}, {}, held.options);
-  CreateFitCampaign(a);
-  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
-  ASSERT_EQ(op.status, 200) << op.text;
-  const std::string id = op.body["id"];
-  ASSERT_TRUE(held.WaitReached());
+  const std::string id = StartHeldFit(a, held);
+  ASSERT_FALSE(id.empty());
   Service b(&a.storage(), ServiceOptions{});
 
   EXPECT_EQ(b.GetOperation(id).state, api::OperationState::kRunning);
@@ -760,11 +766,8 @@ std::string RunningOperationJson(const std::string& id) {
 void TakeOverAHeldFit(bool owner_renews) {
   HeldFit held;
   TestServer a({}, {}, held.options);
-  CreateFitCampaign(a);
-  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
-  ASSERT_EQ(op.status, 200) << op.text;
-  const std::string id = op.body["id"];
-  ASSERT_TRUE(held.WaitReached());
+  const std::string id = StartHeldFit(a, held);
+  ASSERT_FALSE(id.empty());
   auto& storage = dynamic_cast<FakeStorage&>(a.storage());
   storage.shared = true;  // a and b are two instances on one database
   Service b(&a.storage(), ServiceOptions{});
@@ -801,11 +804,8 @@ TEST(OperationLeaseTest, AFitTakenOverThatRunsToItsEndStoresNothing) { TakeOverA
 TEST(OperationLeaseTest, AFitThatCannotConfirmItsLeaseFailsRatherThanSucceedWithoutItsResult) {
   HeldFit held;
   TestServer a({}, {}, held.options);
-  CreateFitCampaign(a);
-  const Reply op = a.Post("/v1/campaigns/cf:fit", {{"async", true}});
-  ASSERT_EQ(op.status, 200) << op.text;
-  const std::string id = op.body["id"];
-  ASSERT_TRUE(held.WaitReached());
+  const std::string id = StartHeldFit(a, held);
+  ASSERT_FALSE(id.empty());
   auto& storage = dynamic_cast<FakeStorage&>(a.storage());
   storage.fail_renewals = true;  // the database stops answering renewals
   held.Release();
