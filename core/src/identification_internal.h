@@ -1,0 +1,179 @@
+// What the parts of the identification share (core/src only; the public interface is identification.h and
+// fit_diagnostics.h): the shots grouped by pose, the weighted least-squares problem, the Levenberg-Marquardt loop,
+// the covariance of a fit, and the choice of parameters. The parts: least_squares.cc (the problem),
+// levenberg_marquardt.cc (the solver loop and the covariance), registration.cc (tracker -> base), identification.cc
+// (parameters, one fit, reports), robust_fit.cc (model error, outliers: Identify), fit_diagnostics.cc (residuals,
+// linearisation, chi-square).
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/reflectors.h"
+
+namespace robocal::identification_detail {
+
+using Clock = std::chrono::steady_clock;
+
+inline double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+inline bool AllFinite(const Eigen::MatrixXd& m) { return m.allFinite(); }
+
+// Shortest readable form (1e-12, not std::to_string's 0.000000).
+std::string Num(double value);
+
+// Checks the parts of a measurement that `type` uses; an empty string if it is usable.
+std::string CheckMeasurement(const Measurement& m, MeasurementType type);
+
+// Shots grouped by joint configuration and reflector: a group shares its kinematics (and its robot
+// repeatability error); distinct groups bound the information.
+struct ShotGroups {
+  struct Group {
+    int pose = 0;
+    int reflector = -1;
+    std::vector<int> shots;
+  };
+  std::vector<Eigen::VectorXd> poses;  // distinct joint configurations (under distinct payloads)
+  std::vector<Payload> payloads;       // per pose
+  std::vector<Group> groups;
+  std::vector<int> group_of;  // per measurement
+
+  explicit ShotGroups(const std::vector<Measurement>& measurements) {
+    std::map<Eigen::VectorXd, int, LexicographicLess> pose_index;
+    std::map<std::pair<int, int>, int> group_index;
+    group_of.reserve(measurements.size());
+    for (size_t i = 0; i < measurements.size(); ++i) {
+      const Measurement& m = measurements[i];
+      // A pose is a configuration under a payload: the same joints under another payload deflect otherwise.
+      const auto [pose, new_pose] = pose_index.emplace(PoseKey(m), static_cast<int>(poses.size()));
+      if (new_pose) {
+        poses.push_back(m.joints);
+        payloads.push_back(m.payload);
+      }
+      const auto [group, new_group] =
+          group_index.emplace(std::make_pair(pose->second, m.reflector), static_cast<int>(groups.size()));
+      if (new_group) groups.push_back({pose->second, m.reflector, {}});
+      groups[group->second].shots.push_back(static_cast<int>(i));
+      group_of.push_back(group->second);
+    }
+  }
+};
+
+// The least-squares problem over the chosen parameters (the model's error parameters, then 3 offset errors per
+// reflector: reflectors.h's index space). Shots are grouped by joint configuration and reflector; a group
+// shares its kinematics and Jacobian, so the cost of an evaluation grows with the groups, not with the shots.
+class Problem {
+ public:
+  Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const ShotGroups& shot_groups,
+          const IdentificationOptions& o, const std::vector<int>& parameters);
+
+  int num_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
+  int num_parameters() const { return static_cast<int>(parameters_.size()); }
+
+  // The model's error parameters (num_error_parameters) and the reflectors' offset errors (3 each) at x.
+  Eigen::VectorXd FullErrors(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd eps = Eigen::VectorXd::Zero(n_model_);
+    for (int k = 0; k < num_parameters(); ++k)
+      if (parameters_[k] < n_model_) eps[parameters_[k]] = x[k];
+    return eps;
+  }
+  Eigen::VectorXd ReflectorErrors(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd out = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(reflectors_.size()));
+    for (int k = 0; k < num_parameters(); ++k)
+      if (parameters_[k] >= n_model_) out[parameters_[k] - n_model_] = x[k];
+    return out;
+  }
+
+  const std::vector<ShotGroups::Group>& groups() const { return groups_; }
+  const std::vector<int>& group_of() const { return group_of_; }
+
+  // Weighted residuals r (num_rows) at reduced parameters x and, if `jacobian` is not null, the weighted
+  // Jacobian of the model prediction (num_rows x num_parameters), so that r(x + d) ~= r(x) - J d.
+  void Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian);
+
+  // Per group: the model's prediction at reduced parameters x and, if `group_jacobian` is not null, its
+  // Jacobian over the chosen parameters, unweighted (rows x num_parameters).
+  void Predict(const Eigen::VectorXd& x, std::vector<Transform>* prediction,
+               std::vector<Eigen::MatrixXd>* group_jacobian);
+
+ private:
+  using Group = ShotGroups::Group;
+  struct GroupWhitening {
+    Eigen::MatrixXd mean;
+    Eigen::MatrixXd contrast;
+  };
+
+  // Rows of the repeatability model (see the constructor): per group, sqrt(n) times the mean residual of its n
+  // shots whitened by `mean`, then the n - 1 Helmert contrasts whitened by `contrast` (no parameter moves them).
+  void EvaluateByGroup(const std::vector<Transform>& prediction, const std::vector<Eigen::MatrixXd>& group_jacobian,
+                       Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const;
+
+  const RobotModel& model_;
+  const std::vector<Measurement>& measurements_;
+  MeasurementType type_;
+  int rows_;
+  Eigen::VectorXd weights_;
+  std::vector<int> parameters_;
+  std::vector<Reflector> reflectors_;
+  int n_model_;
+  KinematicsWorkspace ws_;
+  const std::vector<Eigen::VectorXd>& poses_;
+  const std::vector<Payload>& payloads_;
+  const std::vector<Group>& groups_;
+  const std::vector<int>& group_of_;
+  std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
+  std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
+};
+
+struct LmResult {
+  Eigen::VectorXd x;
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian;
+  int iterations = 0;
+  Termination termination = Termination::kNoConvergence;
+  std::string reason;
+};
+
+// Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the
+// Summary promises the Ceres-style tests of IdentificationOptions (relative cost change, max |J'r|, step
+// relative to |x|), which MINPACK's ftol/xtol/gtol define differently (gtol there is a cosine), (b) shots of
+// one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
+// and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
+// they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o);
+
+// Singular values and covariance of a weighted Jacobian through its column-scaled form Js = J D (unit columns):
+// (J'J)^-1 = D (Js'Js)^-1 D. False, with nothing written, when Js is rank deficient: no covariance exists.
+// The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
+bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
+                      Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance);
+
+// Which parameters a fit estimates, chosen once for the robust fit's rounds.
+struct ParameterSelection {
+  std::vector<int> parameters;
+  std::vector<DroppedParameter> dropped;
+  Termination termination = Termination::kConvergence;
+  std::string failure;  // non-empty: no set could be chosen
+  std::string note;     // said in the fit's message
+};
+
+ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                    const IdentificationOptions& options);
+
+Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const IdentificationOptions& options, const ParameterSelection& selection);
+
+// A fit parameter is a translation (mm) by its name's axis: the model's and the reflectors' offsets (past the
+// model's parameters, where RobotModel::IsTranslationParameter's index rule does not reach) end in .dx/.dy/.dz.
+inline bool IsTranslationName(const std::string& name) {
+  return name.size() > 3 && name.compare(name.size() - 3, 2, ".d") == 0;
+}
+
+}  // namespace robocal::identification_detail

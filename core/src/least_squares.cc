@@ -1,0 +1,191 @@
+// The weighted least-squares problem of a fit (identification_internal.h): residuals and Jacobians of the shots,
+// grouped by pose, whitened by the noise model.
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "identification_internal.h"
+#include "robocal/core/column_scaling.h"
+#include "robocal/core/fit_diagnostics.h"
+#include "robocal/core/joint_errors.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
+
+namespace robocal::identification_detail {
+
+std::string Num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+std::string CheckMeasurement(const Measurement& m, MeasurementType type) {
+  if (!m.joints.allFinite()) return "non-finite joint values";
+  std::string payload;
+  if (!m.payload.IsValid("payload", &payload)) return payload;
+  if (!m.T_world_tool.translation().allFinite()) return "non-finite position";
+  const Eigen::Matrix3d r = m.T_world_tool.linear();
+  if (type == MeasurementType::kPositionAxis) {
+    if (!r.col(2).allFinite()) return "non-finite tool axis";
+    if (std::abs(r.col(2).norm() - 1.0) > 1e-6) return "tool axis is not a unit vector";
+  }
+  if (type == MeasurementType::kPose) {
+    if (!r.allFinite()) return "non-finite orientation";
+    if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6) ||
+        !(r.determinant() > 0.0)) {
+      return "orientation is not a rotation matrix";
+    }
+  }
+  return "";
+}
+
+Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const ShotGroups& shot_groups,
+                 const IdentificationOptions& o, const std::vector<int>& parameters)
+    : model_(model),
+      measurements_(measurements),
+      type_(o.measurement_type),
+      rows_(MeasurementRows(o.measurement_type)),
+      weights_(o.noise.RowWeights(o.measurement_type)),
+      parameters_(parameters),
+      reflectors_(o.reflectors),
+      n_model_(model.num_error_parameters()),
+      ws_(model),
+      poses_(shot_groups.poses),
+      payloads_(shot_groups.payloads),
+      groups_(shot_groups.groups),
+      group_of_(shot_groups.group_of) {
+  if (o.noise.HasSharedError()) {
+    // The shots of one group share the robot's repeatability error and its model error: their residuals are correlated. With H
+    // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance
+    // of the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n
+    // times the shared one, and the n - 1 Helmert contrasts the tracker's alone (the shots of a group
+    // are measured at the same point to within the noise, so one tracker covariance, at their mean, serves
+    // them). Only the mean depends on the parameters; the contrasts carry the scatter of the shots.
+    for (const Group& g : groups_) {
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int i : g.shots) mean += measurements[i].T_world_tool.translation();
+      mean /= static_cast<double>(g.shots.size());
+      Eigen::MatrixXd w_mean(rows_, rows_), w_contrast(rows_, rows_);
+      o.noise.Whitening(type_, mean, w_mean, static_cast<int>(g.shots.size()));
+      o.noise.Whitening(type_, mean, w_contrast, 0);
+      group_whitening_.push_back({std::move(w_mean), std::move(w_contrast)});
+    }
+  } else if (o.noise.tracker) {
+    // A tracker model whitens each measurement by the covariance at its measured point (fixed during the fit,
+    // so the cost is one function of the parameters); without one every row has its constant weight.
+    whitening_.reserve(measurements.size());
+    for (const Measurement& m : measurements) {
+      Eigen::MatrixXd w(rows_, rows_);
+      o.noise.Whitening(type_, m.T_world_tool.translation(), w);
+      whitening_.push_back(std::move(w));
+    }
+  }
+}
+
+void Problem::Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
+  std::vector<Transform> prediction;
+  std::vector<Eigen::MatrixXd> group_jacobian;
+  Predict(x, &prediction, jacobian != nullptr ? &group_jacobian : nullptr);
+  residual->resize(num_rows());
+  if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
+  if (!group_whitening_.empty()) {
+    EvaluateByGroup(prediction, group_jacobian, residual, jacobian);
+    return;
+  }
+  Eigen::VectorXd r(rows_);
+  for (size_t i = 0; i < measurements_.size(); ++i) {
+    const int g = group_of_[i];
+    MeasurementResidual(type_, measurements_[i].T_world_tool, prediction[g], r);
+    if (whitening_.empty()) {
+      residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
+      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = weights_.asDiagonal() * group_jacobian[g];
+    } else {
+      residual->segment(rows_ * i, rows_) = whitening_[i] * r;
+      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * group_jacobian[g];
+    }
+  }
+}
+
+void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* prediction,
+                      std::vector<Eigen::MatrixXd>* group_jacobian) {
+  const Eigen::VectorXd eps = FullErrors(x);
+  const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(model_, reflectors_, ReflectorErrors(x));
+  const bool with_jacobian = group_jacobian != nullptr;
+  const bool by_reflector = !reflectors_.empty();
+  // Per pose: the tool's kinematics and, for the Jacobian, its rows (the type's, or the pose's 6 for
+  // reflectors, whose points move with the tool's position and orientation).
+  const int pose_rows = by_reflector ? 6 : rows_;
+  Eigen::MatrixXd full(pose_rows, n_model_);
+  std::vector<Transform> pose_model(poses_.size());
+  std::vector<Eigen::MatrixXd> pose_full(with_jacobian ? poses_.size() : 0);
+  for (size_t p = 0; p < poses_.size(); ++p) {
+    if (with_jacobian) {
+      IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full,
+                             payloads_[p]);
+      pose_full[p] = full;
+      pose_model[p] = ws_.T_world_tool;
+    } else {
+      pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, payloads_[p]);
+    }
+  }
+  prediction->resize(groups_.size());
+  if (with_jacobian) group_jacobian->resize(groups_.size());
+  Eigen::MatrixXd point(3, n_model_);
+  for (size_t g = 0; g < groups_.size(); ++g) {
+    const Group& group = groups_[g];
+    const Transform& tool = pose_model[group.pose];
+    (*prediction)[g] = group.reflector < 0 ? tool : AtReflector(tool, in_tool[group.reflector]);
+    if (!with_jacobian) continue;
+    Eigen::MatrixXd reduced = Eigen::MatrixXd::Zero(rows_, num_parameters());
+    if (group.reflector < 0) {
+      for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = pose_full[group.pose].col(parameters_[k]);
+    } else {
+      ReflectorRows(tool, in_tool[group.reflector], pose_full[group.pose], point);
+      const Eigen::Matrix3d offset = ReflectorOffsetRows(model_, tool);
+      for (int k = 0; k < num_parameters(); ++k) {
+        const int j = parameters_[k];
+        if (j < n_model_) {
+          reduced.col(k) = point.col(j);
+        } else if ((j - n_model_) / 3 == group.reflector) {
+          reduced.col(k) = offset.col((j - n_model_) % 3);
+        }
+      }
+    }
+    (*group_jacobian)[g] = std::move(reduced);
+  }
+}
+
+void Problem::EvaluateByGroup(const std::vector<Transform>& prediction, const std::vector<Eigen::MatrixXd>& group_jacobian,
+                              Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const {
+  Eigen::VectorXd r(rows_), sum(rows_), contrast(rows_);
+  Eigen::Index row = 0;
+  for (size_t g = 0; g < groups_.size(); ++g) {
+    const std::vector<int>& shots = groups_[g].shots;
+    const double n = static_cast<double>(shots.size());
+    sum.setZero();
+    for (size_t k = 0; k < shots.size(); ++k) {
+      MeasurementResidual(type_, measurements_[shots[k]].T_world_tool, prediction[g], r);
+      if (k > 0) {
+        // Helmert contrast k: (r_0 + ... + r_{k-1} - k r_k) / sqrt(k (k + 1)).
+        const double kk = static_cast<double>(k);
+        contrast = (sum - kk * r) / std::sqrt(kk * (kk + 1.0));
+        const Eigen::Index at = row + rows_ * static_cast<Eigen::Index>(k);
+        residual->segment(at, rows_) = group_whitening_[g].contrast * contrast;
+        if (jacobian != nullptr) jacobian->middleRows(at, rows_).setZero();
+      }
+      sum += r;
+    }
+    residual->segment(row, rows_) = group_whitening_[g].mean * (sum / std::sqrt(n));
+    if (jacobian != nullptr) {
+      jacobian->middleRows(row, rows_) = std::sqrt(n) * (group_whitening_[g].mean * group_jacobian[g]);
+    }
+    row += rows_ * static_cast<Eigen::Index>(shots.size());
+  }
+}
+
+}  // namespace robocal::identification_detail

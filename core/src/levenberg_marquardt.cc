@@ -1,0 +1,125 @@
+// The solver loop of a fit and its covariance (identification_internal.h).
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "identification_internal.h"
+#include "robocal/core/column_scaling.h"
+#include "robocal/core/fit_diagnostics.h"
+#include "robocal/core/joint_errors.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
+
+namespace robocal::identification_detail {
+
+// Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the
+// Summary promises the Ceres-style tests of IdentificationOptions (relative cost change, max |J'r|, step
+// relative to |x|), which MINPACK's ftol/xtol/gtol define differently (gtol there is a cosine), (b) shots of
+// one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
+// and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
+// they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
+  LmResult out;
+  const int n = problem->num_parameters();
+  out.x = Eigen::VectorXd::Zero(n);
+  problem->Evaluate(out.x, &out.residual, &out.jacobian);
+  double cost = 0.5 * out.residual.squaredNorm();
+  double lambda = 1e-4;
+  double nu = 2.0;
+  Eigen::VectorXd candidate_residual;
+  Eigen::MatrixXd candidate_jacobian;
+  while (true) {
+    const Eigen::VectorXd gradient = out.jacobian.transpose() * out.residual;
+    if (gradient.cwiseAbs().maxCoeff() <= o.gradient_tolerance) {
+      out.termination = Termination::kConvergence;
+      out.reason = "gradient tolerance reached (max |J'r| <= " + Num(o.gradient_tolerance) + ")";
+      return out;
+    }
+    if (cost == 0.0) {
+      out.termination = Termination::kConvergence;
+      out.reason = "zero residual";
+      return out;
+    }
+    if (out.iterations >= o.max_iterations) {
+      out.termination = Termination::kNoConvergence;
+      out.reason = "max_iterations (" + std::to_string(o.max_iterations) + ") reached";
+      return out;
+    }
+    ++out.iterations;
+    const Eigen::MatrixXd normal = out.jacobian.transpose() * out.jacobian;
+    const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-300);
+    Eigen::MatrixXd damped = normal;
+    damped.diagonal() += lambda * diag;
+    const Eigen::VectorXd step = damped.ldlt().solve(gradient);
+    if (!step.allFinite()) {
+      out.termination = Termination::kFailure;
+      out.reason = "non-finite step (singular normal equations)";
+      return out;
+    }
+    if (step.norm() <= o.parameter_tolerance * (out.x.norm() + o.parameter_tolerance)) {
+      out.termination = Termination::kConvergence;
+      out.reason = "parameter tolerance reached (|step| <= " + Num(o.parameter_tolerance) + " (|x| + tol))";
+      return out;
+    }
+    const Eigen::VectorXd x_new = out.x + step;
+    problem->Evaluate(x_new, &candidate_residual, &candidate_jacobian);
+    const double new_cost = 0.5 * candidate_residual.squaredNorm();
+    // Predicted decrease of the linear model: 0.5 step' (lambda D step + g), positive for any lambda > 0.
+    const double predicted = 0.5 * step.dot(lambda * diag.cwiseProduct(step) + gradient);
+    const double rho = std::isfinite(new_cost) && predicted > 0.0 ? (cost - new_cost) / predicted : -1.0;
+    if (rho > 0.0) {
+      const double change = cost - new_cost;
+      out.x = x_new;
+      out.residual.swap(candidate_residual);
+      out.jacobian.swap(candidate_jacobian);
+      const double old_cost = cost;
+      cost = new_cost;
+      lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      nu = 2.0;
+      if (change <= o.function_tolerance * old_cost) {
+        out.termination = Termination::kConvergence;
+        out.reason = "function tolerance reached (relative cost change <= " + Num(o.function_tolerance) + ")";
+        return out;
+      }
+    } else {
+      lambda *= nu;
+      nu *= 2.0;
+      if (lambda > 1e32) {
+        // Only reachable when round-off hides every descent direction: the point is as good as it gets.
+        out.termination = Termination::kConvergence;
+        out.reason = "no further decrease possible (damping exhausted)";
+        return out;
+      }
+    }
+    // After the convergence tests, so that a fit which converged in this iteration reports that instead.
+    if (o.progress && !o.progress(static_cast<double>(out.iterations) / o.max_iterations)) {
+      out.termination = Termination::kNoConvergence;
+      out.reason = "cancelled";
+      return out;
+    }
+  }
+}
+
+// Singular values and covariance of a weighted Jacobian through its column-scaled form Js = J D (unit columns):
+// (J'J)^-1 = D (Js'Js)^-1 D. False, with nothing written, when Js is rank deficient: no covariance exists.
+// The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
+bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
+                      Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance) {
+  const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
+  const Eigen::MatrixXd scaled = jacobian * d.asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  if (PivotRank(sv, rank_tolerance) < jacobian.cols()) return false;
+  const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd inverse_scaled = v_scaled * v_scaled.transpose();
+  *covariance = sigma_hat * sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
+  *singular_values = sv;
+  return true;
+}
+
+}  // namespace robocal::identification_detail

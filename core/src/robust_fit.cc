@@ -1,0 +1,510 @@
+// The robust fit (Identify): rounds of fits that estimate the model error (variance components) and exclude
+// gross errors by their studentised residuals, until the set of excluded measurements settles.
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "identification_internal.h"
+#include "robocal/core/column_scaling.h"
+#include "robocal/core/fit_diagnostics.h"
+#include "robocal/core/joint_errors.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
+
+namespace robocal {
+
+using namespace identification_detail;
+
+namespace {
+
+
+double Median(std::vector<double> values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  if (values.size() % 2 == 1) return values[mid];
+  return 0.5 * (values[mid] + *std::max_element(values.begin(), values.begin() + mid));
+}
+
+// The model error's components (1-sigma per row; EstimateModelError) and the tracker's mean variance per
+// measurement beside them (3-D position, mm^2; angle, rad^2).
+struct ModelErrorEstimate {
+  double position_mm = 0.0;
+  double orientation_rad = 0.0;
+  double tracker_variance_mm2 = 0.0;
+  double tracker_variance_rad2 = 0.0;
+};
+
+// The fit's reduced parameter vector of a calibration (its parameters' values, in the selection's order).
+Eigen::VectorXd ReducedParameters(const Calibration& cal) {
+  Eigen::VectorXd x(static_cast<Eigen::Index>(cal.parameters.size()));
+  for (size_t k = 0; k < cal.parameters.size(); ++k) x[static_cast<Eigen::Index>(k)] = cal.parameters[k].value;
+  return x;
+}
+
+// The inverse of the information matrix N = J' J of the weighted fit over `measurements` at the calibration,
+// with the noise (model error included) of `options`; false if it is singular.
+bool InverseInformation(const Calibration& cal, const std::vector<Measurement>& measurements,
+                        const IdentificationOptions& options, const std::vector<int>& parameters,
+                        Eigen::MatrixXd* inverse) {
+  const ShotGroups groups(measurements);
+  Problem problem(cal.model, measurements, groups, options, parameters);
+  Eigen::VectorXd r;
+  Eigen::MatrixXd j;
+  problem.Evaluate(ReducedParameters(cal), &r, &j);
+  Eigen::VectorXd sv;
+  if (!ScaledCovariance(j, 1.0, options.identifiability.rank_tolerance, &sv, inverse)) return false;
+  return true;
+}
+
+// Variance-component estimation of the model error (Foerstner 1979, "Ein Verfahren zur Schaetzung von Varianz-
+// und Kovarianzkomponenten"; Koch 1999, "Parameter Estimation and Hypothesis Testing in Linear Models", 3.6):
+// the residual of a pose's mean has the covariance C_g (the tracker's, over the shots; the repeatability) plus
+// s_p^2 I on its position rows and s_o^2 I on its orientation rows. Each component is chosen so that the sum
+// of its squared whitened residuals equals its redundancy (its rows less their share of the parameters, the
+// traces of the hat matrix), the fixed point of Foerstner's iteration; with `robust`, so that their median,
+// corrected for the leverage, is the chi-square median instead (Rousseeuw & Leroy 1987): the first round,
+// before gross errors are excluded, must not take them for model error. The leverages depend on the
+// components; they are recomputed until the components settle.
+ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<Measurement>& measurements,
+                                      const IdentificationOptions& options, const std::vector<int>& parameters,
+                                      bool robust) {
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
+  const int angle_rows = rows - 3;
+  const ShotGroups groups(measurements);
+  Problem problem(cal.model, measurements, groups, options, parameters);
+  std::vector<Transform> prediction;
+  std::vector<Eigen::MatrixXd> jacobian;
+  problem.Predict(ReducedParameters(cal), &prediction, &jacobian);
+  const MeasurementNoise& noise = options.noise;
+  const double repeatability = noise.RepeatabilitySigmaMm();
+  const double t = noise.OrientationSigmaRad();
+  // Per pose (group): the mean residual and the tracker's covariance of the mean.
+  const size_t num_groups = groups.groups.size();
+  std::vector<Eigen::VectorXd> mean(num_groups, Eigen::VectorXd::Zero(rows));
+  std::vector<Eigen::Matrix3d> tracker(num_groups);
+  std::vector<double> shots(num_groups);
+  ModelErrorEstimate out;
+  Eigen::VectorXd r(rows);
+  for (size_t g = 0; g < num_groups; ++g) {
+    const std::vector<int>& members = groups.groups[g].shots;
+    Eigen::Vector3d at = Eigen::Vector3d::Zero();
+    for (int i : members) {
+      MeasurementResidual(type, measurements[i].T_world_tool, prediction[g], r);
+      mean[g] += r;
+      at += measurements[i].T_world_tool.translation();
+    }
+    const double n = static_cast<double>(members.size());
+    shots[g] = n;
+    mean[g] /= n;
+    at /= n;
+    const Eigen::Matrix3d c = noise.tracker ? noise.tracker->PositionCovariance(at)
+                                            : Eigen::Matrix3d(noise.position_mm * noise.position_mm *
+                                                              Eigen::Matrix3d::Identity());
+    out.tracker_variance_mm2 += c.trace() * n;
+    tracker[g] = c / n + repeatability * repeatability * Eigen::Matrix3d::Identity();
+  }
+  out.tracker_variance_mm2 /= static_cast<double>(measurements.size());
+  out.tracker_variance_rad2 = angle_rows * t * t;
+
+  double sp2 = 0.0, so2 = 0.0;
+  const double median3 = ChiSquareQuantile(3, 0.5);
+  const double median_angle = angle_rows > 0 ? ChiSquareQuantile(angle_rows, 0.5) : 0.0;
+  std::vector<double> lever_p(num_groups), lever_o(num_groups);
+  const int p = static_cast<int>(parameters.size());
+  for (int cycle = 0; cycle < 20; ++cycle) {
+    // Leverages at the current components: the hat matrix's traces per pose and component.
+    std::vector<Eigen::Matrix3d> inverse_p(num_groups);
+    std::vector<double> inverse_o(num_groups);
+    Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
+    for (size_t g = 0; g < num_groups; ++g) {
+      inverse_p[g] = (tracker[g] + sp2 * Eigen::Matrix3d::Identity()).inverse();
+      inverse_o[g] = 1.0 / (t * t / shots[g] + so2);
+      const Eigen::MatrixXd& j = jacobian[g];
+      information += j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
+      if (angle_rows > 0) information += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
+    }
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
+    if (ldlt.info() != Eigen::Success) break;
+    double redundancy_p = 0.0, redundancy_o = 0.0;
+    for (size_t g = 0; g < num_groups; ++g) {
+      const Eigen::MatrixXd& j = jacobian[g];
+      const Eigen::MatrixXd solved = ldlt.solve(j.transpose());  // N^-1 J_g'
+      lever_p[g] = (inverse_p[g] * j.topRows(3) * solved.leftCols(3)).trace();
+      redundancy_p += 3.0 - lever_p[g];
+      if (angle_rows > 0) {
+        lever_o[g] = inverse_o[g] * (j.bottomRows(angle_rows) * solved.rightCols(angle_rows)).trace();
+        redundancy_o += angle_rows - lever_o[g];
+      }
+    }
+    // One component: the variance s^2 >= 0 at which the (mean or median) condition holds, by bisection (the
+    // whitened squares fall as s^2 grows).
+    const auto solve = [&](int dim, double redundancy, const std::function<double(size_t, double)>& square,
+                           const std::vector<double>& lever, double median) {
+      if (redundancy <= 0.5) return 0.0;
+      const auto excess = [&](double v) {
+        if (!robust) {
+          double sum = 0.0;
+          for (size_t g = 0; g < num_groups; ++g) sum += square(g, v);
+          return sum - redundancy;
+        }
+        std::vector<double> q(num_groups);
+        for (size_t g = 0; g < num_groups; ++g) q[g] = square(g, v) / std::max(1.0 - lever[g] / dim, 1e-3);
+        return Median(q) - median;
+      };
+      if (excess(0.0) <= 0.0) return 0.0;
+      double hi = 1e-12;
+      while (excess(hi) > 0.0 && hi < 1e12) hi *= 4.0;
+      double lo = hi / 4.0 < 1e-12 ? 0.0 : hi / 4.0;
+      for (int k = 0; k < 60 && hi - lo > 1e-9 * hi; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (excess(mid) > 0.0 ? lo : hi) = mid;
+      }
+      return 0.5 * (lo + hi);
+    };
+    const double new_sp2 = solve(
+        3, redundancy_p,
+        [&](size_t g, double v) {
+          const Eigen::Vector3d d = mean[g].head<3>();
+          return d.dot((tracker[g] + v * Eigen::Matrix3d::Identity()).ldlt().solve(d));
+        },
+        lever_p, median3);
+    const double new_so2 =
+        angle_rows == 0 ? 0.0
+                        : solve(angle_rows, redundancy_o,
+                                [&](size_t g, double v) {
+                                  return mean[g].tail(angle_rows).squaredNorm() / (t * t / shots[g] + v);
+                                },
+                                lever_o, median_angle);
+    const bool settled = std::abs(new_sp2 - sp2) <= 1e-4 * (new_sp2 + out.tracker_variance_mm2 / 3.0) &&
+                         std::abs(new_so2 - so2) <= 1e-4 * (new_so2 + t * t);
+    sp2 = new_sp2;
+    so2 = new_so2;
+    if (settled) break;
+  }
+  out.position_mm = std::sqrt(sp2);
+  out.orientation_rad = std::sqrt(so2);
+  return out;
+}
+
+// The studentised residual of every measurement against a calibration fitted to the measurements not
+// `excluded`: its whitened residual a (noise of `options`, model error included) against the covariance of a
+// least-squares residual, I - H for a measurement in the fit and I + H for one left out, H = W J N^-1 J' W'
+// (the generalised least-squares residual covariance, exact also for the shots of one pose that share an
+// error). z = sqrt(a' (I -+ H)^-1 a); a leverage near 1 is floored.
+std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vector<Measurement>& measurements,
+                                         const std::vector<char>& excluded, const IdentificationOptions& options,
+                                         const std::vector<int>& parameters) {
+  std::vector<Measurement> kept;
+  for (size_t i = 0; i < measurements.size(); ++i)
+    if (!excluded[i]) kept.push_back(measurements[i]);
+  Eigen::MatrixXd inverse;
+  const bool have_leverage = InverseInformation(cal, kept, options, parameters, &inverse);
+  const ShotGroups groups(measurements);
+  Problem problem(cal.model, measurements, groups, options, parameters);
+  std::vector<Transform> prediction;
+  std::vector<Eigen::MatrixXd> jacobian;
+  problem.Predict(ReducedParameters(cal), &prediction, &jacobian);
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
+  Eigen::MatrixXd w(rows, rows);
+  Eigen::VectorXd r(rows);
+  std::vector<double> out(measurements.size());
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    const int g = groups.group_of[i];
+    MeasurementResidual(type, measurements[i].T_world_tool, prediction[g], r);
+    options.noise.Whitening(type, measurements[i].T_world_tool.translation(), w);
+    const Eigen::VectorXd a = w * r;
+    if (!have_leverage) {
+      out[i] = a.norm();
+      continue;
+    }
+    const Eigen::MatrixXd b = w * jacobian[g];
+    const Eigen::MatrixXd h = b * inverse * b.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (h + h.transpose()));
+    const Eigen::VectorXd u = eig.eigenvectors().transpose() * a;
+    double z2 = 0.0;
+    for (int k = 0; k < rows; ++k) {
+      const double lambda = std::max(eig.eigenvalues()[k], 0.0);
+      z2 += u[k] * u[k] / (excluded[i] ? 1.0 + lambda : std::max(1.0 - lambda, 1e-6));
+    }
+    out[i] = std::sqrt(z2);
+  }
+  return out;
+}
+
+
+
+constexpr double kMinRobustScale = 1e-3;
+// A measurement the fit used must exceed the outlier threshold by this factor to be excluded (Identify).
+constexpr double kNewOutlierMargin = 1.03;
+// Fewer measurements than this leave the residuals' distribution to the noise model (ResidualDistribution).
+constexpr size_t kMinMeasurementsForShape = 30;
+
+// The q-quantile of `values` (0 <= q <= 1), linearly interpolated between order statistics.
+double Quantile(std::vector<double> values, double q) {
+  std::sort(values.begin(), values.end());
+  const double at = q * static_cast<double>(values.size() - 1);
+  const size_t below = static_cast<size_t>(at);
+  if (below + 1 >= values.size()) return values.back();
+  return values[below] + (at - static_cast<double>(below)) * (values[below + 1] - values[below]);
+}
+
+// c chi^2(nu): the distribution of the squared studentised residuals of clean measurements.
+struct ScaledChiSquare {
+  int dof = 1;
+  double scale = 1.0;
+};
+
+// With a Gaussian noise model that is right, z^2 ~ chi^2(rows). Robot error the geometric model does not explain
+// is not Gaussian per row: one joint's error moves a pose along one direction and turns it about one axis at
+// once, so z^2 (whose mean the model error's estimate makes right) has a heavier tail than chi^2(rows), and a
+// chi^2(rows) threshold flags a few percent of clean poses. With the model error estimated (and at least
+// kMinMeasurementsForShape measurements), the distribution is therefore taken as the scaled chi-square
+// c chi^2(nu) of Satterthwaite's approximation (Satterthwaite 1946, "An approximate distribution of estimates of
+// variance components"), fitted to the median and the 90 % quantile of z^2 (quantiles, so that up to a tenth of
+// gross errors do not move it): nu the largest number of degrees of freedom, at most rows, whose quantile ratio
+// is at least the observed one (the heavier tail when between two), c the median over chi^2(nu)'s. Gaussian
+// data give nu = rows and c the robust scale squared. Otherwise chi^2(rows) with c the robust scale squared,
+// capped at 1 when the model error is estimated (data more precise than the noise model are judged by their own
+// scatter; less precise ones are the model error's).
+ScaledChiSquare ResidualDistribution(const std::vector<double>& squares, int rows, double scale, bool estimated) {
+  ScaledChiSquare out;
+  out.dof = rows;
+  out.scale = estimated ? std::min(scale, 1.0) * std::min(scale, 1.0) : scale * scale;
+  if (!estimated || squares.size() < kMinMeasurementsForShape) return out;
+  const double median = Quantile(squares, 0.5);
+  const double upper = Quantile(squares, 0.9);
+  if (!(median > 0.0)) return out;
+  const double ratio = upper / median;
+  int dof = rows;
+  while (dof > 1 && ChiSquareQuantile(dof, 0.1) / ChiSquareQuantile(dof, 0.5) < ratio) --dof;
+  out.dof = dof;
+  out.scale = std::max(median / ChiSquareQuantile(dof, 0.5), kMinRobustScale * kMinRobustScale);
+  return out;
+}
+// A robust scale beyond this factor either way is said in the message (above it: DEGRADED).
+constexpr double kScaleWarning = 3.0;
+// Fit and estimate cycles of the model error, and the relative change of a row's total variance at which
+// they stop.
+constexpr int kMaxModelErrorCycles = 8;
+constexpr double kModelErrorSettled = 0.02;
+// Rounds of the robust fit before it stops with the set it has (an oscillating set is reported as such).
+constexpr int kMaxRejectionRounds = 10;
+// More than this fraction flagged means the noise model or the data are wrong, not a few gross errors.
+constexpr double kSuspiciousOutlierFraction = 0.2;
+
+}  // namespace
+
+Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                     const IdentificationOptions& options) {
+  const Clock::time_point start = Clock::now();
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);
+  const int n_fit = nominal.num_error_parameters() + 3 * static_cast<int>(options.reflectors.size());
+  if (!options.parameters.empty() && options.parameters.back() >= n_fit) {
+    throw std::invalid_argument("IdentificationOptions: parameters[" + std::to_string(options.parameters.size() - 1) +
+                                "] = " + std::to_string(options.parameters.back()) + " but '" + nominal.name() +
+                                "' has " + std::to_string(nominal.num_error_parameters()) + " error parameters and " +
+                                std::to_string(options.reflectors.size()) + " reflector(s)");
+  }
+  const ParameterSelection selection = SelectParameters(nominal, measurements, options);
+  // A cancelled fit (progress returned false) is not refitted.
+  const auto cancelled = [](const Calibration& c) { return c.summary.message.rfind("cancelled", 0) == 0; };
+  // The options of the fits: the model error's components are the estimate so far.
+  IdentificationOptions current_options = options;
+  // Identify makes several fits (the model error's cycles, the robust rounds): the progress it reports is the
+  // furthest any of them got, so that it never goes back.
+  double progress_so_far = 0.0;
+  if (options.progress) {
+    current_options.progress = [&](double fraction) {
+      progress_so_far = std::max(progress_so_far, fraction);
+      return options.progress(progress_so_far);
+    };
+  }
+  ModelErrorEstimate model_error;
+  // One fit over `data`, with the model error estimated beside it (estimate_model_error): fit, estimate the
+  // components from its residuals, refit with them, until they settle.
+  const auto fit = [&](const std::vector<Measurement>& data, bool robust) {
+    Calibration cal = IdentifyOnce(nominal, data, current_options, selection);
+    if (!options.estimate_model_error) return cal;
+    for (int cycle = 0; cycle < kMaxModelErrorCycles; ++cycle) {
+      if (cal.summary.termination == Termination::kFailure || cancelled(cal)) return cal;
+      model_error = EstimateModelError(cal, data, current_options, selection.parameters, robust);
+      MeasurementNoise& noise = current_options.noise;
+      const double dp = model_error.position_mm * model_error.position_mm - noise.model_error_mm * noise.model_error_mm;
+      const double dor =
+          model_error.orientation_rad * model_error.orientation_rad - noise.model_error_rad * noise.model_error_rad;
+      // Settled when the total variance per row moves by less than 2 %: the weights no longer change the fit.
+      const bool settled =
+          std::abs(dp) <= kModelErrorSettled * (model_error.tracker_variance_mm2 / 3.0 +
+                                                model_error.position_mm * model_error.position_mm) &&
+          std::abs(dor) <= kModelErrorSettled * (noise.OrientationSigmaRad() * noise.OrientationSigmaRad() +
+                                                 model_error.orientation_rad * model_error.orientation_rad);
+      // Settled: the fit's own weights stay the answer's (the estimate moved them by less than the tolerance).
+      if (settled) break;
+      noise.model_error_mm = model_error.position_mm;
+      noise.model_error_rad = model_error.orientation_rad;
+      cal = IdentifyOnce(nominal, data, current_options, selection);
+    }
+    return cal;
+  };
+  // Writes the model error into a summary (and the sentence into its message).
+  const auto report_model_error = [&](IdentificationSummary* s) {
+    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->message.rfind("cancelled", 0) == 0) {
+      return;
+    }
+    const int angle_rows = MeasurementRows(options.measurement_type) - 3;
+    s->model_error_estimated = true;
+    s->model_error_mm = std::sqrt(3.0) * current_options.noise.model_error_mm;
+    s->model_error_rad = std::sqrt(static_cast<double>(angle_rows)) * current_options.noise.model_error_rad;
+    s->tracker_rms_mm = std::sqrt(model_error.tracker_variance_mm2);
+    s->tracker_rms_rad = std::sqrt(model_error.tracker_variance_rad2);
+    std::ostringstream note;
+    note << std::setprecision(2) << "; robot error the geometric model does not explain: " << s->model_error_mm
+         << " mm";
+    if (angle_rows > 0) note << ", " << s->model_error_rad * kDegPerRad << " deg";
+    note << " RMS (tracker: " << s->tracker_rms_mm << " mm";
+    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * kDegPerRad << " deg";
+    note << ")";
+    s->message += note.str();
+  };
+
+  Calibration all = fit(measurements, options.reject_outliers);
+  if (!options.reject_outliers || all.summary.termination == Termination::kFailure || cancelled(all)) {
+    report_model_error(&all.summary);
+    return all;
+  }
+
+  // The robust fit: iterative rejection on studentised residuals, refitting without the flagged measurements
+  // until the flagged set repeats.
+  const int rows = MeasurementRows(options.measurement_type);
+  const double median_chi2 = ChiSquareQuantile(rows, 0.5);
+  const size_t n = measurements.size();
+  std::vector<char> excluded(n, 0), previous(n, 0);
+  std::string stopped;
+  Calibration current = all;
+  std::vector<double> z;
+  double scale = 0.0;
+  double threshold = 0.0;
+  int rounds = 1;
+  bool settled = false;
+  // The first fit's model error is the robust (median) one; the answer's is the mean one over the measurements
+  // kept, so the set is only settled after a fit with it.
+  bool robust_estimate = options.estimate_model_error;
+  // The excluded sets fitted so far, and whether the current fit is the last (a cycle was resolved).
+  std::vector<std::vector<char>> fitted_sets = {excluded};
+  bool last_round = false;
+  for (; rounds <= kMaxRejectionRounds; ++rounds) {
+    z = StudentizedResiduals(current, measurements, excluded, current_options, selection.parameters);
+    std::vector<double> squares(n);
+    for (size_t i = 0; i < n; ++i) squares[i] = z[i] * z[i];
+    // A median-based scale, robust to up to half the data being gross errors (Rousseeuw & Leroy 1987); floored:
+    // data a thousand times more precise than the noise model says (a noise-free simulation) are exact, and
+    // their round-off is no outlier.
+    scale = std::max(std::sqrt(Median(squares) / median_chi2), kMinRobustScale);
+    // The distribution the clean residuals follow, c chi^2(nu) (ResidualDistribution): without the model
+    // error's estimate chi^2(rows) over the robust scale, as the noise model says; with it, fitted.
+    const ScaledChiSquare shape = ResidualDistribution(squares, rows, scale, options.estimate_model_error);
+    threshold = std::sqrt(ChiSquareQuantile(shape.dof, options.outlier_probability));
+    // A measurement in the fit is flagged above kNewOutlierMargin times the threshold, one out of it stays out
+    // above the threshold: a measurement on the threshold, which each refit's model error moves a little, would
+    // otherwise go in and out forever.
+    std::vector<char> flagged(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      z[i] /= std::sqrt(shape.scale);
+      flagged[i] = z[i] > threshold * (excluded[i] ? 1.0 : kNewOutlierMargin) ? 1 : 0;
+    }
+    if ((flagged == excluded && !robust_estimate) || last_round) {
+      settled = true;
+      break;
+    }
+    if (rounds == kMaxRejectionRounds) break;
+    // A set fitted before (not the last one): the rejection cycles through sets that differ in measurements on
+    // the threshold, which each refit moves across it. Those stay in: the answer excludes what every set of the
+    // cycle excluded.
+    if (!robust_estimate) {
+      for (size_t k = 0; k + 1 < fitted_sets.size(); ++k) {
+        if (fitted_sets[k] != flagged) continue;
+        for (size_t j = k; j < fitted_sets.size(); ++j) {
+          for (size_t i = 0; i < n; ++i) flagged[i] = flagged[i] && fitted_sets[j][i];
+        }
+        last_round = true;
+        break;
+      }
+    }
+    excluded = flagged;
+    fitted_sets.push_back(excluded);
+    std::vector<Measurement> kept;
+    kept.reserve(n);
+    for (size_t i = 0; i < n; ++i)
+      if (!excluded[i]) kept.push_back(measurements[i]);
+    const IdentificationOptions before = current_options;
+    const ModelErrorEstimate estimate_before = model_error;
+    Calibration next = fit(kept, false);
+    robust_estimate = false;
+    if (cancelled(next)) return next;
+    if (next.summary.termination == Termination::kFailure) {
+      // Too few measurements left to fit (the flagged ones took whole poses with them): the rejection cannot
+      // go on, and the last fit that worked is the answer, DEGRADED and saying why; its own outliers (the
+      // previous round's) stay listed below.
+      const int count = static_cast<int>(n - kept.size());
+      stopped = "the robust fit stopped: excluding " + std::to_string(count) + " measurement(s) left " +
+                next.summary.message + "; this is the fit before that round";
+      for (size_t i = 0; i < n; ++i) excluded[i] = previous[i];
+      current_options = before;
+      model_error = estimate_before;
+      break;
+    }
+    previous = excluded;
+    current = std::move(next);
+  }
+  IdentificationSummary& s = current.summary;
+  s.outlier_threshold = threshold;
+  s.robust_scale = scale;
+  s.rejection_rounds = rounds;
+  for (size_t i = 0; i < n; ++i) {
+    if (excluded[i]) s.outliers.push_back({static_cast<int>(i), measurements[i].reflector, z[i]});
+  }
+  if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
+  if (!stopped.empty()) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; " + stopped;
+  } else if (!settled) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
+  }
+  // The scale is 1 when the noise model is right. Without the model error's estimate, far above, the data
+  // scatter more than the model says and gross errors can hide in the scatter (or more than half the data are
+  // gross errors); far below, the model is too pessimistic, and where its proportions are wrong (e.g. across
+  // against along the beam) the whitened residuals are no longer chi-square shaped and clean shots get flagged.
+  if (scale > kScaleWarning && !options.estimate_model_error) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    std::ostringstream note;
+    note << "; the residuals scatter " << std::setprecision(3) << scale
+         << " times what the noise model says (robust scale): outliers may be missed; check the tracker figures, "
+            "the repeatability and the data, or estimate the model error";
+    s.message += note.str();
+  } else if (scale < 1.0 / kScaleWarning && scale > kMinRobustScale) {
+    std::ostringstream note;
+    note << "; the residuals scatter only " << std::setprecision(3) << scale
+         << " times what the noise model says (robust scale): the model is pessimistic";
+    s.message += note.str();
+  }
+  report_model_error(&s);
+  if (static_cast<double>(s.outliers.size()) > kSuspiciousOutlierFraction * static_cast<double>(n)) {
+    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    s.message += "; " + std::to_string(s.outliers.size()) + " of " + std::to_string(n) +
+                 " measurements are outliers: check the noise model and the reflector";
+  }
+  s.seconds = Seconds(start);
+  return current;
+}
+
+}  // namespace robocal
