@@ -121,6 +121,14 @@ struct HttpServer::Impl {
   std::unique_ptr<std::counting_semaphore<>> handler_slots;
   bool tls = false;
   int port = -1;
+
+  // The constructor's steps, in order (http_server.cc below).
+  void CreateServer();       // plain or TLS, with the edge's limits and canned replies
+  void ConfigureServer();    // connection pool, socket options, body limit, keep-alive
+  void InstallAdmission();   // Expect: 100-continue, head checks, request ids, bearer tokens
+  void InstallRoutes();      // the route table, behind `threads` handler slots
+  void InstallErrorReplies();  // exceptions and the library's own errors as the API's error body
+  void InstallLogger();      // one log line and the metrics per request
 };
 
 namespace {
@@ -165,28 +173,53 @@ edge::CannedReplies EdgeReplies(const ServerConfig& c) {
   return canned;
 }
 
+// A storage failure as the API's error; the database's own text (statements, driver messages) goes to the log
+// only, with the request's id.
+void WriteStorageError(httplib::Response& res, const StorageError& e) {
+  if (!e.detail().empty()) {
+    LogEvent(spdlog::level::warn, "storage error",
+             {{"request_id", request_id}, {"error", api::SafeText(e.what())}, {"detail", api::SafeText(e.detail())}});
+  }
+  switch (e.kind()) {
+    case StorageError::Kind::kNotFound:
+      WriteError(res, Status::kNotFound, e.what());
+      return;
+    case StorageError::Kind::kAlreadyExists:
+      WriteError(res, Status::kAlreadyExists, e.what());
+      return;
+    case StorageError::Kind::kResourceExhausted:
+      WriteError(res, Status::kResourceExhausted, e.what());
+      return;
+    case StorageError::Kind::kUnavailable:
+      res.set_header("Retry-After", "1");
+      WriteError(res, Status::kUnavailable, std::string("storage unavailable: ") + e.what());
+      return;
+    case StorageError::Kind::kInternal:
+      WriteError(res, Status::kInternal, std::string("storage error: ") + e.what());
+      return;
+  }
+}
+
 }  // namespace
 
-HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->config = config;
-  impl_->service = service;
-  impl_->tokens = std::move(tokens);
-  impl_->handler_slots = std::make_unique<std::counting_semaphore<>>(std::max(1, config.threads));
-  edge::Counters* counters = &impl_->connections;
+void HttpServer::Impl::CreateServer() {
+  edge::Counters* counters = &connections;
   if (!config.tls_cert.empty()) {
     auto ssl = std::make_unique<edge::SslServer>(config.tls_cert.c_str(), config.tls_key.c_str(),
                                                  edge::Settings{EdgeLimits(config), EdgeReplies(config), counters});
     if (!ssl->is_valid()) {
       throw std::runtime_error("cannot load TLS certificate " + config.tls_cert + " / key " + config.tls_key);
     }
-    impl_->server = std::move(ssl);
-    impl_->tls = true;
+    server = std::move(ssl);
+    tls = true;
   } else {
-    impl_->server = std::make_unique<edge::Server>(edge::Settings{EdgeLimits(config), EdgeReplies(config), counters});
+    server = std::make_unique<edge::Server>(edge::Settings{EdgeLimits(config), EdgeReplies(config), counters});
   }
-  httplib::Server& svr = *impl_->server;
-  Impl* impl = impl_.get();
+}
+
+void HttpServer::Impl::ConfigureServer() {
+  httplib::Server& svr = *server;
+  edge::Counters* counters = &connections;
   const auto max_connections = static_cast<std::size_t>(config.max_connections);
   const auto max_queued = static_cast<std::size_t>(config.max_queued_connections);
   svr.new_task_queue = [max_connections, max_queued, counters] {
@@ -200,11 +233,14 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
   // reply); the library's keep-alive figures only go into the Keep-Alive header it writes.
   svr.set_keep_alive_timeout(config.keep_alive_timeout_s);
   svr.set_keep_alive_max_count(100);
+}
 
+void HttpServer::Impl::InstallAdmission() {
+  httplib::Server& svr = *server;
   // A client that asks before sending its body (Expect: 100-continue, as curl does for large ones) gets the
   // refusal instead of the go-ahead.
-  svr.set_expect_100_continue_handler([impl](const httplib::Request& req, httplib::Response& res) {
-    if (!CheckHead(req, res, impl->config.max_body_bytes)) {
+  svr.set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (!CheckHead(req, res, config.max_body_bytes)) {
       res.set_header("Connection", "close");
       edge::CloseAfterResponse();
       return res.status;
@@ -212,7 +248,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     return 100;
   });
 
-  svr.set_pre_routing_handler([impl](const httplib::Request& req, httplib::Response& res) {
+  svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     IgnoreRanges(req);
     request_start = std::chrono::steady_clock::now();
     const std::string* client_id = RawHeader(req, "X-Request-Id");
@@ -224,11 +260,11 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       edge::CloseAfterResponse();
       return httplib::Server::HandlerResponse::Handled;
     };
-    if (!CheckHead(req, res, impl->config.max_body_bytes)) return handled();
-    if (impl->tokens.empty() || req.path == "/healthz") return httplib::Server::HandlerResponse::Unhandled;
+    if (!CheckHead(req, res, config.max_body_bytes)) return handled();
+    if (tokens.empty() || req.path == "/healthz") return httplib::Server::HandlerResponse::Unhandled;
     const std::string* auth = RawHeader(req, "Authorization");
     const std::string prefix = "Bearer ";
-    if (auth != nullptr && auth->rfind(prefix, 0) == 0 && TokenMatches(auth->substr(prefix.size()), impl->tokens)) {
+    if (auth != nullptr && auth->rfind(prefix, 0) == 0 && TokenMatches(auth->substr(prefix.size()), tokens)) {
       return httplib::Server::HandlerResponse::Unhandled;
     }
     res.set_header("WWW-Authenticate", "Bearer");
@@ -236,7 +272,10 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
                auth == nullptr ? "missing bearer token (Authorization: Bearer <token>)" : "invalid bearer token");
     return handled();
   });
+}
 
+void HttpServer::Impl::InstallRoutes() {
+  httplib::Server& svr = *server;
   for (const Route& route : RouteTable()) {
     httplib::Server::Handler handler;
     const std::string path = route.openapi_path;
@@ -245,8 +284,8 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
         res.set_content(json(api::Health{"ok", ROBOCAL_VERSION}).dump(), "application/json");
       };
     } else if (path == "/metrics") {
-      handler = [impl](const httplib::Request&, httplib::Response& res) {
-        res.set_content(impl->metrics.Render(impl->service->running_operations(), impl->connections),
+      handler = [this](const httplib::Request&, httplib::Response& res) {
+        res.set_content(metrics.Render(service->running_operations(), connections),
                         "text/plain; version=0.0.4");
       };
     } else if (path == "/v1/openapi.json") {
@@ -254,10 +293,10 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
         res.set_content(OpenApiSpec(), "application/json");
       };
     } else {
-      handler = [impl, fn = route.handler](const httplib::Request& req, httplib::Response& res) {
+      handler = [this, fn = route.handler](const httplib::Request& req, httplib::Response& res) {
         // Service work runs `threads` requests at a time; health, metrics and the spec never wait for it.
-        const auto wait = std::chrono::seconds(impl->config.request_timeout_s);
-        if (!impl->handler_slots->try_acquire_for(wait)) {
+        const auto wait = std::chrono::seconds(config.request_timeout_s);
+        if (!handler_slots->try_acquire_for(wait)) {
           res.set_header("Retry-After", "1");
           WriteError(res, Status::kUnavailable, "server busy: every request slot stayed taken",
                      {{"request", "no slot among `threads` freed within request_timeout_s; retry later"}});
@@ -266,8 +305,8 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
         struct Release {
           std::counting_semaphore<>* slots;
           ~Release() { slots->release(); }
-        } release{impl->handler_slots.get()};
-        RouteReply reply = fn(*impl->service, req);
+        } release{handler_slots.get()};
+        RouteReply reply = fn(*service, req);
         for (const auto& [name, value] : reply.headers) res.set_header(name, value);
         res.set_content(std::move(reply.body), reply.content_type);
       };
@@ -277,7 +316,10 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     if (method == "POST") svr.Post(route.pattern, handler);
     if (method == "DELETE") svr.Delete(route.pattern, handler);
   }
+}
 
+void HttpServer::Impl::InstallErrorReplies() {
+  httplib::Server& svr = *server;
   // One exception handler: every error a handler throws becomes the API's error body; the server keeps serving.
   // WriteError cannot throw; the outer catch is for the rest (a log line that fails, say).
   svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
@@ -287,29 +329,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       } catch (const ApiError& e) {
         WriteError(res, e.status(), e.what(), e.details());
       } catch (const StorageError& e) {
-        // The database's own text (statements, driver messages) goes to the log only.
-        if (!e.detail().empty()) {
-          LogEvent(spdlog::level::warn, "storage error",
-                   {{"request_id", request_id}, {"error", api::SafeText(e.what())}, {"detail", api::SafeText(e.detail())}});
-        }
-        switch (e.kind()) {
-          case StorageError::Kind::kNotFound:
-            WriteError(res, Status::kNotFound, e.what());
-            break;
-          case StorageError::Kind::kAlreadyExists:
-            WriteError(res, Status::kAlreadyExists, e.what());
-            break;
-          case StorageError::Kind::kResourceExhausted:
-            WriteError(res, Status::kResourceExhausted, e.what());
-            break;
-          case StorageError::Kind::kUnavailable:
-            res.set_header("Retry-After", "1");
-            WriteError(res, Status::kUnavailable, std::string("storage unavailable: ") + e.what());
-            break;
-          case StorageError::Kind::kInternal:
-            WriteError(res, Status::kInternal, std::string("storage error: ") + e.what());
-            break;
-        }
+        WriteStorageError(res, e);
       } catch (const std::invalid_argument& e) {
         // A core precondition the wire validation let through: still the caller's input.
         WriteError(res, Status::kInvalidArgument, e.what());
@@ -328,7 +348,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
 
   // Errors produced by the HTTP library itself (unknown path, a head it cannot parse, a body the edge cut off)
   // get the same body shape. Nothing in here may throw out: the reply falls back to a fixed 500 body.
-  svr.set_error_handler([impl](const httplib::Request& req, httplib::Response& res) {
+  svr.set_error_handler([this](const httplib::Request& req, httplib::Response& res) {
     IgnoreRanges(req);
     try {
       const edge::Fault fault = edge::CurrentFault();
@@ -337,7 +357,7 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
         res.body.clear();
       }
       if (!res.body.empty()) return;
-      const std::string limit_s = std::to_string(impl->config.request_read_timeout_s);
+      const std::string limit_s = std::to_string(config.request_read_timeout_s);
       switch (fault) {
         case edge::Fault::kDeadline:
           WriteError(res, Status::kDeadlineExceeded, "request not received in time",
@@ -347,12 +367,12 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
         case edge::Fault::kHeadTooLarge:
           WriteError(res, Status::kResourceExhausted, "request head too large",
                      {{"head", "request line and headers exceed max_head_bytes (" +
-                                   std::to_string(impl->config.max_head_bytes) + ")"}},
+                                   std::to_string(config.max_head_bytes) + ")"}},
                      431);
           return;
         case edge::Fault::kBodyTooLarge:
           WriteError(res, Status::kResourceExhausted, "request body larger than max_body_bytes",
-                     {{"body", "exceeds the max_body_bytes limit (" + std::to_string(impl->config.max_body_bytes) +
+                     {{"body", "exceeds the max_body_bytes limit (" + std::to_string(config.max_body_bytes) +
                                    "), counted as sent"}});
           return;
         case edge::Fault::kStopping:
@@ -387,14 +407,17 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
       res.set_content(kInternalErrorBody, "application/json");
     }
   });
+}
 
-  svr.set_logger([impl](const httplib::Request& req, const httplib::Response& res) {
+void HttpServer::Impl::InstallLogger() {
+  httplib::Server& svr = *server;
+  svr.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
     const double seconds =
         request_start == std::chrono::steady_clock::time_point{}
             ? 0.0
             : std::chrono::duration<double>(std::chrono::steady_clock::now() - request_start).count();
     const std::string route = RouteLabel(req.method, req.path);
-    impl->metrics.Record(MethodLabel(req.method), route, res.status, seconds);
+    metrics.Record(MethodLabel(req.method), route, res.status, seconds);
     // A head the library could not parse never reached the pre-routing handler: it has no id of its own.
     if (request_id.empty()) request_id = NewId("req");
     LogEvent(res.status >= 500 ? spdlog::level::err : spdlog::level::info, "request",
@@ -406,6 +429,20 @@ HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector
     request_start = {};
     request_id.clear();
   });
+}
+
+HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
+  impl_->service = service;
+  impl_->tokens = std::move(tokens);
+  impl_->handler_slots = std::make_unique<std::counting_semaphore<>>(std::max(1, config.threads));
+  impl_->CreateServer();
+  impl_->ConfigureServer();
+  impl_->InstallAdmission();
+  impl_->InstallRoutes();
+  impl_->InstallErrorReplies();
+  impl_->InstallLogger();
 }
 
 HttpServer::~HttpServer() { Stop(); }
