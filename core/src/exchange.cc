@@ -42,13 +42,9 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   // memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed
   // when needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored
   // (L^2 doubles per candidate, several times the blocks).
-  const std::int64_t drawn = SaturatingSum(count, ValidationDraws(options.objective, options.num_validation));
-  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
-  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
-                      &evaluator)) {
-    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
-    return plan;
-  }
+  FeasibleDraws account;
+  const std::int64_t drawn = PrepareDraws(model, options, count, start_time, &evaluator, &account, &plan);
+  if (drawn < 0) return plan;
   Eigen::MatrixXd pool(model.num_joints(), count);
   Eigen::MatrixXd blocks(rows, static_cast<Eigen::Index>(count) * l);
   Eigen::VectorXd q;

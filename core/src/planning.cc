@@ -191,14 +191,10 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   PlanSummary& s = plan.summary;
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
-  const std::int64_t drawn = SaturatingSum(SaturatingProduct(options.num_sets, num_configurations),
-                                           ValidationDraws(options.objective, options.num_validation));
-  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
-  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
-                      &evaluator)) {
-    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
-    return plan;
-  }
+  FeasibleDraws account;
+  const std::int64_t drawn = PrepareDraws(model, options, SaturatingProduct(options.num_sets, num_configurations),
+                                          start_time, &evaluator, &account, &plan);
+  if (drawn < 0) return plan;
   double best_f = std::numeric_limits<double>::infinity();
   bool cancelled = false;
   for (int set = 0; set < options.num_sets; ++set) {

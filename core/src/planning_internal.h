@@ -68,6 +68,16 @@ inline bool SetUpObjective(const RobotModel& model, ObservabilityIndex objective
   return true;
 }
 
+// The opening of a planner that will draw `configurations` configurations: its rejection-sampling budget in
+// `account`, with the objective's validation sample drawn into `evaluator`. Returns what the budget covers
+// (the validation sample included); -1 when rejection sampling ran out: the plan has then failed
+// (FailForFeasibility). Options: any planner's options (objective, num_validation, seed, feasible,
+// max_draws_per_configuration).
+template <typename Options>
+std::int64_t PrepareDraws(const RobotModel& model, const Options& options, std::int64_t configurations,
+                          Clock::time_point start_time, ObservabilityEvaluator* evaluator, FeasibleDraws* account,
+                          Plan* plan);
+
 inline bool CheckDrawOptions(int max_draws_per_configuration, int num_validation, std::string* error) {
   if (max_draws_per_configuration < 1 || max_draws_per_configuration > 1000000) {
     *error = "max_draws_per_configuration must be in [1, 1000000]";
@@ -174,6 +184,20 @@ inline void FailForFeasibility(Clock::time_point start_time, const FeasibleDraws
               std::to_string(max_draws_per_configuration) + " draws each (max_draws_per_configuration)";
   RecordDraws(account, &s);
   s.seconds = Seconds(start_time);
+}
+
+template <typename Options>
+std::int64_t PrepareDraws(const RobotModel& model, const Options& options, std::int64_t configurations,
+                          Clock::time_point start_time, ObservabilityEvaluator* evaluator, FeasibleDraws* account,
+                          Plan* plan) {
+  const std::int64_t drawn = SaturatingSum(configurations, ValidationDraws(options.objective, options.num_validation));
+  *account = DrawBudget(options.max_draws_per_configuration, drawn);
+  if (SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, account,
+                     evaluator)) {
+    return drawn;
+  }
+  FailForFeasibility(start_time, *account, drawn, options.max_draws_per_configuration, plan);
+  return -1;
 }
 
 inline std::string IndicesLine(const ObservabilityIndices& x) {

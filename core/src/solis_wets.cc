@@ -217,14 +217,10 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
   const std::int64_t drawn_sets = options.restarts + (initial.empty() ? 1 : 0);
-  const std::int64_t drawn = SaturatingSum(SaturatingProduct(drawn_sets, num_configurations),
-                                           ValidationDraws(options.objective, options.num_validation));
-  FeasibleDraws account = DrawBudget(options.max_draws_per_configuration, drawn);
-  if (!SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, &account,
-                      &evaluator)) {
-    FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
-    return plan;
-  }
+  FeasibleDraws account;
+  const std::int64_t drawn = PrepareDraws(model, options, SaturatingProduct(drawn_sets, num_configurations),
+                                          start_time, &evaluator, &account, &plan);
+  if (drawn < 0) return plan;
   // The search runs in normalised coordinates: a starting configuration must be feasible after that round trip.
   FeasibilityPredicate start_feasible;
   if (options.feasible) {

@@ -106,9 +106,8 @@ int OperationRunner::KeepLeases() {
     const auto lease = storage_->RenewLease(h.id, options_.owner, Ms(options_.lease), h.running->progress.load());
     if (!lease || lease->cancel_requested) h.running->cancel = true;
   }
-  // A database one process owns has no other instance whose leases could lapse (Recover ended its
-  // predecessor's at start).
-  if (!storage_->Shared()) return 0;
+  // Also on a database one process owns: an operation whose final write failed (the disk full, say) has stopped
+  // renewing, and its lease lapsing is what ends it FAILED rather than RUNNING until the next start.
   const auto ended = storage_->ExpireLeases(false, [](const Document& doc) {
     return FailedDocument(doc, "aborted: the server instance running it stopped renewing its lease "
                                "(operation_lease_s); plans and fits are deterministic from their request: "

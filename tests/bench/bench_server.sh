@@ -57,3 +57,13 @@ function request()
 end
 LUA
 }
+
+post_lua() {  # a wrk script that POSTs the JSON file $1 (printed)
+  cat <<LUA
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+local f = io.open("$1")
+wrk.body = f:read("*a")
+f:close()
+LUA
+}

@@ -88,13 +88,7 @@ import json, random
 random.seed(1)
 print(json.dumps({"targets": [{"joints": [round(random.uniform(-170, 170), 6) for _ in range(6)]} for _ in range(10)]}))
 PY
-cat >"$work/compensate.lua" <<LUA
-wrk.method = "POST"
-wrk.headers["Content-Type"] = "application/json"
-local f = io.open("$work/compensate.json")
-wrk.body = f:read("*a")
-f:close()
-LUA
+post_lua "$work/compensate.json" >"$work/compensate.lua"
 
 # wrk_all PATH SCRIPT: the wrk processes at once over the instances; prints the summed requests/s.
 wrk_all() {

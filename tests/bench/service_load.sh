@@ -35,15 +35,6 @@ echo "$plan" >"$work/plan.json"
 # A batch of 50 measurements; every request gets its own request_id, so each one is stored (no replays).
 write_batch_lua "$work/batch.lua"
 
-post_lua() {  # a wrk script that POSTs the JSON file $1
-  cat <<LUA
-wrk.method = "POST"
-wrk.headers["Content-Type"] = "application/json"
-local f = io.open("$1")
-wrk.body = f:read("*a")
-f:close()
-LUA
-}
 post_lua "$work/forward.json" >"$work/forward.lua"
 post_lua "$work/plan.json" >"$work/plan.lua"
 

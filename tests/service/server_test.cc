@@ -818,6 +818,26 @@ TEST(OperationLeaseTest, AFitThatCannotConfirmItsLeaseFailsRatherThanSucceedWith
   EXPECT_EQ(a.Get("/v1/campaigns/cf/calibration").status, 404);
 }
 
+TEST(OperationLeaseTest, AnOperationWhoseFinalWriteFailedEndsFailedWithoutARestart) {
+  HeldFit held;
+  TestServer a({}, {}, held.options);  // one process on its own database (FakeStorage: not shared)
+  const std::string id = StartHeldFit(a, held);
+  ASSERT_FALSE(id.empty());
+  auto& storage = dynamic_cast<FakeStorage&>(a.storage());
+  storage.fail_finishes = true;
+  held.Release();
+  for (int i = 0; i < 12000 && a.service().running_operations() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(a.service().running_operations(), 0);
+  storage.fail_finishes = false;
+  EXPECT_EQ(a.service().GetOperation(id).state, api::OperationState::kRunning) << "its final write was lost";
+  // Nobody renews its lease any more; once it lapses, the process's own keeper ends it.
+  storage.LapseLease(id);
+  EXPECT_EQ(a.service().KeepOperationLeases(), 1);
+  EXPECT_EQ(a.service().GetOperation(id).state, api::OperationState::kFailed);
+}
+
 TEST(OperationLeaseTest, AnUnreadableOperationNeverHoldsUpTheOthersLeases) {
   FakeStorage storage;
   storage.shared = true;

@@ -156,6 +156,7 @@ class FakeStorage : public Storage {
     return true;
   }
   bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) override {
+    if (fail_finishes) throw StorageError(StorageError::Kind::kUnavailable, "disk full");
     {
       std::lock_guard lock(mutex_);
       auto it = leases_.find(id);
@@ -191,6 +192,8 @@ class FakeStorage : public Storage {
   bool shared = false;
   /// Tests: RenewLease fails kUnavailable, as when the database does not answer.
   std::atomic<bool> fail_renewals{false};
+  /// Tests: FinishLeased fails kUnavailable, as when the disk is full.
+  std::atomic<bool> fail_finishes{false};
   /// Tests: makes the lease of `id` expired now, as when its owner stopped renewing it.
   void LapseLease(const std::string& id) {
     std::lock_guard lock(mutex_);
