@@ -1,11 +1,9 @@
 // What the service's parts share.
 #include "service_support.h"
 
-#include <mutex>
-#include <random>
-
 #include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
+#include "server/storage/storage_common.h"
 
 namespace robocal::server {
 
@@ -100,20 +98,7 @@ std::int64_t NowUnixMs() {
       .count();
 }
 
-std::string NewId(const std::string& prefix) {
-  static std::mutex mutex;
-  // Seeded with 256 bits of the system's entropy: one random_device() is 32 bits, and two processes (instances,
-  // restarts) that drew the same seed would hand out the same ids.
-  static std::mt19937_64 engine = [] {
-    std::random_device device;
-    std::seed_seq seed{device(), device(), device(), device(), device(), device(), device(), device()};
-    return std::mt19937_64(seed);
-  }();
-  std::lock_guard lock(mutex);
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(engine()));
-  return prefix + "-" + buf;
-}
+std::string NewId(const std::string& prefix) { return NewRandomId(prefix); }
 
 api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition) {
   api::Robot robot = api::RobotFromModel(id, model, false, definition.description);

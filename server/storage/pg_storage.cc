@@ -169,7 +169,7 @@ class PgStorage final : public Storage {
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
       CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
-      const std::string batch_id = NewBatchId();
+      const std::string batch_id = NewRandomId("b");
       const std::int64_t first_sequence = total + 1;
       // NULL, not "", so that batches without a request id never collide on the unique key.
       const Param request = request_id.empty() ? Param() : Param(request_id);

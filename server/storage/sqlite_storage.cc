@@ -241,7 +241,7 @@ class SqliteStorage final : public Storage {
     const auto count = static_cast<std::int64_t>(measurements_json.size());
     CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
 
-    const std::string batch_id = NewBatchId();
+    const std::string batch_id = NewRandomId("b");
     const std::int64_t first_sequence = total + 1;
     {
       Statement stmt = Prepare(

@@ -1,6 +1,8 @@
 // Choosing a database by the --db value, and what the implementations share (storage_common.h).
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
+#include <cstdio>
 #include <mutex>
 #include <random>
 #include <string>
@@ -107,24 +109,23 @@ void CheckCampaignTotal(const std::string& campaign_id, std::int64_t total, std:
   }
 }
 
-std::string NewBatchId() {
+std::string NewRandomId(const std::string& prefix) {
   static std::mutex mutex;
-  // 256 bits of the system's entropy (one random_device() is 32): instances drawing the same seed would
-  // collide on every batch id.
-  static std::mt19937_64 random = [] {
+  // Seeded with 256 bits of the system's entropy: one random_device() is 32 bits, and two processes (instances,
+  // restarts) that drew the same seed would hand out the same ids.
+  static std::mt19937_64 engine = [] {
     std::random_device device;
     std::seed_seq seed{device(), device(), device(), device(), device(), device(), device(), device()};
     return std::mt19937_64(seed);
   }();
-  static constexpr char kHex[] = "0123456789abcdef";
   std::uint64_t bits = 0;
   {
     std::lock_guard lock(mutex);
-    bits = random();
+    bits = engine();
   }
-  std::string id = "b-";
-  for (int i = 0; i < 16; ++i, bits >>= 4) id += kHex[bits & 0xf];
-  return id;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(bits));
+  return prefix + "-" + hex;
 }
 
 }  // namespace robocal::server

@@ -9,9 +9,9 @@
 
 namespace robocal::server {
 
-/// A batch id ("b-" and 16 hex digits, 64 random bits). Batch ids only need to be unique, not reproducible, so
-/// the generator is seeded from the system; the primary key on batch_id stands behind the odds.
-std::string NewBatchId();
+/// `prefix`, "-" and 16 hex digits (64 random bits): batch ids ("b") and the service's resource ids. Ids only need
+/// to be unique, not reproducible, so the generator is seeded from the system; primary keys stand behind the odds.
+std::string NewRandomId(const std::string& prefix);
 
 /// The error of a request_id used before for a batch of other content or role (kAlreadyExists).
 StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id);
