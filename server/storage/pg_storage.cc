@@ -47,13 +47,12 @@ class PgStorage final : public Storage {
   }
 
   Document Create(const std::string& collection, const std::string& id, const std::string& json) override {
-    return pool_.Run([&](pg::Connection& conn) -> Document {
-      pg::Connection* c = &conn;
+    return pool_.Run([&](pg::Connection& c) -> Document {
       try {
         // In a transaction, so that the statement repeated on a re-established connection (Pool::Run) is
         // never one that may have committed.
-        pg::Transaction tx(*c);
-        Document doc = InsertDocument(*c, collection, id, json);
+        pg::Transaction tx(c);
+        Document doc = InsertDocument(c, collection, id, json);
         tx.Commit();
         return doc;
       } catch (const StorageError& e) {
@@ -64,34 +63,31 @@ class PgStorage final : public Storage {
   }
 
   std::optional<Document> Get(const std::string& collection, const std::string& id) override {
-    return pool_.Run([&](pg::Connection& conn) -> std::optional<Document> {
-      pg::Connection* c = &conn;
-      return GetDocument(*c, collection, id, false);
+    return pool_.Run([&](pg::Connection& c) -> std::optional<Document> {
+      return GetDocument(c, collection, id, false);
     });
   }
 
   Document Update(const std::string& collection, const std::string& id, const std::string& json,
                   std::int64_t expected_version) override {
-    return pool_.Run([&](pg::Connection& conn) -> Document {
-      pg::Connection* c = &conn;
-      pg::Transaction tx(*c);
-      std::optional<Document> doc = GetDocument(*c, collection, id, true);
+    return pool_.Run([&](pg::Connection& c) -> Document {
+      pg::Transaction tx(c);
+      std::optional<Document> doc = GetDocument(c, collection, id, true);
       if (!doc) throw StorageError(Kind::kNotFound, collection + "/" + id + " not found");
       if (expected_version > 0 && expected_version != doc->version) {
         throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " is at version " +
                                                      std::to_string(doc->version) + ", not " +
                                                      std::to_string(expected_version) + " (a concurrent update won)");
       }
-      WriteDocument(*c, *doc, json);
+      WriteDocument(c, *doc, json);
       tx.Commit();
       return *doc;
     });
   }
 
   Document Put(const std::string& collection, const std::string& id, const std::string& json) override {
-    return pool_.Run([&](pg::Connection& conn) -> Document {
-      pg::Connection* c = &conn;
-      const pg::Result r = c->Run(
+    return pool_.Run([&](pg::Connection& c) -> Document {
+      const pg::Result r = c.Run(
           std::string("INSERT INTO documents (collection, id, json, version, created_unix_ms, updated_unix_ms) "
                       "VALUES ($1::text, $2::text, $3::text, 1, ") +
               kNowMs + ", " + kNowMs +
@@ -104,18 +100,17 @@ class PgStorage final : public Storage {
   }
 
   bool Delete(const std::string& collection, const std::string& id) override {
-    return pool_.Run([&](pg::Connection& conn) -> bool {
-      pg::Connection* c = &conn;
-      pg::Transaction tx(*c);
+    return pool_.Run([&](pg::Connection& c) -> bool {
+      pg::Transaction tx(c);
       const bool deleted =
-          c->Run("DELETE FROM documents WHERE collection = $1::text AND id = $2::text RETURNING 1", {collection, id})
+          c.Run("DELETE FROM documents WHERE collection = $1::text AND id = $2::text RETURNING 1", {collection, id})
               .rows() > 0;
       if (deleted && collection == "campaigns") {
         // A campaign's measurements go with it, so that a campaign created later under the same id starts empty.
-        c->Run("DELETE FROM measurements WHERE campaign_id = $1::text", {id});
-        c->Run("DELETE FROM batches WHERE campaign_id = $1::text", {id});
+        c.Run("DELETE FROM measurements WHERE campaign_id = $1::text", {id});
+        c.Run("DELETE FROM batches WHERE campaign_id = $1::text", {id});
       }
-      if (deleted && collection == "operations") c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
+      if (deleted && collection == "operations") c.Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
       tx.Commit();
       return deleted;
     });
@@ -124,9 +119,8 @@ class PgStorage final : public Storage {
   std::vector<Document> List(const std::string& collection, const std::string& after_id, int limit) override {
     std::vector<Document> docs;
     if (limit <= 0) return docs;
-    return pool_.Run([&](pg::Connection& conn) -> std::vector<Document> {
-      pg::Connection* c = &conn;
-      const pg::Result r = c->Run(
+    return pool_.Run([&](pg::Connection& c) -> std::vector<Document> {
+      const pg::Result r = c.Run(
           "SELECT id, json, version, created_unix_ms, updated_unix_ms FROM documents "
           "WHERE collection = $1::text AND id > $2::text ORDER BY id LIMIT $3::bigint",
           {collection, after_id, Int(limit)});
@@ -141,22 +135,21 @@ class PgStorage final : public Storage {
                                  const std::string& content_hash, const std::string& role,
                                  const std::vector<std::string>& measurements_json,
                                  std::int64_t max_campaign_total) override {
-    return pool_.Run([&](pg::Connection& conn) -> BatchResult {
-      pg::Connection* c = &conn;
-      pg::Transaction tx(*c);
+    return pool_.Run([&](pg::Connection& c) -> BatchResult {
+      pg::Transaction tx(c);
       // The campaign's row lock serialises appends to one campaign across instances: sequences stay dense, and
       // a batch retried through another instance finds the first one's row (the unique key on (campaign_id,
       // request_id) stands behind it).
-      if (c->Run("SELECT 1 FROM documents WHERE collection = 'campaigns' AND id = $1::text FOR UPDATE", {campaign_id})
+      if (c.Run("SELECT 1 FROM documents WHERE collection = 'campaigns' AND id = $1::text FOR UPDATE", {campaign_id})
               .rows() == 0) {
         throw StorageError(Kind::kNotFound, "campaign " + campaign_id + " not found");
       }
       // Sequences are dense from 1 and single measurements are never deleted: the largest is the total.
       const std::int64_t total =
-          c->Run("SELECT COALESCE(MAX(sequence), 0) FROM measurements WHERE campaign_id = $1::text", {campaign_id})
+          c.Run("SELECT COALESCE(MAX(sequence), 0) FROM measurements WHERE campaign_id = $1::text", {campaign_id})
               .Int(0, 0);
       if (!request_id.empty()) {
-        const pg::Result r = c->Run(
+        const pg::Result r = c.Run(
             "SELECT batch_id, content_hash, role, first_sequence, count FROM batches "
             "WHERE campaign_id = $1::text AND request_id = $2::text",
             {campaign_id, request_id});
@@ -173,13 +166,13 @@ class PgStorage final : public Storage {
       const std::int64_t first_sequence = total + 1;
       // NULL, not "", so that batches without a request id never collide on the unique key.
       const Param request = request_id.empty() ? Param() : Param(request_id);
-      c->Run(std::string("INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, first_sequence, "
-                         "count, created_unix_ms) VALUES ($1::text, $2::text, $3::text, $4::text, $5::text, $6::bigint, "
-                         "$7::bigint, ") +
+      c.Run(std::string("INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, "
+                        "first_sequence, count, created_unix_ms) VALUES ($1::text, $2::text, $3::text, $4::text, "
+                        "$5::text, $6::bigint, $7::bigint, ") +
                  kNowMs + ")",
              {batch_id, campaign_id, request, content_hash, role, Int(first_sequence), Int(count)});
       if (count > 0) {
-        c->Run(
+        c.Run(
             "INSERT INTO measurements (campaign_id, sequence, batch_id, role, json) "
             "SELECT $1::text, $2::bigint + t.ordinal - 1, $3::text, $4::text, t.json "
             "FROM unnest($5::text[]) WITH ORDINALITY AS t(json, ordinal)",
@@ -194,41 +187,40 @@ class PgStorage final : public Storage {
                                                   std::int64_t after_sequence, int limit) override {
     std::vector<StoredMeasurement> out;
     if (limit <= 0) return out;
-    return pool_.Run([&](pg::Connection& conn) -> std::vector<StoredMeasurement> {
-      pg::Connection* c = &conn;
-      const pg::Result r = c->Run(
+    return pool_.Run([&](pg::Connection& c) -> std::vector<StoredMeasurement> {
+      const pg::Result r = c.Run(
           "SELECT sequence, batch_id, role, json FROM measurements WHERE campaign_id = $1::text "
           "AND ($2::text = '' OR role = $2::text) AND sequence > $3::bigint ORDER BY sequence LIMIT $4::bigint",
           {campaign_id, role, Int(after_sequence), Int(limit)});
       out.reserve(static_cast<std::size_t>(r.rows()));
-      for (int i = 0; i < r.rows(); ++i) out.push_back(StoredMeasurement{r.Int(i, 0), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3)});
+      for (int i = 0; i < r.rows(); ++i) {
+        out.push_back(StoredMeasurement{r.Int(i, 0), r.Text(i, 1), r.Text(i, 2), r.Text(i, 3)});
+      }
       return out;
     });
   }
 
   std::int64_t CountMeasurements(const std::string& campaign_id, const std::string& role) override {
-    return pool_.Run([&](pg::Connection& conn) -> std::int64_t {
-      pg::Connection* c = &conn;
+    return pool_.Run([&](pg::Connection& c) -> std::int64_t {
       return c
-          ->Run("SELECT COUNT(*) FROM measurements WHERE campaign_id = $1::text AND ($2::text = '' OR role = $2::text)",
-                {campaign_id, role})
+          .Run("SELECT COUNT(*) FROM measurements WHERE campaign_id = $1::text AND ($2::text = '' OR role = $2::text)",
+               {campaign_id, role})
           .Int(0, 0);
     });
   }
 
   Document CreateLeased(const std::string& id, const std::string& json, const std::string& owner,
                         std::int64_t lease_ms) override {
-    return pool_.Run([&](pg::Connection& conn) -> Document {
-      pg::Connection* c = &conn;
-      pg::Transaction tx(*c);
+    return pool_.Run([&](pg::Connection& c) -> Document {
+      pg::Transaction tx(c);
       Document doc;
       try {
-        doc = InsertDocument(*c, "operations", id, json);
+        doc = InsertDocument(c, "operations", id, json);
       } catch (const StorageError& e) {
         if (e.kind() != Kind::kAlreadyExists) throw;
         throw StorageError(Kind::kAlreadyExists, "operations/" + id + " already exists");
       }
-      c->Run(
+      c.Run(
           "INSERT INTO operation_leases (id, owner, expires_at) VALUES ($1::text, $2::text, "
           "clock_timestamp() + $3::bigint * interval '1 millisecond') ON CONFLICT (id) DO UPDATE SET "
           "owner = excluded.owner, expires_at = excluded.expires_at, cancel_requested = false, progress = 0",
@@ -242,9 +234,8 @@ class PgStorage final : public Storage {
                                            double progress) override {
     // Renewals and expiry run on a connection of their own, so that requests holding every pooled connection
     // cannot delay a renewal until the lease lapses.
-    return lease_pool_.Run([&](pg::Connection& conn) -> std::optional<OperationLease> {
-      pg::Connection* c = &conn;
-      const pg::Result r = c->Run(
+    return lease_pool_.Run([&](pg::Connection& c) -> std::optional<OperationLease> {
+      const pg::Result r = c.Run(
           "UPDATE operation_leases SET expires_at = clock_timestamp() + $3::bigint * interval '1 millisecond', "
           "progress = $4::double precision WHERE id = $1::text AND owner = $2::text RETURNING " +
               std::string(kLeaseColumns),
@@ -255,34 +246,31 @@ class PgStorage final : public Storage {
   }
 
   std::optional<OperationLease> GetLease(const std::string& id) override {
-    return pool_.Run([&](pg::Connection& conn) -> std::optional<OperationLease> {
-      pg::Connection* c = &conn;
+    return pool_.Run([&](pg::Connection& c) -> std::optional<OperationLease> {
       const pg::Result r =
-          c->Run("SELECT " + std::string(kLeaseColumns) + " FROM operation_leases WHERE id = $1::text", {id});
+          c.Run("SELECT " + std::string(kLeaseColumns) + " FROM operation_leases WHERE id = $1::text", {id});
       if (r.rows() == 0) return std::nullopt;
       return LeaseOf(r);
     });
   }
 
   bool RequestCancel(const std::string& id) override {
-    return pool_.Run([&](pg::Connection& conn) -> bool {
-      pg::Connection* c = &conn;
-      return c->Run("UPDATE operation_leases SET cancel_requested = true WHERE id = $1::text RETURNING 1", {id}).rows() >
+    return pool_.Run([&](pg::Connection& c) -> bool {
+      return c.Run("UPDATE operation_leases SET cancel_requested = true WHERE id = $1::text RETURNING 1", {id}).rows() >
              0;
     });
   }
 
   bool FinishLeased(const std::string& id, const std::string& owner, const std::string& json) override {
-    return pool_.Run([&](pg::Connection& conn) -> bool {
-      pg::Connection* c = &conn;
-      pg::Transaction tx(*c);
-      if (c->Run("DELETE FROM operation_leases WHERE id = $1::text AND owner = $2::text RETURNING 1", {id, owner})
+    return pool_.Run([&](pg::Connection& c) -> bool {
+      pg::Transaction tx(c);
+      if (c.Run("DELETE FROM operation_leases WHERE id = $1::text AND owner = $2::text RETURNING 1", {id, owner})
               .rows() == 0) {
         return false;  // rolled back: nothing written
       }
-      std::optional<Document> doc = GetDocument(*c, "operations", id, true);
+      std::optional<Document> doc = GetDocument(c, "operations", id, true);
       if (!doc) throw StorageError(Kind::kNotFound, "operations/" + id + " not found");
-      WriteDocument(*c, *doc, json);
+      WriteDocument(c, *doc, json);
       tx.Commit();
       return true;
     });
@@ -291,19 +279,18 @@ class PgStorage final : public Storage {
   std::vector<std::string> ExpireLeases(bool all,
                                         const std::function<std::string(const Document&)>& expire) override {
     std::vector<std::string> ended;
-    return lease_pool_.Run([&](pg::Connection& conn) -> std::vector<std::string> {
-      pg::Connection* c = &conn;
+    return lease_pool_.Run([&](pg::Connection& c) -> std::vector<std::string> {
       for (;;) {
-        pg::Transaction tx(*c);
+        pg::Transaction tx(c);
         // SKIP LOCKED: a lease another instance is ending (or its owner renewing) is left to it.
-        const pg::Result r = c->Run(
+        const pg::Result r = c.Run(
             "SELECT id FROM operation_leases WHERE $1::boolean OR expires_at < clock_timestamp() "
             "ORDER BY expires_at LIMIT 1 FOR UPDATE SKIP LOCKED",
             {all ? "true" : "false"});
         if (r.rows() == 0) break;
         const std::string id = r.Text(0, 0);
-        if (std::optional<Document> doc = GetDocument(*c, "operations", id, true)) WriteDocument(*c, *doc, expire(*doc));
-        c->Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
+        if (std::optional<Document> doc = GetDocument(c, "operations", id, true)) WriteDocument(c, *doc, expire(*doc));
+        c.Run("DELETE FROM operation_leases WHERE id = $1::text", {id});
         tx.Commit();
         ended.push_back(id);
       }
@@ -314,11 +301,10 @@ class PgStorage final : public Storage {
   bool Shared() const override { return true; }
 
   std::string IntegrityCheck() override {
-    return pool_.Run([&](pg::Connection& conn) -> std::string {
-      pg::Connection* c = &conn;
+    return pool_.Run([&](pg::Connection& c) -> std::string {
       std::string problems;
       const auto check = [&](const std::string& what, const std::string& sql) {
-        const pg::Result r = c->Run(sql);
+        const pg::Result r = c.Run(sql);
         for (int i = 0; i < r.rows(); ++i) problems += (problems.empty() ? "" : "\n") + what + " " + r.Text(i, 0);
       };
       check("campaign with missing sequences:",
@@ -334,9 +320,8 @@ class PgStorage final : public Storage {
   }
 
   int SchemaVersion() override {
-    return pool_.Run([&](pg::Connection& conn) -> int {
-      pg::Connection* c = &conn;
-      return static_cast<int>(c->Run("SELECT version FROM robocal_schema").Int(0, 0));
+    return pool_.Run([&](pg::Connection& c) -> int {
+      return static_cast<int>(c.Run("SELECT version FROM robocal_schema").Int(0, 0));
     });
   }
 
