@@ -36,16 +36,6 @@ namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- fit
 
-void to_json(nlohmann::json& j, const ModelWire& m) {
-  j = {{"compliance", m.compliance}, {"joint_harmonics", m.joint_harmonics}};
-}
-
-void from_json(const nlohmann::json& j, ModelWire& m) {
-  const WireReader r(j);
-  r.Required("compliance", &m.compliance);
-  r.Required("joint_harmonics", &m.joint_harmonics);
-}
-
 JointErrorTerms ToCore(const ModelWire& model) { return {model.compliance, model.joint_harmonics}; }
 
 ModelWire ToWire(const JointErrorTerms& terms) { return {terms.compliance, terms.joint_harmonics}; }
@@ -242,79 +232,6 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   return options;
 }
 
-void to_json(nlohmann::json& j, const OutlierWire& o) {
-  j = {{"sequence", o.sequence}, {"normalized_residual", Num(o.normalized_residual)}, {"excluded", o.excluded}};
-  if (!o.reflector.empty()) j["reflector"] = o.reflector;
-}
-
-void from_json(const nlohmann::json& j, OutlierWire& o) {
-  const WireReader r(j);
-  r.Required("sequence", &o.sequence);
-  r.Optional("reflector", &o.reflector);
-  r.Required("normalized_residual", &o.normalized_residual);
-  r.Required("excluded", &o.excluded);
-}
-
-void to_json(nlohmann::json& j, const ModelErrorWire& m) {
-  j = {{"estimated", m.estimated},
-       {"model_error_mm", Num(m.model_error_mm)},
-       {"model_error_deg", Num(m.model_error_deg)},
-       {"tracker_rms_mm", Num(m.tracker_rms_mm)},
-       {"tracker_rms_deg", Num(m.tracker_rms_deg)}};
-}
-
-void from_json(const nlohmann::json& j, ModelErrorWire& m) {
-  const WireReader r(j);
-  r.Required("estimated", &m.estimated);
-  r.Required("model_error_mm", &m.model_error_mm);
-  r.Required("model_error_deg", &m.model_error_deg);
-  r.Required("tracker_rms_mm", &m.tracker_rms_mm);
-  r.Required("tracker_rms_deg", &m.tracker_rms_deg);
-}
-
-void to_json(nlohmann::json& j, const RobustFitWire& f) {
-  j = {{"enabled", f.enabled}, {"threshold", Num(f.threshold)}, {"scale", Num(f.scale)}, {"rounds", f.rounds}};
-}
-
-void from_json(const nlohmann::json& j, RobustFitWire& f) {
-  const WireReader r(j);
-  r.Required("enabled", &f.enabled);
-  r.Required("threshold", &f.threshold);
-  r.Required("scale", &f.scale);
-  r.Required("rounds", &f.rounds);
-}
-
-void to_json(nlohmann::json& j, const ParameterEstimate& p) {
-  j = {{"name", p.name}, {"unit", p.unit}, {"value", Num(p.value)}, {"std", Num(p.std)}};
-}
-
-void from_json(const nlohmann::json& j, ParameterEstimate& p) {
-  const WireReader r(j);
-  r.Required("name", &p.name);
-  r.Required("unit", &p.unit);
-  r.Required("value", &p.value);
-  r.Required("std", &p.std);
-}
-
-void to_json(nlohmann::json& j, const Residuals& s) {
-  j = {{"num_measurements", s.num_measurements},
-       {"rms_position_mm", Num(s.rms_position_mm)},
-       {"max_position_mm", Num(s.max_position_mm)},
-       {"rms_orientation_deg", Num(s.rms_orientation_deg)},
-       {"max_orientation_deg", Num(s.max_orientation_deg)},
-       {"rms_weighted", Num(s.rms_weighted)}};
-}
-
-void from_json(const nlohmann::json& j, Residuals& s) {
-  const WireReader r(j);
-  r.Required("num_measurements", &s.num_measurements);
-  r.Required("rms_position_mm", &s.rms_position_mm);
-  r.Required("max_position_mm", &s.max_position_mm);
-  r.Required("rms_orientation_deg", &s.rms_orientation_deg);
-  r.Required("max_orientation_deg", &s.max_orientation_deg);
-  r.Required("rms_weighted", &s.rms_weighted);
-}
-
 Residuals ToWire(const ResidualStatistics& s) {
   return {s.num_measurements,
           s.rms_position_mm,
@@ -324,37 +241,13 @@ Residuals ToWire(const ResidualStatistics& s) {
           s.rms_weighted};
 }
 
-void to_json(nlohmann::json& j, const FitSummary& s) {
-  j = {{"termination", s.termination},
-       {"message", s.message},
-       {"measurement_type", s.measurement_type},
-       {"num_measurements", s.num_measurements},
-       {"num_poses", s.num_poses},
-       {"num_parameters", s.num_parameters},
-       {"iterations", s.iterations},
-       {"initial_cost", Num(s.initial_cost)},
-       {"final_cost", Num(s.final_cost)},
-       {"sigma_hat", Num(s.sigma_hat)},
-       {"seconds", Num(s.seconds)},
-       {"brief", s.brief},
-       {"deadline_exceeded", s.deadline_exceeded}};
-}
-
-void from_json(const nlohmann::json& j, FitSummary& s) {
-  const WireReader r(j);
-  r.Required("termination", &s.termination);
-  r.Required("message", &s.message);
-  r.Required("measurement_type", &s.measurement_type);
-  r.Required("num_measurements", &s.num_measurements);
-  r.Required("num_poses", &s.num_poses);
-  r.Required("num_parameters", &s.num_parameters);
-  r.Required("iterations", &s.iterations);
-  r.Required("initial_cost", &s.initial_cost);
-  r.Required("final_cost", &s.final_cost);
-  r.Required("sigma_hat", &s.sigma_hat);
-  r.Required("seconds", &s.seconds);
-  r.Required("brief", &s.brief);
-  r.Required("deadline_exceeded", &s.deadline_exceeded);
+ResidualStatistics ToCore(const Residuals& r) {
+  return {.num_measurements = r.num_measurements,
+          .rms_position_mm = r.rms_position_mm,
+          .max_position_mm = r.max_position_mm,
+          .rms_orientation_rad = r.rms_orientation_deg / kDegPerRad,
+          .max_orientation_rad = r.max_orientation_deg / kDegPerRad,
+          .rms_weighted = r.rms_weighted};
 }
 
 void to_json(nlohmann::json& j, const CalibrationResult& c) {
@@ -380,39 +273,6 @@ void to_json(nlohmann::json& j, const CalibrationResult& c) {
        {"reflectors", c.reflectors},
        {"summary", c.summary}};
   if (c.model_choice) j["model_choice"] = *c.model_choice;
-}
-
-void to_json(nlohmann::json& j, const ModelCandidateWire& c) {
-  j = {{"model", c.model},
-       {"description", c.description},
-       {"num_parameters", c.num_parameters},
-       {"cv_mean_mm", Num(c.cv_mean_mm)},
-       {"cv_rms_mm", Num(c.cv_rms_mm)},
-       {"cv_standard_error_mm", Num(c.cv_standard_error_mm)},
-       {"failed_folds", c.failed_folds},
-       {"note", c.note},
-       {"chosen", c.chosen}};
-}
-
-void from_json(const nlohmann::json& j, ModelCandidateWire& c) {
-  const WireReader r(j);
-  r.Required("model", &c.model);
-  r.Required("description", &c.description);
-  r.Required("num_parameters", &c.num_parameters);
-  r.Required("cv_mean_mm", &c.cv_mean_mm);
-  r.Required("cv_rms_mm", &c.cv_rms_mm);
-  r.Required("cv_standard_error_mm", &c.cv_standard_error_mm);
-  r.Required("failed_folds", &c.failed_folds);
-  r.Required("note", &c.note);
-  r.Required("chosen", &c.chosen);
-}
-
-void to_json(nlohmann::json& j, const ModelChoiceWire& c) { j = {{"folds", c.folds}, {"candidates", c.candidates}}; }
-
-void from_json(const nlohmann::json& j, ModelChoiceWire& c) {
-  const WireReader r(j);
-  r.Required("folds", &c.folds);
-  r.Required("candidates", &c.candidates);
 }
 
 void from_json(const nlohmann::json& j, CalibrationResult& c) {
@@ -458,6 +318,27 @@ std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& pa
 }
 
 }  // namespace
+
+std::vector<IdentifiedParameter> ToCore(const std::vector<ParameterEstimate>& parameters, const RobotModel& model,
+                                        const std::vector<Reflector>& reflectors, const std::string& path) {
+  std::vector<IdentifiedParameter> out;
+  for (std::size_t k = 0; k < parameters.size(); ++k) {
+    const ParameterEstimate& p = parameters[k];
+    const int index = ParameterIndex(model, reflectors, p.name);
+    if (index < 0) {
+      throw WireError(WirePath(IndexPath(path, k), "name"), "\"" + p.name + "\" is not a parameter of the robot");
+    }
+    const ParameterUnit unit =
+        index >= model.num_error_parameters() ? ParameterUnit::kMm : model.parameter_unit(index);
+    if (p.unit != ParameterUnitName(unit)) {
+      throw WireError(WirePath(IndexPath(path, k), "unit"),
+                      "\"" + p.unit + "\" is not the unit of " + p.name + " (" + ParameterUnitName(unit) + ")");
+    }
+    const double scale = ParameterUnitScale(unit);
+    out.push_back({.index = index, .name = p.name, .value = p.value / scale, .std = p.std / scale});
+  }
+  return out;
+}
 
 CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& sequences) {
   CalibrationResult w;
@@ -670,8 +551,6 @@ Compensation ToWire(const RobotModel& model, const CompensationResult& r) {
   return c;
 }
 
-void to_json(nlohmann::json& j, const CompensateResult& r) { j = {{"campaign", r.campaign}, {"results", r.results}}; }
-
 namespace {
 
 // A JSON number as the shortest text that reads back as the same double; null when not finite (as Num).
@@ -745,12 +624,6 @@ std::string DumpCompensateResult(const CompensateResult& r) {
   return out;
 }
 
-void from_json(const nlohmann::json& j, CompensateResult& r) {
-  const WireReader reader(j);
-  reader.Required("campaign", &r.campaign);
-  reader.Required("results", &r.results);
-}
-
 // ---------------------------------------------------------------------------------------------- evaluation
 
 EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
@@ -758,26 +631,9 @@ EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
   EvaluateRequest req;
   ObjectReader r(body, "", &problems);
   r.Number("h_mm", false, &req.h_mm, 1e-9, 1e6);
-  r.RejectUnknown({"h_mm"});
+  r.RejectUnknown(WireFieldNames<EvaluateRequest>());
   problems.ThrowIfAny("invalid evaluate request");
   return req;
-}
-
-void to_json(nlohmann::json& j, const EvaluateRequest& req) { j = {{"h_mm", req.h_mm}}; }
-
-void from_json(const nlohmann::json& j, EvaluateRequest& req) { WireReader(j).Required("h_mm", &req.h_mm); }
-
-void to_json(nlohmann::json& j, const Statistics& s) {
-  j = {{"count", s.count}, {"mean", Num(s.mean)}, {"std", Num(s.std)}, {"max", Num(s.max)}, {"rp", Num(s.rp)}};
-}
-
-void from_json(const nlohmann::json& j, Statistics& s) {
-  const WireReader r(j);
-  r.Required("count", &s.count);
-  r.Required("mean", &s.mean);
-  r.Required("std", &s.std);
-  r.Required("max", &s.max);
-  r.Required("rp", &s.rp);
 }
 
 namespace {
@@ -788,18 +644,6 @@ ErrorStatistics Unscaled(const Statistics& s, double scale) {
   return ErrorStatistics{s.count, s.mean * scale, s.std * scale, s.max * scale, s.rp * scale};
 }
 }  // namespace
-
-void to_json(nlohmann::json& j, const Accuracy& a) {
-  j = {{"h_mm", a.h_mm}, {"e_xyz_mm", a.e_xyz_mm}, {"e_cos_deg", a.e_cos_deg}, {"e_tot_mm", a.e_tot_mm}};
-}
-
-void from_json(const nlohmann::json& j, Accuracy& a) {
-  const WireReader r(j);
-  r.Required("h_mm", &a.h_mm);
-  r.Required("e_xyz_mm", &a.e_xyz_mm);
-  r.Required("e_cos_deg", &a.e_cos_deg);
-  r.Required("e_tot_mm", &a.e_tot_mm);
-}
 
 Accuracy ToWire(const AccuracyReport& r) {
   return {r.h_mm, Scaled(r.e_xyz_mm, 1.0), Scaled(r.e_cos_rad, kDegPerRad), Scaled(r.e_tot_mm, 1.0)};
@@ -814,42 +658,9 @@ AccuracyReport ToCore(const Accuracy& a) {
   return r;
 }
 
-void to_json(nlohmann::json& j, const Improvement& i) {
-  j = {{"e_xyz_mean", Num(i.e_xyz_mean)},
-       {"e_xyz_rp", Num(i.e_xyz_rp)},
-       {"e_tot_mean", Num(i.e_tot_mean)},
-       {"e_tot_rp", Num(i.e_tot_rp)}};
-}
-
-void from_json(const nlohmann::json& j, Improvement& i) {
-  const WireReader r(j);
-  r.Required("e_xyz_mean", &i.e_xyz_mean);
-  r.Required("e_xyz_rp", &i.e_xyz_rp);
-  r.Required("e_tot_mean", &i.e_tot_mean);
-  r.Required("e_tot_rp", &i.e_tot_rp);
-}
-
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after) {
   const AccuracyImprovement i = ComputeImprovement(before, after);
   return {i.e_xyz_mean, i.e_xyz_rp, i.e_tot_mean, i.e_tot_rp};
-}
-
-void to_json(nlohmann::json& j, const Evaluation& e) {
-  j = {{"campaign", e.campaign},       {"num_validation", e.num_validation},
-       {"h_mm", e.h_mm},               {"nominal", e.nominal},
-       {"calibrated", e.calibrated},   {"improvement_percent", e.improvement_percent}};
-  if (e.note) j["note"] = *e.note;
-}
-
-void from_json(const nlohmann::json& j, Evaluation& e) {
-  const WireReader r(j);
-  r.Required("campaign", &e.campaign);
-  r.Required("num_validation", &e.num_validation);
-  r.Required("h_mm", &e.h_mm);
-  r.Required("nominal", &e.nominal);
-  r.Required("calibrated", &e.calibrated);
-  r.Required("improvement_percent", &e.improvement_percent);
-  r.Optional("note", &e.note);
 }
 
 }  // namespace robocal::api

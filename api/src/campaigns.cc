@@ -11,17 +11,6 @@ namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- campaigns
 
-void to_json(nlohmann::json& j, const CampaignReflectorWire& r) {
-  j = {{"id", r.id}, {"position_mm", r.position_mm}, {"fixed", r.fixed}};
-}
-
-void from_json(const nlohmann::json& j, CampaignReflectorWire& r) {
-  const WireReader reader(j);
-  reader.Required("id", &r.id);
-  reader.Required("position_mm", &r.position_mm);
-  reader.Required("fixed", &r.fixed);
-}
-
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors) {
   std::vector<Reflector> out;
   for (const CampaignReflectorWire& r : reflectors) {
@@ -75,7 +64,7 @@ void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vecto
       problems->Add(JoinPath(path, "position_mm"), "must be within 10000 mm of the flange");
     }
     r.Bool("fixed", false, &w.fixed);
-    r.RejectUnknown({"id", "position_mm", "fixed"});
+    r.RejectUnknown(WireFieldNames<CampaignReflectorWire>());
     out->push_back(std::move(w));
   }
 }
@@ -101,108 +90,12 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
     problems.Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
   }
-  r.RejectUnknown(
-      {"id", "description", "robot", "measurement_type", "plan", "noise", "tracker", "repeatability_mm", "reflectors",
-       "payload"});
+  r.RejectUnknown(WireFieldNames<CreateCampaignRequest>());
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
 
-void to_json(nlohmann::json& j, const CreateCampaignRequest& req) {
-  j = {{"robot", req.robot}, {"noise", req.noise}};
-  if (req.measurement_type) j["measurement_type"] = *req.measurement_type;
-  if (!req.id.empty()) j["id"] = req.id;
-  if (!req.description.empty()) j["description"] = req.description;
-  if (!req.plan.empty()) j["plan"] = req.plan;
-  if (req.tracker) j["tracker"] = *req.tracker;
-  if (req.repeatability_mm != 0.0) j["repeatability_mm"] = req.repeatability_mm;
-  if (!req.reflectors.empty()) j["reflectors"] = req.reflectors;
-  if (req.payload) j["payload"] = *req.payload;
-}
-
-void from_json(const nlohmann::json& j, CreateCampaignRequest& req) {
-  const WireReader r(j);
-  r.Required("robot", &req.robot);
-  r.Optional("measurement_type", &req.measurement_type);
-  r.Optional("id", &req.id);
-  r.Optional("description", &req.description);
-  r.Optional("plan", &req.plan);
-  r.Optional("noise", &req.noise);
-  r.Optional("tracker", &req.tracker);
-  r.Optional("repeatability_mm", &req.repeatability_mm);
-  r.Optional("reflectors", &req.reflectors);
-  r.Optional("payload", &req.payload);
-}
-
-void to_json(nlohmann::json& j, const MeasurementCounts& c) {
-  j = {{"calibration", c.calibration}, {"validation", c.validation}};
-}
-
-void from_json(const nlohmann::json& j, MeasurementCounts& c) {
-  const WireReader r(j);
-  r.Required("calibration", &c.calibration);
-  r.Required("validation", &c.validation);
-}
-
-void to_json(nlohmann::json& j, const Campaign& c) {
-  j = {{"id", c.id},
-       {"description", c.description},
-       {"robot", c.robot},
-       {"measurement_type", c.measurement_type},
-       {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
-       {"noise", c.noise},
-       {"tracker", c.tracker ? nlohmann::json(*c.tracker) : nlohmann::json()},
-       {"repeatability_mm", c.repeatability_mm},
-       {"reflectors", c.reflectors},
-       {"payload", c.payload ? nlohmann::json(*c.payload) : nlohmann::json()},
-       {"created_unix_ms", c.created_unix_ms},
-       {"counts", c.counts},
-       {"calibrated", c.calibrated}};
-}
-
-void from_json(const nlohmann::json& j, Campaign& c) {
-  const WireReader r(j);
-  r.Required("id", &c.id);
-  r.Required("description", &c.description);
-  r.Required("robot", &c.robot);
-  r.Required("measurement_type", &c.measurement_type);
-  r.Required("plan", &c.plan);
-  r.Required("noise", &c.noise);
-  r.Required("tracker", &c.tracker);
-  r.Required("repeatability_mm", &c.repeatability_mm);
-  r.Required("reflectors", &c.reflectors);
-  r.Required("payload", &c.payload);
-  r.Required("created_unix_ms", &c.created_unix_ms);
-  r.Required("counts", &c.counts);
-  r.Required("calibrated", &c.calibrated);
-}
-
-void to_json(nlohmann::json& j, const CampaignList& list) {
-  j = {{"campaigns", list.campaigns}};
-  if (list.next_page_token) j["next_page_token"] = *list.next_page_token;
-}
-
-void from_json(const nlohmann::json& j, CampaignList& list) {
-  const WireReader r(j);
-  r.Required("campaigns", &list.campaigns);
-  r.Optional("next_page_token", &list.next_page_token);
-}
-
 // ---------------------------------------------------------------------------------------------- measurements
-
-void to_json(nlohmann::json& j, const MeasurementWire& m) {
-  j = {{"joints", m.joints}, {"pose", m.pose}};
-  if (!m.reflector.empty()) j["reflector"] = m.reflector;
-  if (m.payload) j["payload"] = *m.payload;
-}
-
-void from_json(const nlohmann::json& j, MeasurementWire& m) {
-  const WireReader r(j);
-  r.Required("joints", &m.joints);
-  r.Required("pose", &m.pose);
-  r.Optional("reflector", &m.reflector);
-  r.Optional("payload", &m.payload);
-}
 
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
                                                      MeasurementType type, const Limits& limits,
@@ -250,76 +143,14 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
       if (const nlohmann::json* v = m.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
-      m.RejectUnknown({"joints", "pose", "reflector", "payload"});
+      m.RejectUnknown(WireFieldNames<MeasurementWire>());
       // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
       if (problems.size() > 100) break;
     }
   }
-  r.RejectUnknown({"request_id", "role", "measurements"});
+  r.RejectUnknown(WireFieldNames<MeasurementBatchRequest>());
   problems.ThrowIfAny("invalid measurement batch");
   return req;
-}
-
-void to_json(nlohmann::json& j, const MeasurementBatchRequest& req) {
-  j = {{"request_id", req.request_id}, {"role", req.role}, {"measurements", req.measurements}};
-}
-
-void from_json(const nlohmann::json& j, MeasurementBatchRequest& req) {
-  const WireReader r(j);
-  r.Required("request_id", &req.request_id);
-  r.Required("role", &req.role);
-  r.Required("measurements", &req.measurements);
-}
-
-void to_json(nlohmann::json& j, const BatchResult& b) {
-  j = {{"campaign", b.campaign},
-       {"batch_id", b.batch_id},
-       {"request_id", b.request_id},
-       {"replayed", b.replayed},
-       {"first_sequence", b.first_sequence},
-       {"count", b.count},
-       {"campaign_total", b.campaign_total}};
-}
-
-void from_json(const nlohmann::json& j, BatchResult& b) {
-  const WireReader r(j);
-  r.Required("campaign", &b.campaign);
-  r.Required("batch_id", &b.batch_id);
-  r.Required("request_id", &b.request_id);
-  r.Required("replayed", &b.replayed);
-  r.Required("first_sequence", &b.first_sequence);
-  r.Required("count", &b.count);
-  r.Required("campaign_total", &b.campaign_total);
-}
-
-void to_json(nlohmann::json& j, const StoredMeasurementWire& m) {
-  j = {{"sequence", m.sequence},
-       {"batch_id", m.batch_id},
-       {"role", m.role},
-       {"joints", m.measurement.joints},
-       {"pose", m.measurement.pose}};
-  if (!m.measurement.reflector.empty()) j["reflector"] = m.measurement.reflector;
-  if (m.measurement.payload) j["payload"] = *m.measurement.payload;
-}
-
-void from_json(const nlohmann::json& j, StoredMeasurementWire& m) {
-  const WireReader r(j);
-  r.Required("sequence", &m.sequence);
-  r.Required("batch_id", &m.batch_id);
-  r.Required("role", &m.role);
-  from_json(j, m.measurement);
-}
-
-void to_json(nlohmann::json& j, const MeasurementList& list) {
-  j = {{"campaign", list.campaign}, {"measurements", list.measurements}};
-  if (list.next_after) j["next_after"] = *list.next_after;
-}
-
-void from_json(const nlohmann::json& j, MeasurementList& list) {
-  const WireReader r(j);
-  r.Required("campaign", &list.campaign);
-  r.Required("measurements", &list.measurements);
-  r.Optional("next_after", &list.next_after);
 }
 
 }  // namespace robocal::api

@@ -11,8 +11,8 @@
 namespace robocal::api {
 namespace {
 
-// Beyond these a value is a typing mistake, not a cell: 1000 km; more reflectors than any tool carries.
-constexpr double kMaxLengthMm = 1e9;
+// Beyond this a count is a typing mistake, not a cell: more reflectors than any tool carries (lengths:
+// kMaxLengthMm).
 constexpr std::size_t kMaxReflectors = 16;
 // A cell's boxes: floor, tables, fixtures, fences. The bound keeps one configuration's check (every capsule and
 // beam against every box) within tens of microseconds, so a :check of max_array_length configurations stays

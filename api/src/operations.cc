@@ -47,12 +47,4 @@ void from_json(const nlohmann::json& j, Operation& op) {
   r.Optional("error", &op.error);
 }
 
-void to_json(nlohmann::json& j, const Health& h) { j = {{"status", h.status}, {"version", h.version}}; }
-
-void from_json(const nlohmann::json& j, Health& h) {
-  const WireReader r(j);
-  r.Required("status", &h.status);
-  r.Required("version", &h.version);
-}
-
 }  // namespace robocal::api

@@ -12,8 +12,7 @@
 namespace robocal::api {
 namespace {
 
-// Values beyond these are typing mistakes, not geometry: 1000 km in mm, a million degrees.
-constexpr double kMaxLengthMm = 1e9;
+// Angles beyond this are typing mistakes, not geometry: a million degrees (lengths: kMaxLengthMm).
 constexpr double kMaxAngleDeg = 1e6;
 // A link heavier than 100 t is a unit mistake.
 constexpr double kMaxMassKg = 1e5;

@@ -1,6 +1,8 @@
 // The stored documents and their versions.
 #include "robocal/api/stored.h"
 
+#include "robocal/api/json_reader.h"
+
 namespace robocal::api {
 namespace {
 
@@ -37,35 +39,23 @@ void from_json(const nlohmann::json& j, StoredRobot& robot) {
 }
 
 void to_json(nlohmann::json& j, const StoredCampaign& c) {
-  j = Versioned({{"id", c.id},
-                 {"description", c.description},
-                 {"robot", c.robot},
-                 {"robot_definition", c.robot_definition},
-                 {"measurement_type", c.measurement_type},
-                 {"plan", c.plan ? nlohmann::json(*c.plan) : nlohmann::json()},
-                 {"noise", c.noise},
-                 {"created_unix_ms", c.created_unix_ms}});
-  if (c.tracker) j["tracker"] = *c.tracker;
-  if (c.repeatability_mm != 0.0) j["repeatability_mm"] = c.repeatability_mm;
-  if (!c.reflectors.empty()) j["reflectors"] = c.reflectors;
-  if (c.payload) j["payload"] = *c.payload;
+  WriteFields(j, c);
+  j[kVersionKey] = kStoredSchemaVersion;
 }
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
   (void)StoredSchemaVersion(j);
-  const WireReader r(j);
-  r.Required("id", &c.id);
-  r.Required("description", &c.description);
-  r.Required("robot", &c.robot);
-  r.Required("robot_definition", &c.robot_definition);
-  r.Required("measurement_type", &c.measurement_type);
-  r.Optional("plan", &c.plan);
-  r.Required("noise", &c.noise);
-  r.Optional("tracker", &c.tracker);
-  r.Optional("repeatability_mm", &c.repeatability_mm);
-  r.Optional("reflectors", &c.reflectors);
-  r.Optional("payload", &c.payload);
-  r.Required("created_unix_ms", &c.created_unix_ms);
+  // What versions before 4 did not write (and what version 4 wrote only when set): each member's empty value.
+  nlohmann::json doc = j;
+  if (doc.is_object()) {
+    for (const auto& [key, empty] : {std::pair<const char*, nlohmann::json>{"tracker", nullptr},
+                                     {"repeatability_mm", 0.0},
+                                     {"reflectors", nlohmann::json::array()},
+                                     {"payload", nullptr}}) {
+      if (!doc.contains(key)) doc[key] = empty;
+    }
+  }
+  ReadFields(doc, &c);
 }
 
 void to_json(nlohmann::json& j, const StoredPlan& plan) { j = Versioned(plan.plan); }
@@ -97,12 +87,21 @@ void to_json(nlohmann::json& j, const StoredCalibration& c) {
                    {"T_world_base", c.T_world_base},
                    {"T_flange_tool", c.T_flange_tool},
                    {"errors", c.errors}}}});
-  if (c.last_calibration_sequence) j["state"]["last_calibration_sequence"] = *c.last_calibration_sequence;
+  nlohmann::json& state = j["state"];
+  if (c.last_calibration_sequence) state["last_calibration_sequence"] = *c.last_calibration_sequence;
+  if (c.covariance) {
+    state["covariance"] = *c.covariance;
+    state["singular_values"] = c.singular_values;
+    state["num_residuals"] = c.num_residuals;
+    state["outlier_measurements"] = c.outlier_measurements;
+    state["implausible_joint_terms"] = c.implausible_joint_terms;
+  }
 }
 
 void from_json(const nlohmann::json& j, StoredCalibration& c) {
   nlohmann::json doc = j;
-  if (StoredSchemaVersion(j) == 1 && doc.contains("result") && doc["result"].contains("summary")) {
+  const int version = StoredSchemaVersion(j);
+  if (version == 1 && doc.contains("result") && doc["result"].contains("summary")) {
     DefaultFalse(&doc["result"]["summary"], "deadline_exceeded");
   }
   const WireReader r(doc);
@@ -112,19 +111,135 @@ void from_json(const nlohmann::json& j, StoredCalibration& c) {
   ReadResultPose(state, "T_world_base", &c.T_world_base);
   ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
   state.Required("errors", &c.errors);
-  std::int64_t last = 0;
-  if (state.Optional("last_calibration_sequence", &last)) c.last_calibration_sequence = last;
+  state.Optional("last_calibration_sequence", &c.last_calibration_sequence);
+  if (version >= 5) {
+    c.covariance.emplace();
+    state.Required("covariance", &*c.covariance);
+    state.Required("singular_values", &c.singular_values);
+    state.Required("num_residuals", &c.num_residuals);
+    state.Required("outlier_measurements", &c.outlier_measurements);
+    state.Required("implausible_joint_terms", &c.implausible_joint_terms);
+  }
 }
 
 StoredCalibration ToStored(const Calibration& calibration, const CalibrationResult& result) {
-  StoredCalibration s;
-  s.result = result;
-  s.registered_base = TransformToPose(calibration.model.T_world_base());
-  s.T_world_base = TransformToPose(calibration.T_world_base);
-  s.T_flange_tool = TransformToPose(calibration.T_flange_tool);
-  s.errors.assign(calibration.errors.data(), calibration.errors.data() + calibration.errors.size());
+  const IdentificationSummary& s = calibration.summary;
+  StoredCalibration stored;
+  stored.result = result;
+  stored.registered_base = TransformToPose(calibration.model.T_world_base());
+  stored.T_world_base = TransformToPose(calibration.T_world_base);
+  stored.T_flange_tool = TransformToPose(calibration.T_flange_tool);
+  stored.errors.assign(calibration.errors.data(), calibration.errors.data() + calibration.errors.size());
+  std::vector<std::vector<double>>& covariance = stored.covariance.emplace();
+  for (Eigen::Index i = 0; i < calibration.covariance.rows(); ++i) {
+    covariance.emplace_back(calibration.covariance.cols());
+    Eigen::Map<Eigen::RowVectorXd>(covariance.back().data(), calibration.covariance.cols()) =
+        calibration.covariance.row(i);
+  }
+  stored.singular_values.assign(s.singular_values.data(), s.singular_values.data() + s.singular_values.size());
+  stored.num_residuals = s.num_residuals;
+  for (const OutlierMeasurement& o : s.outliers) stored.outlier_measurements.push_back(o.measurement);
+  stored.implausible_joint_terms = s.implausible_joint_terms;
+  return stored;
+}
+
+namespace {
+
+Eigen::MatrixXd CovarianceOf(const StoredCalibration& stored) {
+  if (!stored.covariance) return {};
+  const std::vector<std::vector<double>>& rows = *stored.covariance;
+  const std::size_t n = stored.result.parameters.size();
+  if (rows.size() != n) {
+    throw WireError("state.covariance", "expected " + std::to_string(n) + " rows (one per estimated parameter), got " +
+                                            std::to_string(rows.size()));
+  }
+  Eigen::MatrixXd covariance(n, n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (rows[i].size() != n) {
+      throw WireError(IndexPath("state.covariance", i),
+                      "expected " + std::to_string(n) + " values, got " + std::to_string(rows[i].size()));
+    }
+    covariance.row(static_cast<Eigen::Index>(i)) =
+        Eigen::Map<const Eigen::RowVectorXd>(rows[i].data(), static_cast<Eigen::Index>(n));
+  }
+  return covariance;
+}
+
+// The core summary the stored fit was written from: the wire result's figures in the core's units, and the state's
+// version-5 members.
+IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotModel& model,
+                                const std::vector<Reflector>& reflectors) {
+  const CalibrationResult& r = stored.result;
+  IdentificationSummary s;
+  s.termination = r.summary.termination;
+  s.message = r.summary.message;
+  s.measurement_type = r.measurement_type;
+  s.num_measurements = r.summary.num_measurements;
+  s.num_poses = r.summary.num_poses;
+  s.num_residuals = stored.num_residuals;
+  s.num_parameters = r.summary.num_parameters;
+  s.iterations = r.summary.iterations;
+  s.initial_cost = r.summary.initial_cost;
+  s.final_cost = r.summary.final_cost;
+  s.sigma_hat = r.summary.sigma_hat;
+  s.before = ToCore(r.residuals_before);
+  s.after = ToCore(r.residuals_after);
+  s.condition_number = r.condition_number;
+  s.singular_values = Eigen::Map<const Eigen::VectorXd>(stored.singular_values.data(),
+                                                        static_cast<Eigen::Index>(stored.singular_values.size()));
+  s.scaling = r.scaling;
+  s.T_world_base = PoseToTransform(stored.T_world_base);
+  s.T_flange_tool = PoseToTransform(stored.T_flange_tool);
+  for (const DroppedParameterWire& d : r.dropped) {
+    s.dropped.push_back({.index = ParameterIndex(model, reflectors, d.name), .name = d.name, .reason = d.reason});
+  }
+  s.parameters = ToCore(r.parameters, model, reflectors, "result.parameters");
+  // Version 5 records each outlier's index (the covariance marks a version-5 state); older fits do not: -1.
+  const bool indexed = stored.covariance.has_value();
+  if (indexed && stored.outlier_measurements.size() != r.outliers.size()) {
+    throw WireError("state.outlier_measurements", "expected " + std::to_string(r.outliers.size()) +
+                                                      " values (one per outlier), got " +
+                                                      std::to_string(stored.outlier_measurements.size()));
+  }
+  for (std::size_t k = 0; k < r.outliers.size(); ++k) {
+    const OutlierWire& o = r.outliers[k];
+    int reflector = -1;
+    for (std::size_t i = 0; i < reflectors.size(); ++i) {
+      if (reflectors[i].id == o.reflector) reflector = static_cast<int>(i);
+    }
+    s.outliers.push_back({.measurement = indexed ? stored.outlier_measurements[k] : -1,
+                          .reflector = reflector,
+                          .normalized_residual = o.normalized_residual});
+  }
+  s.outlier_threshold = r.robust.threshold;
+  s.robust_scale = r.robust.scale;
+  s.rejection_rounds = r.robust.rounds;
+  s.parameters_with_outliers = ToCore(r.parameters_with_outliers, model, reflectors, "result.parameters_with_outliers");
+  s.model_error_estimated = r.model_error.estimated;
+  s.model_error_mm = r.model_error.model_error_mm;
+  s.model_error_rad = r.model_error.model_error_deg / kDegPerRad;
+  s.tracker_rms_mm = r.model_error.tracker_rms_mm;
+  s.tracker_rms_rad = r.model_error.tracker_rms_deg / kDegPerRad;
+  s.model = ToCore(r.model);
+  s.implausible_joint_terms = stored.implausible_joint_terms;
+  if (r.model_choice) {
+    s.model_folds = r.model_choice->folds;
+    for (const ModelCandidateWire& c : r.model_choice->candidates) {
+      if (c.chosen) s.model_chosen = static_cast<int>(s.model_candidates.size());
+      s.model_candidates.push_back({.terms = ToCore(c.model),
+                                    .num_parameters = c.num_parameters,
+                                    .cv_mean_mm = c.cv_mean_mm,
+                                    .cv_rms_mm = c.cv_rms_mm,
+                                    .cv_standard_error_mm = c.cv_standard_error_mm,
+                                    .failed_folds = c.failed_folds,
+                                    .note = c.note});
+    }
+  }
+  s.seconds = r.summary.seconds;
   return s;
 }
+
+}  // namespace
 
 Calibration Restore(const RobotModel& geometric, const StoredCalibration& stored) {
   // The model the fit estimated: the campaign's robot with the fit's joint terms (none in older fits).
@@ -136,24 +251,18 @@ Calibration Restore(const RobotModel& geometric, const StoredCalibration& stored
   }
   RobotModelSpec spec = nominal.spec();
   spec.T_world_base = PoseToTransform(stored.registered_base);
-  Calibration c{RobotModel::Build(spec),
-                Eigen::Map<const Eigen::VectorXd>(stored.errors.data(), static_cast<Eigen::Index>(stored.errors.size())),
-                {},
-                {},
-                PoseToTransform(stored.T_world_base),
-                PoseToTransform(stored.T_flange_tool),
-                ToCore(stored.result.reflectors),
-                {}};
-  c.summary.termination = stored.result.summary.termination;
-  c.summary.message = stored.result.summary.message;
-  c.summary.measurement_type = stored.result.measurement_type;
-  const ModelErrorWire& model_error = stored.result.model_error;
-  c.summary.model_error_estimated = model_error.estimated;
-  c.summary.model_error_mm = model_error.model_error_mm;
-  c.summary.model_error_rad = model_error.model_error_deg / kDegPerRad;
-  c.summary.tracker_rms_mm = model_error.tracker_rms_mm;
-  c.summary.tracker_rms_rad = model_error.tracker_rms_deg / kDegPerRad;
-  return c;
+  std::vector<Reflector> reflectors = ToCore(stored.result.reflectors);
+  IdentificationSummary summary = SummaryOf(stored, nominal, reflectors);
+  std::vector<IdentifiedParameter> parameters = summary.parameters;
+  return Calibration{
+      .model = RobotModel::Build(spec),
+      .errors = Eigen::Map<const Eigen::VectorXd>(stored.errors.data(), static_cast<Eigen::Index>(stored.errors.size())),
+      .parameters = std::move(parameters),
+      .covariance = CovarianceOf(stored),
+      .T_world_base = PoseToTransform(stored.T_world_base),
+      .T_flange_tool = PoseToTransform(stored.T_flange_tool),
+      .reflectors = std::move(reflectors),
+      .summary = std::move(summary)};
 }
 
 void to_json(nlohmann::json& j, const StoredCell& c) {

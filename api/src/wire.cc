@@ -124,11 +124,6 @@ std::string ContentHash(const std::string& text) {
 
 // ------------------------------------------------------------------------------------------------ poses
 
-namespace {
-// Values beyond this are typing mistakes, not geometry: 1000 km in mm.
-constexpr double kMaxLengthMm = 1e9;
-}  // namespace
-
 bool ParsePose(const nlohmann::json& value, const std::string& path, bool orientation_required,
                Problems* problems, PoseWire* out) {
   const std::size_t before = problems->size();

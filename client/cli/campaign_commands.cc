@@ -351,7 +351,7 @@ int Measurements(Invocation& in) {
     PrintJson(target.stream(), all);
   } else {
     std::vector<api::MeasurementWire> measurements;
-    for (const api::StoredMeasurementWire& m : all.measurements) measurements.push_back(m.measurement);
+    for (const api::StoredMeasurementWire& m : all.measurements) measurements.push_back(m);
     client::WriteMeasurementsCsv(target.stream(), in.Client().GetRobot(campaign.robot).joints, measurements);
   }
   in.err << all.measurements.size() << " measurements of campaign " << campaign.id << "\n";

@@ -10,11 +10,12 @@
 #include <numbers>
 
 #include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 namespace {
 
-constexpr double kParallel = 1e-9;      // |w_i x w_j| below this: parallel axes
+constexpr double kParallelSine = 1e-9;      // |w_i x w_j| below this: parallel axes
 constexpr double kMeet = 1e-6;          // mm: lines closer than this meet
 // A pose this little beyond reach (cos > 1 by at most this) still gives the stretched solution: a seed for the
 // calibrated model, which may reach a little further than the nominal one.
@@ -28,7 +29,6 @@ constexpr double kNearlyParallel = 0.05;
 
 Eigen::Matrix3d Rot(const Eigen::Vector3d& w, double angle) { return Eigen::AngleAxisd(angle, w).toRotationMatrix(); }
 
-double Wrap(double angle) { return std::remainder(angle, 2.0 * std::numbers::pi); }
 
 // Subproblem 1: the angle turning u about w onto v (their parts perpendicular to w); nullopt when either part
 // vanishes (any angle will do).
@@ -60,10 +60,10 @@ std::vector<double> RotateToDot(const Eigen::Vector3d& w, const Eigen::Vector3d&
     // exceeded (the mirror of acos(1 - e) ~ sqrt(2 e)), so that each lies on its own branch.
     const double base = ratio > 0.0 ? phi : phi + std::numbers::pi;
     const double alpha = std::max(std::sqrt(2.0 * (std::abs(ratio) - 1.0)), 1e-3);
-    return {Wrap(base + alpha), Wrap(base - alpha)};
+    return {WrapAngle(base + alpha), WrapAngle(base - alpha)};
   }
   const double alpha = std::acos(ratio);
-  return {Wrap(phi + alpha), Wrap(phi - alpha)};
+  return {WrapAngle(phi + alpha), WrapAngle(phi - alpha)};
 }
 
 // The same, with the value of a free angle taken from `fallback`.
@@ -75,7 +75,7 @@ std::vector<double> RotateToDotOr(const Eigen::Vector3d& w, const Eigen::Vector3
   return angles;
 }
 
-bool Parallel(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.cross(b).norm() < kParallel; }
+bool Parallel(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a.cross(b).norm() < kParallelSine; }
 
 // The point of line (pa, wa) closest to line (pb, wb) (non-parallel lines), and their distance.
 Eigen::Vector3d ClosestPoint(const Eigen::Vector3d& pa, const Eigen::Vector3d& wa, const Eigen::Vector3d& pb,
@@ -267,7 +267,7 @@ std::vector<ArmSolution> ArmSolver::Solve(const Transform& T_base_tool, const Ei
         const double off_axis = std::min((from - x[5].w * x[5].w.dot(from)).norm(), (to - x[5].w * x[5].w.dot(to)).norm());
         if (off_axis < kNearlyParallel) {
           q6s.push_back(reference[5]);
-          for (int k = -5; k <= 6; ++k) q6s.push_back(Wrap(k * std::numbers::pi / 6.0));
+          for (int k = -5; k <= 6; ++k) q6s.push_back(WrapAngle(k * std::numbers::pi / 6.0));
         }
         for (double q6 : q6s) {
         const Transform E5 = exp(4, q5), E6 = exp(5, q6);
@@ -283,7 +283,7 @@ std::vector<ArmSolution> ArmSolver::Solve(const Transform& T_base_tool, const Ei
           const Transform E3 = exp(2, q3);
           const double q2 = RotateTo(x[1].w, E3 * x[3].p - x[1].p, t4 - x[1].p).value_or(reference[1]);
           Eigen::VectorXd q(6);
-          q << q1, q2, q3, Wrap(sum - q2 - q3), q5, q6;
+          q << q1, q2, q3, WrapAngle(sum - q2 - q3), q5, q6;
           raw.push_back(q);
         }
         }

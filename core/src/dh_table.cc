@@ -15,7 +15,7 @@ namespace {
 
 // Two axes whose directions differ by less than this (rad) are parallel: treating them so moves a point a metre
 // away by a nanometre at most.
-constexpr double kParallel = 1e-12;
+constexpr double kParallelRad = 1e-12;
 // Two parallel axes closer than this (mm) are the same line.
 constexpr double kCoincident = 1e-12;
 // A pair of axes parallel in the nominal model within this (rad) is "parallel" for the refusal's explanation.
@@ -74,7 +74,7 @@ Normal CommonNormal(const Line& a, const Line& b, const Ref& ref) {
   Normal n;
   const Eigen::Vector3d c = a.dir.cross(b.dir);
   const double s = c.norm();
-  if (s > kParallel) {
+  if (s > kParallelRad) {
     // Closest points of the two lines: a.point + t a.dir and b.point + u b.dir.
     // In the cross-product form: the dot-product form cancels digits as the lines approach parallel.
     const Eigen::Vector3d w = b.point - a.point;
@@ -234,7 +234,6 @@ Table ModifiedTable(const ChainLines& lines, const Table* nominal) {
   return table;
 }
 
-double Wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
 
 std::string Format(double value, int digits = 4) {
   std::ostringstream out;
@@ -256,9 +255,9 @@ double Deviation(const JointSpec& row, const JointSpec& nominal, int field) {
     case 1:
       return row.a_mm - nominal.a_mm;
     case 2:
-      return Wrap(row.theta_rad - nominal.theta_rad);
+      return WrapAngle(row.theta_rad - nominal.theta_rad);
     default:
-      return Wrap(row.alpha_rad - nominal.alpha_rad);
+      return WrapAngle(row.alpha_rad - nominal.alpha_rad);
   }
 }
 
@@ -312,12 +311,12 @@ std::string PairExplanation(const RobotModel& model, const ChainLines& nominal, 
     return pair + " are " + Format(nominal_angle * kDegPerRad) + " deg from parallel in the nominal model" + closest;
   }
   if (DistanceOfParallel(na, nb) <= kNominallyCoincident) {
-    if (angle <= kParallel && DistanceOfParallel(a, b) <= kNominallyCoincident) return "";
+    if (angle <= kParallelRad && DistanceOfParallel(a, b) <= kNominallyCoincident) return "";
     return pair + " are one line in the nominal model and " + Format(angle * kDegPerRad) + " deg from parallel and " +
            Format(DistanceOfParallel(a, b)) + " mm apart in the calibrated one, and the x axis of a DH frame follows" +
            " the direction of their common normal, which turns with that small difference";
   }
-  if (angle <= kParallel) return "";
+  if (angle <= kParallelRad) return "";
   return pair + " are parallel in the nominal model and " + Format(angle * kDegPerRad) +
          " deg from parallel in the calibrated one" + closest;
 }
@@ -435,8 +434,8 @@ RobotModelSpec CalibratedDhSpec(const RobotModel& model, const Eigen::VectorXd& 
     }
     JointSpec row = table.rows[i];
     // Angles next to the nominal ones, so that a table read beside the nominal one differs by the calibration.
-    row.theta_rad = nom.theta_rad + Wrap(row.theta_rad - nom.theta_rad);
-    row.alpha_rad = nom.alpha_rad + Wrap(row.alpha_rad - nom.alpha_rad);
+    row.theta_rad = nom.theta_rad + WrapAngle(row.theta_rad - nom.theta_rad);
+    row.alpha_rad = nom.alpha_rad + WrapAngle(row.alpha_rad - nom.alpha_rad);
     const JointSpec& source = model.spec().joints[i];
     row.name = source.name;
     row.type = source.type;

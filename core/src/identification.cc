@@ -260,14 +260,14 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
 
   const MeasurementType type = options.measurement_type;
-  Calibration cal{nominal,
-                  Eigen::VectorXd::Zero(n_all),
-                  {},
-                  Eigen::MatrixXd(),
-                  nominal.T_world_base(),
-                  nominal.T_flange_tool(),
-                  options.reflectors,
-                  {}};
+  Calibration cal{.model = nominal,
+                  .errors = Eigen::VectorXd::Zero(n_all),
+                  .parameters = {},
+                  .covariance = {},
+                  .T_world_base = nominal.T_world_base(),
+                  .T_flange_tool = nominal.T_flange_tool(),
+                  .reflectors = options.reflectors,
+                  .summary = {}};
   IdentificationSummary& s = cal.summary;
   s.measurement_type = type;
   s.model = nominal.error_terms();
@@ -392,6 +392,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
   s.condition_number = sv[0] / sv[sv.size() - 1];
+  s.singular_values = sv;
 
   for (int k = 0; k < s.num_parameters; ++k) {
     cal.parameters.push_back({parameters[k], name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});

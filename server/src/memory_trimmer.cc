@@ -34,6 +34,11 @@ void MemoryTrimmer::Schedule() {
   wake_.notify_one();
 }
 
+bool MemoryTrimmer::Due() {
+  std::lock_guard lock(mutex_);
+  return due_;
+}
+
 void MemoryTrimmer::Run() {
   std::unique_lock lock(mutex_);
   for (;;) {

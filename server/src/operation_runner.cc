@@ -209,7 +209,13 @@ api::Operation OperationRunner::Start(api::Operation op, Work work) {
     } catch (const std::exception&) {
       // Its lease expires and an instance (this one, or the next start) marks it FAILED.
     }
-    r->finished = true;
+    {
+      // Under the lock, so that WaitUntilIdle cannot miss it; JoinFinished (which joins with the lock held) sees
+      // `finished` only once this thread no longer needs the lock.
+      const std::lock_guard lock(mutex_);
+      r->finished = true;
+    }
+    finished_.notify_all();
   });
   running_[op.id] = std::move(running);
   return op;
@@ -255,6 +261,16 @@ int OperationRunner::running() {
     if (!op->finished) ++n;
   }
   return n;
+}
+
+void OperationRunner::WaitUntilIdle() {
+  std::unique_lock lock(mutex_);
+  finished_.wait(lock, [this] {
+    for (const auto& [id, op] : running_) {
+      if (!op->finished) return false;
+    }
+    return true;
+  });
 }
 
 int OperationRunner::Recover() {

@@ -507,8 +507,8 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   } else if (f.correlations.empty()) {
     out << None("Fewer than two parameters were estimated: no pairs.");
   } else {
-    out << "<p class=\"note\">Correlation coefficients rho of the estimated parameters' covariance, recomputed at "
-           "the solution; |rho| near 1 means the measurements hardly tell the two apart.</p>\n"
+    out << "<p class=\"note\">Correlation coefficients rho of the estimated parameters' covariance at the "
+           "solution, as the fit stored it; |rho| near 1 means the measurements hardly tell the two apart.</p>\n"
            "<table id=\"correlations\">\n<thead><tr><th>#</th><th>parameter</th><th>parameter</th><th>rho</th>"
            "</tr></thead>\n<tbody>\n";
     for (std::size_t k = 0; k < f.correlations.size(); ++k) {
@@ -524,8 +524,8 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     out << None("Not available: " + f.linearization_problem);
   } else {
     out << "<p class=\"note\">Of the weighted identification Jacobian with unit-norm columns at the solution, "
-           "recomputed from the stored calibration and measurements; condition number "
-        << "<span id=\"recomputed-condition-number\"" << Attr("data-value", Exact(f.condition_number)) << ">"
+           "as the fit stored them; condition number "
+        << "<span id=\"fit-condition-number\"" << Attr("data-value", Exact(f.condition_number)) << ">"
         << Fixed(f.condition_number, 2) << "</span>.</p>\n<table id=\"singular-values\">\n<thead><tr><th>#</th>"
         << "<th>singular value</th></tr></thead>\n<tbody>\n";
     for (std::size_t k = 0; k < f.singular_values.size(); ++k) {
@@ -851,8 +851,7 @@ std::string RenderReport(const ReportData& data) {
   ResidualSection(data, out);
   ValidationSectionHtml(data, out);
   out << "<footer><p class=\"note\">Made by robocal from the stored campaign, plan, calibration and measurements; "
-         "the correlations, singular values and per-pose residuals are recomputed from them with the fit's own "
-         "weighting. docs/report.md explains every section.</p></footer>\n</body>\n</html>\n";
+         "the per-pose residuals are recomputed from them with the fit's own weighting. docs/report.md explains every section.</p></footer>\n</body>\n</html>\n";
   return out.str();
 }
 

@@ -67,16 +67,16 @@ struct PoseResidual {
   int outliers = 0;
 };
 
-/// The fit, as stored, and what the service recomputed from it and the measurements.
+/// The fit, as stored, and its residuals recomputed over the measurements it saw.
 struct FitSection {
   api::CalibrationResult calibration;
-  /// Recomputed at the solution over the measurements the fit used (fit_diagnostics.h): singular values of the
-  /// weighted, column-scaled Jacobian (descending), its condition number, and the most correlated pairs
-  /// (largest |rho| first, at most kTopCorrelations).
+  /// As the fit computed them at its solution and stored them: singular values of the weighted, column-scaled
+  /// Jacobian (descending), its condition number, and the covariance's most correlated pairs (largest |rho|
+  /// first, at most kTopCorrelations).
   std::vector<double> singular_values;
   double condition_number = 0.0;
   std::vector<Correlation> correlations;
-  /// Why the linearisation could not be recomputed (then the three above are empty); "" when it was.
+  /// Why the stored fit has none of the three above (then they are empty); "" when it has them.
   std::string linearization_problem;
   /// Per joint configuration of the measurements the fit saw, in sequence order (at most kMaxResidualBars drawn).
   std::vector<PoseResidual> poses;

@@ -34,17 +34,7 @@ api::StoredCampaign Service::LoadCampaign(const std::string& id) {
 
 api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   api::Campaign c;
-  c.id = s.id;
-  c.description = s.description;
-  c.robot = s.robot;
-  c.measurement_type = s.measurement_type;
-  c.plan = s.plan;
-  c.noise = s.noise;
-  c.tracker = s.tracker;
-  c.repeatability_mm = s.repeatability_mm;
-  c.reflectors = s.reflectors;
-  c.payload = s.payload;
-  c.created_unix_ms = s.created_unix_ms;
+  static_cast<api::CampaignDefinition&>(c) = s;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
   c.calibrated = storage_->Get(kCalibrations, s.id).has_value();
@@ -252,7 +242,7 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
     }
     throw;
   }
-  return {campaign_id, r.batch_id, r.request_id, r.replayed, r.first_sequence, r.count, r.campaign_total};
+  return r;
 }
 
 api::MeasurementList Service::ListMeasurements(const std::string& campaign_id, const std::string& role,
@@ -277,7 +267,7 @@ api::MeasurementList Service::ListMeasurements(const std::string& campaign_id, c
     if (!api::FromWireName(m.role, &w.role)) {
       throw ApiError(Status::kInternal, "stored measurement " + std::to_string(m.sequence) + " has role " + m.role);
     }
-    w.measurement = ReadMeasurement(m);
+    static_cast<api::MeasurementWire&>(w) = ReadMeasurement(m);
     list.measurements.push_back(std::move(w));
   }
   if (static_cast<std::int64_t>(stored.size()) == page && page > 0) list.next_after = stored.back().sequence;

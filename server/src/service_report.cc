@@ -1,7 +1,7 @@
-// The campaign report's data: the stored campaign, robot, plan (and its cell's drawing), calibration and
-// measurements, and what the wire calibration does not keep, recomputed here with the core's own functions
-// (fit_diagnostics.h): the covariance's correlations and the singular values at the solution, and every
-// calibration measurement's residual before and after. report_html.cc renders it.
+// The campaign report's data: the stored campaign, robot, plan (and its cell's drawing), calibration (whole: its
+// covariance's correlations and singular values as the fit computed them) and measurements, with every calibration
+// measurement's residual before and after computed by the core's own function (fit_diagnostics.h).
+// report_html.cc renders it.
 #include <array>
 #include <cerrno>
 #include <cmath>
@@ -142,42 +142,24 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   std::set<std::int64_t> outlier_sequences;
   for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
 
-  // The linearisation over the measurements the fit used, with the fit's parameters and weighting.
-  api::FitRequest request;
-  for (const api::ParameterEstimate& p : result.parameters) request.parameters.push_back(p.name);
-  std::vector<Measurement> used;
-  for (std::size_t i = 0; i < measurements.size(); ++i) {
-    if (!outlier_sequences.count(sequences[i])) used.push_back(measurements[i]);
-  }
-  // Parameter names are the fitted model's (the robot's with the fit's joint terms).
-  const RobotModel& fitted = loaded.calibration.model;
-  bool names_known = true;
-  for (const api::ParameterEstimate& p : result.parameters) {
-    names_known = names_known && ParameterIndex(fitted, given, p.name) >= 0;
-  }
+  // The covariance's correlations and the singular values, as the fit computed them and stored them with it.
+  const Calibration& calibration = loaded.calibration;
   if (result.parameters.empty()) {
     fit.linearization_problem = "the fit estimated no parameters";
-  } else if (!names_known) {
-    fit.linearization_problem = "the stored fit names parameters this robot does not have";
+  } else if (calibration.covariance.size() == 0) {
+    fit.linearization_problem = "the fit was stored before calibrations kept their covariance; fit again to see it";
   } else {
-    const IdentificationOptions options =
-        api::ToIdentificationOptions(request, fitted, campaign.measurement_type, noise, given);
-    try {
-      const FitLinearization lin = LinearizeFit(loaded.calibration, used, options);
-      fit.singular_values.assign(lin.singular_values.data(), lin.singular_values.data() + lin.singular_values.size());
-      fit.condition_number = lin.condition_number;
-      // Names in the linearisation's (ascending index) order, which the covariance follows.
-      std::vector<std::string> names;
-      for (int index : lin.parameters) names.push_back(ParameterName(fitted, given, index));
-      fit.correlations = report::TopCorrelations(names, CorrelationOf(lin.covariance), report::kTopCorrelations);
-    } catch (const std::invalid_argument& e) {
-      fit.linearization_problem = e.what();
-    }
+    const Eigen::VectorXd& sv = calibration.summary.singular_values;
+    fit.singular_values.assign(sv.data(), sv.data() + sv.size());
+    fit.condition_number = calibration.summary.condition_number;
+    std::vector<std::string> names;
+    for (const IdentifiedParameter& p : calibration.parameters) names.push_back(p.name);
+    fit.correlations =
+        report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
   }
 
   // Every calibration measurement's residual before (nominal model, registered base, given reflectors) and after,
   // as the fit's own before/after statistics compute them; then the RMS per joint configuration.
-  const Calibration& calibration = loaded.calibration;
   const std::vector<MeasurementResidualNorms> before =
       ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.measurement_type, noise,
                                   ReflectorsInTool(model, given, Eigen::VectorXd()));

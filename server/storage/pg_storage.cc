@@ -28,7 +28,7 @@ Param Double(double value) {
 }
 
 /// The schema version this build writes; Migrate() brings older databases up to it step by step.
-constexpr int kSchemaVersion = 1;
+constexpr int kPostgresSchemaVersion = 1;
 
 /// The advisory lock that serialises schema migration between instances starting together ("robocal" in
 /// ASCII, as a number).
@@ -157,7 +157,7 @@ class PgStorage final : public Storage {
           if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
             throw BatchConflict(campaign_id, request_id);
           }
-          return BatchResult{r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
+          return BatchResult{campaign_id, r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
         }
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
@@ -179,7 +179,7 @@ class PgStorage final : public Storage {
             {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
       }
       tx.Commit();
-      return BatchResult{batch_id, request_id, false, first_sequence, count, total + count};
+      return BatchResult{campaign_id, batch_id, request_id, false, first_sequence, count, total + count};
     });
   }
 
@@ -377,14 +377,14 @@ class PgStorage final : public Storage {
     } else {
       version = static_cast<int>(r.Int(0, 0));
     }
-    if (version > kSchemaVersion) {
+    if (version > kPostgresSchemaVersion) {
       throw StorageError(Kind::kUnavailable,
                          "database schema version " + std::to_string(version) + " is newer than this build supports (" +
-                             std::to_string(kSchemaVersion) + "); run a newer robocal-server");
+                             std::to_string(kPostgresSchemaVersion) + "); run a newer robocal-server");
     }
-    if (version == kSchemaVersion) return;  // nothing to do: the transaction rolls back
-    for (; version < kSchemaVersion; ++version) MigrateStep(c, version);
-    c.Run("UPDATE robocal_schema SET version = $1::integer", {Int(kSchemaVersion)});
+    if (version == kPostgresSchemaVersion) return;  // nothing to do: the transaction rolls back
+    for (; version < kPostgresSchemaVersion; ++version) MigrateStep(c, version);
+    c.Run("UPDATE robocal_schema SET version = $1::integer", {Int(kPostgresSchemaVersion)});
     tx.Commit();
   }
 

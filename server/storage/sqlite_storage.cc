@@ -24,7 +24,7 @@ namespace {
 using Kind = StorageError::Kind;
 
 /// The schema version this build writes; Migrate() brings older databases up to it step by step.
-constexpr int kSchemaVersion = 2;
+constexpr int kSqliteSchemaVersion = 2;
 
 /// How long a statement waits for a lock held by another process (e.g. a backup) before failing with
 /// kUnavailable. Within the process the mutex already serialises access.
@@ -234,7 +234,7 @@ class SqliteStorage final : public Storage {
           throw BatchConflict(campaign_id, request_id);
         }
         // Nothing written: the transaction rolls back (a no-op) when tx goes out of scope.
-        return BatchResult{stmt.Text(0), request_id, true, stmt.Int(3), stmt.Int(4), total};
+        return BatchResult{campaign_id, stmt.Text(0), request_id, true, stmt.Int(3), stmt.Int(4), total};
       }
     }
 
@@ -266,7 +266,7 @@ class SqliteStorage final : public Storage {
           .Run();
     }
     tx.Commit();
-    return BatchResult{batch_id, request_id, false, first_sequence, count, total + count};
+    return BatchResult{campaign_id, batch_id, request_id, false, first_sequence, count, total + count};
   }
 
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,
@@ -450,16 +450,16 @@ class SqliteStorage final : public Storage {
 
   void Migrate() {
     int version = UserVersion();
-    if (version > kSchemaVersion) {
+    if (version > kSqliteSchemaVersion) {
       throw StorageError(Kind::kUnavailable,
                          "database schema version " + std::to_string(version) + " is newer than this build supports (" +
-                             std::to_string(kSchemaVersion) + "); run a newer robocal-server or restore a backup");
+                             std::to_string(kSqliteSchemaVersion) + "); run a newer robocal-server or restore a backup");
     }
-    while (version < kSchemaVersion) {
+    while (version < kSqliteSchemaVersion) {
       Transaction tx(*this);
       // Another process may have migrated between our read and the write lock.
       version = UserVersion();
-      if (version >= kSchemaVersion) break;
+      if (version >= kSqliteSchemaVersion) break;
       MigrateStep(version);
       Exec("PRAGMA user_version=" + std::to_string(version + 1));
       tx.Commit();

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "robocal/api/batch_result.h"
+
 namespace robocal::server {
 
 /// A storage failure the service maps to an HTTP status in one place.
@@ -59,18 +61,8 @@ struct StoredMeasurement {
   std::string json;
 };
 
-/// The outcome of appending a batch.
-struct BatchResult {
-  std::string batch_id;
-  std::string request_id;
-  /// True if request_id had been stored before with the same content: nothing was written, the original
-  /// batch is returned.
-  bool replayed = false;
-  std::int64_t first_sequence = 0;
-  std::int64_t count = 0;
-  /// Measurements in the campaign after the append (all roles).
-  std::int64_t campaign_total = 0;
-};
+/// The outcome of appending a batch: the wire's reply itself (api/batch_result.h, one struct for both).
+using api::BatchResult;
 
 /// The live state of a running operation, shared by every instance on the database: who runs it, how far it
 /// got, whether a cancel was asked for (by any instance).

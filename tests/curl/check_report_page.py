@@ -203,7 +203,7 @@ def check_dom(path, calibration, evaluation, plan):
         check_number(dom, "fit-residuals", side + ".rms_position_mm", calibration[side]["rms_position_mm"], 4)
         check_number(dom, "fit-residuals", side + ".max_position_mm", calibration[side]["max_position_mm"], 4)
     check_number(dom, "fit-summary", "condition_number", calibration["condition_number"], 2)
-    recomputed = [a for tag, a in dom.tags.get("fit", []) if a.get("id") == "recomputed-condition-number"]
+    recomputed = [a for tag, a in dom.tags.get("fit", []) if a.get("id") == "fit-condition-number"]
     check(len(recomputed) == 1 and close(float(recomputed[0]["data-value"]), calibration["condition_number"], 1e-6),
           "the recomputed condition number differs from the fit's %r" % calibration["condition_number"])
     outliers = [c for c in dom.cells.get("outliers", []) if c[0] == "sequence"]

@@ -130,7 +130,7 @@ TEST(ReportHtmlTest, TablesHoldTheInputNumbers) {
   EXPECT_EQ(ValueAfter(page, "id=\"correlations\"", "rho"), -0.987654);
   EXPECT_EQ(ValueAfter(page, "id=\"outliers\"", "sequence"), 17.0);
   EXPECT_EQ(Count(page, "data-key=\"singular_value\""), 3u);
-  EXPECT_NE(page.find("id=\"recomputed-condition-number\" data-value=\"12\""), std::string::npos);
+  EXPECT_NE(page.find("id=\"fit-condition-number\" data-value=\"12\""), std::string::npos);
   // One bar group per configuration in each chart (position and, for pose measurements, orientation), the
   // outlier marked once in each.
   EXPECT_EQ(Count(page, "<g class=\"pose"), 2 * 5u);
@@ -302,7 +302,7 @@ TEST(ReportEndpointTest, NumbersEqualTheCalibrationAndTheEvaluation) {
     EXPECT_EQ(ValueAfter(page, row, "std"), p["std"].get<double>()) << row;
   }
   // Recomputed from the stored calibration and measurements: the fit's own condition number.
-  const std::string marker = "id=\"recomputed-condition-number\" data-value=\"";
+  const std::string marker = "id=\"fit-condition-number\" data-value=\"";
   const std::size_t at = page.find(marker);
   ASSERT_NE(at, std::string::npos);
   const double recomputed = std::stod(page.substr(at + marker.size()));
@@ -381,8 +381,8 @@ void CalibratedCampaign(TestServer& s, const std::string& id, int configurations
   *fit = reply.body;
 }
 
-double RecomputedConditionNumber(const std::string& page) {
-  const std::string marker = "id=\"recomputed-condition-number\" data-value=\"";
+double FitConditionNumber(const std::string& page) {
+  const std::string marker = "id=\"fit-condition-number\" data-value=\"";
   const std::size_t at = page.find(marker);
   return at == std::string::npos ? std::nan("") : std::stod(page.substr(at + marker.size()));
 }
@@ -398,7 +398,7 @@ TEST(ReportEndpointTest, MeasurementsUploadedAfterTheFitAreNotInIt) {
     const Reply page = s.Get("/v1/campaigns/late/report");
     ASSERT_EQ(page.status, 200) << page.text;
     // The fit's sections are over the 60 measurements it used, as the fit itself computed them.
-    EXPECT_NEAR(RecomputedConditionNumber(page.text) / fit["condition_number"].get<double>(), 1.0, 1e-8) << when;
+    EXPECT_NEAR(FitConditionNumber(page.text) / fit["condition_number"].get<double>(), 1.0, 1e-8) << when;
     EXPECT_EQ(Count(page.text, "<g class=\"pose"), 2u * 20u) << when;  // position and orientation charts
     EXPECT_EQ(ValueAfter(page.text, "id=\"campaign-summary\"", "counts.calibration"), 90.0) << when;
     EXPECT_EQ(ValueAfter(page.text, "id=\"campaign-summary\"", "counts.after_fit"), 30.0) << when;

@@ -1,8 +1,10 @@
 // The HTTP server end to end in-process: every endpoint, bad input, idempotency, auth, limits, operations.
 #include <atomic>
+#include <condition_variable>
 #include <cstring>
 #include <fstream>
 #include <future>
+#include <mutex>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -787,9 +789,7 @@ void TakeOverAHeldFit(bool owner_renews) {
     EXPECT_TRUE(a.service().GetOperation(id).done);
   }
   held.Release();
-  for (int i = 0; i < 12000 && a.service().running_operations() > 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  a.service().WaitForOperations();
   ASSERT_EQ(a.service().running_operations(), 0);
   EXPECT_EQ(a.service().GetOperation(id).state, api::OperationState::kFailed) << "an operation ends once";
   EXPECT_EQ(a.Get("/v1/campaigns/cf/calibration").status, 404) << "a fit taken over stores nothing";
@@ -826,9 +826,7 @@ TEST(OperationLeaseTest, AnOperationWhoseFinalWriteFailedEndsFailedWithoutAResta
   auto& storage = dynamic_cast<FakeStorage&>(a.storage());
   storage.fail_finishes = true;
   held.Release();
-  for (int i = 0; i < 12000 && a.service().running_operations() > 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  a.service().WaitForOperations();
   ASSERT_EQ(a.service().running_operations(), 0);
   storage.fail_finishes = false;
   EXPECT_EQ(a.service().GetOperation(id).state, api::OperationState::kRunning) << "its final write was lost";
@@ -1025,28 +1023,46 @@ TEST(ServerTest, OpenApiSpecMatchesTheRouteTable) {
   for (const auto& d : documented) EXPECT_TRUE(routes.count(d)) << "not served: " << d.first << " " << d.second;
 }
 
-// Trims run on the trimmer's thread after the delay, once however often they were asked for, and a trimmer
-// with a trim still waiting stops at once.
+// Trims run on the trimmer's thread after the delay, once however often they were asked for, none without being
+// asked, and a trimmer with a trim still waiting stops at once.
 TEST(MemoryTrimmerTest, TrimsOnceAfterTheDelayAndStopsAtOnce) {
-  std::atomic<int> trims{0};
-  {
-    MemoryTrimmer trimmer(std::chrono::milliseconds(50), [&] { ++trims; });
-    for (int i = 0; i < 5; ++i) trimmer.Schedule();
-    for (int i = 0; i < 500 && trims.load() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    ASSERT_GE(trims.load(), 1);
-    EXPECT_LE(trims.load(), 5);
-    const int after_burst = trims.load();
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    EXPECT_EQ(trims.load(), after_burst);  // nothing asked, nothing done
-    trimmer.Schedule();
-    for (int i = 0; i < 500 && trims.load() == after_burst; ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::mutex mutex;
+  std::condition_variable trimmed;
+  int trims = 0;
+  const auto trim = [&] {
+    {
+      const std::lock_guard lock(mutex);
+      ++trims;
     }
-    EXPECT_EQ(trims.load(), after_burst + 1);
+    trimmed.notify_all();
+  };
+  // The guard only turns a hang into a failure; the test waits for the trim itself.
+  const auto wait_for_trims = [&](int n) {
+    std::unique_lock lock(mutex);
+    return trimmed.wait_for(lock, std::chrono::minutes(1), [&] { return trims >= n; });
+  };
+  const auto count = [&] {
+    const std::lock_guard lock(mutex);
+    return trims;
+  };
+  {
+    MemoryTrimmer trimmer(std::chrono::milliseconds(50), trim);
+    for (int i = 0; i < 5; ++i) trimmer.Schedule();
+    ASSERT_TRUE(wait_for_trims(1));
+    // A Schedule() of the burst that came after the first trim began asks for one more (a slow test thread). Read
+    // before Due(): a trim Due() reports has not begun, so it counts after `seen`.
+    for (int seen = count(); trimmer.Due(); seen = count()) ASSERT_TRUE(wait_for_trims(seen + 1));
+    const int after_burst = count();
+    EXPECT_LE(after_burst, 5);
+    EXPECT_FALSE(trimmer.Due()) << "nothing asked, nothing waiting: the thread sleeps until Schedule()";
+    trimmer.Schedule();
+    EXPECT_TRUE(trimmer.Due());
+    ASSERT_TRUE(wait_for_trims(after_burst + 1));
+    EXPECT_EQ(count(), after_burst + 1);
   }
   const auto start = std::chrono::steady_clock::now();
   {
-    MemoryTrimmer waiting(std::chrono::hours(1), [&] { ++trims; });
+    MemoryTrimmer waiting(std::chrono::hours(1), trim);
     waiting.Schedule();
   }
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::minutes(1));

@@ -50,7 +50,7 @@ class WireTest : public ::testing::Test {
     fit_ = std::get<CalibrationResult>(service_->Fit("w", json::object()));
     operation_ = std::get<Operation>(service_->CreatePlan(
         {{"robot", "ur5e"}, {"num_configurations", 8}, {"async", true}, {"options", {{"k_max", 5}}}}));
-    while (!service_->GetOperation(operation_.id).done) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    service_->WaitForOperations();
     operation_ = service_->GetOperation(operation_.id);
   }
   static void TearDownTestSuite() {
@@ -693,100 +693,6 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
   };
   walk(spec, "");
   EXPECT_GT(checked, 12);
-}
-
-// ---------------------------------------------------------------------------------------------- stored documents
-
-// Documents as the server wrote them before stored documents had a schema version (copied from a database of
-// that version): they still load, including values the request validation of today refuses (a theta of 400 deg
-// and a description longer than 1024 characters would be refused as requests).
-TEST(StoredDocumentTest, PreviousSchemaVersionStillLoads) {
-  const std::string long_text(2000, 'x');
-  const json robot_v1 = {
-      {"id", "old"},
-      {"description", long_text},
-      {"convention", "mdh"},
-      {"joints",
-       {{{"type", "revolute"}, {"a_mm", 0}, {"alpha_deg", 0}, {"d_mm", 300}, {"theta_deg", 400}, {"min_deg", -170},
-         {"max_deg", 170}},
-        {{"name", "lift"}, {"type", "prismatic"}, {"a_mm", 50}, {"alpha_deg", -90}, {"d_mm", 0}, {"theta_deg", 0},
-         {"min_mm", 0}, {"max_mm", 800}}}},
-      {"tool", {{"position_mm", {0, 0, 120}}, {"quaternion", {1, 0, 0, 0}}}}};
-  EXPECT_THROW((void)ParseRegisterRobotRequest(robot_v1, Limits{}), ApiError);
-  const StoredRobot robot = FromWire<StoredRobot>(robot_v1);
-  EXPECT_EQ(robot.definition.description, long_text);
-  const RobotModel model = BuildModel(robot.definition);
-  EXPECT_EQ(model.num_joints(), 2);
-  EXPECT_EQ(model.joint_name(1), "lift");
-  // Written again, it carries the current version and reads back the same.
-  const json robot_v2 = json(robot);
-  EXPECT_EQ(robot_v2.at("schema_version"), kStoredSchemaVersion);
-  EXPECT_EQ(json(FromWire<StoredRobot>(robot_v2)), robot_v2);
-
-  const json campaign_v1 = {{"id", "c1"},
-                            {"description", ""},
-                            {"robot", "old"},
-                            {"robot_definition", robot_v1},
-                            {"measurement_type", "position"},
-                            {"plan", nullptr},
-                            {"noise", {{"position_mm", 0.015}, {"orientation_deg", 0.0057}}},
-                            {"created_unix_ms", 1700000000000}};
-  const StoredCampaign campaign = FromWire<StoredCampaign>(campaign_v1);
-  EXPECT_EQ(campaign.measurement_type, MeasurementType::kPosition);
-  EXPECT_FALSE(campaign.plan.has_value());
-
-  // A version-1 fit said nothing of a deadline (it was written only when true).
-  const Calibration identity{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {},
-                             Transform::Identity(), Transform::Identity(), {}};
-  CalibrationResult result = ToWire(identity);
-  result.campaign = "c1";
-  result.robot = "old";
-  result.stored = true;
-  json calibration_v1 = json(ToStored(identity, result));
-  calibration_v1.erase("schema_version");
-  calibration_v1["result"]["summary"].erase("deadline_exceeded");
-  const StoredCalibration stored = FromWire<StoredCalibration>(calibration_v1);
-  EXPECT_FALSE(stored.result.summary.deadline_exceeded);
-  EXPECT_EQ(stored.errors.size(), static_cast<std::size_t>(model.num_error_parameters()));
-  EXPECT_FALSE(stored.last_calibration_sequence.has_value());  // unknown: the report takes the first ones
-
-  json future = robot_v2;
-  future["schema_version"] = kStoredSchemaVersion + 1;
-  try {
-    (void)FromWire<StoredRobot>(future);
-    FAIL() << "a newer version read as this one";
-  } catch (const WireError& e) {
-    EXPECT_EQ(e.path(), "schema_version");
-  }
-}
-
-// The last calibration measurement a fit saw is kept when known, and absent (not 0) when not.
-TEST(StoredDocumentTest, LastCalibrationSequenceRoundTrips) {
-  const RobotModel model = Preset("ur5e");
-  const Calibration c{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {}, Transform::Identity(),
-                      Transform::Identity(), {}, {}};
-  StoredCalibration s = ToStored(c, ToWire(c));
-  EXPECT_FALSE(json(s)["state"].contains("last_calibration_sequence"));
-  EXPECT_FALSE(FromWire<StoredCalibration>(json(s)).last_calibration_sequence.has_value());
-  s.last_calibration_sequence = 90;
-  EXPECT_EQ(json(s)["state"]["last_calibration_sequence"], 90);
-  EXPECT_EQ(FromWire<StoredCalibration>(json(s)).last_calibration_sequence, std::optional<std::int64_t>(90));
-}
-
-// A stored fit that did not converge comes back as it was stored (it used to be restored as converged).
-TEST(StoredDocumentTest, RestoredCalibrationKeepsItsTermination) {
-  const RobotModel model = Preset("ur5e");
-  for (Termination t : {Termination::kNoConvergence, Termination::kDegraded, Termination::kConvergence}) {
-    Calibration c{model, Eigen::VectorXd::Zero(model.num_error_parameters()), {}, {}, Transform::Identity(),
-                  Transform::Identity(), {}};
-    c.summary.termination = t;
-    c.summary.message = "as stored";
-    CalibrationResult result = ToWire(c);
-    const StoredCalibration stored = FromWire<StoredCalibration>(json(ToStored(c, result)));
-    const Calibration restored = Restore(model, stored);
-    EXPECT_EQ(restored.summary.termination, t) << WireName(t);
-    EXPECT_EQ(restored.summary.message, "as stored");
-  }
 }
 
 }  // namespace

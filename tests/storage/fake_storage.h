@@ -99,7 +99,7 @@ class FakeStorage : public Storage {
     }
     char batch_id[19];
     std::snprintf(batch_id, sizeof batch_id, "b-%016llx", static_cast<unsigned long long>(++clock_));
-    BatchResult r{batch_id, request_id, false,
+    BatchResult r{campaign_id, batch_id, request_id, false,
                   static_cast<std::int64_t>(list.size()) + 1,
                   static_cast<std::int64_t>(measurements_json.size()), total};
     for (const auto& m : measurements_json) {

@@ -23,7 +23,8 @@ namespace {
 
 using Kind = StorageError::Kind;
 
-std::vector<std::string> Batch(int count, const std::string& tag) {
+// Measurements whose text holds a quote and a backslash: the batch insert passes them through unchanged.
+std::vector<std::string> QuotedBatch(int count, const std::string& tag) {
   std::vector<std::string> batch;
   for (int i = 0; i < count; ++i) batch.push_back(R"({")" + tag + R"(":)" + std::to_string(i) + R"(,"q":"a\"b\\c"})");
   return batch;
@@ -48,7 +49,7 @@ TEST(PostgresStorageTest, TwoInstancesAppendingToOneCampaignLoseAndDuplicateNoth
       Storage& instance = t % 2 == 0 ? *a : *b;
       for (int i = 0; i < kBatches; ++i) {
         const std::string request = "t" + std::to_string(t) + "-" + std::to_string(i);
-        results[t].push_back(instance.AppendMeasurements("c", request, "h", "calibration", Batch(kSize, request)));
+        results[t].push_back(instance.AppendMeasurements("c", request, "h", "calibration", QuotedBatch(kSize, request)));
       }
     });
   }
@@ -64,7 +65,7 @@ TEST(PostgresStorageTest, TwoInstancesAppendingToOneCampaignLoseAndDuplicateNoth
       for (int k = 0; k < kSize; ++k) {
         const auto& m = all[static_cast<std::size_t>(r.first_sequence - 1 + k)];
         EXPECT_EQ(m.batch_id, r.batch_id);
-        EXPECT_EQ(m.json, Batch(kSize, tag)[static_cast<std::size_t>(k)]) << "stored as sent, quotes and backslashes";
+        EXPECT_EQ(m.json, QuotedBatch(kSize, tag)[static_cast<std::size_t>(k)]) << "stored as sent, quotes and backslashes";
       }
     }
   }
@@ -76,14 +77,14 @@ TEST(PostgresStorageTest, ABatchRetriedThroughAnotherInstanceIsStoredOnce) {
   auto a = Instance(db);
   auto b = Instance(db);
   a->Create("campaigns", "c", "{}");
-  const BatchResult first = a->AppendMeasurements("c", "req-1", "hash-1", "calibration", Batch(5, "x"));
-  const BatchResult retry = b->AppendMeasurements("c", "req-1", "hash-1", "calibration", Batch(5, "x"));
+  const BatchResult first = a->AppendMeasurements("c", "req-1", "hash-1", "calibration", QuotedBatch(5, "x"));
+  const BatchResult retry = b->AppendMeasurements("c", "req-1", "hash-1", "calibration", QuotedBatch(5, "x"));
   EXPECT_TRUE(retry.replayed);
   EXPECT_EQ(retry.batch_id, first.batch_id);
   EXPECT_EQ(retry.first_sequence, first.first_sequence);
   EXPECT_EQ(b->CountMeasurements("c"), 5);
   try {
-    b->AppendMeasurements("c", "req-1", "hash-2", "calibration", Batch(5, "y"));
+    b->AppendMeasurements("c", "req-1", "hash-2", "calibration", QuotedBatch(5, "y"));
     ADD_FAILURE() << "a request id reused for other content was stored";
   } catch (const StorageError& e) {
     EXPECT_EQ(e.kind(), Kind::kAlreadyExists);
@@ -94,10 +95,10 @@ TEST(PostgresStorageTest, ABatchRetriedThroughAnotherInstanceIsStoredOnce) {
   std::vector<BatchResult> via_a(kRequests);
   std::vector<BatchResult> via_b(kRequests);
   std::thread ta([&] {
-    for (int i = 0; i < kRequests; ++i) via_a[i] = a->AppendMeasurements("c", "race-" + std::to_string(i), "h", "calibration", Batch(3, "r"));
+    for (int i = 0; i < kRequests; ++i) via_a[i] = a->AppendMeasurements("c", "race-" + std::to_string(i), "h", "calibration", QuotedBatch(3, "r"));
   });
   std::thread tb([&] {
-    for (int i = 0; i < kRequests; ++i) via_b[i] = b->AppendMeasurements("c", "race-" + std::to_string(i), "h", "calibration", Batch(3, "r"));
+    for (int i = 0; i < kRequests; ++i) via_b[i] = b->AppendMeasurements("c", "race-" + std::to_string(i), "h", "calibration", QuotedBatch(3, "r"));
   });
   ta.join();
   tb.join();
@@ -209,7 +210,7 @@ TEST(PostgresStorageTest, ConnectionsKilledByTheServerAreReestablishedWithoutFai
   admin.Run("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE datname = $1::text", {db.name()});
   // Every pooled connection is dead now; each call finds that at its first statement, which therefore never
   // ran, re-establishes the connection and runs again: no call fails.
-  for (int i = 0; i < 6; ++i) storage->AppendMeasurements("c", "r" + std::to_string(i), "h", "calibration", Batch(2, "k"));
+  for (int i = 0; i < 6; ++i) storage->AppendMeasurements("c", "r" + std::to_string(i), "h", "calibration", QuotedBatch(2, "k"));
   EXPECT_EQ(storage->CountMeasurements("c"), 12);
   EXPECT_TRUE(storage->Get("campaigns", "c").has_value());
   EXPECT_EQ(storage->IntegrityCheck(), "ok");
@@ -224,7 +225,7 @@ TEST(PostgresStorageTest, IntegrityCheckFindsAMissingMeasurement) {
   testing::PgTestDatabase db;
   auto storage = Instance(db);
   storage->Create("campaigns", "c", "{}");
-  storage->AppendMeasurements("c", "r", "h", "calibration", Batch(4, "k"));
+  storage->AppendMeasurements("c", "r", "h", "calibration", QuotedBatch(4, "k"));
   EXPECT_EQ(storage->IntegrityCheck(), "ok");
   pg::Connection(db.Url()).Exec("DELETE FROM measurements WHERE sequence = 2");
   const std::string problems = storage->IntegrityCheck();

@@ -146,6 +146,7 @@ TEST_P(StorageTest, AppendAssignsSequencesAndCountsTotals) {
   storage_->Create("campaigns", "c", "{}");
   const BatchResult a = storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   EXPECT_FALSE(a.replayed);
+  EXPECT_EQ(a.campaign, "c");
   EXPECT_EQ(a.request_id, "r1");
   EXPECT_EQ(a.first_sequence, 1);
   EXPECT_EQ(a.count, 3);
@@ -173,6 +174,7 @@ TEST_P(StorageTest, ReplaySameContentWritesNothing) {
   storage_->AppendMeasurements("c", "r2", "h2", "calibration", Batch(2));
   const BatchResult again = storage_->AppendMeasurements("c", "r1", "h1", "calibration", Batch(3));
   EXPECT_TRUE(again.replayed);
+  EXPECT_EQ(again.campaign, "c");
   EXPECT_EQ(again.batch_id, first.batch_id);
   EXPECT_EQ(again.first_sequence, 1);
   EXPECT_EQ(again.count, 3);

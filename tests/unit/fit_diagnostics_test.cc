@@ -16,10 +16,6 @@
 namespace robocal {
 namespace {
 
-std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  return test::RandomConfigurations(model, count, seed);
-}
-
 // Fits `data`, then recomputes the linearisation from what a stored calibration keeps (the calibration, the
 // measurements less the outliers, the estimated indices) and compares with the fit's own figures.
 void ExpectLinearizationMatchesTheFit(const RobotModel& model, const std::vector<Measurement>& data,
@@ -57,7 +53,7 @@ TEST(LinearizeFitTest, EqualsTheFitsCovarianceWithAPlantedOutlier) {
   o.seed = 4;
   o.shots_per_pose = 1;
   VirtualCell cell(model, o);
-  std::vector<Measurement> data = cell.MeasureAll(Configurations(model, 30, 7));
+  std::vector<Measurement> data = cell.MeasureAll(test::RandomConfigurations(model, 30, 7));
   data[7].T_world_tool.translation() += Eigen::Vector3d(1.2, -1.6, 0.0);  // 2 mm: excluded by the robust fit
   IdentificationOptions fit;
   fit.noise = o.noise;
@@ -75,7 +71,7 @@ TEST(LinearizeFitTest, EqualsTheFitsCovarianceWithATrackerModelAndRepeatability)
   IdentificationOptions fit;
   fit.measurement_type = MeasurementType::kPosition;
   fit.noise = o.noise;
-  ExpectLinearizationMatchesTheFit(model, cell.MeasureAll(Configurations(model, 30, 11)), fit, 0);
+  ExpectLinearizationMatchesTheFit(model, cell.MeasureAll(test::RandomConfigurations(model, 30, 11)), fit, 0);
 }
 
 TEST(LinearizeFitTest, EqualsTheFitsCovarianceWithFreeReflectorNests) {
@@ -90,7 +86,7 @@ TEST(LinearizeFitTest, EqualsTheFitsCovarianceWithFreeReflectorNests) {
   fit.measurement_type = MeasurementType::kPosition;
   fit.noise = o.noise;
   fit.reflectors = o.reflectors;
-  ExpectLinearizationMatchesTheFit(model, cell.MeasureAll(Configurations(model, 20, 5)), fit, 0);
+  ExpectLinearizationMatchesTheFit(model, cell.MeasureAll(test::RandomConfigurations(model, 20, 5)), fit, 0);
 }
 
 TEST(LinearizeFitTest, RefusesWhatCannotBeLinearized) {
@@ -98,7 +94,7 @@ TEST(LinearizeFitTest, RefusesWhatCannotBeLinearized) {
   VirtualCellOptions o;
   o.seed = 4;
   VirtualCell cell(model, o);
-  const std::vector<Measurement> data = cell.MeasureAll(Configurations(model, 12, 3));
+  const std::vector<Measurement> data = cell.MeasureAll(test::RandomConfigurations(model, 12, 3));
   IdentificationOptions fit;
   fit.noise = o.noise;
   const Calibration cal = Identify(model, data, fit);
@@ -117,7 +113,7 @@ TEST(MeasurementResidualsTest, EachMeasurementAgainstAKnownOffset) {
   const RobotModel model = Preset("ur5e");
   std::vector<Measurement> measurements;
   int i = 0;
-  for (const Eigen::VectorXd& q : Configurations(model, 4, 1)) {
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 4, 1)) {
     Transform t = ForwardKinematics(model, q);
     // Measurement i is off by (3, 4, 0) i mm and turned by 1e-3 i rad about the tracker's z.
     t.translation() += static_cast<double>(i) * Eigen::Vector3d(3.0, 4.0, 0.0);

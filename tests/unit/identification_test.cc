@@ -13,19 +13,13 @@
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
+#include "test_util.h"
 
 namespace robocal {
 namespace {
 
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
-  return out;
-}
 
 VirtualCellOptions ExactCell(std::uint64_t seed) {
   VirtualCellOptions o;
@@ -116,7 +110,7 @@ TEST_P(NoiseFreeRecoveryTest, CalibratedModelPredictsTheTrueRobotOnFreshConfigur
   const auto& [preset, type, expected_parameters] = GetParam();
   const RobotModel model = Preset(preset);
   VirtualCell cell(model, ExactCell(17));
-  const auto measurements = cell.MeasureAll(Configurations(model, 30, 100));
+  const auto measurements = cell.MeasureAll(test::RandomConfigurations(model, 30, 100));
   IdentificationOptions o;
   o.measurement_type = type;
   const Calibration cal = Identify(model, measurements, o);
@@ -141,7 +135,7 @@ TEST_P(NoiseFreeRecoveryTest, CalibratedModelPredictsTheTrueRobotOnFreshConfigur
   inner.tail<6>().setZero();
 
   KinematicsWorkspace ws(model), ws_effective(model);
-  for (const Eigen::VectorXd& q : Configurations(model, 20, 999)) {
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 20, 999)) {
     const Transform truth = cell.TruePose(q);
     const Transform predicted = ForwardKinematics(cal.model, q, cal.errors, &ws);
     EXPECT_LT((predicted.translation() - truth.translation()).norm(), 1e-6);
@@ -198,7 +192,7 @@ TEST_P(IdentificationNoiseTest, NormalisedParameterErrorsAreUnitGaussian) {
       cell_options.shots_per_pose = 3;
     }
     VirtualCell cell(model, cell_options);
-    const auto configurations = Configurations(model, 20, 1000 + seed);
+    const auto configurations = test::RandomConfigurations(model, 20, 1000 + seed);
     std::vector<Measurement> exact;
     for (const Eigen::VectorXd& q : configurations) exact.push_back({q, cell.TruePose(q)});
     const std::vector<Measurement> noisy = cell.MeasureAll(configurations);
@@ -258,7 +252,7 @@ TEST(IdentificationTest, RepeatedShotsAreMoreRowsOfOnePose) {
   VirtualCellOptions co;
   co.shots_per_pose = 4;
   VirtualCell cell(model, co);
-  const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 10, 2)));
+  const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 10, 2)));
   const IdentificationSummary& s = cal.summary;
   ASSERT_NE(s.termination, Termination::kFailure) << s.FullReport();
   EXPECT_EQ(s.num_measurements, 40);
@@ -285,7 +279,7 @@ TEST(IdentificationTest, PositionOnlyWithRepeatedShotsGrinder5AndUr5e) {
     VirtualCell cell(model, co);
     IdentificationOptions o;
     o.measurement_type = MeasurementType::kPosition;
-    const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 25, 13)), o);
+    const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 25, 13)), o);
     const IdentificationSummary& s = cal.summary;
     ASSERT_EQ(s.termination, Termination::kConvergence) << s.FullReport();
     EXPECT_EQ(s.num_parameters, preset == "grinder5" ? 17 : 27);
@@ -299,7 +293,7 @@ TEST(IdentificationTest, PositionOnlyWithRepeatedShotsGrinder5AndUr5e) {
     EXPECT_EQ(s.after.rms_orientation_rad, 0.0);
     for (const IdentifiedParameter& p : cal.parameters) EXPECT_GT(p.std, 0.0) << p.name;
     KinematicsWorkspace ws(model);
-    for (const Eigen::VectorXd& q : Configurations(model, 10, 14)) {
+    for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 10, 14)) {
       const Eigen::Vector3d predicted = ForwardKinematics(cal.model, q, cal.errors, &ws).translation();
       // 250 shots of 0.015 mm average to a few um; the hidden errors are tenths of a mm.
       EXPECT_LT((predicted - cell.TruePose(q).translation()).norm(), 0.02);
@@ -314,7 +308,7 @@ TEST(IdentificationTest, SameSeedGivesTheSameResult) {
     co.seed = 9;
     co.shots_per_pose = 2;
     VirtualCell cell(model, co);
-    return Identify(model, cell.MeasureAll(Configurations(model, 15, 4)));
+    return Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 15, 4)));
   };
   const Calibration a = run(), b = run();
   EXPECT_EQ(a.errors, b.errors);
@@ -330,7 +324,7 @@ std::vector<Measurement> PumaShotsForProgress(const RobotModel& model) {
   co.seed = 9;
   co.shots_per_pose = 2;
   VirtualCell cell(model, co);
-  return cell.MeasureAll(Configurations(model, 15, 4));
+  return cell.MeasureAll(test::RandomConfigurations(model, 15, 4));
 }
 
 TEST(IdentificationTest, ProgressReturningFalseCancelsWithTheBestParametersSoFar) {
@@ -389,7 +383,7 @@ TEST(IdentificationTest, ProgressThatContinuesChangesNothing) {
 TEST(IdentificationTest, ReportsCarryTheParameterTableAndTheDroppedParameters) {
   const RobotModel model = Preset("grinder5");
   VirtualCell cell(model, ExactCell(1));
-  const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 12, 8)));
+  const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 12, 8)));
   const std::string brief = cal.summary.BriefReport();
   const std::string full = cal.summary.FullReport();
   EXPECT_THAT(brief, HasSubstr("CONVERGENCE"));
@@ -413,7 +407,7 @@ TEST(IdentificationTest, ExplicitParametersAreTheOnlyOnesEstimated) {
   VirtualCell cell(model, ExactCell(4));
   IdentificationOptions o;
   o.parameters = {model.ParameterIndex("joint2.rz"), model.ParameterIndex("joint3.rz")};
-  const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 10, 3)), o);
+  const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 10, 3)), o);
   ASSERT_NE(cal.summary.termination, Termination::kFailure) << cal.summary.FullReport();
   EXPECT_EQ(cal.parameters.size(), 2u);
   EXPECT_EQ(static_cast<int>(cal.summary.dropped.size()), model.num_error_parameters() - 2);
@@ -428,7 +422,7 @@ TEST(IdentificationTest, ExplicitParametersAreTheOnlyOnesEstimated) {
 TEST(ResidualStatisticsTest, MatchesAKnownOffset) {
   const RobotModel model = Preset("ur5e");
   std::vector<Measurement> measurements;
-  for (const Eigen::VectorXd& q : Configurations(model, 5, 1)) {
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 5, 1)) {
     Transform t = ForwardKinematics(model, q);
     t.translation() += Eigen::Vector3d(3.0, 4.0, 0.0);
     t.linear() = RotZ(2e-3) * t.linear();
@@ -468,7 +462,7 @@ class IdentificationFailureTest : public ::testing::Test {
 
   std::vector<Measurement> Good(int poses) {
     VirtualCell cell(model_, ExactCell(2));
-    return cell.MeasureAll(Configurations(model_, poses, 6));
+    return cell.MeasureAll(test::RandomConfigurations(model_, poses, 6));
   }
 
   RobotModel model_ = Preset("ur5e");
@@ -486,13 +480,13 @@ TEST_F(IdentificationFailureTest, AllPosesIdentical) {
   VirtualCellOptions co;
   co.shots_per_pose = 20;
   VirtualCell cell(model_, co);
-  ExpectFailure(cell.Measure(Configurations(model_, 1, 6)[0]),
+  ExpectFailure(cell.Measure(test::RandomConfigurations(model_, 1, 6)[0]),
                 {"too few distinct poses", "1 distinct", "20 measurements"});
 }
 
 TEST_F(IdentificationFailureTest, DegenerateConfigurations) {
   // Only the wrist's last joint moves: many distinct poses, but they cannot separate the arm's errors.
-  std::vector<Eigen::VectorXd> configurations = Configurations(model_, 1, 6);
+  std::vector<Eigen::VectorXd> configurations = test::RandomConfigurations(model_, 1, 6);
   for (int i = 1; i < 20; ++i) {
     configurations.push_back(configurations[0]);
     configurations.back()[5] += 0.3 * i;
@@ -506,7 +500,7 @@ TEST_F(IdentificationFailureTest, DegenerateConfigurations) {
   // With the tool point on a line (one prismatic joint of a gantry moving) even registration is impossible.
   const RobotModel gantry = Preset("grinder5");
   std::vector<Measurement> line;
-  Eigen::VectorXd q = Configurations(gantry, 1, 3)[0];
+  Eigen::VectorXd q = test::RandomConfigurations(gantry, 1, 3)[0];
   VirtualCell gantry_cell(gantry, ExactCell(3));
   for (int i = 0; i < 10; ++i) {
     q[0] = gantry.lower_limits()[0] + 0.1 * i * (gantry.upper_limits()[0] - gantry.lower_limits()[0]);

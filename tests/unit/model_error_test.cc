@@ -18,10 +18,6 @@
 namespace robocal {
 namespace {
 
-std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  return test::RandomConfigurations(model, count, seed);
-}
-
 // 2e-4 rad per harmonic coefficient: about 0.02 deg per joint, a few tenths of a mm at the tool of a ur5e,
 // ten times the tracker's noise.
 constexpr double kHarmonicSigmaRad = 2e-4;
@@ -48,7 +44,7 @@ HonestyFigures NormalisedErrors(const std::string& preset, MeasurementType type,
     cell_options.shots_per_pose = 1;
     cell_options.joint_harmonic_sigma_rad = kHarmonicSigmaRad;
     VirtualCell cell(model, cell_options);
-    const auto configurations = Configurations(model, 40, 2000 + seed);
+    const auto configurations = test::RandomConfigurations(model, 40, 2000 + seed);
     std::vector<Measurement> geometric;
     KinematicsWorkspace ws(cell.true_model());
     for (const Eigen::VectorXd& q : configurations) {
@@ -112,11 +108,11 @@ TEST(ModelErrorTest, TheEstimateMatchesTheHeldOutScatterAndIsSaid) {
     VirtualCell cell(model, cell_options);
     IdentificationOptions o;
     o.noise = cell_options.noise;
-    const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 100, 300 + seed)), o);
+    const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 100, 300 + seed)), o);
     const IdentificationSummary& s = cal.summary;
     ASSERT_EQ(s.termination, Termination::kConvergence) << s.FullReport();
     EXPECT_TRUE(s.model_error_estimated);
-    const std::vector<Measurement> held_out = cell.MeasureAll(Configurations(model, 400, 900 + seed));
+    const std::vector<Measurement> held_out = cell.MeasureAll(test::RandomConfigurations(model, 400, 900 + seed));
     KinematicsWorkspace ws(cal.model);
     double sum = 0.0;
     for (const Measurement& m : held_out) {
@@ -134,7 +130,7 @@ TEST(ModelErrorTest, TheEstimateMatchesTheHeldOutScatterAndIsSaid) {
 
     cell_options.joint_harmonic_sigma_rad = 0.0;
     VirtualCell geometric(model, cell_options);
-    const Calibration clean = Identify(model, geometric.MeasureAll(Configurations(model, 100, 300 + seed)), o);
+    const Calibration clean = Identify(model, geometric.MeasureAll(test::RandomConfigurations(model, 100, 300 + seed)), o);
     ASSERT_EQ(clean.summary.termination, Termination::kConvergence) << clean.summary.FullReport();
     EXPECT_LT(clean.summary.model_error_mm, clean.summary.tracker_rms_mm);
   }
@@ -150,7 +146,7 @@ TEST(ModelErrorTest, DegradedOnlyWithoutTheEstimate) {
   cell_options.noise.tracker = TrackerUncertainty{};
   cell_options.joint_harmonic_sigma_rad = kHarmonicSigmaRad;
   VirtualCell cell(model, cell_options);
-  const std::vector<Measurement> data = cell.MeasureAll(Configurations(model, 60, 5));
+  const std::vector<Measurement> data = cell.MeasureAll(test::RandomConfigurations(model, 60, 5));
   IdentificationOptions o;
   o.noise = cell_options.noise;
   const Calibration estimated = Identify(model, data, o);
@@ -178,7 +174,7 @@ TEST(ModelErrorTest, CleanShotsAreFlaggedAtTheAskedRateAndGrossErrorsAlways) {
       cell_options.shots_per_pose = 3;
       cell_options = Realistic(cell_options);
       cell_options.outlier_rate = 0.0;
-      const auto configurations = Configurations(model, 60, 40 + seed);
+      const auto configurations = test::RandomConfigurations(model, 60, 40 + seed);
       IdentificationOptions o;
       o.measurement_type = type;
       o.noise = cell_options.noise;

@@ -12,18 +12,12 @@
 #include "robocal/core/column_scaling.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
+#include "test_util.h"
 
 namespace robocal {
 namespace {
 
 using ::testing::HasSubstr;
-
-ObservabilityOptions OptionsFor(const RobotModel& model, MeasurementType type) {
-  ObservabilityOptions o;
-  o.measurement_type = type;
-  o.parameters = FindIdentifiableParameters(model, type).identifiable;
-  return o;
-}
 
 // sigma = (4, 2, 1), M = 2, L = 3.
 TEST(ObservabilityIndicesTest, MatchHandComputedValues) {
@@ -74,7 +68,7 @@ class IncrementalTest : public ::testing::TestWithParam<std::tuple<std::string, 
 TEST_P(IncrementalTest, EqualsFullRecomputation) {
   const auto& [preset, m, scaling] = GetParam();
   const RobotModel model = Preset(preset);
-  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   o.scaling = scaling;
   ObservabilityEvaluator evaluator(model, o);
   Rng rng(8);
@@ -176,7 +170,7 @@ TEST(ObservabilityReflectorTest, NestsGiveTheirRowsAndTheIdentifiableRank) {
 // configuration twice divides it by sqrt(2), exactly.
 TEST(PredictedAccuracyTest, ScalesWithNoiseAndRepetition) {
   const RobotModel model = Preset("ur5e");
-  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   Rng rng(4);
   const auto plan = RandomConfigurations(model, 12, &rng);
   const auto validation = RandomConfigurations(model, 36, &rng);
@@ -202,7 +196,7 @@ TEST(PredictedAccuracyTest, ScalesWithNoiseAndRepetition) {
 
 TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   Rng rng(4);
   const auto plan = RandomConfigurations(model, 2, &rng);  // 12 rows for 30 parameters
   EXPECT_EQ(PredictAccuracy(model, o, plan, RandomConfigurations(model, 5, &rng)).num_validation, 0);
@@ -211,7 +205,7 @@ TEST(PredictedAccuracyTest, SingularPlanPredictsNothing) {
 // The one rank cut on a plan: unit columns and an SVD of the stack, whatever scaling the indices use.
 TEST(NumericalRankTest, CountsWhatTheSetDetermines) {
   const RobotModel model = Preset("ur5e");
-  ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   const int l = static_cast<int>(o.parameters.size());
   Rng rng(4);
   const auto plan = RandomConfigurations(model, 12, &rng);
@@ -230,7 +224,7 @@ TEST(NumericalRankTest, CountsWhatTheSetDetermines) {
 
 TEST(PredictedAccuracyTest, RepeatedConfigurationPredictsNothing) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   Rng rng(4);
   const std::vector<Eigen::VectorXd> repeated(12, RandomConfigurations(model, 1, &rng).front());
   EXPECT_EQ(PredictAccuracy(model, o, repeated, RandomConfigurations(model, 5, &rng)).num_validation, 0);

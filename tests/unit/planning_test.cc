@@ -13,6 +13,7 @@
 #include "robocal/core/identifiability.h"
 #include "robocal/core/planning.h"
 #include "robocal/core/presets.h"
+#include "test_util.h"
 
 namespace robocal {
 namespace {
@@ -22,21 +23,14 @@ using ::testing::HasSubstr;
 constexpr int kSeeds = 20;
 constexpr int kM = 10;
 
-ObservabilityOptions OptionsFor(const RobotModel& model, MeasurementType type) {
-  ObservabilityOptions o;
-  o.measurement_type = type;
-  o.parameters = FindIdentifiableParameters(model, type).identifiable;
-  return o;
-}
-
 void ExpectWithinLimits(const RobotModel& model, const Plan& plan, int m) {
   ASSERT_EQ(static_cast<int>(plan.configurations.size()), m);
   for (const Eigen::VectorXd& q : plan.configurations) EXPECT_TRUE(model.WithinLimits(q)) << q.transpose();
 }
 
-using Case = std::tuple<std::string, MeasurementType>;
+using PlannerCase = std::tuple<std::string, MeasurementType>;
 
-class PlannerTest : public ::testing::TestWithParam<Case> {};
+class PlannerTest : public ::testing::TestWithParam<PlannerCase> {};
 
 // Medians over 20 seeds. The paper's preset (k_max = 100) must at least halve the condition number of the
 // random starting sets where the problem leaves room for it. It reaches 61-67 % of the best gain found (10^5
@@ -46,7 +40,7 @@ class PlannerTest : public ::testing::TestWithParam<Case> {};
 TEST_P(PlannerTest, PaperPresetImprovesOnRandomStartsAndLongerBudgetsImproveFurther) {
   const auto& [preset, type] = GetParam();
   const RobotModel model = Preset(preset);
-  const ObservabilityOptions o = OptionsFor(model, type);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, type);
   std::vector<double> start, paper, longer;
   for (int seed = 1; seed <= kSeeds; ++seed) {
     SolisWetsOptions options = SolisWetsOptions::Paper();
@@ -78,7 +72,7 @@ TEST_P(PlannerTest, PaperPresetImprovesOnRandomStartsAndLongerBudgetsImproveFurt
 TEST_P(PlannerTest, ExchangeBeatsRandomSelectionOnO1) {
   const auto& [preset, type] = GetParam();
   const RobotModel model = Preset(preset);
-  const ObservabilityOptions o = OptionsFor(model, type);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, type);
   std::vector<double> random_o1, exchange_o1;
   for (int seed = 1; seed <= kSeeds; ++seed) {
     RandomSelectionOptions r;
@@ -103,7 +97,7 @@ TEST_P(PlannerTest, ExchangeBeatsRandomSelectionOnO1) {
 INSTANTIATE_TEST_SUITE_P(PresetsAndTypes, PlannerTest,
                          ::testing::Combine(::testing::Values("grinder5", "puma560", "ur5e"),
                                             ::testing::Values(MeasurementType::kPosition, MeasurementType::kPose)),
-                         [](const ::testing::TestParamInfo<Case>& info) {
+                         [](const ::testing::TestParamInfo<PlannerCase>& info) {
                            return std::get<0>(info.param) + "_" + ToString(std::get<1>(info.param));
                          });
 
@@ -132,7 +126,7 @@ TEST(SolisWetsOptionsTest, PaperPresetHoldsThePapersConstants) {
 
 TEST(PlanningTest, SameSeedSameResultOtherSeedOtherResult) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions options = SolisWetsOptions::Paper();
   options.seed = 5;
   const Plan a = PlanSolisWets(model, kM, o, options);
@@ -150,7 +144,7 @@ TEST(PlanningTest, SameSeedSameResultOtherSeedOtherResult) {
 
 TEST(PlanningTest, ClampKeepsLimitsAndRestartsAndBudgetsAreHonoured) {
   const RobotModel model = Preset("puma560");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPosition);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPosition);
   SolisWetsOptions options = SolisWetsOptions::Paper();
   options.limits = LimitHandling::kClamp;
   options.restarts = 2;
@@ -167,7 +161,7 @@ TEST(PlanningTest, ClampKeepsLimitsAndRestartsAndBudgetsAreHonoured) {
 // A restart whose previous run ended exactly at max_evaluations must not evaluate its starting set.
 TEST(PlanningTest, RestartsNeverEvaluatePastTheBudget) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions options = SolisWetsOptions::Paper();
   options.k_max = 10;
   const int one_run = PlanSolisWets(model, kM, o, options).summary.evaluations;
@@ -184,7 +178,7 @@ TEST(PlanningTest, RestartsNeverEvaluatePastTheBudget) {
 // min(screen, num_candidates - M) evaluations, and a run cut by max_iterations costs MaxPlanWork exactly.
 TEST(PlanningTest, ExchangeCountsScreeningAndReachesItsWorkBoundExactly) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   ExchangeOptions options;
   options.num_candidates = 300;
   options.max_iterations = 2;
@@ -200,7 +194,7 @@ TEST(PlanningTest, ExchangeCountsScreeningAndReachesItsWorkBoundExactly) {
 
 TEST(PlanningTest, ExchangeStopsAtItsEvaluationBudget) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   ExchangeOptions options;
   options.num_candidates = 300;
   const Plan free = PlanExchange(model, kM, o, options);
@@ -222,7 +216,7 @@ TEST(PlanningTest, ExchangeStopsAtItsEvaluationBudget) {
 
 TEST(PlanningTest, EveryOptimiserStaysWithinItsWorkBound) {
   const RobotModel model = Preset("puma560");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPosition);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPosition);
   SolisWetsOptions solis_wets = SolisWetsOptions::Paper();
   solis_wets.k_max = 30;
   solis_wets.restarts = 2;
@@ -250,7 +244,7 @@ TEST(PlanningTest, EveryOptimiserStaysWithinItsWorkBound) {
 
 TEST(PlanningTest, StartsFromAGivenSetAndValidatesIt) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   Rng rng(3);
   const auto initial = RandomConfigurations(model, kM, &rng);
   const Plan plan = PlanSolisWets(model, kM, o, SolisWetsOptions::Paper(), initial);
@@ -266,7 +260,7 @@ TEST(PlanningTest, StartsFromAGivenSetAndValidatesIt) {
 
 TEST(PlanningTest, InvalidOptionsAreRejectedByName) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions s = SolisWetsOptions::Paper();
   s.sigma_lb = 5;  // above sigma_ub
   std::string error;
@@ -289,7 +283,7 @@ TEST(PlanningTest, InvalidOptionsAreRejectedByName) {
 
 TEST(PlanningTest, ProgressCallbackCancels) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions options = SolisWetsOptions::Paper();
   double last = 0;
   options.progress = [&](double fraction) {
@@ -306,7 +300,7 @@ TEST(PlanningTest, ProgressCallbackCancels) {
 
 TEST(PlanningTest, ReportsNameMethodObjectiveAndScaling) {
   const RobotModel model = Preset("grinder5");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   const Plan plan = PlanSolisWets(model, kM, o, SolisWetsOptions::Paper());
   EXPECT_THAT(plan.summary.BriefReport(), HasSubstr("solis_wets"));
   EXPECT_THAT(plan.summary.BriefReport(), HasSubstr("condition_number"));
@@ -368,7 +362,7 @@ void ExpectSameResult(const Plan& a, const Plan& b) {
 
 TEST(FeasibilityTest, EmptyPredicateReproducesThePlannersBeforePredicates) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   const Plan solis_wets = PlanSolisWets(model, kM, o, PinnedSolisWets());
   ExpectPinned(solis_wets, kPinnedSolisWets, 4.5368237975117349, 153);
   const Plan random = PlanRandom(model, kM, o, PinnedRandom());
@@ -420,7 +414,7 @@ bool InTightCell(const Eigen::VectorXd& q) { return InCell(q) && std::abs(q[0]) 
 
 TEST(SolisWetsInACellTest, HoldingInfeasibleConfigurationsBackKeepsTheSearchMoving) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions s = SolisWetsOptions::Paper();
   s.feasible = InTightCell;
   s.cell_step = SolisWetsOptions::CellStep::kWholeSet;
@@ -451,7 +445,7 @@ class FeasiblePlanTest : public ::testing::TestWithParam<ObservabilityIndex> {};
 
 TEST_P(FeasiblePlanTest, EveryPlannerReturnsOnlyFeasibleConfigurations) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   SolisWetsOptions s = SolisWetsOptions::Paper();
   s.objective = GetParam();
   s.feasible = InCell;
@@ -493,7 +487,7 @@ INSTANTIATE_TEST_SUITE_P(Objectives, FeasiblePlanTest,
 
 TEST(FeasibilityTest, RejectionSamplingIsBoundedAndFailsWithItsCounts) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   const FeasibilityPredicate nothing = [](const Eigen::VectorXd&) { return false; };
   SolisWetsOptions s = SolisWetsOptions::Paper();
   s.feasible = nothing;
@@ -537,7 +531,7 @@ TEST(FeasibilityTest, RejectionSamplingIsBoundedAndFailsWithItsCounts) {
 
 TEST(FeasibilityTest, InfeasibleInitialSetAndDrawOptionsAreRejected) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPose);
   Rng rng(3);
   std::vector<Eigen::VectorXd> initial;
   FeasibleDraws account;
@@ -610,7 +604,7 @@ TEST(PredictedErrorObjectiveTest, EveryPlannerLowersItAndReportsTheDocumentedSam
   const RobotModel model = Preset("puma560");
   for (MeasurementType type : {MeasurementType::kPosition, MeasurementType::kPose}) {
     SCOPED_TRACE(ToString(type));
-    const ObservabilityOptions o = OptionsFor(model, type);
+    const ObservabilityOptions o = test::IdentifiableSetOptions(model, type);
     SolisWetsOptions s = SolisWetsOptions::Paper();
     s.objective = ObservabilityIndex::kPredictedError;
     s.seed = 4;
@@ -648,7 +642,7 @@ TEST(PredictedErrorObjectiveTest, EveryPlannerLowersItAndReportsTheDocumentedSam
 // (docs/planning.md).
 TEST(PredictedErrorObjectiveTest, ExchangeWithItPredictsLessErrorThanWithTheConditionNumber) {
   const RobotModel model = Preset("ur5e");
-  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPosition);
+  const ObservabilityOptions o = test::IdentifiableSetOptions(model, MeasurementType::kPosition);
   std::vector<double> predicted_error, condition_number;
   for (int seed = 1; seed <= 5; ++seed) {
     Rng rng(seed + kPredictedErrorSeedOffset);

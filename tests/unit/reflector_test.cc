@@ -29,13 +29,6 @@ std::vector<Reflector> ThreeNests(bool fixed) {
   return {{"smr1", {60.0, 0.0, 20.0}, fixed}, {"smr2", {-30.0, 52.0, 20.0}, fixed}, {"smr3", {-30.0, -52.0, 20.0}, fixed}};
 }
 
-std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  Rng rng(seed);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
-  return out;
-}
-
 TEST(ReflectorGeometryTest, PointRowsMatchFiniteDifferences) {
   // A robot with a tool, so that the flange and the tool frame differ.
   RobotModelSpec spec = Preset("ur5e").spec();
@@ -123,7 +116,7 @@ TEST(ReflectorIdentifiabilityTest, ThreeReflectorsIdentifyTheOrientationDependen
 // reflectors held, the tool's orientation on fresh configurations; one reflector cannot give the orientation.
 TEST(ReflectorRecoveryTest, NoiseFreeShotsOfThreeReflectorsRecoverTheTool) {
   const RobotModel model = Preset("ur5e");
-  const std::vector<Eigen::VectorXd> fresh = Configurations(model, 20, 77);
+  const std::vector<Eigen::VectorXd> fresh = test::RandomConfigurations(model, 20, 77);
   const auto orientation_error = [&](const Calibration& cal, const VirtualCell& cell) {
     KinematicsWorkspace ws(cal.model);
     double worst = 0.0;
@@ -155,7 +148,7 @@ TEST(ReflectorRecoveryTest, NoiseFreeShotsOfThreeReflectorsRecoverTheTool) {
     o.shots_per_pose = 1;
     o.reflectors = ThreeNests(fixed);
     VirtualCell cell(model, o);
-    const std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 20, 5));
+    const std::vector<Measurement> shots = cell.MeasureAll(test::RandomConfigurations(model, 20, 5));
     ASSERT_EQ(shots.size(), 60u);
     EXPECT_EQ(shots[4].reflector, 1);
     IdentificationOptions fit;
@@ -181,7 +174,7 @@ TEST(ReflectorRecoveryTest, NoiseFreeShotsOfThreeReflectorsRecoverTheTool) {
   VirtualCell cell(model, o);
   IdentificationOptions fit;
   fit.measurement_type = MeasurementType::kPosition;
-  const Calibration one = Identify(model, cell.MeasureAll(Configurations(model, 20, 5)), fit);
+  const Calibration one = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 20, 5)), fit);
   ASSERT_EQ(one.summary.termination, Termination::kConvergence) << one.summary.FullReport();
   EXPECT_GT(orientation_error(one, cell), 1e-4);
 }
@@ -219,7 +212,7 @@ TEST(ReflectorGaugeTest, FreeNestsKeepTheToolSiteNominal) {
   const std::vector<Eigen::Vector3d> true_nests = ReflectorsInTool(model, free.reflectors, offsets);
   KinematicsWorkspace ws(model);
   std::vector<Measurement> shots;
-  for (const Eigen::VectorXd& q : Configurations(model, 20, 5)) {
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 20, 5)) {
     const Transform tool = ForwardKinematics(model, q, truth, &ws);
     for (int k = 0; k < 3; ++k) {
       Measurement m;
@@ -240,7 +233,7 @@ TEST(ReflectorGaugeTest, FreeNestsKeepTheToolSiteNominal) {
   // ...) exactly only to first order, and the nests take up the rest (0.2 mm x 3.5e-4 rad ~ 0.1 um here). An
   // arbitrary gauge is off by the size of the errors themselves (tens of um).
   double worst = 0.0;
-  for (const Eigen::VectorXd& q : Configurations(model, 20, 77)) {
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 20, 77)) {
     const Eigen::Vector3d predicted = ForwardKinematics(cal.model, q, cal.errors, &ws).translation();
     worst = std::max(worst, (predicted - ForwardKinematics(model, q, truth, &ws).translation()).norm());
   }
@@ -263,7 +256,7 @@ TEST(ReflectorGaugeTest, TwoHeldNestsSayWhatTheyLeaveUnobserved) {
   IdentificationOptions fit;
   fit.measurement_type = MeasurementType::kPosition;
   fit.reflectors = o.reflectors;
-  const Calibration two = Identify(model, cell.MeasureAll(Configurations(model, 20, 5)), fit);
+  const Calibration two = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 20, 5)), fit);
   ASSERT_EQ(two.summary.termination, Termination::kConvergence) << two.summary.FullReport();
   EXPECT_THAT(two.summary.message,
               HasSubstr("the reflector nests do not observe the tool's full orientation (29 parameters against 30"));
@@ -271,7 +264,7 @@ TEST(ReflectorGaugeTest, TwoHeldNestsSayWhatTheyLeaveUnobserved) {
   o.reflectors = ThreeNests(true);
   VirtualCell three_cell(model, o);
   fit.reflectors = o.reflectors;
-  const Calibration three = Identify(model, three_cell.MeasureAll(Configurations(model, 20, 5)), fit);
+  const Calibration three = Identify(model, three_cell.MeasureAll(test::RandomConfigurations(model, 20, 5)), fit);
   EXPECT_THAT(three.summary.message, Not(HasSubstr("do not observe")));
 }
 
@@ -286,7 +279,7 @@ TEST(ReflectorGaugeTest, AnUnmeasuredNestIsDroppedByName) {
   o.reflectors = ThreeNests(true);
   VirtualCell cell(model, o);
   std::vector<Measurement> shots;
-  for (const Measurement& m : cell.MeasureAll(Configurations(model, 20, 5))) {
+  for (const Measurement& m : cell.MeasureAll(test::RandomConfigurations(model, 20, 5))) {
     if (m.reflector != 2) shots.push_back(m);
   }
   IdentificationOptions fit;
@@ -340,7 +333,7 @@ TEST(ReflectorFailureTest, BadReflectorDataIsNamed) {
   o.shots_per_pose = 1;
   o.reflectors = fit.reflectors;
   VirtualCell cell(model, o);
-  std::vector<Measurement> shots = cell.MeasureAll(Configurations(model, 15, 5));
+  std::vector<Measurement> shots = cell.MeasureAll(test::RandomConfigurations(model, 15, 5));
   shots[7].reflector = 3;
   Calibration cal = Identify(model, shots, fit);
   EXPECT_EQ(cal.summary.termination, Termination::kFailure);

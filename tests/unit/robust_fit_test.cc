@@ -18,10 +18,6 @@
 namespace robocal {
 namespace {
 
-std::vector<Eigen::VectorXd> Configurations(const RobotModel& model, int count, std::uint64_t seed) {
-  return test::RandomConfigurations(model, count, seed);
-}
-
 // Mean distance between the calibrated model's tool point and the true robot's over `validation`: what
 // compensation with this calibration achieves.
 double MeanPositionError(const Calibration& cal, const VirtualCell& cell,
@@ -40,7 +36,7 @@ double MeanPositionError(const Calibration& cal, const VirtualCell& cell,
 // checked to be far worse, so the comparison can fail.
 TEST(RobustFitTest, OutliersAreFlaggedAndDoNotPullTheParameters) {
   const RobotModel model = Preset("ur5e");
-  const std::vector<Eigen::VectorXd> validation = Configurations(model, 200, 99);
+  const std::vector<Eigen::VectorXd> validation = test::RandomConfigurations(model, 200, 99);
   double clean_error = 0.0, robust_error = 0.0, plain_error = 0.0;
   int injected = 0, found = 0, clean = 0, false_alarms = 0;
   const int seeds = 50;
@@ -49,7 +45,7 @@ TEST(RobustFitTest, OutliersAreFlaggedAndDoNotPullTheParameters) {
     o.seed = static_cast<std::uint64_t>(seed);
     o.shots_per_pose = 3;
     o.noise.tracker = TrackerUncertainty{};
-    const std::vector<Eigen::VectorXd> configurations = Configurations(model, 40, 500 + seed);
+    const std::vector<Eigen::VectorXd> configurations = test::RandomConfigurations(model, 40, 500 + seed);
     VirtualCell clean_cell(model, o);
     o.outlier_rate = 0.05;
     VirtualCell dirty_cell(model, o);
@@ -107,7 +103,7 @@ TEST(RobustFitTest, APlantedOutlierIsFoundByIndexAndTheParametersWithItAreReport
   o.seed = 4;
   o.shots_per_pose = 1;
   VirtualCell cell(model, o);
-  std::vector<Measurement> data = cell.MeasureAll(Configurations(model, 30, 7));
+  std::vector<Measurement> data = cell.MeasureAll(test::RandomConfigurations(model, 30, 7));
   data[7].T_world_tool.translation() += Eigen::Vector3d(1.2, -1.6, 0.0);  // 2 mm
   IdentificationOptions fit;
   fit.noise = o.noise;
@@ -154,7 +150,7 @@ TEST(RobustFitTest, RejectionThatLeavesTooFewPosesFallsBackToTheLastFit) {
     IdentificationOptions fit;
     fit.measurement_type = MeasurementType::kPosition;
     fit.noise = o.noise;
-    const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 10, seed + 100)), fit);
+    const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 10, seed + 100)), fit);
     ASSERT_NE(cal.summary.termination, Termination::kFailure) << cal.summary.FullReport();
     if (cal.summary.message.find("the robust fit stopped") != std::string::npos) {
       ++stopped;
@@ -179,12 +175,12 @@ TEST(RobustFitTest, ImplausibleErrorsAreDegraded) {
   fit.measurement_type = MeasurementType::kPosition;
   fit.noise = o.noise;
   fit.reflectors = {{"smr1", {2000.0, 0.0, 0.0}, true}};
-  const Calibration cal = Identify(model, cell.MeasureAll(Configurations(model, 30, 9)), fit);
+  const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 30, 9)), fit);
   EXPECT_EQ(cal.summary.termination, Termination::kDegraded) << cal.summary.FullReport();
   EXPECT_THAT(cal.summary.message, ::testing::HasSubstr("implausible geometric errors ("));
   // The nest where it is: a calibration, not flagged.
   fit.reflectors = o.reflectors;
-  const Calibration right = Identify(model, cell.MeasureAll(Configurations(model, 30, 9)), fit);
+  const Calibration right = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 30, 9)), fit);
   EXPECT_EQ(right.summary.termination, Termination::kConvergence) << right.summary.FullReport();
 }
 

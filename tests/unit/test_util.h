@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 
 #include "robocal/core/error_model.h"
+#include "robocal/core/identifiability.h"
+#include "robocal/core/observability.h"
 #include "robocal/core/random.h"
 #include "robocal/core/robot_model.h"
 
@@ -29,6 +31,14 @@ inline std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model
   std::vector<Eigen::VectorXd> out;
   for (int i = 0; i < count; ++i) out.push_back(RandomConfiguration(model, &rng));
   return out;
+}
+
+/// Observability options over the identifiable set of `model` for measurements of `type`.
+inline ObservabilityOptions IdentifiableSetOptions(const RobotModel& model, MeasurementType type) {
+  ObservabilityOptions o;
+  o.measurement_type = type;
+  o.parameters = FindIdentifiableParameters(model, type).identifiable;
+  return o;
 }
 
 /// Central differences of f: R^n -> R^m around x with per-coordinate steps h.

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/campaigns.h"
+#include "robocal/api/fields.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/accuracy.h"
@@ -36,8 +37,13 @@ struct ModelWire {
   bool compliance = false;
   int joint_harmonics = 0;
 };
-void to_json(nlohmann::json& j, const ModelWire& m);
-void from_json(const nlohmann::json& j, ModelWire& m);
+template <>
+struct WireFields<ModelWire> {
+  using S = ModelWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"compliance", &S::compliance},
+      Field{"joint_harmonics", &S::joint_harmonics});
+};
 JointErrorTerms ToCore(const ModelWire& model);
 ModelWire ToWire(const JointErrorTerms& terms);
 
@@ -98,8 +104,15 @@ struct ParameterEstimate {
   double value = 0.0;
   double std = 0.0;
 };
-void to_json(nlohmann::json& j, const ParameterEstimate& p);
-void from_json(const nlohmann::json& j, ParameterEstimate& p);
+template <>
+struct WireFields<ParameterEstimate> {
+  using S = ParameterEstimate;
+  static constexpr auto fields = std::make_tuple(
+      Field{"name", &S::name},
+      Field{"unit", &S::unit},
+      Field{"value", &S::value},
+      Field{"std", &S::std});
+};
 
 /// Residuals of the calibration measurements against a model (mm and degrees).
 struct Residuals {
@@ -110,9 +123,19 @@ struct Residuals {
   double max_orientation_deg = 0.0;
   double rms_weighted = 0.0;
 };
-void to_json(nlohmann::json& j, const Residuals& r);
-void from_json(const nlohmann::json& j, Residuals& r);
+template <>
+struct WireFields<Residuals> {
+  using S = Residuals;
+  static constexpr auto fields = std::make_tuple(
+      Field{"num_measurements", &S::num_measurements},
+      Field{"rms_position_mm", &S::rms_position_mm},
+      Field{"max_position_mm", &S::max_position_mm},
+      Field{"rms_orientation_deg", &S::rms_orientation_deg},
+      Field{"max_orientation_deg", &S::max_orientation_deg},
+      Field{"rms_weighted", &S::rms_weighted});
+};
 Residuals ToWire(const ResidualStatistics& stats);
+ResidualStatistics ToCore(const Residuals& residuals);
 
 /// How the fit ended.
 struct FitSummary {
@@ -131,8 +154,24 @@ struct FitSummary {
   /// A synchronous fit stopped at the server's request deadline (returned, not stored).
   bool deadline_exceeded = false;
 };
-void to_json(nlohmann::json& j, const FitSummary& s);
-void from_json(const nlohmann::json& j, FitSummary& s);
+template <>
+struct WireFields<FitSummary> {
+  using S = FitSummary;
+  static constexpr auto fields = std::make_tuple(
+      Field{"termination", &S::termination},
+      Field{"message", &S::message},
+      Field{"measurement_type", &S::measurement_type},
+      Field{"num_measurements", &S::num_measurements},
+      Field{"num_poses", &S::num_poses},
+      Field{"num_parameters", &S::num_parameters},
+      Field{"iterations", &S::iterations},
+      Field{"initial_cost", &S::initial_cost},
+      Field{"final_cost", &S::final_cost},
+      Field{"sigma_hat", &S::sigma_hat},
+      Field{"seconds", &S::seconds},
+      Field{"brief", &S::brief},
+      Field{"deadline_exceeded", &S::deadline_exceeded});
+};
 
 /// A calibration measurement the robust fit excluded: its stored sequence number and its normalised residual
 /// (sigmas, against the final fit).
@@ -143,8 +182,15 @@ struct OutlierWire {
   double normalized_residual = 0.0;
   bool excluded = true;
 };
-void to_json(nlohmann::json& j, const OutlierWire& o);
-void from_json(const nlohmann::json& j, OutlierWire& o);
+template <>
+struct WireFields<OutlierWire> {
+  using S = OutlierWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"sequence", &S::sequence},
+      Field{"reflector", &S::reflector, Presence::kOmitEmpty},
+      Field{"normalized_residual", &S::normalized_residual},
+      Field{"excluded", &S::excluded});
+};
 
 /// The robust fit's figures: the threshold on the normalised residual (sigmas), the median-based scale of the
 /// residuals (1 when the noise model is right), and the number of fits.
@@ -154,8 +200,15 @@ struct RobustFitWire {
   double scale = 0.0;
   int rounds = 0;
 };
-void to_json(nlohmann::json& j, const RobustFitWire& r);
-void from_json(const nlohmann::json& j, RobustFitWire& r);
+template <>
+struct WireFields<RobustFitWire> {
+  using S = RobustFitWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"enabled", &S::enabled},
+      Field{"threshold", &S::threshold},
+      Field{"scale", &S::scale},
+      Field{"rounds", &S::rounds});
+};
 
 /// The robot error the geometric model does not explain, as the fit estimated it (docs/identification.md,
 /// "Model error"): RMS as a 3-D position error (mm) and as an angle (deg; 0 for position measurements), beside
@@ -167,8 +220,16 @@ struct ModelErrorWire {
   double tracker_rms_mm = 0.0;
   double tracker_rms_deg = 0.0;
 };
-void to_json(nlohmann::json& j, const ModelErrorWire& m);
-void from_json(const nlohmann::json& j, ModelErrorWire& m);
+template <>
+struct WireFields<ModelErrorWire> {
+  using S = ModelErrorWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"estimated", &S::estimated},
+      Field{"model_error_mm", &S::model_error_mm},
+      Field{"model_error_deg", &S::model_error_deg},
+      Field{"tracker_rms_mm", &S::tracker_rms_mm},
+      Field{"tracker_rms_deg", &S::tracker_rms_deg});
+};
 
 /// One candidate of a model chosen by cross-validation: its model, how many parameters it has, and its held-out
 /// position error over the folds (E_xyz: mean, RMS, the standard error of the mean), or the folds that failed.
@@ -183,16 +244,33 @@ struct ModelCandidateWire {
   std::string note;
   bool chosen = false;
 };
-void to_json(nlohmann::json& j, const ModelCandidateWire& c);
-void from_json(const nlohmann::json& j, ModelCandidateWire& c);
+template <>
+struct WireFields<ModelCandidateWire> {
+  using S = ModelCandidateWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"model", &S::model},
+      Field{"description", &S::description},
+      Field{"num_parameters", &S::num_parameters},
+      Field{"cv_mean_mm", &S::cv_mean_mm},
+      Field{"cv_rms_mm", &S::cv_rms_mm},
+      Field{"cv_standard_error_mm", &S::cv_standard_error_mm},
+      Field{"failed_folds", &S::failed_folds},
+      Field{"note", &S::note},
+      Field{"chosen", &S::chosen});
+};
 
 /// The choice of a fit with "model": "auto": the folds and every candidate, simplest first.
 struct ModelChoiceWire {
   int folds = 0;
   std::vector<ModelCandidateWire> candidates;
 };
-void to_json(nlohmann::json& j, const ModelChoiceWire& c);
-void from_json(const nlohmann::json& j, ModelChoiceWire& c);
+template <>
+struct WireFields<ModelChoiceWire> {
+  using S = ModelChoiceWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"folds", &S::folds},
+      Field{"candidates", &S::candidates});
+};
 
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
@@ -235,6 +313,10 @@ void from_json(const nlohmann::json& j, CalibrationResult& c);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
 /// `sequences` maps the fit's measurement indices to stored sequence numbers (empty: the indices themselves).
 CalibrationResult ToWire(const Calibration& calibration, const std::vector<std::int64_t>& sequences = {});
+/// Identified parameters back in the core's units and index space (`model`'s parameters, then the reflectors'
+/// offsets); WireError at `path`[k] for a name the model does not have or a unit that is not the parameter's.
+std::vector<IdentifiedParameter> ToCore(const std::vector<ParameterEstimate>& parameters, const RobotModel& model,
+                                        const std::vector<Reflector>& reflectors, const std::string& path);
 
 /// One compensation target: nominal joints ("joints"), or a pose ("pose", with "frame" tracker | base, optional
 /// "start_joints" and optional "configuration", the branch demanded; docs/compensation.md gives the rules).
@@ -300,8 +382,13 @@ struct CompensateResult {
   std::string campaign;
   std::vector<Compensation> results;
 };
-void to_json(nlohmann::json& j, const CompensateResult& r);
-void from_json(const nlohmann::json& j, CompensateResult& r);
+template <>
+struct WireFields<CompensateResult> {
+  using S = CompensateResult;
+  static constexpr auto fields = std::make_tuple(
+      Field{"campaign", &S::campaign},
+      Field{"results", &S::results});
+};
 /// The reply of :compensate as JSON text: the document json(r) is (same keys in the same order, same values,
 /// tested), written directly. Why by hand: building the JSON tree (a map of 12 members per result) and dumping
 /// it took 90 ms for a 10,000-target reply whose compensation takes 25 ms on 2 cores; this takes about 10 ms.
@@ -313,8 +400,12 @@ struct EvaluateRequest {
   double h_mm = 30.0;
 };
 EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body);
-void to_json(nlohmann::json& j, const EvaluateRequest& request);
-void from_json(const nlohmann::json& j, EvaluateRequest& request);
+template <>
+struct WireFields<EvaluateRequest> {
+  using S = EvaluateRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"h_mm", &S::h_mm});
+};
 
 /// mean, std (N-1), max and RP = mean + 3 std of one error, in the unit its owner's name gives.
 struct Statistics {
@@ -324,8 +415,16 @@ struct Statistics {
   double max = 0.0;
   double rp = 0.0;
 };
-void to_json(nlohmann::json& j, const Statistics& s);
-void from_json(const nlohmann::json& j, Statistics& s);
+template <>
+struct WireFields<Statistics> {
+  using S = Statistics;
+  static constexpr auto fields = std::make_tuple(
+      Field{"count", &S::count},
+      Field{"mean", &S::mean},
+      Field{"std", &S::std},
+      Field{"max", &S::max},
+      Field{"rp", &S::rp});
+};
 
 /// The paper's three errors: E_xyz (mm), E_cos (deg), E_tot = E_xyz + h E_cos[rad] (mm).
 struct Accuracy {
@@ -334,8 +433,15 @@ struct Accuracy {
   Statistics e_cos_deg;
   Statistics e_tot_mm;
 };
-void to_json(nlohmann::json& j, const Accuracy& a);
-void from_json(const nlohmann::json& j, Accuracy& a);
+template <>
+struct WireFields<Accuracy> {
+  using S = Accuracy;
+  static constexpr auto fields = std::make_tuple(
+      Field{"h_mm", &S::h_mm},
+      Field{"e_xyz_mm", &S::e_xyz_mm},
+      Field{"e_cos_deg", &S::e_cos_deg},
+      Field{"e_tot_mm", &S::e_tot_mm});
+};
 Accuracy ToWire(const AccuracyReport& report);
 AccuracyReport ToCore(const Accuracy& accuracy);
 
@@ -346,8 +452,15 @@ struct Improvement {
   double e_tot_mean = 0.0;
   double e_tot_rp = 0.0;
 };
-void to_json(nlohmann::json& j, const Improvement& i);
-void from_json(const nlohmann::json& j, Improvement& i);
+template <>
+struct WireFields<Improvement> {
+  using S = Improvement;
+  static constexpr auto fields = std::make_tuple(
+      Field{"e_xyz_mean", &S::e_xyz_mean},
+      Field{"e_xyz_rp", &S::e_xyz_rp},
+      Field{"e_tot_mean", &S::e_tot_mean},
+      Field{"e_tot_rp", &S::e_tot_rp});
+};
 /// The core's ComputeImprovement of the statistics the wire reports (NaN where undefined).
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after);
 
@@ -362,7 +475,17 @@ struct Evaluation {
   /// Set for position campaigns (no orientation measured).
   std::optional<std::string> note;
 };
-void to_json(nlohmann::json& j, const Evaluation& e);
-void from_json(const nlohmann::json& j, Evaluation& e);
+template <>
+struct WireFields<Evaluation> {
+  using S = Evaluation;
+  static constexpr auto fields = std::make_tuple(
+      Field{"campaign", &S::campaign},
+      Field{"num_validation", &S::num_validation},
+      Field{"h_mm", &S::h_mm},
+      Field{"nominal", &S::nominal},
+      Field{"calibrated", &S::calibrated},
+      Field{"improvement_percent", &S::improvement_percent},
+      Field{"note", &S::note, Presence::kOmitEmpty});
+};
 
 }  // namespace robocal::api

@@ -9,6 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/batch_result.h"
+#include "robocal/api/fields.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
@@ -23,8 +25,12 @@ struct CampaignReflectorWire {
   std::array<double, 3> position_mm{0.0, 0.0, 0.0};
   bool fixed = false;
 };
-void to_json(nlohmann::json& j, const CampaignReflectorWire& reflector);
-void from_json(const nlohmann::json& j, CampaignReflectorWire& reflector);
+template <>
+struct WireFields<CampaignReflectorWire> {
+  using S = CampaignReflectorWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"id", &S::id}, Field{"position_mm", &S::position_mm}, Field{"fixed", &S::fixed});
+};
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors);
 std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors);
 class Problems;
@@ -56,20 +62,33 @@ struct CreateCampaignRequest {
   /// compensated), for measurements that do not state their own; unset: none.
   std::optional<PayloadWire> payload;
 };
+template <>
+struct WireFields<CreateCampaignRequest> {
+  using S = CreateCampaignRequest;
+  static constexpr Presence kOmit = Presence::kOmitEmpty;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id, kOmit}, Field{"description", &S::description, kOmit}, Field{"robot", &S::robot},
+      Field{"measurement_type", &S::measurement_type, kOmit}, Field{"plan", &S::plan, kOmit},
+      Field{"noise", &S::noise, kOmit}, Field{"tracker", &S::tracker, kOmit},
+      Field{"repeatability_mm", &S::repeatability_mm, kOmit}, Field{"reflectors", &S::reflectors, kOmit},
+      Field{"payload", &S::payload, kOmit});
+};
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
-void to_json(nlohmann::json& j, const CreateCampaignRequest& request);
-void from_json(const nlohmann::json& j, CreateCampaignRequest& request);
 
 /// Stored measurements per role.
 struct MeasurementCounts {
   std::int64_t calibration = 0;
   std::int64_t validation = 0;
 };
-void to_json(nlohmann::json& j, const MeasurementCounts& counts);
-void from_json(const nlohmann::json& j, MeasurementCounts& counts);
+template <>
+struct WireFields<MeasurementCounts> {
+  static constexpr auto fields = std::make_tuple(Field{"calibration", &MeasurementCounts::calibration},
+                                                 Field{"validation", &MeasurementCounts::validation});
+};
 
-/// GET /v1/campaigns/{c}, the reply of POST /v1/campaigns, and each item of GET /v1/campaigns.
-struct Campaign {
+/// What a campaign is, as POST /v1/campaigns fixed it (every default filled in): the members the campaign resource
+/// and its stored form (stored.h) share.
+struct CampaignDefinition {
   std::string id;
   std::string description;
   std::string robot;
@@ -84,20 +103,42 @@ struct Campaign {
   /// The campaign's default payload (null on the wire when none).
   std::optional<PayloadWire> payload;
   std::int64_t created_unix_ms = 0;
+};
+template <>
+struct WireFields<CampaignDefinition> {
+  using S = CampaignDefinition;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id}, Field{"description", &S::description}, Field{"robot", &S::robot},
+      Field{"measurement_type", &S::measurement_type}, Field{"plan", &S::plan}, Field{"noise", &S::noise},
+      Field{"tracker", &S::tracker}, Field{"repeatability_mm", &S::repeatability_mm},
+      Field{"reflectors", &S::reflectors}, Field{"payload", &S::payload},
+      Field{"created_unix_ms", &S::created_unix_ms});
+};
+
+/// GET /v1/campaigns/{c}, the reply of POST /v1/campaigns, and each item of GET /v1/campaigns.
+struct Campaign : CampaignDefinition {
   MeasurementCounts counts;
   /// Whether the campaign has a stored calibration (a fit that finished).
   bool calibrated = false;
 };
-void to_json(nlohmann::json& j, const Campaign& campaign);
-void from_json(const nlohmann::json& j, Campaign& campaign);
+template <>
+struct WireFields<Campaign> {
+  static constexpr auto fields =
+      std::tuple_cat(WireFields<CampaignDefinition>::fields,
+                     std::make_tuple(Field{"counts", &Campaign::counts}, Field{"calibrated", &Campaign::calibrated}));
+};
 
 /// GET /v1/campaigns: campaigns in id order; next_page_token when there are more.
 struct CampaignList {
   std::vector<Campaign> campaigns;
   std::optional<std::string> next_page_token;
 };
-void to_json(nlohmann::json& j, const CampaignList& list);
-void from_json(const nlohmann::json& j, CampaignList& list);
+template <>
+struct WireFields<CampaignList> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"campaigns", &CampaignList::campaigns},
+                      Field{"next_page_token", &CampaignList::next_page_token, Presence::kOmitEmpty});
+};
 
 /// One tracker shot on the wire: {"joints":[...], "pose":{...}} (joints deg / mm, pose in the tracker frame).
 /// Also the stored form of a measurement.
@@ -109,8 +150,14 @@ struct MeasurementWire {
   /// The payload during the shot; unset (absent on the wire): the campaign's.
   std::optional<PayloadWire> payload;
 };
-void to_json(nlohmann::json& j, const MeasurementWire& measurement);
-void from_json(const nlohmann::json& j, MeasurementWire& measurement);
+template <>
+struct WireFields<MeasurementWire> {
+  using S = MeasurementWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"joints", &S::joints}, Field{"pose", &S::pose},
+                      Field{"reflector", &S::reflector, Presence::kOmitEmpty},
+                      Field{"payload", &S::payload, Presence::kOmitEmpty});
+};
 
 /// POST /v1/campaigns/{c}/measurements.
 struct MeasurementBatchRequest {
@@ -118,37 +165,43 @@ struct MeasurementBatchRequest {
   MeasurementRole role = MeasurementRole::kCalibration;
   std::vector<MeasurementWire> measurements;
 };
+template <>
+struct WireFields<MeasurementBatchRequest> {
+  using S = MeasurementBatchRequest;
+  static constexpr auto fields = std::make_tuple(Field{"request_id", &S::request_id}, Field{"role", &S::role},
+                                                 Field{"measurements", &S::measurements});
+};
 /// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
 /// position; `reflector` is required and one of `reflectors` when the campaign has any, refused otherwise.
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
                                                      MeasurementType type, const Limits& limits,
                                                      const std::vector<CampaignReflectorWire>& reflectors = {});
-void to_json(nlohmann::json& j, const MeasurementBatchRequest& request);
-void from_json(const nlohmann::json& j, MeasurementBatchRequest& request);
 
-/// The reply of POST /v1/campaigns/{c}/measurements.
-struct BatchResult {
-  std::string campaign;
-  std::string batch_id;
-  std::string request_id;
-  /// True if the server had this request_id with the same content already (nothing was written twice).
-  bool replayed = false;
-  std::int64_t first_sequence = 0;
-  std::int64_t count = 0;
-  std::int64_t campaign_total = 0;
+/// The reply of POST /v1/campaigns/{c}/measurements (batch_result.h: also what the storage's append returns).
+template <>
+struct WireFields<BatchResult> {
+  using S = BatchResult;
+  static constexpr auto fields =
+      std::make_tuple(Field{"campaign", &S::campaign}, Field{"batch_id", &S::batch_id},
+                      Field{"request_id", &S::request_id}, Field{"replayed", &S::replayed},
+                      Field{"first_sequence", &S::first_sequence}, Field{"count", &S::count},
+                      Field{"campaign_total", &S::campaign_total});
 };
-void to_json(nlohmann::json& j, const BatchResult& result);
-void from_json(const nlohmann::json& j, BatchResult& result);
 
-/// One stored measurement of GET /v1/campaigns/{c}/measurements.
-struct StoredMeasurementWire {
+/// One stored measurement of GET /v1/campaigns/{c}/measurements: its place and role, beside the measurement's own
+/// members ("joints", "pose", ...).
+struct StoredMeasurementWire : MeasurementWire {
   std::int64_t sequence = 0;
   std::string batch_id;
   MeasurementRole role = MeasurementRole::kCalibration;
-  MeasurementWire measurement;  // "joints" and "pose" beside the fields above
 };
-void to_json(nlohmann::json& j, const StoredMeasurementWire& measurement);
-void from_json(const nlohmann::json& j, StoredMeasurementWire& measurement);
+template <>
+struct WireFields<StoredMeasurementWire> {
+  using S = StoredMeasurementWire;
+  static constexpr auto fields = std::tuple_cat(
+      std::make_tuple(Field{"sequence", &S::sequence}, Field{"batch_id", &S::batch_id}, Field{"role", &S::role}),
+      WireFields<MeasurementWire>::fields);
+};
 
 /// GET /v1/campaigns/{c}/measurements: one page; next_after (the sequence to continue after) when there may be
 /// more.
@@ -157,7 +210,12 @@ struct MeasurementList {
   std::vector<StoredMeasurementWire> measurements;
   std::optional<std::int64_t> next_after;
 };
-void to_json(nlohmann::json& j, const MeasurementList& list);
-void from_json(const nlohmann::json& j, MeasurementList& list);
+template <>
+struct WireFields<MeasurementList> {
+  using S = MeasurementList;
+  static constexpr auto fields =
+      std::make_tuple(Field{"campaign", &S::campaign}, Field{"measurements", &S::measurements},
+                      Field{"next_after", &S::next_after, Presence::kOmitEmpty});
+};
 
 }  // namespace robocal::api

@@ -5,6 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "robocal/api/fields.h"
+
 namespace robocal::api {
 
 /// GET /healthz.
@@ -12,7 +14,12 @@ struct Health {
   std::string status;  // "ok"
   std::string version;
 };
-void to_json(nlohmann::json& j, const Health& h);
-void from_json(const nlohmann::json& j, Health& h);
+template <>
+struct WireFields<Health> {
+  using S = Health;
+  static constexpr auto fields = std::make_tuple(
+      Field{"status", &S::status},
+      Field{"version", &S::version});
+};
 
 }  // namespace robocal::api

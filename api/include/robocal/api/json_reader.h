@@ -67,8 +67,10 @@ class ObjectReader {
   /// An array with a size in [min_size, max_size]; returns its elements (nullptr on failure).
   const nlohmann::json* Array(const std::string& key, bool required, std::size_t min_size, std::size_t max_size);
 
-  /// Records "unknown field" for members not in `known` (catches misspelt option names).
+  /// Records "unknown field" for members not in `known` (catches misspelt option names); a shape with a field
+  /// table passes WireFieldNames<T>() (fields.h).
   void RejectUnknown(std::initializer_list<const char*> known);
+  void RejectUnknown(const std::vector<const char*>& known);
 
  private:
   const nlohmann::json* Member(const std::string& key, bool required);

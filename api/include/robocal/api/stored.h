@@ -7,6 +7,9 @@
 // cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and "repeatability_mm" and the fit's
 // robust-fit members (outliers, parameters_with_outliers). A fit's state may hold "last_calibration_sequence"
 // (optional, so version 4 still: a server that does not know it ignores it, and a fit without it reads as before).
+// 5 adds to a fit's state what its wire result leaves out of the core's Calibration (the covariance, the
+// singular values, the residual count, the outliers' measurement indices, the implausible joint terms), so that
+// Restore returns the calibration whole; a fit of an older version restores without them.
 // A document of a version newer than kStoredSchemaVersion is refused by name rather than misread.
 #pragma once
 
@@ -27,7 +30,7 @@
 
 namespace robocal::api {
 
-inline constexpr int kStoredSchemaVersion = 4;
+inline constexpr int kStoredSchemaVersion = 5;
 
 /// The schema version of a stored document (1 when it has none); WireError if newer than this server reads.
 int StoredSchemaVersion(const nlohmann::json& document);
@@ -39,22 +42,18 @@ struct StoredRobot {
 void to_json(nlohmann::json& j, const StoredRobot& robot);
 void from_json(const nlohmann::json& j, StoredRobot& robot);
 
-/// A campaign: what POST /v1/campaigns fixed, with a copy of its robot's definition (so that deleting or
-/// re-registering the robot never changes a campaign).
-struct StoredCampaign {
-  std::string id;
-  std::string description;
-  std::string robot;
+/// A campaign: what POST /v1/campaigns fixed (the members of the campaign resource, campaigns.h), with a copy of
+/// its robot's definition (so that deleting or re-registering the robot never changes a campaign).
+struct StoredCampaign : CampaignDefinition {
   RegisterRobotRequest robot_definition;
-  MeasurementType measurement_type = MeasurementType::kPose;
-  std::optional<std::string> plan;
-  NoiseWire noise;
-  std::optional<TrackerModelWire> tracker;
-  double repeatability_mm = 0.0;
-  std::vector<CampaignReflectorWire> reflectors;
-  std::optional<PayloadWire> payload;
-  std::int64_t created_unix_ms = 0;
 };
+template <>
+struct WireFields<StoredCampaign> {
+  static constexpr auto fields = std::tuple_cat(
+      WireFields<CampaignDefinition>::fields,
+      std::make_tuple(Field{"robot_definition", &StoredCampaign::robot_definition}));
+};
+/// Written by the table with schema_version; read after filling in what older versions left out.
 void to_json(nlohmann::json& j, const StoredCampaign& campaign);
 void from_json(const nlohmann::json& j, StoredCampaign& campaign);
 
@@ -80,13 +79,24 @@ struct StoredCalibration {
   /// up to it and none after (measurements are append-only in sequence order), its outliers included. Absent in
   /// fits stored before it was recorded.
   std::optional<std::int64_t> last_calibration_sequence;
+  /// Version 5 on (absent: a fit stored before): the estimated parameters' covariance (Calibration::covariance,
+  /// rows in result.parameters' order; mm and rad), the singular values of the fit's scaled Jacobian
+  /// (IdentificationSummary::singular_values), the number of residual rows, each outlier's index among the
+  /// measurements the fit was given (result.outliers' order) and the implausible joint terms.
+  std::optional<std::vector<std::vector<double>>> covariance;
+  std::vector<double> singular_values;
+  int num_residuals = 0;
+  std::vector<int> outlier_measurements;
+  std::vector<std::string> implausible_joint_terms;
 };
 void to_json(nlohmann::json& j, const StoredCalibration& calibration);
 void from_json(const nlohmann::json& j, StoredCalibration& calibration);
 /// The stored form of a finished fit.
 StoredCalibration ToStored(const Calibration& calibration, const CalibrationResult& result);
-/// The core Calibration back from its stored form, on the campaign's nominal model; its summary keeps the
-/// stored fit's termination and message.
+/// The core Calibration back from its stored form, on the campaign's nominal model: the calibrated model, its
+/// errors, parameters, covariance, frames and reflectors, and its whole summary (a fit stored before version 5
+/// without covariance and singular values, and with outliers whose measurement index is unknown: -1). WireError
+/// when the stored fit does not fit the robot (error count, parameter names, covariance size).
 Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored);
 
 /// A cell: the resource as returned (every default filled in), with a copy of its robot's definition, so that

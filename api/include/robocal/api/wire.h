@@ -273,6 +273,9 @@ namespace robocal::api {
 
 // ------------------------------------------------------------------------------------------------ common
 
+/// Lengths beyond this are typing mistakes, not geometry: 1000 km in mm (poses, robots, cells).
+inline constexpr double kMaxLengthMm = 1e9;
+
 /// Size and work limits applied while parsing, to each request's total before any work starts. The server
 /// fills them from its configuration; each bounds what its comment says.
 struct Limits {

@@ -1,7 +1,8 @@
 // What a finished fit looks like from the inside, recomputed from a calibration and its measurements: each
 // measurement's residual, and the fit's linearisation at the solution (singular values of the weighted,
-// column-scaled Jacobian, covariance). A stored calibration keeps only its parameters and standard deviations;
-// a report that shows correlations or per-pose residuals recomputes them here with the fit's own weighting.
+// column-scaled Jacobian, covariance). A report's per-pose residuals are computed here with the fit's own
+// weighting; LinearizeFit recomputes what Identify returns in Calibration::covariance and
+// IdentificationSummary::singular_values (a check of both, and the figures of a calibration moved to other data).
 // Defined in identification.cc, next to the least-squares problem whose rows they must share.
 #pragma once
 

@@ -145,6 +145,8 @@ struct IdentificationSummary {
   /// Condition number of the weighted, column-norm-scaled Jacobian at the solution, and its scaling
   /// (DescribeScaling of options.noise with ColumnScaling::kColumnNorm).
   double condition_number = 0.0;
+  /// That Jacobian's singular values, descending (condition_number is the first over the last); empty on FAILURE.
+  Eigen::VectorXd singular_values;
   std::string scaling;
   /// The estimated tracker -> base and flange -> tool transforms (as Calibration::T_world_base and
   /// T_flange_tool), so that FullReport shows them; the nominal ones on FAILURE.

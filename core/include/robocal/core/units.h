@@ -2,6 +2,7 @@
 // constants of the project (core, wire, import, report and tests alike).
 #pragma once
 
+#include <cmath>
 #include <numbers>
 
 namespace robocal {
@@ -10,5 +11,8 @@ namespace robocal {
 inline constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 /// Radians per degree: radians = degrees * kRadPerDeg.
 inline constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+/// `angle` (rad) wrapped into [-pi, pi].
+inline double WrapAngle(double angle) { return std::remainder(angle, 2.0 * std::numbers::pi); }
 
 }  // namespace robocal

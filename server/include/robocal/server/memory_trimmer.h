@@ -31,6 +31,9 @@ class MemoryTrimmer {
 
   /// A trim `delay` from now, unless one is already waiting.
   void Schedule();
+  /// Whether a trim is waiting for its delay (asked for, not yet begun). When none is, none runs until the next
+  /// Schedule().
+  bool Due();
 
  private:
   void Run();

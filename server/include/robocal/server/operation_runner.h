@@ -111,6 +111,8 @@ class OperationRunner {
   api::Operation Cancel(const std::string& id);
   /// Operations still running on this instance.
   int running();
+  /// Returns once no operation runs on this instance (each one's final document written).
+  void WaitUntilIdle();
   /// At start: marks FAILED the operations no live instance runs: those whose lease has expired, those left
   /// RUNNING without a lease, and, on a database one process owns (SQLite), every one left RUNNING (its
   /// process is gone). Returns how many were marked.
@@ -136,6 +138,8 @@ class OperationRunner {
   OperationRunnerOptions options_;
   std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Running>> running_;
+  // Notified (with mutex_ taken and released first) each time an operation's thread has finished.
+  std::condition_variable finished_;
   // The lease keeper: wakes every third of the lease, or at once to stop.
   std::mutex keeper_mutex_;
   std::condition_variable keeper_wake_;

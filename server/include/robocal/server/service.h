@@ -121,6 +121,8 @@ class Service {
   api::Operation GetOperation(const std::string& id) { return operations_.Get(id); }
   api::Operation CancelOperation(const std::string& id) { return operations_.Cancel(id); }
   int running_operations() { return operations_.running(); }
+  /// Returns once no operation runs on this instance (OperationRunner::WaitUntilIdle).
+  void WaitForOperations() { operations_.WaitUntilIdle(); }
 
   /// The request limits the service enforces (the routes apply max_array_length while parsing bodies).
   const api::Limits& limits() const { return options_.limits; }
