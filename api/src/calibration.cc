@@ -80,7 +80,7 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       ObjectReader m(*v, "model", problems);
       m.Bool("compliance", false, &req->model.compliance);
       m.Int("joint_harmonics", false, &req->model.joint_harmonics, 0, kMaxJointHarmonics);
-      m.RejectUnknown({"compliance", "joint_harmonics"});
+      m.RejectUnknown(WireFieldNames<ModelWire>());
       if (req->model.compliance && !model.has_masses()) {
         problems->Add("model.compliance", "robot \"" + model.name() +
                                               "\" has no link masses: give its joints mass_kg and com_mm, or "
@@ -490,51 +490,9 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
       !(req.max_joint_jump_deg > 0.0 && req.max_joint_jump_deg <= 720.0)) {
     problems.Add("max_joint_jump_deg", "must be in (0, 720] deg");
   }
-  r.RejectUnknown({"targets", "sequence", "max_joint_jump_deg"});
+  r.RejectUnknown(WireFieldNames<CompensateRequest>());
   problems.ThrowIfAny("invalid compensation request");
   return req;
-}
-
-void to_json(nlohmann::json& j, const CompensateRequest& req) {
-  j = {{"targets", req.targets}, {"sequence", req.sequence}, {"max_joint_jump_deg", req.max_joint_jump_deg}};
-}
-
-void from_json(const nlohmann::json& j, CompensateRequest& req) {
-  const WireReader r(j);
-  r.Required("targets", &req.targets);
-  r.Required("sequence", &req.sequence);
-  r.Required("max_joint_jump_deg", &req.max_joint_jump_deg);
-}
-
-void to_json(nlohmann::json& j, const Compensation& c) {
-  j = {{"joints", Nums(c.joints)},
-       {"position_error_mm", Num(c.position_error_mm)},
-       {"orientation_error_deg", Num(c.orientation_error_deg)},
-       {"free_rotation_deg", Num(c.free_rotation_deg)},
-       {"converged", c.converged},
-       {"termination", c.termination},
-       {"iterations", c.iterations},
-       {"message", c.message},
-       {"joint_jump_deg", Num(c.joint_jump_deg)},
-       {"joint_jump", c.joint_jump},
-       {"configuration", c.configuration ? nlohmann::json(*c.configuration) : nlohmann::json(nullptr)},
-       {"branch_change", c.branch_change}};
-}
-
-void from_json(const nlohmann::json& j, Compensation& c) {
-  const WireReader r(j);
-  r.Required("joints", &c.joints);
-  r.Required("position_error_mm", &c.position_error_mm);
-  r.Required("orientation_error_deg", &c.orientation_error_deg);
-  r.Required("free_rotation_deg", &c.free_rotation_deg);
-  r.Required("converged", &c.converged);
-  r.Required("termination", &c.termination);
-  r.Required("iterations", &c.iterations);
-  r.Required("message", &c.message);
-  r.Required("joint_jump_deg", &c.joint_jump_deg);
-  r.Required("joint_jump", &c.joint_jump);
-  r.Required("configuration", &c.configuration);
-  r.Required("branch_change", &c.branch_change);
 }
 
 Compensation ToWire(const RobotModel& model, const CompensationResult& r) {

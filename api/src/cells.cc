@@ -68,7 +68,7 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
     tr.Number("min_distance_mm", false, &cell.tracker.min_distance_mm, 0.0, kMaxLengthMm);
     double max = 0.0;
     if (tr.Number("max_distance_mm", false, &max, 0.0, kMaxLengthMm)) cell.tracker.max_distance_mm = max;
-    tr.RejectUnknown({"position_mm", "min_distance_mm", "max_distance_mm"});
+    tr.RejectUnknown(WireFieldNames<TrackerWire>());
   } else if (r.ok()) {
     problems.Add("tracker", "required");
   }
@@ -82,7 +82,7 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
     item.FixedNumbers("normal", true, w->normal.data(), 3);
     // The core refuses 0 with its reason; (0, 180] as the core and docs/cells.md say.
     item.Number("acceptance_half_angle_deg", false, &w->acceptance_half_angle_deg, 0.0, 180.0);
-    item.RejectUnknown({"id", "position_mm", "normal", "acceptance_half_angle_deg"});
+    item.RejectUnknown(WireFieldNames<ReflectorWire>());
   });
   ReadList(r, "obstacles", std::min(kMaxObstacles, limits.max_array_length), &problems, &cell.obstacles,
            [&problems](ObjectReader& item, ObstacleWire* w) {
@@ -127,7 +127,7 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
       ObjectReader range((*a)[i], IndexPath("joint_ranges", i), &problems);
       range.Number("min", true, &cell.joint_ranges[i].min);
       range.Number("max", true, &cell.joint_ranges[i].max);
-      range.RejectUnknown({"min", "max"});
+      range.RejectUnknown(WireFieldNames<JointRangeWire>());
     }
   }
   r.RejectUnknown({"id", "description", "robot", "tracker", "reflectors", "obstacles", "link_radii_mm",
@@ -234,15 +234,6 @@ CellWire CellRequestOf(const std::string& id, const std::string& robot, const Ce
 // ---------------------------------------------------------------------------------------------- json
 
 void to_json(nlohmann::json& j, const CellWire& c) {
-  nlohmann::json tracker = {{"position_mm", c.tracker.position_mm}, {"min_distance_mm", c.tracker.min_distance_mm}};
-  if (c.tracker.max_distance_mm) tracker["max_distance_mm"] = *c.tracker.max_distance_mm;
-  nlohmann::json reflectors = nlohmann::json::array();
-  for (const ReflectorWire& r : c.reflectors) {
-    reflectors.push_back({{"id", r.id},
-                          {"position_mm", r.position_mm},
-                          {"normal", r.normal},
-                          {"acceptance_half_angle_deg", r.acceptance_half_angle_deg}});
-  }
   nlohmann::json obstacles = nlohmann::json::array();
   for (const ObstacleWire& o : c.obstacles) {
     obstacles.push_back({{"id", o.id}, {"box", {{"min_mm", o.min_mm}, {"max_mm", o.max_mm}}}});
@@ -250,8 +241,8 @@ void to_json(nlohmann::json& j, const CellWire& c) {
   j = {{"id", c.id},
        {"description", c.description},
        {"robot", c.robot},
-       {"tracker", std::move(tracker)},
-       {"reflectors", std::move(reflectors)},
+       {"tracker", c.tracker},
+       {"reflectors", c.reflectors},
        {"obstacles", std::move(obstacles)},
        {"clearance_mm", c.clearance_mm}};
   // A request may leave the radii and ranges to the server (empty here); a resource always has them.
@@ -261,19 +252,6 @@ void to_json(nlohmann::json& j, const CellWire& c) {
 }
 
 // The parts of a cell (found by ReadWire through argument-dependent lookup, so not in an unnamed namespace).
-void from_json(const nlohmann::json& j, TrackerWire& t) {
-  const WireReader r(j);
-  r.Required("position_mm", &t.position_mm);
-  r.Required("min_distance_mm", &t.min_distance_mm);
-  r.Optional("max_distance_mm", &t.max_distance_mm);
-}
-void from_json(const nlohmann::json& j, ReflectorWire& w) {
-  const WireReader r(j);
-  r.Required("id", &w.id);
-  r.Required("position_mm", &w.position_mm);
-  r.Required("normal", &w.normal);
-  r.Required("acceptance_half_angle_deg", &w.acceptance_half_angle_deg);
-}
 void from_json(const nlohmann::json& j, ObstacleWire& w) {
   const WireReader r(j);
   r.Required("id", &w.id);
@@ -298,55 +276,7 @@ void from_json(const nlohmann::json& j, CellWire& c) {
   r.Required("joint_ranges", &c.joint_ranges);
 }
 
-void to_json(nlohmann::json& j, const CellList& list) {
-  j = {{"cells", list.cells}};
-  if (list.next_page_token) j["next_page_token"] = *list.next_page_token;
-}
-
-void from_json(const nlohmann::json& j, CellList& list) {
-  const WireReader r(j);
-  r.Required("cells", &list.cells);
-  r.Optional("next_page_token", &list.next_page_token);
-}
-
 // ---------------------------------------------------------------------------------------------- checks
-
-void to_json(nlohmann::json& j, const ConfigurationCheckWire& c) {
-  nlohmann::json reflectors = nlohmann::json::array();
-  for (const ReflectorCheckWire& r : c.reflectors) {
-    nlohmann::json o = {{"id", r.id},
-                        {"measurable", r.measurable},
-                        {"incidence_deg", Num(r.incidence_deg)},
-                        {"distance_mm", Num(r.distance_mm)}};
-    if (r.blocked_by) o["blocked_by"] = *r.blocked_by;
-    reflectors.push_back(std::move(o));
-  }
-  j = {{"feasible", c.feasible},
-       {"reflectors", std::move(reflectors)},
-       {"min_clearance_mm", Num(c.min_clearance_mm)},
-       {"clearance_pair", c.clearance_pair},
-       {"failed_rules", c.failed_rules},
-       {"reasons", c.reasons}};
-}
-
-void from_json(const nlohmann::json& j, ReflectorCheckWire& w) {
-  const WireReader r(j);
-  r.Required("id", &w.id);
-  r.Required("measurable", &w.measurable);
-  r.Required("incidence_deg", &w.incidence_deg);
-  r.Required("distance_mm", &w.distance_mm);
-  r.Optional("blocked_by", &w.blocked_by);
-}
-
-void from_json(const nlohmann::json& j, ConfigurationCheckWire& c) {
-  const WireReader r(j);
-  r.Required("feasible", &c.feasible);
-  r.Required("reflectors", &c.reflectors);
-  r.Required("min_clearance_mm", &c.min_clearance_mm);
-  r.Required("clearance_pair", &c.clearance_pair);
-  r.Required("failed_rules", &c.failed_rules);
-  r.Required("reasons", &c.reasons);
-}
 
 ConfigurationCheckWire ToWire(const ConfigurationCheck& c) {
   ConfigurationCheckWire w;
@@ -361,14 +291,6 @@ ConfigurationCheckWire ToWire(const ConfigurationCheck& c) {
   w.failed_rules = c.failed_rules;
   w.reasons = c.reasons;
   return w;
-}
-
-void to_json(nlohmann::json& j, const CellCheckResult& r) { j = {{"cell", r.cell}, {"results", r.results}}; }
-
-void from_json(const nlohmann::json& j, CellCheckResult& r) {
-  const WireReader reader(j);
-  reader.Required("cell", &r.cell);
-  reader.Required("results", &r.results);
 }
 
 ForwardRequest ParseCellCheckRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {

@@ -223,37 +223,6 @@ void from_json(const nlohmann::json& j, PlanRequest& req) {
 
 // ---------------------------------------------------------------------------------------------- the resource
 
-void to_json(nlohmann::json& j, const Indices& x) {
-  j = {{"num_configurations", x.num_configurations},
-       {"num_parameters", x.num_parameters},
-       {"condition_number", Num(x.condition_number)},
-       {"o1", Num(x.o1)},
-       {"o2", Num(x.o2)},
-       {"o3", Num(x.o3)},
-       {"o4", Num(x.o4)},
-       {"o5", Num(x.o5)},
-       {"log_det", Num(x.log_det)},
-       {"predicted_error_mm", Num(x.predicted_error_mm)},
-       {"singular_values", Nums(x.singular_values)},
-       {"scaling", x.scaling}};
-}
-
-void from_json(const nlohmann::json& j, Indices& x) {
-  const WireReader r(j);
-  r.Required("num_configurations", &x.num_configurations);
-  r.Required("num_parameters", &x.num_parameters);
-  r.Required("condition_number", &x.condition_number);
-  r.Required("o1", &x.o1);
-  r.Required("o2", &x.o2);
-  r.Required("o3", &x.o3);
-  r.Required("o4", &x.o4);
-  r.Required("o5", &x.o5);
-  r.Required("log_det", &x.log_det);
-  r.Required("predicted_error_mm", &x.predicted_error_mm);
-  r.Required("singular_values", &x.singular_values);
-  r.Required("scaling", &x.scaling);
-}
-
 Indices ToWire(const ObservabilityIndices& x) {
   return {x.num_configurations,
           x.num_parameters,
@@ -269,48 +238,10 @@ Indices ToWire(const ObservabilityIndices& x) {
           x.scaling};
 }
 
-void to_json(nlohmann::json& j, const PredictedAccuracyWire& a) {
-  j = {{"num_validation", a.num_validation},
-       {"rms_position_mm", Num(a.rms_position_mm)},
-       {"max_position_mm", Num(a.max_position_mm)},
-       {"rms_orientation_deg", Num(a.rms_orientation_deg)},
-       {"rms_error_mm", Num(a.rms_error_mm)}};
-}
-
-void from_json(const nlohmann::json& j, PredictedAccuracyWire& a) {
-  const WireReader r(j);
-  r.Required("num_validation", &a.num_validation);
-  r.Required("rms_position_mm", &a.rms_position_mm);
-  r.Required("max_position_mm", &a.max_position_mm);
-  r.Required("rms_orientation_deg", &a.rms_orientation_deg);
-  r.Required("rms_error_mm", &a.rms_error_mm);
-}
-
 PredictedAccuracyWire ToWire(const PredictedAccuracy& a) {
   return {a.num_validation, a.rms_position_mm, a.max_position_mm,
           a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN(),
           a.rms_error_mm};
-}
-
-void to_json(nlohmann::json& j, const PlanSummaryWire& s) {
-  j = {{"termination", s.termination}, {"message", s.message},         {"method", s.method},
-       {"objective", s.objective},     {"iterations", s.iterations},   {"evaluations", s.evaluations},
-       {"seconds", Num(s.seconds)},    {"initial", s.initial},         {"brief", s.brief},
-       {"deadline_exceeded", s.deadline_exceeded}};
-}
-
-void from_json(const nlohmann::json& j, PlanSummaryWire& s) {
-  const WireReader r(j);
-  r.Required("termination", &s.termination);
-  r.Required("message", &s.message);
-  r.Required("method", &s.method);
-  r.Required("objective", &s.objective);
-  r.Required("iterations", &s.iterations);
-  r.Required("evaluations", &s.evaluations);
-  r.Required("seconds", &s.seconds);
-  r.Required("initial", &s.initial);
-  r.Required("brief", &s.brief);
-  r.Required("deadline_exceeded", &s.deadline_exceeded);
 }
 
 PlanSummaryWire ToWire(const PlanSummary& s) {
@@ -325,58 +256,6 @@ PlanSummaryWire ToWire(const PlanSummary& s) {
   w.initial = ToWire(s.initial);
   w.brief = s.BriefReport();
   return w;
-}
-
-void to_json(nlohmann::json& j, const PlanBaseline& b) {
-  j = {{"configurations", b.configurations}, {"indices", b.indices}, {"predicted_accuracy", b.predicted_accuracy}};
-}
-
-void from_json(const nlohmann::json& j, PlanBaseline& b) {
-  const WireReader r(j);
-  r.Required("configurations", &b.configurations);
-  r.Required("indices", &b.indices);
-  r.Required("predicted_accuracy", &b.predicted_accuracy);
-}
-
-void to_json(nlohmann::json& j, const PlanResult& p) {
-  j = {{"id", p.id},
-       {"robot", p.robot},
-       {"request", p.request},
-       {"measurement_type", p.measurement_type},
-       {"objective", p.objective},
-       {"optimiser", p.optimiser},
-       {"joint_units", p.joint_units},
-       {"configurations", p.configurations},
-       {"indices", p.indices},
-       {"baseline", p.baseline},
-       {"identifiable_parameters", p.identifiable_parameters},
-       {"dropped_parameters", p.dropped_parameters},
-       {"predicted_accuracy", p.predicted_accuracy},
-       {"summary", p.summary},
-       {"created_unix_ms", p.created_unix_ms},
-       {"cell", p.cell ? nlohmann::json(*p.cell) : nlohmann::json()},
-       {"configuration_checks", p.configuration_checks}};
-}
-
-void from_json(const nlohmann::json& j, PlanResult& p) {
-  const WireReader r(j);
-  r.Required("id", &p.id);
-  r.Required("robot", &p.robot);
-  r.Required("request", &p.request);
-  r.Required("measurement_type", &p.measurement_type);
-  r.Required("objective", &p.objective);
-  r.Required("optimiser", &p.optimiser);
-  r.Required("joint_units", &p.joint_units);
-  r.Required("configurations", &p.configurations);
-  r.Required("indices", &p.indices);
-  r.Required("baseline", &p.baseline);
-  r.Required("identifiable_parameters", &p.identifiable_parameters);
-  r.Required("dropped_parameters", &p.dropped_parameters);
-  r.Required("predicted_accuracy", &p.predicted_accuracy);
-  r.Required("summary", &p.summary);
-  r.Required("created_unix_ms", &p.created_unix_ms);
-  r.Required("cell", &p.cell);
-  r.Required("configuration_checks", &p.configuration_checks);
 }
 
 }  // namespace robocal::api

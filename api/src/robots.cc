@@ -209,19 +209,6 @@ void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
   if (r.Optional("calibrated_from", &source)) req.calibrated_from = source;
 }
 
-void to_json(nlohmann::json& j, const CalibrationSource& source) {
-  j = {{"campaign", source.campaign}, {"robot", source.robot}, {"created_unix_ms", source.created_unix_ms}};
-  if (!source.joint_ranges.empty()) j["joint_ranges"] = source.joint_ranges;
-}
-
-void from_json(const nlohmann::json& j, CalibrationSource& source) {
-  const WireReader r(j);
-  r.Required("campaign", &source.campaign);
-  r.Required("robot", &source.robot);
-  r.Required("created_unix_ms", &source.created_unix_ms);
-  r.Optional("joint_ranges", &source.joint_ranges);
-}
-
 bool IsFromCalibration(const nlohmann::json& body) { return body.is_object() && body.contains("from_calibration"); }
 
 RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body) {
@@ -234,14 +221,9 @@ RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::jso
     problems.Add("from_calibration", "a campaign id: " + std::string(kIdRule));
   }
   // The geometry is the calibration's: a table, preset, URDF, base or tool beside it would contradict it.
-  r.RejectUnknown({"id", "description", "from_calibration"});
+  r.RejectUnknown(WireFieldNames<RobotFromCalibrationRequest>());
   problems.ThrowIfAny("invalid robot");
   return req;
-}
-
-void to_json(nlohmann::json& j, const RobotFromCalibrationRequest& req) {
-  j = {{"id", req.id}, {"from_calibration", req.campaign}};
-  if (!req.description.empty()) j["description"] = req.description;
 }
 
 bool IsUrdfImport(const nlohmann::json& body) {
@@ -260,29 +242,9 @@ ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limit
   PoseWire pose;
   if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
   if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
-  r.RejectUnknown({"id", "description", "urdf", "base_link", "tip_link", "base", "tool"});
+  r.RejectUnknown(WireFieldNames<ImportUrdfRequest>());
   problems.ThrowIfAny("invalid robot");
   return req;
-}
-
-void to_json(nlohmann::json& j, const ImportUrdfRequest& req) {
-  j = {{"urdf", req.urdf}, {"base_link", req.base_link}, {"tip_link", req.tip_link}};
-  if (!req.id.empty()) j["id"] = req.id;
-  if (!req.description.empty()) j["description"] = req.description;
-  if (req.base) j["base"] = *req.base;
-  if (req.tool) j["tool"] = *req.tool;
-}
-
-void from_json(const nlohmann::json& j, ImportUrdfRequest& req) {
-  const WireReader r(j);
-  r.Optional("id", &req.id);
-  r.Optional("description", &req.description);
-  r.Required("urdf", &req.urdf);
-  r.Required("base_link", &req.base_link);
-  r.Required("tip_link", &req.tip_link);
-  std::optional<PoseWire> pose;
-  if (r.Optional("base", &pose)) req.base = pose;
-  if (r.Optional("tool", &pose)) req.tool = pose;
 }
 
 RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
@@ -472,17 +434,6 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   return robot;
 }
 
-void to_json(nlohmann::json& j, const RobotList& list) {
-  j = {{"robots", list.robots}};
-  if (list.next_page_token) j["next_page_token"] = *list.next_page_token;
-}
-
-void from_json(const nlohmann::json& j, RobotList& list) {
-  const WireReader r(j);
-  r.Required("robots", &list.robots);
-  r.Optional("next_page_token", &list.next_page_token);
-}
-
 // ---------------------------------------------------------------------------------------------- forward
 
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
@@ -505,23 +456,12 @@ ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& 
     if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
       req.payload = payload;
     }
-    r.RejectUnknown({"joints", "payload"});
+    r.RejectUnknown(WireFieldNames<ForwardRequest>());
   } else {
     r.RejectUnknown({"joints"});
   }
   problems.ThrowIfAny(refusal);
   return req;
-}
-
-void to_json(nlohmann::json& j, const ForwardRequest& req) {
-  j = {{"joints", req.joints}};
-  if (req.payload) j["payload"] = *req.payload;
-}
-
-void from_json(const nlohmann::json& j, ForwardRequest& req) {
-  const WireReader r(j);
-  r.Required("joints", &req.joints);
-  r.Optional("payload", &req.payload);
 }
 
 void to_json(nlohmann::json& j, const ForwardResult& result) {

@@ -45,14 +45,16 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
   (void)StoredSchemaVersion(j);
-  // What versions before 4 did not write (and what version 4 wrote only when set): each member's empty value.
+  // What versions before 4 did not write (and what version 4 wrote only when set), and a plan or repeatability
+  // left out or null, as the reader before the field table took them: each member's empty value.
   nlohmann::json doc = j;
   if (doc.is_object()) {
-    for (const auto& [key, empty] : {std::pair<const char*, nlohmann::json>{"tracker", nullptr},
+    for (const auto& [key, empty] : {std::pair<const char*, nlohmann::json>{"plan", nullptr},
+                                     {"tracker", nullptr},
                                      {"repeatability_mm", 0.0},
                                      {"reflectors", nlohmann::json::array()},
                                      {"payload", nullptr}}) {
-      if (!doc.contains(key)) doc[key] = empty;
+      if (!doc.contains(key) || doc[key].is_null()) doc[key] = empty;
     }
   }
   ReadFields(doc, &c);
@@ -112,7 +114,9 @@ void from_json(const nlohmann::json& j, StoredCalibration& c) {
   ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
   state.Required("errors", &c.errors);
   state.Optional("last_calibration_sequence", &c.last_calibration_sequence);
-  if (version >= 5) {
+  // Version 5 writes the rest of the state with the covariance; a state without it is one stored before (also
+  // when written again by this version).
+  if (version >= 5 && state.Has("covariance")) {
     c.covariance.emplace();
     state.Required("covariance", &*c.covariance);
     state.Required("singular_values", &c.singular_values);

@@ -214,26 +214,10 @@ bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems
       }
     }
   }
-  r.RejectUnknown({"mass_kg", "com_mm"});
+  r.RejectUnknown(WireFieldNames<PayloadWire>());
   if (problems->size() != before) return false;
   *out = payload;
   return true;
-}
-
-void to_json(nlohmann::json& j, const JointRangeWire& range) { j = {{"min", range.min}, {"max", range.max}}; }
-
-void from_json(const nlohmann::json& j, JointRangeWire& range) {
-  const WireReader r(j);
-  r.Required("min", &range.min);
-  r.Required("max", &range.max);
-}
-
-void to_json(nlohmann::json& j, const PayloadWire& p) { j = {{"mass_kg", p.mass_kg}, {"com_mm", p.com_mm}}; }
-
-void from_json(const nlohmann::json& j, PayloadWire& p) {
-  const WireReader r(j);
-  r.Required("mass_kg", &p.mass_kg);
-  r.Optional("com_mm", &p.com_mm);
 }
 
 Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
@@ -269,28 +253,10 @@ PoseWire TransformToPose(const Transform& pose) {
 
 // ------------------------------------------------------------------------------------------------ small shapes
 
-void to_json(nlohmann::json& j, const DroppedParameterWire& d) { j = {{"name", d.name}, {"reason", d.reason}}; }
-
-void from_json(const nlohmann::json& j, DroppedParameterWire& d) {
-  const WireReader r(j);
-  r.Required("name", &d.name);
-  r.Required("reason", &d.reason);
-}
-
 std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dropped) {
   std::vector<DroppedParameterWire> out;
   for (const DroppedParameter& d : dropped) out.push_back({d.name, d.reason});
   return out;
-}
-
-void to_json(nlohmann::json& j, const NoiseWire& n) {
-  j = {{"position_mm", n.position_mm}, {"orientation_deg", n.orientation_deg}};
-}
-
-void from_json(const nlohmann::json& j, NoiseWire& n) {
-  const WireReader r(j);
-  r.Required("position_mm", &n.position_mm);
-  r.Required("orientation_deg", &n.orientation_deg);
 }
 
 void ParseNoise(const nlohmann::json* v, const std::string& path, Problems* problems, NoiseWire* out) {
@@ -298,26 +264,11 @@ void ParseNoise(const nlohmann::json* v, const std::string& path, Problems* prob
   ObjectReader n(*v, path, problems);
   n.Number("position_mm", false, &out->position_mm, 1e-9, 1e3);
   n.Number("orientation_deg", false, &out->orientation_deg, 1e-9, 90.0);
-  n.RejectUnknown({"position_mm", "orientation_deg"});
+  n.RejectUnknown(WireFieldNames<NoiseWire>());
 }
 
 MeasurementNoise ToCore(const NoiseWire& noise) {
   return MeasurementNoise{noise.position_mm, noise.orientation_deg * kRadPerDeg, std::nullopt};
-}
-
-void to_json(nlohmann::json& j, const TrackerModelWire& t) {
-  j = {{"radial_um", t.radial_um},
-       {"transverse_um", t.transverse_um},
-       {"orientation_deg", t.orientation_deg},
-       {"mpe_sigmas", t.mpe_sigmas}};
-}
-
-void from_json(const nlohmann::json& j, TrackerModelWire& t) {
-  const WireReader r(j);
-  r.Required("radial_um", &t.radial_um);
-  r.Required("transverse_um", &t.transverse_um);
-  r.Required("orientation_deg", &t.orientation_deg);
-  r.Required("mpe_sigmas", &t.mpe_sigmas);
 }
 
 void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problems* problems,
@@ -344,7 +295,7 @@ void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problem
   pair("transverse_um", &t.transverse_um);
   r.Number("orientation_deg", false, &t.orientation_deg, kMinTrackerOrientationDeg, 90.0);
   r.Number("mpe_sigmas", false, &t.mpe_sigmas, 0.1, 10.0);
-  r.RejectUnknown({"radial_um", "transverse_um", "orientation_deg", "mpe_sigmas"});
+  r.RejectUnknown(WireFieldNames<TrackerModelWire>());
   *out = t;
 }
 

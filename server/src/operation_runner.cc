@@ -126,7 +126,7 @@ OperationRunner::~OperationRunner() {
   }
   keeper_wake_.notify_all();
   keeper_.join();
-  // Threads never touch running_, so joining outside the lock cannot deadlock.
+  // Joined outside the lock: an operation's thread takes mutex_ once more as it finishes (WaitUntilIdle).
   std::vector<std::thread*> threads;
   {
     std::lock_guard lock(mutex_);

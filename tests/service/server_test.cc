@@ -1056,7 +1056,7 @@ TEST(MemoryTrimmerTest, TrimsOnceAfterTheDelayAndStopsAtOnce) {
     EXPECT_LE(after_burst, 5);
     EXPECT_FALSE(trimmer.Due()) << "nothing asked, nothing waiting: the thread sleeps until Schedule()";
     trimmer.Schedule();
-    EXPECT_TRUE(trimmer.Due());
+    EXPECT_TRUE(trimmer.Due() || count() > after_burst);  // waiting, or already begun (a slow test thread)
     ASSERT_TRUE(wait_for_trims(after_burst + 1));
     EXPECT_EQ(count(), after_burst + 1);
   }

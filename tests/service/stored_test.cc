@@ -66,6 +66,22 @@ TEST(StoredDocumentTest, PreviousSchemaVersionStillLoads) {
   const StoredCampaign campaign = FromWire<StoredCampaign>(campaign_v1);
   EXPECT_EQ(campaign.measurement_type, MeasurementType::kPosition);
   EXPECT_FALSE(campaign.plan.has_value());
+  EXPECT_FALSE(campaign.tracker.has_value());
+  EXPECT_EQ(campaign.repeatability_mm, 0.0);
+  EXPECT_TRUE(campaign.reflectors.empty());
+  EXPECT_FALSE(campaign.payload.has_value());
+  // Without a plan member, and with a null repeatability: read as none and 0, as before the field table.
+  json campaign_loose = campaign_v1;
+  campaign_loose.erase("plan");
+  campaign_loose["repeatability_mm"] = nullptr;
+  const StoredCampaign loose = FromWire<StoredCampaign>(campaign_loose);
+  EXPECT_FALSE(loose.plan.has_value());
+  EXPECT_EQ(loose.repeatability_mm, 0.0);
+  // Written again, the campaign states every member (this version's form) and reads back the same.
+  const json campaign_v5 = json(campaign);
+  EXPECT_EQ(campaign_v5.at("schema_version"), kStoredSchemaVersion);
+  EXPECT_TRUE(campaign_v5.at("tracker").is_null());
+  EXPECT_EQ(json(FromWire<StoredCampaign>(campaign_v5)), campaign_v5);
 
   // A version-1 fit said nothing of a deadline (it was written only when true).
   const Calibration identity = Uncalibrated(model);
@@ -285,6 +301,10 @@ TEST_F(RestoreTest, AVersion4FitLoadsWithoutItsCovariance) {
   }
   const StoredCalibration stored = FromWire<StoredCalibration>(doc);
   EXPECT_FALSE(stored.covariance.has_value());
+  // Written again by this version, it stays a fit without covariance, and readable.
+  const json again = json(stored);
+  EXPECT_EQ(again["schema_version"], kStoredSchemaVersion);
+  EXPECT_FALSE(FromWire<StoredCalibration>(again).covariance.has_value());
   const Calibration r = Restore(*model_, stored);
   EXPECT_EQ(r.covariance.size(), 0);
   EXPECT_EQ(r.summary.singular_values.size(), 0);

@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/campaigns.h"
-#include "robocal/api/fields.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/accuracy.h"
@@ -346,8 +345,14 @@ struct CompensateRequest {
   double max_joint_jump_deg = 30.0;
 };
 CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
-void to_json(nlohmann::json& j, const CompensateRequest& request);
-void from_json(const nlohmann::json& j, CompensateRequest& request);
+template <>
+struct WireFields<CompensateRequest> {
+  using S = CompensateRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"targets", &S::targets},
+      Field{"sequence", &S::sequence},
+      Field{"max_joint_jump_deg", &S::max_joint_jump_deg});
+};
 
 /// One result of :compensate.
 struct Compensation {
@@ -373,8 +378,23 @@ struct Compensation {
   /// With sequence: the configuration differs from the previous target's result.
   bool branch_change = false;
 };
-void to_json(nlohmann::json& j, const Compensation& c);
-void from_json(const nlohmann::json& j, Compensation& c);
+template <>
+struct WireFields<Compensation> {
+  using S = Compensation;
+  static constexpr auto fields = std::make_tuple(
+      Field{"joints", &S::joints},
+      Field{"position_error_mm", &S::position_error_mm},
+      Field{"orientation_error_deg", &S::orientation_error_deg},
+      Field{"free_rotation_deg", &S::free_rotation_deg},
+      Field{"converged", &S::converged},
+      Field{"termination", &S::termination},
+      Field{"iterations", &S::iterations},
+      Field{"message", &S::message},
+      Field{"joint_jump_deg", &S::joint_jump_deg},
+      Field{"joint_jump", &S::joint_jump},
+      Field{"configuration", &S::configuration},
+      Field{"branch_change", &S::branch_change});
+};
 Compensation ToWire(const RobotModel& model, const CompensationResult& result);
 
 /// The reply of :compensate, one result per target in order.

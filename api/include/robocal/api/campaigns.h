@@ -10,7 +10,6 @@
 #include <nlohmann/json.hpp>
 
 #include "robocal/api/batch_result.h"
-#include "robocal/api/fields.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"

@@ -38,8 +38,24 @@ struct ObstacleWire {
   std::array<double, 3> max_mm{0.0, 0.0, 0.0};
 };
 
-void from_json(const nlohmann::json& j, TrackerWire& tracker);
-void from_json(const nlohmann::json& j, ReflectorWire& reflector);
+template <>
+struct WireFields<TrackerWire> {
+  using S = TrackerWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"position_mm", &S::position_mm},
+      Field{"min_distance_mm", &S::min_distance_mm},
+      Field{"max_distance_mm", &S::max_distance_mm, Presence::kOmitEmpty});
+};
+template <>
+struct WireFields<ReflectorWire> {
+  using S = ReflectorWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"position_mm", &S::position_mm},
+      Field{"normal", &S::normal},
+      Field{"acceptance_half_angle_deg", &S::acceptance_half_angle_deg});
+};
+/// Written inside the cell's to_json (as {"id", "box": {"min_mm", "max_mm"}}).
 void from_json(const nlohmann::json& j, ObstacleWire& obstacle);
 
 /// POST /v1/cells, and the cell resource (which has every default filled in: reflectors, link radii, tool
@@ -76,8 +92,13 @@ struct CellList {
   std::vector<CellWire> cells;
   std::optional<std::string> next_page_token;
 };
-void to_json(nlohmann::json& j, const CellList& list);
-void from_json(const nlohmann::json& j, CellList& list);
+template <>
+struct WireFields<CellList> {
+  using S = CellList;
+  static constexpr auto fields = std::make_tuple(
+      Field{"cells", &S::cells},
+      Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
+};
 
 /// One reflector of a configuration's report.
 struct ReflectorCheckWire {
@@ -89,7 +110,16 @@ struct ReflectorCheckWire {
   std::optional<std::string> blocked_by;
 };
 
-void from_json(const nlohmann::json& j, ReflectorCheckWire& check);
+template <>
+struct WireFields<ReflectorCheckWire> {
+  using S = ReflectorCheckWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"measurable", &S::measurable},
+      Field{"incidence_deg", &S::incidence_deg},
+      Field{"distance_mm", &S::distance_mm},
+      Field{"blocked_by", &S::blocked_by, Presence::kOmitEmpty});
+};
 
 /// The feasibility report of one configuration.
 struct ConfigurationCheckWire {
@@ -101,8 +131,17 @@ struct ConfigurationCheckWire {
   std::vector<CellRule> failed_rules;
   std::vector<std::string> reasons;
 };
-void to_json(nlohmann::json& j, const ConfigurationCheckWire& check);
-void from_json(const nlohmann::json& j, ConfigurationCheckWire& check);
+template <>
+struct WireFields<ConfigurationCheckWire> {
+  using S = ConfigurationCheckWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"feasible", &S::feasible},
+      Field{"reflectors", &S::reflectors},
+      Field{"min_clearance_mm", &S::min_clearance_mm},
+      Field{"clearance_pair", &S::clearance_pair},
+      Field{"failed_rules", &S::failed_rules},
+      Field{"reasons", &S::reasons});
+};
 ConfigurationCheckWire ToWire(const ConfigurationCheck& check);
 
 /// Configurations one :check takes: in the largest cell (16 reflectors, 128 obstacles) a check of 1000 takes
@@ -117,7 +156,12 @@ struct CellCheckResult {
   std::string cell;
   std::vector<ConfigurationCheckWire> results;
 };
-void to_json(nlohmann::json& j, const CellCheckResult& result);
-void from_json(const nlohmann::json& j, CellCheckResult& result);
+template <>
+struct WireFields<CellCheckResult> {
+  using S = CellCheckResult;
+  static constexpr auto fields = std::make_tuple(
+      Field{"cell", &S::cell},
+      Field{"results", &S::results});
+};
 
 }  // namespace robocal::api

@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "robocal/api/fields.h"
+#include "robocal/api/wire.h"
 
 namespace robocal::api {
 

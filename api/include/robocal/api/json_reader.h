@@ -68,7 +68,7 @@ class ObjectReader {
   const nlohmann::json* Array(const std::string& key, bool required, std::size_t min_size, std::size_t max_size);
 
   /// Records "unknown field" for members not in `known` (catches misspelt option names); a shape with a field
-  /// table passes WireFieldNames<T>() (fields.h).
+  /// table passes WireFieldNames<T>() (wire.h).
   void RejectUnknown(std::initializer_list<const char*> known);
   void RejectUnknown(const std::vector<const char*>& known);
 

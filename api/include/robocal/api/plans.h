@@ -78,8 +78,23 @@ struct Indices {
   std::vector<double> singular_values;
   std::string scaling;
 };
-void to_json(nlohmann::json& j, const Indices& indices);
-void from_json(const nlohmann::json& j, Indices& indices);
+template <>
+struct WireFields<Indices> {
+  using S = Indices;
+  static constexpr auto fields = std::make_tuple(
+      Field{"num_configurations", &S::num_configurations},
+      Field{"num_parameters", &S::num_parameters},
+      Field{"condition_number", &S::condition_number},
+      Field{"o1", &S::o1},
+      Field{"o2", &S::o2},
+      Field{"o3", &S::o3},
+      Field{"o4", &S::o4},
+      Field{"o5", &S::o5},
+      Field{"log_det", &S::log_det},
+      Field{"predicted_error_mm", &S::predicted_error_mm},
+      Field{"singular_values", &S::singular_values},
+      Field{"scaling", &S::scaling});
+};
 Indices ToWire(const ObservabilityIndices& indices);
 
 /// Predicted accuracy on random validation configurations; rms_orientation_deg is NaN (null) for position-only
@@ -93,8 +108,16 @@ struct PredictedAccuracyWire {
   /// orientation weighted by a length (docs/planning.md).
   double rms_error_mm = 0.0;
 };
-void to_json(nlohmann::json& j, const PredictedAccuracyWire& accuracy);
-void from_json(const nlohmann::json& j, PredictedAccuracyWire& accuracy);
+template <>
+struct WireFields<PredictedAccuracyWire> {
+  using S = PredictedAccuracyWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"num_validation", &S::num_validation},
+      Field{"rms_position_mm", &S::rms_position_mm},
+      Field{"max_position_mm", &S::max_position_mm},
+      Field{"rms_orientation_deg", &S::rms_orientation_deg},
+      Field{"rms_error_mm", &S::rms_error_mm});
+};
 PredictedAccuracyWire ToWire(const PredictedAccuracy& accuracy);
 
 /// How the search ended.
@@ -112,8 +135,21 @@ struct PlanSummaryWire {
   /// A synchronous plan stopped at the server's request deadline (termination NO_CONVERGENCE, best set so far).
   bool deadline_exceeded = false;
 };
-void to_json(nlohmann::json& j, const PlanSummaryWire& summary);
-void from_json(const nlohmann::json& j, PlanSummaryWire& summary);
+template <>
+struct WireFields<PlanSummaryWire> {
+  using S = PlanSummaryWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"termination", &S::termination},
+      Field{"message", &S::message},
+      Field{"method", &S::method},
+      Field{"objective", &S::objective},
+      Field{"iterations", &S::iterations},
+      Field{"evaluations", &S::evaluations},
+      Field{"seconds", &S::seconds},
+      Field{"initial", &S::initial},
+      Field{"brief", &S::brief},
+      Field{"deadline_exceeded", &S::deadline_exceeded});
+};
 PlanSummaryWire ToWire(const PlanSummary& summary);
 
 /// The paper's baseline: a random set of the same size.
@@ -122,8 +158,14 @@ struct PlanBaseline {
   Indices indices;
   PredictedAccuracyWire predicted_accuracy;
 };
-void to_json(nlohmann::json& j, const PlanBaseline& baseline);
-void from_json(const nlohmann::json& j, PlanBaseline& baseline);
+template <>
+struct WireFields<PlanBaseline> {
+  using S = PlanBaseline;
+  static constexpr auto fields = std::make_tuple(
+      Field{"configurations", &S::configurations},
+      Field{"indices", &S::indices},
+      Field{"predicted_accuracy", &S::predicted_accuracy});
+};
 
 /// POST /v1/plans (synchronous) and GET /v1/plans/{plan}.
 struct PlanResult {
@@ -149,7 +191,27 @@ struct PlanResult {
   std::optional<std::string> cell;
   std::vector<ConfigurationCheckWire> configuration_checks;
 };
-void to_json(nlohmann::json& j, const PlanResult& plan);
-void from_json(const nlohmann::json& j, PlanResult& plan);
+template <>
+struct WireFields<PlanResult> {
+  using S = PlanResult;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"robot", &S::robot},
+      Field{"request", &S::request},
+      Field{"measurement_type", &S::measurement_type},
+      Field{"objective", &S::objective},
+      Field{"optimiser", &S::optimiser},
+      Field{"joint_units", &S::joint_units},
+      Field{"configurations", &S::configurations},
+      Field{"indices", &S::indices},
+      Field{"baseline", &S::baseline},
+      Field{"identifiable_parameters", &S::identifiable_parameters},
+      Field{"dropped_parameters", &S::dropped_parameters},
+      Field{"predicted_accuracy", &S::predicted_accuracy},
+      Field{"summary", &S::summary},
+      Field{"created_unix_ms", &S::created_unix_ms},
+      Field{"cell", &S::cell},
+      Field{"configuration_checks", &S::configuration_checks});
+};
 
 }  // namespace robocal::api

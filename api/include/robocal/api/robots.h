@@ -54,8 +54,15 @@ struct CalibrationSource {
   /// definitions stored before it was kept.
   std::vector<JointRangeWire> joint_ranges;
 };
-void to_json(nlohmann::json& j, const CalibrationSource& source);
-void from_json(const nlohmann::json& j, CalibrationSource& source);
+template <>
+struct WireFields<CalibrationSource> {
+  using S = CalibrationSource;
+  static constexpr auto fields = std::make_tuple(
+      Field{"campaign", &S::campaign},
+      Field{"robot", &S::robot},
+      Field{"created_unix_ms", &S::created_unix_ms},
+      Field{"joint_ranges", &S::joint_ranges, Presence::kOmitEmpty});
+};
 
 /// POST /v1/robots, and the definition stored for a robot (and copied into each campaign). Either a full table
 /// (convention + joints) or `from_preset` (a preset's geometry, with base / tool optionally replaced).
@@ -102,8 +109,18 @@ inline constexpr std::size_t kMaxUrdfBytes = 4u << 20;
 bool IsUrdfImport(const nlohmann::json& body);
 /// Validates the request's fields (the document itself is read by the importer).
 ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits& limits);
-void to_json(nlohmann::json& j, const ImportUrdfRequest& request);
-void from_json(const nlohmann::json& j, ImportUrdfRequest& request);
+template <>
+struct WireFields<ImportUrdfRequest> {
+  using S = ImportUrdfRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id, Presence::kOmitEmpty},
+      Field{"description", &S::description, Presence::kOmitEmpty},
+      Field{"urdf", &S::urdf},
+      Field{"base_link", &S::base_link},
+      Field{"tip_link", &S::tip_link},
+      Field{"base", &S::base, Presence::kOmitEmpty},
+      Field{"tool", &S::tool, Presence::kOmitEmpty});
+};
 
 /// POST /v1/robots {"id", "description"?, "from_calibration": CAMPAIGN}: the campaign's calibrated robot as a
 /// robot of its own (docs/api.md, "A calibration in a new session"): the calibrated chain in the transform
@@ -117,7 +134,14 @@ struct RobotFromCalibrationRequest {
 /// True for a body with a "from_calibration" member.
 bool IsFromCalibration(const nlohmann::json& body);
 RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body);
-void to_json(nlohmann::json& j, const RobotFromCalibrationRequest& request);
+template <>
+struct WireFields<RobotFromCalibrationRequest> {
+  using S = RobotFromCalibrationRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"description", &S::description, Presence::kOmitEmpty},
+      Field{"from_calibration", &S::campaign});
+};
 
 /// Why a joint's held terms are no robot joint's, in wire units (e.g. "harmonics_deg[0] 0.9 is beyond +-0.573
 /// deg (0.01 rad)"), or empty: the bounds of RobotModel::Build (kImplausibleComplianceRadPerNm,
@@ -171,8 +195,13 @@ struct RobotList {
   std::vector<Robot> robots;
   std::optional<std::string> next_page_token;
 };
-void to_json(nlohmann::json& j, const RobotList& list);
-void from_json(const nlohmann::json& j, RobotList& list);
+template <>
+struct WireFields<RobotList> {
+  using S = RobotList;
+  static constexpr auto fields = std::make_tuple(
+      Field{"robots", &S::robots},
+      Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
+};
 
 /// POST /v1/robots/{robot}:forward and /v1/campaigns/{c}:forward: {"joints": [[...], ...]} (deg / mm per joint).
 struct ForwardRequest {
@@ -187,8 +216,13 @@ ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel&
 /// message starts with `refusal` (e.g. "invalid forward request"). The parser of every joints-only request.
 ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& model, std::size_t max_vectors,
                                   const char* refusal, bool with_payload = false);
-void to_json(nlohmann::json& j, const ForwardRequest& request);
-void from_json(const nlohmann::json& j, ForwardRequest& request);
+template <>
+struct WireFields<ForwardRequest> {
+  using S = ForwardRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"joints", &S::joints},
+      Field{"payload", &S::payload, Presence::kOmitEmpty});
+};
 
 /// The reply of both forward calls: a robot's nominal poses (robot set, frame "world (nominal base)") or a
 /// calibrated campaign's (campaign set, frame "tracker").

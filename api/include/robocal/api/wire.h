@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -271,6 +272,141 @@ struct adl_serializer<E, std::enable_if_t<robocal::api::kIsWireEnum<E>>> {
 
 namespace robocal::api {
 
+// ------------------------------------------------------------------------------------------------ field tables
+
+// One declaration per wire field. A shape that lists its fields in a WireFields table gets its to_json, its
+// strict from_json and the allowed keys of its request parser from that one list, so a field is declared in
+// three places: the struct's member, its row in the table, and the OpenAPI spec (tests/service/wire_test.cc
+// checks the spec against the shapes). docs/architecture.md, "How to add a field", walks through it.
+//
+//   struct BatchResult { std::string campaign; std::int64_t count = 0; ... };
+//   template <>
+//   struct WireFields<BatchResult> {
+//     static constexpr auto fields = std::make_tuple(Field{"campaign", &BatchResult::campaign},
+//                                                    Field{"count", &BatchResult::count}, ...);
+//   };
+//
+// A shape whose members do not map one to one onto its keys (a pose read in either of two forms, a request
+// whose members nest in an "options" object, an operation's result by kind) keeps hand-written to_json /
+// from_json, as do the error shapes of error.h (included before these tables exist).
+
+/// How a member appears on the wire.
+enum class Presence {
+  /// Always written (an unset optional as null); required when read.
+  kRequired,
+  /// Written only when it is not its type's empty value (an empty string or list, an unset optional, false, 0);
+  /// optional when read (absent keeps the member's default).
+  kOmitEmpty,
+  /// Always written; optional when read (absent or null keeps the member's default): a field that older servers
+  /// and stored documents do not have.
+  kOptionalOnRead,
+};
+
+/// A member `member` of S under the key `name`.
+template <typename S, typename M>
+struct Field {
+  const char* name;
+  M S::*member;
+  Presence presence = Presence::kRequired;
+};
+// Spelt out: clang before 17 does not deduce an aggregate's template arguments from its members.
+template <typename S, typename M>
+Field(const char*, M S::*) -> Field<S, M>;
+template <typename S, typename M>
+Field(const char*, M S::*, Presence) -> Field<S, M>;
+
+/// Specialised for each shape with a field table: `static constexpr auto fields = std::make_tuple(Field{...}, ...)`,
+/// in the order the keys are written. A shape that extends another (a resource and its stored form) may join its
+/// base's table with std::tuple_cat.
+template <typename T>
+struct WireFields;
+
+template <typename T, typename = void>
+inline constexpr bool kHasWireFields = false;
+template <typename T>
+inline constexpr bool kHasWireFields<T, std::void_t<decltype(WireFields<T>::fields)>> = true;
+
+namespace detail {
+
+template <typename M>
+nlohmann::json FieldValue(const M& value) {
+  if constexpr (std::is_same_v<M, double>) {
+    return Num(value);
+  } else if constexpr (std::is_same_v<M, std::vector<double>>) {
+    return Nums(value);
+  } else if constexpr (IsOptional<M>::value) {
+    return value ? FieldValue(*value) : nlohmann::json();
+  } else {
+    return nlohmann::json(value);
+  }
+}
+
+template <typename M>
+bool IsEmptyValue(const M& value) {
+  if constexpr (IsOptional<M>::value) {
+    return !value.has_value();
+  } else if constexpr (std::is_arithmetic_v<M>) {
+    return value == M{};
+  } else if constexpr (requires { value.empty(); }) {
+    return value.empty();
+  } else {
+    return false;
+  }
+}
+
+}  // namespace detail
+
+/// Writes every field of `value` (by its table) into the object `j`.
+template <typename T>
+void WriteFields(nlohmann::json& j, const T& value) {
+  if (!j.is_object()) j = nlohmann::json::object();
+  std::apply(
+      [&](const auto&... field) {
+        (
+            [&] {
+              const auto& member = value.*(field.member);
+              if (field.presence == Presence::kOmitEmpty && detail::IsEmptyValue(member)) return;
+              j[field.name] = detail::FieldValue(member);
+            }(),
+            ...);
+      },
+      WireFields<T>::fields);
+}
+
+/// Reads every field of `*out` (by its table) from the object `j`, strictly: WireError naming the first missing
+/// required or mistyped member. Members not in the table are ignored (a newer server may add fields); refusing
+/// unknown keys is the request parsers' work (RejectUnknown).
+template <typename T>
+void ReadFields(const nlohmann::json& j, T* out) {
+  const WireReader r(j);
+  std::apply(
+      [&](const auto&... field) {
+        ((field.presence == Presence::kRequired ? r.Required(field.name, &(out->*(field.member)))
+                                                : static_cast<void>(r.Optional(field.name, &(out->*(field.member))))),
+         ...);
+      },
+      WireFields<T>::fields);
+}
+
+/// The keys of T's table, in order: the allowed keys of its request parser (ObjectReader::RejectUnknown).
+template <typename T>
+std::vector<const char*> WireFieldNames() {
+  return std::apply([](const auto&... field) { return std::vector<const char*>{field.name...}; }, WireFields<T>::fields);
+}
+
+/// to_json / from_json of every shape with a table (found by nlohmann::json through argument-dependent lookup).
+template <typename T>
+  requires kHasWireFields<T>
+void to_json(nlohmann::json& j, const T& value) {
+  j = nlohmann::json::object();
+  WriteFields(j, value);
+}
+template <typename T>
+  requires kHasWireFields<T>
+void from_json(const nlohmann::json& j, T& value) {
+  ReadFields(j, &value);
+}
+
 // ------------------------------------------------------------------------------------------------ common
 
 /// Lengths beyond this are typing mistakes, not geometry: 1000 km in mm (poses, robots, cells).
@@ -339,8 +475,13 @@ struct JointRangeWire {
   double min = 0.0;
   double max = 0.0;
 };
-void to_json(nlohmann::json& j, const JointRangeWire& range);
-void from_json(const nlohmann::json& j, JointRangeWire& range);
+template <>
+struct WireFields<JointRangeWire> {
+  using S = JointRangeWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"min", &S::min},
+      Field{"max", &S::max});
+};
 
 /// A payload on the flange: {"mass_kg": m, "com_mm": [x, y, z]} (kg; centre of mass in mm, flange frame; com_mm
 /// may be left out for a payload centred on the flange). With a compliance model the robot deflects under it
@@ -354,8 +495,13 @@ inline constexpr double kMaxPayloadKg = 10000.0;
 /// Validates a request payload at `path` (mass in [0, kMaxPayloadKg], finite centre of mass within 100 m); false
 /// (with problems recorded) if invalid.
 bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out);
-void to_json(nlohmann::json& j, const PayloadWire& payload);
-void from_json(const nlohmann::json& j, PayloadWire& payload);
+template <>
+struct WireFields<PayloadWire> {
+  using S = PayloadWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"mass_kg", &S::mass_kg},
+      Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead});
+};
 Payload ToCore(const PayloadWire& payload);
 /// Reads a pose of a response (as PoseResultJson writes it: the quaternion required, rpy_deg derived): the
 /// object `pose`, or the member `key` of `parent`.
@@ -370,8 +516,13 @@ struct DroppedParameterWire {
   std::string name;
   std::string reason;
 };
-void to_json(nlohmann::json& j, const DroppedParameterWire& d);
-void from_json(const nlohmann::json& j, DroppedParameterWire& d);
+template <>
+struct WireFields<DroppedParameterWire> {
+  using S = DroppedParameterWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"name", &S::name},
+      Field{"reason", &S::reason});
+};
 std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dropped);
 
 /// Tracker noise on the wire (1-sigma): position per axis (mm) and orientation (deg).
@@ -379,8 +530,13 @@ struct NoiseWire {
   double position_mm = 0.015;
   double orientation_deg = 0.0057295779513082;  // 1e-4 rad
 };
-void to_json(nlohmann::json& j, const NoiseWire& noise);
-void from_json(const nlohmann::json& j, NoiseWire& noise);
+template <>
+struct WireFields<NoiseWire> {
+  using S = NoiseWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"position_mm", &S::position_mm},
+      Field{"orientation_deg", &S::orientation_deg});
+};
 /// Validates an optional request member "noise" (nullptr: absent, *out keeps its default).
 void ParseNoise(const nlohmann::json* value, const std::string& path, Problems* problems, NoiseWire* out);
 MeasurementNoise ToCore(const NoiseWire& noise);
@@ -395,8 +551,15 @@ struct TrackerModelWire {
   double orientation_deg = 0.01;
   double mpe_sigmas = 2.0;
 };
-void to_json(nlohmann::json& j, const TrackerModelWire& tracker);
-void from_json(const nlohmann::json& j, TrackerModelWire& tracker);
+template <>
+struct WireFields<TrackerModelWire> {
+  using S = TrackerModelWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"radial_um", &S::radial_um},
+      Field{"transverse_um", &S::transverse_um},
+      Field{"orientation_deg", &S::orientation_deg},
+      Field{"mpe_sigmas", &S::mpe_sigmas});
+};
 /// Validates an optional request member "tracker" (nullptr: absent, *out stays unset); a member given fills
 /// the others from the defaults above.
 void ParseTrackerModel(const nlohmann::json* value, const std::string& path, Problems* problems,

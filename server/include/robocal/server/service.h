@@ -112,8 +112,8 @@ class Service {
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);
   /// The campaign report (service_report.cc, docs/report.md): one self-contained HTML page of the robot, the
-  /// plan, the fit (with correlations, singular values and per-pose residuals recomputed from the stored
-  /// calibration and the measurements it used) and the validation. h_mm: absent (30) or E_tot's h as the query
+  /// plan, the fit (its correlations and singular values as stored with it, per-pose residuals computed from the
+  /// stored calibration and the measurements it used) and the validation. h_mm: absent (30) or E_tot's h as the query
   /// gave it (a decimal number in :evaluate's range). FAILED_PRECONDITION when the campaign is not calibrated.
   std::string CampaignReport(const std::string& campaign, const std::optional<std::string>& h_mm = std::nullopt);
 
