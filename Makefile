@@ -24,7 +24,7 @@ test: build
 
 # One clang tree serves the sanitizers and the fuzzers, so CI builds it once: every target with ASan and UBSan,
 # the fuzz targets with libFuzzer. test-sanitize runs the whole suite there (each fuzz target for
-# ROBOCAL_FUZZ_SECONDS, 15 s); fuzz runs only the fuzz targets, FUZZ_SECONDS each (docs/testing.md).
+# ROBOCAL_FUZZ_SECONDS, 10 s); fuzz runs only the fuzz targets, FUZZ_SECONDS each (docs/testing.md).
 SANITIZE_BUILD_DIR ?= build-sanitize
 SANITIZERS ?= address,undefined
 FUZZ_SECONDS ?= 300

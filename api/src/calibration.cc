@@ -250,59 +250,6 @@ ResidualStatistics ToCore(const Residuals& r) {
           .rms_weighted = r.rms_weighted};
 }
 
-void to_json(nlohmann::json& j, const CalibrationResult& c) {
-  j = {{"campaign", c.campaign},
-       {"robot", c.robot},
-       {"measurement_type", c.measurement_type},
-       {"created_unix_ms", c.created_unix_ms},
-       {"stored", c.stored},
-       {"parameters", c.parameters},
-       {"dropped", c.dropped},
-       {"base", PoseResultJson(c.base)},
-       {"tool", PoseResultJson(c.tool)},
-       {"registered_base", PoseResultJson(c.registered_base)},
-       {"residuals_before", c.residuals_before},
-       {"residuals_after", c.residuals_after},
-       {"condition_number", Num(c.condition_number)},
-       {"scaling", c.scaling},
-       {"robust", c.robust},
-       {"outliers", c.outliers},
-       {"parameters_with_outliers", c.parameters_with_outliers},
-       {"model_error", c.model_error},
-       {"model", c.model},
-       {"reflectors", c.reflectors},
-       {"summary", c.summary}};
-  if (c.model_choice) j["model_choice"] = *c.model_choice;
-}
-
-void from_json(const nlohmann::json& j, CalibrationResult& c) {
-  const WireReader r(j);
-  r.Required("campaign", &c.campaign);
-  r.Required("robot", &c.robot);
-  r.Required("measurement_type", &c.measurement_type);
-  r.Required("created_unix_ms", &c.created_unix_ms);
-  r.Required("stored", &c.stored);
-  r.Required("parameters", &c.parameters);
-  r.Required("dropped", &c.dropped);
-  ReadResultPose(r, "base", &c.base);
-  ReadResultPose(r, "tool", &c.tool);
-  ReadResultPose(r, "registered_base", &c.registered_base);
-  r.Required("residuals_before", &c.residuals_before);
-  r.Required("residuals_after", &c.residuals_after);
-  r.Required("condition_number", &c.condition_number);
-  r.Required("scaling", &c.scaling);
-  r.Optional("robust", &c.robust);
-  r.Optional("outliers", &c.outliers);
-  r.Optional("parameters_with_outliers", &c.parameters_with_outliers);
-  r.Optional("model_error", &c.model_error);
-  // Absent in fits stored before models beyond geometry: geometric.
-  r.Optional("model", &c.model);
-  ModelChoiceWire choice;
-  if (r.Optional("model_choice", &choice)) c.model_choice = std::move(choice);
-  r.Optional("reflectors", &c.reflectors);
-  r.Required("summary", &c.summary);
-}
-
 namespace {
 
 // `num_model_parameters`: indices from there on are reflector offsets (mm).

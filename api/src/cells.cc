@@ -91,17 +91,17 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
              }
              if (const nlohmann::json* b = item.Get("box")) {
                ObjectReader box(*b, JoinPath(item.path(), "box"), &problems);
-               if (box.FixedNumbers("min_mm", true, w->min_mm.data(), 3)) {
-                 CheckLengths(w->min_mm, JoinPath(box.path(), "min_mm"), &problems);
+               if (box.FixedNumbers("min_mm", true, w->box.min_mm.data(), 3)) {
+                 CheckLengths(w->box.min_mm, JoinPath(box.path(), "min_mm"), &problems);
                }
-               if (box.FixedNumbers("max_mm", true, w->max_mm.data(), 3)) {
-                 CheckLengths(w->max_mm, JoinPath(box.path(), "max_mm"), &problems);
+               if (box.FixedNumbers("max_mm", true, w->box.max_mm.data(), 3)) {
+                 CheckLengths(w->box.max_mm, JoinPath(box.path(), "max_mm"), &problems);
                }
-               box.RejectUnknown({"min_mm", "max_mm"});
+               box.RejectUnknown(WireFieldNames<BoxWire>());
              } else if (item.ok()) {
                problems.Add(JoinPath(item.path(), "box"), "required");
              }
-             item.RejectUnknown({"id", "box"});
+             item.RejectUnknown(WireFieldNames<ObstacleWire>());
            });
   const std::size_t joints = static_cast<std::size_t>(model.num_joints());
   if (r.Numbers("link_radii_mm", false, &cell.link_radii_mm, joints, joints)) {
@@ -130,8 +130,7 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
       range.RejectUnknown(WireFieldNames<JointRangeWire>());
     }
   }
-  r.RejectUnknown({"id", "description", "robot", "tracker", "reflectors", "obstacles", "link_radii_mm",
-                   "tool_radius_mm", "clearance_mm", "joint_ranges"});
+  r.RejectUnknown(WireFieldNames<CellWire>());
   std::vector<std::string> ids;
   for (const ReflectorWire& w : cell.reflectors) ids.push_back(w.id);
   CheckUniqueIds(ids, "reflectors", &problems);
@@ -151,7 +150,7 @@ Cell ToCell(const CellWire& w, const RobotModel& model) {
   for (const ReflectorWire& r : w.reflectors) {
     spec.reflectors.push_back({r.id, Vec(r.position_mm), Vec(r.normal), r.acceptance_half_angle_deg * kRadPerDeg});
   }
-  for (const ObstacleWire& o : w.obstacles) spec.obstacles.push_back({o.id, Vec(o.min_mm), Vec(o.max_mm)});
+  for (const ObstacleWire& o : w.obstacles) spec.obstacles.push_back({o.id, Vec(o.box.min_mm), Vec(o.box.max_mm)});
   spec.link_radii_mm = w.link_radii_mm;
   spec.tool_radius_mm = w.tool_radius_mm.value_or(0.0);
   spec.clearance_mm = w.clearance_mm;
@@ -223,7 +222,9 @@ CellWire CellRequestOf(const std::string& id, const std::string& robot, const Ce
   w.tracker.min_distance_mm = spec.tracker.min_distance_mm;
   if (std::isfinite(spec.tracker.max_distance_mm)) w.tracker.max_distance_mm = spec.tracker.max_distance_mm;
   w.reflectors = ReflectorsOf(spec);
-  for (const BoxObstacle& box : spec.obstacles) w.obstacles.push_back({box.id, Arr(box.min_mm), Arr(box.max_mm)});
+  for (const BoxObstacle& box : spec.obstacles) {
+    w.obstacles.push_back({.id = box.id, .box = {.min_mm = Arr(box.min_mm), .max_mm = Arr(box.max_mm)}});
+  }
   w.link_radii_mm = spec.link_radii_mm.empty() ? DefaultLinkRadii(model) : spec.link_radii_mm;
   if (spec.tool_radius_mm > 0.0) w.tool_radius_mm = spec.tool_radius_mm;
   w.clearance_mm = spec.clearance_mm;
@@ -232,49 +233,6 @@ CellWire CellRequestOf(const std::string& id, const std::string& robot, const Ce
 }
 
 // ---------------------------------------------------------------------------------------------- json
-
-void to_json(nlohmann::json& j, const CellWire& c) {
-  nlohmann::json obstacles = nlohmann::json::array();
-  for (const ObstacleWire& o : c.obstacles) {
-    obstacles.push_back({{"id", o.id}, {"box", {{"min_mm", o.min_mm}, {"max_mm", o.max_mm}}}});
-  }
-  j = {{"id", c.id},
-       {"description", c.description},
-       {"robot", c.robot},
-       {"tracker", c.tracker},
-       {"reflectors", c.reflectors},
-       {"obstacles", std::move(obstacles)},
-       {"clearance_mm", c.clearance_mm}};
-  // A request may leave the radii and ranges to the server (empty here); a resource always has them.
-  if (!c.link_radii_mm.empty()) j["link_radii_mm"] = c.link_radii_mm;
-  if (!c.joint_ranges.empty()) j["joint_ranges"] = c.joint_ranges;
-  if (c.tool_radius_mm) j["tool_radius_mm"] = *c.tool_radius_mm;
-}
-
-// The parts of a cell (found by ReadWire through argument-dependent lookup, so not in an unnamed namespace).
-void from_json(const nlohmann::json& j, ObstacleWire& w) {
-  const WireReader r(j);
-  r.Required("id", &w.id);
-  const WireReader box(r.Member("box"), "box");
-  box.Required("min_mm", &w.min_mm);
-  box.Required("max_mm", &w.max_mm);
-}
-
-void from_json(const nlohmann::json& j, CellWire& c) {
-  const WireReader r(j);
-  r.Required("id", &c.id);
-  r.Required("description", &c.description);
-  r.Required("robot", &c.robot);
-  r.Required("tracker", &c.tracker);
-  r.Required("reflectors", &c.reflectors);
-  r.Required("obstacles", &c.obstacles);
-  r.Required("link_radii_mm", &c.link_radii_mm);
-  double tool_radius = 0.0;
-  r.Required("tool_radius_mm", &tool_radius);
-  c.tool_radius_mm = tool_radius;
-  r.Required("clearance_mm", &c.clearance_mm);
-  r.Required("joint_ranges", &c.joint_ranges);
-}
 
 // ---------------------------------------------------------------------------------------------- checks
 

@@ -222,6 +222,10 @@ bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems
 
 Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
 
+void to_json(nlohmann::json& j, const PoseResultWire& pose) { j = PoseResultJson(pose); }
+
+void from_json(const nlohmann::json& j, PoseResultWire& pose) { ReadResultPose(WireReader(j), &pose); }
+
 nlohmann::json PoseResultJson(const PoseWire& pose) {
   nlohmann::json j = pose;
   if (pose.has_orientation) {

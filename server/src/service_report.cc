@@ -68,8 +68,9 @@ report::CellFigure DrawCell(const RobotModel& model, const api::PlanResult& plan
     f.chains.push_back(std::move(chain));
   }
   for (const api::ObstacleWire& o : cell.obstacles) {
-    f.obstacles.push_back({o.id, Minus(Eigen::Vector3d(o.min_mm[0], o.min_mm[1], o.min_mm[2]), f.tracker_in_base_mm),
-                           Minus(Eigen::Vector3d(o.max_mm[0], o.max_mm[1], o.max_mm[2]), f.tracker_in_base_mm)});
+    const api::BoxWire& b = o.box;
+    f.obstacles.push_back({o.id, Minus(Eigen::Vector3d(b.min_mm[0], b.min_mm[1], b.min_mm[2]), f.tracker_in_base_mm),
+                           Minus(Eigen::Vector3d(b.max_mm[0], b.max_mm[1], b.max_mm[2]), f.tracker_in_base_mm)});
   }
   return f;
 }

@@ -282,11 +282,11 @@ struct CalibrationResult {
   std::vector<ParameterEstimate> parameters;
   std::vector<DroppedParameterWire> dropped;
   /// Calibrated tracker -> robot base (the frame of compensation targets with frame "base").
-  PoseWire base;
+  PoseResultWire base;
   /// Calibrated flange -> tool.
-  PoseWire tool;
+  PoseResultWire tool;
   /// The base registration the fit started from (without the identified base errors).
-  PoseWire registered_base;
+  PoseResultWire registered_base;
   Residuals residuals_before;
   Residuals residuals_after;
   double condition_number = 0.0;
@@ -307,8 +307,33 @@ struct CalibrationResult {
   std::vector<CampaignReflectorWire> reflectors;
   FitSummary summary;
 };
-void to_json(nlohmann::json& j, const CalibrationResult& c);
-void from_json(const nlohmann::json& j, CalibrationResult& c);
+template <>
+struct WireFields<CalibrationResult> {
+  using S = CalibrationResult;
+  static constexpr auto fields = std::make_tuple(
+      Field{"campaign", &S::campaign},
+      Field{"robot", &S::robot},
+      Field{"measurement_type", &S::measurement_type},
+      Field{"created_unix_ms", &S::created_unix_ms},
+      Field{"stored", &S::stored},
+      Field{"parameters", &S::parameters},
+      Field{"dropped", &S::dropped},
+      Field{"base", &S::base},
+      Field{"tool", &S::tool},
+      Field{"registered_base", &S::registered_base},
+      Field{"residuals_before", &S::residuals_before},
+      Field{"residuals_after", &S::residuals_after},
+      Field{"condition_number", &S::condition_number},
+      Field{"scaling", &S::scaling},
+      Field{"robust", &S::robust, Presence::kOptionalOnRead},
+      Field{"outliers", &S::outliers, Presence::kOptionalOnRead},
+      Field{"parameters_with_outliers", &S::parameters_with_outliers, Presence::kOptionalOnRead},
+      Field{"model_error", &S::model_error, Presence::kOptionalOnRead},
+      Field{"model", &S::model, Presence::kOptionalOnRead},
+      Field{"model_choice", &S::model_choice, Presence::kOmitEmpty},
+      Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead},
+      Field{"summary", &S::summary});
+};
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
 /// `sequences` maps the fit's measurement indices to stored sequence numbers (empty: the indices themselves).
 CalibrationResult ToWire(const Calibration& calibration, const std::vector<std::int64_t>& sequences = {});

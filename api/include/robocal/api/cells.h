@@ -31,11 +31,15 @@ struct ReflectorWire {
   double acceptance_half_angle_deg = 30.0;
 };
 
-/// An axis-aligned box in the robot's base frame.
-struct ObstacleWire {
-  std::string id;
+/// An axis-aligned box in the robot's base frame: its corners of least and greatest coordinates (mm).
+struct BoxWire {
   std::array<double, 3> min_mm{0.0, 0.0, 0.0};
   std::array<double, 3> max_mm{0.0, 0.0, 0.0};
+};
+/// An obstacle of the cell: {"id", "box"}.
+struct ObstacleWire {
+  std::string id;
+  BoxWire box;
 };
 
 template <>
@@ -55,8 +59,20 @@ struct WireFields<ReflectorWire> {
       Field{"normal", &S::normal},
       Field{"acceptance_half_angle_deg", &S::acceptance_half_angle_deg});
 };
-/// Written inside the cell's to_json (as {"id", "box": {"min_mm", "max_mm"}}).
-void from_json(const nlohmann::json& j, ObstacleWire& obstacle);
+template <>
+struct WireFields<BoxWire> {
+  using S = BoxWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"min_mm", &S::min_mm},
+      Field{"max_mm", &S::max_mm});
+};
+template <>
+struct WireFields<ObstacleWire> {
+  using S = ObstacleWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"box", &S::box});
+};
 
 /// POST /v1/cells, and the cell resource (which has every default filled in: reflectors, link radii, tool
 /// radius, joint ranges).
@@ -75,8 +91,21 @@ struct CellWire {
 /// Validates a request body's fields (types, finiteness, sizes against `model`); the geometry is then checked by
 /// ToCell.
 CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
-void to_json(nlohmann::json& j, const CellWire& cell);
-void from_json(const nlohmann::json& j, CellWire& cell);
+template <>
+struct WireFields<CellWire> {
+  using S = CellWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"description", &S::description},
+      Field{"robot", &S::robot},
+      Field{"tracker", &S::tracker},
+      Field{"reflectors", &S::reflectors},
+      Field{"obstacles", &S::obstacles},
+      Field{"link_radii_mm", &S::link_radii_mm, Presence::kSetByServer},
+      Field{"tool_radius_mm", &S::tool_radius_mm, Presence::kSetByServer},
+      Field{"clearance_mm", &S::clearance_mm},
+      Field{"joint_ranges", &S::joint_ranges, Presence::kSetByServer});
+};
 /// The core cell (throws ApiError kInvalidArgument naming the fields the core rejects).
 Cell ToCell(const CellWire& cell, const RobotModel& model);
 /// The resource of a validated cell: every default the core filled in written out.

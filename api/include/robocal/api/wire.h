@@ -300,6 +300,9 @@ enum class Presence {
   /// Always written; optional when read (absent or null keeps the member's default): a field that older servers
   /// and stored documents do not have.
   kOptionalOnRead,
+  /// Written only when set, as kOmitEmpty (a request leaves it to the server); required when read (the resource
+  /// the server returns always has it).
+  kSetByServer,
 };
 
 /// A member `member` of S under the key `name`.
@@ -365,7 +368,8 @@ void WriteFields(nlohmann::json& j, const T& value) {
         (
             [&] {
               const auto& member = value.*(field.member);
-              if (field.presence == Presence::kOmitEmpty && detail::IsEmptyValue(member)) return;
+              const bool omittable = field.presence == Presence::kOmitEmpty || field.presence == Presence::kSetByServer;
+              if (omittable && detail::IsEmptyValue(member)) return;
               j[field.name] = detail::FieldValue(member);
             }(),
             ...);
@@ -381,8 +385,9 @@ void ReadFields(const nlohmann::json& j, T* out) {
   const WireReader r(j);
   std::apply(
       [&](const auto&... field) {
-        ((field.presence == Presence::kRequired ? r.Required(field.name, &(out->*(field.member)))
-                                                : static_cast<void>(r.Optional(field.name, &(out->*(field.member))))),
+        ((field.presence == Presence::kRequired || field.presence == Presence::kSetByServer
+              ? r.Required(field.name, &(out->*(field.member)))
+              : static_cast<void>(r.Optional(field.name, &(out->*(field.member))))),
          ...);
       },
       WireFields<T>::fields);
@@ -468,6 +473,15 @@ void to_json(nlohmann::json& j, const PoseWire& pose);
 void from_json(const nlohmann::json& j, PoseWire& pose);
 /// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
 nlohmann::json PoseResultJson(const PoseWire& pose);
+
+/// A pose of a response as a member of a field table: written by PoseResultJson, read by ReadResultPose (the
+/// quaternion required, rpy_deg derived).
+struct PoseResultWire : PoseWire {
+  PoseResultWire() = default;
+  PoseResultWire(const PoseWire& pose) : PoseWire(pose) {}  // implicit: every pose can be a result's
+};
+void to_json(nlohmann::json& j, const PoseResultWire& pose);
+void from_json(const nlohmann::json& j, PoseResultWire& pose);
 
 /// A joint range {"min", "max"} in the joint's wire unit (deg or mm): a cell's allowed ranges, the ranges a
 /// calibration was measured over.
