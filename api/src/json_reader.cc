@@ -343,10 +343,10 @@ const nlohmann::json* ObjectReader::Array(const std::string& key, bool required,
 }
 
 void ObjectReader::RejectUnknown(std::initializer_list<const char*> known) {
-  RejectUnknown(std::vector<const char*>(known));
+  RejectUnknown(std::span<const char* const>(known.begin(), known.size()));
 }
 
-void ObjectReader::RejectUnknown(const std::vector<const char*>& known) {
+void ObjectReader::RejectUnknown(std::span<const char* const> known) {
   if (object_ == nullptr) return;
   for (auto it = object_->begin(); it != object_->end(); ++it) {
     bool found = false;

@@ -207,12 +207,8 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
   }
   for (std::size_t k = 0; k < r.outliers.size(); ++k) {
     const OutlierWire& o = r.outliers[k];
-    int reflector = -1;
-    for (std::size_t i = 0; i < reflectors.size(); ++i) {
-      if (reflectors[i].id == o.reflector) reflector = static_cast<int>(i);
-    }
     s.outliers.push_back({.measurement = indexed ? stored.outlier_measurements[k] : -1,
-                          .reflector = reflector,
+                          .reflector = ReflectorIndex(r.reflectors, o.reflector),
                           .normalized_residual = o.normalized_residual});
   }
   s.outlier_threshold = r.robust.threshold;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <initializer_list>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -70,7 +71,7 @@ class ObjectReader {
   /// Records "unknown field" for members not in `known` (catches misspelt option names); a shape with a field
   /// table passes WireFieldNames<T>() (wire.h).
   void RejectUnknown(std::initializer_list<const char*> known);
-  void RejectUnknown(const std::vector<const char*>& known);
+  void RejectUnknown(std::span<const char* const> known);
 
  private:
   const nlohmann::json* Member(const std::string& key, bool required);

@@ -393,10 +393,13 @@ void ReadFields(const nlohmann::json& j, T* out) {
       WireFields<T>::fields);
 }
 
-/// The keys of T's table, in order: the allowed keys of its request parser (ObjectReader::RejectUnknown).
+/// The keys of T's table, in order: the allowed keys of its request parser (ObjectReader::RejectUnknown). Built
+/// once per shape: a batch's parser asks for them once per measurement.
 template <typename T>
-std::vector<const char*> WireFieldNames() {
-  return std::apply([](const auto&... field) { return std::vector<const char*>{field.name...}; }, WireFields<T>::fields);
+const std::vector<const char*>& WireFieldNames() {
+  static const std::vector<const char*> names =
+      std::apply([](const auto&... field) { return std::vector<const char*>{field.name...}; }, WireFields<T>::fields);
+  return names;
 }
 
 /// to_json / from_json of every shape with a table (found by nlohmann::json through argument-dependent lookup).
