@@ -10,29 +10,24 @@
 
 #include "robocal/api/json_reader.h"
 
-namespace robocal {
+namespace robocal::api {
 
-void to_json(nlohmann::json& j, const ArmConfiguration& c) {
-  j = nlohmann::json::object();
-  if (c.shoulder != 0) j["shoulder"] = ShoulderName(c.shoulder);
-  if (c.elbow != 0) j["elbow"] = ElbowName(c.elbow);
-  if (c.wrist != 0) j["wrist"] = WristName(c.wrist);
+bool WriteConfigurationFlag(const char* flag, int value, nlohmann::json* out) {
+  if (value == 0) return false;
+  const std::string_view f = flag;
+  *out = f == "shoulder" ? ShoulderName(value) : f == "elbow" ? ElbowName(value) : WristName(value);
+  return true;
 }
 
-void from_json(const nlohmann::json& j, ArmConfiguration& c) {
-  const api::WireReader r(j);
-  c = {};
-  for (auto [flag, value] : {std::pair{"shoulder", &c.shoulder}, {"elbow", &c.elbow}, {"wrist", &c.wrist}}) {
-    std::string name;
-    if (r.Optional(flag, &name) && !ParseConfigurationFlag(flag, name, value)) {
-      api::detail::ThrowWire(api::WirePath(r.path(), flag), "not a " + std::string(flag) + " flag: \"" + name + "\"");
-    }
+void ReadConfigurationFlag(const char* flag, const nlohmann::json* value, const std::string& path, int* out) {
+  *out = 0;
+  if (value == nullptr || value->is_null()) return;
+  std::string name;
+  ReadWire(*value, path, &name);
+  if (!ParseConfigurationFlag(flag, name, out)) {
+    detail::ThrowWire(path, "not a " + std::string(flag) + " flag: \"" + name + "\"");
   }
 }
-
-}  // namespace robocal
-
-namespace robocal::api {
 
 // ---------------------------------------------------------------------------------------------- fit
 
@@ -92,12 +87,12 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
   }
   if (const nlohmann::json* v = r.Get("cross_validation")) {
     ObjectReader cv(*v, "cross_validation", problems);
-    cv.Int("folds", false, &req->folds, 2, 20);
+    cv.Int("folds", false, &req->cross_validation.folds, 2, 20);
     std::int64_t seed = 1;
     if (cv.Int("seed", false, &seed, 0, std::numeric_limits<std::int64_t>::max())) {
-      req->seed = static_cast<std::uint64_t>(seed);
+      req->cross_validation.seed = static_cast<std::uint64_t>(seed);
     }
-    cv.RejectUnknown({"folds", "seed"});
+    cv.RejectUnknown(WireFieldNames<CrossValidationWire>());
     if (!req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
   }
 }
@@ -148,53 +143,9 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
   if (req.scope == "frames" && (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0)) {
     problems.Add("scope", "\"frames\" fits the base and the tool of the robot as it is: leave out \"model\"");
   }
-  r.RejectUnknown({"parameters", "register_base", "max_iterations", "reject_outliers", "outlier_probability",
-                   "estimate_model_error", "scope", "model", "cross_validation", "async"});
+  r.RejectUnknown(WireFieldNames<FitRequest>());
   problems.ThrowIfAny("invalid fit request");
   return req;
-}
-
-void to_json(nlohmann::json& j, const FitRequest& req) {
-  j = {{"parameters", req.parameters},
-       {"register_base", req.register_base},
-       {"max_iterations", req.max_iterations},
-       {"reject_outliers", req.reject_outliers},
-       {"outlier_probability", req.outlier_probability},
-       {"estimate_model_error", req.estimate_model_error},
-       {"scope", req.scope},
-       {"async", req.async}};
-  if (req.model_auto) {
-    j["model"] = "auto";
-    j["cross_validation"] = {{"folds", req.folds}, {"seed", req.seed}};
-  } else {
-    j["model"] = req.model;
-  }
-}
-
-void from_json(const nlohmann::json& j, FitRequest& req) {
-  const WireReader r(j);
-  r.Required("parameters", &req.parameters);
-  r.Required("register_base", &req.register_base);
-  r.Required("max_iterations", &req.max_iterations);
-  // Absent in requests stored before the robust fit, which then did not exist.
-  if (!r.Optional("reject_outliers", &req.reject_outliers)) req.reject_outliers = false;
-  r.Optional("outlier_probability", &req.outlier_probability);
-  // Absent in requests stored before the model error's estimate, which then did not exist.
-  if (!r.Optional("estimate_model_error", &req.estimate_model_error)) req.estimate_model_error = false;
-  r.Optional("scope", &req.scope);
-  r.Required("async", &req.async);
-  // Absent in requests stored before models beyond geometry: the geometric model.
-  if (r.Has("model")) {
-    const nlohmann::json& model = r.Member("model");
-    if (model.is_string() && model.get<std::string>() == "auto") {
-      req.model_auto = true;
-      const WireReader cv(r.Member("cross_validation"), "cross_validation");
-      cv.Required("folds", &req.folds);
-      cv.Required("seed", &req.seed);
-    } else {
-      r.Required("model", &req.model);
-    }
-  }
 }
 
 const std::vector<std::string>& FitScopes() {
@@ -359,33 +310,10 @@ void ParseConfiguration(const nlohmann::json& value, const std::string& path, Pr
     if (!r.String(flag, false, &text, 16)) continue;
     if (!ParseConfigurationFlag(flag, text, target)) problems->Add(JoinPath(path, flag), std::string("must be ") + names);
   }
-  r.RejectUnknown({"shoulder", "elbow", "wrist"});
+  r.RejectUnknown(WireFieldNames<ArmConfiguration>());
 }
 
 }  // namespace
-
-void to_json(nlohmann::json& j, const CompensationTargetWire& t) {
-  if (t.pose) {
-    j = {{"pose", *t.pose}, {"frame", t.frame}};
-    if (!t.start_joints.empty()) j["start_joints"] = t.start_joints;
-    if (t.configuration != ArmConfiguration{}) j["configuration"] = t.configuration;
-  } else {
-    j = {{"joints", t.joints}};
-  }
-  if (t.payload) j["payload"] = *t.payload;
-}
-
-void from_json(const nlohmann::json& j, CompensationTargetWire& t) {
-  const WireReader r(j);
-  if (r.Optional("pose", &t.pose)) {
-    r.Optional("frame", &t.frame);
-    r.Optional("start_joints", &t.start_joints);
-    r.Optional("configuration", &t.configuration);
-  } else {
-    r.Required("joints", &t.joints);
-  }
-  r.Optional("payload", &t.payload);
-}
 
 CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model,
                                          const Limits& limits) {
@@ -428,7 +356,7 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
       if (const nlohmann::json* v = t.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
-      t.RejectUnknown({"joints", "pose", "frame", "start_joints", "configuration", "payload"});
+      t.RejectUnknown(WireFieldNames<CompensationTargetWire>());
       if (problems.size() > 100) break;
     }
   }

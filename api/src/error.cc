@@ -55,26 +55,6 @@ std::vector<FieldViolation> SafeDetails(std::vector<FieldViolation> details) {
 ApiError::ApiError(Status status, const std::string& message, std::vector<FieldViolation> details)
     : std::runtime_error(SafeText(message)), status_(status), details_(SafeDetails(std::move(details))) {}
 
-void to_json(nlohmann::json& j, const FieldViolation& v) { j = {{"field", v.field}, {"reason", v.reason}}; }
-
-void from_json(const nlohmann::json& j, FieldViolation& v) {
-  const WireReader r(j);
-  r.Required("field", &v.field);
-  r.Required("reason", &v.reason);
-}
-
-void to_json(nlohmann::json& j, const ErrorInfo& e) {
-  j = {{"code", e.code}, {"status", e.status}, {"message", e.message}, {"details", e.details}};
-}
-
-void from_json(const nlohmann::json& j, ErrorInfo& e) {
-  const WireReader r(j);
-  r.Required("code", &e.code);
-  r.Required("status", &e.status);
-  r.Required("message", &e.message);
-  r.Required("details", &e.details);
-}
-
 ErrorInfo MakeErrorInfo(Status status, int http_code, const std::string& message,
                         const std::vector<FieldViolation>& details) {
   return {http_code, status, SafeText(message), SafeDetails(details)};

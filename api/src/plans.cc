@@ -34,7 +34,7 @@ WorkTerms WorkTermsOf(const PlanRequest& req) {
   }
   // A set max_evaluations caps the evaluations within their limit (it is checked on its own), not the product.
   std::vector<std::string> jacobian_fields = {"num_configurations", "options.k_max", "options.restarts"};
-  if (req.max_evaluations > 0) jacobian_fields.push_back("options.max_evaluations");
+  if (req.options.max_evaluations > 0) jacobian_fields.push_back("options.max_evaluations");
   jacobian_fields.push_back("num_validation");
   return {{"options.k_max", "options.restarts"},
           "(restarts + 1) x (2 k_max + 1)",
@@ -90,29 +90,27 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   if (const nlohmann::json* o = r.Get("options")) {
     ObjectReader opt(*o, "options", &problems);
     // Each option within the core's own range; what they add up to is checked against the limits below.
-    opt.Int("k_max", false, &req.k_max, 1, 10000000);
-    opt.Int("restarts", false, &req.restarts, 0, 10000);
-    if (opt.Int("max_evaluations", false, &req.max_evaluations, 0, kMaxInt) &&
-        req.max_evaluations > limits.max_plan_evaluations) {
+    opt.Int("k_max", false, &req.options.k_max, 1, 10000000);
+    opt.Int("restarts", false, &req.options.restarts, 0, 10000);
+    if (opt.Int("max_evaluations", false, &req.options.max_evaluations, 0, kMaxInt) &&
+        req.options.max_evaluations > limits.max_plan_evaluations) {
       problems.Add("options.max_evaluations",
-                   OverLimit(req.max_evaluations, "evaluations", "max_plan_evaluations", limits.max_plan_evaluations));
+                   OverLimit(req.options.max_evaluations, "evaluations", "max_plan_evaluations", limits.max_plan_evaluations));
     }
-    opt.Number("step_fraction", false, &req.step_fraction, 1e-6, 1.0);
-    opt.Int("num_sets", false, &req.num_sets, 1, 10000000);
-    opt.Int("num_candidates", false, &req.num_candidates, 1, 1000000);
-    opt.Int("screen", false, &req.screen, 1, 1000000);
-    opt.Int("max_iterations", false, &req.max_iterations, 1, 10000000);
-    opt.RejectUnknown({"k_max", "restarts", "max_evaluations", "step_fraction", "num_sets", "num_candidates",
-                       "screen", "max_iterations"});
+    opt.Number("step_fraction", false, &req.options.step_fraction, 1e-6, 1.0);
+    opt.Int("num_sets", false, &req.options.num_sets, 1, 10000000);
+    opt.Int("num_candidates", false, &req.options.num_candidates, 1, 1000000);
+    opt.Int("screen", false, &req.options.screen, 1, 1000000);
+    opt.Int("max_iterations", false, &req.options.max_iterations, 1, 10000000);
+    opt.RejectUnknown(WireFieldNames<PlanOptionsWire>());
   }
-  r.RejectUnknown({"robot", "cell", "num_configurations", "measurement_type", "objective", "optimiser", "scaling", "noise",
-                   "tracker", "reflectors", "seed", "num_validation", "async", "options"});
+  r.RejectUnknown(WireFieldNames<PlanRequest>());
   // Only the chosen optimiser's options count (clients may send every option with its default).
-  if (req.optimiser == Optimiser::kExchange && req.num_candidates > limits.max_plan_candidates) {
+  if (req.optimiser == Optimiser::kExchange && req.options.num_candidates > limits.max_plan_candidates) {
     problems.Add("options.num_candidates",
-                 OverLimit(req.num_candidates, "candidates", "max_plan_candidates", limits.max_plan_candidates));
-  } else if (req.optimiser == Optimiser::kExchange && req.num_candidates < req.num_configurations) {
-    problems.Add("options.num_candidates", "the pool (" + std::to_string(req.num_candidates) +
+                 OverLimit(req.options.num_candidates, "candidates", "max_plan_candidates", limits.max_plan_candidates));
+  } else if (req.optimiser == Optimiser::kExchange && req.options.num_candidates < req.num_configurations) {
+    problems.Add("options.num_candidates", "the pool (" + std::to_string(req.options.num_candidates) +
                                                ") must hold at least num_configurations (" +
                                                std::to_string(req.num_configurations) + ")");
   }
@@ -123,10 +121,10 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
 
 SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
   SolisWetsOptions o = SolisWetsOptions::Paper();
-  o.k_max = req.k_max;
-  o.restarts = req.restarts;
-  o.max_evaluations = req.max_evaluations;
-  o.step_fraction = req.step_fraction;
+  o.k_max = req.options.k_max;
+  o.restarts = req.options.restarts;
+  o.max_evaluations = req.options.max_evaluations;
+  o.step_fraction = req.options.step_fraction;
   o.objective = req.objective;
   o.seed = req.seed;
   return o;
@@ -134,7 +132,7 @@ SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
 
 RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& req) {
   RandomSelectionOptions o;
-  o.num_sets = req.num_sets;
+  o.num_sets = req.options.num_sets;
   o.objective = req.objective;
   o.seed = req.seed;
   return o;
@@ -142,10 +140,10 @@ RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& req) {
 
 ExchangeOptions ToExchangeOptions(const PlanRequest& req) {
   ExchangeOptions o;
-  o.num_candidates = req.num_candidates;
-  o.screen = req.screen;
-  o.max_iterations = req.max_iterations;
-  o.max_evaluations = req.max_evaluations;
+  o.num_candidates = req.options.num_candidates;
+  o.screen = req.options.screen;
+  o.max_iterations = req.options.max_iterations;
+  o.max_evaluations = req.options.max_evaluations;
   o.objective = req.objective;
   o.seed = req.seed;
   return o;
@@ -168,57 +166,6 @@ ObservabilityOptions ToObservabilityOptions(const PlanRequest& req) {
   o.scaling = req.scaling;
   o.reflectors = ToCore(req.reflectors);
   return o;
-}
-
-void to_json(nlohmann::json& j, const PlanRequest& req) {
-  j = {{"robot", req.robot},
-       {"num_configurations", req.num_configurations},
-       {"measurement_type", req.measurement_type},
-       {"objective", req.objective},
-       {"optimiser", req.optimiser},
-       {"scaling", req.scaling},
-       {"noise", req.noise},
-       {"seed", req.seed},
-       {"num_validation", req.num_validation},
-       {"async", req.async},
-       {"options",
-        {{"k_max", req.k_max},
-         {"restarts", req.restarts},
-         {"max_evaluations", req.max_evaluations},
-         {"step_fraction", req.step_fraction},
-         {"num_sets", req.num_sets},
-         {"num_candidates", req.num_candidates},
-         {"screen", req.screen},
-         {"max_iterations", req.max_iterations}}}};
-  if (!req.cell.empty()) j["cell"] = req.cell;
-  if (req.tracker) j["tracker"] = *req.tracker;
-  if (!req.reflectors.empty()) j["reflectors"] = req.reflectors;
-}
-
-void from_json(const nlohmann::json& j, PlanRequest& req) {
-  const WireReader r(j);
-  r.Required("robot", &req.robot);
-  r.Optional("cell", &req.cell);
-  r.Required("num_configurations", &req.num_configurations);
-  r.Required("measurement_type", &req.measurement_type);
-  r.Required("objective", &req.objective);
-  r.Required("optimiser", &req.optimiser);
-  r.Required("scaling", &req.scaling);
-  r.Required("noise", &req.noise);
-  r.Optional("tracker", &req.tracker);
-  r.Optional("reflectors", &req.reflectors);
-  r.Required("seed", &req.seed);
-  r.Required("num_validation", &req.num_validation);
-  r.Required("async", &req.async);
-  const WireReader o(r.Member("options"), "options");
-  o.Required("k_max", &req.k_max);
-  o.Required("restarts", &req.restarts);
-  o.Required("max_evaluations", &req.max_evaluations);
-  o.Required("step_fraction", &req.step_fraction);
-  o.Required("num_sets", &req.num_sets);
-  o.Required("num_candidates", &req.num_candidates);
-  o.Required("screen", &req.screen);
-  o.Required("max_iterations", &req.max_iterations);
 }
 
 // ---------------------------------------------------------------------------------------------- the resource

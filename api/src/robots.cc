@@ -23,56 +23,6 @@ constexpr double kMaxHarmonicDeg = kImplausibleHarmonicRad * kDegPerRad;
 const char* MinKey(JointType type) { return type == JointType::kRevolute ? "min_deg" : "min_mm"; }
 const char* MaxKey(JointType type) { return type == JointType::kRevolute ? "max_deg" : "max_mm"; }
 
-// One joint in the fields of its convention: the one shape of a joint in definitions and in the resource.
-nlohmann::json JointJson(const JointWire& jw, GeometryConvention convention) {
-  nlohmann::json o = {{"name", jw.name}, {"type", jw.type}};
-  if (convention == GeometryConvention::kTransform) {
-    o["xyz_mm"] = jw.xyz_mm;
-    o["rpy_deg"] = jw.rpy_deg;
-  } else {
-    o["a_mm"] = jw.a_mm;
-    o["alpha_deg"] = jw.alpha_deg;
-    o["d_mm"] = jw.d_mm;
-    o["theta_deg"] = jw.theta_deg;
-  }
-  o[MinKey(jw.type)] = jw.min;
-  o[MaxKey(jw.type)] = jw.max;
-  if (jw.mass_kg > 0.0) {
-    o["mass_kg"] = jw.mass_kg;
-    o["com_mm"] = jw.com_mm;
-  }
-  if (jw.compliance_deg_per_nm != 0.0) o["compliance_deg_per_nm"] = jw.compliance_deg_per_nm;
-  if (jw.harmonics_deg != std::array<double, 4>{}) o["harmonics_deg"] = jw.harmonics_deg;
-  return o;
-}
-
-// The fields JointJson writes are required (a definition may leave the name out: the core names the joint).
-JointWire JointFromJson(const WireReader& r, GeometryConvention convention, bool name_required) {
-  JointWire jw;
-  if (name_required) {
-    r.Required("name", &jw.name);
-  } else {
-    r.Optional("name", &jw.name);
-  }
-  r.Required("type", &jw.type);
-  if (convention == GeometryConvention::kTransform) {
-    r.Required("xyz_mm", &jw.xyz_mm);
-    r.Required("rpy_deg", &jw.rpy_deg);
-  } else {
-    r.Required("a_mm", &jw.a_mm);
-    r.Required("alpha_deg", &jw.alpha_deg);
-    r.Required("d_mm", &jw.d_mm);
-    r.Required("theta_deg", &jw.theta_deg);
-  }
-  r.Required(MinKey(jw.type), &jw.min);
-  r.Required(MaxKey(jw.type), &jw.max);
-  r.Optional("mass_kg", &jw.mass_kg);
-  r.Optional("com_mm", &jw.com_mm);
-  r.Optional("compliance_deg_per_nm", &jw.compliance_deg_per_nm);
-  r.Optional("harmonics_deg", &jw.harmonics_deg);
-  return jw;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------- definitions
@@ -128,9 +78,8 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
           problems.Add(path, std::string("limits of a ") + WireName(j.type) + " joint are given as " +
                                  MinKey(j.type) + "/" + MaxKey(j.type));
         }
-        jr.RejectUnknown({"name", "type", "a_mm", "alpha_deg", "d_mm", "theta_deg", "xyz_mm", "rpy_deg", "min_deg",
-                          "max_deg", "min_mm", "max_mm", "mass_kg", "com_mm", "compliance_deg_per_nm",
-                          "harmonics_deg"});
+        // Every geometry key is taken whatever the convention (the convention's are used).
+        jr.RejectUnknown(WireFieldNames<JointWire>());
         req.joints.push_back(j);
       }
     }
@@ -143,70 +92,10 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
       problems.Add("gravity", "must be a non-zero vector (the direction of gravity in the base frame)");
     }
   }
-  r.RejectUnknown({"id", "description", "from_preset", "convention", "joints", "base", "tool", "flange", "gravity"});
+  r.RejectUnknown(WireFieldNames<RegisterRobotRequest>());
   problems.ThrowIfAny("invalid robot");
   (void)BuildModel(req);
   return req;
-}
-
-void to_json(nlohmann::json& j, const RegisterRobotRequest& req) {
-  j = {{"id", req.id}};
-  if (!req.description.empty()) j["description"] = req.description;
-  if (!req.from_preset.empty()) {
-    j["from_preset"] = req.from_preset;
-  } else {
-    j["convention"] = req.convention;
-    nlohmann::json joints = nlohmann::json::array();
-    for (const JointWire& jw : req.joints) {
-      nlohmann::json o = JointJson(jw, req.convention);
-      if (jw.name.empty()) o.erase("name");
-      joints.push_back(std::move(o));
-    }
-    j["joints"] = std::move(joints);
-  }
-  if (req.base) j["base"] = *req.base;
-  if (req.tool) j["tool"] = *req.tool;
-  if (req.flange) j["flange"] = *req.flange;
-  if (req.gravity) j["gravity"] = *req.gravity;
-  if (req.urdf) {
-    j["urdf_source"] = {{"xml", req.urdf->xml}, {"base_link", req.urdf->base_link}, {"tip_link", req.urdf->tip_link}};
-  }
-  if (req.calibrated_from) j["calibrated_from"] = *req.calibrated_from;
-}
-
-void from_json(const nlohmann::json& j, RegisterRobotRequest& req) {
-  const WireReader r(j);
-  r.Required("id", &req.id);
-  r.Optional("description", &req.description);
-  if (!r.Optional("from_preset", &req.from_preset)) {
-    r.Required("convention", &req.convention);
-    const nlohmann::json& joints = r.Member("joints");
-    if (!joints.is_array()) throw WireError("joints", "expected an array");
-    req.joints.clear();
-    for (std::size_t i = 0; i < joints.size(); ++i) {
-      try {
-        req.joints.push_back(JointFromJson(WireReader(joints[i]), req.convention, false));
-      } catch (const WireError& e) {
-        throw WireError(WirePath("joints[" + std::to_string(i) + "]", e.path()), e.reason());
-      }
-    }
-  }
-  std::optional<PoseWire> pose;
-  if (r.Optional("base", &pose)) req.base = pose;
-  if (r.Optional("tool", &pose)) req.tool = pose;
-  if (r.Optional("flange", &pose)) req.flange = pose;
-  std::array<double, 3> gravity{};
-  if (r.Optional("gravity", &gravity)) req.gravity = gravity;
-  if (r.Has("urdf_source")) {
-    const WireReader u(r.Member("urdf_source"), "urdf_source");
-    UrdfSource source;
-    u.Required("xml", &source.xml);
-    u.Required("base_link", &source.base_link);
-    u.Required("tip_link", &source.tip_link);
-    req.urdf = std::move(source);
-  }
-  CalibrationSource source;
-  if (r.Optional("calibrated_from", &source)) req.calibrated_from = source;
 }
 
 bool IsFromCalibration(const nlohmann::json& body) { return body.is_object() && body.contains("from_calibration"); }
@@ -313,74 +202,6 @@ RobotModel BuildModel(const RegisterRobotRequest& req) {
 
 // ---------------------------------------------------------------------------------------------- the resource
 
-void to_json(nlohmann::json& j, const Robot& robot) {
-  nlohmann::json joints = nlohmann::json::array();
-  for (const RobotJoint& rj : robot.joints) {
-    nlohmann::json o = JointJson(rj.joint, robot.convention);
-    // The resource states the mass properties of every joint (0: unknown); a definition only those it has.
-    o["mass_kg"] = rj.joint.mass_kg;
-    o["com_mm"] = rj.joint.com_mm;
-    o["compliance_deg_per_nm"] = rj.joint.compliance_deg_per_nm;
-    o["harmonics_deg"] = rj.joint.harmonics_deg;
-    o["unit"] = rj.unit;
-    joints.push_back(std::move(o));
-  }
-  j = {{"id", robot.id},
-       {"preset", robot.preset},
-       {"description", robot.description},
-       {"convention", robot.convention},
-       {"num_joints", robot.num_joints},
-       {"joints", std::move(joints)},
-       {"base", PoseResultJson(robot.base)},
-       {"tool", PoseResultJson(robot.tool)},
-       {"flange", PoseResultJson(robot.flange)},
-       {"gravity", robot.gravity},
-       {"has_masses", robot.has_masses},
-       {"error_parameters", robot.error_parameters}};
-  if (!robot.urdf_tip_link.empty()) j["urdf"] = {{"base_link", robot.urdf_base_link}, {"tip_link", robot.urdf_tip_link}};
-  if (robot.calibrated_from) j["calibrated_from"] = *robot.calibrated_from;
-}
-
-void from_json(const nlohmann::json& j, Robot& robot) {
-  const WireReader r(j);
-  r.Required("id", &robot.id);
-  r.Required("preset", &robot.preset);
-  r.Required("description", &robot.description);
-  r.Required("convention", &robot.convention);
-  r.Required("num_joints", &robot.num_joints);
-  const nlohmann::json& joints = r.Member("joints");
-  if (!joints.is_array()) throw WireError("joints", "expected an array");
-  robot.joints.clear();
-  for (std::size_t i = 0; i < joints.size(); ++i) {
-    const std::string path = "joints[" + std::to_string(i) + "]";
-    try {
-      const WireReader jr(joints[i]);
-      RobotJoint rj{JointFromJson(jr, robot.convention, true), ""};
-      jr.Required("mass_kg", &rj.joint.mass_kg);
-      jr.Required("com_mm", &rj.joint.com_mm);
-      jr.Required("compliance_deg_per_nm", &rj.joint.compliance_deg_per_nm);
-      jr.Required("harmonics_deg", &rj.joint.harmonics_deg);
-      jr.Required("unit", &rj.unit);
-      robot.joints.push_back(std::move(rj));
-    } catch (const WireError& e) {
-      throw WireError(WirePath(path, e.path()), e.reason());
-    }
-  }
-  ReadResultPose(r, "base", &robot.base);
-  ReadResultPose(r, "tool", &robot.tool);
-  ReadResultPose(r, "flange", &robot.flange);
-  if (r.Has("urdf")) {
-    const WireReader u(r.Member("urdf"), "urdf");
-    u.Required("base_link", &robot.urdf_base_link);
-    u.Required("tip_link", &robot.urdf_tip_link);
-  }
-  CalibrationSource source;
-  if (r.Optional("calibrated_from", &source)) robot.calibrated_from = source;
-  r.Required("gravity", &robot.gravity);
-  r.Required("has_masses", &robot.has_masses);
-  r.Required("error_parameters", &robot.error_parameters);
-}
-
 JointWire JointToWire(const JointSpec& js) {
   const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
   JointWire jw;
@@ -462,34 +283,6 @@ ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& 
   }
   problems.ThrowIfAny(refusal);
   return req;
-}
-
-void to_json(nlohmann::json& j, const ForwardResult& result) {
-  nlohmann::json poses = nlohmann::json::array();
-  for (const PoseWire& p : result.poses) poses.push_back(PoseResultJson(p));
-  j = nlohmann::json::object();
-  if (result.robot) j["robot"] = *result.robot;
-  if (result.campaign) j["campaign"] = *result.campaign;
-  j["frame"] = result.frame;
-  j["poses"] = std::move(poses);
-}
-
-void from_json(const nlohmann::json& j, ForwardResult& result) {
-  const WireReader r(j);
-  r.Optional("robot", &result.robot);
-  r.Optional("campaign", &result.campaign);
-  if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
-  r.Required("frame", &result.frame);
-  const nlohmann::json& poses = r.Member("poses");
-  if (!poses.is_array()) throw WireError("poses", "expected an array");
-  result.poses.resize(poses.size());
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    try {
-      ReadResultPose(WireReader(poses[i]), &result.poses[i]);
-    } catch (const WireError& e) {
-      throw WireError(WirePath("poses[" + std::to_string(i) + "]", e.path()), e.reason());
-    }
-  }
 }
 
 // ---------------------------------------------------------------------------------------------- joints

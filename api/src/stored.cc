@@ -83,47 +83,16 @@ void from_json(const nlohmann::json& j, StoredPlan& plan) {
 }
 
 void to_json(nlohmann::json& j, const StoredCalibration& c) {
-  j = Versioned({{"result", c.result},
-                 {"state",
-                  {{"registered_base", c.registered_base},
-                   {"T_world_base", c.T_world_base},
-                   {"T_flange_tool", c.T_flange_tool},
-                   {"errors", c.errors}}}});
-  nlohmann::json& state = j["state"];
-  if (c.last_calibration_sequence) state["last_calibration_sequence"] = *c.last_calibration_sequence;
-  if (c.covariance) {
-    state["covariance"] = *c.covariance;
-    state["singular_values"] = c.singular_values;
-    state["num_residuals"] = c.num_residuals;
-    state["outlier_measurements"] = c.outlier_measurements;
-    state["implausible_joint_terms"] = c.implausible_joint_terms;
-  }
+  WriteFields(j, c);
+  j[kVersionKey] = kStoredSchemaVersion;
 }
 
 void from_json(const nlohmann::json& j, StoredCalibration& c) {
   nlohmann::json doc = j;
-  const int version = StoredSchemaVersion(j);
-  if (version == 1 && doc.contains("result") && doc["result"].contains("summary")) {
+  if (StoredSchemaVersion(j) == 1 && doc.contains("result") && doc["result"].contains("summary")) {
     DefaultFalse(&doc["result"]["summary"], "deadline_exceeded");
   }
-  const WireReader r(doc);
-  r.Required("result", &c.result);
-  const WireReader state(r.Member("state"), "state");
-  ReadResultPose(state, "registered_base", &c.registered_base);
-  ReadResultPose(state, "T_world_base", &c.T_world_base);
-  ReadResultPose(state, "T_flange_tool", &c.T_flange_tool);
-  state.Required("errors", &c.errors);
-  state.Optional("last_calibration_sequence", &c.last_calibration_sequence);
-  // Version 5 writes the rest of the state with the covariance; a state without it is one stored before (also
-  // when written again by this version).
-  if (version >= 5 && state.Has("covariance")) {
-    c.covariance.emplace();
-    state.Required("covariance", &*c.covariance);
-    state.Required("singular_values", &c.singular_values);
-    state.Required("num_residuals", &c.num_residuals);
-    state.Required("outlier_measurements", &c.outlier_measurements);
-    state.Required("implausible_joint_terms", &c.implausible_joint_terms);
-  }
+  ReadFields(doc, &c);
 }
 
 StoredCalibration ToStored(const Calibration& calibration, const CalibrationResult& result) {
@@ -266,14 +235,13 @@ Calibration Restore(const RobotModel& geometric, const StoredCalibration& stored
 }
 
 void to_json(nlohmann::json& j, const StoredCell& c) {
-  j = Versioned({{"cell", c.cell}, {"robot_definition", c.robot_definition}});
+  WriteFields(j, c);
+  j[kVersionKey] = kStoredSchemaVersion;
 }
 
 void from_json(const nlohmann::json& j, StoredCell& c) {
   (void)StoredSchemaVersion(j);
-  const WireReader r(j);
-  r.Required("cell", &c.cell);
-  r.Required("robot_definition", &c.robot_definition);
+  ReadFields(j, &c);
 }
 
 void to_json(nlohmann::json& j, const StoredOperation& op) { j = Versioned(op.operation); }

@@ -542,7 +542,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
         problems.Add(JoinPath("columns", key), "must name a column");
       }
     }
-    cr.RejectUnknown({"target", "x", "y", "z", "reflector"});
+    cr.RejectUnknown(WireFieldNames<CsvColumns>());
   }
   r.Enum("delimiter", false, TrackerFileDelimiters(), &req.delimiter);
   r.Enum("decimal", false, TrackerFileDecimals(), &req.decimal);
@@ -574,7 +574,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
     ObjectReader jr(*j, "joints", &problems);
     names(jr, "joints", 1, static_cast<std::size_t>(kMaxJoints), &req.joints.columns);
     jr.Enum("unit", true, AngleUnits(), &req.joints.unit);
-    jr.RejectUnknown({"columns", "unit"});
+    jr.RejectUnknown(WireFieldNames<JointColumns>());
     // Each row carries its joints: there is no plan to match.
     for (const char* key : {"plan", "match", "shots_per_configuration"}) {
       if (r.Has(key)) problems.Add(key, "not with joints: each row is a measurement at its own joints");
@@ -590,7 +590,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
       names(orr, "orientation", count, count, &oc.columns);
       if (quaternion) {
         orr.Enum("order", true, QuaternionOrders(), &oc.order);
-        orr.RejectUnknown({"representation", "columns", "order"});
+        orr.RejectUnknown(WireFieldNamesOf(oc));
       } else {
         if (orr.String("sequence", true, &oc.sequence, 8)) {
           try {
@@ -601,7 +601,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
         }
         orr.Enum("convention", true, EulerConventions(), &oc.convention);
         orr.Enum("unit", true, AngleUnits(), &oc.unit);
-        orr.RejectUnknown({"representation", "columns", "sequence", "convention", "unit"});
+        orr.RejectUnknown(WireFieldNamesOf(oc));
       }
     }
   }
@@ -609,73 +609,9 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
   if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
     req.payload = payload;
   }
-  r.RejectUnknown({"request_id", "role", "format", "text", "unit", "plan", "match", "shots_per_configuration",
-                   "columns", "joints", "orientation", "delimiter", "decimal", "payload"});
+  r.RejectUnknown(WireFieldNames<ImportMeasurementsRequest>());
   problems.ThrowIfAny("invalid measurement import");
   return req;
-}
-
-void to_json(nlohmann::json& j, const ImportMeasurementsRequest& req) {
-  j = {{"request_id", req.request_id}, {"role", req.role},   {"format", req.format},
-       {"text", req.text},             {"match", req.match}};
-  if (!req.unit.empty()) j["unit"] = req.unit;
-  if (!req.plan.empty()) j["plan"] = req.plan;
-  if (req.shots_per_configuration > 0) j["shots_per_configuration"] = req.shots_per_configuration;
-  if (req.format == "csv") {
-    j["columns"] = {{"target", req.columns.target}, {"x", req.columns.x}, {"y", req.columns.y}, {"z", req.columns.z}};
-    if (!req.columns.reflector.empty()) j["columns"]["reflector"] = req.columns.reflector;
-    if (!req.delimiter.empty()) j["delimiter"] = req.delimiter;
-    j["decimal"] = req.decimal;
-  }
-  if (!req.joints.columns.empty()) {
-    j["joints"] = {{"columns", req.joints.columns}, {"unit", req.joints.unit}};
-    j.erase("match");
-  }
-  if (req.payload) j["payload"] = *req.payload;
-  const OrientationColumns& o = req.orientation;
-  if (o.representation == "quaternion") {
-    j["orientation"] = {{"representation", o.representation}, {"columns", o.columns}, {"order", o.order}};
-  } else if (o.representation == "euler") {
-    j["orientation"] = {{"representation", o.representation}, {"columns", o.columns}, {"sequence", o.sequence},
-                        {"convention", o.convention}, {"unit", o.unit}};
-  }
-}
-
-void from_json(const nlohmann::json& j, ImportMeasurementsRequest& req) {
-  const WireReader r(j);
-  r.Required("request_id", &req.request_id);
-  r.Required("role", &req.role);
-  r.Required("format", &req.format);
-  r.Required("text", &req.text);
-  r.Optional("match", &req.match);
-  r.Optional("delimiter", &req.delimiter);
-  r.Optional("decimal", &req.decimal);
-  r.Optional("payload", &req.payload);
-  if (r.Has("joints")) {
-    const WireReader jr(r.Member("joints"), "joints");
-    jr.Required("columns", &req.joints.columns);
-    jr.Required("unit", &req.joints.unit);
-  }
-  if (r.Has("orientation")) {
-    const WireReader o(r.Member("orientation"), "orientation");
-    o.Required("representation", &req.orientation.representation);
-    o.Required("columns", &req.orientation.columns);
-    o.Optional("order", &req.orientation.order);
-    o.Optional("sequence", &req.orientation.sequence);
-    o.Optional("convention", &req.orientation.convention);
-    o.Optional("unit", &req.orientation.unit);
-  }
-  r.Optional("unit", &req.unit);
-  r.Optional("plan", &req.plan);
-  r.Optional("shots_per_configuration", &req.shots_per_configuration);
-  if (r.Has("columns")) {
-    const WireReader c(r.Member("columns"), "columns");
-    c.Optional("target", &req.columns.target);
-    c.Optional("x", &req.columns.x);
-    c.Optional("y", &req.columns.y);
-    c.Optional("z", &req.columns.z);
-    c.Optional("reflector", &req.columns.reflector);
-  }
 }
 
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems) {

@@ -171,34 +171,45 @@ bool ParsePose(const nlohmann::json& value, const std::string& path, bool orient
   } else {
     pose.has_orientation = false;
   }
-  r.RejectUnknown({"position_mm", "quaternion", "rpy_deg"});
+  r.RejectUnknown(WireFieldNames<PoseResultWire>());  // a request may send a pose as a reply wrote it
   if (problems->size() != before) return false;
   *out = pose;
   return true;
 }
 
-void to_json(nlohmann::json& j, const PoseWire& pose) {
-  j = {{"position_mm", pose.position_mm}};
-  if (pose.has_orientation) j["quaternion"] = pose.quaternion;
+namespace detail {
+
+bool WritePoseQuaternion(const PoseWire& pose, nlohmann::json* value) {
+  if (!pose.has_orientation) return false;
+  *value = pose.quaternion;
+  return true;
 }
 
-void from_json(const nlohmann::json& j, PoseWire& pose) {
-  const WireReader r(j);
-  r.Required("position_mm", &pose.position_mm);
-  pose.has_orientation = r.Optional("quaternion", &pose.quaternion);
-  if (!pose.has_orientation) pose.quaternion = {1.0, 0.0, 0.0, 0.0};
+void ReadPoseQuaternion(const nlohmann::json* value, const std::string& path, PoseWire* pose) {
+  pose->has_orientation = value != nullptr && !value->is_null();
+  if (pose->has_orientation) {
+    ReadWire(*value, path, &pose->quaternion);
+  } else {
+    pose->quaternion = {1.0, 0.0, 0.0, 0.0};
+  }
 }
 
-void ReadResultPose(const WireReader& pose, PoseWire* out) {
-  pose.Required("position_mm", &out->position_mm);
-  pose.Required("quaternion", &out->quaternion);
-  out->has_orientation = true;
+void ReadResultQuaternion(const nlohmann::json* value, const std::string& path, PoseWire* pose) {
+  if (value == nullptr) ThrowWire(path, "required");
+  ReadWire(*value, path, &pose->quaternion);
+  pose->has_orientation = true;
 }
 
-void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out) {
-  const WireReader pose(parent.Member(key), WirePath(parent.path(), key));
-  ReadResultPose(pose, out);
+bool WritePoseRpy(const PoseWire& pose, nlohmann::json* value) {
+  if (!pose.has_orientation) return false;
+  const Eigen::Vector3d rpy = RpyFromRotation(PoseToTransform(pose).linear()) * kDegPerRad;
+  *value = {rpy.x(), rpy.y(), rpy.z()};
+  return true;
 }
+
+void SkipDerived(const nlohmann::json*, const std::string&, PoseWire*) {}
+
+}  // namespace detail
 
 bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out) {
   const std::size_t before = problems->size();
@@ -221,19 +232,6 @@ bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems
 }
 
 Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
-
-void to_json(nlohmann::json& j, const PoseResultWire& pose) { j = PoseResultJson(pose); }
-
-void from_json(const nlohmann::json& j, PoseResultWire& pose) { ReadResultPose(WireReader(j), &pose); }
-
-nlohmann::json PoseResultJson(const PoseWire& pose) {
-  nlohmann::json j = pose;
-  if (pose.has_orientation) {
-    const Eigen::Vector3d rpy = RpyFromRotation(PoseToTransform(pose).linear()) * kDegPerRad;
-    j["rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
-  }
-  return j;
-}
 
 Transform PoseToTransform(const PoseWire& p) {
   Transform t = Transform::Identity();

@@ -14,22 +14,22 @@ namespace {
 void PrintRobot(const api::Robot& robot, std::ostream& out) {
   out << robot.id << ": " << robot.joints.size() << " joints (" << api::WireName(robot.convention) << "), "
       << robot.error_parameters.size() << " error parameters";
-  if (!robot.urdf_tip_link.empty()) out << ", from URDF " << robot.urdf_base_link << " -> " << robot.urdf_tip_link;
+  if (robot.urdf) out << ", from URDF " << robot.urdf->base_link << " -> " << robot.urdf->tip_link;
   if (robot.calibrated_from) {
     out << ", calibrated from campaign " << robot.calibrated_from->campaign << " (robot " << robot.calibrated_from->robot
         << ")";
   }
   out << "\n";
   std::size_t width = 8;
-  for (const api::RobotJoint& j : robot.joints) width = std::max(width, j.joint.name.size() + 1);
+  for (const api::RobotJoint& j : robot.joints) width = std::max(width, j.name.size() + 1);
   for (const api::RobotJoint& j : robot.joints) {
-    out << "  " << std::left << std::setw(static_cast<int>(width)) << j.joint.name << std::setw(10)
-        << api::WireName(j.joint.type)
-        << std::right << Fixed(j.joint.min, 3) << " .. " << Fixed(j.joint.max, 3) << " " << j.unit;
+    out << "  " << std::left << std::setw(static_cast<int>(width)) << j.name << std::setw(10)
+        << api::WireName(j.type)
+        << std::right << Fixed(j.min, 3) << " .. " << Fixed(j.max, 3) << " " << j.unit;
     // Joint terms the robot holds (a compliant calibration registered as a robot).
-    if (j.joint.compliance_deg_per_nm != 0.0) out << ", compliance " << j.joint.compliance_deg_per_nm << " deg/(N*m)";
-    if (j.joint.harmonics_deg != std::array<double, 4>{}) {
-      const std::array<double, 4>& h = j.joint.harmonics_deg;
+    if (j.compliance_deg_per_nm != 0.0) out << ", compliance " << j.compliance_deg_per_nm << " deg/(N*m)";
+    if (j.harmonics_deg != std::array<double, 4>{}) {
+      const std::array<double, 4>& h = j.harmonics_deg;
       out << ", harmonics sin1 " << h[0] << " cos1 " << h[1] << " sin2 " << h[2] << " cos2 " << h[3] << " deg";
     }
     out << "\n";
@@ -38,7 +38,7 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
     out << "  calibrated over:";
     for (std::size_t i = 0; i < robot.joints.size(); ++i) {
       const api::JointRangeWire& r = robot.calibrated_from->joint_ranges[i];
-      out << (i == 0 ? " " : ", ") << robot.joints[i].joint.name << " " << Fixed(r.min, 1) << " .. " << Fixed(r.max, 1)
+      out << (i == 0 ? " " : ", ") << robot.joints[i].name << " " << Fixed(r.min, 1) << " .. " << Fixed(r.max, 1)
           << " " << robot.joints[i].unit;
     }
     out << "\n";

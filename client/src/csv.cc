@@ -84,7 +84,7 @@ void WriteValue(std::ostream& out, double v) {
 
 }  // namespace
 
-std::string JointColumn(const api::RobotJoint& joint) { return joint.joint.name + "_" + joint.unit; }
+std::string JointColumn(const api::RobotJoint& joint) { return joint.name + "_" + joint.unit; }
 
 std::vector<std::vector<double>> ReadJointsCsv(std::istream& in, int num_joints) {
   std::vector<std::vector<double>> rows;

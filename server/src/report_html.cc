@@ -220,8 +220,8 @@ void RobotSection(const ReportData& d, std::ostringstream& out) {
   out << "<tr><th>preset</th>" << TextCell(r.preset ? "yes" : "no") << "</tr>\n";
   out << "<tr><th>convention</th>" << TextCell(api::WireName(r.convention)) << "</tr>\n";
   out << "<tr><th>joints</th>" << IntCell(r.num_joints, "robot.num_joints") << "</tr>\n";
-  if (!r.urdf_base_link.empty()) {
-    out << "<tr><th>URDF chain</th>" << TextCell(r.urdf_base_link + " -> " + r.urdf_tip_link) << "</tr>\n";
+  if (r.urdf) {
+    out << "<tr><th>URDF chain</th>" << TextCell(r.urdf->base_link + " -> " + r.urdf->tip_link) << "</tr>\n";
   }
   out << "</table>\n";
   const bool transform = r.convention == GeometryConvention::kTransform;
@@ -233,7 +233,7 @@ void RobotSection(const ReportData& d, std::ostringstream& out) {
   }
   out << "<th>min</th><th>max</th><th>unit</th></tr></thead>\n<tbody>\n";
   for (std::size_t k = 0; k < r.joints.size(); ++k) {
-    const api::JointWire& j = r.joints[k].joint;
+    const api::JointWire& j = r.joints[k];
     out << "<tr>" << IntCell(static_cast<std::int64_t>(k + 1)) << TextCell(j.name) << TextCell(api::WireName(j.type));
     if (transform) {
       for (double v : j.xyz_mm) out << NumCell(v, 3);
@@ -374,7 +374,7 @@ void PlanSectionHtml(const ReportData& d, std::ostringstream& out) {
 
   out << "<h3>Configurations</h3>\n<table id=\"plan-configurations\">\n<thead><tr><th>#</th>";
   for (std::size_t k = 0; k < p.joint_units.size(); ++k) {
-    std::string header = k < d.robot.joints.size() ? d.robot.joints[k].joint.name : "q" + std::to_string(k + 1);
+    std::string header = k < d.robot.joints.size() ? d.robot.joints[k].name : "q" + std::to_string(k + 1);
     header.append(" (").append(p.joint_units[k]).append(")");
     out << Th(header);
   }

@@ -142,8 +142,8 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
       return control(fraction);
     };
     ModelChoiceOptions choice;
-    choice.folds = req.folds;
-    choice.seed = req.seed;
+    choice.folds = req.cross_validation.folds;
+    choice.seed = req.cross_validation.seed;
     const Calibration calibration =
         req.model_auto ? IdentifyWithModelChoice(model, *measurements, o, choice) : Identify(model, *measurements, o);
     if (calibration.summary.termination == Termination::kFailure) {

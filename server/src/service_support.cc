@@ -76,10 +76,10 @@ void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const 
   }
 }
 
-std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
+std::vector<api::PoseResultWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
                                         const api::ForwardRequest& req, const Payload& payload) {
   KinematicsWorkspace ws(model);
-  std::vector<api::PoseWire> poses;
+  std::vector<api::PoseResultWire> poses;
   poses.reserve(req.joints.size());
   for (const auto& q : req.joints) {
     poses.push_back(api::TransformToPose(ForwardKinematics(model, api::JointsToCore(model, q), errors, &ws, payload)));
@@ -102,10 +102,7 @@ std::string NewId(const std::string& prefix) { return NewRandomId(prefix); }
 
 api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition) {
   api::Robot robot = api::RobotFromModel(id, model, false, definition.description);
-  if (definition.urdf) {
-    robot.urdf_base_link = definition.urdf->base_link;
-    robot.urdf_tip_link = definition.urdf->tip_link;
-  }
+  if (definition.urdf) robot.urdf = *definition.urdf;  // its chain
   robot.calibrated_from = definition.calibrated_from;
   return robot;
 }

@@ -81,7 +81,7 @@ Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWir
 api::Robot RobotResource(const std::string& id, const RobotModel& model, const api::RegisterRobotRequest& definition);
 
 /// Tool poses of `model` with `errors` (empty: nominal) for the request's joint vectors.
-std::vector<api::PoseWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
+std::vector<api::PoseResultWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
                                         const api::ForwardRequest& req, const Payload& payload = Payload());
 
 /// Requests with at least this many elements (measurements, joint vectors, targets) count as large.

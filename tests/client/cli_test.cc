@@ -60,7 +60,7 @@ InProcess RunInProcess(const std::vector<std::string>& args) {
 std::vector<api::RobotJoint> GrinderJoints() {
   std::vector<api::RobotJoint> joints(5);
   for (int i = 0; i < 5; ++i) {
-    joints[i].joint.name = "q" + std::to_string(i + 1);
+    joints[i].name = "q" + std::to_string(i + 1);
     joints[i].unit = i < 3 ? "mm" : "deg";
   }
   return joints;
@@ -386,7 +386,7 @@ TEST_F(CliTest, OperationWait) {
   api::PlanRequest request;
   request.robot = "grinder5";
   request.num_configurations = 8;
-  request.k_max = 10;
+  request.options.k_max = 10;
   const api::Operation started = c.StartPlan(request);
   const std::string server = "--server " + server_.url();
   const Result waited = RunCli(server + " operation wait " + started.id);

@@ -33,7 +33,7 @@ Calibrated MakeCalibratedCampaign(Client& c) {
   api::PlanRequest plan_request;
   plan_request.robot = "grinder5";
   plan_request.num_configurations = 10;
-  plan_request.k_max = 20;
+  plan_request.options.k_max = 20;
   plan_request.num_validation = 10;
   Calibrated out;
   out.plan = c.CreatePlan(plan_request);
@@ -97,9 +97,9 @@ TEST(ClientTest, Robots) {
   EXPECT_EQ(grinder.num_joints, 5);
   ASSERT_EQ(grinder.joints.size(), 5u);
   EXPECT_EQ(grinder.joints[0].unit, "mm");
-  EXPECT_EQ(grinder.joints[0].joint.type, JointType::kPrismatic);
+  EXPECT_EQ(grinder.joints[0].type, JointType::kPrismatic);
   EXPECT_EQ(grinder.joints[4].unit, "deg");
-  EXPECT_LT(grinder.joints[4].joint.min, grinder.joints[4].joint.max);
+  EXPECT_LT(grinder.joints[4].min, grinder.joints[4].max);
 
   api::RegisterRobotRequest request;
   request.id = "cell7";
@@ -177,7 +177,7 @@ TEST(ClientTest, PlansAndOperations) {
   api::PlanRequest request;
   request.robot = "grinder5";
   request.num_configurations = 8;
-  request.k_max = 10;
+  request.options.k_max = 10;
   request.num_validation = 10;
   const api::PlanResult plan = c.CreatePlan(request);
   EXPECT_EQ(plan.configurations.size(), 8u);
@@ -398,8 +398,8 @@ TEST(ClientTest, InvalidOptions) {
 // Joints as api::Robot gives them: the CSV columns take the name and the unit.
 api::RobotJoint Joint(const std::string& name, const std::string& unit) {
   api::RobotJoint joint;
-  joint.joint.name = name;
-  joint.joint.type = unit == "deg" ? JointType::kRevolute : JointType::kPrismatic;
+  joint.name = name;
+  joint.type = unit == "deg" ? JointType::kRevolute : JointType::kPrismatic;
   joint.unit = unit;
   return joint;
 }

@@ -19,9 +19,9 @@ namespace client = robocal::client;
 std::vector<robocal::api::RobotJoint> Joints(int n) {
   std::vector<robocal::api::RobotJoint> joints(n);
   for (int i = 0; i < n; ++i) {
-    joints[i].joint.name = "q" + std::to_string(i + 1);
-    joints[i].joint.min = -180.0;
-    joints[i].joint.max = 180.0;
+    joints[i].name = "q" + std::to_string(i + 1);
+    joints[i].min = -180.0;
+    joints[i].max = 180.0;
     joints[i].unit = "deg";
   }
   return joints;

@@ -12,7 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::Check(request->num_configurations >= 1 && request->num_configurations <= limits.max_plan_configurations,
                 "num_configurations within the limit");
     fuzz::Check(
-        request->k_max <= limits.max_plan_evaluations && request->max_evaluations <= limits.max_plan_evaluations,
+        request->options.k_max <= limits.max_plan_evaluations && request->options.max_evaluations <= limits.max_plan_evaluations,
         "the optimiser's budget within the limit");
     // Nests: few, and only with position measurements (the planner's rows per configuration and its memory).
     fuzz::Check(request->reflectors.size() <= static_cast<std::size_t>(api::kMaxPlanReflectors) &&

@@ -181,8 +181,9 @@ TEST_F(WireTest, RobotsRoundTripAndRequireEveryField) {
   // A robot imported from a URDF names its links; the whole "urdf" member is absent for other robots.
   const Robot imported = service_->CreateRobot(json::parse(R"({"id":"imp","base_link":"b","tip_link":"t","urdf":
       "<robot name='x'><link name='b'/><link name='m'/><link name='t'/><joint name='j1' type='revolute'><parent link='b'/><child link='m'/><axis xyz='0 1 0'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint><joint name='tip' type='fixed'><parent link='m'/><child link='t'/><origin xyz='0 0 0.1' rpy='0 0 0'/></joint></robot>"})"));
-  EXPECT_EQ(imported.urdf_tip_link, "t");
-  EXPECT_EQ(imported.joints.at(0).joint.name, "j1");
+  ASSERT_TRUE(imported.urdf.has_value());
+  EXPECT_EQ(imported.urdf->tip_link, "t");
+  EXPECT_EQ(imported.joints.at(0).name, "j1");
   ExpectRoundTrip(imported);
   std::set<std::string> optional = kDerived;
   optional.insert("urdf");
@@ -512,8 +513,8 @@ TEST_F(WireTest, RobotsHoldJointTermsInWireUnits) {
   const Robot robot = service_->CreateRobot(body);
   ExpectRoundTrip(robot);
   ExpectEveryFieldRequired(robot, kDerived);
-  EXPECT_DOUBLE_EQ(robot.joints[1].joint.compliance_deg_per_nm, 0.002);
-  EXPECT_DOUBLE_EQ(robot.joints[0].joint.harmonics_deg[1], -0.02);
+  EXPECT_DOUBLE_EQ(robot.joints[1].compliance_deg_per_nm, 0.002);
+  EXPECT_DOUBLE_EQ(robot.joints[0].harmonics_deg[1], -0.02);
   EXPECT_EQ(json(robot)["joints"][0]["compliance_deg_per_nm"], 0.0);
   EXPECT_EQ(json(robot)["joints"][1]["harmonics_deg"], json::array({0.0, 0.0, 0.0, 0.0}));
   const RegisterRobotRequest definition = ParseRegisterRobotRequest(body, Limits{});

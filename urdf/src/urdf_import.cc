@@ -306,7 +306,7 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
   out.convention = GeometryConvention::kTransform;
   out.base = request.base;
   out.tool = request.tool;
-  out.urdf = api::UrdfSource{request.urdf, request.base_link, request.tip_link};
+  out.urdf = api::UrdfSource{{request.base_link, request.tip_link}, request.urdf};
 
   // What lies between the previous moving joint's frame (after its motion) and the next joint's origin: fixed
   // joints and the previous joint's axis alignment, inverted.

@@ -17,14 +17,41 @@
 #include "robocal/core/compensation.h"
 #include "robocal/core/identification.h"
 
-namespace robocal {
-// In the core's namespace, where argument-dependent lookup finds them.
+namespace robocal::api {
+
+/// One flag of an arm configuration by name ("shoulder": "front" | "back", ...); left out when 0 (not demanded).
+bool WriteConfigurationFlag(const char* flag, int value, nlohmann::json* out);
+/// WireError at `path` for a name that is not one of the flag's two; absent: 0.
+void ReadConfigurationFlag(const char* flag, const nlohmann::json* value, const std::string& path, int* out);
+
 /// A configuration (branch) of a 6R arm with named branches: {"shoulder": "front" | "back", "elbow": "up" |
 /// "down", "wrist": "noflip" | "flip"}. In a request each flag is optional (0 in ArmConfiguration: not
 /// demanded); in a result all three are given.
-void to_json(nlohmann::json& j, const ArmConfiguration& c);
-void from_json(const nlohmann::json& j, ArmConfiguration& c);
+template <>
+struct WireFields<ArmConfiguration> {
+  using S = ArmConfiguration;
+  static constexpr auto fields = std::make_tuple(
+      Computed<S>{"shoulder",
+                  +[](const S& s, nlohmann::json* v) { return WriteConfigurationFlag("shoulder", s.shoulder, v); },
+                  +[](const nlohmann::json* v, const std::string& path, S* s) {
+                    ReadConfigurationFlag("shoulder", v, path, &s->shoulder);
+                  }},
+      Computed<S>{"elbow", +[](const S& s, nlohmann::json* v) { return WriteConfigurationFlag("elbow", s.elbow, v); },
+                  +[](const nlohmann::json* v, const std::string& path, S* s) {
+                    ReadConfigurationFlag("elbow", v, path, &s->elbow);
+                  }},
+      Computed<S>{"wrist", +[](const S& s, nlohmann::json* v) { return WriteConfigurationFlag("wrist", s.wrist, v); },
+                  +[](const nlohmann::json* v, const std::string& path, S* s) {
+                    ReadConfigurationFlag("wrist", v, path, &s->wrist);
+                  }});
+};
 
+}  // namespace robocal::api
+
+namespace robocal {
+// In the core's namespace, where argument-dependent lookup finds them: by the table above.
+inline void to_json(nlohmann::json& j, const ArmConfiguration& c) { api::to_json(j, c); }
+inline void from_json(const nlohmann::json& j, ArmConfiguration& c) { api::from_json(j, c); }
 }  // namespace robocal
 
 namespace robocal::api {
@@ -45,6 +72,18 @@ struct WireFields<ModelWire> {
 };
 JointErrorTerms ToCore(const ModelWire& model);
 ModelWire ToWire(const JointErrorTerms& terms);
+
+/// "cross_validation" of a fit with "model": "auto": k-fold cross-validation on the calibration measurements.
+struct CrossValidationWire {
+  /// 2..20.
+  int folds = 5;
+  std::uint64_t seed = 1;
+};
+template <>
+struct WireFields<CrossValidationWire> {
+  static constexpr auto fields = std::make_tuple(Field{"folds", &CrossValidationWire::folds},
+                                                 Field{"seed", &CrossValidationWire::seed});
+};
 
 struct FitRequest {
   /// Parameter names to estimate (e.g. "joint2.dz"); empty: the identifiable set.
@@ -67,11 +106,35 @@ struct FitRequest {
   /// {"compliance": bool, "joint_harmonics": 0..2}. `model_auto` is true for "auto".
   ModelWire model;
   bool model_auto = false;
-  /// "cross_validation": {"folds": 2..20, "seed"} for "auto" (5 folds, seed 1 by default).
-  int folds = 5;
-  std::uint64_t seed = 1;
+  /// For "auto" only.
+  CrossValidationWire cross_validation;
   /// Run as a long-running operation.
   bool async = false;
+};
+template <>
+struct WireFields<FitRequest> {
+  using S = FitRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"parameters", &S::parameters},
+      Field{"register_base", &S::register_base},
+      Field{"max_iterations", &S::max_iterations},
+      // Absent in requests stored before the robust fit and the model error's estimate: they did not exist.
+      Field{"reject_outliers", &S::reject_outliers, Presence::kAbsentIsEmpty},
+      Field{"outlier_probability", &S::outlier_probability, Presence::kOptionalOnRead},
+      Field{"estimate_model_error", &S::estimate_model_error, Presence::kAbsentIsEmpty},
+      Field{"scope", &S::scope, Presence::kOptionalOnRead},
+      Field{"async", &S::async},
+      // "auto" or the model object; absent in requests stored before models beyond geometry: the geometric one.
+      Computed<S>{"model",
+                  +[](const S& s, nlohmann::json* value) {
+                    *value = s.model_auto ? nlohmann::json("auto") : nlohmann::json(s.model);
+                    return true;
+                  },
+                  +[](const nlohmann::json* value, const std::string& path, S* s) {
+                    s->model_auto = value && value->is_string() && value->get<std::string>() == "auto";
+                    if (value && !s->model_auto) ReadWire(*value, path, &s->model);
+                  }},
+      Field{"cross_validation", &S::cross_validation}.When(+[](const S& s) { return s.model_auto; }));
 };
 /// The model a fit estimates: `nominal` with the request's joint terms (the geometric one for "auto", whose
 /// candidates are built by the core).
@@ -80,8 +143,6 @@ RobotModel FitModel(const FitRequest& request, const RobotModel& nominal);
 /// ("reflector.<id>.dx").
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,
                            const std::vector<Reflector>& reflectors = {});
-void to_json(nlohmann::json& j, const FitRequest& request);
-void from_json(const nlohmann::json& j, FitRequest& request);
 /// The wire names of a fit's scope ("all", "frames").
 const std::vector<std::string>& FitScopes();
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
@@ -355,8 +416,18 @@ struct CompensationTargetWire {
   /// campaign's payload, or none.
   std::optional<PayloadWire> payload;
 };
-void to_json(nlohmann::json& j, const CompensationTargetWire& target);
-void from_json(const nlohmann::json& j, CompensationTargetWire& target);
+template <>
+struct WireFields<CompensationTargetWire> {
+  using S = CompensationTargetWire;
+  static constexpr bool (*kPoseTarget)(const S&) = +[](const S& s) { return s.pose.has_value(); };
+  static constexpr auto fields = std::make_tuple(
+      Field{"pose", &S::pose, Presence::kOmitEmpty},
+      Field{"joints", &S::joints}.When(+[](const S& s) { return !s.pose.has_value(); }),
+      Field{"frame", &S::frame, Presence::kOptionalOnRead}.When(kPoseTarget),
+      Field{"start_joints", &S::start_joints, Presence::kOmitEmpty}.When(kPoseTarget),
+      Field{"configuration", &S::configuration, Presence::kOmitEmpty}.When(kPoseTarget),
+      Field{"payload", &S::payload, Presence::kOmitEmpty});
+};
 
 /// POST /v1/campaigns/{c}:compensate.
 struct CompensateRequest {

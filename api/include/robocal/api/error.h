@@ -52,10 +52,7 @@ class ApiError : public std::runtime_error {
   std::vector<FieldViolation> details_;
 };
 
-void to_json(nlohmann::json& j, const FieldViolation& v);
-void from_json(const nlohmann::json& j, FieldViolation& v);
-
-/// The "error" object of an error body, and the error of a FAILED operation.
+/// The "error" object of an error body, and the error of a FAILED operation (its field table: wire.h).
 struct ErrorInfo {
   /// The HTTP status code.
   int code = 0;
@@ -63,8 +60,6 @@ struct ErrorInfo {
   std::string message;
   std::vector<FieldViolation> details;
 };
-void to_json(nlohmann::json& j, const ErrorInfo& e);
-void from_json(const nlohmann::json& j, ErrorInfo& e);
 /// The ErrorInfo of `status`, with message, fields and reasons passed through SafeText (always serialisable).
 ErrorInfo MakeErrorInfo(Status status, int http_code, const std::string& message,
                         const std::vector<FieldViolation>& details = {});

@@ -38,7 +38,45 @@ struct Operation {
   /// FAILED: why.
   std::optional<ErrorInfo> error;
 };
-void to_json(nlohmann::json& j, const Operation& op);
-void from_json(const nlohmann::json& j, Operation& op);
+/// The "result" of a plan operation.
+struct PlanOperationResult {
+  std::string plan;
+};
+template <>
+struct WireFields<PlanOperationResult> {
+  static constexpr auto fields = std::make_tuple(Field{"plan", &PlanOperationResult::plan});
+};
+template <>
+struct WireFields<Operation> {
+  using S = Operation;
+  static constexpr bool (*kPlanKind)(const S&) = +[](const S& op) { return op.kind == OperationKind::kPlan; };
+  static constexpr bool (*kFitKind)(const S&) = +[](const S& op) { return op.kind != OperationKind::kPlan; };
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"kind", &S::kind},
+      Field{"state", &S::state},
+      Field{"done", &S::done},
+      Field{"progress", &S::progress},
+      Field{"created_unix_ms", &S::created_unix_ms},
+      Field{"updated_unix_ms", &S::updated_unix_ms},
+      Field{"cancel_requested", &S::cancel_requested},
+      Field{"campaign", &S::campaign, Presence::kOmitEmpty},
+      // The request and the result of the operation's kind.
+      Field{"request", &S::plan_request, Presence::kOmitEmpty}.When(kPlanKind),
+      Field{"request", &S::fit_request, Presence::kOmitEmpty}.When(kFitKind),
+      Computed<S>{"result",
+                  +[](const S& op, nlohmann::json* value) {
+                    if (op.plan) *value = PlanOperationResult{*op.plan};
+                    return op.plan.has_value();
+                  },
+                  +[](const nlohmann::json* value, const std::string& path, S* op) {
+                    if (value == nullptr || op->kind != OperationKind::kPlan) return;
+                    PlanOperationResult result;
+                    ReadWire(*value, path, &result);
+                    op->plan = result.plan;
+                  }},
+      Field{"result", &S::fit, Presence::kOmitEmpty}.When(kFitKind),
+      Field{"error", &S::error, Presence::kOmitEmpty});
+};
 
 }  // namespace robocal::api

@@ -21,6 +21,28 @@ namespace robocal::api {
 /// and the exchange pool's memory).
 inline constexpr int kMaxPlanReflectors = 4;
 
+/// A plan request's "options": the optimiser's; unset ones keep the core's defaults (the paper's for solis_wets).
+struct PlanOptionsWire {
+  int k_max = 100, restarts = 0;                                 // solis_wets
+  double step_fraction = 0.1;                                    // solis_wets
+  int max_evaluations = 0;                                       // solis_wets, exchange (0: no cap)
+  int num_sets = 1;                                              // random
+  int num_candidates = 2000, screen = 16, max_iterations = 200;  // exchange
+};
+template <>
+struct WireFields<PlanOptionsWire> {
+  using S = PlanOptionsWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"k_max", &S::k_max},
+      Field{"restarts", &S::restarts},
+      Field{"max_evaluations", &S::max_evaluations},
+      Field{"step_fraction", &S::step_fraction},
+      Field{"num_sets", &S::num_sets},
+      Field{"num_candidates", &S::num_candidates},
+      Field{"screen", &S::screen},
+      Field{"max_iterations", &S::max_iterations});
+};
+
 struct PlanRequest {
   std::string robot;
   /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
@@ -38,22 +60,33 @@ struct PlanRequest {
   /// shots of every nest identify (their offsets, free ones, among the parameters) rather than the tool point.
   std::vector<CampaignReflectorWire> reflectors;
   std::uint64_t seed = 1;
-  /// Optimiser options ("options" object); unset ones keep the core's defaults (the paper's for solis_wets).
-  int k_max = 100, restarts = 0;                                 // solis_wets
-  double step_fraction = 0.1;                                    // solis_wets
-  int max_evaluations = 0;                                       // solis_wets, exchange (0: no cap)
-  int num_sets = 1;                                              // random
-  int num_candidates = 2000, screen = 16, max_iterations = 200;  // exchange
   /// Random validation configurations for the predicted accuracy.
   int num_validation = 100;
   /// Run as a long-running operation.
   bool async = false;
+  PlanOptionsWire options;
+};
+template <>
+struct WireFields<PlanRequest> {
+  using S = PlanRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"robot", &S::robot},
+      Field{"cell", &S::cell, Presence::kOmitEmpty},
+      Field{"num_configurations", &S::num_configurations},
+      Field{"measurement_type", &S::measurement_type},
+      Field{"objective", &S::objective},
+      Field{"optimiser", &S::optimiser},
+      Field{"scaling", &S::scaling},
+      Field{"noise", &S::noise},
+      Field{"tracker", &S::tracker, Presence::kOmitEmpty},
+      Field{"reflectors", &S::reflectors, Presence::kOmitEmpty},
+      Field{"seed", &S::seed},
+      Field{"num_validation", &S::num_validation},
+      Field{"async", &S::async},
+      Field{"options", &S::options});
 };
 /// Validates a request; also refuses one whose work (MaxWork) exceeds the limits, naming the fields that set it.
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits);
-void to_json(nlohmann::json& j, const PlanRequest& request);
-/// Structural reading (the request as echoed in a plan or operation).
-void from_json(const nlohmann::json& j, PlanRequest& request);
 
 /// The core options of the request's optimiser, objective and seed included (progress left empty). One mapping
 /// for every optimiser; the values were validated by ParsePlanRequest.

@@ -34,13 +34,66 @@ struct JointWire {
   /// registered from a calibration with joint terms holds them.
   double compliance_deg_per_nm = 0.0;
   std::array<double, 4> harmonics_deg{0.0, 0.0, 0.0, 0.0};
+  /// The convention of the robot the joint belongs to, which picks its geometry keys. Not a key of the joint:
+  /// the robot's "convention" gives it (set from the robot's as its joints are written and read).
+  GeometryConvention convention = GeometryConvention::kStandardDh;
+};
+/// The keys a joint has in every robot shape: type, the geometry of its robot's convention, the limits in its
+/// unit (min_deg / max_deg revolute, min_mm / max_mm prismatic).
+struct JointGeometryFields {
+  using S = JointWire;
+  static constexpr bool (*kTransform)(const S&) = +[](const S& j) {
+    return j.convention == GeometryConvention::kTransform;
+  };
+  static constexpr bool (*kDh)(const S&) = +[](const S& j) { return j.convention != GeometryConvention::kTransform; };
+  static constexpr bool (*kRevolute)(const S&) = +[](const S& j) { return j.type == JointType::kRevolute; };
+  static constexpr bool (*kPrismatic)(const S&) = +[](const S& j) { return j.type == JointType::kPrismatic; };
+  static constexpr auto fields = std::make_tuple(
+      Field{"type", &S::type},
+      Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
+      Field{"rpy_deg", &S::rpy_deg}.When(kTransform),
+      Field{"a_mm", &S::a_mm}.When(kDh),
+      Field{"alpha_deg", &S::alpha_deg}.When(kDh),
+      Field{"d_mm", &S::d_mm}.When(kDh),
+      Field{"theta_deg", &S::theta_deg}.When(kDh),
+      Field{"min_deg", &S::min}.When(kRevolute),
+      Field{"max_deg", &S::max}.When(kRevolute),
+      Field{"min_mm", &S::min}.When(kPrismatic),
+      Field{"max_mm", &S::max}.When(kPrismatic));
+};
+/// A joint of a definition: the name may be left out (the core names the joint), the mass properties and joint
+/// terms are given when there are any (com_mm with a mass).
+template <>
+struct WireFields<JointWire> {
+  using S = JointWire;
+  static constexpr auto fields = std::tuple_cat(
+      std::make_tuple(Field{"name", &S::name, Presence::kOmitEmpty}), JointGeometryFields::fields,
+      std::make_tuple(Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty},
+                      Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.When(+[](const S& j) {
+                        return j.mass_kg > 0.0;
+                      }),
+                      Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
+                      Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty}));
 };
 
 /// Where an imported robot came from: the URDF document and the chain taken from it.
-struct UrdfSource {
-  std::string xml;
+/// The chain of a robot imported from a URDF: its base and tip links.
+struct UrdfChainWire {
   std::string base_link;
   std::string tip_link;
+};
+template <>
+struct WireFields<UrdfChainWire> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"base_link", &UrdfChainWire::base_link}, Field{"tip_link", &UrdfChainWire::tip_link});
+};
+struct UrdfSource : UrdfChainWire {
+  std::string xml;
+};
+template <>
+struct WireFields<UrdfSource> {
+  static constexpr auto fields =
+      std::tuple_cat(std::make_tuple(Field{"xml", &UrdfSource::xml}), WireFields<UrdfChainWire>::fields);
 };
 
 /// Where a robot registered from a campaign's calibration came from (POST /v1/robots with "from_calibration"):
@@ -87,10 +140,51 @@ struct RegisterRobotRequest {
 /// Validates a request body (every problem with its field; the geometry through the core).
 RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
 /// The definition as a request body (joints written in the convention's fields only).
-void to_json(nlohmann::json& j, const RegisterRobotRequest& request);
-/// Structural reading of a definition (no range checks: stored definitions stay readable when request
-/// validation tightens).
-void from_json(const nlohmann::json& j, RegisterRobotRequest& request);
+namespace detail {
+// A robot's "joints": each joint written and read with the robot's convention (JointWire::convention).
+template <typename Robot>
+bool WriteJoints(const Robot& robot, nlohmann::json* value) {
+  *value = nlohmann::json::array();
+  for (auto joint : robot.joints) {
+    joint.convention = robot.convention;
+    value->push_back(joint);
+  }
+  return true;
+}
+template <typename Robot>
+void ReadJoints(const nlohmann::json* value, const std::string& path, Robot* robot) {
+  if (value == nullptr) ThrowWire(path, "required");
+  if (!value->is_array()) ThrowWire(path, "expected an array");
+  robot->joints.assign(value->size(), {});
+  for (std::size_t i = 0; i < value->size(); ++i) {
+    robot->joints[i].convention = robot->convention;
+    ReadWire((*value)[i], IndexPathOf(path, i), &robot->joints[i]);
+  }
+}
+}  // namespace detail
+/// The definition as a request body (joints in the convention's keys only); read structurally, without range
+/// checks (stored definitions stay readable when request validation tightens).
+template <>
+struct WireFields<RegisterRobotRequest> {
+  using S = RegisterRobotRequest;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"description", &S::description, Presence::kOmitEmpty},
+      Field{"from_preset", &S::from_preset, Presence::kOmitEmpty},
+      // A table, unless the definition is a preset's.
+      Field{"convention", &S::convention}.When(+[](const S& r) { return r.from_preset.empty(); }),
+      Computed<S>{"joints",
+                  +[](const S& r, nlohmann::json* value) { return r.from_preset.empty() && detail::WriteJoints(r, value); },
+                  +[](const nlohmann::json* value, const std::string& path, S* r) {
+                    if (r->from_preset.empty()) detail::ReadJoints(value, path, r);
+                  }},
+      Field{"base", &S::base, Presence::kOmitEmpty},
+      Field{"tool", &S::tool, Presence::kOmitEmpty},
+      Field{"flange", &S::flange, Presence::kOmitEmpty},
+      Field{"gravity", &S::gravity, Presence::kOmitEmpty},
+      Field{"urdf_source", &S::urdf, Presence::kServerOnly},
+      Field{"calibrated_from", &S::calibrated_from, Presence::kServerOnly});
+};
 /// POST /v1/robots with a URDF document instead of a table (docs/formats.md): the chain from base_link down
 /// to tip_link becomes a transform-convention robot that keeps the URDF's joint names. `id` may be left out:
 /// the URDF's robot name then gives it (lower case, other characters as '_').
@@ -160,9 +254,18 @@ RobotModel BuildModel(const RegisterRobotRequest& request);
 
 /// One joint of the robot resource: the definition's fields (all geometry fields of the convention) plus its
 /// unit ("deg" or "mm", the unit of its limits and of joint values on the wire).
-struct RobotJoint {
-  JointWire joint;
+struct RobotJoint : JointWire {
   std::string unit;
+};
+/// The resource states every joint's name and mass properties (0: unknown), a definition only those it has.
+template <>
+struct WireFields<RobotJoint> {
+  using S = RobotJoint;
+  static constexpr auto fields = std::tuple_cat(
+      std::make_tuple(Field{"name", &JointWire::name}), JointGeometryFields::fields,
+      std::make_tuple(Field{"mass_kg", &JointWire::mass_kg}, Field{"com_mm", &JointWire::com_mm},
+                      Field{"compliance_deg_per_nm", &JointWire::compliance_deg_per_nm},
+                      Field{"harmonics_deg", &JointWire::harmonics_deg}, Field{"unit", &S::unit}));
 };
 
 /// GET /v1/robots/{robot} (and the reply of POST /v1/robots).
@@ -173,11 +276,11 @@ struct Robot {
   GeometryConvention convention = GeometryConvention::kStandardDh;
   int num_joints = 0;
   std::vector<RobotJoint> joints;
-  PoseWire base;    // tracker (world) -> robot base
-  PoseWire tool;    // flange -> tool
-  PoseWire flange;  // last joint frame -> flange (identity but for an imported URDF's tip)
-  /// For a robot imported from a URDF: its base and tip links (empty otherwise).
-  std::string urdf_base_link, urdf_tip_link;
+  PoseResultWire base;    // tracker (world) -> robot base
+  PoseResultWire tool;    // flange -> tool
+  PoseResultWire flange;  // last joint frame -> flange (identity but for an imported URDF's tip)
+  /// For a robot imported from a URDF: its base and tip links.
+  std::optional<UrdfChainWire> urdf;
   /// For a robot registered from a calibration: where it came from.
   std::optional<CalibrationSource> calibrated_from;
   /// The direction of gravity in the base frame (unit vector), and whether the links have masses.
@@ -185,8 +288,25 @@ struct Robot {
   bool has_masses = false;
   std::vector<std::string> error_parameters;
 };
-void to_json(nlohmann::json& j, const Robot& robot);
-void from_json(const nlohmann::json& j, Robot& robot);
+template <>
+struct WireFields<Robot> {
+  using S = Robot;
+  static constexpr auto fields = std::make_tuple(
+      Field{"id", &S::id},
+      Field{"preset", &S::preset},
+      Field{"description", &S::description},
+      Field{"convention", &S::convention},
+      Field{"num_joints", &S::num_joints},
+      Computed<S>{"joints", &detail::WriteJoints<S>, &detail::ReadJoints<S>},
+      Field{"base", &S::base},
+      Field{"tool", &S::tool},
+      Field{"flange", &S::flange},
+      Field{"urdf", &S::urdf, Presence::kOmitEmpty},
+      Field{"calibrated_from", &S::calibrated_from, Presence::kOmitEmpty},
+      Field{"gravity", &S::gravity},
+      Field{"has_masses", &S::has_masses},
+      Field{"error_parameters", &S::error_parameters});
+};
 /// The resource of a model.
 Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset, const std::string& description);
 
@@ -230,10 +350,20 @@ struct ForwardResult {
   std::optional<std::string> robot;
   std::optional<std::string> campaign;
   std::string frame;
-  std::vector<PoseWire> poses;
+  std::vector<PoseResultWire> poses;
 };
-void to_json(nlohmann::json& j, const ForwardResult& result);
-void from_json(const nlohmann::json& j, ForwardResult& result);
+template <>
+struct WireFields<ForwardResult> {
+  using S = ForwardResult;
+  static constexpr auto fields = std::make_tuple(
+      Field{"robot", &S::robot, Presence::kOmitEmpty},
+      Field{"campaign", &S::campaign, Presence::kOmitEmpty},
+      Field{"frame", &S::frame},
+      Field{"poses", &S::poses});
+  static void Check(const S& result) {
+    if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
+  }
+};
 
 /// Joint values between the wire (deg / mm) and the core (rad / mm). Sizes must match the model.
 Eigen::VectorXd JointsToCore(const RobotModel& model, const std::vector<double>& wire);

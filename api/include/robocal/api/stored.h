@@ -89,6 +89,26 @@ struct StoredCalibration {
   std::vector<int> outlier_measurements;
   std::vector<std::string> implausible_joint_terms;
 };
+template <>
+struct WireFields<StoredCalibration> {
+  using S = StoredCalibration;
+  static constexpr bool (*kWithCovariance)(const S&) = +[](const S& c) { return c.covariance.has_value(); };
+  static constexpr auto fields = std::make_tuple(
+      Field{"result", &S::result},
+      Nested{"state", std::make_tuple(
+                          Field{"registered_base", &S::registered_base},
+                          Field{"T_world_base", &S::T_world_base},
+                          Field{"T_flange_tool", &S::T_flange_tool},
+                          Field{"errors", &S::errors},
+                          Field{"last_calibration_sequence", &S::last_calibration_sequence, Presence::kOmitEmpty},
+                          // Version 5 on: the rest of the state comes with the covariance (a state without it is one
+                          // stored before, also when written again by this version).
+                          Field{"covariance", &S::covariance, Presence::kOmitEmpty},
+                          Field{"singular_values", &S::singular_values}.When(kWithCovariance),
+                          Field{"num_residuals", &S::num_residuals}.When(kWithCovariance),
+                          Field{"outlier_measurements", &S::outlier_measurements}.When(kWithCovariance),
+                          Field{"implausible_joint_terms", &S::implausible_joint_terms}.When(kWithCovariance))});
+};
 void to_json(nlohmann::json& j, const StoredCalibration& calibration);
 void from_json(const nlohmann::json& j, StoredCalibration& calibration);
 /// The stored form of a finished fit.
@@ -104,6 +124,11 @@ Calibration Restore(const RobotModel& nominal, const StoredCalibration& stored);
 struct StoredCell {
   CellWire cell;
   RegisterRobotRequest robot_definition;
+};
+template <>
+struct WireFields<StoredCell> {
+  static constexpr auto fields = std::make_tuple(Field{"cell", &StoredCell::cell},
+                                                 Field{"robot_definition", &StoredCell::robot_definition});
 };
 void to_json(nlohmann::json& j, const StoredCell& cell);
 void from_json(const nlohmann::json& j, StoredCell& cell);

@@ -45,12 +45,29 @@ struct CsvColumns {
   /// The reflector (nest) id of each point, for a campaign with reflectors; empty: no such column.
   std::string reflector;
 };
+template <>
+struct WireFields<CsvColumns> {
+  using S = CsvColumns;
+  static constexpr auto fields = std::make_tuple(
+      Field{"target", &S::target, Presence::kOptionalOnRead},
+      Field{"x", &S::x, Presence::kOptionalOnRead},
+      Field{"y", &S::y, Presence::kOptionalOnRead},
+      Field{"z", &S::z, Presence::kOptionalOnRead},
+      Field{"reflector", &S::reflector, Presence::kOmitEmpty});
+};
 
 /// A CSV export that carries the robot's joints beside the tracker's measurement: one column per joint, in the
 /// robot's joint order, and their unit ("deg" or "rad").
 struct JointColumns {
   std::vector<std::string> columns;
   std::string unit;
+  /// No joint columns: the export carries none.
+  bool empty() const { return columns.empty(); }
+};
+template <>
+struct WireFields<JointColumns> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"columns", &JointColumns::columns}, Field{"unit", &JointColumns::unit});
 };
 
 /// The measured orientation of a 6-DoF export (docs/formats.md, "Files with joints"): a quaternion (four
@@ -65,6 +82,21 @@ struct OrientationColumns {
   std::string sequence;
   std::string convention;
   std::string unit;
+  /// No orientation read.
+  bool empty() const { return representation.empty(); }
+};
+template <>
+struct WireFields<OrientationColumns> {
+  using S = OrientationColumns;
+  static constexpr bool (*kQuaternion)(const S&) = +[](const S& o) { return o.representation == "quaternion"; };
+  static constexpr bool (*kEuler)(const S&) = +[](const S& o) { return o.representation == "euler"; };
+  static constexpr auto fields = std::make_tuple(
+      Field{"representation", &S::representation},
+      Field{"columns", &S::columns},
+      Field{"order", &S::order}.When(kQuaternion),
+      Field{"sequence", &S::sequence}.When(kEuler),
+      Field{"convention", &S::convention}.When(kEuler),
+      Field{"unit", &S::unit}.When(kEuler));
 };
 
 /// POST /v1/campaigns/{c}/measurements:import.
@@ -103,8 +135,27 @@ struct ImportMeasurementsRequest {
 };
 /// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);
-void to_json(nlohmann::json& j, const ImportMeasurementsRequest& request);
-void from_json(const nlohmann::json& j, ImportMeasurementsRequest& request);
+template <>
+struct WireFields<ImportMeasurementsRequest> {
+  using S = ImportMeasurementsRequest;
+  static constexpr bool (*kCsv)(const S&) = +[](const S& r) { return r.format == "csv"; };
+  static constexpr auto fields = std::make_tuple(
+      Field{"request_id", &S::request_id},
+      Field{"role", &S::role},
+      Field{"format", &S::format},
+      Field{"text", &S::text},
+      Field{"unit", &S::unit, Presence::kOmitEmpty},
+      Field{"plan", &S::plan, Presence::kOmitEmpty},
+      Field{"joints", &S::joints, Presence::kOmitEmpty},
+      // A file with joints is not matched to a plan.
+      Field{"match", &S::match, Presence::kOptionalOnRead}.When(+[](const S& r) { return r.joints.empty(); }),
+      Field{"shots_per_configuration", &S::shots_per_configuration, Presence::kOmitEmpty},
+      Field{"columns", &S::columns, Presence::kOptionalOnRead}.When(kCsv),
+      Field{"delimiter", &S::delimiter, Presence::kOmitEmpty}.When(kCsv),
+      Field{"decimal", &S::decimal, Presence::kOptionalOnRead}.When(kCsv),
+      Field{"orientation", &S::orientation, Presence::kOmitEmpty},
+      Field{"payload", &S::payload, Presence::kOmitEmpty});
+};
 
 /// One point of a tracker export.
 struct TrackerPoint {

@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <tuple>
 #include <type_traits>
 #include <utility>
@@ -286,23 +287,38 @@ namespace robocal::api {
 //                                                    Field{"count", &BatchResult::count}, ...);
 //   };
 //
-// A shape whose members do not map one to one onto its keys (a pose read in either of two forms, a request
-// whose members nest in an "options" object, an operation's result by kind) keeps hand-written to_json /
-// from_json, as do the error shapes of error.h (included before these tables exist).
+// A row is one of:
+//   - Field{key, &S::member[, presence]}: the member as it is (its own to_json / from_json, or its own table);
+//   - Field{...}.When(condition): a key that belongs to one form of the shape only (a compensation target's
+//     "frame" to a pose target, a joint's "min_deg" to a revolute joint): written when condition(shape) holds,
+//     read when it holds of the members read before it (rows are read in table order);
+//   - Computed<S>{key, write, read}: a key whose value is not one member as it is (a choice written as a string
+//     or an object, a flag by name, a member written in another form): two functions of the whole shape;
+//   - Nested{key, std::make_tuple(rows...)}: members of the shape written as one object under `key` (a stored
+//     calibration's "state"), always written and required when read.
+// A table may also give `static void Check(const S&)`, run after a read: a rule across fields ("robot" or
+// "campaign"), throwing WireError.
 
 /// How a member appears on the wire.
 enum class Presence {
   /// Always written (an unset optional as null); required when read.
   kRequired,
-  /// Written only when it is not its type's empty value (an empty string or list, an unset optional, false, 0);
-  /// optional when read (absent keeps the member's default).
+  /// Written only when it is not its type's empty value (an empty string or list, an unset optional, false, 0, an
+  /// array of zeros); optional when read (absent keeps the member's default).
   kOmitEmpty,
   /// Always written; optional when read (absent or null keeps the member's default): a field that older servers
   /// and stored documents do not have.
   kOptionalOnRead,
+  /// Always written; when read, absent or null is the type's empty value (false, 0, empty) rather than the
+  /// member's default: a switch that older stored documents lack because what it switches on did not exist yet.
+  kAbsentIsEmpty,
   /// Written only when set, as kOmitEmpty (a request leaves it to the server); required when read (the resource
   /// the server returns always has it).
   kSetByServer,
+  /// Written only when set, as kOmitEmpty, and optional when read, but never sent by a client: the server keeps
+  /// it (a stored definition's URDF document, a robot's provenance), so it is not among a request's allowed keys
+  /// (WireFieldNames).
+  kServerOnly,
 };
 
 /// A member `member` of S under the key `name`.
@@ -311,6 +327,16 @@ struct Field {
   const char* name;
   M S::*member;
   Presence presence = Presence::kRequired;
+  /// Null: the key belongs to every form of the shape (see When).
+  bool (*when)(const S&) = nullptr;
+
+  /// The same row for one form of the shape only: written when `condition` holds of the shape, read when it
+  /// holds of the members read so far (otherwise the member keeps its default and the key is not read).
+  constexpr Field When(bool (*condition)(const S&)) const {
+    Field f = *this;
+    f.when = condition;
+    return f;
+  }
 };
 // Spelt out: clang before 17 does not deduce an aggregate's template arguments from its members.
 template <typename S, typename M>
@@ -318,8 +344,27 @@ Field(const char*, M S::*) -> Field<S, M>;
 template <typename S, typename M>
 Field(const char*, M S::*, Presence) -> Field<S, M>;
 
+/// A key written and read by two functions of the whole shape (see above).
+template <typename S>
+struct Computed {
+  const char* name;
+  /// The key's value into `*value`; false: the key is left out.
+  bool (*write)(const S& shape, nlohmann::json* value);
+  /// Reads the key's value (null: the key is absent) into `*shape`; WireError at `path` (the key's) when bad.
+  void (*read)(const nlohmann::json* value, const std::string& path, S* shape);
+};
+
+/// Rows of the shape written as the object `name` (see above).
+template <typename Rows>
+struct Nested {
+  const char* name;
+  Rows rows;
+};
+template <typename Rows>
+Nested(const char*, Rows) -> Nested<Rows>;
+
 /// Specialised for each shape with a field table: `static constexpr auto fields = std::make_tuple(Field{...}, ...)`,
-/// in the order the keys are written. A shape that extends another (a resource and its stored form) may join its
+/// in the order the keys are read. A shape that extends another (a resource and its stored form) may join its
 /// base's table with std::tuple_cat.
 template <typename T>
 struct WireFields;
@@ -350,11 +395,72 @@ bool IsEmptyValue(const M& value) {
     return !value.has_value();
   } else if constexpr (std::is_arithmetic_v<M>) {
     return value == M{};
+  } else if constexpr (IsArray<M>::value) {
+    for (const auto& x : value) {
+      if (!IsEmptyValue(x)) return false;
+    }
+    return true;
   } else if constexpr (requires { value.empty(); }) {
     return value.empty();
   } else {
     return false;
   }
+}
+
+// T is S or a shape derived from it (a table may list its base's rows).
+template <typename T, typename S, typename M>
+void WriteRow(nlohmann::json& j, const T& shape, const Field<S, M>& field) {
+  if (field.when && !field.when(shape)) return;
+  const M& member = shape.*(field.member);
+  const bool omittable = field.presence == Presence::kOmitEmpty || field.presence == Presence::kSetByServer ||
+                         field.presence == Presence::kServerOnly;
+  if (omittable && IsEmptyValue(member)) return;
+  j[field.name] = FieldValue(member);
+}
+
+template <typename T, typename S>
+void WriteRow(nlohmann::json& j, const T& shape, const Computed<S>& field) {
+  nlohmann::json value;
+  if (field.write(shape, &value)) j[field.name] = std::move(value);
+}
+
+template <typename T, typename S, typename M>
+void ReadRow(const WireReader& r, T* shape, const Field<S, M>& field) {
+  if (field.when && !field.when(*shape)) return;
+  M* member = &(shape->*(field.member));
+  switch (field.presence) {
+    case Presence::kRequired:
+    case Presence::kSetByServer:
+      r.Required(field.name, member);
+      break;
+    case Presence::kOmitEmpty:
+    case Presence::kOptionalOnRead:
+    case Presence::kServerOnly:
+      r.Optional(field.name, member);
+      break;
+    case Presence::kAbsentIsEmpty:
+      if (!r.Optional(field.name, member)) *member = M{};
+      break;
+  }
+}
+
+template <typename T, typename S>
+void ReadRow(const WireReader& r, T* shape, const Computed<S>& field) {
+  const nlohmann::json* value = r.Has(field.name) ? &r.Member(field.name) : nullptr;
+  field.read(value, WirePath(r.path(), field.name), shape);
+}
+
+template <typename T, typename Rows>
+void WriteRow(nlohmann::json& j, const T& shape, const Nested<Rows>& group) {
+  nlohmann::json object = nlohmann::json::object();
+  std::apply([&](const auto&... row) { (WriteRow(object, shape, row), ...); }, group.rows);
+  j[group.name] = std::move(object);
+}
+
+template <typename T, typename Rows>
+void ReadRow(const WireReader& r, T* shape, const Nested<Rows>& group) {
+  const WireReader object(r.Member(group.name), WirePath(r.path(), group.name));
+  std::apply([&](const auto&... row) { (ReadRow(object, shape, row), ...); }, group.rows);
 }
 
 }  // namespace detail
@@ -363,43 +469,64 @@ bool IsEmptyValue(const M& value) {
 template <typename T>
 void WriteFields(nlohmann::json& j, const T& value) {
   if (!j.is_object()) j = nlohmann::json::object();
-  std::apply(
-      [&](const auto&... field) {
-        (
-            [&] {
-              const auto& member = value.*(field.member);
-              const bool omittable = field.presence == Presence::kOmitEmpty || field.presence == Presence::kSetByServer;
-              if (omittable && detail::IsEmptyValue(member)) return;
-              j[field.name] = detail::FieldValue(member);
-            }(),
-            ...);
-      },
-      WireFields<T>::fields);
+  std::apply([&](const auto&... field) { (detail::WriteRow(j, value, field), ...); }, WireFields<T>::fields);
 }
 
-/// Reads every field of `*out` (by its table) from the object `j`, strictly: WireError naming the first missing
-/// required or mistyped member. Members not in the table are ignored (a newer server may add fields); refusing
-/// unknown keys is the request parsers' work (RejectUnknown).
+/// Reads every field of `*out` (by its table, in its order) from the object `j`, strictly: WireError naming the
+/// first missing required or mistyped member, then the table's Check if it has one. Keys not in the table are
+/// ignored (a newer server may add fields); refusing unknown keys is the request parsers' work (RejectUnknown).
 template <typename T>
 void ReadFields(const nlohmann::json& j, T* out) {
   const WireReader r(j);
-  std::apply(
-      [&](const auto&... field) {
-        ((field.presence == Presence::kRequired || field.presence == Presence::kSetByServer
-              ? r.Required(field.name, &(out->*(field.member)))
-              : static_cast<void>(r.Optional(field.name, &(out->*(field.member))))),
-         ...);
-      },
-      WireFields<T>::fields);
+  std::apply([&](const auto&... field) { (detail::ReadRow(r, out, field), ...); }, WireFields<T>::fields);
+  if constexpr (requires { WireFields<T>::Check(*out); }) WireFields<T>::Check(*out);
 }
 
-/// The keys of T's table, in order: the allowed keys of its request parser (ObjectReader::RejectUnknown). Built
-/// once per shape: a batch's parser asks for them once per measurement.
+namespace detail {
+template <typename Row>
+void AddRequestKey(const Row& row, std::vector<const char*>* keys) {
+  if constexpr (requires { row.presence; }) {
+    if (row.presence == Presence::kServerOnly) return;
+  }
+  keys->push_back(row.name);
+}
+}  // namespace detail
+
+/// The keys of T's table a request may send, in order (kServerOnly rows left out): the allowed keys of its request
+/// parser (ObjectReader::RejectUnknown). Built once per shape: a batch's parser asks for them once per measurement.
 template <typename T>
 const std::vector<const char*>& WireFieldNames() {
-  static const std::vector<const char*> names =
-      std::apply([](const auto&... field) { return std::vector<const char*>{field.name...}; }, WireFields<T>::fields);
+  static const std::vector<const char*> names = [] {
+    std::vector<const char*> keys;
+    std::apply([&](const auto&... field) { (detail::AddRequestKey(field, &keys), ...); }, WireFields<T>::fields);
+    // A member may appear under two keys, one per form (min_deg / min_mm); a key under two rows is listed once.
+    std::vector<const char*> unique;
+    for (const char* key : keys) {
+      bool seen = false;
+      for (const char* u : unique) seen = seen || std::string_view(u) == key;
+      if (!seen) unique.push_back(key);
+    }
+    return unique;
+  }();
   return names;
+}
+
+/// The keys of T's table that belong to the form of `value` (rows whose When holds of it): the allowed keys of a
+/// parser once it knows the form (an Euler orientation's keys are not a quaternion's).
+template <typename T>
+std::vector<const char*> WireFieldNamesOf(const T& value) {
+  std::vector<const char*> keys;
+  const auto add = [&](const auto& field) {
+    if constexpr (requires { field.when; }) {
+      if (field.when && !field.when(value)) return;
+    }
+    for (const char* key : keys) {
+      if (std::string_view(key) == field.name) return;
+    }
+    keys.push_back(field.name);
+  };
+  std::apply([&](const auto&... field) { (add(field), ...); }, WireFields<T>::fields);
+  return keys;
 }
 
 /// to_json / from_json of every shape with a table (found by nlohmann::json through argument-dependent lookup).
@@ -414,6 +541,19 @@ template <typename T>
 void from_json(const nlohmann::json& j, T& value) {
   ReadFields(j, &value);
 }
+
+// The error shapes of error.h (defined there, before these tables).
+template <>
+struct WireFields<FieldViolation> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"field", &FieldViolation::field}, Field{"reason", &FieldViolation::reason});
+};
+template <>
+struct WireFields<ErrorInfo> {
+  using S = ErrorInfo;
+  static constexpr auto fields = std::make_tuple(Field{"code", &S::code}, Field{"status", &S::status},
+                                                 Field{"message", &S::message}, Field{"details", &S::details});
+};
 
 // ------------------------------------------------------------------------------------------------ common
 
@@ -461,7 +601,7 @@ std::string ContentHash(const std::string& text);
 /// (fixed-axis x-y-z, R = Rz(y) Ry(p) Rx(r)) may stand instead of "quaternion"; the quaternion is normalised
 /// (and rejected if its norm is far from 1). Orientation may be omitted only where the context allows it
 /// (position measurements); it is then the identity and has_orientation is false. Responses write poses with
-/// rpy_deg beside the quaternion (PoseResultJson), for people reading them.
+/// rpy_deg beside the quaternion (PoseResultWire), for people reading them.
 struct PoseWire {
   std::array<double, 3> position_mm{0.0, 0.0, 0.0};
   std::array<double, 4> quaternion{1.0, 0.0, 0.0, 0.0};
@@ -470,21 +610,36 @@ struct PoseWire {
 /// Validates a request pose at `path`; false (with problems recorded) if invalid.
 bool ParsePose(const nlohmann::json& value, const std::string& path, bool orientation_required,
                Problems* problems, PoseWire* out);
-/// {"position_mm", "quaternion"} (the quaternion left out without orientation): requests and stored documents.
-void to_json(nlohmann::json& j, const PoseWire& pose);
-/// position_mm required; quaternion optional (absent: has_orientation false); rpy_deg ignored (derived).
-void from_json(const nlohmann::json& j, PoseWire& pose);
-/// {"position_mm", "quaternion", "rpy_deg"}: poses in responses.
-nlohmann::json PoseResultJson(const PoseWire& pose);
+namespace detail {
+// The orientation of a pose: the quaternion (left out without orientation), read optionally (absent: identity,
+// has_orientation false) or, in a result, required; rpy_deg derived from it, never read.
+bool WritePoseQuaternion(const PoseWire& pose, nlohmann::json* value);
+void ReadPoseQuaternion(const nlohmann::json* value, const std::string& path, PoseWire* pose);
+void ReadResultQuaternion(const nlohmann::json* value, const std::string& path, PoseWire* pose);
+bool WritePoseRpy(const PoseWire& pose, nlohmann::json* value);
+void SkipDerived(const nlohmann::json* value, const std::string& path, PoseWire* pose);
+}  // namespace detail
+/// {"position_mm", "quaternion"}: requests and stored documents.
+template <>
+struct WireFields<PoseWire> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"position_mm", &PoseWire::position_mm},
+                      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadPoseQuaternion});
+};
 
-/// A pose of a response as a member of a field table: written by PoseResultJson, read by ReadResultPose (the
-/// quaternion required, rpy_deg derived).
+/// A pose of a response, {"position_mm", "quaternion", "rpy_deg"}: the quaternion required, rpy_deg derived (for
+/// people reading it).
 struct PoseResultWire : PoseWire {
   PoseResultWire() = default;
   PoseResultWire(const PoseWire& pose) : PoseWire(pose) {}  // implicit: every pose can be a result's
 };
-void to_json(nlohmann::json& j, const PoseResultWire& pose);
-void from_json(const nlohmann::json& j, PoseResultWire& pose);
+template <>
+struct WireFields<PoseResultWire> {
+  static constexpr auto fields =
+      std::make_tuple(Field{"position_mm", &PoseWire::position_mm},
+                      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadResultQuaternion},
+                      Computed<PoseWire>{"rpy_deg", &detail::WritePoseRpy, &detail::SkipDerived});
+};
 
 /// A joint range {"min", "max"} in the joint's wire unit (deg or mm): a cell's allowed ranges, the ranges a
 /// calibration was measured over.
@@ -520,10 +675,6 @@ struct WireFields<PayloadWire> {
       Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead});
 };
 Payload ToCore(const PayloadWire& payload);
-/// Reads a pose of a response (as PoseResultJson writes it: the quaternion required, rpy_deg derived): the
-/// object `pose`, or the member `key` of `parent`.
-void ReadResultPose(const WireReader& pose, PoseWire* out);
-void ReadResultPose(const WireReader& parent, const char* key, PoseWire* out);
 Transform PoseToTransform(const PoseWire& pose);
 /// One sign per rotation (w >= 0), so that equal poses serialise equally.
 PoseWire TransformToPose(const Transform& pose);

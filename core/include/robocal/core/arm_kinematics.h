@@ -33,6 +33,8 @@ struct ArmConfiguration {
   int wrist = 0;
 
   bool operator==(const ArmConfiguration&) const = default;
+  /// No flag given (nothing demanded).
+  bool empty() const { return shoulder == 0 && elbow == 0 && wrist == 0; }
   /// Every flag given (+1 or -1).
   bool Complete() const { return shoulder != 0 && elbow != 0 && wrist != 0; }
   /// Every flag this one gives matches `other`'s.
