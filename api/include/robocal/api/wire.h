@@ -3,10 +3,11 @@
 // server's size limits. Wire units are mm and degrees; names carry their unit where a reader could guess wrong.
 //
 // Each resource family has its own header (robots.h, plans.h, campaigns.h, calibration.h, operations.h,
-// error.h, health.h) with, per shape, one struct and its to_json / from_json (found by nlohmann::json through
-// argument-dependent lookup, so `nlohmann::json(x)` and `j.get<T>()` work). Requests also have a validating
-// parser (`Parse*Request`) that collects every problem with its field; from_json is the strict structural
-// reader of what a server or a stored document wrote: a missing required field is an error naming it.
+// error.h, health.h) with, per shape, one struct and its field table ("field tables" below), which gives its
+// to_json / from_json (found by nlohmann::json through argument-dependent lookup, so `nlohmann::json(x)` and
+// `j.get<T>()` work). Requests also have a validating parser (`Parse*Request`) that collects every problem with
+// its field; from_json is the strict structural reader of what a server or a stored document wrote: a missing
+// required field is an error naming it.
 #pragma once
 
 #include <array>
