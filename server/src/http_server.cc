@@ -233,6 +233,14 @@ void HttpServer::Impl::ConfigureServer() {
   // reply); the library's keep-alive figures only go into the Keep-Alive header it writes.
   svr.set_keep_alive_timeout(config.keep_alive_timeout_s);
   svr.set_keep_alive_max_count(100);
+  // The library's default sets SO_REUSEPORT: a second server started on a port another one listens on would
+  // start without error and the kernel would split the connections between the two (two databases). With
+  // SO_REUSEADDR only, a restarted server still binds while its old connections linger in TIME_WAIT, and a port
+  // in use is a bind error.
+  svr.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
 }
 
 void HttpServer::Impl::InstallAdmission() {

@@ -98,7 +98,8 @@ int main(int argc, char** argv) {
   }
   const int port = server->Bind();
   if (port < 0) {
-    std::cerr << "robocal-server: cannot bind " << config.host << ":" << config.port << "\n";
+    std::cerr << "robocal-server: cannot bind " << config.host << ":" << config.port
+              << " (the port is in use, or the host is not an address of this machine)\n";
     return 1;
   }
   const std::string url = std::string(server->tls() ? "https" : "http") + "://" +

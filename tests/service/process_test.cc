@@ -118,6 +118,29 @@ TEST(ProcessTest, RefusesUnsafeOrBrokenStartups) {
   EXPECT_EQ(RunToExit("--help", dir.File("e.log"), &err), 0);
 }
 
+TEST(ProcessTest, APortInUseIsRefusedAtStart) {
+  // Two servers on one port would both listen (SO_REUSEPORT) and the kernel would split the connections between
+  // their databases: the second must refuse to start instead.
+  TempDir dir("robocal_port_in_use");
+  ServerProcess first({"--db", dir.File("first.db")});
+  ASSERT_GT(first.port(), 0);
+  // `timeout` only ends a second server that wrongly started (exit 124), so that the test fails instead of hanging.
+  const std::string log = dir.File("second.log");
+  const int status = std::system(("timeout 60 " + std::string(ROBOCAL_SERVER_BINARY) + " --port " +
+                                  std::to_string(first.port()) + " --db " + dir.File("second.db") + " >/dev/null 2>" +
+                                  log)
+                                     .c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  std::ostringstream err;
+  for (const std::string& line : ReadLines(log)) err << line << "\n";
+  EXPECT_NE(err.str().find("cannot bind 127.0.0.1:" + std::to_string(first.port())), std::string::npos) << err.str();
+  httplib::Client client("127.0.0.1", first.port());
+  const auto health = client.Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+}
+
 TEST(ProcessTest, JsonLogHasOneLinePerRequest) {
   TempDir dir("robocal_log");
   const std::string log = dir.File("server.log");
