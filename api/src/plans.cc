@@ -94,8 +94,8 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
     opt.Int("restarts", false, &req.options.restarts, 0, 10000);
     if (opt.Int("max_evaluations", false, &req.options.max_evaluations, 0, kMaxInt) &&
         req.options.max_evaluations > limits.max_plan_evaluations) {
-      problems.Add("options.max_evaluations",
-                   OverLimit(req.options.max_evaluations, "evaluations", "max_plan_evaluations", limits.max_plan_evaluations));
+      problems.Add("options.max_evaluations", OverLimit(req.options.max_evaluations, "evaluations",
+                                                        "max_plan_evaluations", limits.max_plan_evaluations));
     }
     opt.Number("step_fraction", false, &req.options.step_fraction, 1e-6, 1.0);
     opt.Int("num_sets", false, &req.options.num_sets, 1, 10000000);
@@ -107,8 +107,8 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   r.RejectUnknown(WireFieldNames<PlanRequest>());
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.options.num_candidates > limits.max_plan_candidates) {
-    problems.Add("options.num_candidates",
-                 OverLimit(req.options.num_candidates, "candidates", "max_plan_candidates", limits.max_plan_candidates));
+    problems.Add("options.num_candidates", OverLimit(req.options.num_candidates, "candidates", "max_plan_candidates",
+                                                     limits.max_plan_candidates));
   } else if (req.optimiser == Optimiser::kExchange && req.options.num_candidates < req.num_configurations) {
     problems.Add("options.num_candidates", "the pool (" + std::to_string(req.options.num_candidates) +
                                                ") must hold at least num_configurations (" +

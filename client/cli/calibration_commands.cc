@@ -100,7 +100,8 @@ int Fit(Invocation& in) {
     if (!request.model_auto) throw UsageError("--folds and --cv-seed apply with --model auto only");
     // Any integer: the service checks the range and names cross_validation.folds.
     request.cross_validation.folds = static_cast<int>(in.Integer("--folds", request.cross_validation.folds, 0, 1000));
-    request.cross_validation.seed = static_cast<std::uint64_t>(in.Integer("--cv-seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+    request.cross_validation.seed =
+        static_cast<std::uint64_t>(in.Integer("--cv-seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
   }
   // The service checks the range and names the field.
   request.outlier_probability =

@@ -23,8 +23,7 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
   std::size_t width = 8;
   for (const api::RobotJoint& j : robot.joints) width = std::max(width, j.name.size() + 1);
   for (const api::RobotJoint& j : robot.joints) {
-    out << "  " << std::left << std::setw(static_cast<int>(width)) << j.name << std::setw(10)
-        << api::WireName(j.type)
+    out << "  " << std::left << std::setw(static_cast<int>(width)) << j.name << std::setw(10) << api::WireName(j.type)
         << std::right << Fixed(j.min, 3) << " .. " << Fixed(j.max, 3) << " " << j.unit;
     // Joint terms the robot holds (a compliant calibration registered as a robot).
     if (j.compliance_deg_per_nm != 0.0) out << ", compliance " << j.compliance_deg_per_nm << " deg/(N*m)";
@@ -38,8 +37,8 @@ void PrintRobot(const api::Robot& robot, std::ostream& out) {
     out << "  calibrated over:";
     for (std::size_t i = 0; i < robot.joints.size(); ++i) {
       const api::JointRangeWire& r = robot.calibrated_from->joint_ranges[i];
-      out << (i == 0 ? " " : ", ") << robot.joints[i].name << " " << Fixed(r.min, 1) << " .. " << Fixed(r.max, 1)
-          << " " << robot.joints[i].unit;
+      out << (i == 0 ? " " : ", ") << robot.joints[i].name << " " << Fixed(r.min, 1) << " .. " << Fixed(r.max, 1) << " "
+          << robot.joints[i].unit;
     }
     out << "\n";
   }

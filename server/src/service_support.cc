@@ -77,7 +77,7 @@ void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const 
 }
 
 std::vector<api::PoseResultWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
-                                        const api::ForwardRequest& req, const Payload& payload) {
+                                              const api::ForwardRequest& req, const Payload& payload) {
   KinematicsWorkspace ws(model);
   std::vector<api::PoseResultWire> poses;
   poses.reserve(req.joints.size());

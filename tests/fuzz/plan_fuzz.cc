@@ -11,9 +11,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // The planner sizes its work from these; the limits are the server's protection against huge plans.
     fuzz::Check(request->num_configurations >= 1 && request->num_configurations <= limits.max_plan_configurations,
                 "num_configurations within the limit");
-    fuzz::Check(
-        request->options.k_max <= limits.max_plan_evaluations && request->options.max_evaluations <= limits.max_plan_evaluations,
-        "the optimiser's budget within the limit");
+    fuzz::Check(request->options.k_max <= limits.max_plan_evaluations &&
+                    request->options.max_evaluations <= limits.max_plan_evaluations,
+                "the optimiser's budget within the limit");
     // Nests: few, and only with position measurements (the planner's rows per configuration and its memory).
     fuzz::Check(request->reflectors.size() <= static_cast<std::size_t>(api::kMaxPlanReflectors) &&
                     (request->reflectors.empty() || request->measurement_type == MeasurementType::kPosition),

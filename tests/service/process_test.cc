@@ -126,10 +126,10 @@ TEST(ProcessTest, APortInUseIsRefusedAtStart) {
   ASSERT_GT(first.port(), 0);
   // `timeout` only ends a second server that wrongly started (exit 124), so that the test fails instead of hanging.
   const std::string log = dir.File("second.log");
-  const int status = std::system(("timeout 60 " + std::string(ROBOCAL_SERVER_BINARY) + " --port " +
-                                  std::to_string(first.port()) + " --db " + dir.File("second.db") + " >/dev/null 2>" +
-                                  log)
-                                     .c_str());
+  const int status =
+      std::system(("timeout 60 " + std::string(ROBOCAL_SERVER_BINARY) + " --port " + std::to_string(first.port()) +
+                   " --db " + dir.File("second.db") + " >/dev/null 2>" + log)
+                      .c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 1);
   std::ostringstream err;

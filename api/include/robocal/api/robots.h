@@ -174,7 +174,9 @@ struct WireFields<RegisterRobotRequest> {
       // A table, unless the definition is a preset's.
       Field{"convention", &S::convention}.When(+[](const S& r) { return r.from_preset.empty(); }),
       Computed<S>{"joints",
-                  +[](const S& r, nlohmann::json* value) { return r.from_preset.empty() && detail::WriteJoints(r, value); },
+                  +[](const S& r, nlohmann::json* value) {
+                    return r.from_preset.empty() && detail::WriteJoints(r, value);
+                  },
                   +[](const nlohmann::json* value, const std::string& path, S* r) {
                     if (r->from_preset.empty()) detail::ReadJoints(value, path, r);
                   }},
