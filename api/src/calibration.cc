@@ -496,4 +496,28 @@ Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& af
   return {i.e_xyz_mean, i.e_xyz_rp, i.e_tot_mean, i.e_tot_rp};
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(ArmConfiguration);
+ROBOCAL_WIRE_DEFINE(ModelWire);
+ROBOCAL_WIRE_DEFINE(CrossValidationWire);
+ROBOCAL_WIRE_DEFINE(FitRequest);
+ROBOCAL_WIRE_DEFINE(ParameterEstimate);
+ROBOCAL_WIRE_DEFINE(Residuals);
+ROBOCAL_WIRE_DEFINE(FitSummary);
+ROBOCAL_WIRE_DEFINE(OutlierWire);
+ROBOCAL_WIRE_DEFINE(RobustFitWire);
+ROBOCAL_WIRE_DEFINE(ModelErrorWire);
+ROBOCAL_WIRE_DEFINE(ModelCandidateWire);
+ROBOCAL_WIRE_DEFINE(ModelChoiceWire);
+ROBOCAL_WIRE_DEFINE(CalibrationResult);
+ROBOCAL_WIRE_DEFINE(CompensationTargetWire);
+ROBOCAL_WIRE_DEFINE(CompensateRequest);
+ROBOCAL_WIRE_DEFINE(Compensation);
+ROBOCAL_WIRE_DEFINE(CompensateResult);
+ROBOCAL_WIRE_DEFINE(EvaluateRequest);
+ROBOCAL_WIRE_DEFINE(Statistics);
+ROBOCAL_WIRE_DEFINE(Accuracy);
+ROBOCAL_WIRE_DEFINE(Improvement);
+ROBOCAL_WIRE_DEFINE(Evaluation);
+
 }  // namespace robocal::api

@@ -153,4 +153,17 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
   return req;
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(CampaignReflectorWire);
+ROBOCAL_WIRE_DEFINE(CreateCampaignRequest);
+ROBOCAL_WIRE_DEFINE(MeasurementCounts);
+ROBOCAL_WIRE_DEFINE(CampaignDefinition);
+ROBOCAL_WIRE_DEFINE(Campaign);
+ROBOCAL_WIRE_DEFINE(CampaignList);
+ROBOCAL_WIRE_DEFINE(MeasurementWire);
+ROBOCAL_WIRE_DEFINE(MeasurementBatchRequest);
+ROBOCAL_WIRE_DEFINE(BatchResult);
+ROBOCAL_WIRE_DEFINE(StoredMeasurementWire);
+ROBOCAL_WIRE_DEFINE(MeasurementList);
+
 }  // namespace robocal::api

@@ -256,4 +256,15 @@ ForwardRequest ParseCellCheckRequest(const nlohmann::json& body, const RobotMode
                             "invalid check request");
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(TrackerWire);
+ROBOCAL_WIRE_DEFINE(ReflectorWire);
+ROBOCAL_WIRE_DEFINE(BoxWire);
+ROBOCAL_WIRE_DEFINE(ObstacleWire);
+ROBOCAL_WIRE_DEFINE(CellWire);
+ROBOCAL_WIRE_DEFINE(CellList);
+ROBOCAL_WIRE_DEFINE(ReflectorCheckWire);
+ROBOCAL_WIRE_DEFINE(ConfigurationCheckWire);
+ROBOCAL_WIRE_DEFINE(CellCheckResult);
+
 }  // namespace robocal::api

@@ -205,4 +205,13 @@ PlanSummaryWire ToWire(const PlanSummary& s) {
   return w;
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(PlanOptionsWire);
+ROBOCAL_WIRE_DEFINE(PlanRequest);
+ROBOCAL_WIRE_DEFINE(Indices);
+ROBOCAL_WIRE_DEFINE(PredictedAccuracyWire);
+ROBOCAL_WIRE_DEFINE(PlanSummaryWire);
+ROBOCAL_WIRE_DEFINE(PlanBaseline);
+ROBOCAL_WIRE_DEFINE(PlanResult);
+
 }  // namespace robocal::api

@@ -202,7 +202,7 @@ RobotModel BuildModel(const RegisterRobotRequest& req) {
 
 // ---------------------------------------------------------------------------------------------- the resource
 
-JointWire JointToWire(const JointSpec& js) {
+JointWire JointToWire(const JointSpec& js, GeometryConvention convention) {
   const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
   JointWire jw;
   jw.name = js.name;
@@ -213,6 +213,7 @@ JointWire JointToWire(const JointSpec& js) {
   jw.theta_deg = js.theta_rad * kDegPerRad;
   jw.xyz_mm = {js.xyz_mm.x(), js.xyz_mm.y(), js.xyz_mm.z()};
   jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
+  jw.convention = convention;
   jw.min = js.min * scale;
   jw.max = js.max * scale;
   jw.mass_kg = js.mass_kg;
@@ -227,7 +228,7 @@ RegisterRobotRequest DefinitionOf(const std::string& id, const RobotModelSpec& s
   req.id = id;
   req.description = description;
   req.convention = spec.convention;
-  for (const JointSpec& js : spec.joints) req.joints.push_back(JointToWire(js));
+  for (const JointSpec& js : spec.joints) req.joints.push_back(JointToWire(js, spec.convention));
   req.base = TransformToPose(spec.T_world_base);
   req.tool = TransformToPose(spec.T_flange_tool);
   if (spec.convention == GeometryConvention::kTransform) req.flange = TransformToPose(spec.T_lastjoint_flange);
@@ -245,7 +246,7 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   robot.description = description;
   robot.convention = spec.convention;
   robot.num_joints = model.num_joints();
-  for (int i = 0; i < model.num_joints(); ++i) robot.joints.push_back({JointToWire(spec.joints[i]), JointUnit(model, i)});
+  for (int i = 0; i < model.num_joints(); ++i) robot.joints.push_back({JointToWire(spec.joints[i], spec.convention), JointUnit(model, i)});
   robot.base = TransformToPose(spec.T_world_base);
   robot.tool = TransformToPose(spec.T_flange_tool);
   robot.flange = TransformToPose(spec.T_lastjoint_flange);
@@ -341,5 +342,19 @@ bool ReadJointVector(const nlohmann::json& value, const std::string& path, const
   *out = std::move(q);
   return true;
 }
+
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(JointWire);
+ROBOCAL_WIRE_DEFINE(UrdfChainWire);
+ROBOCAL_WIRE_DEFINE(UrdfSource);
+ROBOCAL_WIRE_DEFINE(CalibrationSource);
+ROBOCAL_WIRE_DEFINE(RegisterRobotRequest);
+ROBOCAL_WIRE_DEFINE(ImportUrdfRequest);
+ROBOCAL_WIRE_DEFINE(RobotFromCalibrationRequest);
+ROBOCAL_WIRE_DEFINE(RobotJoint);
+ROBOCAL_WIRE_DEFINE(Robot);
+ROBOCAL_WIRE_DEFINE(RobotList);
+ROBOCAL_WIRE_DEFINE(ForwardRequest);
+ROBOCAL_WIRE_DEFINE(ForwardResult);
 
 }  // namespace robocal::api

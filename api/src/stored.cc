@@ -259,4 +259,6 @@ void from_json(const nlohmann::json& j, StoredOperation& op) {
   ReadWire(j, "", &op.operation);
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+
 }  // namespace robocal::api

@@ -769,4 +769,10 @@ MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& r
   return batch;
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(CsvColumns);
+ROBOCAL_WIRE_DEFINE(JointColumns);
+ROBOCAL_WIRE_DEFINE(OrientationColumns);
+ROBOCAL_WIRE_DEFINE(ImportMeasurementsRequest);
+
 }  // namespace robocal::api

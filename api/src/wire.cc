@@ -320,4 +320,15 @@ MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModel
   return out;
 }
 
+// The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(FieldViolation);
+ROBOCAL_WIRE_DEFINE(ErrorInfo);
+ROBOCAL_WIRE_DEFINE(PoseWire);
+ROBOCAL_WIRE_DEFINE(PoseResultWire);
+ROBOCAL_WIRE_DEFINE(JointRangeWire);
+ROBOCAL_WIRE_DEFINE(PayloadWire);
+ROBOCAL_WIRE_DEFINE(DroppedParameterWire);
+ROBOCAL_WIRE_DEFINE(NoiseWire);
+ROBOCAL_WIRE_DEFINE(TrackerModelWire);
+
 }  // namespace robocal::api

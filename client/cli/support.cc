@@ -124,7 +124,9 @@ int WriteForward(Invocation& in, const api::Robot& robot, const std::vector<std:
     return kExitOk;
   }
   std::vector<api::MeasurementWire> rows;
-  for (std::size_t i = 0; i < joints.size() && i < result.poses.size(); ++i) rows.push_back({joints[i], result.poses[i]});
+  for (std::size_t i = 0; i < joints.size() && i < result.poses.size(); ++i) {
+    rows.push_back({.joints = joints[i], .pose = result.poses[i]});
+  }
   client::WriteMeasurementsCsv(target.stream(), robot.joints, rows);
   return kExitOk;
 }

@@ -263,7 +263,7 @@ api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vect
     // One shot per validation pose; the planned poses get the cell's shots per pose, as the paper measures.
     for (const Measurement& m : cell->Measure(q, role == api::MeasurementRole::kValidation ? 1 : 0)) {
       const std::string reflector = m.reflector >= 0 ? cell->options().reflectors[m.reflector].id : std::string();
-      batch.measurements.push_back({wire_q, api::TransformToPose(m.T_world_tool), reflector});
+      batch.measurements.push_back({.joints = wire_q, .pose = api::TransformToPose(m.T_world_tool), .reflector = reflector});
     }
   }
   return batch;

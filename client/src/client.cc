@@ -58,7 +58,7 @@ json FitBody(const api::FitRequest& request, bool async) {
   return r;
 }
 
-json JointsBody(const std::vector<std::vector<double>>& joints) { return api::ForwardRequest{joints}; }
+json JointsBody(const std::vector<std::vector<double>>& joints) { return api::ForwardRequest{.joints = joints}; }
 
 // A response read as the resource T, strictly: a response without the shape T requires is the server's fault
 // (another version, or not robocal), not the caller's, and is reported as such, naming the field.

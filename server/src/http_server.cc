@@ -32,6 +32,10 @@ using nlohmann::json;
 thread_local std::chrono::steady_clock::time_point request_start;
 thread_local std::string request_id;
 
+}  // namespace
+
+// Requests by route and status, and their durations (a member of HttpServer::Impl: not in the anonymous
+// namespace, whose types a class with linkage may not hold).
 class Metrics {
  public:
   void Record(const std::string& method, const std::string& route, int status, double seconds) {
@@ -82,9 +86,6 @@ class Metrics {
   std::map<std::tuple<std::string, std::string, int>, std::uint64_t> requests_;
   std::map<std::string, std::pair<double, std::uint64_t>> durations_;
 };
-
-}  // namespace
-
 
 const std::string& OpenApiSpec() {
   static const std::string spec = [] {

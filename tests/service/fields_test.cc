@@ -270,6 +270,19 @@ TEST(FieldTableTest, JointsWriteTheGeometryOfTheirRobotsConvention) {
   EXPECT_EQ(std::count(keys.begin(), keys.end(), "gravity"), 1);
 }
 
+TEST(FieldTableTest, AJointWrittenOnItsOwnHasItsRobotsKeys) {
+  JointSpec spec;
+  spec.xyz_mm = Eigen::Vector3d(0, 0, 10);
+  spec.min = -1;
+  spec.max = 1;
+  const json transform = JointToWire(spec, GeometryConvention::kTransform);
+  EXPECT_EQ(transform["xyz_mm"], json::parse("[0.0, 0.0, 10.0]"));
+  EXPECT_FALSE(transform.contains("a_mm"));
+  const json dh = JointToWire(spec, GeometryConvention::kModifiedDh);
+  EXPECT_TRUE(dh.contains("a_mm"));
+  EXPECT_FALSE(dh.contains("xyz_mm"));
+}
+
 TEST(FieldTableTest, TheRobotResourceStatesEveryJointsMassAndUnit) {
   Robot robot;
   robot.convention = GeometryConvention::kTransform;
@@ -356,6 +369,9 @@ TEST(FieldTableTest, AStoredCalibrationKeepsItsStateInOneObject) {
   json lost = with;
   lost["state"].erase("num_residuals");
   EXPECT_EQ(ReadError<StoredCalibration>(lost), "state.num_residuals: required");
+  json turned_away = with;  // a frame of the calibration is a whole pose
+  turned_away["state"]["T_world_base"].erase("quaternion");
+  EXPECT_EQ(ReadError<StoredCalibration>(turned_away), "state.T_world_base.quaternion: required");
 }
 
 }  // namespace

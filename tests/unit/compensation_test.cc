@@ -588,7 +588,9 @@ TEST_P(CompensationBranchTest, CartesianTargetsLandOnTheNamedBranch) {
     const CompensationResult r = Compensate(calibration, nominal, t);
     ASSERT_TRUE(r.configuration.has_value() || r.termination == Termination::kFailure);
     // Never another branch than the one asked for.
-    if (r.configuration) EXPECT_EQ(*r.configuration, t.configuration) << "target " << i;
+    if (r.configuration) {
+      EXPECT_EQ(*r.configuration, t.configuration) << "target " << i;
+    }
     if (!r.converged) {
       continue;
     }
@@ -704,8 +706,12 @@ TEST(CompensationTest, UnreachableBranchSaysSoAndGivesNoOtherBranch) {
         if (r.converged) continue;
         ++refused;
         EXPECT_THAT(r.message, HasSubstr(t.configuration.ToString()));
-        if (r.configuration) EXPECT_TRUE(t.configuration.Admits(*r.configuration));
-        if (r.termination == Termination::kFailure) EXPECT_EQ(r.joints.size(), 0);
+        if (r.configuration) {
+          EXPECT_TRUE(t.configuration.Admits(*r.configuration));
+        }
+        if (r.termination == Termination::kFailure) {
+          EXPECT_EQ(r.joints.size(), 0);
+        }
       }
     }
   }
@@ -842,7 +848,9 @@ TEST(CompensationTest, SequenceAlongASmoothPathKeepsItsBranch) {
   for (std::size_t i = 0; i < results.size(); ++i) {
     ASSERT_TRUE(results[i].converged) << i << ": " << results[i].message;
     EXPECT_EQ(*results[i].configuration, *results[0].configuration) << i;
-    if (i > 0) EXPECT_LT((results[i].joints - results[i - 1].joints).cwiseAbs().maxCoeff(), 0.1) << i;
+    if (i > 0) {
+      EXPECT_LT((results[i].joints - results[i - 1].joints).cwiseAbs().maxCoeff(), 0.1) << i;
+    }
   }
 }
 

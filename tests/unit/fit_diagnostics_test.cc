@@ -118,7 +118,7 @@ TEST(MeasurementResidualsTest, EachMeasurementAgainstAKnownOffset) {
     // Measurement i is off by (3, 4, 0) i mm and turned by 1e-3 i rad about the tracker's z.
     t.translation() += static_cast<double>(i) * Eigen::Vector3d(3.0, 4.0, 0.0);
     t.linear() = RotZ(1e-3 * i) * t.linear();
-    measurements.push_back({q, t});
+    measurements.push_back({.joints = q, .T_world_tool = t});
     ++i;
   }
   MeasurementNoise noise;

@@ -375,7 +375,9 @@ TEST(IdentificationTest, ProgressThatContinuesChangesNothing) {
   for (size_t i = 0; i < fractions.size(); ++i) {
     EXPECT_GT(fractions[i], 0.0);
     EXPECT_LE(fractions[i], 1.0);
-    if (i > 0) EXPECT_GE(fractions[i], fractions[i - 1]);
+    if (i > 0) {
+      EXPECT_GE(fractions[i], fractions[i - 1]);
+    }
   }
   EXPECT_GE(fractions.back(), static_cast<double>(plain.summary.iterations - 1) / o.max_iterations);
 }

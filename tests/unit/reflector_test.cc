@@ -194,7 +194,9 @@ TEST(ReflectorGaugeTest, FreeNestsKeepTheToolSiteNominal) {
   for (const DroppedParameter& d : id.dropped) {
     SCOPED_TRACE(d.name);
     EXPECT_LT(d.index, n);
-    if (d.name.rfind("tool.", 0) == 0) EXPECT_THAT(d.reason, HasSubstr("reflector."));
+    if (d.name.rfind("tool.", 0) == 0) {
+      EXPECT_THAT(d.reason, HasSubstr("reflector."));
+    }
   }
   for (const char* site : {"tool.dx", "tool.dy", "tool.dz", "tool.rx", "tool.ry", "tool.rz"}) {
     EXPECT_THAT(id.identifiable_names, Not(Contains(std::string(site))));

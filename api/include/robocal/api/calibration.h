@@ -45,6 +45,7 @@ struct WireFields<ArmConfiguration> {
                     ReadConfigurationFlag("wrist", v, path, &s->wrist);
                   }});
 };
+ROBOCAL_WIRE_DECLARE(ArmConfiguration);
 
 }  // namespace robocal::api
 
@@ -70,6 +71,7 @@ struct WireFields<ModelWire> {
       Field{"compliance", &S::compliance},
       Field{"joint_harmonics", &S::joint_harmonics});
 };
+ROBOCAL_WIRE_DECLARE(ModelWire);
 JointErrorTerms ToCore(const ModelWire& model);
 ModelWire ToWire(const JointErrorTerms& terms);
 
@@ -84,6 +86,7 @@ struct WireFields<CrossValidationWire> {
   static constexpr auto fields = std::make_tuple(Field{"folds", &CrossValidationWire::folds},
                                                  Field{"seed", &CrossValidationWire::seed});
 };
+ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 
 struct FitRequest {
   /// Parameter names to estimate (e.g. "joint2.dz"); empty: the identifiable set.
@@ -136,6 +139,7 @@ struct WireFields<FitRequest> {
                   }},
       Field{"cross_validation", &S::cross_validation}.When(+[](const S& s) { return s.model_auto; }));
 };
+ROBOCAL_WIRE_DECLARE(FitRequest);
 /// The model a fit estimates: `nominal` with the request's joint terms (the geometric one for "auto", whose
 /// candidates are built by the core).
 RobotModel FitModel(const FitRequest& request, const RobotModel& nominal);
@@ -173,6 +177,7 @@ struct WireFields<ParameterEstimate> {
       Field{"value", &S::value},
       Field{"std", &S::std});
 };
+ROBOCAL_WIRE_DECLARE(ParameterEstimate);
 
 /// Residuals of the calibration measurements against a model (mm and degrees).
 struct Residuals {
@@ -194,6 +199,7 @@ struct WireFields<Residuals> {
       Field{"max_orientation_deg", &S::max_orientation_deg},
       Field{"rms_weighted", &S::rms_weighted});
 };
+ROBOCAL_WIRE_DECLARE(Residuals);
 Residuals ToWire(const ResidualStatistics& stats);
 ResidualStatistics ToCore(const Residuals& residuals);
 
@@ -232,6 +238,7 @@ struct WireFields<FitSummary> {
       Field{"brief", &S::brief},
       Field{"deadline_exceeded", &S::deadline_exceeded});
 };
+ROBOCAL_WIRE_DECLARE(FitSummary);
 
 /// A calibration measurement the robust fit excluded: its stored sequence number and its normalised residual
 /// (sigmas, against the final fit).
@@ -251,6 +258,7 @@ struct WireFields<OutlierWire> {
       Field{"normalized_residual", &S::normalized_residual},
       Field{"excluded", &S::excluded});
 };
+ROBOCAL_WIRE_DECLARE(OutlierWire);
 
 /// The robust fit's figures: the threshold on the normalised residual (sigmas), the median-based scale of the
 /// residuals (1 when the noise model is right), and the number of fits.
@@ -269,6 +277,7 @@ struct WireFields<RobustFitWire> {
       Field{"scale", &S::scale},
       Field{"rounds", &S::rounds});
 };
+ROBOCAL_WIRE_DECLARE(RobustFitWire);
 
 /// The robot error the geometric model does not explain, as the fit estimated it (docs/identification.md,
 /// "Model error"): RMS as a 3-D position error (mm) and as an angle (deg; 0 for position measurements), beside
@@ -290,6 +299,7 @@ struct WireFields<ModelErrorWire> {
       Field{"tracker_rms_mm", &S::tracker_rms_mm},
       Field{"tracker_rms_deg", &S::tracker_rms_deg});
 };
+ROBOCAL_WIRE_DECLARE(ModelErrorWire);
 
 /// One candidate of a model chosen by cross-validation: its model, how many parameters it has, and its held-out
 /// position error over the folds (E_xyz: mean, RMS, the standard error of the mean), or the folds that failed.
@@ -318,6 +328,7 @@ struct WireFields<ModelCandidateWire> {
       Field{"note", &S::note},
       Field{"chosen", &S::chosen});
 };
+ROBOCAL_WIRE_DECLARE(ModelCandidateWire);
 
 /// The choice of a fit with "model": "auto": the folds and every candidate, simplest first.
 struct ModelChoiceWire {
@@ -331,6 +342,7 @@ struct WireFields<ModelChoiceWire> {
       Field{"folds", &S::folds},
       Field{"candidates", &S::candidates});
 };
+ROBOCAL_WIRE_DECLARE(ModelChoiceWire);
 
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
@@ -395,6 +407,7 @@ struct WireFields<CalibrationResult> {
       Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead},
       Field{"summary", &S::summary});
 };
+ROBOCAL_WIRE_DECLARE(CalibrationResult);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
 /// `sequences` maps the fit's measurement indices to stored sequence numbers (empty: the indices themselves).
 CalibrationResult ToWire(const Calibration& calibration, const std::vector<std::int64_t>& sequences = {});
@@ -428,6 +441,7 @@ struct WireFields<CompensationTargetWire> {
       Field{"configuration", &S::configuration, Presence::kOmitEmpty}.When(kPoseTarget),
       Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(CompensationTargetWire);
 
 /// POST /v1/campaigns/{c}:compensate.
 struct CompensateRequest {
@@ -449,6 +463,7 @@ struct WireFields<CompensateRequest> {
       Field{"sequence", &S::sequence},
       Field{"max_joint_jump_deg", &S::max_joint_jump_deg});
 };
+ROBOCAL_WIRE_DECLARE(CompensateRequest);
 
 /// One result of :compensate.
 struct Compensation {
@@ -491,6 +506,7 @@ struct WireFields<Compensation> {
       Field{"configuration", &S::configuration},
       Field{"branch_change", &S::branch_change});
 };
+ROBOCAL_WIRE_DECLARE(Compensation);
 Compensation ToWire(const RobotModel& model, const CompensationResult& result);
 
 /// The reply of :compensate, one result per target in order.
@@ -505,6 +521,7 @@ struct WireFields<CompensateResult> {
       Field{"campaign", &S::campaign},
       Field{"results", &S::results});
 };
+ROBOCAL_WIRE_DECLARE(CompensateResult);
 /// The reply of :compensate as JSON text: the document json(r) is (same keys in the same order, same values,
 /// tested), written directly. Why by hand: building the JSON tree (a map of 12 members per result) and dumping
 /// it took 90 ms for a 10,000-target reply whose compensation takes 25 ms on 2 cores; this takes about 10 ms.
@@ -522,6 +539,7 @@ struct WireFields<EvaluateRequest> {
   static constexpr auto fields = std::make_tuple(
       Field{"h_mm", &S::h_mm});
 };
+ROBOCAL_WIRE_DECLARE(EvaluateRequest);
 
 /// mean, std (N-1), max and RP = mean + 3 std of one error, in the unit its owner's name gives.
 struct Statistics {
@@ -541,6 +559,7 @@ struct WireFields<Statistics> {
       Field{"max", &S::max},
       Field{"rp", &S::rp});
 };
+ROBOCAL_WIRE_DECLARE(Statistics);
 
 /// The paper's three errors: E_xyz (mm), E_cos (deg), E_tot = E_xyz + h E_cos[rad] (mm).
 struct Accuracy {
@@ -558,6 +577,7 @@ struct WireFields<Accuracy> {
       Field{"e_cos_deg", &S::e_cos_deg},
       Field{"e_tot_mm", &S::e_tot_mm});
 };
+ROBOCAL_WIRE_DECLARE(Accuracy);
 Accuracy ToWire(const AccuracyReport& report);
 AccuracyReport ToCore(const Accuracy& accuracy);
 
@@ -577,6 +597,7 @@ struct WireFields<Improvement> {
       Field{"e_tot_mean", &S::e_tot_mean},
       Field{"e_tot_rp", &S::e_tot_rp});
 };
+ROBOCAL_WIRE_DECLARE(Improvement);
 /// The core's ComputeImprovement of the statistics the wire reports (NaN where undefined).
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after);
 
@@ -603,5 +624,6 @@ struct WireFields<Evaluation> {
       Field{"improvement_percent", &S::improvement_percent},
       Field{"note", &S::note, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(Evaluation);
 
 }  // namespace robocal::api

@@ -30,6 +30,7 @@ struct WireFields<CampaignReflectorWire> {
   static constexpr auto fields =
       std::make_tuple(Field{"id", &S::id}, Field{"position_mm", &S::position_mm}, Field{"fixed", &S::fixed});
 };
+ROBOCAL_WIRE_DECLARE(CampaignReflectorWire);
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors);
 std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors);
 class Problems;
@@ -72,6 +73,7 @@ struct WireFields<CreateCampaignRequest> {
       Field{"repeatability_mm", &S::repeatability_mm, kOmit}, Field{"reflectors", &S::reflectors, kOmit},
       Field{"payload", &S::payload, kOmit});
 };
+ROBOCAL_WIRE_DECLARE(CreateCampaignRequest);
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 
 /// Stored measurements per role.
@@ -84,6 +86,7 @@ struct WireFields<MeasurementCounts> {
   static constexpr auto fields = std::make_tuple(Field{"calibration", &MeasurementCounts::calibration},
                                                  Field{"validation", &MeasurementCounts::validation});
 };
+ROBOCAL_WIRE_DECLARE(MeasurementCounts);
 
 /// What a campaign is, as POST /v1/campaigns fixed it (every default filled in): the members the campaign resource
 /// and its stored form (stored.h) share.
@@ -113,6 +116,7 @@ struct WireFields<CampaignDefinition> {
       Field{"reflectors", &S::reflectors}, Field{"payload", &S::payload},
       Field{"created_unix_ms", &S::created_unix_ms});
 };
+ROBOCAL_WIRE_DECLARE(CampaignDefinition);
 
 /// GET /v1/campaigns/{c}, the reply of POST /v1/campaigns, and each item of GET /v1/campaigns.
 struct Campaign : CampaignDefinition {
@@ -126,6 +130,7 @@ struct WireFields<Campaign> {
       std::tuple_cat(WireFields<CampaignDefinition>::fields,
                      std::make_tuple(Field{"counts", &Campaign::counts}, Field{"calibrated", &Campaign::calibrated}));
 };
+ROBOCAL_WIRE_DECLARE(Campaign);
 
 /// GET /v1/campaigns: campaigns in id order; next_page_token when there are more.
 struct CampaignList {
@@ -138,6 +143,7 @@ struct WireFields<CampaignList> {
       std::make_tuple(Field{"campaigns", &CampaignList::campaigns},
                       Field{"next_page_token", &CampaignList::next_page_token, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(CampaignList);
 
 /// One tracker shot on the wire: {"joints":[...], "pose":{...}} (joints deg / mm, pose in the tracker frame).
 /// Also the stored form of a measurement.
@@ -145,9 +151,9 @@ struct MeasurementWire {
   std::vector<double> joints;
   PoseWire pose;
   /// The reflector shot (a campaign with reflectors); empty (absent on the wire) otherwise.
-  std::string reflector;
+  std::string reflector{};
   /// The payload during the shot; unset (absent on the wire): the campaign's.
-  std::optional<PayloadWire> payload;
+  std::optional<PayloadWire> payload{};
 };
 template <>
 struct WireFields<MeasurementWire> {
@@ -157,6 +163,7 @@ struct WireFields<MeasurementWire> {
                       Field{"reflector", &S::reflector, Presence::kOmitEmpty},
                       Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(MeasurementWire);
 
 /// POST /v1/campaigns/{c}/measurements.
 struct MeasurementBatchRequest {
@@ -170,6 +177,7 @@ struct WireFields<MeasurementBatchRequest> {
   static constexpr auto fields = std::make_tuple(Field{"request_id", &S::request_id}, Field{"role", &S::role},
                                                  Field{"measurements", &S::measurements});
 };
+ROBOCAL_WIRE_DECLARE(MeasurementBatchRequest);
 /// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
 /// position; `reflector` is required and one of `reflectors` when the campaign has any, refused otherwise.
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
@@ -186,6 +194,7 @@ struct WireFields<BatchResult> {
                       Field{"first_sequence", &S::first_sequence}, Field{"count", &S::count},
                       Field{"campaign_total", &S::campaign_total});
 };
+ROBOCAL_WIRE_DECLARE(BatchResult);
 
 /// One stored measurement of GET /v1/campaigns/{c}/measurements: its place and role, beside the measurement's own
 /// members ("joints", "pose", ...).
@@ -201,6 +210,7 @@ struct WireFields<StoredMeasurementWire> {
       std::make_tuple(Field{"sequence", &S::sequence}, Field{"batch_id", &S::batch_id}, Field{"role", &S::role}),
       WireFields<MeasurementWire>::fields);
 };
+ROBOCAL_WIRE_DECLARE(StoredMeasurementWire);
 
 /// GET /v1/campaigns/{c}/measurements: one page; next_after (the sequence to continue after) when there may be
 /// more.
@@ -216,5 +226,6 @@ struct WireFields<MeasurementList> {
       std::make_tuple(Field{"campaign", &S::campaign}, Field{"measurements", &S::measurements},
                       Field{"next_after", &S::next_after, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(MeasurementList);
 
 }  // namespace robocal::api

@@ -50,6 +50,7 @@ struct WireFields<TrackerWire> {
       Field{"min_distance_mm", &S::min_distance_mm},
       Field{"max_distance_mm", &S::max_distance_mm, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(TrackerWire);
 template <>
 struct WireFields<ReflectorWire> {
   using S = ReflectorWire;
@@ -59,6 +60,7 @@ struct WireFields<ReflectorWire> {
       Field{"normal", &S::normal},
       Field{"acceptance_half_angle_deg", &S::acceptance_half_angle_deg});
 };
+ROBOCAL_WIRE_DECLARE(ReflectorWire);
 template <>
 struct WireFields<BoxWire> {
   using S = BoxWire;
@@ -66,6 +68,7 @@ struct WireFields<BoxWire> {
       Field{"min_mm", &S::min_mm},
       Field{"max_mm", &S::max_mm});
 };
+ROBOCAL_WIRE_DECLARE(BoxWire);
 template <>
 struct WireFields<ObstacleWire> {
   using S = ObstacleWire;
@@ -73,6 +76,7 @@ struct WireFields<ObstacleWire> {
       Field{"id", &S::id},
       Field{"box", &S::box});
 };
+ROBOCAL_WIRE_DECLARE(ObstacleWire);
 
 /// POST /v1/cells, and the cell resource (which has every default filled in: reflectors, link radii, tool
 /// radius, joint ranges).
@@ -106,6 +110,7 @@ struct WireFields<CellWire> {
       Field{"clearance_mm", &S::clearance_mm},
       Field{"joint_ranges", &S::joint_ranges, Presence::kSetByServer});
 };
+ROBOCAL_WIRE_DECLARE(CellWire);
 /// The core cell (throws ApiError kInvalidArgument naming the fields the core rejects).
 Cell ToCell(const CellWire& cell, const RobotModel& model);
 /// The resource of a validated cell: every default the core filled in written out.
@@ -128,6 +133,7 @@ struct WireFields<CellList> {
       Field{"cells", &S::cells},
       Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(CellList);
 
 /// One reflector of a configuration's report.
 struct ReflectorCheckWire {
@@ -149,6 +155,7 @@ struct WireFields<ReflectorCheckWire> {
       Field{"distance_mm", &S::distance_mm},
       Field{"blocked_by", &S::blocked_by, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(ReflectorCheckWire);
 
 /// The feasibility report of one configuration.
 struct ConfigurationCheckWire {
@@ -171,6 +178,7 @@ struct WireFields<ConfigurationCheckWire> {
       Field{"failed_rules", &S::failed_rules},
       Field{"reasons", &S::reasons});
 };
+ROBOCAL_WIRE_DECLARE(ConfigurationCheckWire);
 ConfigurationCheckWire ToWire(const ConfigurationCheck& check);
 
 /// Configurations one :check takes: in the largest cell (16 reflectors, 128 obstacles) a check of 1000 takes
@@ -192,5 +200,6 @@ struct WireFields<CellCheckResult> {
       Field{"cell", &S::cell},
       Field{"results", &S::results});
 };
+ROBOCAL_WIRE_DECLARE(CellCheckResult);
 
 }  // namespace robocal::api

@@ -21,5 +21,6 @@ struct WireFields<Health> {
       Field{"status", &S::status},
       Field{"version", &S::version});
 };
+ROBOCAL_WIRE_DECLARE(Health);
 
 }  // namespace robocal::api

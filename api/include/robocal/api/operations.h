@@ -46,6 +46,7 @@ template <>
 struct WireFields<PlanOperationResult> {
   static constexpr auto fields = std::make_tuple(Field{"plan", &PlanOperationResult::plan});
 };
+ROBOCAL_WIRE_DECLARE(PlanOperationResult);
 template <>
 struct WireFields<Operation> {
   using S = Operation;
@@ -78,5 +79,6 @@ struct WireFields<Operation> {
       Field{"result", &S::fit, Presence::kOmitEmpty}.When(kFitKind),
       Field{"error", &S::error, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(Operation);
 
 }  // namespace robocal::api

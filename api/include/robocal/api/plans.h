@@ -42,6 +42,7 @@ struct WireFields<PlanOptionsWire> {
       Field{"screen", &S::screen},
       Field{"max_iterations", &S::max_iterations});
 };
+ROBOCAL_WIRE_DECLARE(PlanOptionsWire);
 
 struct PlanRequest {
   std::string robot;
@@ -85,6 +86,7 @@ struct WireFields<PlanRequest> {
       Field{"async", &S::async},
       Field{"options", &S::options});
 };
+ROBOCAL_WIRE_DECLARE(PlanRequest);
 /// Validates a request; also refuses one whose work (MaxWork) exceeds the limits, naming the fields that set it.
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits);
 
@@ -128,6 +130,7 @@ struct WireFields<Indices> {
       Field{"singular_values", &S::singular_values},
       Field{"scaling", &S::scaling});
 };
+ROBOCAL_WIRE_DECLARE(Indices);
 Indices ToWire(const ObservabilityIndices& indices);
 
 /// Predicted accuracy on random validation configurations; rms_orientation_deg is NaN (null) for position-only
@@ -151,6 +154,7 @@ struct WireFields<PredictedAccuracyWire> {
       Field{"rms_orientation_deg", &S::rms_orientation_deg},
       Field{"rms_error_mm", &S::rms_error_mm});
 };
+ROBOCAL_WIRE_DECLARE(PredictedAccuracyWire);
 PredictedAccuracyWire ToWire(const PredictedAccuracy& accuracy);
 
 /// How the search ended.
@@ -183,6 +187,7 @@ struct WireFields<PlanSummaryWire> {
       Field{"brief", &S::brief},
       Field{"deadline_exceeded", &S::deadline_exceeded});
 };
+ROBOCAL_WIRE_DECLARE(PlanSummaryWire);
 PlanSummaryWire ToWire(const PlanSummary& summary);
 
 /// The paper's baseline: a random set of the same size.
@@ -199,6 +204,7 @@ struct WireFields<PlanBaseline> {
       Field{"indices", &S::indices},
       Field{"predicted_accuracy", &S::predicted_accuracy});
 };
+ROBOCAL_WIRE_DECLARE(PlanBaseline);
 
 /// POST /v1/plans (synchronous) and GET /v1/plans/{plan}.
 struct PlanResult {
@@ -246,5 +252,6 @@ struct WireFields<PlanResult> {
       Field{"cell", &S::cell},
       Field{"configuration_checks", &S::configuration_checks});
 };
+ROBOCAL_WIRE_DECLARE(PlanResult);
 
 }  // namespace robocal::api

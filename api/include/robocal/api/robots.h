@@ -35,7 +35,8 @@ struct JointWire {
   double compliance_deg_per_nm = 0.0;
   std::array<double, 4> harmonics_deg{0.0, 0.0, 0.0, 0.0};
   /// The convention of the robot the joint belongs to, which picks its geometry keys. Not a key of the joint:
-  /// the robot's "convention" gives it (set from the robot's as its joints are written and read).
+  /// the robot's "convention" gives it (a robot's joints are written and read with the robot's; JointToWire
+  /// sets it, so that a joint written on its own has its robot's keys too).
   GeometryConvention convention = GeometryConvention::kStandardDh;
 };
 /// The keys a joint has in every robot shape: type, the geometry of its robot's convention, the limits in its
@@ -75,8 +76,8 @@ struct WireFields<JointWire> {
                       Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
                       Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty}));
 };
+ROBOCAL_WIRE_DECLARE(JointWire);
 
-/// Where an imported robot came from: the URDF document and the chain taken from it.
 /// The chain of a robot imported from a URDF: its base and tip links.
 struct UrdfChainWire {
   std::string base_link;
@@ -87,6 +88,8 @@ struct WireFields<UrdfChainWire> {
   static constexpr auto fields =
       std::make_tuple(Field{"base_link", &UrdfChainWire::base_link}, Field{"tip_link", &UrdfChainWire::tip_link});
 };
+ROBOCAL_WIRE_DECLARE(UrdfChainWire);
+/// Where an imported robot came from: the URDF document and the chain taken from it.
 struct UrdfSource : UrdfChainWire {
   std::string xml;
 };
@@ -95,6 +98,7 @@ struct WireFields<UrdfSource> {
   static constexpr auto fields =
       std::tuple_cat(std::make_tuple(Field{"xml", &UrdfSource::xml}), WireFields<UrdfChainWire>::fields);
 };
+ROBOCAL_WIRE_DECLARE(UrdfSource);
 
 /// Where a robot registered from a campaign's calibration came from (POST /v1/robots with "from_calibration"):
 /// the campaign, its robot and when the calibration was made.
@@ -116,6 +120,7 @@ struct WireFields<CalibrationSource> {
       Field{"created_unix_ms", &S::created_unix_ms},
       Field{"joint_ranges", &S::joint_ranges, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(CalibrationSource);
 
 /// POST /v1/robots, and the definition stored for a robot (and copied into each campaign). Either a full table
 /// (convention + joints) or `from_preset` (a preset's geometry, with base / tool optionally replaced).
@@ -139,7 +144,6 @@ struct RegisterRobotRequest {
 };
 /// Validates a request body (every problem with its field; the geometry through the core).
 RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const Limits& limits);
-/// The definition as a request body (joints written in the convention's fields only).
 namespace detail {
 // A robot's "joints": each joint written and read with the robot's convention (JointWire::convention).
 template <typename Robot>
@@ -187,6 +191,7 @@ struct WireFields<RegisterRobotRequest> {
       Field{"urdf_source", &S::urdf, Presence::kServerOnly},
       Field{"calibrated_from", &S::calibrated_from, Presence::kServerOnly});
 };
+ROBOCAL_WIRE_DECLARE(RegisterRobotRequest);
 /// POST /v1/robots with a URDF document instead of a table (docs/formats.md): the chain from base_link down
 /// to tip_link becomes a transform-convention robot that keeps the URDF's joint names. `id` may be left out:
 /// the URDF's robot name then gives it (lower case, other characters as '_').
@@ -217,6 +222,7 @@ struct WireFields<ImportUrdfRequest> {
       Field{"base", &S::base, Presence::kOmitEmpty},
       Field{"tool", &S::tool, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(ImportUrdfRequest);
 
 /// POST /v1/robots {"id", "description"?, "from_calibration": CAMPAIGN}: the campaign's calibrated robot as a
 /// robot of its own (docs/api.md, "A calibration in a new session"): the calibrated chain in the transform
@@ -238,6 +244,7 @@ struct WireFields<RobotFromCalibrationRequest> {
       Field{"description", &S::description, Presence::kOmitEmpty},
       Field{"from_calibration", &S::campaign});
 };
+ROBOCAL_WIRE_DECLARE(RobotFromCalibrationRequest);
 
 /// Why a joint's held terms are no robot joint's, in wire units (e.g. "harmonics_deg[0] 0.9 is beyond +-0.573
 /// deg (0.01 rad)"), or empty: the bounds of RobotModel::Build (kImplausibleComplianceRadPerNm,
@@ -246,8 +253,8 @@ std::string ImplausibleJointTerms(const JointWire& joint);
 
 /// The core spec of a definition.
 RobotModelSpec ToSpec(const RegisterRobotRequest& request);
-/// A core joint in wire units (deg, mm).
-JointWire JointToWire(const JointSpec& joint);
+/// A core joint in wire units (deg, mm), of a robot in `convention`.
+JointWire JointToWire(const JointSpec& joint, GeometryConvention convention);
 /// The definition that registers `spec`'s model under `id` (a table in the spec's convention, base and tool; no
 /// preset, no URDF document): e.g. a calibrated DH table (GET /v1/campaigns/{c}/calibration?format=dh).
 RegisterRobotRequest DefinitionOf(const std::string& id, const RobotModelSpec& spec, const std::string& description);
@@ -269,6 +276,7 @@ struct WireFields<RobotJoint> {
                       Field{"compliance_deg_per_nm", &JointWire::compliance_deg_per_nm},
                       Field{"harmonics_deg", &JointWire::harmonics_deg}, Field{"unit", &S::unit}));
 };
+ROBOCAL_WIRE_DECLARE(RobotJoint);
 
 /// GET /v1/robots/{robot} (and the reply of POST /v1/robots).
 struct Robot {
@@ -309,6 +317,7 @@ struct WireFields<Robot> {
       Field{"has_masses", &S::has_masses},
       Field{"error_parameters", &S::error_parameters});
 };
+ROBOCAL_WIRE_DECLARE(Robot);
 /// The resource of a model.
 Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset, const std::string& description);
 
@@ -324,13 +333,14 @@ struct WireFields<RobotList> {
       Field{"robots", &S::robots},
       Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(RobotList);
 
 /// POST /v1/robots/{robot}:forward and /v1/campaigns/{c}:forward: {"joints": [[...], ...]} (deg / mm per joint).
 struct ForwardRequest {
   std::vector<std::vector<double>> joints;
   /// :forward of a calibration only: the payload the calibrated robot carries (a compliance model deflects
   /// under it); unset: the campaign's, or none.
-  std::optional<PayloadWire> payload;
+  std::optional<PayloadWire> payload{};
 };
 /// Validates sizes and joint limits against `model`.
 ForwardRequest ParseForwardRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits);
@@ -345,6 +355,7 @@ struct WireFields<ForwardRequest> {
       Field{"joints", &S::joints},
       Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(ForwardRequest);
 
 /// The reply of both forward calls: a robot's nominal poses (robot set, frame "world (nominal base)") or a
 /// calibrated campaign's (campaign set, frame "tracker").
@@ -366,6 +377,7 @@ struct WireFields<ForwardResult> {
     if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
   }
 };
+ROBOCAL_WIRE_DECLARE(ForwardResult);
 
 /// Joint values between the wire (deg / mm) and the core (rad / mm). Sizes must match the model.
 Eigen::VectorXd JointsToCore(const RobotModel& model, const std::vector<double>& wire);

@@ -68,11 +68,12 @@ void from_json(const nlohmann::json& j, StoredPlan& plan);
 /// restore the core's Calibration from.
 struct StoredCalibration {
   CalibrationResult result;
-  /// The base registration the fit started from (tracker -> nominal base).
-  PoseWire registered_base;
+  /// The base registration the fit started from (tracker -> nominal base). Full poses: the quaternion required
+  /// when read (rpy_deg is written beside it, derived, and never read).
+  PoseResultWire registered_base;
   /// Calibrated tracker -> base and flange -> tool.
-  PoseWire T_world_base;
-  PoseWire T_flange_tool;
+  PoseResultWire T_world_base;
+  PoseResultWire T_flange_tool;
   /// The identified error vector (RobotModel's parameter order; mm and rad).
   std::vector<double> errors;
   /// The sequence number of the last calibration measurement the fit saw; it saw every calibration measurement

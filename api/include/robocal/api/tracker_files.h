@@ -55,6 +55,7 @@ struct WireFields<CsvColumns> {
       Field{"z", &S::z, Presence::kOptionalOnRead},
       Field{"reflector", &S::reflector, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(CsvColumns);
 
 /// A CSV export that carries the robot's joints beside the tracker's measurement: one column per joint, in the
 /// robot's joint order, and their unit ("deg" or "rad").
@@ -69,6 +70,7 @@ struct WireFields<JointColumns> {
   static constexpr auto fields =
       std::make_tuple(Field{"columns", &JointColumns::columns}, Field{"unit", &JointColumns::unit});
 };
+ROBOCAL_WIRE_DECLARE(JointColumns);
 
 /// The measured orientation of a 6-DoF export (docs/formats.md, "Files with joints"): a quaternion (four
 /// columns, `order` "wxyz" or "xyzw" naming what they hold), or Euler angles (three columns, the angles of the
@@ -98,6 +100,7 @@ struct WireFields<OrientationColumns> {
       Field{"convention", &S::convention}.When(kEuler),
       Field{"unit", &S::unit}.When(kEuler));
 };
+ROBOCAL_WIRE_DECLARE(OrientationColumns);
 
 /// POST /v1/campaigns/{c}/measurements:import.
 struct ImportMeasurementsRequest {
@@ -156,16 +159,17 @@ struct WireFields<ImportMeasurementsRequest> {
       Field{"orientation", &S::orientation, Presence::kOmitEmpty},
       Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
+ROBOCAL_WIRE_DECLARE(ImportMeasurementsRequest);
 
 /// One point of a tracker export.
 struct TrackerPoint {
   /// 1-based line of the file.
   int line = 0;
-  std::string target;
-  std::string reflector;
+  std::string target{};
+  std::string reflector{};
   Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
   /// With joint columns: the row's joints (deg, the wire's unit).
-  std::vector<double> joints_deg;
+  std::vector<double> joints_deg{};
   /// With orientation columns: the measured orientation (w, x, y, z; unit norm).
   bool has_orientation = false;
   std::array<double, 4> quaternion{1.0, 0.0, 0.0, 0.0};

@@ -96,7 +96,7 @@ inline constexpr double kRepeatabilityPerSigma = 3.615;
 struct MeasurementNoise {
   double position_mm = 0.015;
   double orientation_rad = 1e-4;
-  std::optional<TrackerUncertainty> tracker;
+  std::optional<TrackerUncertainty> tracker{};
   double repeatability_mm = 0.0;
   double model_error_mm = 0.0;
   double model_error_rad = 0.0;

@@ -24,7 +24,7 @@ struct Measurement {
   int reflector = -1;
   /// The payload on the flange during the shot (mass 0: none). With a compliance model it sets the gravity
   /// torques the joints deflect under (joint_errors.h).
-  Payload payload;
+  Payload payload{};
 };
 
 }  // namespace robocal
