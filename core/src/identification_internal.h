@@ -130,6 +130,13 @@ class Problem {
   const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
+  // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
+  // some tens of times, a cross-validated model choice some thousands; under the sanitizers the allocations were
+  // most of the time): per pose its Jacobian (its rows x n_model_, side by side) and tool pose; Evaluate's groups.
+  Eigen::MatrixXd pose_full_;
+  std::vector<Transform> pose_model_;
+  std::vector<Transform> prediction_;
+  std::vector<Eigen::MatrixXd> group_jacobian_;
 };
 
 struct LmResult {

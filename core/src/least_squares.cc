@@ -88,25 +88,23 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
 }
 
 void Problem::Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
-  std::vector<Transform> prediction;
-  std::vector<Eigen::MatrixXd> group_jacobian;
-  Predict(x, &prediction, jacobian != nullptr ? &group_jacobian : nullptr);
+  Predict(x, &prediction_, jacobian != nullptr ? &group_jacobian_ : nullptr);
   residual->resize(num_rows());
   if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
   if (!group_whitening_.empty()) {
-    EvaluateByGroup(prediction, group_jacobian, residual, jacobian);
+    EvaluateByGroup(prediction_, group_jacobian_, residual, jacobian);
     return;
   }
   Eigen::VectorXd r(rows_);
   for (size_t i = 0; i < measurements_.size(); ++i) {
     const int g = group_of_[i];
-    MeasurementResidual(type_, measurements_[i].T_world_tool, prediction[g], r);
+    MeasurementResidual(type_, measurements_[i].T_world_tool, prediction_[g], r);
     if (whitening_.empty()) {
       residual->segment(rows_ * i, rows_) = weights_.cwiseProduct(r);
-      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = weights_.asDiagonal() * group_jacobian[g];
+      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = weights_.asDiagonal() * group_jacobian_[g];
     } else {
       residual->segment(rows_ * i, rows_) = whitening_[i] * r;
-      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * group_jacobian[g];
+      if (jacobian != nullptr) jacobian->middleRows(rows_ * i, rows_) = whitening_[i] * group_jacobian_[g];
     }
   }
 }
@@ -118,19 +116,18 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
   const bool with_jacobian = group_jacobian != nullptr;
   const bool by_reflector = !reflectors_.empty();
   // Per pose: the tool's kinematics and, for the Jacobian, its rows (the type's, or the pose's 6 for
-  // reflectors, whose points move with the tool's position and orientation).
+  // reflectors, whose points move with the tool's position and orientation), side by side in pose_full_.
   const int pose_rows = by_reflector ? 6 : rows_;
-  Eigen::MatrixXd full(pose_rows, n_model_);
-  std::vector<Transform> pose_model(poses_.size());
-  std::vector<Eigen::MatrixXd> pose_full(with_jacobian ? poses_.size() : 0);
+  pose_model_.resize(poses_.size());
+  if (with_jacobian) pose_full_.resize(pose_rows, n_model_ * static_cast<Eigen::Index>(poses_.size()));
+  const auto full = [&](size_t p) { return pose_full_.middleCols(n_model_ * static_cast<Eigen::Index>(p), n_model_); };
   for (size_t p = 0; p < poses_.size(); ++p) {
     if (with_jacobian) {
-      IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full,
+      IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full(p),
                              payloads_[p]);
-      pose_full[p] = full;
-      pose_model[p] = ws_.T_world_tool;
+      pose_model_[p] = ws_.T_world_tool;
     } else {
-      pose_model[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, payloads_[p]);
+      pose_model_[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, payloads_[p]);
     }
   }
   prediction->resize(groups_.size());
@@ -138,14 +135,15 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
   Eigen::MatrixXd point(3, n_model_);
   for (size_t g = 0; g < groups_.size(); ++g) {
     const Group& group = groups_[g];
-    const Transform& tool = pose_model[group.pose];
+    const Transform& tool = pose_model_[group.pose];
     (*prediction)[g] = group.reflector < 0 ? tool : AtReflector(tool, in_tool[group.reflector]);
     if (!with_jacobian) continue;
-    Eigen::MatrixXd reduced = Eigen::MatrixXd::Zero(rows_, num_parameters());
+    Eigen::MatrixXd& reduced = (*group_jacobian)[g];
+    reduced.setZero(rows_, num_parameters());  // allocates only on the first evaluation
     if (group.reflector < 0) {
-      for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = pose_full[group.pose].col(parameters_[k]);
+      for (int k = 0; k < num_parameters(); ++k) reduced.col(k) = full(group.pose).col(parameters_[k]);
     } else {
-      ReflectorRows(tool, in_tool[group.reflector], pose_full[group.pose], point);
+      ReflectorRows(tool, in_tool[group.reflector], full(group.pose), point);
       const Eigen::Matrix3d offset = ReflectorOffsetRows(model_, tool);
       for (int k = 0; k < num_parameters(); ++k) {
         const int j = parameters_[k];
@@ -156,7 +154,6 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
         }
       }
     }
-    (*group_jacobian)[g] = std::move(reduced);
   }
 }
 

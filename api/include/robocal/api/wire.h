@@ -484,50 +484,45 @@ void ReadFields(const nlohmann::json& j, T* out) {
 }
 
 namespace detail {
-template <typename Row>
-void AddRequestKey(const Row& row, std::vector<const char*>* keys) {
-  if constexpr (requires { row.presence; }) {
-    if (row.presence == Presence::kServerOnly) return;
-  }
-  keys->push_back(row.name);
+// The keys a request may send of T's rows for which `keep` holds, in order: kServerOnly rows left out, and a key
+// under two rows (a member under one key per form, min_deg / min_mm) listed once.
+template <typename T, typename Keep>
+std::vector<const char*> RequestKeys(const Keep& keep) {
+  std::vector<const char*> keys;
+  const auto add = [&](const auto& row) {
+    if constexpr (requires { row.presence; }) {
+      if (row.presence == Presence::kServerOnly) return;
+    }
+    if (!keep(row)) return;
+    for (const char* key : keys) {
+      if (std::string_view(key) == row.name) return;
+    }
+    keys.push_back(row.name);
+  };
+  std::apply([&](const auto&... row) { (add(row), ...); }, WireFields<T>::fields);
+  return keys;
 }
 }  // namespace detail
 
-/// The keys of T's table a request may send, in order (kServerOnly rows left out): the allowed keys of its request
-/// parser (ObjectReader::RejectUnknown). Built once per shape: a batch's parser asks for them once per measurement.
+/// The keys of T's table a request may send, in order (kServerOnly rows left out, each key once): the allowed keys
+/// of its request parser (ObjectReader::RejectUnknown). Built once per shape: a batch's parser asks for them once
+/// per measurement.
 template <typename T>
 const std::vector<const char*>& WireFieldNames() {
-  static const std::vector<const char*> names = [] {
-    std::vector<const char*> keys;
-    std::apply([&](const auto&... field) { (detail::AddRequestKey(field, &keys), ...); }, WireFields<T>::fields);
-    // A member may appear under two keys, one per form (min_deg / min_mm); a key under two rows is listed once.
-    std::vector<const char*> unique;
-    for (const char* key : keys) {
-      bool seen = false;
-      for (const char* u : unique) seen = seen || std::string_view(u) == key;
-      if (!seen) unique.push_back(key);
-    }
-    return unique;
-  }();
+  static const std::vector<const char*> names = detail::RequestKeys<T>([](const auto&) { return true; });
   return names;
 }
 
-/// The keys of T's table that belong to the form of `value` (rows whose When holds of it): the allowed keys of a
-/// parser once it knows the form (an Euler orientation's keys are not a quaternion's).
+/// The keys of WireFieldNames<T>() that belong to the form of `value` (rows whose When holds of it): the allowed
+/// keys of a parser once it knows the form (an Euler orientation's keys are not a quaternion's).
 template <typename T>
 std::vector<const char*> WireFieldNamesOf(const T& value) {
-  std::vector<const char*> keys;
-  const auto add = [&](const auto& field) {
-    if constexpr (requires { field.when; }) {
-      if (field.when && !field.when(value)) return;
+  return detail::RequestKeys<T>([&](const auto& row) {
+    if constexpr (requires { row.when; }) {
+      return !row.when || row.when(value);
     }
-    for (const char* key : keys) {
-      if (std::string_view(key) == field.name) return;
-    }
-    keys.push_back(field.name);
-  };
-  std::apply([&](const auto&... field) { (add(field), ...); }, WireFields<T>::fields);
-  return keys;
+    return true;
+  });
 }
 
 /// to_json / from_json of every shape with a table (found by nlohmann::json through argument-dependent lookup).
