@@ -266,8 +266,14 @@ void WriteJointColumn(const RobotModel& model, const KinematicsWorkspace& ws, co
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                             MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
                             const Payload& payload) {
+  IdentificationJacobian(model, q, eps, type, ws, jacobian, PrepareDeflection(model, q, payload));
+}
+
+void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
+                            const PreparedDeflection& prepared) {
   CheckJacobianSize(jacobian, MeasurementRows(type), model.num_error_parameters(), "IdentificationJacobian");
-  const Transform& tool = ForwardKinematics(model, q, eps, ws, payload);
+  const Transform& tool = ForwardKinematics(model, q, eps, ws, prepared);
   const RowWriter writer = MakeWriter(type, tool);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
   for (int s = 0; s < model.num_error_sites(); ++s) {
@@ -292,12 +298,11 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
   // (the factor does not depend on the parameters: JointTermFactors).
   const std::vector<JointTermParameter>& terms = model.joint_terms();
   if (terms.empty()) return;
-  const Eigen::VectorXd factor = JointTermFactors(model, q, payload);
   const int first = model.num_geometric_parameters();
   for (size_t t = 0; t < terms.size(); ++t) {
     const int col = first + static_cast<int>(t);
     WriteJointColumn(model, *ws, writer, terms[t].joint, jacobian, col);
-    jacobian.col(col) *= factor[static_cast<Eigen::Index>(t)];
+    jacobian.col(col) *= prepared.factor[static_cast<Eigen::Index>(t)];
   }
 }
 

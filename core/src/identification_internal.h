@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "robocal/core/identification.h"
+#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/reflectors.h"
 
@@ -130,9 +131,10 @@ class Problem {
   const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
+  std::vector<PreparedDeflection> prepared_;      // per pose: its deflection's parts that do not depend on x
   // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
-  // some tens of times, a cross-validated model choice some thousands; under the sanitizers the allocations were
-  // most of the time): per pose its Jacobian (its rows x n_model_, side by side) and tool pose; Evaluate's groups.
+  // some tens of times, a cross-validated model choice some thousands): per pose its Jacobian (its rows x n_model_,
+  // side by side) and tool pose; Evaluate's predictions and Jacobians per group.
   Eigen::MatrixXd pose_full_;
   std::vector<Transform> pose_model_;
   std::vector<Transform> prediction_;

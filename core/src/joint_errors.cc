@@ -155,6 +155,17 @@ void AddFixedDeflection(const RobotModel& model, const Eigen::VectorXd& q, const
   }
 }
 
+// Whether the joint-term parameters of eps (empty, or num_error_parameters values) add to the deflection; throws on
+// a wrong size.
+bool HasTermErrors(const RobotModel& model, const Eigen::VectorXd& eps) {
+  if (model.joint_terms().empty() || eps.size() == 0) return false;
+  if (eps.size() != model.num_error_parameters()) {
+    throw std::invalid_argument("JointDeflection: eps has " + std::to_string(eps.size()) + " values, expected " +
+                                std::to_string(model.num_error_parameters()) + " or 0");
+  }
+  return true;
+}
+
 }  // namespace
 
 Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
@@ -163,12 +174,8 @@ Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& 
   Eigen::VectorXd dq = Eigen::VectorXd::Zero(n);
   if (ddq_dq != nullptr) ddq_dq->setZero(n, n);
   if (model.has_fixed_joint_terms()) AddFixedDeflection(model, q, payload, &dq, ddq_dq);
+  if (!HasTermErrors(model, eps)) return dq;
   const std::vector<JointTermParameter>& terms = model.joint_terms();
-  if (terms.empty() || eps.size() == 0) return dq;
-  if (eps.size() != model.num_error_parameters()) {
-    throw std::invalid_argument("JointDeflection: eps has " + std::to_string(eps.size()) + " values, expected " +
-                                std::to_string(model.num_error_parameters()) + " or 0");
-  }
   Eigen::MatrixXd dfactor;
   const Eigen::VectorXd factor = JointTermFactors(model, q, payload, ddq_dq != nullptr ? &dfactor : nullptr);
   const int first = model.num_geometric_parameters();
@@ -177,6 +184,25 @@ Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& 
     const Eigen::Index row = static_cast<Eigen::Index>(t);
     dq[terms[t].joint] += value * factor[row];
     if (ddq_dq != nullptr) ddq_dq->row(terms[t].joint) += value * dfactor.row(row);
+  }
+  return dq;
+}
+
+PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload) {
+  PreparedDeflection out;
+  out.held = Eigen::VectorXd::Zero(model.num_joints());
+  if (model.has_fixed_joint_terms()) AddFixedDeflection(model, q, payload, &out.held, nullptr);
+  if (!model.joint_terms().empty()) out.factor = JointTermFactors(model, q, payload);
+  return out;
+}
+
+Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared, const Eigen::VectorXd& eps) {
+  Eigen::VectorXd dq = prepared.held;
+  if (!HasTermErrors(model, eps)) return dq;
+  const std::vector<JointTermParameter>& terms = model.joint_terms();
+  const int first = model.num_geometric_parameters();
+  for (size_t t = 0; t < terms.size(); ++t) {
+    dq[terms[t].joint] += eps[first + static_cast<Eigen::Index>(t)] * prepared.factor[static_cast<Eigen::Index>(t)];
   }
   return dq;
 }

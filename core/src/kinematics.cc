@@ -39,12 +39,11 @@ Transform ErrorTransform(const double* delta) {
   return t;
 }
 
-const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q_command,
-                                   const Eigen::VectorXd& eps, KinematicsWorkspace* ws, const Payload& payload) {
-  CheckSizes(model, q_command, eps);
+namespace {
+
+// The chain at the joints in ws->q_effective (ForwardKinematics, once the deflection is added).
+const Transform& ChainAtEffectiveJoints(const RobotModel& model, const Eigen::VectorXd& eps, KinematicsWorkspace* ws) {
   const bool with_errors = eps.size() != 0;
-  ws->q_effective = q_command;
-  if (model.deflects()) ws->q_effective += JointDeflection(model, q_command, eps, payload);
   const Eigen::VectorXd& q = ws->q_effective;
   const int n = model.num_joints();
   auto apply_error = [&](int site, Transform* t) {
@@ -65,6 +64,25 @@ const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorX
   apply_error(n + 1, &t);
   ws->T_world_tool = t;
   return ws->T_world_tool;
+}
+
+}  // namespace
+
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q_command,
+                                   const Eigen::VectorXd& eps, KinematicsWorkspace* ws, const Payload& payload) {
+  CheckSizes(model, q_command, eps);
+  ws->q_effective = q_command;
+  if (model.deflects()) ws->q_effective += JointDeflection(model, q_command, eps, payload);
+  return ChainAtEffectiveJoints(model, eps, ws);
+}
+
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q_command,
+                                   const Eigen::VectorXd& eps, KinematicsWorkspace* ws,
+                                   const PreparedDeflection& prepared) {
+  CheckSizes(model, q_command, eps);
+  ws->q_effective = q_command;
+  if (model.deflects()) ws->q_effective += JointDeflection(model, prepared, eps);
+  return ChainAtEffectiveJoints(model, eps, ws);
 }
 
 Transform ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q) {

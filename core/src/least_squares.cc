@@ -59,6 +59,8 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
       payloads_(shot_groups.payloads),
       groups_(shot_groups.groups),
       group_of_(shot_groups.group_of) {
+  prepared_.reserve(poses_.size());
+  for (size_t p = 0; p < poses_.size(); ++p) prepared_.push_back(PrepareDeflection(model_, poses_[p], payloads_[p]));
   if (o.noise.HasSharedError()) {
     // The shots of one group share the robot's repeatability error and its model error: their residuals are correlated. With H
     // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance
@@ -124,10 +126,10 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
   for (size_t p = 0; p < poses_.size(); ++p) {
     if (with_jacobian) {
       IdentificationJacobian(model_, poses_[p], eps, by_reflector ? MeasurementType::kPose : type_, &ws_, full(p),
-                             payloads_[p]);
+                             prepared_[p]);
       pose_model_[p] = ws_.T_world_tool;
     } else {
-      pose_model_[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, payloads_[p]);
+      pose_model_[p] = ForwardKinematics(model_, poses_[p], eps, &ws_, prepared_[p]);
     }
   }
   prediction->resize(groups_.size());

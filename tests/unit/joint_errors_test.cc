@@ -494,15 +494,21 @@ TEST(FixedJointTermTest, ACalibrationsSpecHoldsItsJointTermsAndMovesAsTheCalibra
   }
 }
 
-TEST(FixedJointTermTest, FittedTermsStackOnHeldOnesAndTheJacobiansMatchFiniteDifferences) {
-  // Held terms of the largest plausible size, so that their dependence on the joints is far above the
-  // differences' error; fitted terms and geometric errors on top.
+// The UR5e holding compliances and harmonics of the largest plausible size, so that their dependence on the joints is
+// far above finite differences' error, with compliance and harmonics of order 2 to fit on top.
+RobotModelSpec HeldAndFittedTerms() {
   RobotModelSpec spec = PresetSpec("ur5e");
   for (size_t i = 0; i < spec.joints.size(); ++i) {
     spec.joints[i].compliance_rad_per_nm = (i % 2 == 0 ? 0.5 : -0.3) * kImplausibleComplianceRadPerNm / 10.0;
     spec.joints[i].harmonics_rad = Eigen::Vector4d(3e-3, -2e-3, 1e-3, 4e-3) * (1.0 + 0.1 * static_cast<double>(i));
   }
   spec.error_terms = {true, 2};
+  return spec;
+}
+
+TEST(FixedJointTermTest, FittedTermsStackOnHeldOnesAndTheJacobiansMatchFiniteDifferences) {
+  // Held terms, fitted terms and geometric errors on top.
+  const RobotModelSpec spec = HeldAndFittedTerms();
   const RobotModel model = RobotModel::Build(spec);
   Rng rng(45);
   const Payload payload{6.0, Eigen::Vector3d(10, 40, 80)};
@@ -549,6 +555,26 @@ TEST(FixedJointTermTest, FittedTermsStackOnHeldOnesAndTheJacobiansMatchFiniteDif
     }
     KinematicsWorkspace bare_ws(fitted_only);
     EXPECT_LT(LargestPoseDifference(ForwardKinematics(fitted_only, q, sum, &bare_ws, payload), at), 1e-9);
+  }
+}
+
+TEST(FixedJointTermTest, APreparedDeflectionMovesTheChainExactlyAsTheCommandAndPayloadDo) {
+  // A fit prepares each pose's deflection once (PrepareDeflection) and evaluates it at many error parameters: the
+  // same numbers, bit for bit, as deflecting from the command and payload each time. (The identification Jacobian
+  // from a payload prepares it too: FittedTermsStackOnHeldOnes... checks it against finite differences.)
+  const RobotModel model = RobotModel::Build(HeldAndFittedTerms());
+  Rng rng(51);
+  const Payload payload{6.0, Eigen::Vector3d(10, 40, 80)};
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 4, 53)) {
+    const PreparedDeflection prepared = PrepareDeflection(model, q, payload);
+    for (const Eigen::VectorXd& eps : {Eigen::VectorXd(), RandomErrorsWithTerms(model, &rng)}) {
+      EXPECT_EQ(JointDeflection(model, prepared, eps), JointDeflection(model, q, eps, payload));
+      KinematicsWorkspace a(model), b(model);
+      EXPECT_EQ(ForwardKinematics(model, q, eps, &a, prepared).matrix(),
+                ForwardKinematics(model, q, eps, &b, payload).matrix());
+      EXPECT_EQ(a.q_effective, b.q_effective);
+    }
+    EXPECT_THROW(JointDeflection(model, prepared, Eigen::VectorXd::Zero(3)), std::invalid_argument);
   }
 }
 

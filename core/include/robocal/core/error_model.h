@@ -145,6 +145,11 @@ void TangentBasis(const Eigen::Vector3d& u, Eigen::Vector3d* t1, Eigen::Vector3d
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                             MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
                             const Payload& payload = Payload());
+/// The same, with the deflection's parts that depend on the command alone prepared for q and its payload
+/// (PrepareDeflection): a fit's poses, evaluated at many eps.
+void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                            MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
+                            const PreparedDeflection& prepared);
 
 /// The joint Jacobian at (q, eps): d(model prediction)/dq in the same rows, MeasurementRows(type) x
 /// num_joints, including the joint terms' dependence on q (under `payload`). Used by compensation (inverse

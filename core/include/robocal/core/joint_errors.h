@@ -42,4 +42,17 @@ double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term);
 Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                                 const Payload& payload, Eigen::MatrixXd* ddq_dq = nullptr);
 
+/// What JointDeflection computes from the command alone (q and payload, not eps): the deflection of the joint terms
+/// the robot holds and the JointTermFactors of its joint-term parameters. A fit evaluates the same poses at many eps;
+/// it prepares each pose once, and the gravity torques are not computed again per evaluation.
+struct PreparedDeflection {
+  Eigen::VectorXd held;    ///< rad per joint (zero for a robot without held joint terms)
+  Eigen::VectorXd factor;  ///< JointTermFactors (empty for a model without joint-term parameters)
+};
+PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload);
+
+/// JointDeflection(model, q, eps, payload) from PrepareDeflection(model, q, payload): the same dq, by the same
+/// operations. Throws std::invalid_argument if eps has neither 0 nor num_error_parameters values.
+Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared, const Eigen::VectorXd& eps);
+
 }  // namespace robocal

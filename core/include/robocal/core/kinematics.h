@@ -12,6 +12,8 @@
 
 namespace robocal {
 
+struct PreparedDeflection;  // joint_errors.h
+
 /// Scratch space for kinematics on one model; reuse it across calls to avoid allocation.
 struct KinematicsWorkspace {
   explicit KinematicsWorkspace(const RobotModel& model);
@@ -37,6 +39,10 @@ Transform ErrorTransform(const double* delta);
 /// joints, and ws->q_effective those joints. Throws std::invalid_argument on wrong sizes.
 const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                                    KinematicsWorkspace* ws, const Payload& payload = Payload());
+/// The same, with the deflection's parts that depend on the command alone prepared for q and its payload
+/// (PrepareDeflection): for one command evaluated at many eps.
+const Transform& ForwardKinematics(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
+                                   KinematicsWorkspace* ws, const PreparedDeflection& prepared);
 
 /// Nominal tool pose (no errors; the joint terms a robot holds, under no payload), convenience form that allocates
 /// its own workspace.
