@@ -266,7 +266,9 @@ void WriteJointColumn(const RobotModel& model, const KinematicsWorkspace& ws, co
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                             MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
                             const Payload& payload) {
-  IdentificationJacobian(model, q, eps, type, ws, jacobian, PrepareDeflection(model, q, payload));
+  // A robot without joint terms has nothing to prepare (a planner asks this of every candidate pose).
+  IdentificationJacobian(model, q, eps, type, ws, jacobian,
+                         model.deflects() ? PrepareDeflection(model, q, payload) : PreparedDeflection());
 }
 
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
