@@ -266,9 +266,7 @@ void WriteJointColumn(const RobotModel& model, const KinematicsWorkspace& ws, co
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,
                             MeasurementType type, KinematicsWorkspace* ws, Eigen::Ref<Eigen::MatrixXd> jacobian,
                             const Payload& payload) {
-  // A robot without joint terms has nothing to prepare (a planner asks this of every candidate pose).
-  IdentificationJacobian(model, q, eps, type, ws, jacobian,
-                         model.deflects() ? PrepareDeflection(model, q, payload) : PreparedDeflection());
+  IdentificationJacobian(model, q, eps, type, ws, jacobian, PrepareDeflection(model, q, payload));
 }
 
 void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps,

@@ -126,7 +126,6 @@ class Problem {
   int n_model_;
   KinematicsWorkspace ws_;
   const std::vector<Eigen::VectorXd>& poses_;
-  const std::vector<Payload>& payloads_;
   const std::vector<Group>& groups_;
   const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability

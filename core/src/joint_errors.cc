@@ -190,6 +190,9 @@ Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& 
 
 PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload) {
   PreparedDeflection out;
+  // A robot that does not deflect has nothing to prepare (a planner asks for the identification Jacobian of every
+  // candidate pose).
+  if (!model.deflects()) return out;
   out.held = Eigen::VectorXd::Zero(model.num_joints());
   if (model.has_fixed_joint_terms()) AddFixedDeflection(model, q, payload, &out.held, nullptr);
   if (!model.joint_terms().empty()) out.factor = JointTermFactors(model, q, payload);
@@ -197,6 +200,7 @@ PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::Vecto
 }
 
 Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared, const Eigen::VectorXd& eps) {
+  if (!model.deflects()) return Eigen::VectorXd::Zero(model.num_joints());
   Eigen::VectorXd dq = prepared.held;
   if (!HasTermErrors(model, eps)) return dq;
   const std::vector<JointTermParameter>& terms = model.joint_terms();

@@ -56,11 +56,10 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
       n_model_(model.num_error_parameters()),
       ws_(model),
       poses_(shot_groups.poses),
-      payloads_(shot_groups.payloads),
       groups_(shot_groups.groups),
       group_of_(shot_groups.group_of) {
   prepared_.reserve(poses_.size());
-  for (size_t p = 0; p < poses_.size(); ++p) prepared_.push_back(PrepareDeflection(model_, poses_[p], payloads_[p]));
+  for (size_t p = 0; p < poses_.size(); ++p) prepared_.push_back(PrepareDeflection(model_, poses_[p], shot_groups.payloads[p]));
   if (o.noise.HasSharedError()) {
     // The shots of one group share the robot's repeatability error and its model error: their residuals are correlated. With H
     // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance

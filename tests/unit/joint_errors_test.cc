@@ -576,6 +576,17 @@ TEST(FixedJointTermTest, APreparedDeflectionMovesTheChainExactlyAsTheCommandAndP
     }
     EXPECT_THROW(JointDeflection(model, prepared, Eigen::VectorXd::Zero(3)), std::invalid_argument);
   }
+  // A robot that does not deflect prepares nothing and moves as its commands say.
+  const RobotModel rigid = RobotModel::Build(PresetSpec("ur5e"));
+  for (const Eigen::VectorXd& q : test::RandomConfigurations(rigid, 2, 55)) {
+    const PreparedDeflection prepared = PrepareDeflection(rigid, q, payload);
+    EXPECT_EQ(prepared.held.size(), 0);
+    const Eigen::VectorXd eps = Eigen::VectorXd::Constant(rigid.num_error_parameters(), 1e-3);
+    EXPECT_EQ(JointDeflection(rigid, prepared, eps), JointDeflection(rigid, q, eps, payload));
+    KinematicsWorkspace a(rigid), b(rigid);
+    EXPECT_EQ(ForwardKinematics(rigid, q, eps, &a, prepared).matrix(),
+              ForwardKinematics(rigid, q, eps, &b, payload).matrix());
+  }
 }
 
 TEST(FixedJointTermTest, ARegisteredCompliantCalibrationNeedsNoJointTermsOfItsOwn) {

@@ -46,7 +46,7 @@ Eigen::VectorXd JointDeflection(const RobotModel& model, const Eigen::VectorXd& 
 /// the robot holds and the JointTermFactors of its joint-term parameters. A fit evaluates the same poses at many eps;
 /// it prepares each pose once, and the gravity torques are not computed again per evaluation.
 struct PreparedDeflection {
-  Eigen::VectorXd held;    ///< rad per joint (zero for a robot without held joint terms)
+  Eigen::VectorXd held;    ///< rad per joint (empty for a robot that does not deflect: RobotModel::deflects())
   Eigen::VectorXd factor;  ///< JointTermFactors (empty for a model without joint-term parameters)
 };
 PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload);
