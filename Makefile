@@ -55,6 +55,7 @@ bench: build
 	$(BUILD_DIR)/tests/bench/robocal_planning_bench
 	$(BUILD_DIR)/tests/bench/robocal_identification_bench
 	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
+	$(BUILD_DIR)/tests/bench/robocal_program_bench
 
 format:
 	find core api server client tests -name '*.h' -o -name '*.cc' | xargs -r clang-format -i

@@ -449,6 +449,8 @@ std::string DumpCompensateResult(const CompensateResult& r) {
     AppendNumber(&out, c.orientation_error_deg);
     out += ",\"position_error_mm\":";
     AppendNumber(&out, c.position_error_mm);
+    out += ",\"predicted_error_mm\":";
+    AppendNumber(&out, c.predicted_error_mm);
     out += ",\"termination\":";
     out += nlohmann::json(c.termination).dump();
     out += '}';

@@ -45,6 +45,14 @@ bool StartsWith(const std::vector<std::string>& positional, const std::vector<st
   return true;
 }
 
+// Whether `count` positional arguments fit the command: as many as it names, or, when its last one is a list
+// ("FILE..."), at least as many.
+bool ArgumentsFit(const Command& command, std::size_t count) {
+  const std::vector<std::string>& names = command.arguments;
+  const bool list = !names.empty() && names.back().ends_with("...");
+  return list ? count >= names.size() : count == names.size();
+}
+
 // The command the positional arguments name: of the commands whose words start them, the longest one whose
 // argument count fits ("plan get P" is `plan get`, "plan get" plans for a robot named "get"), else the longest
 // one (to report its usage); null if none.
@@ -56,7 +64,7 @@ const Command* Find(const std::vector<std::string>& positional) {
     const std::vector<std::string> words = Words(command.name);
     if (!StartsWith(positional, words)) continue;
     if (words.size() > longest_words) longest = &command, longest_words = words.size();
-    if (positional.size() == words.size() + command.arguments.size() && words.size() > fitting_words) {
+    if (ArgumentsFit(command, positional.size() - words.size()) && words.size() > fitting_words) {
       fitting = &command, fitting_words = words.size();
     }
   }
@@ -144,7 +152,7 @@ Invocation Resolve(const tools::CommandLine& line, std::ostream& out, std::ostre
     options[flag] = value;
   }
   const std::size_t words = Words(command->name).size();
-  if (line.positional.size() != words + command->arguments.size()) {
+  if (!ArgumentsFit(*command, line.positional.size() - words)) {
     throw UsageError("expected: " + Usage(*command).substr(std::string("Usage: ").size()));
   }
   Invocation in{*command, {line.positional.begin() + static_cast<long>(words), line.positional.end()}, {}, {},

@@ -131,6 +131,7 @@ int Upload(Invocation& in);
 int Measurements(Invocation& in);
 int Fit(Invocation& in);
 int Compensate(Invocation& in);
+int CompensateProgram(Invocation& in);
 int Evaluate(Invocation& in);
 int Report(Invocation& in);
 int Experiment(Invocation& in);

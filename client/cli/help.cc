@@ -268,17 +268,38 @@ IN.csv: nominal joint commands (a joints CSV: header, one row per configuration,
 targets: header x_mm,y_mm,z_mm,qw,qx,qy,qz, optionally followed by shoulder, elbow and wrist columns naming the
 branch (front/back, up/down, noflip/flip; an empty cell leaves the flag free). Poses are in the tracker
 frame, or the calibrated robot base frame with --frame base. Writes the compensated joints that take the
-calibrated robot to each target, with position_error_mm, orientation_error_deg and converged (0/1) columns,
-and for a 6R arm with named branches the shoulder, elbow and wrist of each result, to OUT.csv or stdout. A
-pose without flags takes the branch shoulder front, elbow up, wrist noflip, or the previous row's with
---sequence. --json: the compensation result (per target: joints, errors, free rotation, converged,
-iterations, message, configuration).
+calibrated robot to each target, with position_error_mm, orientation_error_deg, predicted_error_mm (a 95 %
+bound on the position error the robot will have there: the fit's uncertainty and its model error; empty without
+joints) and converged (0/1) columns, and for a 6R arm with named branches the shoulder, elbow and wrist of each
+result, to OUT.csv or stdout. A pose without flags takes the branch shoulder front, elbow up, wrist noflip, or
+the previous row's with --sequence. --json: the compensation result (per target: joints, errors, free rotation,
+converged, iterations, message, configuration, predicted_error_mm).
 --sequence: the rows are one program, in order: joint_jump_deg (the largest revolute joint move from the
 previous row's result, deg; empty on the first row), joint_jump (1 when it exceeds --max-jump DEG, default
 30) and branch_change (1 when the branch differs from the previous row's), so that you see where the
 compensated program would swing the robot.
 --payload KG[@X,Y,Z]: the payload at every target (kg; centre of mass in mm, flange frame); a calibration with a
 compliance model brings the robot loaded so to the targets. Default: the campaign's payload, or none.
+)"};
+
+const HelpText kCompensateProgram = {"a robot program compensated: KRL, RAPID, URScript, FANUC LS or VAL3 in and out", R"(
+FILE...: one program in its controller's language: a KUKA KRL .src with its .dat, ABB RAPID modules (.mod,
+.prg), a URScript .script, a FANUC TP source .ls or a Staubli VAL3 data file .dtx; the extensions name the
+dialect, or --dialect does. Every joint and Cartesian target is compensated on the campaign's calibration and
+written back into the same bytes, in the same number format (at least 3 decimals in mm, 4 in degrees); every
+other byte (comments, spacing, line ends, speeds, zones) comes back as it was. A Cartesian target is solved on
+the branch its configuration names and written as the nominal pose of the compensated joints, so that the
+controller's own inverse kinematics lands the real robot (docs/programs.md).
+--out DIR: write the compensated files there (created if missing) and print a line per target (correction,
+joint change, predicted error, or why it was kept as written). Without it, one file is written to stdout and
+the report to stderr. --json: the whole reply.
+--tools TOOLS.json, --bases BASES.json: the program's tools (T_flange_tool) and bases / work objects (in the
+robot base) by the number or name the program uses, as the dialect writes a Cartesian target, e.g.
+{"1": [0, 0, 180, 0, 0, 0]} for KRL (X, Y, Z, A, B, C). A tool without an entry is the calibrated robot's own;
+a base without one is refused, except the identity (BASE 0, wobj0, UF 0, world).
+--max-path-deviation MM: straight moves whose path leaves the programmed line by more than MM get
+intermediate targets (KRL, RAPID, URScript). --on-failure keep (default) keeps a target that cannot be
+compensated as written and reports it; refuse refuses the whole program. --payload KG[@X,Y,Z]: the payload.
 )"};
 
 const HelpText kEvaluate = {"the accuracy table (E_xyz, E_cos, E_tot) on the validation measurements", R"(

@@ -41,6 +41,7 @@ extern const HelpText kUpload;
 extern const HelpText kMeasurements;
 extern const HelpText kFit;
 extern const HelpText kCompensate;
+extern const HelpText kCompensateProgram;
 extern const HelpText kEvaluate;
 extern const HelpText kReport;
 extern const HelpText kOperationWait;

@@ -481,6 +481,14 @@ api::CompensateResult Client::Compensate(const std::string& campaign, const api:
       Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate", &body, true), "compensation");
 }
 
+api::CompensateProgramResult Client::CompensateProgram(const std::string& campaign,
+                                                       const api::CompensateProgramRequest& request) {
+  const json body = request;
+  // A pure computation on the stored calibration, as :compensate: safe to retry.
+  return Parse<api::CompensateProgramResult>(
+      Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate-program", &body, true), "program compensation");
+}
+
 api::CompensateResult Client::CompensateJoints(const std::string& campaign,
                                                const std::vector<std::vector<double>>& nominal_joints) {
   api::CompensateRequest request;

@@ -240,7 +240,7 @@ void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>&
   const bool branches = std::any_of(results.begin(), results.end(),
                                     [](const api::Compensation& r) { return r.configuration.has_value(); });
   for (const api::RobotJoint& j : joints) out << JointColumn(j) << ",";
-  out << "position_error_mm,orientation_error_deg,converged";
+  out << "position_error_mm,orientation_error_deg,predicted_error_mm,converged";
   if (branches) out << ",shoulder,elbow,wrist";
   if (sequence) out << ",joint_jump_deg,joint_jump";
   if (sequence && branches) out << ",branch_change";
@@ -253,6 +253,8 @@ void WriteCompensationCsv(std::ostream& out, const std::vector<api::RobotJoint>&
     WriteValue(out, r.position_error_mm);
     out << ",";
     WriteValue(out, r.orientation_error_deg);
+    out << ",";
+    if (std::isfinite(r.predicted_error_mm)) WriteValue(out, r.predicted_error_mm);  // empty: none (no joints)
     out << "," << (r.converged ? 1 : 0);
     if (branches) {
       if (r.configuration) {

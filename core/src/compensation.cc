@@ -10,16 +10,14 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
-#include <atomic>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 #include <tuple>
 #include <utility>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/units.h"
+#include "parallel_internal.h"
 
 namespace robocal {
 namespace {
@@ -359,6 +357,9 @@ bool CompensationOptions::IsValid(std::string* error) const {
   if (!(max_damping > initial_damping) || !(max_damping > start_damping) || !std::isfinite(max_damping)) {
     return fail("max_damping must be finite and greater than initial_damping and start_damping");
   }
+  if (!(start_radius_rad >= 0.0) || !std::isfinite(start_radius_rad)) {
+    return fail("start_radius_rad must be >= 0 and finite");
+  }
   if (max_iterations < 1 || max_iterations > 100000) return fail("max_iterations must be in [1, 100000]");
   if (!(position_tolerance_mm > 0.0) || !std::isfinite(position_tolerance_mm)) {
     return fail("position_tolerance_mm must be positive and finite");
@@ -520,12 +521,16 @@ CompensationResult NoSolution(int iterations, std::string message) {
 // A pose target on a robot with named branches. With a hint (start or previous joints) the answer is, of the
 // converged results with the demanded flags, the one on the wanted branch (else the one missing the fewest and
 // least important wanted flags: shoulder before elbow before wrist) nearest the hint, each joint at its turn
-// nearest it within the limits. The runs that look for it:
-// 1. from the hint, with options.start_damping: when it converges on the wanted branch, the solution the hint
-//    leads to is the answer (hint joints that reach the target come back as they are, without an iteration);
+// nearest it within the limits; when one of them lies within options.start_radius_rad of the hint, only those
+// within that radius beyond the nearest count (the robot does not swing from taught joints). The runs that look
+// for it:
+// 1. from the hint, with options.start_damping: when it converges on the wanted branch within the start radius,
+//    the solution the hint leads to is the answer (hint joints that reach the target come back as they are,
+//    without an iteration);
 // 2. else from the nominal closed-form solutions, in their order of preference: every one until a result is on
 //    the wanted branch, then the rest of those on it, so that the nearest of its solutions is found (near a
-//    singularity several converge on one branch; the offset wrist adds a start at every 30 deg of joint 6).
+//    singularity several converge on one branch; the offset wrist adds a start at every 30 deg of joint 6); and if
+//    none of that branch's lies within the start radius, the other branches' near the hint.
 // Without a hint, the first nominal solution in that order to converge with the demanded flags is the answer.
 // A converged result is never given up for one that did not converge: the wanted branch is a preference, only
 // the demanded flags are a condition.
@@ -545,11 +550,54 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
   auto mismatch = [&](const ArmConfiguration& c) {
     return 4 * (c.shoulder != wanted.shoulder) + 2 * (c.elbow != wanted.elbow) + (c.wrist != wanted.wrist);
   };
+  // Hint joints within the start radius of a converged solution are taught joints, and the robot must not swing
+  // from them: only the solutions within that radius beyond the nearest one are answers then. A start a few degrees
+  // across a boundary otherwise gets its own branch's solution, which can be far (across the wrist's boundary
+  // joints 4 and 6 turn by 180 deg). Squared distances throughout, as the candidates'.
+  const double radius = ctx.options.start_radius_rad;
   int iterations = 0;
-  // The answer so far (converged, demanded flags), its joints at the turns nearest the reference, and its rank.
-  std::optional<CompensationResult> answer;
-  Eigen::VectorXd answer_joints;
-  std::pair<int, double> answer_rank;
+  // Every converged result with the demanded flags: its joints at the turns nearest the reference (a revolute
+  // joint's other turns reach the same pose), its flags differing from the wanted ones, its squared distance.
+  struct Found {
+    CompensationResult result;
+    Eigen::VectorXd joints;
+    int mismatch = 0;
+    double distance2 = 0.0;
+  };
+  std::vector<Found> found;
+  // The answer among them: without a hint the first (the order of the starts is the preference); with one, of
+  // those not swinging the robot (see above) the wanted branch first, else the fewest and least important other
+  // flags, then the nearest.
+  auto nearest2 = [&]() {
+    double d2 = HUGE_VAL;
+    for (const Found& f : found) d2 = std::min(d2, f.distance2);
+    return d2;
+  };
+  auto taught = [&]() { return hint != nullptr && nearest2() <= radius * radius; };
+  auto choose = [&]() -> Found& {
+    if (hint == nullptr) return found.front();
+    const double limit = taught() ? std::pow(std::sqrt(nearest2()) + radius, 2) : HUGE_VAL;
+    Found* best_found = nullptr;
+    for (Found& f : found) {
+      if (f.distance2 > limit) continue;
+      if (best_found == nullptr ||
+          std::tie(f.mismatch, f.distance2) < std::tie(best_found->mismatch, best_found->distance2)) {
+        best_found = &f;
+      }
+    }
+    return *best_found;
+  };
+  // On the wanted branch within the start radius (with a hint), or any (without): no other start can change the
+  // answer's branch.
+  auto settled = [&]() {
+    for (const Found& f : found) {
+      if (hint == nullptr || (f.mismatch == 0 && f.distance2 <= radius * radius)) return true;
+    }
+    return false;
+  };
+  auto wanted_reached = [&]() {
+    return std::any_of(found.begin(), found.end(), [](const Found& f) { return f.mismatch == 0; });
+  };
   // The best result with the demanded flags that did not converge: what is said when none does.
   CompensationResult best;
   bool any = false;
@@ -561,31 +609,49 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
       any = true;
       return;
     }
-    // A revolute joint's other turns reach the same pose: the one nearest the reference counts.
     Eigen::VectorXd q = r.joints;
     PlaceInLimits(model, reference, &q);
-    const std::pair<int, double> rank{mismatch(*r.configuration), (q - reference).squaredNorm()};
-    if (!answer || rank < answer_rank) {
-      answer = std::move(r);
-      answer_joints = std::move(q);
-      answer_rank = rank;
-    }
+    const int flags = mismatch(*r.configuration);
+    const double distance2 = (q - reference).squaredNorm();
+    found.push_back(Found{std::move(r), std::move(q), flags, distance2});
   };
   // The answer with its joints at their nearest turns, its errors evaluated there (the same pose to round-off, so
   // no iteration in practice), and every run's iterations.
   auto finish = [&]() {
-    CompensationResult r = std::move(*answer);
-    if (answer_joints != r.joints) {
-      CompensationResult placed = SolveFrom(ctx, T_world_target, answer_joints);
+    const bool near = taught();
+    Found& chosen = choose();
+    CompensationResult r = chosen.result;
+    if (chosen.joints != r.joints) {
+      CompensationResult placed = SolveFrom(ctx, T_world_target, chosen.joints);
       iterations += placed.iterations;
       if (placed.converged && placed.configuration == r.configuration) r = std::move(placed);
     }
     r.iterations = iterations;
+    // Not silent: the robot would move far from the joints it was taught. (In a sequence the previous target's
+    // joints are no taught joints, and a jump from them is reported as joint_jump_deg.)
+    if (t.start.size() != 0 && !near) {
+      const Eigen::VectorXd change = (r.joints - t.start).cwiseAbs();
+      int joint = 0;
+      change.maxCoeff(&joint);
+      const double distance = (r.joints - t.start).norm();
+      r.message = "no solution within " + Number(radius * kDegPerRad) + " deg of start_joints: this one (" +
+                  r.configuration->ToString() + (*r.configuration == wanted ? ", theirs" : "") + ") is " +
+                  Number(distance * kDegPerRad) + " deg from them, joint " + std::to_string(joint + 1) + " by " +
+                  Number(change[joint] * kDegPerRad) + " deg";
+      // The fallback order put another branch first: say where the nearest solution found is.
+      const Found& closest = *std::min_element(found.begin(), found.end(), [](const Found& a, const Found& b) {
+        return a.distance2 < b.distance2;
+      });
+      if (std::sqrt(closest.distance2) < distance - 1e-6) {
+        r.message += "; the nearest found (" + closest.result.configuration->ToString() + ") is " +
+                     Number(std::sqrt(closest.distance2) * kDegPerRad) + " deg from them";
+      }
+    }
     return r;
   };
   if (hint != nullptr) {
     consider(SolveFrom(ctx, T_world_target, *hint, ctx.options.start_damping));
-    if (answer && answer_rank.first == 0) return finish();
+    if (settled()) return finish();
   }
   struct Candidate {
     Eigen::VectorXd q;
@@ -618,7 +684,7 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
            std::tie(b.other_branch, b.mismatch, b.outside, b.inexact, b.distance);
   });
   const std::string asked = demanded.ToString();
-  if (candidates.empty() && !answer) {
+  if (candidates.empty() && found.empty()) {
     return NoSolution(iterations, asked.empty() ? "no solution on any branch: the target is beyond the arm's reach"
                                                 : "no solution with " + asked + ": the target is beyond the arm's reach");
   }
@@ -626,11 +692,15 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
     // Without a hint the first result to converge is the answer (the order is the preference). With one, every
     // start is tried until the wanted branch is reached (near a boundary the stretched starts either side of it
     // often converge on the other side), then the rest of that branch's, for the nearest of its solutions (away
-    // from boundaries the solver stays on a start's branch).
-    if (answer && (hint == nullptr || (answer_rank.first == 0 && (c.other_branch > 0 || c.mismatch > 0)))) break;
+    // from boundaries the solver stays on a start's branch). If that is beyond the start radius, the other branches'
+    // starts near the hint are tried too: one may end within it. Twice the radius, since near a singularity the
+    // calibrated solution can lie degrees from the nominal one.
+    const bool off_branch = c.other_branch > 0 || c.mismatch > 0;
+    if (!found.empty() && (hint == nullptr || (off_branch && settled()))) break;
+    if (off_branch && wanted_reached() && c.distance > 4.0 * radius * radius) continue;
     consider(SolveFrom(ctx, T_world_target, c.q));
   }
-  if (answer) return finish();
+  if (!found.empty()) return finish();
   if (!any) {
     return NoSolution(iterations, on_branch == 0
                                       ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"
@@ -774,33 +844,8 @@ std::vector<CompensationResult> CompensateAll(const Calibration& calibration, co
   CheckNominal(calibration, nominal);
   const Context ctx(calibration, nominal, options);
   std::vector<CompensationResult> results(targets.size());
-  std::vector<std::exception_ptr> errors(targets.size());
-  auto solve = [&](std::size_t i) {
-    try {
-      results[i] = SolveTarget(ctx, targets[i], Eigen::VectorXd());
-    } catch (...) {
-      errors[i] = std::current_exception();
-    }
-  };
-  // Targets are handed out in chunks from a shared counter; each result goes to its own slot, so the order
-  // of the results is the order of the targets whatever thread solved them.
-  constexpr std::size_t kChunk = 16;
-  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t wanted = threads == 0 ? hardware : static_cast<std::size_t>(threads);
-  const std::size_t workers = std::min(wanted, (targets.size() + kChunk - 1) / kChunk);
-  std::atomic<std::size_t> next{0};
-  auto work = [&] {
-    for (std::size_t begin = next.fetch_add(kChunk); begin < targets.size(); begin = next.fetch_add(kChunk)) {
-      for (std::size_t i = begin; i < std::min(begin + kChunk, targets.size()); ++i) solve(i);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  for (const std::exception_ptr& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
+  internal::ParallelFor(targets.size(), threads, 16,
+                        [&](std::size_t i) { results[i] = SolveTarget(ctx, targets[i], Eigen::VectorXd()); });
   return results;
 }
 

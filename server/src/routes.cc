@@ -165,6 +165,8 @@ const std::vector<Route>& RouteTable() {
        }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
        [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},
+      {"POST", R"(/v1/campaigns/([^/:]+):compensate-program)", "/v1/campaigns/{campaign}:compensate-program",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CompensateProgram(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):forward)", "/v1/campaigns/{campaign}:forward",
        [](Service& s, const httplib::Request& r) { return Reply(s.CampaignForward(Id(r), Body(s, r))); }},
       {"POST", R"(/v1/campaigns/([^/:]+):evaluate)", "/v1/campaigns/{campaign}:evaluate",

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "robocal/core/accuracy.h"
@@ -11,6 +12,7 @@
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/model_choice.h"
+#include "robocal/core/prediction.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
 #include "robocal/urdf/urdf_export.h"
@@ -323,9 +325,24 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
   const std::vector<CompensationResult> solved =
       req.sequence ? CompensateSequence(loaded.calibration, model, targets)
                    : CompensateAll(loaded.calibration, model, targets, {}, options_.compensation_threads);
+  // The accuracy each result will have: the fit's parameter covariance at its joints, the model error and the
+  // campaign's repeatability (docs/compensation.md, "Predicted accuracy"). About 5 us a target, so it is spread
+  // over the same threads as the solve.
+  std::vector<Eigen::VectorXd> joints;
+  std::vector<Payload> payloads;
+  joints.reserve(solved.size());
+  payloads.reserve(solved.size());
+  for (std::size_t i = 0; i < solved.size(); ++i) {
+    joints.push_back(solved[i].joints);
+    payloads.push_back(targets[i].payload);
+  }
+  const std::vector<double> predicted = PredictPositionErrorBounds(
+      loaded.calibration, joints, payloads,
+      {.probability = 0.95, .repeatability_mm = loaded.campaign.repeatability_mm}, options_.compensation_threads);
   result.results.reserve(solved.size());
   for (std::size_t i = 0; i < solved.size(); ++i) {
     api::Compensation c = api::ToWire(model, solved[i]);
+    c.predicted_error_mm = predicted[i];
     if (req.sequence && i > 0 && solved[i].joints.size() == model.num_joints() &&
         solved[i - 1].joints.size() == model.num_joints()) {
       // The largest revolute joint move from the previous result (prismatic axes are not compared in deg).

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <sstream>
 
 #include "cli.h"
 #include "mock_tracker.h"
+#include "robocal/api/programs.h"
 #include "robocal/api/robots.h"
 #include "robocal/client/csv.h"
 #include "robocal/core/kinematics.h"
@@ -86,7 +88,7 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, HelpOnEveryLevel) {
   for (const char* command : {"", "robots", "plan", "robot", "campaign", "upload", "measurements", "fit", "compensate",
-                              "evaluate", "operation", "experiment", "cell"}) {
+                              "compensate-program", "evaluate", "operation", "experiment", "cell"}) {
     const Result r = RunCli(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("Usage: robocal " + std::string(command)), std::string::npos) << command;
@@ -761,6 +763,75 @@ TEST_F(CliTest, CampaignListShowsCountsAndCalibrated) {
   EXPECT_FALSE(list.campaigns[1].calibrated);
   // Each item is the campaign as campaign get --json prints it.
   EXPECT_EQ(nlohmann::json(list.campaigns[0]), nlohmann::json::parse(RunCli(server + " campaign get cal-1 --json").out));
+}
+
+// A URScript program of a calibrated ur5e through `robocal compensate-program`: one file to stdout with the report
+// on stderr, or --out DIR; every byte but the targets' numbers as it was; bad arguments as usage errors.
+TEST_F(CliTest, CompensateProgramGivesTheProgramBackCompensated) {
+  client::ClientOptions client_options;
+  client_options.server_url = server_.url();
+  client::Client client(client_options);
+  mock::MockTrackerOptions options;
+  options.robot = "ur5e";
+  options.count = 24;
+  options.num_validation = 4;
+  options.shots_per_pose = 1;
+  const mock::MockTrackerReport report = mock::RunMockTracker(client, options, nullptr);
+  const std::string campaign = report.trials.at(0).planned.campaign.id;
+  // Two joint moves and a straight move to the pose of the second (metres, rotation vector).
+  const RobotModel ur5e = Preset("ur5e");
+  Eigen::VectorXd q(6);
+  q << 0.4, -1.2, 1.3, -1.7, 1.4, 0.3;
+  const Transform pose = ur5e.T_world_base().inverse() * ForwardKinematics(ur5e, q);
+  const Eigen::Vector3d r = RotationVector(pose.linear());
+  std::ostringstream script;
+  script << std::fixed << std::setprecision(6) << "def cell():\r\n  # taught\r\n  movej([0.1, -1.5, 1.4, -1.4, 1.5, 0.0], a=1.4, v=1.05)\r\n"
+         << "  movej([" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3] << ", " << q[4] << ", " << q[5]
+         << "])\n  movel(p[" << pose.translation().x() / 1000 << ", " << pose.translation().y() / 1000 << ", "
+         << pose.translation().z() / 1000 << ", " << r.x() << ", " << r.y() << ", " << r.z() << "], a=1.2, v=0.25)\nend\n";
+  std::ofstream(Path("cell.script"), std::ios::binary) << script.str();
+
+  const InProcess piped = RunInProcess({"--server", server_.url(), "compensate-program", campaign, Path("cell.script")});
+  ASSERT_EQ(piped.exit_code, 0) << piped.err;
+  EXPECT_NE(piped.out, script.str());
+  // The same lines, comments and line ends; only numbers changed.
+  auto shape = [](const std::string& text) {
+    std::string out;
+    for (char c : text) out += (c >= '0' && c <= '9') || c == '.' || c == '-' ? '#' : c;
+    std::string squeezed;
+    for (char c : out) if (c != '#' || squeezed.empty() || squeezed.back() != '#') squeezed += c;
+    return squeezed;
+  };
+  EXPECT_EQ(shape(piped.out), shape(script.str()));
+  EXPECT_NE(piped.err.find("urscript: 3 targets (2 joint, 1 Cartesian), 3 rewritten, 0 kept as written"),
+            std::string::npos) << piped.err;
+
+  const Result written = RunCli("--server " + server_.url() + " compensate-program " + campaign + " " +
+                                Path("cell.script") + " --out " + Path("out") + " --max-path-deviation 0.01");
+  ASSERT_EQ(written.exit_code, 0);
+  EXPECT_NE(written.out.find("cell.script:5  (inline)  cartesian"), std::string::npos) << written.out;
+  std::ifstream in(Path("out/cell.script"), std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(file.substr(0, 20), "def cell():\r\n  # tau");
+
+  const Result json = RunCli("--server " + server_.url() + " compensate-program " + campaign + " " +
+                             Path("cell.script") + " --json");
+  ASSERT_EQ(json.exit_code, 0);
+  const auto reply = api::FromWire<api::CompensateProgramResult>(nlohmann::json::parse(json.out));
+  EXPECT_EQ(reply.files.at("cell.script"), piped.out);
+  ASSERT_EQ(reply.targets.size(), 3u);
+  EXPECT_EQ(reply.targets[2].kind, programs::TargetKind::kCartesian);
+
+  // Usage errors: several files without --out, an unknown dialect; a malformed number is the service's 400.
+  std::ofstream(Path("b.script")) << "movej([0, 0, 0, 0, 0, 0])\n";
+  EXPECT_EQ(RunCli("--server " + server_.url() + " compensate-program " + campaign + " " + Path("cell.script") + " " +
+                   Path("b.script")).exit_code, 2);
+  EXPECT_EQ(RunCli("--server " + server_.url() + " compensate-program " + campaign + " " + Path("b.script") +
+                   " --dialect cobol").exit_code, 2);
+  std::ofstream(Path("bad.script")) << "# x\nmovej([0, 0.1.2, 0, 0, 0, 0])\n";
+  const InProcess bad = RunInProcess({"--server", server_.url(), "compensate-program", campaign, Path("bad.script")});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("line 2, column"), std::string::npos) << bad.err;
 }
 
 TEST_F(CliTest, TokenFromFlag) {

@@ -465,6 +465,7 @@ TEST(CsvTest, CompensationResultsWithBranches) {
   api::Compensation first, second, none;
   first.joints = {1.0};
   first.converged = true;
+  first.predicted_error_mm = 0.25;
   first.configuration = ArmConfiguration{1, -1, 1};
   second = first;
   second.configuration = ArmConfiguration{1, -1, -1};
@@ -473,14 +474,14 @@ TEST(CsvTest, CompensationResultsWithBranches) {
   std::stringstream s;
   client::WriteCompensationCsv(s, joints, {first, second, none}, true);
   EXPECT_EQ(s.str(),
-            "a_deg,position_error_mm,orientation_error_deg,converged,shoulder,elbow,wrist,joint_jump_deg,joint_jump,"
-            "branch_change\n"
-            "1,0,0,1,front,down,noflip,,0,0\n"
-            "1,0,0,1,front,down,flip,2,0,1\n"
-            "nan,0,0,0,,,,,0,0\n");
+            "a_deg,position_error_mm,orientation_error_deg,predicted_error_mm,converged,shoulder,elbow,wrist,"
+            "joint_jump_deg,joint_jump,branch_change\n"
+            "1,0,0,0.25,1,front,down,noflip,,0,0\n"
+            "1,0,0,0.25,1,front,down,flip,2,0,1\n"
+            "nan,0,0,,0,,,,,0,0\n");
   std::stringstream plain;
   client::WriteCompensationCsv(plain, joints, {none}, false);
-  EXPECT_EQ(plain.str(), "a_deg,position_error_mm,orientation_error_deg,converged\nnan,0,0,0\n");
+  EXPECT_EQ(plain.str(), "a_deg,position_error_mm,orientation_error_deg,predicted_error_mm,converged\nnan,0,0,,0\n");
 }
 
 TEST(CsvTest, MeasurementsWithAndWithoutOrientation) {

@@ -640,6 +640,55 @@ call POST "/v1/campaigns/$arm:compensate" "{\"targets\": [{\"pose\": $pose, \"co
 expect "POST :compensate elbow sideways -> 400 naming the flag" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
   "400 targets[0].configuration.elbow"
 
+# ---- robot programs: compensated in the controller's own language (docs/programs.md) --------------------------------
+# A KRL program of the campaign robot (ur5e, its base at the world's origin): a joint target at q, and the nominal
+# tool pose there as an E6POS (X, Y, Z, and A, B, C from the quaternion: Z, Y', X'').
+fwd=$(call POST "/v1/robots/ur5e:forward" "{\"joints\": [$q]}" | jq -c '.poses[0]')
+abc=$(jq -c '.quaternion as [$w, $x, $y, $z] |
+  [ (2 * ($x * $y + $w * $z) | atan2(.; 1 - 2 * ($y * $y + $z * $z))),
+    (2 * ($w * $y - $x * $z) | asin),
+    (2 * ($y * $z + $w * $x) | atan2(.; 1 - 2 * ($x * $x + $y * $y))) ] | map(. * 180 / 3.141592653589793)' <<<"$fwd")
+dat=$(jq -rn --argjson p "$fwd" --argjson r "$abc" --argjson q "$q" '
+  "DEFDAT  weld\r\n; targets\r\nDECL E6AXIS XHOME={A1 \($q[0]),A2 \($q[1]),A3 \($q[2]),A4 \($q[3]),A5 \($q[4]),A6 \($q[5]),E1 0,E2 0,E3 0,E4 0,E5 0,E6 0}\r\n" +
+  "DECL E6POS XP1={X \($p.position_mm[0] * 1000 | round / 1000),Y \($p.position_mm[1] * 1000 | round / 1000),Z \($p.position_mm[2] * 1000 | round / 1000),A \($r[0] * 10000 | round / 10000),B \($r[1] * 10000 | round / 10000),C \($r[2] * 10000 | round / 10000),E1 0,E2 0,E3 0,E4 0,E5 0,E6 0}\r\nENDDAT\r\n"')
+src=$'DEF weld( )\r\n  PTP XHOME   ; home\r\n  PTP XP1\r\nEND\r\n'
+body=$(jq -n --arg s "$src" --arg d "$dat" '{files: {"weld.src": $s, "weld.dat": $d}}')
+call POST "/v1/campaigns/$arm:compensate-program" "$body" >"$work/krl.json"
+expect "POST :compensate-program (KRL .src + .dat, dialect from the extensions)" \
+  "$(status) $(jq -c '[.dialect, .summary.targets, .summary.joint_targets, .summary.termination]' "$work/krl.json")" \
+  '200 ["krl",2,1,"CONVERGENCE"]'
+expect "... the .src comes back byte for byte, the .dat's targets rewritten" \
+  "$(jq -r '.files["weld.src"] == $s' --arg s "$src" "$work/krl.json") $(jq -r '.files["weld.dat"] != $d' --arg d "$dat" "$work/krl.json")" \
+  "true true"
+expect "... each target with its line, name, kind and predicted error" \
+  "$(jq -c '[.targets[] | [.file, .line, .name, .kind, .configuration_kept, (.predicted_error_mm > 0)]]' "$work/krl.json")" \
+  '[["weld.dat",3,"XHOME","joint",true,true],["weld.dat",4,"XP1","cartesian",true,true]]'
+expect "... the joint target moved by a fraction of a degree" \
+  "$(jq '.targets[0].joint_change_deg | . > 0 and . < 1' "$work/krl.json")" true
+bad_dat=$(sed 's/Y [-0-9.]*/Y 1.2.3/' <<<"$dat")
+call POST "/v1/campaigns/$arm:compensate-program" "$(jq -n --arg s "$src" --arg d "$bad_dat" '{files: {"weld.src": $s, "weld.dat": $d}}')" >/dev/null
+expect "a malformed number -> 400 naming the file, and line and column in the reason" \
+  "$(status) $(jq -r '.error.details[0].field' "$work/body") $(jq -r '.error.details[0].reason | test("^line 4, column [0-9]+: ")' "$work/body")" \
+  "400 files.weld.dat true"
+call POST "/v1/campaigns/$arm:compensate-program" '{"files": {"weld.txt": "PTP XP1"}}' >/dev/null
+expect "an extension that names no dialect -> 400 naming dialect" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 dialect"
+call POST "/v1/campaigns/$arm:compensate-program" '{"dialect": "cobol", "files": {"a.src": ""}}' >/dev/null
+expect "an unknown dialect -> 400 naming dialect" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 dialect"
+call POST "/v1/campaigns/$arm:compensate-program" '{"files": {"../a.src": ""}}' >/dev/null
+expect "a file name with a directory -> 400 naming files" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 files"
+call POST "/v1/campaigns/$arm:compensate-program" "$(jq -n --arg s "$src" --arg d "$dat" '{files: {"weld.src": $s, "weld.dat": $d}, max_path_deviation_mm: 0}')" >/dev/null
+expect "max_path_deviation_mm 0 -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 max_path_deviation_mm"
+far_dat=$(sed 's/X [-0-9.]*/X 9000.0/' <<<"$dat")
+call POST "/v1/campaigns/$arm:compensate-program" "$(jq -n --arg s "$src" --arg d "$far_dat" '{files: {"weld.src": $s, "weld.dat": $d}, on_failure: "refuse"}')" >/dev/null
+expect "on_failure refuse with a target out of reach -> 400 FAILED_PRECONDITION naming it" \
+  "$(status) $(jq -r '.error.status' "$work/body") $(jq -r '.error.details[0] | .field + " " + (.reason | split(":")[0])' "$work/body")" \
+  "400 FAILED_PRECONDITION files.weld.dat line 4 (XP1)"
+head -c 9000000 /dev/zero | tr '\0' ' ' >"$work/huge.src"
+expect "a program over the body limit -> 413" \
+  "$(request POST "/v1/campaigns/$arm:compensate-program" -H 'Content-Type: application/json' --data-binary @"$work/huge.src"; status)" 413
+expect "still serving" "$(call GET /healthz | jq -r .status)" ok
+
 # ---- bearer tokens -------------------------------------------------------------------------------------------
 stop_server
 printf '# tokens of the cell computers\ns3cret-cell7\n' >"$work/tokens"

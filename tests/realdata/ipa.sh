@@ -4,7 +4,9 @@
 # (docs/real-data.md) and checks them:
 #   Series B, N calibration poses drawn at random (N = 100 and 400), the rest validation: held-out E_xyz mean at
 #   most 0.42 / 0.41 mm, CONVERGENCE (no DEGRADED), outliers at most 1 % of the calibration poses, the model
-#   error within 20 % of the held-out RMS;
+#   error within 20 % of the held-out RMS; the predicted accuracy of the held-out poses' compensated joints
+#   (predicted_error_mm): 90-98 % of them within it, its mean at most 2.5 times the mean actual error, larger for the
+#   quarter of the poses farthest from a calibration pose than for the nearest quarter;
 #   cross-session: the B calibration registered as a robot, its base and tool fitted on 30 poses of Series D (a
 #   later session, the tracker elsewhere), the rest of D validated: better than the nominal robot's frames fit;
 #   beyond geometry (masses from the URDF): B with 400 and D with 200 calibration poses fitted geometric, auto and
@@ -68,6 +70,55 @@ for n in 100 400; do
   check "B N=$n: outliers <= 1 % of the calibration poses" "$outliers <= 0.01 * $n"
   check "B N=$n: held-out E_xyz mean <= $bar mm" "$mean <= $bar"
   check "B N=$n: model error within 20 % of the held-out RMS" "abs($model_error - $rms) <= 0.2 * $rms"
+  # The predicted accuracy (docs/compensation.md, "Predicted accuracy"): the held-out poses' joints compensated
+  # through :compensate, each result's predicted_error_mm (the 95 % bound) against the pose's actual held-out error
+  # (its measured position against the calibrated robot's at its joints, :forward), and against how far the pose
+  # lies from the nearest calibration pose (joint space, deg).
+  cli measurements "$c" --role validation --out "$work/$c.validation.csv"
+  cli measurements "$c" --role calibration --out "$work/$c.calibration.csv"
+  cut -d, -f1-6 "$work/$c.validation.csv" >"$work/$c.joints.csv"
+  cli compensate "$c" "$work/$c.joints.csv" --out "$work/$c.compensated.csv"
+  cli campaign forward "$c" "$work/$c.joints.csv" --out "$work/$c.forward.csv"
+  read -r within bound_mean actual_mean bound_near bound_far spearman < <(python3 - "$work/$c" <<'PY'
+import csv, math, sys
+base = sys.argv[1]
+def rows(name):
+    with open(f"{base}.{name}.csv") as f:
+        return list(csv.DictReader(line for line in f if not line.startswith('#')))
+validation, calibration = rows('validation'), rows('calibration')
+compensated, forward = rows('compensated'), rows('forward')
+joints = list(validation[0].keys())[:6]
+q = lambda r: [float(r[k]) for k in joints]
+xyz = lambda r: [float(r[k]) for k in ('x_mm', 'y_mm', 'z_mm')]
+actual = [math.dist(xyz(m), xyz(p)) for m, p in zip(validation, forward)]
+bound = [float(r['predicted_error_mm']) for r in compensated]  # every held-out pose has joints: a bound
+calibration_q = [q(r) for r in calibration]
+distance = [min(math.dist(q(r), c) for c in calibration_q) for r in validation]
+mean = lambda x: sum(x) / len(x)
+order = sorted(range(len(distance)), key=lambda i: distance[i])
+quarter = len(order) // 4
+def ranks(x):
+    r = [0] * len(x)
+    for k, i in enumerate(sorted(range(len(x)), key=lambda i: x[i])):
+        r[i] = k
+    return r
+rd, rb = ranks(distance), ranks(bound)
+md, mb = mean(rd), mean(rb)
+spearman = sum((a - md) * (b - mb) for a, b in zip(rd, rb)) / math.sqrt(
+    sum((a - md) ** 2 for a in rd) * sum((b - mb) ** 2 for b in rb))
+print(mean([a <= b for a, b in zip(actual, bound)]), mean(bound), mean(actual),
+      mean([bound[i] for i in order[:quarter]]), mean([bound[i] for i in order[-quarter:]]), spearman)
+PY
+  )
+  echo "  predicted accuracy: $(python3 -c "print(f'{100 * $within:.1f}')") % of the held-out poses within" \
+    "predicted_error_mm; mean bound $(printf %.3f "$bound_mean") mm against a mean actual error of" \
+    "$(printf %.3f "$actual_mean") mm; mean bound of the quarter nearest to a calibration pose" \
+    "$(printf %.4f "$bound_near") mm, of the farthest quarter $(printf %.4f "$bound_far") mm (Spearman rank" \
+    "correlation of bound and distance $(printf %.2f "$spearman"))"
+  check "B N=$n: 90-98 % of the held-out poses within their predicted_error_mm" "0.90 <= $within <= 0.98"
+  check "B N=$n: mean predicted_error_mm at most 2.5 times the mean actual error" "$bound_mean <= 2.5 * $actual_mean"
+  check "B N=$n: the bound is larger where the calibration poses were sparse" \
+    "$bound_far > $bound_near and $spearman > 0.2"
 done
 
 # Cross-session: the calibrated robot of b400 in Series D's cell: base and tool from 30 poses.

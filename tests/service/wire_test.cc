@@ -13,6 +13,7 @@
 #include "robocal/api/cells.h"
 #include "robocal/api/stored.h"
 #include "robocal/api/tracker_files.h"
+#include "robocal/api/programs.h"
 #include "robocal/core/arm_kinematics.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/planning.h"
@@ -272,8 +273,13 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
       "w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
                                       {"pose":{"position_mm":[400,0,300],"rpy_deg":[180,0,0]},"frame":"base"}]})"));
   ASSERT_EQ(comp.results.size(), 2u);
+  for (const Compensation& c : comp.results) {
+    EXPECT_GT(c.predicted_error_mm, 0.0);  // NaN fails too
+    EXPECT_LT(c.predicted_error_mm, 10.0);
+  }
   ExpectRoundTrip(comp);
-  ExpectEveryFieldRequired(comp, {});
+  // A reply of an older server has no predicted_error_mm.
+  ExpectEveryFieldRequired(comp, {"results[0].predicted_error_mm"});
   // The reply as the server writes it is the same document, with every kind of value a result can hold.
   EXPECT_EQ(json::parse(DumpCompensateResult(comp)), json(comp));
   CompensateResult odd = comp;
@@ -285,6 +291,7 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   odd.results[0].joint_jump_deg = 1e-300;
   odd.results[1].joints = {std::nan(""), -0.0, 1e300, 5e-324};
   odd.results[1].position_error_mm = std::nan("");
+  odd.results[1].predicted_error_mm = std::nan("");
   odd.results[1].termination = Termination::kFailure;
   EXPECT_EQ(json::parse(DumpCompensateResult(odd)), json(odd));
   EXPECT_EQ(json::parse(DumpCompensateResult(CompensateResult{})), json(CompensateResult{}));
@@ -600,6 +607,38 @@ TEST(WireRequestTest, RequestsRoundTrip) {
   ExpectRoundTrip(comp);
   EXPECT_EQ(json(ParseCompensateRequest(json(comp), model, Limits{})), json(comp));
   ExpectRoundTrip(EvaluateRequest{12.5});
+  // A program: its files and frames are objects of names; the parser takes what to_json writes.
+  CompensateProgramRequest program;
+  program.dialect = programs::Dialect::kRapid;
+  program.files = {{"main.mod", "MODULE main\r\nENDMODULE\r\n"}, {"b.prg", ""}};
+  program.tools = {{"tool1", {0, 0, 150, 1, 0, 0, 0}}};
+  program.bases = {{"wobj1", {1000, 0, 0, 0.5, 0.5, 0.5, 0.5}}};
+  program.max_path_deviation_mm = 0.05;
+  program.on_failure = programs::OnFailure::kRefuse;
+  ExpectRoundTrip(program);
+  EXPECT_EQ(json(ParseCompensateProgramRequest(json(program), Limits{})), json(program));
+  // Without a dialect the extensions name it; a quaternion dialect's frames have 7 values, others 6.
+  json named = json(program);
+  named.erase("dialect");
+  EXPECT_EQ(ParseCompensateProgramRequest(named, Limits{}).dialect, programs::Dialect::kRapid);
+  named["files"] = {{"a.src", ""}, {"a.dat", ""}};
+  try {
+    (void)ParseCompensateProgramRequest(named, Limits{});
+    FAIL();
+  } catch (const ApiError& e) {
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "tools.tool1");
+  }
+  named["files"] = {{"a.src", ""}, {"b.mod", ""}};
+  named.erase("tools");
+  named.erase("bases");
+  try {
+    (void)ParseCompensateProgramRequest(named, Limits{});
+    FAIL();
+  } catch (const ApiError& e) {
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "dialect");
+  }
   ExpectRoundTrip(ForwardRequest{{{0, 0, 0, 0, 0, 0}}});
 }
 
@@ -621,6 +660,9 @@ TEST(WireEnumTest, EveryEnumHasOneNameEachAndUnknownNamesAreNamed) {
   check(EnumTable<OperationState>::values);
   check(EnumTable<Status>::values);
   check(EnumTable<GeometryConvention>::values);
+  check(EnumTable<programs::Dialect>::values);
+  check(EnumTable<programs::TargetKind>::values);
+  check(EnumTable<programs::OnFailure>::values);
   json summary = json(PlanSummaryWire{});
   summary["termination"] = "DONE";
   try {
@@ -659,7 +701,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"shoulder", {ShoulderName(1), ShoulderName(-1)}},  {"elbow", {ElbowName(1), ElbowName(-1)}},
       {"wrist", {WristName(1), WristName(-1)}},          {"delimiter", TrackerFileDelimiters()},
       {"decimal", TrackerFileDecimals()},                {"representation", OrientationRepresentations()},
-      {"order", QuaternionOrders()},                     {"scope", FitScopes()}};
+      {"order", QuaternionOrders()},                     {"scope", FitScopes()},
+      {"dialect", WireNames<programs::Dialect>()},       {"on_failure", WireNames<programs::OnFailure>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
@@ -667,7 +710,9 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/ImportMeasurementsRequest/properties/orientation.unit", AngleUnits()},
       {"/components/schemas/ImportMeasurementsRequest/properties/orientation.convention", EulerConventions()},
       {"/components/schemas/Calibration/properties/parameters/items.unit", ParameterUnits()},
-      {"/components/schemas/Calibration/properties/parameters_with_outliers/items.unit", ParameterUnits()}};
+      {"/components/schemas/Calibration/properties/parameters_with_outliers/items.unit", ParameterUnits()},
+      {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
+       WireNames<programs::TargetKind>()}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {
       {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

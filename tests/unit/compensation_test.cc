@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "robocal/core/arm_kinematics.h"
+#include "robocal/core/compensation_study.h"
 #include "robocal/core/identification.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
@@ -458,6 +459,15 @@ TEST(CompensationTest, RejectsInvalidOptionsByName) {
   o.start_damping = -1.0;
   expect_invalid(o, "start_damping");
   o = {};
+  o.start_radius_rad = -0.1;
+  expect_invalid(o, "start_radius_rad");
+  o = {};
+  o.start_radius_rad = HUGE_VAL;
+  expect_invalid(o, "start_radius_rad");
+  o = {};
+  o.start_radius_rad = 0.0;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  o = {};
   o.max_damping = o.initial_damping;
   expect_invalid(o, "max_damping");
   o = {};
@@ -893,7 +903,8 @@ TEST(CompensationTest, ResultWithinToleranceAtAStretchedElbowIsConverged) {
 // Start joints a few degrees from the joints that reach a pose target (a taught program, touched up): on the same
 // branch the answer is the solution nearest the start, the true joints (or, near a singularity where the errors
 // put two solutions of one branch within a degree or two, one still nearer the start); across a branch boundary
-// it is on the start's branch wherever the calibrated robot reaches the target there. A third of the targets
+// it is on the start's branch wherever the calibrated robot reaches the target there within start_radius_rad of the
+// start (farther, the robot would swing: TaughtJointsAreKept). A third of the targets
 // near the elbow's boundaries (joint 3 within 5 deg of 0 or 180), a third near the wrist's (joint 5).
 // Before: 1 of the 494 same-branch targets came back 18.9 deg away (joints 2 to 4 moved along the near self-motion
 // of the offset wrist's singularity, joint 5 at 179.9 deg), and 3 of the 106 across a boundary on a branch other
@@ -903,6 +914,7 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
   const Calibration calibration = MakeCalibration(Ur10Spec(), 61);
   const ArmSolver arm = *ArmSolver::For(nominal);
   const FoldedChain calibrated(calibration.model, calibration.errors);
+  const CompensationOptions options;
   Rng rng(62);
   int same = 0, across = 0, misses = 0, other_nearer = 0, left_branch = 0;
   for (int i = 0; i < 600; ++i) {
@@ -925,7 +937,8 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
       ++across;
       if (*r.configuration != own) {
         t.configuration = own;
-        if (Compensate(calibration, nominal, t).converged) {
+        const CompensationResult on_own = Compensate(calibration, nominal, t);
+        if (on_own.converged && (on_own.joints - start).norm() <= options.start_radius_rad) {
           ++left_branch;
           ADD_FAILURE() << i << ": " << r.configuration->ToString() << " although " << own.ToString() << " reaches";
         }
@@ -950,6 +963,101 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
   // Both kinds are there in numbers.
   EXPECT_GT(same, 450);
   EXPECT_GT(across, 50);
+}
+
+
+// Taught joints are kept: a pose target with start_joints a few degrees from joints that reach it (a taught program,
+// touched up) comes back near them, never at another solution far away without saying so. A UR10-like arm
+// registered in modified DH (the UR10's published lengths, as pybotics describes it) with errors of a calibration's
+// size; 600 targets at random joints q, each with start joints 5 deg from q (Euclidean over the joints) in a random
+// direction. Since q reaches the target 5 deg from the start:
+// - where the start has q's flags, the answer is on that branch within those 5 deg (it is the solution of the
+//   start's branch nearest the start, and q is one);
+// - where the start lies across a boundary (22 of the 600), within 15 deg: start_radius_rad (10 deg) beyond the
+//   nearest solution, which lies within 5 deg; and on another branch than the start's only where the start's has
+//   no solution within start_radius_rad. Seen: at most 8.6 deg.
+// Before start_radius_rad, 14 of the 600 came back 17 to 260 deg from the start (all across a boundary: 11 at the
+// far solution of the start's branch, 3 at one of another branch, chosen for its fewer differing flags).
+// Start joints farther than start_radius_rad from every solution name the branch only; the answer then says how far
+// it is from them.
+TEST(CompensationTest, TaughtJointsAreKept) {
+  const RobotModelSpec spec = Ur10LikeMdhSpec();
+  const RobotModel nominal = RobotModel::Build(spec);
+  const Calibration calibration = MakeCalibration(spec, 71);
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  const FoldedChain calibrated(calibration.model, calibration.errors);
+  const double radius = CompensationOptions{}.start_radius_rad;
+  ASSERT_NEAR(radius, 10.0 * kRadPerDeg, 1e-12);
+  const double offset = 5.0 * kRadPerDeg;
+  Rng rng(72);
+  int same = 0, across = 0, swung = 0;
+  for (int i = 0; i < 600; ++i) {
+    const Eigen::VectorXd q = InteriorConfiguration(nominal, &rng);
+    Eigen::VectorXd direction(6);
+    for (int k = 0; k < 6; ++k) direction[k] = rng.Normal();
+    const Eigen::VectorXd start = q + offset * direction.normalized();
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    t.start = start;
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    ASSERT_TRUE(r.converged) << i << ": " << r.message;
+    EXPECT_TRUE(r.message.empty()) << i << ": " << r.message;
+    const ArmConfiguration own = arm.ConfigurationOf(start);
+    const double moved = (r.joints - start).norm();
+    bool kept = true;
+    if (own == arm.ConfigurationOf(q)) {
+      ++same;
+      kept = *r.configuration == own && moved <= offset + 1e-6;
+    } else {
+      ++across;
+      kept = moved <= offset + radius;
+      if (kept && *r.configuration != own) {
+        t.configuration = own;
+        const CompensationResult on_own = Compensate(calibration, nominal, t);
+        kept = !on_own.converged || (on_own.joints - start).norm() > radius;
+      }
+    }
+    if (!kept) {
+      ++swung;
+      ADD_FAILURE() << i << ": " << moved / kRadPerDeg << " deg from the start, " << r.configuration->ToString()
+                    << " for a start with " << own.ToString() << "\n  true " << q.transpose() / kRadPerDeg
+                    << "\n start " << start.transpose() / kRadPerDeg
+                    << "\n   got " << r.joints.transpose() / kRadPerDeg;
+    }
+  }
+  EXPECT_EQ(swung, 0);
+  // Both kinds are there.
+  EXPECT_GT(same, 500);
+  EXPECT_GT(across, 10);
+
+  // Start joints with joint 5 mirrored (the wrist's other branch, 20 deg or more from q): the answer is on their
+  // branch wherever the robot reaches the target there (joints 4 and 6 turned by about 180 deg, often beyond the
+  // limits of +-170 deg), and says how far it is from them.
+  int far = 0, theirs = 0;
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::VectorXd q = InteriorConfiguration(nominal, &rng);
+    if (std::abs(q[4]) < 10.0 * kRadPerDeg) continue;
+    Eigen::VectorXd start = q;
+    start[4] = -q[4];
+    CompensationTarget t;
+    t.pose = calibrated.Forward(q, nullptr);
+    t.start = start;
+    const CompensationResult r = Compensate(calibration, nominal, t);
+    ASSERT_TRUE(r.converged) << i << ": " << r.message;
+    const ArmConfiguration own = arm.ConfigurationOf(start);
+    if (*r.configuration == own) {
+      ++theirs;
+      EXPECT_THAT(r.message, HasSubstr(", theirs) is ")) << i;
+    } else {
+      t.configuration = own;
+      EXPECT_FALSE(Compensate(calibration, nominal, t).converged) << i;
+    }
+    if ((r.joints - start).norm() <= radius) continue;
+    ++far;
+    EXPECT_THAT(r.message, HasSubstr("no solution within 10 deg of start_joints: this one (")) << i;
+  }
+  EXPECT_GT(theirs, 10);
+  EXPECT_GT(far, 50);
 }
 
 }  // namespace

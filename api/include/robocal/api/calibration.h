@@ -488,6 +488,11 @@ struct Compensation {
   std::optional<ArmConfiguration> configuration;
   /// With sequence: the configuration differs from the previous target's result.
   bool branch_change = false;
+  /// A 95 % bound on the tool position error (mm, tracker frame) the robot will have at `joints`: the fit's
+  /// parameter covariance carried to them through the calibrated model, plus its estimated model error and the
+  /// campaign's repeatability (PredictPositionError, docs/compensation.md "Predicted accuracy"). NaN / null
+  /// without joints, and for a calibration without a parameter covariance (a fit stored by an older server).
+  double predicted_error_mm = std::numeric_limits<double>::quiet_NaN();
 };
 template <>
 struct WireFields<Compensation> {
@@ -504,7 +509,8 @@ struct WireFields<Compensation> {
       Field{"joint_jump_deg", &S::joint_jump_deg},
       Field{"joint_jump", &S::joint_jump},
       Field{"configuration", &S::configuration},
-      Field{"branch_change", &S::branch_change});
+      Field{"branch_change", &S::branch_change},
+      Field{"predicted_error_mm", &S::predicted_error_mm, Presence::kOptionalOnRead});
 };
 ROBOCAL_WIRE_DECLARE(Compensation);
 Compensation ToWire(const RobotModel& model, const CompensationResult& result);

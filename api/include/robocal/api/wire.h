@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -167,6 +168,11 @@ template <typename T>
 struct IsVector : std::false_type {};
 template <typename T>
 struct IsVector<std::vector<T>> : std::true_type {};
+// An object of names to values (a program's files, its tools): std::map keyed by string.
+template <typename T>
+struct IsStringMap : std::false_type {};
+template <typename V>
+struct IsStringMap<std::map<std::string, V>> : std::true_type {};
 template <typename T>
 struct IsOptional : std::false_type {};
 template <typename T>
@@ -234,6 +240,11 @@ void ReadWire(const nlohmann::json& value, const std::string& path, T* out) {
       detail::ThrowWire(path, "expected an array of " + std::to_string(std::tuple_size_v<T>) + " values");
     }
     for (std::size_t i = 0; i < value.size(); ++i) ReadWire(value[i], detail::IndexPathOf(path, i), &(*out)[i]);
+  } else if constexpr (detail::IsStringMap<T>::value) {
+    if (!value.is_object()) detail::ThrowWire(path, "expected an object");
+    T map;
+    for (const auto& [key, member] : value.items()) ReadWire(member, WirePath(path, key), &map[key]);
+    *out = std::move(map);
   } else if constexpr (std::is_same_v<T, nlohmann::json>) {
     *out = value;
   } else {

@@ -22,6 +22,7 @@
 #include "robocal/api/health.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
+#include "robocal/api/programs.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/tracker_files.h"
 
@@ -182,6 +183,12 @@ class Client {
   std::string GetCampaignReport(const std::string& campaign, std::optional<double> h_mm = std::nullopt);
   /// One result per target, in order.
   api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
+  /// A robot program in its controller's language, compensated on the campaign's calibration (docs/programs.md):
+  /// the files back with every target corrected, and a report per target. ApiError 400 naming file, line and
+  /// column for a program the service cannot read; 400 FAILED_PRECONDITION naming the targets when
+  /// on_failure is refuse and one fails.
+  api::CompensateProgramResult CompensateProgram(const std::string& campaign,
+                                                 const api::CompensateProgramRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).
   api::CompensateResult CompensateJoints(const std::string& campaign,
                                          const std::vector<std::vector<double>>& nominal_joints);

@@ -38,6 +38,7 @@ void WriteMeasurementsCsv(std::ostream& out, const std::vector<api::RobotJoint>&
 std::vector<api::CompensationTargetWire> ReadCompensationTargetsCsv(std::istream& in, int num_joints,
                                                                    TargetFrame frame = TargetFrame::kTracker);
 /// Compensation results: the compensated joint columns, then position_error_mm, orientation_error_deg,
+/// predicted_error_mm (the 95 % bound on the position error at the joints; empty where the reply has none),
 /// converged (0/1); for a robot with named branches shoulder, elbow, wrist (empty without joints); with
 /// `sequence` also joint_jump_deg (empty on the first row) and joint_jump (0/1), and for a robot with named
 /// branches branch_change (0/1).

@@ -12,6 +12,7 @@
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 #include "robocal/core/transforms.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 
@@ -38,6 +39,13 @@ struct CompensationOptions {
   /// solutions; a damped one goes down the error's steep directions first. 1e-3 is the start Madsen, Nielsen &
   /// Tingleff (2004, section 3.2) suggest for a start not known to be close.
   double start_damping = 1e-3;
+  /// Start joints (or the previous result in a sequence) are taught joints where a converged solution lies within
+  /// this distance of them (Euclidean over the joints, rad): only the solutions within this distance beyond the
+  /// nearest one are answers then, the start's branch first among them (see Compensate). A start a few degrees
+  /// across a branch boundary (a singularity) would otherwise swing the robot to the far solution of its own flags:
+  /// across the wrist's, joints 4 and 6 turn by 180 deg. Start joints farther than this from every solution name
+  /// the branch only, and the result's message says how far it is from them.
+  double start_radius_rad = 10.0 * kRadPerDeg;
   double max_damping = 1e6;
   int max_iterations = 100;
   /// Converged when the position error <= position_tolerance_mm and the matched orientation error <=
@@ -77,7 +85,9 @@ struct CompensationResult {
   bool converged = false;
   /// Joint Jacobian evaluations.
   int iterations = 0;
-  /// Empty when converged; otherwise why not (e.g. "joint 3 (Z) at its upper limit 400; ...").
+  /// Empty when converged, except for a pose target whose start joints lie farther than
+  /// CompensationOptions::start_radius_rad from every solution, which says how far the answer is from them;
+  /// otherwise why not (e.g. "joint 3 (Z) at its upper limit 400; ...").
   std::string message;
   /// For a 6R arm of a known family (ArmSolver::For): the branch of `joints` (flags of the nominal chain
   /// there); nullopt otherwise or without joints.
@@ -111,14 +121,17 @@ CompensationResult CompensateJoints(const Calibration& calibration, const RobotM
 /// sequence, else shoulder front, elbow up, wrist noflip. With `start` (or a previous result) the answer is the
 /// converged solution on that branch nearest those joints, every revolute joint at its turn nearest them within the
 /// limits; failing that branch, the converged one with the fewest and least important other flags (shoulder before
-/// elbow before wrist), nearest. It is looked for from those joints first (with options.start_damping; joints that
-/// reach the target come back as they are), then from the branches' nominal closed-form solutions (ArmSolver), each
-/// placed in the joint limits nearest the reference joints (start, previous, or DefaultJoints) and refined on the
-/// calibrated model in that order of preference; without start or previous joints the first of those to converge
-/// with the demanded flags is the answer. A converged result is never given up for one that did not converge. A
-/// robot of no known family has no named branches: its pose target is solved from `start`, else from the previous
-/// result, else from DefaultJoints and then a fixed grid of starts (the quarter and three-quarter points of every
-/// joint range, nearest first) until one converges.
+/// elbow before wrist), nearest. Where a solution lies within options.start_radius_rad of those joints, only those
+/// within that radius beyond the nearest count: the start's branch first, but a far solution of it never wins over
+/// a near one of another branch (the robot does not swing from taught joints); start joints farther than that from
+/// every solution get an answer whose message says how far it is from them. It is looked for from those joints
+/// first (with options.start_damping; joints that reach the target come back as they are), then from the branches'
+/// nominal closed-form solutions (ArmSolver), each placed in the joint limits nearest the reference joints (start,
+/// previous, or DefaultJoints) and refined on the calibrated model in that order of preference; without start or
+/// previous joints the first of those to converge with the demanded flags is the answer. A converged result is
+/// never given up for one that did not converge. A robot of no known family has no named branches: its pose target
+/// is solved from `start`, else from the previous result, else from DefaultJoints and then a fixed grid of starts
+/// (the quarter and three-quarter points of every joint range, nearest first) until one converges.
 struct CompensationTarget {
   Eigen::VectorXd joints;
   std::optional<Transform> pose;

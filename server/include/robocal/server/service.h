@@ -20,6 +20,7 @@
 #include "robocal/api/tracker_files.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
+#include "robocal/api/programs.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/stored.h"
 #include "robocal/core/robot_model.h"
@@ -109,6 +110,8 @@ class Service {
   /// registers it (POST /v1/robots); FAILED_PRECONDITION naming the parameters where no DH table can hold it.
   api::RegisterRobotRequest CalibrationDh(const std::string& campaign, GeometryConvention convention);
   api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
+  /// A robot program in its controller's language, compensated (service_programs.cc, docs/programs.md).
+  api::CompensateProgramResult CompensateProgram(const std::string& campaign, const nlohmann::json& body);
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
   api::Evaluation Evaluate(const std::string& campaign, const nlohmann::json& body);
   /// The campaign report (service_report.cc, docs/report.md): one self-contained HTML page of the robot, the

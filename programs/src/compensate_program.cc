@@ -1,0 +1,710 @@
+// A program compensated on a calibration (compensate_program.h): read, the joints the controller would use for
+// each target as written (a nominal pass in program order), every target solved on the calibrated robot from
+// those joints (in parallel: given its start, a target does not depend on the others), straight moves checked
+// and split, and the numbers written back into their own bytes.
+#include "robocal/programs/compensate_program.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+
+#include "robocal/core/arm_kinematics.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/prediction.h"
+#include "robocal/core/units.h"
+#include "robocal/programs/text_scan.h"
+
+namespace robocal::programs {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// What the targets of one program share.
+struct Context {
+  const Calibration& calibration;
+  const RobotModel& nominal;
+  const DialectSyntax& syntax;
+  const std::vector<ProgramFile>& files;
+  const ProgramCompensationOptions& options;
+  std::optional<ArmSolver> arm;
+  // The nominal robot as a calibration (no errors, its own base): the controller's inverse kinematics.
+  Calibration controller;
+  Transform T_base_world_nominal;
+  Transform T_base_world_calibrated;
+};
+
+// Number units of a target's values, in order.
+NumberUnit UnitOf(const Context& ctx, const ProgramTarget& t, std::size_t k) {
+  if (t.kind == TargetKind::kJoint) {
+    if (static_cast<int>(k) < ctx.nominal.num_joints() &&
+        ctx.nominal.joint_type(static_cast<int>(k)) == JointType::kPrismatic) {
+      return ctx.syntax.mm_per_length_unit == 1.0 ? NumberUnit::kMm : NumberUnit::kM;
+    }
+    return ctx.syntax.joints_in_rad ? NumberUnit::kRad : NumberUnit::kDeg;
+  }
+  if (k < 3) return ctx.syntax.mm_per_length_unit == 1.0 ? NumberUnit::kMm : NumberUnit::kM;
+  switch (ctx.syntax.rotation) {
+    case RotationConvention::kQuaternionWxyz:
+      return NumberUnit::kQuaternion;
+    case RotationConvention::kRotationVectorRad:
+      return NumberUnit::kRad;
+    default:
+      return NumberUnit::kDeg;
+  }
+}
+
+// Written joint values -> core units (rad / mm), and back.
+Eigen::VectorXd JointsToCore(const Context& ctx, const std::vector<double>& values) {
+  Eigen::VectorXd q(static_cast<Eigen::Index>(values.size()));
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const bool prismatic = ctx.nominal.joint_type(static_cast<int>(k)) == JointType::kPrismatic;
+    q[static_cast<Eigen::Index>(k)] = prismatic                  ? values[k] * ctx.syntax.mm_per_length_unit
+                                      : ctx.syntax.joints_in_rad ? values[k]
+                                                                 : values[k] * kRadPerDeg;
+  }
+  return q;
+}
+
+std::vector<double> JointsFromCore(const Context& ctx, const Eigen::VectorXd& q) {
+  std::vector<double> values(static_cast<std::size_t>(q.size()));
+  for (Eigen::Index k = 0; k < q.size(); ++k) {
+    const bool prismatic = ctx.nominal.joint_type(static_cast<int>(k)) == JointType::kPrismatic;
+    values[static_cast<std::size_t>(k)] = prismatic                  ? q[k] / ctx.syntax.mm_per_length_unit
+                                          : ctx.syntax.joints_in_rad ? q[k]
+                                                                     : q[k] * kDegPerRad;
+  }
+  return values;
+}
+
+// A tool or base entry of the request as a transform; std::invalid_argument naming it.
+Transform EntryPose(const DialectSyntax& syntax, const std::string& field, const std::vector<double>& values) {
+  try {
+    return PoseFromValues(syntax, values);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(field + ": " + e.what());
+  }
+}
+
+// Where a target's frames put it: T_base_frame (the program's base / work object in the robot base) and the
+// transform from the robot's own tool to the program's tool.
+struct Frames {
+  Transform T_base_frame = Transform::Identity();
+  // T_tool0_toolK = T_flange_tool0^-1 * T_flange_toolK (identity for the robot's own tool).
+  Transform T_tool0_tool = Transform::Identity();
+};
+
+Frames FramesOf(const Context& ctx, const ProgramTarget& t, const std::vector<SourceText>& sources) {
+  Frames frames;
+  if (!t.base.empty()) {
+    const auto it = ctx.options.bases.find(t.base);
+    if (it == ctx.options.bases.end()) {
+      const SourceText& source = sources[static_cast<std::size_t>(t.file)];
+      const std::size_t at = t.spans.empty() ? source.LineStart(std::max(1, t.line)) : t.spans.front().offset;
+      source.Fail(at, "the target" + (t.name ? " " + *t.name : std::string()) + " is in base '" + t.base +
+                          "', which `bases` does not give");
+    }
+    frames.T_base_frame = EntryPose(ctx.syntax, "bases." + t.base, it->second);
+  }
+  if (!t.tool.empty()) {
+    const auto it = ctx.options.tools.find(t.tool);
+    if (it != ctx.options.tools.end()) {
+      frames.T_tool0_tool =
+          ctx.nominal.T_flange_tool().inverse() * EntryPose(ctx.syntax, "tools." + t.tool, it->second);
+    }
+  }
+  return frames;
+}
+
+// The target as written: the pose of the robot's own tool in the robot base (mm, rad).
+Transform WrittenToolPose(const Context& ctx, const ProgramTarget& t, const Frames& frames,
+                          const std::vector<SourceText>& sources) {
+  try {
+    return frames.T_base_frame * PoseFromValues(ctx.syntax, t.values) * frames.T_tool0_tool.inverse();
+  } catch (const std::invalid_argument& e) {
+    sources[static_cast<std::size_t>(t.file)].Fail(t.spans.empty() ? 0 : t.spans.front().offset, e.what());
+  }
+}
+
+// The nominal tool pose in the robot base at q.
+Transform NominalToolPose(const Context& ctx, const Eigen::VectorXd& q) {
+  return ctx.T_base_world_nominal * ForwardKinematics(ctx.nominal, q);
+}
+
+// Of q + 2 pi k per revolute joint, the one within the target's turn ranges and the limits nearest `near`.
+// False if a turn range cannot be met within the limits.
+bool PlaceTurns(const Context& ctx, const std::vector<JointRange>& turns, const Eigen::VectorXd& near,
+                Eigen::VectorXd* q) {
+  constexpr double kTurn = 2.0 * std::numbers::pi;
+  bool met = true;
+  for (int i = 0; i < q->size(); ++i) {
+    if (ctx.nominal.joint_type(i) != JointType::kRevolute) continue;
+    double lower = ctx.nominal.lower_limits()[i], upper = ctx.nominal.upper_limits()[i];
+    for (const JointRange& r : turns) {
+      if (r.joint == i) lower = std::max(lower, r.min), upper = std::min(upper, r.max);
+    }
+    const double base = (*q)[i];
+    double best = base, best_distance = HUGE_VAL;
+    bool inside = false;
+    if (lower <= upper) {
+      const double k_low = std::floor((lower - base) / kTurn), k_high = std::ceil((upper - base) / kTurn);
+      for (double k = k_low; k <= k_high && k - k_low < 64; ++k) {
+        const double v = base + k * kTurn;
+        if (v < lower - 1e-12 || v >= upper + 1e-12) continue;
+        const double distance = std::abs(v - near[i]);
+        if (distance < best_distance) best = v, best_distance = distance, inside = true;
+      }
+    }
+    if (!inside) met = false;
+    (*q)[i] = best;
+  }
+  return met;
+}
+
+bool TurnsMet(const std::vector<JointRange>& turns, const Eigen::VectorXd& q) {
+  for (const JointRange& r : turns) {
+    if (r.joint < 0 || r.joint >= q.size()) continue;
+    if (!(q[r.joint] >= r.min - 1e-9 && q[r.joint] < r.max + 1e-9)) return false;
+  }
+  return true;
+}
+
+// The joints the controller uses for a Cartesian target as written: its nominal inverse kinematics on the branch
+// the target names (flags and turns) or, where none applies, on the previous target's branch nearest its joints.
+// Empty when the nominal robot does not reach the target on that branch.
+Eigen::VectorXd ControllerJoints(const Context& ctx, const ProgramTarget& t, const Transform& T_base_tool,
+                                 const Eigen::VectorXd& previous, std::string* why) {
+  const Eigen::VectorXd& near = previous.size() != 0 ? previous : DefaultJoints(ctx.nominal);
+  if (ctx.arm) {
+    ArmConfiguration wanted = t.configuration_applies ? t.configuration : ArmConfiguration{};
+    if (!t.configuration_applies && previous.size() != 0) wanted = ctx.arm->ConfigurationOf(previous);
+    // The first target without flags: any branch, front, up and noflip preferred (the shoulder weighing most),
+    // as the core's rule for a target without a hint.
+    auto preference = [&](const ArmConfiguration& c) {
+      if (t.configuration_applies || previous.size() != 0) return 0;
+      return 4 * (c.shoulder != 1) + 2 * (c.elbow != 1) + (c.wrist != 1);
+    };
+    Eigen::VectorXd best;
+    std::tuple<bool, int, double> best_rank{false, 0, HUGE_VAL};
+    for (const ArmSolution& s : ctx.arm->Solve(T_base_tool, near)) {
+      if (!wanted.Admits(s.configuration)) continue;
+      if (s.position_error_mm > 1e-6 || s.orientation_error_rad > 1e-9) continue;  // not an exact solution
+      Eigen::VectorXd q = s.joints;
+      const bool turns = PlaceTurns(ctx, t.configuration_applies ? t.turns : std::vector<JointRange>{}, near, &q);
+      const std::tuple<bool, int, double> rank{!turns, preference(s.configuration), (q - near).squaredNorm()};
+      if (best.size() == 0 || rank < best_rank) best = q, best_rank = rank;
+    }
+    const bool best_turns = best.size() != 0 && !std::get<0>(best_rank);
+    if (best.size() == 0) {
+      *why = "the nominal robot does not reach the target as written on " +
+             (wanted.empty() ? std::string("any branch") : wanted.ToString());
+    } else if (!best_turns) {
+      *why = "the nominal robot reaches the target as written only with other turns than the target names";
+    }
+    return best;
+  }
+  // A robot without named branches: the controller's solution from the previous joints.
+  CompensationTarget target;
+  target.pose = T_base_tool;
+  target.frame = TargetFrame::kBase;
+  target.start = near;
+  const CompensationResult r = Compensate(ctx.controller, ctx.nominal, target, ctx.options.solver);
+  if (!r.converged) {
+    *why = "the nominal robot does not reach the target as written: " + r.message;
+    return {};
+  }
+  return r.joints;
+}
+
+double LargestRevoluteChange(const RobotModel& model, const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  if (a.size() != b.size() || a.size() == 0) return kNaN;
+  double change = kNaN;
+  for (int i = 0; i < a.size(); ++i) {
+    if (model.joint_type(i) != JointType::kRevolute) continue;
+    const double d = std::abs(a[i] - b[i]);
+    change = std::isnan(change) ? d : std::max(change, d);
+  }
+  return change;
+}
+
+// One edit of a file: bytes [offset, offset + length) replaced by `text` (length 0: an insertion).
+struct Edit {
+  std::size_t offset = 0;
+  std::size_t length = 0;
+  std::string text;
+};
+
+// The line end that follows `end` in `text` ("\r\n", "\n" or "\r"), or the file's first one, or "\n".
+std::string LineEndAt(std::string_view text, std::size_t end) {
+  if (end < text.size()) {
+    if (text[end] == '\r') return end + 1 < text.size() && text[end + 1] == '\n' ? "\r\n" : "\r";
+    if (text[end] == '\n') return "\n";
+  }
+  const std::size_t first = text.find_first_of("\r\n");
+  if (first != std::string_view::npos && text[first] == '\r') {
+    return first + 1 < text.size() && text[first + 1] == '\n' ? "\r\n" : "\r";
+  }
+  return "\n";
+}
+
+// Per target, what the solve needs and gives.
+struct Work {
+  Frames frames;
+  // The robot's own tool in the robot base as written (Cartesian), or the nominal pose of the written joints.
+  Transform written = Transform::Identity();
+  // The controller's joints for the target as written; empty if it has none.
+  Eigen::VectorXd controller;
+  std::string controller_problem;
+  bool solved = false;
+  CompensationResult result;
+  // The new values (dialect units) when rewritten.
+  std::vector<double> values;
+  double predicted_error_mm = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Linear interpolation of positions and spherical of rotations, at s in [0, 1].
+Transform Interpolate(const Transform& a, const Transform& b, double s) {
+  Transform t = Transform::Identity();
+  t.translation() = (1.0 - s) * a.translation() + s * b.translation();
+  const Eigen::Quaterniond qa(a.linear()), qb(b.linear());
+  t.linear() = qa.slerp(s, qb).toRotationMatrix();
+  return t;
+}
+
+// The calibrated robot's tool in the robot base (its calibrated base) at q.
+Transform CalibratedToolPose(const Context& ctx, const Eigen::VectorXd& q) {
+  KinematicsWorkspace ws(ctx.calibration.model);
+  return ctx.T_base_world_calibrated *
+         ForwardKinematics(ctx.calibration.model, q, ctx.calibration.errors, &ws, ctx.options.payload);
+}
+
+// A straight segment between two compensated ends, checked at its midpoint and split while it deviates.
+struct Segment {
+  Transform intended_a, intended_b;  // the programmed ends (robot's tool, base frame)
+  Transform written_a, written_b;    // the ends as written after compensation (nominal poses)
+  Eigen::VectorXd q_a, q_b;          // the controller's joints at the written ends
+};
+
+struct Inserted {
+  Eigen::VectorXd joints;
+  Transform written;
+  CompensationResult result;
+};
+
+class PathChecker {
+ public:
+  explicit PathChecker(const Context& ctx) : ctx_(ctx) {}
+
+  // The targets to insert between the ends (in path order); *over: the segment still deviates after the deepest
+  // split. Each piece's midpoint is checked: the controller's joints there (nominal IK of the written ends'
+  // interpolation, on the branch of the end) moved on the calibrated robot, against the programmed path.
+  void Split(const Segment& s, int depth, std::vector<Inserted>* out, bool* over, double* worst_mm) const {
+    const Transform written_mid = Interpolate(s.written_a, s.written_b, 0.5);
+    const Eigen::VectorXd near = 0.5 * (s.q_a + s.q_b);
+    Eigen::VectorXd q_mid = ControllerAt(written_mid, s.q_b, near);
+    if (q_mid.size() == 0) return;  // the controller has no solution there either: nothing to compare
+    const Transform intended_mid = Interpolate(s.intended_a, s.intended_b, 0.5);
+    const double deviation = (CalibratedToolPose(ctx_, q_mid).translation() - intended_mid.translation()).norm();
+    *worst_mm = std::max(*worst_mm, deviation);
+    if (deviation <= *ctx_.options.max_path_deviation_mm) return;
+    if (depth >= ctx_.options.max_split_depth) {
+      *over = true;
+      return;
+    }
+    CompensationTarget target;
+    target.pose = intended_mid;
+    target.frame = TargetFrame::kBase;
+    target.start = q_mid;
+    target.payload = ctx_.options.payload;
+    Inserted mid;
+    mid.result = Compensate(ctx_.calibration, ctx_.nominal, target, ctx_.options.solver);
+    if (!mid.result.converged) {
+      *over = true;
+      return;
+    }
+    mid.joints = mid.result.joints;
+    mid.written = NominalToolPose(ctx_, mid.joints);
+    Segment first{s.intended_a, intended_mid, s.written_a, mid.written, s.q_a, mid.joints};
+    Segment second{intended_mid, s.intended_b, mid.written, s.written_b, mid.joints, s.q_b};
+    Split(first, depth + 1, out, over, worst_mm);
+    out->push_back(mid);
+    Split(second, depth + 1, out, over, worst_mm);
+  }
+
+ private:
+  // The controller's joints for a pose on the branch of `branch`, nearest `near`.
+  Eigen::VectorXd ControllerAt(const Transform& T_base_tool, const Eigen::VectorXd& branch,
+                               const Eigen::VectorXd& near) const {
+    if (ctx_.arm) {
+      const ArmConfiguration wanted = ctx_.arm->ConfigurationOf(branch);
+      Eigen::VectorXd best;
+      double best_distance = HUGE_VAL;
+      for (const ArmSolution& s : ctx_.arm->Solve(T_base_tool, near)) {
+        if (s.configuration != wanted || s.position_error_mm > 1e-6) continue;
+        Eigen::VectorXd q = s.joints;
+        PlaceTurns(ctx_, {}, near, &q);
+        const double distance = (q - near).squaredNorm();
+        if (distance < best_distance) best = q, best_distance = distance;
+      }
+      return best;
+    }
+    CompensationTarget target;
+    target.pose = T_base_tool;
+    target.frame = TargetFrame::kBase;
+    target.start = near;
+    const CompensationResult r = Compensate(ctx_.controller, ctx_.nominal, target, ctx_.options.solver);
+    return r.converged ? r.joints : Eigen::VectorXd();
+  }
+
+  const Context& ctx_;
+};
+
+std::string TargetLabel(const ProgramFile& file, const CompensatedTarget& t) {
+  return file.name + ":" + std::to_string(t.line) + (t.name ? " " + *t.name : std::string(" (inline)"));
+}
+
+}  // namespace
+
+const char* ToString(OnFailure on_failure) { return on_failure == OnFailure::kKeep ? "keep" : "refuse"; }
+
+bool ParseOnFailure(const std::string& text, OnFailure* on_failure) {
+  if (text == "keep")
+    *on_failure = OnFailure::kKeep;
+  else if (text == "refuse")
+    *on_failure = OnFailure::kRefuse;
+  else
+    return false;
+  return true;
+}
+
+bool ProgramCompensationOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (max_path_deviation_mm && !(*max_path_deviation_mm > 0.0 && std::isfinite(*max_path_deviation_mm))) {
+    return fail("max_path_deviation_mm must be positive and finite");
+  }
+  if (max_split_depth < 0 || max_split_depth > 10) return fail("max_split_depth must be in [0, 10]");
+  std::string why;
+  if (!solver.IsValid(&why)) return fail("solver: " + why);
+  if (!payload.IsValid("payload", &why)) return fail(why);
+  if (!prediction.IsValid(&why)) return fail("prediction: " + why);
+  if (threads < 0) return fail("threads must be >= 0");
+  return true;
+}
+
+ProgramCompensationResult CompensateProgram(const Calibration& calibration, const RobotModel& nominal, Dialect dialect,
+                                            const std::vector<ProgramFile>& files,
+                                            const ProgramCompensationOptions& options) {
+  return CompensateProgram(calibration, nominal, SyntaxOf(dialect), files, options);
+}
+
+ProgramCompensationResult CompensateProgram(const Calibration& calibration, const RobotModel& nominal,
+                                            const DialectSyntax& syntax, const std::vector<ProgramFile>& files,
+                                            const ProgramCompensationOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("ProgramCompensationOptions: " + error);
+  if (nominal.num_joints() != calibration.model.num_joints()) {
+    throw std::invalid_argument("CompensateProgram: the nominal model has another number of joints");
+  }
+  if (syntax.read == nullptr)
+    throw std::invalid_argument(std::string("CompensateProgram: ") + syntax.name + " has no reader");
+  if (options.max_path_deviation_mm && syntax.inline_target == nullptr) {
+    throw std::invalid_argument(std::string("max_path_deviation_mm: a ") + syntax.name +
+                                " program cannot take inserted targets");
+  }
+  Context ctx{calibration,
+              nominal,
+              syntax,
+              files,
+              options,
+              ArmSolver::For(nominal),
+              Calibration{.model = nominal,
+                          .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
+                          .parameters = {},
+                          .covariance = {},
+                          .T_world_base = nominal.T_world_base(),
+                          .T_flange_tool = nominal.T_flange_tool(),
+                          .reflectors = {},
+                          .summary = {}},
+              nominal.T_world_base().inverse(),
+              calibration.T_world_base.inverse()};
+
+  std::vector<SourceText> sources;
+  sources.reserve(files.size());
+  for (std::size_t f = 0; f < files.size(); ++f) sources.emplace_back(files[f], static_cast<int>(f));
+  const ParsedProgram program = syntax.read(files);
+  const std::size_t n = program.targets.size();
+  const int joints = nominal.num_joints();
+
+  // Every target's frames and written pose first: a frame the request does not give refuses the program before
+  // anything is solved.
+  std::vector<Work> work(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProgramTarget& t = program.targets[i];
+    if (t.values.size() != t.spans.size()) throw std::logic_error("reader: values and spans differ in number");
+    if (t.kind == TargetKind::kJoint) {
+      if (static_cast<int>(t.values.size()) != joints) {
+        sources[static_cast<std::size_t>(t.file)].Fail(t.spans.empty() ? 0 : t.spans.front().offset,
+                                                       "the joint target has " + std::to_string(t.values.size()) +
+                                                           " robot axes, the robot " + std::to_string(joints));
+      }
+      work[i].controller = JointsToCore(ctx, t.values);
+      work[i].written = NominalToolPose(ctx, work[i].controller);
+    } else {
+      work[i].frames = FramesOf(ctx, t, sources);
+      work[i].written = WrittenToolPose(ctx, t, work[i].frames, sources);
+    }
+  }
+
+  // The controller's joints in program order: motions first (each target at its first motion, from the previous
+  // motion's target), then the targets no motion uses, each from the target before it in the files.
+  std::vector<int> order;
+  std::vector<char> placed(n, 0);
+  for (const MotionStatement& m : program.motions) {
+    if (m.target >= 0 && static_cast<std::size_t>(m.target) < n && !placed[static_cast<std::size_t>(m.target)]) {
+      placed[static_cast<std::size_t>(m.target)] = 1;
+      order.push_back(m.target);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!placed[i]) order.push_back(static_cast<int>(i));
+  }
+  Eigen::VectorXd previous;
+  for (int i : order) {
+    const ProgramTarget& t = program.targets[static_cast<std::size_t>(i)];
+    Work& w = work[static_cast<std::size_t>(i)];
+    if (t.kind == TargetKind::kCartesian) {
+      w.controller = ControllerJoints(ctx, t, w.written, previous, &w.controller_problem);
+    }
+    if (w.controller.size() != 0) previous = w.controller;
+  }
+
+  // Solve every target from the controller's joints (independent of each other now: in parallel).
+  std::vector<CompensationTarget> targets;
+  std::vector<std::size_t> index;
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProgramTarget& t = program.targets[i];
+    if (work[i].controller.size() == 0) continue;
+    CompensationTarget target;
+    if (t.kind == TargetKind::kJoint) {
+      target.joints = work[i].controller;
+    } else {
+      target.pose = work[i].written;
+      target.frame = TargetFrame::kBase;
+      target.start = work[i].controller;
+      if (t.configuration_applies && ctx.arm) target.configuration = t.configuration;
+    }
+    target.payload = options.payload;
+    targets.push_back(std::move(target));
+    index.push_back(i);
+  }
+  const std::vector<CompensationResult> solved =
+      CompensateAll(calibration, nominal, targets, options.solver, options.threads);
+  std::vector<Eigen::VectorXd> solved_joints;
+  solved_joints.reserve(solved.size());
+  for (const CompensationResult& r : solved) solved_joints.push_back(r.joints);
+  const std::vector<double> bounds =
+      PredictPositionErrorBounds(calibration, solved_joints, {options.payload}, options.prediction, options.threads);
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    work[index[k]].result = solved[k];
+    work[index[k]].solved = true;
+    work[index[k]].predicted_error_mm = bounds[k];
+  }
+
+  // Judge each target and prepare its numbers.
+  ProgramCompensationResult result;
+  result.dialect = syntax.dialect;
+  ProgramCompensationSummary& summary = result.summary;
+  std::vector<std::vector<Edit>> edits(files.size());
+  // The targets as read (index i) and the inserted ones, each with where it sorts (file, offset).
+  std::vector<CompensatedTarget> compensated(n);
+  std::vector<std::pair<int, std::size_t>> sort_keys(n);
+  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> inserted_targets;
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProgramTarget& t = program.targets[i];
+    Work& w = work[i];
+    CompensatedTarget c;
+    c.file = t.file, c.line = t.line, c.column = t.column, c.name = t.name, c.kind = t.kind;
+    ++summary.targets;
+    ++(t.kind == TargetKind::kJoint ? summary.joint_targets : summary.cartesian_targets);
+    if (!w.solved) {
+      c.termination = Termination::kFailure;
+      c.message = w.controller_problem;
+      c.configuration_kept = false;
+    } else {
+      const CompensationResult& r = w.result;
+      c.termination = r.termination;
+      c.message = r.message;
+      c.joints = r.joints;
+      c.joint_change_rad = LargestRevoluteChange(nominal, r.joints, w.controller);
+      c.predicted_error_mm = w.predicted_error_mm;
+      // The branch the controller uses for the target as written, kept? And its turns.
+      if (r.joints.size() == joints && ctx.arm) {
+        const ArmConfiguration wanted = t.kind == TargetKind::kCartesian && t.configuration_applies
+                                            ? t.configuration
+                                            : ctx.arm->ConfigurationOf(w.controller);
+        c.configuration_kept = r.configuration && wanted.Admits(*r.configuration);
+      }
+      if (r.joints.size() == joints && t.kind == TargetKind::kCartesian && t.configuration_applies &&
+          !TurnsMet(t.turns, r.joints)) {
+        c.configuration_kept = false;
+      }
+      if (!c.configuration_kept && c.message.empty()) {
+        c.message = "the calibrated solution nearest the target's joints has other configuration flags or turns (" +
+                    (r.configuration ? r.configuration->ToString() : std::string("unknown")) + ") than the target";
+      }
+      if (r.joints.size() == joints) {
+        const Transform reached = NominalToolPose(ctx, r.joints);
+        if (t.kind == TargetKind::kJoint) {
+          c.correction_mm = (reached.translation() - w.written.translation()).norm();
+          c.correction_rad = Eigen::AngleAxisd(w.written.linear().transpose() * reached.linear()).angle();
+          w.values = JointsFromCore(ctx, r.joints);
+        } else {
+          // The nominal pose at the compensated joints, in the target's own tool and frame.
+          const Transform in_frame = w.frames.T_base_frame.inverse() * reached * w.frames.T_tool0_tool;
+          const Transform as_written = w.frames.T_base_frame.inverse() * w.written * w.frames.T_tool0_tool;
+          c.correction_mm = (in_frame.translation() - as_written.translation()).norm();
+          c.correction_rad = Eigen::AngleAxisd(as_written.linear().transpose() * in_frame.linear()).angle();
+          w.values = ValuesFromPose(syntax, in_frame, t.values);
+        }
+      }
+    }
+    const bool ok = c.termination == Termination::kConvergence && c.configuration_kept;
+    if (ok) {
+      for (std::size_t k = 0; k < t.spans.size(); ++k) {
+        const NumberSpan& span = t.spans[k];
+        const std::string_view original =
+            std::string_view(files[static_cast<std::size_t>(span.file)].text).substr(span.offset, span.length);
+        std::string text = FormatLike(original, w.values[k], UnitOf(ctx, t, k));
+        if (text != original) {
+          edits[static_cast<std::size_t>(span.file)].push_back({span.offset, span.length, std::move(text)});
+          c.rewritten = true;
+        }
+      }
+      if (c.rewritten) ++summary.rewritten;
+      summary.max_correction_mm = std::max(summary.max_correction_mm, c.correction_mm);
+      if (std::isfinite(c.predicted_error_mm) && !(c.predicted_error_mm <= summary.max_predicted_error_mm)) {
+        summary.max_predicted_error_mm = c.predicted_error_mm;
+      }
+    } else {
+      ++summary.failed;
+      if (!c.configuration_kept) ++summary.configuration_changes;
+    }
+    sort_keys[i] = {t.file, t.spans.empty() ? 0 : t.spans.front().offset};
+    compensated[i] = std::move(c);
+  }
+
+  // Straight moves: the path between the compensated ends, split where it deviates.
+  if (options.max_path_deviation_mm) {
+    const PathChecker checker(ctx);
+    double worst = 0.0;
+    for (std::size_t m = 1; m < program.motions.size(); ++m) {
+      const MotionStatement& here = program.motions[m];
+      const MotionStatement& before = program.motions[m - 1];
+      if (here.motion != Motion::kLinear || here.file < 0 || static_cast<std::size_t>(here.file) >= files.size())
+        continue;
+      const std::size_t a = static_cast<std::size_t>(before.target), b = static_cast<std::size_t>(here.target);
+      if (a >= n || b >= n || work[a].controller.size() == 0 || work[b].controller.size() == 0) continue;
+      const CompensatedTarget& ca = compensated[a];
+      const CompensatedTarget& cb = compensated[b];
+      Segment s;
+      s.intended_a = work[a].written, s.intended_b = work[b].written;
+      const bool a_moved = ca.termination == Termination::kConvergence && ca.configuration_kept;
+      const bool b_moved = cb.termination == Termination::kConvergence && cb.configuration_kept;
+      s.q_a = a_moved ? ca.joints : work[a].controller;
+      s.q_b = b_moved ? cb.joints : work[b].controller;
+      s.written_a = NominalToolPose(ctx, s.q_a);
+      s.written_b = NominalToolPose(ctx, s.q_b);
+      ++summary.segments_checked;
+      std::vector<Inserted> inserted;
+      bool over = false;
+      checker.Split(s, 0, &inserted, &over, &worst);
+      if (over) ++summary.segments_over_deviation;
+      const ProgramTarget& like = program.targets[b];
+      if (inserted.empty() || like.kind != TargetKind::kCartesian) continue;
+      const ProgramFile& file = files[static_cast<std::size_t>(here.file)];
+      const std::string_view text(file.text);
+      const std::string line_end = LineEndAt(text, here.end);
+      const Frames& frames = work[b].frames;
+      std::string block;
+      for (const Inserted& piece : inserted) {
+        const Transform in_frame = frames.T_base_frame.inverse() * piece.written * frames.T_tool0_tool;
+        const std::vector<double> values = ValuesFromPose(syntax, in_frame, like.values);
+        const std::string literal = syntax.inline_target(like, files, values);
+        if (literal.empty()) continue;
+        block += std::string(text.substr(here.begin, here.reference_begin - here.begin)) + literal +
+                 std::string(text.substr(here.reference_end, here.end - here.reference_end)) + line_end;
+        CompensatedTarget c;
+        c.file = here.file, c.line = here.line, c.kind = TargetKind::kCartesian, c.inserted = true;
+        c.joints = piece.joints;
+        c.predicted_error_mm =
+            PredictPositionError(calibration, piece.joints, options.payload, options.prediction).bound_mm;
+        c.termination = piece.result.termination;
+        c.rewritten = true;
+        c.joint_change_rad = kNaN;
+        // Sorted just before the statement's own targets.
+        inserted_targets.push_back({{here.file, here.begin == 0 ? 0 : here.begin - 1}, std::move(c)});
+        ++summary.inserted;
+      }
+      if (!block.empty()) edits[static_cast<std::size_t>(here.file)].push_back({here.begin, 0, std::move(block)});
+    }
+  }
+
+  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> listed;
+  for (std::size_t i = 0; i < n; ++i) listed.push_back({sort_keys[i], std::move(compensated[i])});
+  for (auto& entry : inserted_targets) listed.push_back(std::move(entry));
+  std::stable_sort(listed.begin(), listed.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (auto& entry : listed) result.targets.push_back(std::move(entry.second));
+
+  const bool refuse = options.on_failure == OnFailure::kRefuse && summary.failed > 0;
+  if (refuse) {
+    summary.termination = Termination::kFailure;
+    std::string which;
+    int shown = 0;
+    for (const CompensatedTarget& c : result.targets) {
+      if (c.inserted || (c.termination == Termination::kConvergence && c.configuration_kept)) continue;
+      if (shown++ < 5) which += (which.empty() ? "" : "; ") + TargetLabel(files[static_cast<std::size_t>(c.file)], c);
+    }
+    summary.message = std::to_string(summary.failed) + " target(s) cannot be compensated as written (" + which +
+                      (summary.failed > 5 ? "; ..." : "") + "); on_failure refuse: nothing written";
+    return result;
+  }
+
+  // Write: every file in one pass, its edits in order of their offsets (an insertion before a replacement at the
+  // same offset), so that a large program is copied once.
+  result.files.reserve(files.size());
+  for (std::size_t f = 0; f < files.size(); ++f) {
+    std::vector<Edit>& list = edits[f];
+    std::stable_sort(list.begin(), list.end(), [](const Edit& a, const Edit& b) {
+      return a.offset != b.offset ? a.offset < b.offset : a.length < b.length;
+    });
+    const std::string& in = files[f].text;
+    std::string out;
+    out.reserve(in.size() + in.size() / 8);
+    std::size_t at = 0;
+    for (const Edit& e : list) {
+      out.append(in, at, e.offset - at);
+      out += e.text;
+      at = e.offset + e.length;
+    }
+    out.append(in, at, std::string::npos);
+    result.files.push_back({files[f].name, std::move(out)});
+  }
+  summary.termination =
+      summary.failed > 0 || summary.segments_over_deviation > 0 ? Termination::kDegraded : Termination::kConvergence;
+  summary.message = summary.termination == Termination::kConvergence
+                        ? ""
+                        : std::to_string(summary.failed) + " target(s) kept as written, " +
+                              std::to_string(summary.segments_over_deviation) +
+                              " straight segment(s) still beyond max_path_deviation_mm";
+  return result;
+}
+
+}  // namespace robocal::programs
