@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -276,6 +277,42 @@ Transform Interpolate(const Transform& a, const Transform& b, double s) {
   return t;
 }
 
+// The circle through three tool positions, as a circular move runs it from `a` through `via` to `b`: the pose at
+// fraction s of the arc from a to b (positions on the circle, rotations slerped from a to b as for a straight
+// move). nullopt when the three points are (nearly) on a line.
+struct Arc {
+  Eigen::Vector3d centre, u, v;
+  double radius = 0.0, angle = 0.0;
+  Transform a, b;
+};
+std::optional<Arc> ArcThrough(const Transform& a, const Transform& via, const Transform& b) {
+  const Eigen::Vector3d p0 = a.translation(), p1 = via.translation(), p2 = b.translation();
+  const Eigen::Vector3d d1 = p1 - p0, d2 = p2 - p0;
+  const Eigen::Vector3d n = d1.cross(d2);
+  const double n2 = n.squaredNorm();
+  if (n2 < 1e-9 * d1.squaredNorm() * d2.squaredNorm() || n2 == 0.0) return std::nullopt;
+  Arc arc;
+  // The circumcentre of the triangle (p0, p1, p2).
+  arc.centre = p0 + (d2.squaredNorm() * n.cross(d1) + d1.squaredNorm() * d2.cross(n)) / (2.0 * n2);
+  arc.radius = (p0 - arc.centre).norm();
+  arc.u = (p0 - arc.centre) / arc.radius;
+  arc.v = n.normalized().cross(arc.u);
+  // p0 -> p1 -> p2 turns positively about n, so p2's angle in [0, 2 pi) is the whole arc's.
+  const Eigen::Vector3d r2 = p2 - arc.centre;
+  arc.angle = std::atan2(arc.v.dot(r2), arc.u.dot(r2));
+  if (arc.angle < 0.0) arc.angle += 2.0 * std::numbers::pi;
+  arc.a = a;
+  arc.b = b;
+  return arc;
+}
+
+Transform ArcAt(const Arc& arc, double s) {
+  Transform t = Interpolate(arc.a, arc.b, s);
+  const double phi = s * arc.angle;
+  t.translation() = arc.centre + arc.radius * (std::cos(phi) * arc.u + std::sin(phi) * arc.v);
+  return t;
+}
+
 // The calibrated robot's tool in the robot base (its calibrated base) at q.
 Transform CalibratedToolPose(const Context& ctx, const Eigen::VectorXd& q) {
   KinematicsWorkspace ws(ctx.calibration.model);
@@ -299,6 +336,15 @@ struct Inserted {
 class PathChecker {
  public:
   explicit PathChecker(const Context& ctx) : ctx_(ctx) {}
+
+  // A circular move from the written a through via to b, checked at its midpoint as Split checks a straight one:
+  // its deviation from the programmed arc (mm), or NaN when either arc is a line or the controller has no joints.
+  double CircleDeviation(const Arc& intended, const Arc& written, const Eigen::VectorXd& q_a,
+                         const Eigen::VectorXd& q_b) const {
+    const Eigen::VectorXd q_mid = ControllerAt(ArcAt(written, 0.5), q_b, 0.5 * (q_a + q_b));
+    if (q_mid.size() == 0) return std::numeric_limits<double>::quiet_NaN();
+    return (CalibratedToolPose(ctx_, q_mid).translation() - ArcAt(intended, 0.5).translation()).norm();
+  }
 
   // The targets to insert between the ends (in path order); *over: the segment still deviates after the deepest
   // split. Each piece's midpoint is checked: the controller's joints there (nominal IK of the written ends'
@@ -336,8 +382,7 @@ class PathChecker {
     Split(second, depth + 1, out, over, worst_mm);
   }
 
- private:
-  // The controller's joints for a pose on the branch of `branch`, nearest `near`.
+  // The controller's joints for a pose on the branch of `branch`, nearest `near`; empty when it has none.
   Eigen::VectorXd ControllerAt(const Transform& T_base_tool, const Eigen::VectorXd& branch,
                                const Eigen::VectorXd& near) const {
     if (ctx_.arm) {
@@ -361,6 +406,7 @@ class PathChecker {
     return r.converged ? r.joints : Eigen::VectorXd();
   }
 
+ private:
   const Context& ctx_;
 };
 
@@ -605,9 +651,112 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
   if (options.max_path_deviation_mm) {
     const PathChecker checker(ctx);
     double worst = 0.0;
+    // The joints a target's motion ends at (compensated, or as written when kept) and the nominal pose there.
+    auto ends_at = [&](std::size_t i) {
+      const CompensatedTarget& c = compensated[i];
+      const bool moved = c.termination == Termination::kConvergence && c.configuration_kept;
+      return moved ? c.joints : work[i].controller;
+    };
     for (std::size_t m = 1; m < program.motions.size(); ++m) {
       const MotionStatement& here = program.motions[m];
       const MotionStatement& before = program.motions[m - 1];
+      if (here.motion == Motion::kCircular && m + 1 < program.motions.size() &&
+          program.motions[m + 1].motion == Motion::kCircular && program.motions[m + 1].begin == here.begin &&
+          program.motions[m + 1].file == here.file && here.file >= 0 &&
+          static_cast<std::size_t>(here.file) < files.size()) {
+        // A circular move: its via point (here) and its end (the next entry), from the previous motion's target.
+        const MotionStatement& end = program.motions[m + 1];
+        ++m;
+        const std::size_t a = static_cast<std::size_t>(before.target), v = static_cast<std::size_t>(here.target),
+                          b = static_cast<std::size_t>(end.target);
+        if (a >= n || v >= n || b >= n || work[a].controller.size() == 0 || work[v].controller.size() == 0 ||
+            work[b].controller.size() == 0 || program.targets[v].kind != TargetKind::kCartesian ||
+            program.targets[b].kind != TargetKind::kCartesian) {
+          continue;
+        }
+        const Eigen::VectorXd q_a = ends_at(a), q_v = ends_at(v), q_b = ends_at(b);
+        const std::optional<Arc> intended = ArcThrough(work[a].written, work[v].written, work[b].written);
+        const std::optional<Arc> written =
+            ArcThrough(NominalToolPose(ctx, q_a), NominalToolPose(ctx, q_v), NominalToolPose(ctx, q_b));
+        if (!intended || !written) continue;
+        ++summary.segments_checked;
+        const double deviation = checker.CircleDeviation(*intended, *written, q_a, q_b);
+        if (!(deviation > *options.max_path_deviation_mm)) continue;
+        // Split once, in two circles on the programmed arc: a new move through its quarter point to its midpoint,
+        // then this move with its via point replaced by the three-quarter point. Each new point compensated.
+        std::vector<Inserted> points;
+        for (double fraction : {0.25, 0.5, 0.75}) {
+          CompensationTarget target;
+          target.pose = ArcAt(*intended, fraction);
+          target.frame = TargetFrame::kBase;
+          target.start = checker.ControllerAt(ArcAt(*written, fraction), q_b, q_a + fraction * (q_b - q_a));
+          if (target.start.size() == 0) target.start = q_a + fraction * (q_b - q_a);
+          target.payload = options.payload;
+          Inserted point;
+          point.result = Compensate(calibration, nominal, target, options.solver);
+          if (!point.result.converged) break;
+          point.joints = point.result.joints;
+          point.written = NominalToolPose(ctx, point.joints);
+          points.push_back(std::move(point));
+        }
+        if (points.size() != 3) {
+          ++summary.segments_over_deviation;
+          continue;
+        }
+        // Each half checked as the whole was; beyond the limit still, it is said (one split only).
+        const std::optional<Arc> halves[2][2] = {
+            {ArcThrough(work[a].written, ArcAt(*intended, 0.25), ArcAt(*intended, 0.5)),
+             ArcThrough(NominalToolPose(ctx, q_a), points[0].written, points[1].written)},
+            {ArcThrough(ArcAt(*intended, 0.5), ArcAt(*intended, 0.75), work[b].written),
+             ArcThrough(points[1].written, points[2].written, NominalToolPose(ctx, q_b))}};
+        const Eigen::VectorXd* ends[2][2] = {{&q_a, &points[1].joints}, {&points[1].joints, &q_b}};
+        for (int h = 0; h < 2; ++h) {
+          if (!halves[h][0] || !halves[h][1]) continue;
+          const double d = checker.CircleDeviation(*halves[h][0], *halves[h][1], *ends[h][0], *ends[h][1]);
+          if (d > *options.max_path_deviation_mm) ++summary.segments_over_deviation;
+        }
+        const ProgramFile& file = files[static_cast<std::size_t>(here.file)];
+        const std::string_view text(file.text);
+        auto literal = [&](std::size_t target, const Inserted& point) {
+          const Frames& frames = work[target].frames;
+          const Transform in_frame = frames.T_base_frame.inverse() * point.written * frames.T_tool0_tool;
+          return syntax.inline_target(program.targets[target], files,
+                                      ValuesFromPose(syntax, in_frame, program.targets[target].values));
+        };
+        const std::string via_first = literal(v, points[0]), end_first = literal(b, points[1]);
+        const std::string via_second = literal(v, points[2]);
+        if (via_first.empty() || end_first.empty() || via_second.empty()) continue;
+        // The new statement: a copy of this one with both references replaced (the later one first).
+        std::string copy(text.substr(here.begin, here.end - here.begin));
+        const bool via_later = here.reference_begin > end.reference_begin;
+        const MotionStatement& later = via_later ? here : end;
+        const MotionStatement& earlier = via_later ? end : here;
+        copy.replace(later.reference_begin - here.begin, later.reference_end - later.reference_begin,
+                     via_later ? via_first : end_first);
+        copy.replace(earlier.reference_begin - here.begin, earlier.reference_end - earlier.reference_begin,
+                     via_later ? end_first : via_first);
+        std::vector<Edit>& file_edits = edits[static_cast<std::size_t>(here.file)];
+        file_edits.push_back({here.begin, 0, copy + LineEndAt(text, here.end)});
+        // This move's via point: the three-quarter point, in place of the reference (and of an inline via's own
+        // numbers, which lie inside it).
+        std::erase_if(file_edits, [&](const Edit& e) {
+          return e.length > 0 && e.offset >= here.reference_begin && e.offset < here.reference_end;
+        });
+        file_edits.push_back({here.reference_begin, here.reference_end - here.reference_begin, via_second});
+        for (const Inserted& point : points) {
+          CompensatedTarget c;
+          c.file = here.file, c.line = here.line, c.kind = TargetKind::kCartesian, c.inserted = true;
+          c.joints = point.joints;
+          c.predicted_error_mm =
+              PredictPositionError(calibration, point.joints, options.payload, options.prediction).bound_mm;
+          c.termination = point.result.termination;
+          c.rewritten = true;
+          c.joint_change_rad = kNaN;
+          inserted_targets.push_back({{here.file, here.begin == 0 ? 0 : here.begin - 1}, std::move(c)});
+          ++summary.inserted;
+        }
+        continue;
+      }
       if (here.motion != Motion::kLinear || here.file < 0 || static_cast<std::size_t>(here.file) >= files.size())
         continue;
       const std::size_t a = static_cast<std::size_t>(before.target), b = static_cast<std::size_t>(here.target);

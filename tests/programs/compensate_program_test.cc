@@ -32,6 +32,7 @@ using ::testing::HasSubstr;
 //   P name x y z a b c s e w [tool=T] [base=B]   a Cartesian target (mm, KUKA's Z Y' X'' deg) with flags
 //   L x y z a b c                      a straight move to an inline Cartesian target (no flags)
 //   M name                             a joint move to a declared target
+//   C x y z a b c ; x y z a b c        a circular move through an inline via point to an inline end
 ParsedProgram ReadTest(const std::vector<ProgramFile>& files) {
   ParsedProgram program;
   for (std::size_t f = 0; f < files.size(); ++f) {
@@ -50,6 +51,34 @@ ParsedProgram ReadTest(const std::vector<ProgramFile>& files) {
         pos = SkipBlanks(text, pos);
         return w;
       };
+      if (kind == 'C') {
+        // A circle: via point, ';', end point, each a Cartesian target of its own in one statement.
+        for (int point = 0; point < 2; ++point) {
+          ProgramTarget t;
+          t.file = static_cast<int>(f);
+          t.line = line;
+          t.kind = TargetKind::kCartesian;
+          t.motion = Motion::kCircular;
+          const std::size_t reference_begin = start + pos;
+          for (int k = 0; k < 6; ++k) {
+            const std::optional<ScannedNumber> number = ScanNumber(text, pos);
+            if (!number) source.Fail(start + pos, "expected a number");
+            t.values.push_back(number->value);
+            t.spans.push_back({static_cast<int>(f), start + number->offset, number->length});
+            pos = SkipBlanks(text, pos + number->length);
+          }
+          t.column = source.ColumnOf(t.spans.front().offset);
+          const std::size_t reference_end = start + pos - (pos > 0 && text[pos - 1] == ' ' ? 1 : 0);
+          program.motions.push_back({static_cast<int>(program.targets.size()), Motion::kCircular, static_cast<int>(f),
+                                     line, start, start + text.size(), reference_begin, reference_end});
+          program.targets.push_back(std::move(t));
+          if (point == 0) {
+            if (pos >= text.size() || text[pos] != ';') source.Fail(start + pos, "expected ';'");
+            pos = SkipBlanks(text, pos + 1);
+          }
+        }
+        continue;
+      }
       if (kind == 'M') {
         const std::string name = word();
         for (std::size_t i = 0; i < program.targets.size(); ++i) {
@@ -424,6 +453,61 @@ TEST(ProgramCompensationTest, AStraightMoveIsSplitUntilEveryPieceIsWithinTheDevi
   const ProgramCompensationResult plain = CompensateProgram(calibration, nominal, TestDialect(), {{"a.test", program}});
   EXPECT_EQ(plain.summary.inserted, 0);
   EXPECT_EQ(plain.summary.segments_checked, 0);
+}
+
+TEST(ProgramCompensationTest, ACircularMoveBeyondTheDeviationIsSplitInTwoCirclesOnTheProgrammedArc) {
+  const RobotModel nominal = Nominal("ur5e");
+  const Calibration calibration = MakeCalibration(nominal, 8.0, 5);
+  auto values = [&](const Eigen::VectorXd& q) {
+    const Transform pose = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
+    const Eigen::Matrix3d R = pose.linear();
+    const double b = std::asin(-R(2, 0)), a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
+    return Fixed(pose.translation().x(), 3) + " " + Fixed(pose.translation().y(), 3) + " " +
+           Fixed(pose.translation().z(), 3) + " " + Fixed(a * kDegPerRad, 4) + " " + Fixed(b * kDegPerRad, 4) + " " +
+           Fixed(c * kDegPerRad, 4);
+  };
+  // Three poses on one branch (front, up, noflip), on a wide arc.
+  Eigen::VectorXd q1(6), q2(6), q3(6);
+  q1 << 0.2, -1.3, 1.6, -1.8, 1.5, 0.2;
+  q2 << 0.7, -1.0, 1.2, -1.7, 1.4, 0.4;
+  q3 << 1.2, -1.3, 1.6, -1.8, 1.3, 0.6;
+  const std::string program = "L " + values(q1) + "\r\nC " + values(q2) + " ; " + values(q3) + "\r\n";
+  ProgramCompensationOptions options;
+  options.max_path_deviation_mm = 0.05;
+  const ProgramCompensationResult r =
+      CompensateProgram(calibration, nominal, TestDialect(), {{"a.test", program}}, options);
+  ASSERT_EQ(r.summary.failed, 0) << Failures(r);
+  EXPECT_EQ(r.summary.segments_checked, 1);
+  EXPECT_EQ(r.summary.inserted, 3);
+  // Two circles now, the first inserted before the second, with the file's line end.
+  const ParsedProgram after = ReadTest(r.files);
+  ASSERT_EQ(after.targets.size(), 5u);
+  EXPECT_EQ(std::count(r.files[0].text.begin(), r.files[0].text.end(), '\n'), 3);
+  EXPECT_EQ(std::count(r.files[0].text.begin(), r.files[0].text.end(), '\r'), 3);
+  // The programmed arc: the circle through the three programmed points. Every written point of the new circles
+  // is the nominal pose of joints at which the calibrated robot lies on it.
+  const ParsedProgram before = ReadTest({{"a", program}});
+  Eigen::Vector3d p[3];
+  for (int k = 0; k < 3; ++k)
+    p[k] = PoseFromValues(TestDialect(), before.targets[static_cast<std::size_t>(k)].values).translation();
+  const Eigen::Vector3d d1 = p[1] - p[0], d2 = p[2] - p[0], normal = d1.cross(d2);
+  const Eigen::Vector3d centre =
+      p[0] + (d2.squaredNorm() * normal.cross(d1) + d1.squaredNorm() * d2.cross(normal)) / (2.0 * normal.squaredNorm());
+  const double radius = (p[0] - centre).norm();
+  const ArmSolver arm = *ArmSolver::For(nominal);
+  KinematicsWorkspace ws(calibration.model);
+  for (std::size_t i = 1; i < after.targets.size(); ++i) {
+    const Transform written = PoseFromValues(TestDialect(), after.targets[i].values);
+    const Eigen::VectorXd q =
+        ControllerIk(nominal, written, arm.ConfigurationOf(r.targets[1].joints), r.targets[1].joints);
+    ASSERT_EQ(q.size(), 6);
+    const Eigen::Vector3d reached =
+        (calibration.T_world_base.inverse() * ForwardKinematics(calibration.model, q, calibration.errors, &ws))
+            .translation();
+    // On the programmed circle: in its plane and at its radius, to the rounding of the written numbers.
+    EXPECT_LT(std::abs((reached - centre).dot(normal.normalized())), 0.01) << i;
+    EXPECT_LT(std::abs((reached - centre).norm() - radius), 0.01) << i;
+  }
 }
 
 TEST(ProgramCompensationTest, InvalidOptionsAreNamed) {

@@ -51,8 +51,9 @@ struct ProgramCompensationOptions {
   std::map<std::string, std::vector<double>> bases;
   /// Straight moves (Motion::kLinear) whose path, as the controller interpolates it on its nominal model between
   /// the compensated endpoints, leaves the straight path between the programmed targets by more than this at a
-  /// midpoint (mm, on the calibrated model) get intermediate targets until every piece is within it. Unset: no
-  /// path is checked.
+  /// midpoint (mm, on the calibrated model) get intermediate targets until every piece is within it; a circular
+  /// move (Motion::kCircular, its via point and end) beyond it is split once into two circles on the programmed
+  /// arc. Unset: no path is checked.
   std::optional<double> max_path_deviation_mm;
   /// At most 2^max_split_depth - 1 targets are inserted into one segment.
   int max_split_depth = 6;
