@@ -83,6 +83,15 @@ CompensateProgramRequest ParseCompensateProgramRequest(const nlohmann::json& bod
   } else if (r.ok()) {
     problems.Add("files", "required");
   }
+  // A dialect given and file names that say another: a mistake, not a program to read as something it is not.
+  if (req.dialect && !req.files.empty() && problems.empty()) {
+    std::vector<programs::ProgramFile> named;
+    for (const auto& [name, text] : req.files) named.push_back({name, ""});
+    if (const std::optional<programs::Dialect> said = programs::DialectOfFiles(named); said && *said != *req.dialect) {
+      problems.Add("dialect", std::string("is ") + programs::ToString(*req.dialect) + ", but the file names are " +
+                                  programs::ToString(*said) + " files");
+    }
+  }
   // The dialect the file names say, when the request does not.
   if (!req.dialect && !req.files.empty() && problems.empty()) {
     std::vector<programs::ProgramFile> named;

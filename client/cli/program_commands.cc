@@ -7,6 +7,7 @@
 
 #include "command.h"
 #include "robocal/api/programs.h"
+#include "robocal/api/text.h"
 #include "support.h"
 
 namespace robocal::cli {
@@ -63,7 +64,13 @@ int CompensateProgram(Invocation& in) {
   for (std::size_t i = 1; i < in.args.size(); ++i) {
     const std::string name = std::filesystem::path(in.args[i]).filename().string();
     if (request.files.count(name)) throw UsageError("two files named " + name);
-    request.files[name] = ReadFile(in.args[i]);
+    std::string text = ReadFile(in.args[i]);
+    // The request carries the text as a JSON string, which is UTF-8: a program saved in another encoding (a
+    // Windows code page's umlauts in a comment) must be converted first, and the file is named here.
+    if (!api::IsValidUtf8(text)) {
+      throw UsageError(in.args[i] + " is not UTF-8 text; convert it first (iconv -f WINDOWS-1252 -t UTF-8, say)");
+    }
+    request.files[name] = std::move(text);
   }
   if (in.Has("--dialect"))
     request.dialect = Invocation::ParseEnum<programs::Dialect>("--dialect", in.Option("--dialect"));

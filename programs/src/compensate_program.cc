@@ -253,6 +253,28 @@ std::string LineEndAt(std::string_view text, std::size_t end) {
   return "\n";
 }
 
+// The text inserted before a motion statement: a copy of the statement with its references replaced, on a line of its
+// own. `replacements` are (reference begin, reference end, text), within the statement. The copy is the
+// statement's own bytes when the reader gives them (another statement may share its lines), else its lines.
+Edit InsertedStatement(std::string_view text, const MotionStatement& m,
+                       std::vector<std::tuple<std::size_t, std::size_t, std::string>> replacements) {
+  const bool own = m.own_end > m.own_begin && m.own_begin >= m.begin && m.own_end <= m.end;
+  const std::size_t from = own ? m.own_begin : m.begin, to = own ? m.own_end : m.end;
+  std::sort(replacements.begin(), replacements.end(),
+            [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
+  std::string copy(text.substr(from, to - from));
+  for (const auto& [begin, end, with] : replacements) copy.replace(begin - from, end - begin, with);
+  const std::string line_end = LineEndAt(text, m.end);
+  if (!own) return {m.begin, 0, copy + line_end};
+  // Before the statement itself: the copy, the line end, and the indentation of the statement's first line; when
+  // another statement precedes it on that line, a line end and the indentation first, so the copy stands alone.
+  std::size_t indent = m.begin;
+  while (indent < m.own_begin && (text[indent] == ' ' || text[indent] == '\t')) ++indent;
+  const std::string indentation(text.substr(m.begin, indent - m.begin));
+  const std::string before = indent < m.own_begin ? line_end + indentation : "";
+  return {m.own_begin, 0, before + copy + line_end + indentation};
+}
+
 // Per target, what the solve needs and gives.
 struct Work {
   Frames frames;
@@ -726,17 +748,11 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
         const std::string via_first = literal(v, points[0]), end_first = literal(b, points[1]);
         const std::string via_second = literal(v, points[2]);
         if (via_first.empty() || end_first.empty() || via_second.empty()) continue;
-        // The new statement: a copy of this one with both references replaced (the later one first).
-        std::string copy(text.substr(here.begin, here.end - here.begin));
-        const bool via_later = here.reference_begin > end.reference_begin;
-        const MotionStatement& later = via_later ? here : end;
-        const MotionStatement& earlier = via_later ? end : here;
-        copy.replace(later.reference_begin - here.begin, later.reference_end - later.reference_begin,
-                     via_later ? via_first : end_first);
-        copy.replace(earlier.reference_begin - here.begin, earlier.reference_end - earlier.reference_begin,
-                     via_later ? end_first : via_first);
+        // The new statement: a copy of this one with both references replaced.
         std::vector<Edit>& file_edits = edits[static_cast<std::size_t>(here.file)];
-        file_edits.push_back({here.begin, 0, copy + LineEndAt(text, here.end)});
+        file_edits.push_back(InsertedStatement(text, here,
+                                               {{here.reference_begin, here.reference_end, via_first},
+                                                {end.reference_begin, end.reference_end, end_first}}));
         // This move's via point: the three-quarter point, in place of the reference (and of an inline via's own
         // numbers, which lie inside it).
         std::erase_if(file_edits, [&](const Edit& e) {
@@ -780,16 +796,14 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
       if (inserted.empty() || like.kind != TargetKind::kCartesian) continue;
       const ProgramFile& file = files[static_cast<std::size_t>(here.file)];
       const std::string_view text(file.text);
-      const std::string line_end = LineEndAt(text, here.end);
       const Frames& frames = work[b].frames;
-      std::string block;
+      std::vector<Edit> block;
       for (const Inserted& piece : inserted) {
         const Transform in_frame = frames.T_base_frame.inverse() * piece.written * frames.T_tool0_tool;
         const std::vector<double> values = ValuesFromPose(syntax, in_frame, like.values);
         const std::string literal = syntax.inline_target(like, files, values);
         if (literal.empty()) continue;
-        block += std::string(text.substr(here.begin, here.reference_begin - here.begin)) + literal +
-                 std::string(text.substr(here.reference_end, here.end - here.reference_end)) + line_end;
+        block.push_back(InsertedStatement(text, here, {{here.reference_begin, here.reference_end, literal}}));
         CompensatedTarget c;
         c.file = here.file, c.line = here.line, c.kind = TargetKind::kCartesian, c.inserted = true;
         c.joints = piece.joints;
@@ -802,7 +816,8 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
         inserted_targets.push_back({{here.file, here.begin == 0 ? 0 : here.begin - 1}, std::move(c)});
         ++summary.inserted;
       }
-      if (!block.empty()) edits[static_cast<std::size_t>(here.file)].push_back({here.begin, 0, std::move(block)});
+      // In path order: edits at one offset keep their order (the writer's sort is stable).
+      for (Edit& e : block) edits[static_cast<std::size_t>(here.file)].push_back(std::move(e));
     }
   }
 
@@ -846,13 +861,17 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
     out.append(in, at, std::string::npos);
     result.files.push_back({files[f].name, std::move(out)});
   }
-  summary.termination =
-      summary.failed > 0 || summary.segments_over_deviation > 0 ? Termination::kDegraded : Termination::kConvergence;
-  summary.message = summary.termination == Termination::kConvergence
-                        ? ""
-                        : std::to_string(summary.failed) + " target(s) kept as written, " +
-                              std::to_string(summary.segments_over_deviation) +
-                              " straight segment(s) still beyond max_path_deviation_mm";
+  // DEGRADED when anything was left as it was: a target, a segment beyond the deviation, or a program in which the
+  // reader found no target at all (a client must not take that for a program compensated).
+  std::vector<std::string> said;
+  if (summary.targets == 0) said.push_back("the files hold no target " + std::string(syntax.name) + " reads");
+  if (summary.failed > 0) said.push_back(std::to_string(summary.failed) + " target(s) kept as written");
+  if (summary.segments_over_deviation > 0) {
+    said.push_back(std::to_string(summary.segments_over_deviation) + " segment(s) still beyond max_path_deviation_mm");
+  }
+  summary.termination = said.empty() ? Termination::kConvergence : Termination::kDegraded;
+  summary.message.clear();
+  for (const std::string& s : said) summary.message += (summary.message.empty() ? "" : "; ") + s;
   return result;
 }
 

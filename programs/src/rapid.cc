@@ -587,6 +587,8 @@ class Reader {
     statement.begin = source.LineStart(line);
     const int last_line = source.LineOf(std::min(semicolon, text.size()));
     statement.end = source.LineStart(last_line) + source.Line(last_line).size();
+    statement.own_begin = word_begin;
+    statement.own_end = std::min(semicolon + 1, statement.end);
     const bool monitored = instruction.monitor == Monitor::kJoint    ? conf_j_on_
                            : instruction.monitor == Monitor::kLinear ? conf_l_on_
                                                                      : true;

@@ -299,6 +299,8 @@ struct MotionCall {
   int line = 0;
   std::size_t begin = 0;  // the statement's lines
   std::size_t end = 0;
+  std::size_t own_begin = 0;  // the call alone: its name to its ')'
+  std::size_t own_end = 0;
   std::vector<Reference> references;  // 1, or 2 for movec (via, then end)
 };
 
@@ -442,6 +444,8 @@ class Reader {
     call.begin = source.LineStart(call.line);
     const int last_line = source.LineOf(scan.at(close).begin);
     call.end = source.LineStart(last_line) + source.Line(last_line).size();
+    call.own_begin = scan.at(i).begin;
+    call.own_end = scan.at(close).begin + 1;
     // A motion to a computed value (or a movec missing an argument) is not read; a movec with one literal and
     // one computed point keeps its literal as a target (TargetOf).
     bool complete = true;
@@ -538,6 +542,8 @@ class Reader {
         statement.line = call.line;
         statement.begin = call.begin;
         statement.end = call.end;
+        statement.own_begin = call.own_begin;
+        statement.own_end = call.own_end;
         statement.reference_begin = call.references[k].begin;
         statement.reference_end = call.references[k].end;
         PendingTarget& pending = pending_[targets[k]];

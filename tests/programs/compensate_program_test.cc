@@ -389,6 +389,12 @@ TEST(ProgramCompensationTest, ATargetOutOfReachIsKeptOrRefusesTheProgram) {
   EXPECT_NE(kept.files[0].text, files[0].text);
   ProgramCompensationOptions refuse;
   refuse.on_failure = OnFailure::kRefuse;
+  // A program without targets is no program compensated: DEGRADED, and said.
+  const ProgramCompensationResult empty =
+      CompensateProgram(calibration, nominal, TestDialect(), {{"a.test", "# nothing here\n"}});
+  EXPECT_EQ(empty.summary.termination, Termination::kDegraded);
+  EXPECT_THAT(empty.summary.message, HasSubstr("no target"));
+  EXPECT_THAT(kept.summary.message, ::testing::Not(HasSubstr("max_path_deviation_mm")));
   const ProgramCompensationResult refused = CompensateProgram(calibration, nominal, TestDialect(), files, refuse);
   EXPECT_TRUE(refused.files.empty());
   EXPECT_EQ(refused.summary.termination, Termination::kFailure);
@@ -508,6 +514,53 @@ TEST(ProgramCompensationTest, ACircularMoveBeyondTheDeviationIsSplitInTwoCircles
     EXPECT_LT(std::abs((reached - centre).dot(normal.normalized())), 0.01) << i;
     EXPECT_LT(std::abs((reached - centre).norm() - radius), 0.01) << i;
   }
+}
+
+// Two RAPID statements on one line: a target inserted before the second is a copy of the second alone, on a line of
+// its own with the statement's indentation; the first statement is not copied with it.
+TEST(ProgramCompensationTest, AnInsertedTargetCopiesItsStatementAloneWhenALineHoldsTwo) {
+  const RobotModel nominal = Nominal("ur5e");
+  const Calibration calibration = MakeCalibration(nominal, 8.0, 5);
+  auto robtarget = [&](const Eigen::VectorXd& q) {
+    const Transform pose = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
+    const Eigen::Quaterniond r(pose.linear());
+    return "[[" + Fixed(pose.translation().x(), 3) + "," + Fixed(pose.translation().y(), 3) + "," +
+           Fixed(pose.translation().z(), 3) + "],[" + Fixed(r.w(), 7) + "," + Fixed(r.x(), 7) + "," + Fixed(r.y(), 7) +
+           "," + Fixed(r.z(), 7) + "],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]";
+  };
+  Eigen::VectorXd q1(6), q2(6);
+  q1 << 0.2, -1.3, 1.6, -1.8, 1.5, 0.2;
+  q2 << 1.0, -0.9, 1.1, -1.6, 1.3, 0.6;
+  std::string start = "[[";
+  for (int k = 0; k < 6; ++k) start += (k ? "," : "") + Fixed(q1[k] * kDegPerRad, 4);
+  start += "],[9E9,9E9,9E9,9E9,9E9,9E9]]";
+  const std::string module = "MODULE m\r\n  PROC main()\r\n    ConfL \\Off;\r\n    MoveAbsJ " + start +
+                             ", v100, fine, tool0;\r\n    MoveL " + robtarget(q1) + ", v100, z10, tool0; MoveL " +
+                             robtarget(q2) + ", v100, z10, tool0; ! two\r\n  ENDPROC\r\nENDMODULE\r\n";
+  ProgramCompensationOptions options;
+  options.max_path_deviation_mm = 0.05;
+  const ProgramCompensationResult r =
+      CompensateProgram(calibration, nominal, Dialect::kRapid, {{"m.mod", module}}, options);
+  ASSERT_EQ(r.summary.failed, 0) << Failures(r);
+  ASSERT_GT(r.summary.inserted, 0);
+  const std::string& out = r.files[0].text;
+  // One MoveL per target: the original two and one per inserted target, none repeating the first statement.
+  std::size_t moves = 0;
+  for (std::size_t at = out.find("MoveL "); at != std::string::npos; at = out.find("MoveL ", at + 1)) ++moves;
+  EXPECT_EQ(moves, 2u + static_cast<std::size_t>(r.summary.inserted)) << out;
+  // The first statement keeps its line (with the line's start), the inserted ones stand on lines of their own
+  // indented as the line was, and the second statement follows them with its comment.
+  const ParsedProgram after = SyntaxOf(Dialect::kRapid).read(r.files);
+  ASSERT_EQ(after.motions.size(), 3u + static_cast<std::size_t>(r.summary.inserted));
+  const SourceText source(r.files[0], 0);
+  EXPECT_EQ(source.Line(after.motions[1].line).substr(0, 10), "    MoveL ");
+  EXPECT_EQ(source.Line(after.motions[1].line).find("MoveL", 5), std::string_view::npos);
+  for (std::size_t m = 2; m + 1 < after.motions.size(); ++m) {
+    const std::string_view line = source.Line(after.motions[m].line);
+    EXPECT_EQ(line.substr(0, 10), "    MoveL ") << line;
+    EXPECT_EQ(line.substr(line.size() - 1), ";") << line;
+  }
+  EXPECT_NE(source.Line(after.motions.back().line).find("! two"), std::string::npos);
 }
 
 TEST(ProgramCompensationTest, InvalidOptionsAreNamed) {

@@ -297,7 +297,7 @@ TEST(FanucLsSampleTest, DeburrReadsRegistersArcsAndLeavesIncrementsOut) {
   EXPECT_EQ(line_point->base, "7");
   EXPECT_EQ(line_point->motion, Motion::kLinear);
 
-  // A points: one circular entry each; the RoboDK-style circle with its end on a line without ':'.
+  // A points: one circular entry each; a circle with its end on an indented line without ':'.
   for (const char* name : {"P[29]", "P[30]", "P[31]", "P[26]", "P[27]", "P[34]", "P[35]"}) {
     const ProgramTarget* target = Find(program, name);
     ASSERT_NE(target, nullptr) << name;

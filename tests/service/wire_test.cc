@@ -629,6 +629,17 @@ TEST(WireRequestTest, RequestsRoundTrip) {
     ASSERT_FALSE(e.details().empty());
     EXPECT_EQ(e.details()[0].field, "tools.tool1");
   }
+  // A dialect the file names contradict: named, not read as something it is not.
+  json contradicted = {{"dialect", "rapid"}, {"files", {{"a.src", ""}, {"a.dat", ""}}}};
+  try {
+    (void)ParseCompensateProgramRequest(contradicted, Limits{});
+    FAIL();
+  } catch (const ApiError& e) {
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "dialect");
+  }
+  contradicted["files"] = {{"a.txt", ""}};  // extensions that say nothing: the dialect given is taken
+  EXPECT_EQ(ParseCompensateProgramRequest(contradicted, Limits{}).dialect, programs::Dialect::kRapid);
   named["files"] = {{"a.src", ""}, {"b.mod", ""}};
   named.erase("tools");
   named.erase("bases");

@@ -968,7 +968,7 @@ TEST(CompensationTest, StartJointsGiveTheNearestSolutionOnTheirBranch) {
 
 // Taught joints are kept: a pose target with start_joints a few degrees from joints that reach it (a taught program,
 // touched up) comes back near them, never at another solution far away without saying so. A UR10-like arm
-// registered in modified DH (the UR10's published lengths, as pybotics describes it) with errors of a calibration's
+// registered in modified DH (the UR10's published lengths) with errors of a calibration's
 // size; 600 targets at random joints q, each with start joints 5 deg from q (Euclidean over the joints) in a random
 // direction. Since q reaches the target 5 deg from the start:
 // - where the start has q's flags, the answer is on that branch within those 5 deg (it is the solution of the

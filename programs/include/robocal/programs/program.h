@@ -127,6 +127,11 @@ struct MotionStatement {
   /// The bytes of the statement that name the target (a variable's name, or an inline target's literal).
   std::size_t reference_begin = 0;
   std::size_t reference_end = 0;
+  /// The statement's own bytes where its lines may hold more (RAPID "MoveL p1, ...; MoveL p2, ...;", "IF b THEN
+  /// MoveL ...; ENDIF"): from its instruction's first byte to the end of its terminator. An inserted target is then
+  /// a copy of these bytes alone, on a line of its own before the statement. Both 0: the lines are the statement.
+  std::size_t own_begin = 0;
+  std::size_t own_end = 0;
 };
 
 /// What a dialect's reader finds in a program.
