@@ -6,6 +6,7 @@
 #include "robocal/api/json_reader.h"
 #include "robocal/api/robots.h"
 #include "robocal/core/units.h"
+#include "robocal/programs/text_scan.h"
 
 namespace robocal::api {
 
@@ -69,10 +70,15 @@ CompensateProgramRequest ParseCompensateProgramRequest(const nlohmann::json& bod
     } else if (files->size() > kMaxFiles) {
       problems.Add("files", "at most " + std::to_string(kMaxFiles) + " files");
     } else {
+      // Controllers' file systems do not tell "weld.dat" from "WELD.DAT": two such names are one file there.
+      std::map<std::string, std::string> folded;
       for (const auto& [name, text] : files->items()) {
         const std::string path = "files." + name;
+        const auto [other, fresh] = folded.emplace(programs::LowerCase(name), name);
         if (const std::string why = FileNameProblem(name); !why.empty()) {
           problems.Add("files", why + " (" + name.substr(0, 64) + ")");
+        } else if (!fresh) {
+          problems.Add(path, "the same file name as " + other->second + " but for case");
         } else if (!text.is_string()) {
           problems.Add(path, "expected the file's text as a string");
         } else {

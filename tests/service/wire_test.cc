@@ -638,6 +638,14 @@ TEST(WireRequestTest, RequestsRoundTrip) {
     ASSERT_FALSE(e.details().empty());
     EXPECT_EQ(e.details()[0].field, "dialect");
   }
+  contradicted["files"] = {{"a.mod", ""}, {"A.MOD", ""}};  // one file on a controller's file system
+  try {
+    (void)ParseCompensateProgramRequest(contradicted, Limits{});
+    FAIL();
+  } catch (const ApiError& e) {
+    ASSERT_FALSE(e.details().empty());
+    EXPECT_EQ(e.details()[0].field, "files.a.mod");
+  }
   contradicted["files"] = {{"a.txt", ""}};  // extensions that say nothing: the dialect given is taken
   EXPECT_EQ(ParseCompensateProgramRequest(contradicted, Limits{}).dialect, programs::Dialect::kRapid);
   named["files"] = {{"a.src", ""}, {"b.mod", ""}};
