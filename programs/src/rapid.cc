@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -166,10 +167,13 @@ Literal ReadLiteral(const Aggregates& in, std::string_view text, std::size_t pos
   return literal;
 }
 
-// confdata's integers: a confdata value written with decimals or beyond int range is not one.
+// confdata's integers: a confdata value written with decimals or beyond int range is not one (the negated test
+// also refuses NaN).
 int ConfValue(const Aggregates& in, const ScannedNumber& number) {
-  if (number.value != std::floor(number.value) || std::abs(number.value) > 1e6) {
-    in.Fail(number.offset, "a confdata value must be an integer");
+  constexpr double kLow = std::numeric_limits<int>::min();
+  constexpr double kHigh = std::numeric_limits<int>::max();
+  if (!(number.value >= kLow && number.value <= kHigh) || number.value != std::floor(number.value)) {
+    in.Fail(number.offset, "a confdata value must be an integer within +-2^31");
   }
   return static_cast<int>(number.value);
 }
@@ -193,9 +197,10 @@ ProgramTarget TargetOf(const SourceText& source, const Aggregates& in, const Lit
     const int cf6 = ConfValue(in, literal.numbers[9]);
     const int cfx = ConfValue(in, literal.numbers[10]);
     // The quadrant n of an axis is [n * 90, (n + 1) * 90) deg (quadrant -1 is -90..0 deg).
-    target.turns = {{0, cf1 * kQuadrantRad, (cf1 + 1) * kQuadrantRad},
-                    {3, cf4 * kQuadrantRad, (cf4 + 1) * kQuadrantRad},
-                    {5, cf6 * kQuadrantRad, (cf6 + 1) * kQuadrantRad}};
+    // (In double: cf + 1 overflows int at INT_MAX.)
+    target.turns = {{0, cf1 * kQuadrantRad, (cf1 + 1.0) * kQuadrantRad},
+                    {3, cf4 * kQuadrantRad, (cf4 + 1.0) * kQuadrantRad},
+                    {5, cf6 * kQuadrantRad, (cf6 + 1.0) * kQuadrantRad}};
     // cfx 0..7 of ABB's serial 6-axis robots: bit 2 the wrist centre behind axis 1, bit 1 behind the lower arm,
     // bit 0 axis 5 negative. "In front of the lower arm" is measured in the lower arm's own frame, while
     // robocal's elbow is "above the shoulder-wrist line, seen with the wrist outward"; both agree while the wrist
@@ -269,6 +274,8 @@ struct PendingMotion {
   MotionStatement statement;
   int target = -1;  // inline: its index; else resolved from `key`
   std::string key;
+  std::string name;                // lower-case name of a reference; empty for an inline target
+  std::vector<long long> indexes;  // its constant indexes
   TargetKind kind = TargetKind::kCartesian;
   bool configuration_monitored = true;
   std::string tool;
@@ -280,9 +287,93 @@ struct Declared {
   int target = 0;
 };
 
+// An index beyond any array dimension (they are at most 1e9): larger written indexes are clamped to it.
+constexpr long long kHugeIndex = 1'000'000'000'000LL;
+
+// A plain reference: a name, or an array element with constant indexes ("path{2}", "grid{ 2, +1 }", "p{-1}").
+// Function calls (Offs, RelTool, CRobT), record components and computed indexes are not.
+struct Reference {
+  std::string base;                // lower case
+  std::vector<long long> indexes;  // empty: no braces
+  // The key of the element as declarations are keyed (NameKey of "name{i,j}", indexes without sign or zeros).
+  std::string Key() const {
+    std::string key = base;
+    if (!indexes.empty()) {
+      key += '{';
+      for (std::size_t i = 0; i < indexes.size(); ++i) {
+        if (i > 0) key += ',';
+        key += std::to_string(indexes[i]);
+      }
+      key += '}';
+    }
+    return key;
+  }
+};
+
+std::optional<Reference> ParseReference(std::string_view text) {
+  if (text.empty() || !IsLetter(text[0])) return std::nullopt;
+  Reference reference;
+  std::size_t i = IdentifierEnd(text, 0);
+  reference.base = LowerCase(text.substr(0, i));
+  if (i == text.size()) return reference;
+  i = SkipBlanks(text, i);
+  if (i >= text.size() || text[i] != '{' || text.back() != '}') return std::nullopt;
+  ++i;
+  while (true) {
+    i = SkipBlanks(text, i);
+    bool negative = false;
+    if (i < text.size() && (text[i] == '+' || text[i] == '-')) {
+      negative = text[i] == '-';
+      i = SkipBlanks(text, i + 1);
+    }
+    if (i >= text.size() || !IsDigit(text[i])) return std::nullopt;
+    long long value = 0;
+    for (; i < text.size() && IsDigit(text[i]); ++i) value = std::min(kHugeIndex, value * 10 + (text[i] - '0'));
+    reference.indexes.push_back(negative ? -value : value);
+    i = SkipBlanks(text, i);
+    if (i < text.size() && text[i] == ',') {
+      ++i;
+      continue;
+    }
+    if (i + 1 != text.size()) return std::nullopt;  // only the closing '}' may follow
+    return reference;
+  }
+}
+
+// The shape a target name is declared with: an array's dimensions (empty: not an array), or a routine's array
+// parameter of any size ("{*}", `open`, with its number of dimensions).
+struct Shape {
+  int file = 0;
+  TargetKind kind = TargetKind::kCartesian;
+  std::vector<long> dimensions;
+  bool open = false;
+  std::string name;  // as declared
+  // Whether `indexes` name the whole target (no indexes, not an array) or one element inside it.
+  bool Admits(const std::vector<long long>& indexes) const {
+    if (indexes.size() != dimensions.size()) return false;
+    if (open) return true;
+    for (std::size_t i = 0; i < indexes.size(); ++i) {
+      if (indexes[i] < 1 || indexes[i] > dimensions[i]) return false;
+    }
+    return true;
+  }
+  std::string Written() const {
+    std::string text = name;
+    if (!dimensions.empty()) {
+      text += '{';
+      for (std::size_t i = 0; i < dimensions.size(); ++i) {
+        if (i > 0) text += ',';
+        text += open ? std::string("*") : std::to_string(dimensions[i]);
+      }
+      text += '}';
+    }
+    return text;
+  }
+};
+
 class Reader {
  public:
-  explicit Reader(ParsedProgram* program) : program_(program) {}
+  Reader(ParsedProgram* program, const std::vector<ProgramFile>& files) : program_(program), files_(files) {}
 
   void ReadFile(const ProgramFile& file, int file_index) {
     const SourceText source(file, file_index);
@@ -306,6 +397,9 @@ class Reader {
           pos = Declaration(source, in, end);
         } else if (EqualsNoCase(word, "ConfJ") || EqualsNoCase(word, "ConfL")) {
           pos = Monitoring(text, end, EqualsNoCase(word, "ConfJ") ? &conf_j_on_ : &conf_l_on_);
+        } else if (EqualsNoCase(word, "robtarget") || EqualsNoCase(word, "jointtarget")) {
+          Parameter(source, end, EqualsNoCase(word, "robtarget") ? TargetKind::kCartesian : TargetKind::kJoint);
+          pos = end;
         } else if (const Instruction* instruction = InstructionNamed(word)) {
           pos = MotionStatementAt(source, in, pos, end, *instruction);
         } else {
@@ -325,7 +419,10 @@ class Reader {
     for (PendingMotion& pending : pending_) {
       int index = pending.target;
       if (index < 0) index = Resolve(pending.key, pending.statement.file, pending.kind);
-      if (index < 0) continue;
+      if (index < 0) {
+        CheckShape(pending);
+        continue;  // declared without numbers, or nowhere in these files: nothing to compensate
+      }
       pending.statement.target = index;
       program_->motions.push_back(pending.statement);
       ProgramTarget& target = program_->targets[index];
@@ -338,6 +435,84 @@ class Reader {
   }
 
  private:
+  // A reference that names no declared target: throws when the files declare its name (with the instruction's
+  // kind) only with shapes it does not fit - an element outside the array, an array without an index, an index
+  // on a name that is no array. RAPID rejects such a module. A name declared nowhere in these files may live in
+  // a module the request does not carry, and one declared with another kind is not a target of this motion.
+  void CheckShape(const PendingMotion& pending) const {
+    if (pending.name.empty()) return;
+    const auto it = shapes_.find(pending.name);
+    if (it == shapes_.end()) return;
+    const int file = pending.statement.file;
+    // The declaration the error names: one with as many dimensions as the reference has indexes if any, the
+    // reference's own module's first.
+    auto prefer = [file](const Shape* current, const Shape& candidate) {
+      return current == nullptr || (candidate.file == file && current->file != file);
+    };
+    const Shape* same_rank = nullptr;
+    const Shape* any = nullptr;
+    for (const Shape& shape : it->second) {
+      if (shape.kind != pending.kind) continue;
+      if (shape.Admits(pending.indexes)) return;
+      if (prefer(any, shape)) any = &shape;
+      if (shape.dimensions.size() == pending.indexes.size() && prefer(same_rank, shape)) same_rank = &shape;
+    }
+    if (any == nullptr) return;
+    const MotionStatement& m = pending.statement;
+    std::string written = NameKeyKeepingCase(
+        std::string_view(files_[m.file].text).substr(m.reference_begin, m.reference_end - m.reference_begin));
+    std::string reason;
+    if (same_rank != nullptr) {
+      reason = written + " is outside " + same_rank->Written() + " (indexes run from 1)";
+    } else if (pending.indexes.empty()) {
+      reason = written + " is the array " + any->Written() + ", not one target: name one of its elements";
+    } else if (any->dimensions.empty()) {
+      reason = written + " indexes " + any->Written() + ", which is not an array";
+    } else {
+      reason = written + " has " + std::to_string(pending.indexes.size()) + " index(es), " + any->Written() + " has " +
+               std::to_string(any->dimensions.size()) + " dimension(s)";
+    }
+    SourceText(files_[m.file], m.file).Fail(m.reference_begin, reason);
+  }
+
+  // The reference as written without its blanks ("p{ 3 }" is "p{3}").
+  static std::string NameKeyKeepingCase(std::string_view text) {
+    std::string out;
+    for (char c : text) {
+      if (c != ' ' && c != '\t' && c != '\r' && c != '\n') out.push_back(c);
+    }
+    return out;
+  }
+
+  void AddShape(int file, TargetKind kind, std::string_view name, std::vector<long> dimensions, bool open) {
+    shapes_[LowerCase(name)].push_back({file, kind, std::move(dimensions), open, std::string(name)});
+  }
+
+  // A routine's parameter written without VAR / PERS ("PROC p(robtarget a, INOUT jointtarget b{*})") after its
+  // type at `pos`: its shape, so that a motion to it is not checked against a global target of the same name.
+  void Parameter(const SourceText& source, std::size_t pos, TargetKind kind) {
+    const std::string_view text = source.text();
+    pos = SkipSpace(text, pos);
+    const std::size_t name_end = IdentifierEnd(text, pos);
+    if (name_end == pos || !IsLetter(text[pos])) return;
+    const std::string_view name = text.substr(pos, name_end - pos);
+    pos = SkipSpace(text, name_end);
+    if (pos < text.size() && (text[pos] == ')' || text[pos] == ',')) {
+      AddShape(source.file_index(), kind, name, {}, false);
+    } else if (pos < text.size() && text[pos] == '{') {
+      AddShape(source.file_index(), kind, name, std::vector<long>(OpenRank(text, pos), 0), true);
+    }
+  }
+
+  // The number of dimensions of "{*}", "{*,*}", "{*,*,*}" at `pos` (its '{'); 1 if it is not that.
+  static std::size_t OpenRank(std::string_view text, std::size_t pos) {
+    std::size_t rank = 1;
+    for (++pos; pos < text.size() && text[pos] != '}' && text[pos] != ')' && text[pos] != ';'; ++pos) {
+      if (text[pos] == ',') ++rank;
+    }
+    return std::min<std::size_t>(rank, kMaxDimensions);
+  }
+
   // A declared target of that kind named `key`: the one of the same file first (a module's LOCAL data hides the
   // task's), else the first of the program.
   int Resolve(const std::string& key, int file, TargetKind kind) const {
@@ -381,11 +556,18 @@ class Reader {
     const std::string name(text.substr(pos, name_end - pos));
     pos = SkipSpace(text, name_end);
     // A routine's parameter ("PROC Path(PERS robtarget points{*}, VAR jointtarget home)") declares no data.
-    if (pos < text.size() && (text[pos] == ')' || text[pos] == ',')) return pos;
+    if (pos < text.size() && (text[pos] == ')' || text[pos] == ',')) {
+      AddShape(source.file_index(), kind, name, {}, false);
+      return pos;
+    }
     std::vector<long> dimensions;
     if (pos < text.size() && text[pos] == '{') {
+      const std::size_t open = pos;
       pos = SkipSpace(text, pos + 1);
-      if (pos < text.size() && text[pos] == '*') return pos;
+      if (pos < text.size() && text[pos] == '*') {
+        AddShape(source.file_index(), kind, name, std::vector<long>(OpenRank(text, open), 0), true);
+        return pos;
+      }
       while (true) {
         const std::optional<ScannedNumber> n = ScanNumber(text, pos);
         if (!n || n->value < 1 || n->value != std::floor(n->value) || n->value > 1e9 || text[pos] == '+' ||
@@ -404,6 +586,7 @@ class Reader {
         break;
       }
     }
+    AddShape(source.file_index(), kind, name, dimensions, false);
     if (pos < text.size() && text[pos] == ';') return pos + 1;  // no initial value: not a target
     if (pos + 1 >= text.size() || text[pos] != ':' || text[pos + 1] != '=') {
       in.Fail(pos, std::string("expected ':=' or ';' after the ") + type_name + "'s name");
@@ -541,21 +724,6 @@ class Reader {
     return {argument.begin, argument.end};
   }
 
-  // A plain reference: a name, or an array element with constant indexes ("path{2}"). Function calls (Offs,
-  // RelTool, CRobT), record components and computed indexes are not.
-  static bool PlainReference(std::string_view text) {
-    if (text.empty() || !IsLetter(text[0])) return false;
-    std::size_t i = IdentifierEnd(text, 0);
-    if (i == text.size()) return true;
-    i = SkipBlanks(text, i);
-    if (i >= text.size() || text[i] != '{' || text.back() != '}') return false;
-    for (++i; i + 1 < text.size(); ++i) {
-      const char c = text[i];
-      if (!IsDigit(c) && c != ',' && c != ' ' && c != '\t') return false;
-    }
-    return true;
-  }
-
   // The instruction whose name is [word_begin, word_end): its targets, tool and work object. Returns the position
   // after its ';'.
   std::size_t MotionStatementAt(const SourceText& source, const Aggregates& in, std::size_t word_begin,
@@ -607,8 +775,10 @@ class Reader {
         const Literal literal = ReadLiteral(in, text, begin, instruction.kind);
         if (SkipSpace(text, literal.end) < end) in.Fail(literal.end, "unexpected text after the target");
         pending.target = AddTarget(TargetOf(source, in, literal));
-      } else if (PlainReference(reference)) {
-        pending.key = NameKey(reference);
+      } else if (const std::optional<Reference> parsed = ParseReference(reference)) {
+        pending.key = parsed->Key();
+        pending.name = parsed->base;
+        pending.indexes = parsed->indexes;
       } else {
         continue;  // a computed target (Offs, RelTool, CRobT, ...): nothing of its own to compensate
       }
@@ -623,11 +793,14 @@ class Reader {
   bool conf_l_on_ = true;
   std::vector<PendingMotion> pending_;
   std::unordered_map<std::string, std::vector<Declared>> declared_;
+  // Every robtarget / jointtarget name's declarations and parameters, by lower-case name.
+  std::unordered_map<std::string, std::vector<Shape>> shapes_;
+  const std::vector<ProgramFile>& files_;
 };
 
 ParsedProgram Read(const std::vector<ProgramFile>& files) {
   ParsedProgram program;
-  Reader reader(&program);
+  Reader reader(&program, files);
   for (std::size_t i = 0; i < files.size(); ++i) reader.ReadFile(files[i], static_cast<int>(i));
   reader.Finish();
   return program;

@@ -103,6 +103,7 @@ class FileScan {
  public:
   FileScan(const ProgramFile& file, int index) : source_(file, index), tokens_(Tokenize(source_.text())) {
     MatchBrackets();
+    IndexJunk();
   }
 
   const SourceText& source() const { return source_; }
@@ -123,6 +124,22 @@ class FileScan {
     const int close = close_[i];
     if (close < 0) return -1;
     return IsPunct(i, '(') == IsPunct(close, ')') ? close : -1;
+  }
+
+  // The first token in [from, to) that is no URScript at all (a NUL or other control byte, '@', '$', ';', a byte of
+  // a UTF-8 character outside a string or comment), or -1. Constant time.
+  int FirstJunk(int from, int to) const {
+    if (from < 0) from = 0;
+    if (from >= to || from >= size()) return -1;
+    const int junk = next_junk_[from];
+    return junk < to ? junk : -1;
+  }
+  // What a junk token is, for an error: "'@'", or "byte 0x00" for one that does not print.
+  std::string DescribeJunk(int i) const {
+    const unsigned char c = static_cast<unsigned char>(text()[tokens_[i].begin]);
+    if (c > 0x20 && c < 0x7f) return std::string("'") + static_cast<char>(c) + "'";
+    static const char kHex[] = "0123456789ABCDEF";
+    return std::string("byte 0x") + kHex[c >> 4] + kHex[c & 15];
   }
 
   // One element of a bracketed list: tokens [first, last) with line ends left out (first < 0: empty), and the
@@ -177,9 +194,22 @@ class FileScan {
     }
   }
 
+  // The punctuation URScript has: operators, brackets, ',', '.', ':' and '='; "==", "!=", "<=", ">=" are one token.
+  bool IsJunk(int i) const {
+    if (tokens_[i].kind != TokenKind::kPunct) return false;
+    if (tokens_[i].end - tokens_[i].begin == 2) return false;
+    return std::string_view("+-*/%()[],.:=<>").find(text()[tokens_[i].begin]) == std::string_view::npos;
+  }
+
+  void IndexJunk() {
+    next_junk_.assign(tokens_.size() + 1, size());
+    for (int i = size() - 1; i >= 0; --i) next_junk_[i] = IsJunk(i) ? i : next_junk_[i + 1];
+  }
+
   SourceText source_;
   std::vector<Token> tokens_;
   std::vector<int> close_;
+  std::vector<int> next_junk_;  // per token: the index of the first junk token at or after it (size(): none)
 };
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -202,12 +232,18 @@ struct Literal {
   // The numbers and their spans: all 6 when the literal is a target and has no error.
   std::vector<double> values;
   std::vector<NumberSpan> spans;
-  // Why the literal is not a target: an element that is an expression, or not 6 numbers (silently skipped).
+  // A value built at run time (an element with a variable or call in it, `p[x, 0, ...]`): never a target, and
+  // silently so.
   bool skipped = false;
-  // A number written wrongly where a target's number must be: reported if the literal is a target.
+  // What keeps a literal of numbers from being a target: a malformed or missing number, a sign apart from its
+  // digits, bytes that are no URScript, other than 6 numbers. Reported only if the literal is where a target must
+  // be (a motion's target, a variable a motion moves to, a pose assigned to a variable); a list elsewhere (a
+  // gravity vector, an inertia) is not the reader's business.
   std::optional<std::size_t> error_offset;
   std::string error;
 };
+
+bool IsOperatorWord(std::string_view word) { return word == "not" || word == "and" || word == "or" || word == "xor"; }
 
 // The literal starting at token `first` (the "p" of "p[" or a "["), or nullopt if none starts there or its
 // bracket is not closed (the caller decides whether that is an error).
@@ -225,9 +261,38 @@ std::optional<Literal> ReadLiteral(const FileScan& scan, int first) {
   literal.file = scan.source().file_index();
   literal.begin = scan.at(first).begin;
   literal.end = scan.at(close).end;
+  const char* what = literal.pose ? "pose" : "joint list";
+  // Bytes that are no URScript (a NUL, '@', ...) make the text no program the controller runs, whatever the
+  // literal holds: an error wherever the literal is a target, even next to a variable.
+  if (const int junk = scan.FirstJunk(open + 1, close); junk >= 0) {
+    literal.error_offset = scan.at(junk).begin;
+    literal.error = "unexpected " + scan.DescribeJunk(junk) + " in the " + what;
+    return literal;
+  }
   const std::vector<FileScan::Element> elements = scan.Elements(open);
-  // First pass: an element that is an expression makes the literal a value built at run time, not a target,
-  // whatever else it holds; so malformed numbers are only reported for literals made of numbers alone.
+  // Two numbers with nothing between them ("0.4 0.1": a ',' lost) are no expression either.
+  for (const FileScan::Element& e : elements) {
+    int previous = -1;
+    for (int i = e.first; e.first >= 0 && i < e.last; ++i) {
+      const TokenKind kind = scan.at(i).kind;
+      if (kind == TokenKind::kLineEnd) continue;
+      const bool number = kind == TokenKind::kNumber || kind == TokenKind::kBadNumber;
+      const bool name = kind == TokenKind::kName && !IsOperatorWord(scan.TextOf(i));
+      if (previous >= 0 && (number || name)) {
+        const TokenKind before = scan.at(previous).kind;
+        if ((before == TokenKind::kNumber || before == TokenKind::kBadNumber) ||
+            (number && before == TokenKind::kName && !IsOperatorWord(scan.TextOf(previous)))) {
+          literal.error_offset = scan.at(i).begin;
+          literal.error = "a ',' is missing between '" + std::string(scan.TextOf(previous)) + "' and '" +
+                          std::string(scan.TextOf(i)) + "' in the " + what;
+          return literal;
+        }
+      }
+      previous = i;
+    }
+  }
+  // An element that is an expression makes the literal a value built at run time, not a target, whatever else it
+  // holds; so malformed numbers are only reported for literals made of numbers alone.
   for (const FileScan::Element& e : elements) {
     if (e.first < 0) continue;  // empty: malformed, below
     const bool sign = scan.IsPunct(e.first, '-') || scan.IsPunct(e.first, '+');
@@ -239,7 +304,6 @@ std::optional<Literal> ReadLiteral(const FileScan& scan, int first) {
       return literal;
     }
   }
-  const char* what = literal.pose ? "pose" : "joint list";
   for (const FileScan::Element& e : elements) {
     if (literal.error_offset) break;
     if (e.first < 0) {
@@ -265,10 +329,13 @@ std::optional<Literal> ReadLiteral(const FileScan& scan, int first) {
       literal.spans.push_back(NumberSpan{literal.file, begin, token.end - begin});
     }
   }
-  if (elements.size() != 6) {
-    // A pose or joint list has 6 numbers; another count is some other list (a gravity vector, an index).
-    literal.skipped = true;
-    literal.error_offset.reset();
+  if (!literal.error_offset && elements.size() != 6) {
+    // URScript's poses are 6 values, and a UR arm has 6 joints: the controller rejects any other count where a
+    // target must be. (Elsewhere, as a gravity vector or an index list, the literal is simply not a target.)
+    literal.error_offset = literal.begin;
+    literal.error = literal.pose ? "a pose p[...] has 6 values, this one " + std::to_string(elements.size())
+                                 : "a joint list [...] has 6 values (a UR arm has 6 joints), this one " +
+                                       std::to_string(elements.size());
   }
   return literal;
 }
@@ -396,8 +463,20 @@ class Reader {
       if (pose) scan.source().Fail(scan.at(first).begin, "the pose's '[' is not closed");
       return std::nullopt;
     }
-    if (close + 1 < scan.size() && scan.at(close + 1).kind != TokenKind::kLineEnd) return std::nullopt;
-    return ReadLiteral(scan, first);
+    int line_end = close + 1;
+    while (line_end < scan.size() && scan.at(line_end).kind != TokenKind::kLineEnd) ++line_end;
+    std::optional<Literal> literal = ReadLiteral(scan, first);
+    if (line_end == close + 1) return literal;
+    // Something after the literal makes the value an expression (`p[...] + x`), unless it is bytes that are no
+    // URScript (`p[...]\0`): then the literal is a target written wrongly.
+    const int junk = scan.FirstJunk(close + 1, line_end);
+    if (junk < 0) return std::nullopt;
+    if (literal && !literal->error_offset) {
+      literal->skipped = false;
+      literal->error_offset = scan.at(junk).begin;
+      literal->error = "unexpected " + scan.DescribeJunk(junk) + " after the " + (pose ? "pose" : "joint list");
+    }
+    return literal;
   }
 
   void ScanSetTcp(const FileScan& scan, int i) {
@@ -436,6 +515,9 @@ class Reader {
       if (position < slots.size()) slots[position] = {a, b};
       ++position;
     }
+    // Bytes that are no URScript anywhere in the call's arguments (outside a literal target, which names them
+    // itself): the controller would not run the statement.
+    const int junk = scan.FirstJunk(open + 1, close);
     MotionCall call;
     call.motion = function.motion;
     call.place = Place{scan.source().file_index(), scan.at(i).begin};
@@ -456,6 +538,15 @@ class Reader {
         continue;
       }
       call.references.push_back(std::move(*reference));
+    }
+    if (junk >= 0) {
+      const std::size_t at = scan.at(junk).begin;
+      const bool in_literal = std::any_of(call.references.begin(), call.references.end(),
+                                          [&](const Reference& r) { return r.literal && r.begin <= at && at < r.end; });
+      if (!in_literal) {
+        errors_.emplace_back(Place{scan.source().file_index(), at}, "unexpected " + scan.DescribeJunk(junk) + " in " +
+                                                                        std::string(function.name) + "'s arguments");
+      }
     }
     if (!complete) call.references.push_back(Reference());  // a reference to nothing: TargetOf gives -1
     if (!call.references.empty()) motions_.push_back(std::move(call));

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "robocal/programs/program.h"
@@ -251,13 +252,40 @@ const Attribute* Find(const Tag& tag, std::string_view name) {
   return nullptr;
 }
 
+// The largest array size robocal reads (a .dtx holds every element, so this is a file of 100 MB and more).
+constexpr std::uint64_t kMaxSize = 1000000;
+
 // The Data element a Value belongs to.
 struct DataInfo {
   std::string name;
   std::optional<TargetKind> kind;  // nullopt: a type that holds no target (frame, tool, trsf, num, ...)
   bool single = false;             // size="1": VAL3 code names its one element without an index
+  std::uint64_t size = 0;          // a target Data's size (checked)
   int values_seen = 0;
+  // A target Data's keys so far: the index, and the offset of the Value that has it.
+  std::unordered_map<std::uint64_t, std::size_t> keys;
 };
+
+// An attribute's decoded value without the XML spaces around it.
+std::string Trimmed(std::string_view raw) {
+  std::string value = DecodeEntities(raw);
+  std::size_t begin = 0, end = value.size();
+  while (begin < end && IsXmlSpace(value[begin])) ++begin;
+  while (end > begin && IsXmlSpace(value[end - 1])) --end;
+  return value.substr(begin, end - begin);
+}
+
+// A whole number of decimal digits, nullopt if `text` is not one or is above `max`.
+std::optional<std::uint64_t> WholeNumber(std::string_view text, std::uint64_t max) {
+  if (text.empty()) return std::nullopt;
+  std::uint64_t value = 0;
+  for (const char c : text) {
+    if (c < '0' || c > '9') return std::nullopt;
+    value = value * 10 + static_cast<std::uint64_t>(c - '0');
+    if (value > max) return std::nullopt;
+  }
+  return value;
+}
 
 constexpr std::array<std::string_view, 6> kJointComponents = {"j1", "j2", "j3", "j4", "j5", "j6"};
 constexpr std::array<std::string_view, 6> kCartesianComponents = {"x", "y", "z", "rx", "ry", "rz"};
@@ -288,22 +316,76 @@ class Val3Reader {
     TagScanner scanner(source_);
     Tag tag;
     std::optional<DataInfo> data;
+    // The open elements (name, offset of the '<'), and whether the root has been met: a .dtx is one
+    // <Database> element, and every element it opens is closed, or the file was cut or is no .dtx at all.
+    std::vector<std::pair<std::string_view, std::size_t>> open;
+    bool root_seen = false;
+    std::unordered_map<std::string, std::size_t> data_names;  // the target Data's names, and where
     while (scanner.Next(&tag)) {
+      CheckNesting(tag, &open, &root_seen);
       const std::string_view local = LocalName(tag.name);
       if (EqualsNoCase(local, "Data")) {
         data.reset();
         if (!tag.end_tag && !tag.self_closing) data = DataOf(tag);
-        // Its targets would have no name to report them by, or to tell the request's frames from.
-        if (data && data->kind && data->name.empty()) source_.Fail(tag.begin, "a jointRx or pointRx Data has no name");
+        if (data && data->kind) {
+          // Two arrays of one name would give two targets of each name.
+          const auto [it, inserted] = data_names.emplace(data->name, tag.begin);
+          if (!inserted) {
+            source_.Fail(tag.begin,
+                         "a second Data named " + data->name + " (the first is at " + Where(it->second) + ")");
+          }
+        }
       } else if (EqualsNoCase(local, "Value") && !tag.end_tag && data) {
-        if (data->kind) ReadValue(tag, *data);
+        if (data->kind) {
+          CheckKey(tag, &*data);
+          ReadValue(tag, *data);
+        }
         ++data->values_seen;
       }
+    }
+    if (!root_seen) {
+      std::size_t first = 0;
+      const std::string_view text = source_.text();
+      if (text.substr(0, 3) == "\xEF\xBB\xBF") first = 3;  // a UTF-8 byte order mark
+      first = SkipXmlSpace(text, first);
+      source_.Fail(first == text.size() ? 0 : first,
+                   "not a VAL3 data file: no <Database> root element" +
+                       std::string(first == text.size() ? " (the file is empty)" : ""));
+    }
+    if (!open.empty()) {
+      source_.Fail(open.back().second, "the element <" + std::string(open.back().first) +
+                                           "> is not closed before the end of the file (the file is cut short?)");
     }
   }
 
  private:
-  static DataInfo DataOf(const Tag& tag) {
+  std::string Where(std::size_t offset) const {
+    return "line " + std::to_string(source_.LineOf(offset)) + ", column " + std::to_string(source_.ColumnOf(offset));
+  }
+
+  void CheckNesting(const Tag& tag, std::vector<std::pair<std::string_view, std::size_t>>* open,
+                    bool* root_seen) const {
+    const std::string name(tag.name);
+    if (tag.end_tag) {
+      if (open->empty()) source_.Fail(tag.begin, "</" + name + "> closes no open element");
+      if (open->back().first != tag.name) {
+        source_.Fail(tag.begin, "</" + name + "> does not close <" + std::string(open->back().first) + "> (" +
+                                    Where(open->back().second) + ")");
+      }
+      open->pop_back();
+      return;
+    }
+    if (open->empty()) {
+      if (*root_seen) source_.Fail(tag.begin, "<" + name + "> after the end of the <Database> root element");
+      if (!EqualsNoCase(LocalName(tag.name), "Database")) {
+        source_.Fail(tag.begin, "not a VAL3 data file: the root element is <" + name + ">, not <Database>");
+      }
+      *root_seen = true;
+    }
+    if (!tag.self_closing) open->emplace_back(tag.name, tag.begin);
+  }
+
+  DataInfo DataOf(const Tag& tag) const {
     DataInfo data;
     if (const Attribute* name = Find(tag, "name")) data.name = DecodeEntities(name->value);
     if (const Attribute* type = Find(tag, "type")) {
@@ -311,15 +393,62 @@ class Val3Reader {
       if (decoded == "jointRx") data.kind = TargetKind::kJoint;
       if (decoded == "pointRx") data.kind = TargetKind::kCartesian;
     }
-    if (const Attribute* size = Find(tag, "size")) data.single = DecodeEntities(size->value) == "1";
+    const Attribute* size = Find(tag, "size");
+    if (size) data.single = Trimmed(size->value) == "1";
+    if (!data.kind) return data;  // not a target: the rest is not read
+    // Its targets would have no name to report them by, or to tell the request's frames from.
+    if (data.name.empty()) source_.Fail(tag.begin, "a jointRx or pointRx Data has no name");
+    // The size bounds the keys: without it a key the controller refuses could not be told.
+    if (!size) source_.Fail(tag.begin, "the " + data.name + " Data has no size (SRS writes size=\"N\")");
+    const std::optional<std::uint64_t> n = WholeNumber(Trimmed(size->value), kMaxSize);
+    if (!n) {
+      source_.Fail(size->value_offset, "size=\"" + std::string(size->value.substr(0, 40)) +
+                                           "\" is not a whole number from 0 to " + std::to_string(kMaxSize));
+    }
+    data.size = *n;
     return data;
+  }
+
+  // A Value's key: an index below the Data's size, and no other Value's. A Value without key takes its place
+  // among its siblings.
+  void CheckKey(const Tag& tag, DataInfo* data) const {
+    const Attribute* key = nullptr;
+    for (const Attribute& attribute : tag.attributes) {
+      if (attribute.name != "key") continue;
+      if (key) source_.Fail(attribute.name_offset, "the attribute key is repeated");
+      key = &attribute;
+    }
+    std::uint64_t index = static_cast<std::uint64_t>(data->values_seen);
+    std::size_t at = tag.begin;
+    if (key) {
+      at = key->value_offset;
+      const std::optional<std::uint64_t> n = WholeNumber(Trimmed(key->value), kMaxSize);
+      if (!n || *n >= data->size) {
+        source_.Fail(at, "key=\"" + std::string(key->value.substr(0, 40)) + "\" is not an index of " + data->name +
+                             " (a whole number from 0 to " +
+                             (data->size == 0
+                                  ? std::string("-1, none: size=\"0\"")
+                                  : std::to_string(data->size - 1) + ", size=\"" + std::to_string(data->size) + "\"") +
+                             ")");
+      }
+      index = *n;
+    } else if (index >= data->size) {
+      source_.Fail(at, "this Value without key is element " + std::to_string(index) + " of " + data->name +
+                           ", beyond its size=\"" + std::to_string(data->size) + "\"");
+    }
+    const auto [it, inserted] = data->keys.emplace(index, tag.begin);
+    if (!inserted) {
+      source_.Fail(
+          at, "duplicate key: " + data->name + "[" + std::to_string(index) + "] is also the Value at " +
+                  Where(it->second) +
+                  (key ? "" : " (this Value has no key: it is element " + std::to_string(index) + " by its place)"));
+    }
   }
 
   void ReadValue(const Tag& tag, const DataInfo& data) {
     const bool joint = *data.kind == TargetKind::kJoint;
     const auto& components = joint ? kJointComponents : kCartesianComponents;
     std::array<std::optional<ScannedNumber>, 6> numbers;
-    std::string key = std::to_string(data.values_seen);
     std::string father;
     // Raw flags: +1 / -1 as Staubli names them (lefty, epositive, wpositive are +1), 0 free or same.
     int lefty = 0, elbow_positive = 0, wrist_positive = 0;
@@ -333,9 +462,7 @@ class Val3Reader {
         numbers[k] = NumberOf(attribute);
       }
       if (component) continue;
-      if (name == "key") {
-        key = DecodeEntities(attribute.value);
-      } else if (!joint && name == "fatherId") {
+      if (!joint && name == "fatherId") {
         father = DecodeEntities(attribute.value);
       } else if (!joint && name == "shoulder") {
         lefty = Flag(attribute, "lefty", "righty", "ssame", "sfree");
@@ -358,7 +485,10 @@ class Val3Reader {
     // A value with no coordinate written holds VAL3's default (all zero): a placeholder the program fills at
     // run time (here(), appro(), compose()), with no number to rewrite.
     if (written == 0) return;
-    const std::string name = data.single && key == "0" ? data.name : data.name + "[" + key + "]";
+    // The key, checked (CheckKey): the attribute's number, or the Value's place among its siblings.
+    std::uint64_t key = static_cast<std::uint64_t>(data.values_seen);
+    if (const Attribute* attribute = Find(tag, "key")) key = *WholeNumber(Trimmed(attribute->value), kMaxSize);
+    const std::string name = data.single && key == 0 ? data.name : data.name + "[" + std::to_string(key) + "]";
     if (written < static_cast<int>(components.size())) {
       // SRS leaves a zero out of the file; robocal can rewrite only numbers that are written.
       source_.Fail(tag.begin, name + ": " + missing + " not written (a .dtx leaves zeros out; write them, e.g. " +

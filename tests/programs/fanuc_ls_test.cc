@@ -6,7 +6,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -535,22 +534,18 @@ TEST(FanucLsRobustnessTest, MutatedAndRandomInput) {
   }
 }
 
-// 10,000 targets in one program: read in well under 100 ms (the time is printed, and bounded loosely so that a
-// quadratic reader fails while a slow machine does not).
-TEST(FanucLsPerformanceTest, TenThousandTargets) {
+// 10,000 targets in one program, every one read with its motion (the reading time is the benchmark's:
+// tests/bench/program_bench.cc, never a test's).
+TEST(FanucLsLargeProgramTest, TenThousandTargets) {
   std::string mn, pos;
   for (int i = 1; i <= 10000; ++i) {
     mn += std::to_string(i) + ":L P[" + std::to_string(i) + "] 100mm/sec CNT100 ;\n";
     pos += CartesianBlock("P[" + std::to_string(i) + "]", "N U T, 0, 0, 0");
   }
-  const std::string text = Program(mn, pos);
-  const auto start = std::chrono::steady_clock::now();
-  const ParsedProgram program = Read(text);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  std::printf("10,000 targets (%zu bytes) read in %.1f ms\n", text.size(), ms);
+  const ParsedProgram program = Read(Program(mn, pos));
   EXPECT_EQ(program.targets.size(), 10000u);
   EXPECT_EQ(program.motions.size(), 10000u);
-  EXPECT_LT(ms, 1000.0);
+  EXPECT_EQ(*program.targets.back().name, "P[10000]");
 }
 
 }  // namespace
