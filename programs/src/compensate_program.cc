@@ -679,6 +679,19 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
       const bool moved = c.termination == Termination::kConvergence && c.configuration_kept;
       return moved ? c.joints : work[i].controller;
     };
+    // An inserted target's entry in the reply, sorted just before the statement it precedes.
+    auto record_inserted = [&](const MotionStatement& statement, const Inserted& point) {
+      CompensatedTarget c;
+      c.file = statement.file, c.line = statement.line, c.kind = TargetKind::kCartesian, c.inserted = true;
+      c.joints = point.joints;
+      c.predicted_error_mm =
+          PredictPositionError(calibration, point.joints, options.payload, options.prediction).bound_mm;
+      c.termination = point.result.termination;
+      c.rewritten = true;
+      c.joint_change_rad = kNaN;
+      inserted_targets.push_back({{statement.file, statement.begin == 0 ? 0 : statement.begin - 1}, std::move(c)});
+      ++summary.inserted;
+    };
     for (std::size_t m = 1; m < program.motions.size(); ++m) {
       const MotionStatement& here = program.motions[m];
       const MotionStatement& before = program.motions[m - 1];
@@ -759,18 +772,7 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
           return e.length > 0 && e.offset >= here.reference_begin && e.offset < here.reference_end;
         });
         file_edits.push_back({here.reference_begin, here.reference_end - here.reference_begin, via_second});
-        for (const Inserted& point : points) {
-          CompensatedTarget c;
-          c.file = here.file, c.line = here.line, c.kind = TargetKind::kCartesian, c.inserted = true;
-          c.joints = point.joints;
-          c.predicted_error_mm =
-              PredictPositionError(calibration, point.joints, options.payload, options.prediction).bound_mm;
-          c.termination = point.result.termination;
-          c.rewritten = true;
-          c.joint_change_rad = kNaN;
-          inserted_targets.push_back({{here.file, here.begin == 0 ? 0 : here.begin - 1}, std::move(c)});
-          ++summary.inserted;
-        }
+        for (const Inserted& point : points) record_inserted(here, point);
         continue;
       }
       if (here.motion != Motion::kLinear || here.file < 0 || static_cast<std::size_t>(here.file) >= files.size())
@@ -804,17 +806,7 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
         const std::string literal = syntax.inline_target(like, files, values);
         if (literal.empty()) continue;
         block.push_back(InsertedStatement(text, here, {{here.reference_begin, here.reference_end, literal}}));
-        CompensatedTarget c;
-        c.file = here.file, c.line = here.line, c.kind = TargetKind::kCartesian, c.inserted = true;
-        c.joints = piece.joints;
-        c.predicted_error_mm =
-            PredictPositionError(calibration, piece.joints, options.payload, options.prediction).bound_mm;
-        c.termination = piece.result.termination;
-        c.rewritten = true;
-        c.joint_change_rad = kNaN;
-        // Sorted just before the statement's own targets.
-        inserted_targets.push_back({{here.file, here.begin == 0 ? 0 : here.begin - 1}, std::move(c)});
-        ++summary.inserted;
+        record_inserted(here, piece);
       }
       // In path order: edits at one offset keep their order (the writer's sort is stable).
       for (Edit& e : block) edits[static_cast<std::size_t>(here.file)].push_back(std::move(e));
