@@ -175,20 +175,17 @@ bool TurnsMet(const std::vector<JointRange>& turns, const Eigen::VectorXd& q) {
   return true;
 }
 
-// The joints the controller uses for a Cartesian target as written: its nominal inverse kinematics on the branch
-// the target names (flags and turns) or, where none applies, on the previous target's branch nearest its joints.
-// Empty when the nominal robot does not reach the target on that branch.
-Eigen::VectorXd ControllerJoints(const Context& ctx, const ProgramTarget& t, const Transform& T_base_tool,
-                                 const Eigen::VectorXd& previous, std::string* why) {
-  const Eigen::VectorXd& near = previous.size() != 0 ? previous : DefaultJoints(ctx.nominal);
+// The nominal robot's joints for a pose as the controller takes them: of the exact closed-form solutions whose flags
+// `wanted` admits, the one meeting `turns` (placed in them and the limits) nearest `near`; with `prefer_default`,
+// front, up and noflip first (the shoulder weighing most), as the core's rule for a target without a hint. A robot
+// without named branches: the controller's solution from `near`. Empty when there is none; `why` then (or when
+// only other turns reach it) says so.
+Eigen::VectorXd NominalSolution(const Context& ctx, const Transform& T_base_tool, const ArmConfiguration& wanted,
+                                const std::vector<JointRange>& turns, const Eigen::VectorXd& near, bool prefer_default,
+                                std::string* why) {
   if (ctx.arm) {
-    ArmConfiguration wanted = t.configuration_applies ? t.configuration : ArmConfiguration{};
-    if (!t.configuration_applies && previous.size() != 0) wanted = ctx.arm->ConfigurationOf(previous);
-    // The first target without flags: any branch, front, up and noflip preferred (the shoulder weighing most),
-    // as the core's rule for a target without a hint.
     auto preference = [&](const ArmConfiguration& c) {
-      if (t.configuration_applies || previous.size() != 0) return 0;
-      return 4 * (c.shoulder != 1) + 2 * (c.elbow != 1) + (c.wrist != 1);
+      return prefer_default ? 4 * (c.shoulder != 1) + 2 * (c.elbow != 1) + (c.wrist != 1) : 0;
     };
     Eigen::VectorXd best;
     std::tuple<bool, int, double> best_rank{false, 0, HUGE_VAL};
@@ -196,20 +193,18 @@ Eigen::VectorXd ControllerJoints(const Context& ctx, const ProgramTarget& t, con
       if (!wanted.Admits(s.configuration)) continue;
       if (s.position_error_mm > 1e-6 || s.orientation_error_rad > 1e-9) continue;  // not an exact solution
       Eigen::VectorXd q = s.joints;
-      const bool turns = PlaceTurns(ctx, t.configuration_applies ? t.turns : std::vector<JointRange>{}, near, &q);
-      const std::tuple<bool, int, double> rank{!turns, preference(s.configuration), (q - near).squaredNorm()};
+      const bool met = PlaceTurns(ctx, turns, near, &q);
+      const std::tuple<bool, int, double> rank{!met, preference(s.configuration), (q - near).squaredNorm()};
       if (best.size() == 0 || rank < best_rank) best = q, best_rank = rank;
     }
-    const bool best_turns = best.size() != 0 && !std::get<0>(best_rank);
     if (best.size() == 0) {
       *why = "the nominal robot does not reach the target as written on " +
              (wanted.empty() ? std::string("any branch") : wanted.ToString());
-    } else if (!best_turns) {
+    } else if (std::get<0>(best_rank)) {
       *why = "the nominal robot reaches the target as written only with other turns than the target names";
     }
     return best;
   }
-  // A robot without named branches: the controller's solution from the previous joints.
   CompensationTarget target;
   target.pose = T_base_tool;
   target.frame = TargetFrame::kBase;
@@ -220,6 +215,18 @@ Eigen::VectorXd ControllerJoints(const Context& ctx, const ProgramTarget& t, con
     return {};
   }
   return r.joints;
+}
+
+// The joints the controller uses for a Cartesian target as written: on the branch the target names (flags and
+// turns) or, where none applies, on the previous target's branch nearest its joints.
+Eigen::VectorXd ControllerJoints(const Context& ctx, const ProgramTarget& t, const Transform& T_base_tool,
+                                 const Eigen::VectorXd& previous, std::string* why) {
+  const Eigen::VectorXd& near = previous.size() != 0 ? previous : DefaultJoints(ctx.nominal);
+  ArmConfiguration wanted = t.configuration_applies ? t.configuration : ArmConfiguration{};
+  if (ctx.arm && !t.configuration_applies && previous.size() != 0) wanted = ctx.arm->ConfigurationOf(previous);
+  const bool first_without_flags = !t.configuration_applies && previous.size() == 0;
+  return NominalSolution(ctx, T_base_tool, wanted, t.configuration_applies ? t.turns : std::vector<JointRange>{}, near,
+                         first_without_flags, why);
 }
 
 double LargestRevoluteChange(const RobotModel& model, const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
@@ -407,25 +414,9 @@ class PathChecker {
   // The controller's joints for a pose on the branch of `branch`, nearest `near`; empty when it has none.
   Eigen::VectorXd ControllerAt(const Transform& T_base_tool, const Eigen::VectorXd& branch,
                                const Eigen::VectorXd& near) const {
-    if (ctx_.arm) {
-      const ArmConfiguration wanted = ctx_.arm->ConfigurationOf(branch);
-      Eigen::VectorXd best;
-      double best_distance = HUGE_VAL;
-      for (const ArmSolution& s : ctx_.arm->Solve(T_base_tool, near)) {
-        if (s.configuration != wanted || s.position_error_mm > 1e-6) continue;
-        Eigen::VectorXd q = s.joints;
-        PlaceTurns(ctx_, {}, near, &q);
-        const double distance = (q - near).squaredNorm();
-        if (distance < best_distance) best = q, best_distance = distance;
-      }
-      return best;
-    }
-    CompensationTarget target;
-    target.pose = T_base_tool;
-    target.frame = TargetFrame::kBase;
-    target.start = near;
-    const CompensationResult r = Compensate(ctx_.controller, ctx_.nominal, target, ctx_.options.solver);
-    return r.converged ? r.joints : Eigen::VectorXd();
+    const ArmConfiguration wanted = ctx_.arm ? ctx_.arm->ConfigurationOf(branch) : ArmConfiguration{};
+    std::string why;
+    return NominalSolution(ctx_, T_base_tool, wanted, {}, near, false, &why);
   }
 
  private:

@@ -4,6 +4,7 @@
 
 #include <numbers>
 
+#include "bench_calibration.h"
 #include "robocal/core/arm_kinematics.h"
 #include "robocal/core/compensation.h"
 #include "robocal/core/kinematics.h"
@@ -13,23 +14,11 @@
 namespace robocal {
 namespace {
 
+// The preset with the tracker 3 m away, and errors of an industrial robot.
 Calibration MakeCalibration(const std::string& preset) {
   RobotModelSpec spec = PresetSpec(preset);
   spec.T_world_base = TransformFromXyzRpy({3000.0, -1200.0, 500.0}, {0.1, -0.05, 2.0});
-  const RobotModel model = RobotModel::Build(spec);
-  Rng rng(1);
-  Eigen::VectorXd errors(model.num_error_parameters());
-  for (int k = 0; k < errors.size(); ++k) {
-    errors[k] = RobotModel::IsTranslationParameter(k) ? 0.2 * rng.Normal() : 3.5e-4 * rng.Normal();
-  }
-  return Calibration{.model = model,
-                     .errors = errors,
-                     .parameters = {},
-                     .covariance = {},
-                     .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
-                     .T_flange_tool = model.T_flange_tool(),
-                     .reflectors = {},
-                     .summary = {}};
+  return bench::IndustrialCalibration(RobotModel::Build(spec));
 }
 
 // Arg: preset (0 grinder5, 1 ur5e). Cycles over 64 random nominal commands.

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_calibration.h"
 #include "robocal/core/arm_kinematics.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
@@ -17,22 +18,6 @@
 
 namespace robocal::programs {
 namespace {
-
-Calibration MakeCalibration(const RobotModel& model) {
-  Rng rng(1);
-  Eigen::VectorXd errors(model.num_error_parameters());
-  for (int k = 0; k < errors.size(); ++k) {
-    errors[k] = RobotModel::IsTranslationParameter(k) ? 0.2 * rng.Normal() : 3.5e-4 * rng.Normal();
-  }
-  return Calibration{.model = model,
-                     .errors = errors,
-                     .parameters = {},
-                     .covariance = {},
-                     .T_world_base = model.T_world_base() * ErrorTransform(errors.data()),
-                     .T_flange_tool = model.T_flange_tool(),
-                     .reflectors = {},
-                     .summary = {}};
-}
 
 std::string Number(double v, int decimals) {
   char buffer[64];
@@ -75,7 +60,7 @@ std::vector<ProgramFile> MakeKrlProgram(const RobotModel& model, int targets) {
 // Arg: the number of targets.
 void BM_CompensateKrlProgram(benchmark::State& state) {
   const RobotModel model = Preset("puma560");
-  const Calibration calibration = MakeCalibration(model);
+  const Calibration calibration = bench::IndustrialCalibration(model);
   const std::vector<ProgramFile> files = MakeKrlProgram(model, static_cast<int>(state.range(0)));
   int failed = 0, targets = 0;
   for (auto _ : state) {

@@ -180,6 +180,18 @@ std::string Fixed(double value, int decimals) {
   return buffer;
 }
 
+// The nominal tool pose at q in the robot base as the test dialect writes it: "x y z a b c", positions with
+// `position_decimals` (mm), KUKA's Z Y' X'' angles with 4 (deg).
+std::string PoseValues(const RobotModel& nominal, const Eigen::VectorXd& q, int position_decimals = 3) {
+  const Transform pose = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
+  const Eigen::Matrix3d R = pose.linear();
+  const double b = std::asin(-R(2, 0)), a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
+  const Eigen::Vector3d p = pose.translation();
+  return Fixed(p.x(), position_decimals) + " " + Fixed(p.y(), position_decimals) + " " +
+         Fixed(p.z(), position_decimals) + " " + Fixed(a * kDegPerRad, 4) + " " + Fixed(b * kDegPerRad, 4) + " " +
+         Fixed(c * kDegPerRad, 4);
+}
+
 // Joints where the arm is near a singularity (the smallest singular value of its pose Jacobian, orientation rows
 // at 100 mm per rad, below 5 % of the largest), where a calibrated robot need not reach what the nominal one does
 // (docs/compensation.md): the programs here keep away from them.
@@ -198,7 +210,6 @@ ProgramFile MakeProgram(const RobotModel& nominal, int count, std::uint64_t seed
   const ArmSolver arm = *ArmSolver::For(nominal);
   Rng rng(seed);
   std::string text = "# a test program\r\n\n";
-  const Transform T_base_world = nominal.T_world_base().inverse();
   for (int i = 0; i < count; ++i) {
     Eigen::VectorXd q(6);
     // Within the limits, and away from the wrist's singularity.
@@ -218,16 +229,9 @@ ProgramFile MakeProgram(const RobotModel& nominal, int count, std::uint64_t seed
       for (int k = 0; k < 6; ++k) q[k] = draw(k, -1.5, 1.5);
       q[4] = draw(4, 0.3, 1.4) * (i % 2 ? -1.0 : 1.0);
     } while (NearSingular(nominal, q));
-    const Transform pose = T_base_world * ForwardKinematics(nominal, q);
-    const Eigen::Vector3d p = pose.translation();
     const ArmConfiguration flags = arm.ConfigurationOf(q);
-    // Z Y' X'' angles of the pose, as KUKA writes them.
-    const Eigen::Matrix3d R = pose.linear();
-    const double b = std::asin(-R(2, 0)), a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
-    text += "P p" + std::to_string(i) + "\t" + Fixed(p.x(), 2) + " " + Fixed(p.y(), 2) + " " + Fixed(p.z(), 2) + " " +
-            Fixed(a * kDegPerRad, 4) + " " + Fixed(b * kDegPerRad, 4) + " " + Fixed(c * kDegPerRad, 4) + "   " +
-            std::to_string(flags.shoulder) + " " + std::to_string(flags.elbow) + " " + std::to_string(flags.wrist) +
-            "  # from q\n";
+    text += "P p" + std::to_string(i) + "\t" + PoseValues(nominal, q, 2) + "   " + std::to_string(flags.shoulder) +
+            " " + std::to_string(flags.elbow) + " " + std::to_string(flags.wrist) + "  # from q\n";
   }
   return {"main.test", text};
 }
@@ -406,14 +410,7 @@ TEST(ProgramCompensationTest, AStraightMoveIsSplitUntilEveryPieceIsWithinTheDevi
   // Large errors, so that the controller's straight line between compensated ends leaves the calibrated path.
   const Calibration calibration = MakeCalibration(nominal, 8.0, 5);
   // Two poses on one branch (front, up, noflip: the first target's, which has no previous), half a metre apart.
-  auto line = [&](const Eigen::VectorXd& q) {
-    const Transform pose = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
-    const Eigen::Matrix3d R = pose.linear();
-    const double b = std::asin(-R(2, 0)), a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
-    return "L " + Fixed(pose.translation().x(), 3) + " " + Fixed(pose.translation().y(), 3) + " " +
-           Fixed(pose.translation().z(), 3) + " " + Fixed(a * kDegPerRad, 4) + " " + Fixed(b * kDegPerRad, 4) + " " +
-           Fixed(c * kDegPerRad, 4) + "\r\n";
-  };
+  auto line = [&](const Eigen::VectorXd& q) { return "L " + PoseValues(nominal, q) + "\r\n"; };
   Eigen::VectorXd q1(6), q2(6);
   q1 << 0.2, -1.3, 1.6, -1.8, 1.5, 0.2;
   q2 << 1.0, -0.9, 1.1, -1.6, 1.3, 0.6;
@@ -464,14 +461,7 @@ TEST(ProgramCompensationTest, AStraightMoveIsSplitUntilEveryPieceIsWithinTheDevi
 TEST(ProgramCompensationTest, ACircularMoveBeyondTheDeviationIsSplitInTwoCirclesOnTheProgrammedArc) {
   const RobotModel nominal = Nominal("ur5e");
   const Calibration calibration = MakeCalibration(nominal, 8.0, 5);
-  auto values = [&](const Eigen::VectorXd& q) {
-    const Transform pose = nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
-    const Eigen::Matrix3d R = pose.linear();
-    const double b = std::asin(-R(2, 0)), a = std::atan2(R(1, 0), R(0, 0)), c = std::atan2(R(2, 1), R(2, 2));
-    return Fixed(pose.translation().x(), 3) + " " + Fixed(pose.translation().y(), 3) + " " +
-           Fixed(pose.translation().z(), 3) + " " + Fixed(a * kDegPerRad, 4) + " " + Fixed(b * kDegPerRad, 4) + " " +
-           Fixed(c * kDegPerRad, 4);
-  };
+  auto values = [&](const Eigen::VectorXd& q) { return PoseValues(nominal, q); };
   // Three poses on one branch (front, up, noflip), on a wide arc.
   Eigen::VectorXd q1(6), q2(6), q3(6);
   q1 << 0.2, -1.3, 1.6, -1.8, 1.5, 0.2;
