@@ -31,9 +31,42 @@ void ReadConfigurationFlag(const char* flag, const nlohmann::json* value, const 
 
 // ---------------------------------------------------------------------------------------------- fit
 
-JointErrorTerms ToCore(const ModelWire& model) { return {model.compliance, model.joint_harmonics}; }
+JointErrorTerms ToCore(const ModelWire& model) {
+  JointErrorTerms terms{.compliance = model.compliance, .joint_harmonics = model.joint_harmonics};
+  if (!model.joint_maps) return terms;
+  const JointMapsWire& w = *model.joint_maps;
+  JointMapTerms& maps = terms.maps;
+  for (int joint : w.joints) maps.joints.push_back(joint - 1);
+  maps.knot_spacing_rad = w.knot_spacing_deg * kRadPerDeg;
+  maps.smoothness = w.smoothness;
+  if (!w.grids.empty()) {
+    for (int joint : maps.joints) {
+      const auto grid = std::find_if(w.grids.begin(), w.grids.end(),
+                                     [&](const MapGridWire& g) { return g.joint == joint + 1; });
+      if (grid == w.grids.end()) throw WireError("model.joint_maps.grids", "no grid for joint " + std::to_string(joint + 1));
+      maps.first_knot_rad.push_back(grid->first_knot_deg * kRadPerDeg);
+      maps.intervals.push_back(grid->intervals);
+    }
+  }
+  return terms;
+}
 
-ModelWire ToWire(const JointErrorTerms& terms) { return {terms.compliance, terms.joint_harmonics}; }
+ModelWire ToWire(const JointErrorTerms& terms) {
+  ModelWire model{.compliance = terms.compliance, .joint_harmonics = terms.joint_harmonics, .joint_maps = {}};
+  if (terms.maps.empty()) return model;
+  JointMapsWire w{.joints = {}, .knot_spacing_deg = terms.maps.knot_spacing_rad * kDegPerRad,
+                  .smoothness = terms.maps.smoothness, .grids = {}};
+  for (size_t m = 0; m < terms.maps.joints.size(); ++m) {
+    w.joints.push_back(terms.maps.joints[m] + 1);
+    if (m < terms.maps.intervals.size()) {
+      w.grids.push_back({.joint = terms.maps.joints[m] + 1,
+                         .first_knot_deg = terms.maps.first_knot_rad[m] * kDegPerRad,
+                         .intervals = terms.maps.intervals[m]});
+    }
+  }
+  model.joint_maps = std::move(w);
+  return model;
+}
 
 const std::vector<std::string>& ParameterUnits() {
   static const std::vector<std::string> names = {"mm", "deg", "deg/(N*m)"};
@@ -54,14 +87,61 @@ const std::string& ParameterUnitName(ParameterUnit unit) {
 
 double ParameterUnitScale(ParameterUnit unit) { return unit == ParameterUnit::kMm ? 1.0 : kDegPerRad; }
 
-RobotModel FitModel(const FitRequest& request, const RobotModel& nominal) {
+RobotModel FitModel(const FitRequest& request, const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                    const IdentificationOptions& options) {
   if (request.model_auto) return nominal;
-  return nominal.WithErrorTerms(ToCore(request.model));
+  JointErrorTerms terms = ToCore(request.model);
+  if (!terms.maps.empty() && measurements.empty()) terms.maps = {};
+  return WithTermsFor(nominal, terms, measurements, options);
 }
 
 namespace {
 
-// "model": "geometric" | "auto" | {"compliance", "joint_harmonics"}, and "cross_validation" for "auto".
+// "model.joint_maps": {"joints": [1-based, ascending], "knot_spacing_deg": [0.5, 90], "smoothness": >= 0}, the
+// joints filled with every revolute joint when absent.
+void ParseJointMaps(const nlohmann::json& value, const RobotModel& robot, const ModelWire& model, Problems* problems,
+                    std::optional<JointMapsWire>* out) {
+  const std::string path = "model.joint_maps";
+  JointMapsWire maps;
+  ObjectReader r(value, path, problems);
+  if (const nlohmann::json* a = r.Array("joints", false, 1, static_cast<std::size_t>(robot.num_joints()))) {
+    for (std::size_t k = 0; k < a->size(); ++k) {
+      const nlohmann::json& v = (*a)[k];
+      const std::string at = IndexPath(path + ".joints", k);
+      if (!v.is_number_integer()) {
+        problems->Add(at, "expected a joint number, 1 to " + std::to_string(robot.num_joints()));
+        continue;
+      }
+      const std::int64_t joint = v.get<std::int64_t>();
+      if (joint < 1 || joint > robot.num_joints()) {
+        problems->Add(at, "joint " + std::to_string(joint) + " is not one of robot \"" + robot.name() + "\"'s " +
+                              std::to_string(robot.num_joints()) + " joints");
+      } else if (robot.joint_type(static_cast<int>(joint) - 1) != JointType::kRevolute) {
+        problems->Add(at, "joint " + std::to_string(joint) + " (\"" + robot.joint_name(static_cast<int>(joint) - 1) +
+                              "\") is prismatic: error maps are for revolute joints");
+      } else if (!maps.joints.empty() && joint <= maps.joints.back()) {
+        problems->Add(at, "joints must be ascending, each once");
+      } else {
+        maps.joints.push_back(static_cast<int>(joint));
+      }
+    }
+  } else {
+    for (int i = 0; i < robot.num_joints(); ++i) {
+      if (robot.joint_type(i) == JointType::kRevolute) maps.joints.push_back(i + 1);
+    }
+  }
+  r.Number("knot_spacing_deg", true, &maps.knot_spacing_deg, kMinMapKnotSpacingRad * kDegPerRad,
+           kMaxMapKnotSpacingRad * kDegPerRad);
+  r.Number("smoothness", false, &maps.smoothness, 0.0, 1e12);
+  r.RejectUnknown(WireFieldNames<JointMapsWire>());
+  if (model.joint_harmonics > 0) {
+    problems->Add(path, "a model with joint maps takes no joint_harmonics (a map follows a joint's harmonics and "
+                        "errors finer than them)");
+  }
+  *out = std::move(maps);
+}
+
+// "model": "geometric" | "auto" | {"compliance", "joint_harmonics", "joint_maps"}, and "cross_validation" for "auto".
 void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, FitRequest* req) {
   if (const nlohmann::json* v = r.Get("model")) {
     if (v->is_string()) {
@@ -75,6 +155,7 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       ObjectReader m(*v, "model", problems);
       m.Bool("compliance", false, &req->model.compliance);
       m.Int("joint_harmonics", false, &req->model.joint_harmonics, 0, kMaxJointHarmonics);
+      if (const nlohmann::json* jm = m.Get("joint_maps")) ParseJointMaps(*jm, model, req->model, problems, &req->model.joint_maps);
       m.RejectUnknown(WireFieldNames<ModelWire>());
       if (req->model.compliance && !model.has_masses()) {
         problems->Add("model.compliance", "robot \"" + model.name() +
@@ -140,7 +221,12 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
   if (req.model_auto && !req.parameters.empty()) {
     problems.Add("parameters", "\"model\": \"auto\" chooses the parameters with the model: leave out parameters");
   }
-  if (req.scope == "frames" && (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0)) {
+  if (req.model.joint_maps && !req.parameters.empty()) {
+    problems.Add("parameters", "a model with joint maps places its coefficients over the measurements: leave out "
+                               "parameters");
+  }
+  if (req.scope == "frames" &&
+      (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0 || req.model.joint_maps)) {
     problems.Add("scope", "\"frames\" fits the base and the tool of the robot as it is: leave out \"model\"");
   }
   r.RejectUnknown(WireFieldNames<FitRequest>());
@@ -500,6 +586,8 @@ Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& af
 
 // The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
 ROBOCAL_WIRE_DEFINE(ArmConfiguration);
+ROBOCAL_WIRE_DEFINE(MapGridWire);
+ROBOCAL_WIRE_DEFINE(JointMapsWire);
 ROBOCAL_WIRE_DEFINE(ModelWire);
 ROBOCAL_WIRE_DEFINE(CrossValidationWire);
 ROBOCAL_WIRE_DEFINE(FitRequest);

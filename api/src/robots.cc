@@ -69,6 +69,27 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
             }
           }
         }
+        if (const nlohmann::json* v = jr.Get("error_map")) {
+          ObjectReader mr(*v, path + ".error_map", &problems);
+          JointMapWire map;
+          mr.Number("first_knot_deg", true, &map.first_knot_deg, -kMaxAngleDeg, kMaxAngleDeg);
+          mr.Number("knot_spacing_deg", true, &map.knot_spacing_deg, kMinMapKnotSpacingRad * kDegPerRad,
+                    kMaxMapKnotSpacingRad * kDegPerRad);
+          if (const nlohmann::json* c = mr.Array("coefficients_deg", true, 4, kMaxMapIntervals + 3)) {
+            for (std::size_t k = 0; k < c->size(); ++k) {
+              const nlohmann::json& x = (*c)[k];
+              if (!x.is_number() || !std::isfinite(x.get<double>()) || std::abs(x.get<double>()) > kMaxHarmonicDeg) {
+                problems.Add(IndexPath(path + ".error_map.coefficients_deg", k),
+                             "must be a number within +-0.573 degrees (0.01 rad): beyond is no gear's or encoder's "
+                             "error");
+              } else {
+                map.coefficients_deg.push_back(x.get<double>());
+              }
+            }
+          }
+          mr.RejectUnknown(WireFieldNames<JointMapWire>());
+          j.error_map = std::move(map);
+        }
         const bool revolute = j.type == JointType::kRevolute;
         const double bound = revolute ? kMaxAngleDeg : kMaxLengthMm;
         jr.Number(MinKey(j.type), true, &j.min, -bound, bound);
@@ -160,6 +181,11 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
       js.com_mm = Eigen::Vector3d(jw.com_mm[0], jw.com_mm[1], jw.com_mm[2]);
       js.compliance_rad_per_nm = jw.compliance_deg_per_nm * kRadPerDeg;
       js.harmonics_rad = Eigen::Vector4d(jw.harmonics_deg.data()) * kRadPerDeg;
+      if (jw.error_map) {
+        js.error_map.first_knot_rad = jw.error_map->first_knot_deg * kRadPerDeg;
+        js.error_map.knot_spacing_rad = jw.error_map->knot_spacing_deg * kRadPerDeg;
+        for (double c : jw.error_map->coefficients_deg) js.error_map.coefficients_rad.push_back(c * kRadPerDeg);
+      }
       spec.joints.push_back(js);
     }
   }
@@ -185,6 +211,14 @@ std::string ImplausibleJointTerms(const JointWire& joint) {
     if (std::abs(joint.harmonics_deg[k]) <= kMaxHarmonicDeg) continue;
     out << (out.tellp() > 0 ? "; " : "") << "harmonics_deg[" << k << "] " << joint.harmonics_deg[k]
         << " is beyond +-0.573 deg (0.01 rad)";
+  }
+  if (joint.error_map) {
+    for (std::size_t k = 0; k < joint.error_map->coefficients_deg.size(); ++k) {
+      if (std::abs(joint.error_map->coefficients_deg[k]) <= kMaxHarmonicDeg) continue;
+      out << (out.tellp() > 0 ? "; " : "") << "error_map.coefficients_deg[" << k << "] "
+          << joint.error_map->coefficients_deg[k] << " is beyond +-0.573 deg (0.01 rad)";
+      break;
+    }
   }
   return out.str();
 }
@@ -220,6 +254,13 @@ JointWire JointToWire(const JointSpec& js, GeometryConvention convention) {
   jw.com_mm = {js.com_mm.x(), js.com_mm.y(), js.com_mm.z()};
   jw.compliance_deg_per_nm = js.compliance_rad_per_nm * kDegPerRad;
   for (int k = 0; k < 4; ++k) jw.harmonics_deg[static_cast<size_t>(k)] = js.harmonics_rad[k] * kDegPerRad;
+  if (!js.error_map.empty()) {
+    JointMapWire map{.first_knot_deg = js.error_map.first_knot_rad * kDegPerRad,
+                     .knot_spacing_deg = js.error_map.knot_spacing_rad * kDegPerRad,
+                     .coefficients_deg = {}};
+    for (double c : js.error_map.coefficients_rad) map.coefficients_deg.push_back(c * kDegPerRad);
+    jw.error_map = std::move(map);
+  }
   return jw;
 }
 
@@ -344,6 +385,7 @@ bool ReadJointVector(const nlohmann::json& value, const std::string& path, const
 }
 
 // The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(JointMapWire);
 ROBOCAL_WIRE_DEFINE(JointWire);
 ROBOCAL_WIRE_DEFINE(UrdfChainWire);
 ROBOCAL_WIRE_DEFINE(UrdfSource);

@@ -77,12 +77,65 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
   if (!c.stored) out << "NOT stored as the campaign's calibration: " << c.summary.message << "\n";
 }
 
-// --model auto | geometric | a comma list of compliance and harmonics=N (e.g. compliance,harmonics=2).
+// "joint_maps=4deg" or "joint_maps=4deg:1-5" (the joints, 1-based, a range or a list joined by '+'): the spacing
+// and the joints of a model's maps; false if `part` is not one.
+bool ParseJointMapsPart(const std::string& part, api::JointMapsWire* maps) {
+  const std::string key = "joint_maps=";
+  if (part.rfind(key, 0) != 0) return false;
+  std::string spacing = part.substr(key.size()), joints;
+  if (const std::size_t colon = spacing.find(':'); colon != std::string::npos) {
+    joints = spacing.substr(colon + 1);
+    spacing = spacing.substr(0, colon);
+  }
+  if (spacing.size() > 3 && spacing.compare(spacing.size() - 3, 3, "deg") == 0) spacing.resize(spacing.size() - 3);
+  maps->knot_spacing_deg = tools::ParseDoubleFlag("--model joint_maps", spacing, 0.0);
+  std::size_t start = 0;
+  while (!joints.empty() && start <= joints.size()) {
+    const std::size_t plus = std::min(joints.find('+', start), joints.size());
+    const std::string item = joints.substr(start, plus - start);
+    const std::size_t dash = item.find('-');
+    const int from = static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(0, dash), 1, 64));
+    const int to = dash == std::string::npos
+                       ? from
+                       : static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(dash + 1), 1, 64));
+    for (int j = from; j <= to; ++j) maps->joints.push_back(j);
+    start = plus + 1;
+  }
+  return true;
+}
+
+// --model auto | geometric | a comma list of compliance, harmonics=N, joint_maps=Sdeg[:JOINTS] and smoothness=L
+// (e.g. compliance,harmonics=2 or compliance,joint_maps=4deg:1-5).
 void ParseModelOption(const std::string& text, api::FitRequest* request) {
+  std::optional<api::JointMapsWire> maps;
+  std::optional<double> smoothness;
+  std::string rest;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string part = text.substr(start, comma - start);
+    api::JointMapsWire parsed;
+    if (ParseJointMapsPart(part, &parsed)) {
+      maps = parsed;
+    } else if (part.rfind("smoothness=", 0) == 0) {
+      smoothness = tools::ParseDoubleFlag("--model smoothness", part.substr(11), 0.0);
+    } else {
+      rest += (rest.empty() ? "" : ",") + part;
+    }
+    start = comma + 1;
+  }
   JointErrorTerms terms;
   std::string error;
-  if (!ParseModelName(text, &terms, &request->model_auto, &error)) throw UsageError("--model: " + error);
+  if (!ParseModelName(rest.empty() ? "geometric" : rest, &terms, &request->model_auto, &error)) {
+    throw UsageError("--model: " + error + ", joint_maps=Sdeg[:JOINTS] and smoothness=L");
+  }
+  if (smoothness && !maps) throw UsageError("--model: smoothness=L applies to joint_maps only");
   request->model = api::ToWire(terms);
+  if (maps) {
+    if (request->model_auto) throw UsageError("--model: auto chooses its own model: leave out joint_maps");
+    if (smoothness) maps->smoothness = *smoothness;
+    request->model.joint_maps = maps;  // the service checks the spacing, the joints and the smoothness
+  }
 }
 
 }  // namespace

@@ -92,7 +92,7 @@ const std::vector<Command>& Commands() {
         {"--outlier-probability", "P"},
         {"--scope", "all|frames"},
         {"--no-model-error"},
-        {"--model", "auto|geometric|compliance,harmonics=N"},
+        {"--model", "auto|geometric|compliance,harmonics=N,joint_maps=Sdeg[:JOINTS],smoothness=L"},
         {"--folds", "N"},
         {"--cv-seed", "S"},
         {"--async"}},

@@ -254,7 +254,11 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        geometric model does not explain is estimated beside it and weights the fit)
   --model M            the model: geometric (default); a list of compliance (one per revolute joint,
                        rotation = c x gravity torque; the robot needs link masses) and harmonics=N (N = 1 or
-                       2: sin and cos of each joint's own angle up to order N), e.g. compliance,harmonics=2;
+                       2: sin and cos of each joint's own angle up to order N), e.g. compliance,harmonics=2,
+                       and joint_maps=Sdeg[:JOINTS] (each joint's angle error as a cubic B-spline of its
+                       angle, knots every S degrees over the poses' range; JOINTS e.g. 1-5 or 2+3, every
+                       revolute joint by default) with smoothness=L (its penalty's weight, default 1),
+                       e.g. compliance,joint_maps=4deg:1-5;
                        or auto: every candidate cross-validated on the calibration measurements, the
                        simplest within one standard error of the best chosen, and the comparison printed
   --folds N            auto: cross-validation folds (default 5; 2 to 20)

@@ -301,8 +301,14 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
   const int first = model.num_geometric_parameters();
   for (size_t t = 0; t < terms.size(); ++t) {
     const int col = first + static_cast<int>(t);
+    const double factor = prepared.factor[static_cast<Eigen::Index>(t)];
+    // A map coefficient is zero away from its four intervals: most of a map's columns are.
+    if (factor == 0.0) {
+      jacobian.col(col).setZero();
+      continue;
+    }
     WriteJointColumn(model, *ws, writer, terms[t].joint, jacobian, col);
-    jacobian.col(col) *= prepared.factor[static_cast<Eigen::Index>(t)];
+    jacobian.col(col) *= factor;
   }
 }
 

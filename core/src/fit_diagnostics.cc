@@ -160,12 +160,15 @@ FitLinearization LinearizeFit(const Calibration& calibration, const std::vector<
   problem.Evaluate(x, &residual, &jacobian);
   FitLinearization out;
   out.parameters = parameters;
-  out.sigma_hat = std::sqrt(residual.squaredNorm() / (problem.num_rows() - n));
   if (!residual.allFinite() || !jacobian.allFinite() ||
-      !ScaledCovariance(jacobian, out.sigma_hat, options.identifiability.rank_tolerance, &out.singular_values,
+      !ScaledCovariance(jacobian, 1.0, options.identifiability.rank_tolerance, &out.singular_values,
                         &out.covariance)) {
     throw std::invalid_argument("LinearizeFit: rank-deficient or non-finite Jacobian at the solution");
   }
+  // As the fit computes them (IdentifyOnce): the measurements' rows over their redundancy.
+  const double dof = problem.num_measurement_rows() - EffectiveParameters(out.covariance, problem.penalty());
+  out.sigma_hat = std::sqrt(residual.head(problem.num_measurement_rows()).squaredNorm() / dof);
+  out.covariance *= out.sigma_hat * out.sigma_hat;
   out.condition_number = out.singular_values[0] / out.singular_values[out.singular_values.size() - 1];
   return out;
 }

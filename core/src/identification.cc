@@ -92,9 +92,13 @@ void DropUnobservedJointTerms(const RobotModel& nominal, const std::vector<Measu
   const int rows = MeasurementRows(type);
   const Eigen::VectorXd weights = options.noise.RowWeights(type);
   const Eigen::Index num_rows = static_cast<Eigen::Index>(groups.poses.size()) * rows;
+  // Map coefficients are left to the fit's rank test: their penalty determines what the data leave open.
   std::vector<int> model_columns;
   for (int j : *parameters) {
-    if (j < n_all) model_columns.push_back(j);
+    if (j < n_all && (j < first_term || nominal.joint_terms()[static_cast<size_t>(j - first_term)].kind !=
+                                            JointTermParameter::Kind::kMap)) {
+      model_columns.push_back(j);
+    }
   }
   Eigen::MatrixXd full(rows, n_all);
   Eigen::MatrixXd a(num_rows, static_cast<Eigen::Index>(model_columns.size()));
@@ -185,6 +189,13 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
     if (m.reflector >= 0 && m.reflector < num_reflectors) measured[m.reflector] = 1;
   }
   IdentifiabilityOptions identifiability = options.identifiability;
+  // The probe draws configurations over the joints' whole ranges; a map lives on the range its poses cover, and its
+  // coefficients are chosen as a whole below. The probe sees the model without them.
+  const bool maps = !nominal.error_terms().maps.empty();
+  JointErrorTerms without_maps = nominal.error_terms();
+  without_maps.maps = {};
+  const RobotModel probe = maps ? nominal.WithErrorTerms(without_maps) : nominal;
+  const int n_probe = probe.num_error_parameters();
   std::vector<int> original;  // probe reflector -> the fit's reflector
   bool free_nests = false;
   for (int k = 0; k < num_reflectors; ++k) {
@@ -193,17 +204,23 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
     original.push_back(k);
     free_nests = free_nests || !options.reflectors[k].fixed;
   }
-  const IdentifiabilitySummary id = FindIdentifiableParameters(nominal, options.measurement_type, identifiability);
+  const IdentifiabilitySummary id = FindIdentifiableParameters(probe, options.measurement_type, identifiability);
   if (id.termination == Termination::kFailure) {
     out.failure = "identifiability: " + id.message;
     return out;
   }
   out.termination = id.termination;
-  const auto fit_index = [&](int j) { return j < n_all ? j : n_all + 3 * original[(j - n_all) / 3] + (j - n_all) % 3; };
+  const auto fit_index = [&](int j) {
+    return j < n_probe ? j : n_all + 3 * original[(j - n_probe) / 3] + (j - n_probe) % 3;
+  };
   for (int j : id.identifiable) out.parameters.push_back(fit_index(j));
   for (DroppedParameter d : id.dropped) {
     d.index = fit_index(d.index);
     out.dropped.push_back(std::move(d));
+  }
+  // Every coefficient of every map (their constant, the joint's offset, is held by the constraint rows: Problem).
+  if (maps) {
+    for (int j = n_probe; j < n_all; ++j) out.parameters.push_back(j);
   }
   for (int k = 0; k < num_reflectors; ++k) {
     if (measured[k]) continue;
@@ -223,8 +240,9 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
     // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved:
     // fewer of the model's parameters than pose measurements would identify.
     IdentifiabilityOptions pose_options = options.identifiability;
-    const IdentifiabilitySummary pose = FindIdentifiableParameters(nominal, MeasurementType::kPose, pose_options);
-    const auto model_kept = std::count_if(out.parameters.begin(), out.parameters.end(), [&](int j) { return j < n_all; });
+    const IdentifiabilitySummary pose = FindIdentifiableParameters(probe, MeasurementType::kPose, pose_options);
+    const auto model_kept =
+        std::count_if(out.parameters.begin(), out.parameters.end(), [&](int j) { return j < n_probe; });
     if (pose.termination != Termination::kFailure && model_kept < static_cast<long>(pose.identifiable.size())) {
       out.note = "the reflector nests do not observe the tool's full orientation (" + std::to_string(model_kept) +
                  " parameters against " + std::to_string(pose.identifiable.size()) +
@@ -382,15 +400,18 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
 
   const Eigen::VectorXd errors = problem.FullErrors(lm.x);
   s.final_cost = 0.5 * lm.residual.squaredNorm();
-  const int dof = s.num_residuals - s.num_parameters;
-  s.sigma_hat = std::sqrt(2.0 * s.final_cost / dof);
 
   // Covariance and condition number from the column-scaled Jacobian; the rank test of the start, on the
-  // singular values at the solution: the covariance needs every one.
+  // singular values at the solution: the covariance needs every one. With the maps' penalty rows it is the
+  // covariance of the penalised estimate (the penalty as a prior), and sigma_hat takes the measurements' rows over
+  // their redundancy: the rows less the effective parameters (a penalised coefficient counts less than one).
   Eigen::VectorXd sv;
-  if (!ScaledCovariance(lm.jacobian, s.sigma_hat, options.identifiability.rank_tolerance, &sv, &cal.covariance)) {
+  if (!ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance)) {
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
+  const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty());
+  s.sigma_hat = std::sqrt(lm.residual.head(problem.num_measurement_rows()).squaredNorm() / dof);
+  cal.covariance *= s.sigma_hat * s.sigma_hat;
   s.condition_number = sv[0] / sv[sv.size() - 1];
   s.singular_values = sv;
 
@@ -467,6 +488,62 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
 }
 
 }  // namespace identification_detail
+
+RobotModel WithTermsFor(const RobotModel& robot, const JointErrorTerms& terms,
+                        const std::vector<Measurement>& measurements, const IdentificationOptions& options) {
+  if (terms.maps.empty()) return robot.WithErrorTerms(terms);
+  JointErrorTerms resolved = terms;
+  JointMapTerms& maps = resolved.maps;
+  maps.first_knot_rad.assign(maps.joints.size(), 0.0);
+  maps.intervals.assign(maps.joints.size(), 1);
+  maps.information.assign(maps.joints.size(), 0.0);
+  const int n = robot.num_joints();
+  const double h = maps.knot_spacing_rad;
+  // Out-of-range joints and spacings: let Build name them (a placeholder grid meanwhile).
+  bool valid = h >= kMinMapKnotSpacingRad * (1 - 1e-12) && h <= kMaxMapKnotSpacingRad * (1 + 1e-12);
+  for (int i : maps.joints) valid = valid && i >= 0 && i < n;
+  if (!valid || measurements.empty()) return robot.WithErrorTerms(resolved);
+  for (size_t m = 0; m < maps.joints.size(); ++m) {
+    const int i = maps.joints[m];
+    const JointMap& held = robot.spec().joints[static_cast<size_t>(i)].error_map;
+    if (!held.empty() && std::abs(held.knot_spacing_rad - h) <= 1e-12 * h) {
+      maps.first_knot_rad[m] = held.first_knot_rad;
+      maps.intervals[m] = held.intervals();
+      continue;
+    }
+    double lo = measurements.front().joints[i], hi = lo;
+    for (const Measurement& ms : measurements) {
+      if (ms.joints.size() != n) continue;
+      lo = std::min(lo, ms.joints[i]);
+      hi = std::max(hi, ms.joints[i]);
+    }
+    const int intervals = std::clamp(static_cast<int>(std::ceil((hi - lo) / h - 1e-9)), 1, kMaxMapIntervals);
+    maps.intervals[m] = intervals;
+    maps.first_knot_rad[m] = 0.5 * (lo + hi) - 0.5 * intervals * h;
+  }
+  const MeasurementType type = options.measurement_type;
+  const Eigen::VectorXd w = options.noise.RowWeights(type);
+  const ShotGroups groups(measurements);
+  const RobotModel geometric = robot.WithErrorTerms({});
+  KinematicsWorkspace ws(geometric);
+  Eigen::MatrixXd joint_columns(MeasurementRows(type), n);
+  std::vector<Eigen::VectorXd> information(maps.joints.size());
+  for (size_t m = 0; m < maps.joints.size(); ++m) information[m] = Eigen::VectorXd::Zero(maps.intervals[m] + 3);
+  for (size_t p = 0; p < groups.poses.size(); ++p) {
+    const Eigen::VectorXd& q = groups.poses[p];
+    if (q.size() != n) continue;
+    JointJacobian(geometric, q, Eigen::VectorXd(), type, &ws, joint_columns, groups.payloads[p]);
+    for (size_t m = 0; m < maps.joints.size(); ++m) {
+      const int i = maps.joints[m];
+      const double column = w.cwiseProduct(joint_columns.col(i)).squaredNorm();
+      double b[4];
+      const int j = MapBasis(maps.first_knot_rad[m], h, maps.intervals[m], q[i], b);
+      for (int r = 0; r < 4; ++r) information[m][j + r] += b[r] * b[r] * column;
+    }
+  }
+  for (size_t m = 0; m < maps.joints.size(); ++m) maps.information[m] = information[m].mean();
+  return robot.WithErrorTerms(resolved);
+}
 
 std::string IdentificationSummary::BriefReport() const {
   std::ostringstream out;

@@ -75,7 +75,12 @@ class Problem {
   Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const ShotGroups& shot_groups,
           const IdentificationOptions& o, const std::vector<int>& parameters);
 
-  int num_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
+  // The measurements' rows, then the penalty rows of the joint maps (JointMapTerms: each map's second
+  // differences, weighted), which Evaluate appends.
+  int num_rows() const { return num_measurement_rows() + static_cast<int>(penalty_.rows()); }
+  int num_measurement_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
+  // The penalty rows over the chosen parameters (num_penalty_rows x num_parameters; none without maps).
+  const Eigen::MatrixXd& penalty() const { return penalty_; }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
 
   // The model's error parameters (num_error_parameters) and the reflectors' offset errors (3 each) at x.
@@ -131,6 +136,7 @@ class Problem {
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
   std::vector<PreparedDeflection> prepared_;      // per pose: its deflection's parts that do not depend on x
+  Eigen::MatrixXd penalty_;                       // the maps' penalty rows (constant: the penalty is linear)
   // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
   // some tens of times, a cross-validated model choice some thousands): per pose its Jacobian (its rows x n_model_,
   // side by side) and tool pose; Evaluate's predictions and Jacobians per group.
@@ -162,6 +168,10 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o);
 // The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
 bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
                       Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance);
+
+// The effective number of parameters of a fit with penalty rows P: tr(N^-1 J'J) = n - tr(N^-1 P'P), where N is the
+// information with the penalty (`inverse` = N^-1, the covariance at unit sigma). n without penalty rows.
+double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty);
 
 // Which parameters a fit estimates, chosen once for the robust fit's rounds.
 struct ParameterSelection {

@@ -1,6 +1,8 @@
 // Gravity torques of the nominal chain and the joint deflections of the compliance and harmonic terms.
 #include "robocal/core/joint_errors.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -68,6 +70,50 @@ Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q
   return tau;
 }
 
+int MapBasis(double first_knot_rad, double knot_spacing_rad, int intervals, double q, double b[4], double db[4]) {
+  const double u = (q - first_knot_rad) / knot_spacing_rad;
+  int j = 0;
+  double t = 0.0;
+  bool inside = false;
+  if (u >= intervals) {
+    j = intervals - 1;
+    t = 1.0;
+  } else if (u >= 0.0) {
+    j = std::min(static_cast<int>(std::floor(u)), intervals - 1);
+    t = u - j;
+    inside = true;
+  }
+  const double s = 1.0 - t, t2 = t * t, t3 = t2 * t;
+  b[0] = s * s * s / 6.0;
+  b[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+  b[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+  b[3] = t3 / 6.0;
+  if (db != nullptr) {
+    const double per_rad = inside ? 1.0 / knot_spacing_rad : 0.0;
+    db[0] = -0.5 * s * s * per_rad;
+    db[1] = (1.5 * t2 - 2.0 * t) * per_rad;
+    db[2] = (-1.5 * t2 + t + 0.5) * per_rad;
+    db[3] = 0.5 * t2 * per_rad;
+  }
+  return j;
+}
+
+double MapValue(const JointMap& map, double q, double* derivative) {
+  if (map.empty()) {
+    if (derivative != nullptr) *derivative = 0.0;
+    return 0.0;
+  }
+  double b[4], db[4];
+  const int j = MapBasis(map.first_knot_rad, map.knot_spacing_rad, map.intervals(), q, b, db);
+  double value = 0.0, slope = 0.0;
+  for (int r = 0; r < 4; ++r) {
+    value += map.coefficients_rad[static_cast<size_t>(j + r)] * b[r];
+    slope += map.coefficients_rad[static_cast<size_t>(j + r)] * db[r];
+  }
+  if (derivative != nullptr) *derivative = slope;
+  return value;
+}
+
 Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
                                  Eigen::MatrixXd* dfactor_dq) {
   const std::vector<JointTermParameter>& terms = model.joint_terms();
@@ -78,6 +124,17 @@ Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd&
   Eigen::VectorXd tau;
   Eigen::MatrixXd dtau;
   if (model.error_terms().compliance) tau = GravityTorques(model, q, payload, dfactor_dq != nullptr ? &dtau : nullptr);
+  // Each mapped joint's four non-zero basis values at q (the rest of its coefficients' factors are zero).
+  const JointMapTerms& maps = model.error_terms().maps;
+  std::vector<std::array<double, 8>> basis(maps.joints.size());
+  std::vector<int> basis_first(maps.joints.size());
+  std::vector<int> map_of(static_cast<size_t>(n), -1);
+  for (size_t m = 0; m < maps.joints.size(); ++m) {
+    const int i = maps.joints[m];
+    map_of[static_cast<size_t>(i)] = static_cast<int>(m);
+    basis_first[m] = MapBasis(maps.first_knot_rad[m], maps.knot_spacing_rad, maps.intervals[m], q[i], basis[m].data(),
+                              basis[m].data() + 4);
+  }
   for (size_t t = 0; t < terms.size(); ++t) {
     const JointTermParameter& term = terms[t];
     const int i = term.joint;
@@ -96,6 +153,13 @@ Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd&
         factor[row] = std::cos(k * q[i]);
         if (dfactor_dq != nullptr) (*dfactor_dq)(row, i) = -k * std::sin(k * q[i]);
         break;
+      case JointTermParameter::Kind::kMap: {
+        const size_t m = static_cast<size_t>(map_of[static_cast<size_t>(i)]);
+        const int r = term.order - basis_first[m];
+        factor[row] = r >= 0 && r < 4 ? basis[m][static_cast<size_t>(r)] : 0.0;
+        if (dfactor_dq != nullptr) (*dfactor_dq)(row, i) = r >= 0 && r < 4 ? basis[m][static_cast<size_t>(r) + 4] : 0.0;
+        break;
+      }
     }
   }
   return factor;
@@ -111,21 +175,51 @@ int HarmonicIndex(const JointTermParameter& term) {
     case JointTermParameter::Kind::kCos:
       return 2 * (term.order - 1) + 1;
     case JointTermParameter::Kind::kCompliance:
+    case JointTermParameter::Kind::kMap:
       break;
   }
   return -1;
+}
+
+// The grid of a map term's joint in a model's terms: its first knot, spacing and intervals as a JointMap without
+// coefficients.
+JointMap MapGrid(const JointMapTerms& maps, int joint) {
+  for (size_t m = 0; m < maps.joints.size(); ++m) {
+    if (maps.joints[m] == joint && m < maps.intervals.size()) {
+      return {.first_knot_rad = maps.first_knot_rad[m], .knot_spacing_rad = maps.knot_spacing_rad,
+              .coefficients_rad = std::vector<double>(static_cast<size_t>(maps.intervals[m] + 3), 0.0)};
+    }
+  }
+  throw std::invalid_argument("joint " + std::to_string(joint + 1) + " has no map term");
+}
+
+bool SameGrid(const JointMap& a, const JointMap& b) {
+  return a.first_knot_rad == b.first_knot_rad && a.knot_spacing_rad == b.knot_spacing_rad &&
+         a.coefficients_rad.size() == b.coefficients_rad.size();
 }
 
 }  // namespace
 
 double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term) {
   JointSpec& joint = spec->joints.at(static_cast<size_t>(term.joint));
+  if (term.kind == JointTermParameter::Kind::kMap) {
+    const JointMap grid = MapGrid(spec->error_terms.maps, term.joint);
+    if (joint.error_map.empty()) joint.error_map = grid;
+    if (!SameGrid(joint.error_map, grid)) {
+      throw std::invalid_argument("joint '" + joint.name + "' holds an error map on another grid than the model's");
+    }
+    return joint.error_map.coefficients_rad.at(static_cast<size_t>(term.order));
+  }
   const int h = HarmonicIndex(term);
   return h < 0 ? joint.compliance_rad_per_nm : joint.harmonics_rad[h];
 }
 
 double HeldJointTerm(const RobotModel& model, const JointTermParameter& term) {
   const JointSpec& joint = model.spec().joints.at(static_cast<size_t>(term.joint));
+  if (term.kind == JointTermParameter::Kind::kMap) {
+    if (joint.error_map.empty() || !SameGrid(joint.error_map, MapGrid(model.error_terms().maps, term.joint))) return 0.0;
+    return joint.error_map.coefficients_rad.at(static_cast<size_t>(term.order));
+  }
   const int h = HarmonicIndex(term);
   return h < 0 ? joint.compliance_rad_per_nm : joint.harmonics_rad[h];
 }
@@ -147,10 +241,11 @@ void AddFixedDeflection(const RobotModel& model, const Eigen::VectorXd& q, const
     if (j.type != JointType::kRevolute) continue;
     const Eigen::Vector4d& h = j.harmonics_rad;
     const double s1 = std::sin(q[i]), c1 = std::cos(q[i]), s2 = std::sin(2.0 * q[i]), c2 = std::cos(2.0 * q[i]);
-    (*dq)[i] += h[0] * s1 + h[1] * c1 + h[2] * s2 + h[3] * c2;
+    double map_slope = 0.0;
+    (*dq)[i] += h[0] * s1 + h[1] * c1 + h[2] * s2 + h[3] * c2 + MapValue(j.error_map, q[i], &map_slope);
     if (j.compliance_rad_per_nm != 0.0) (*dq)[i] += j.compliance_rad_per_nm * tau[i];
     if (ddq_dq == nullptr) continue;
-    (*ddq_dq)(i, i) += h[0] * c1 - h[1] * s1 + 2.0 * h[2] * c2 - 2.0 * h[3] * s2;
+    (*ddq_dq)(i, i) += h[0] * c1 - h[1] * s1 + 2.0 * h[2] * c2 - 2.0 * h[3] * s2 + map_slope;
     if (j.compliance_rad_per_nm != 0.0) ddq_dq->row(i) += j.compliance_rad_per_nm * dtau.row(i);
   }
 }

@@ -58,6 +58,42 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
       poses_(shot_groups.poses),
       groups_(shot_groups.groups),
       group_of_(shot_groups.group_of) {
+  // The maps' rows: per map, its constant held at zero (the joint's offset is a geometric parameter's) by a row
+  // of kMapConstantWeight times the information's root on the mean of its coefficients, and the penalty,
+  // sqrt(smoothness x information) times each second difference c_k - 2 c_k+1 + c_k+2 (a row whose coefficients
+  // are not all chosen is left out: those are held at zero).
+  const JointMapTerms& maps = model.error_terms().maps;
+  if (!maps.empty()) {
+    constexpr double kMapConstantWeight = 1e3;
+    std::map<int, int> reduced;
+    for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
+    std::vector<Eigen::RowVectorXd> rows;
+    for (size_t m = 0; m < maps.joints.size(); ++m) {
+      const int first = model.map_parameter(maps.joints[m]);
+      const int count = maps.intervals[m] + 3;
+      const double information = maps.information.empty() ? 0.0 : maps.information[m];
+      const double scale = information > 0.0 ? std::sqrt(information) : 1.0;
+      Eigen::RowVectorXd constant = Eigen::RowVectorXd::Zero(num_parameters());
+      for (int k = 0; k < count; ++k) {
+        const auto at = reduced.find(first + k);
+        if (at != reduced.end()) constant[at->second] = kMapConstantWeight * scale / count;
+      }
+      if (!constant.isZero(0.0)) rows.push_back(std::move(constant));
+      const double w = std::sqrt(maps.smoothness * information);
+      if (w == 0.0) continue;
+      for (int k = 0; k + 2 < count; ++k) {
+        const auto a = reduced.find(first + k), b = reduced.find(first + k + 1), c = reduced.find(first + k + 2);
+        if (a == reduced.end() || b == reduced.end() || c == reduced.end()) continue;
+        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
+        row[a->second] = w;
+        row[b->second] = -2.0 * w;
+        row[c->second] = w;
+        rows.push_back(std::move(row));
+      }
+    }
+    penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
+    for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
+  }
   prepared_.reserve(poses_.size());
   for (size_t p = 0; p < poses_.size(); ++p) prepared_.push_back(PrepareDeflection(model_, poses_[p], shot_groups.payloads[p]));
   if (o.noise.HasSharedError()) {
@@ -92,6 +128,12 @@ void Problem::Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eige
   Predict(x, &prediction_, jacobian != nullptr ? &group_jacobian_ : nullptr);
   residual->resize(num_rows());
   if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
+  if (penalty_.rows() > 0) {
+    // The penalty's "measurement" is zero: its residual is -P x and its Jacobian P (r(x + d) ~= r(x) - P d).
+    const Eigen::Index first = num_measurement_rows();
+    residual->segment(first, penalty_.rows()) = -(penalty_ * x);
+    if (jacobian != nullptr) jacobian->bottomRows(penalty_.rows()) = penalty_;
+  }
   if (!group_whitening_.empty()) {
     EvaluateByGroup(prediction_, group_jacobian_, residual, jacobian);
     return;
@@ -184,6 +226,11 @@ void Problem::EvaluateByGroup(const std::vector<Transform>& prediction, const st
     }
     row += rows_ * static_cast<Eigen::Index>(shots.size());
   }
+}
+
+double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty) {
+  if (penalty.rows() == 0) return static_cast<double>(inverse.rows());
+  return static_cast<double>(inverse.rows()) - (inverse * (penalty.transpose() * penalty)).trace();
 }
 
 }  // namespace robocal::identification_detail

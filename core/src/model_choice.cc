@@ -83,8 +83,8 @@ bool ModelChoiceOptions::IsValid(std::string* error) const {
 std::vector<JointErrorTerms> ModelCandidates(const RobotModel& nominal, const ModelChoiceOptions& options) {
   std::vector<JointErrorTerms> out;
   for (int h = 0; h <= options.max_joint_harmonics; ++h) {
-    out.push_back({false, h});
-    if (nominal.has_masses()) out.push_back({true, h});
+    out.push_back({.compliance = false, .joint_harmonics = h});
+    if (nominal.has_masses()) out.push_back({.compliance = true, .joint_harmonics = h});
   }
   // Simplest first: a compliance is one parameter per joint, a harmonic order two.
   std::stable_sort(out.begin(), out.end(), [](const JointErrorTerms& a, const JointErrorTerms& b) {

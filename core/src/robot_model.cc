@@ -31,6 +31,80 @@ void CheckTransform(const Transform& t, const std::string& field, std::vector<Fi
   }
 }
 
+void ValidateMap(const JointMap& map, const std::string& prefix, std::vector<FieldError>* errors) {
+  if (!std::isfinite(map.first_knot_rad)) errors->push_back({prefix + ".first_knot", "must be a finite number"});
+  if (!(map.knot_spacing_rad >= kMinMapKnotSpacingRad * (1 - 1e-12) &&
+        map.knot_spacing_rad <= kMaxMapKnotSpacingRad * (1 + 1e-12))) {
+    errors->push_back({prefix + ".knot_spacing", "must be in [0.5, 90] degrees, got " +
+                                                     Num(map.knot_spacing_rad * 180.0 / M_PI) + " degrees"});
+  }
+  if (map.intervals() < 1 || map.intervals() > kMaxMapIntervals) {
+    errors->push_back({prefix + ".coefficients", "a cubic map has intervals + 3 coefficients, 4 to " +
+                                                     std::to_string(kMaxMapIntervals + 3) + ", got " +
+                                                     std::to_string(map.coefficients_rad.size())});
+  }
+  for (size_t k = 0; k < map.coefficients_rad.size(); ++k) {
+    const double c = map.coefficients_rad[k];
+    if (!std::isfinite(c) || std::abs(c) > kImplausibleHarmonicRad) {
+      errors->push_back({prefix + ".coefficients[" + std::to_string(k) + "]",
+                         "must be a finite angle within " + Num(kImplausibleHarmonicRad) +
+                             " rad, no gear's or encoder's error beyond, got " + Num(c)});
+      break;
+    }
+  }
+}
+
+// The map terms of a model (JointMapTerms): on revolute joints, ascending, with a grid each once resolved.
+void ValidateMapTerms(const RobotModelSpec& spec, std::vector<FieldError>* errors) {
+  const JointMapTerms& maps = spec.error_terms.maps;
+  if (maps.empty()) return;
+  const int n = static_cast<int>(spec.joints.size());
+  for (size_t k = 0; k < maps.joints.size(); ++k) {
+    const int j = maps.joints[k];
+    const std::string field = "model.joint_maps.joints[" + std::to_string(k) + "]";
+    if (j < 0 || j >= n) {
+      errors->push_back({field, "joint " + std::to_string(j + 1) + " is not one of the robot's " + std::to_string(n) +
+                                    " joints"});
+    } else if (spec.joints[j].type != JointType::kRevolute) {
+      errors->push_back({field, "joint " + std::to_string(j + 1) + " ('" + spec.joints[j].name +
+                                    "') is prismatic: error maps are for revolute joints"});
+    } else if (k > 0 && j <= maps.joints[k - 1]) {
+      errors->push_back({field, "joints must be ascending and each once"});
+    }
+  }
+  if (!(maps.knot_spacing_rad >= kMinMapKnotSpacingRad * (1 - 1e-12) &&
+        maps.knot_spacing_rad <= kMaxMapKnotSpacingRad * (1 + 1e-12))) {
+    errors->push_back({"model.joint_maps.knot_spacing_deg",
+                       "must be in [0.5, 90] degrees, got " + Num(maps.knot_spacing_rad * 180.0 / M_PI)});
+  }
+  if (!(maps.smoothness >= 0.0) || !std::isfinite(maps.smoothness)) {
+    errors->push_back({"model.joint_maps.smoothness", "must be a finite number >= 0, got " + Num(maps.smoothness)});
+  }
+  if (spec.error_terms.joint_harmonics > 0) {
+    errors->push_back({"model.joint_maps", "a model with joint maps takes no joint_harmonics (a map follows a "
+                                           "joint's harmonics and errors finer than them)"});
+  }
+  if (!maps.resolved()) {
+    errors->push_back({"model.joint_maps", "the maps' knots are not placed yet (ResolveJointMaps places them over "
+                                           "the calibration poses)"});
+    return;
+  }
+  if (maps.intervals.size() != maps.joints.size() ||
+      (!maps.information.empty() && maps.information.size() != maps.joints.size())) {
+    errors->push_back({"model.joint_maps", "one grid (and information, if any) per mapped joint"});
+    return;
+  }
+  for (size_t k = 0; k < maps.joints.size(); ++k) {
+    const double information = maps.information.empty() ? 0.0 : maps.information[k];
+    if (!std::isfinite(maps.first_knot_rad[k]) || maps.intervals[k] < 1 || maps.intervals[k] > kMaxMapIntervals ||
+        !(information >= 0.0) || !std::isfinite(information)) {
+      errors->push_back({"model.joint_maps", "map " + std::to_string(k) + ": a finite first knot, 1 to " +
+                                                 std::to_string(kMaxMapIntervals) +
+                                                 " intervals and a finite information >= 0"});
+    }
+  }
+}
+
 void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention, std::set<std::string>* names,
                    std::vector<FieldError>* errors) {
   const std::string prefix = "joints[" + std::to_string(i) + "]";
@@ -84,9 +158,10 @@ void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention,
                                                   Num(joint.harmonics_rad.cwiseAbs().maxCoeff())});
   }
   if (joint.type != JointType::kRevolute &&
-      (joint.compliance_rad_per_nm != 0.0 || !joint.harmonics_rad.isZero(0.0))) {
-    errors->push_back({prefix + ".type", "a prismatic joint holds no joint terms (compliance, harmonics)"});
+      (joint.compliance_rad_per_nm != 0.0 || !joint.harmonics_rad.isZero(0.0) || !joint.error_map.empty())) {
+    errors->push_back({prefix + ".type", "a prismatic joint holds no joint terms (compliance, harmonics, error map)"});
   }
+  if (!joint.error_map.empty()) ValidateMap(joint.error_map, prefix + ".error_map", errors);
   // Four turns: industrial wrists turn +-400 degrees (ABB) and more; a range beyond is a unit error.
   if (joint.type == JointType::kRevolute && min_ok && max_ok && (joint.max - joint.min) > 8.0 * M_PI + 1e-9) {
     errors->push_back({prefix + ".max", "revolute range max - min must not exceed 1440 degrees (four turns)"});
@@ -160,6 +235,7 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
     errors.push_back({"model.joint_harmonics", "must be 0, 1 or " + std::to_string(kMaxJointHarmonics) + ", got " +
                                                    std::to_string(spec.error_terms.joint_harmonics)});
   }
+  ValidateMapTerms(spec, &errors);
   if (!errors.empty()) throw InvalidModelError(std::move(errors));
 
   RobotModel model;
@@ -171,8 +247,8 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   model.link_frame_.assign(n, Transform::Identity());
   for (int i = 0; i < n; ++i) {
     const JointSpec& j = spec.joints[i];
-    model.has_fixed_joint_terms_ =
-        model.has_fixed_joint_terms_ || j.compliance_rad_per_nm != 0.0 || !j.harmonics_rad.isZero(0.0);
+    model.has_fixed_joint_terms_ = model.has_fixed_joint_terms_ || j.compliance_rad_per_nm != 0.0 ||
+                                   !j.harmonics_rad.isZero(0.0) || !j.error_map.empty();
     model.lower_[i] = j.min;
     model.upper_[i] = j.max;
     const Transform fixed = Motionless(j, spec.convention);
@@ -214,6 +290,16 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
       model.parameter_names_.push_back(spec.joints[i].name + ".cos" + std::to_string(k));
     }
   }
+  model.map_first_.assign(static_cast<size_t>(n), -1);
+  const JointMapTerms& maps = spec.error_terms.maps;
+  for (size_t m = 0; m < maps.joints.size(); ++m) {
+    const int i = maps.joints[m];
+    model.map_first_[static_cast<size_t>(i)] = static_cast<int>(model.parameter_names_.size());
+    for (int k = 0; k < maps.intervals[m] + 3; ++k) {
+      model.joint_terms_.push_back({Kind::kMap, i, k});
+      model.parameter_names_.push_back(spec.joints[i].name + ".map" + std::to_string(k));
+    }
+  }
   return model;
 }
 
@@ -221,6 +307,14 @@ std::string JointErrorTerms::Describe() const {
   std::string out = compliance ? "compliance" : "";
   if (joint_harmonics > 0) {
     out += (out.empty() ? "" : " + ") + std::string("harmonics ") + std::to_string(joint_harmonics);
+  }
+  if (!maps.empty()) {
+    std::ostringstream m;
+    m << "maps " << maps.knot_spacing_rad * 180.0 / M_PI << " deg, smoothness " << maps.smoothness << " (joint"
+      << (maps.joints.size() > 1 ? "s" : "");
+    for (size_t k = 0; k < maps.joints.size(); ++k) m << (k ? "," : " ") << maps.joints[k] + 1;
+    m << ")";
+    out += (out.empty() ? "" : " + ") + m.str();
   }
   return out.empty() ? "geometric" : out;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "robocal/core/accuracy.h"
@@ -24,27 +25,42 @@ namespace {
 using api::ApiError;
 using api::Status;
 
-// For a robot holding joint harmonics (a calibration registered as a robot): which of the fit's poses leave the
-// joint ranges they were identified over (calibrated_from.joint_ranges), where a harmonic fitted over part of a
-// turn extrapolates (docs/robots.md). Empty when none does, or the robot holds none.
+// For a robot holding joint harmonics or error maps (a calibration registered as a robot): which of the fit's
+// poses leave the joint ranges they were identified over (calibrated_from.joint_ranges for harmonics, a map's
+// knots for a map), where a harmonic fitted over part of a turn extrapolates and a map is held at its end value
+// (docs/robots.md). Empty when none does, or the robot holds none.
 std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, const RobotModel& model,
                                    const std::vector<Measurement>& measurements) {
-  if (!definition.calibrated_from || definition.calibrated_from->joint_ranges.size() !=
-                                         static_cast<std::size_t>(model.num_joints())) {
-    return "";
+  const int n = model.num_joints();
+  const bool have_ranges = definition.calibrated_from &&
+                           definition.calibrated_from->joint_ranges.size() == static_cast<std::size_t>(n);
+  // Per joint: the range its held terms cover (in the wire's unit), or none.
+  std::vector<std::optional<std::pair<double, double>>> ranges(static_cast<std::size_t>(n));
+  bool any = false;
+  for (int i = 0; i < n; ++i) {
+    const JointSpec& joint = model.spec().joints[static_cast<std::size_t>(i)];
+    if (!joint.error_map.empty()) {
+      ranges[i] = {joint.error_map.first_knot_rad * kDegPerRad, joint.error_map.last_knot_rad() * kDegPerRad};
+    } else if (have_ranges && !joint.harmonics_rad.isZero(0.0)) {
+      const api::JointRangeWire& r = definition.calibrated_from->joint_ranges[static_cast<std::size_t>(i)];
+      ranges[i] = {r.min, r.max};
+    }
+    any = any || ranges[i].has_value();
   }
-  const std::vector<api::JointRangeWire>& ranges = definition.calibrated_from->joint_ranges;
-  std::vector<int> left(ranges.size(), 0);
+  if (!any) return "";
+  bool harmonics = false, maps = false;
+  std::vector<int> left(static_cast<std::size_t>(n), 0);
   int poses = 0;
   for (const Measurement& m : measurements) {
     const std::vector<double> q = api::JointsToWire(model, m.joints);
     bool outside = false;
-    for (std::size_t i = 0; i < ranges.size(); ++i) {
-      if (model.spec().joints[i].harmonics_rad.isZero(0.0)) continue;
+    for (int i = 0; i < n; ++i) {
+      if (!ranges[i]) continue;
       // 1e-6 deg / mm: the round trip through the core's radians moves a range's own end by an ulp.
-      if (q[i] < ranges[i].min - 1e-6 || q[i] > ranges[i].max + 1e-6) {
+      if (q[i] < ranges[i]->first - 1e-6 || q[i] > ranges[i]->second + 1e-6) {
         ++left[i];
         outside = true;
+        (model.spec().joints[static_cast<std::size_t>(i)].error_map.empty() ? harmonics : maps) = true;
       }
     }
     poses += outside ? 1 : 0;
@@ -52,15 +68,18 @@ std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, 
   if (poses == 0) return "";
   std::ostringstream out;
   out << std::setprecision(4) << poses << " of " << measurements.size()
-      << " shots leave the joint ranges the robot's joint harmonics were identified over (";
+      << " shots leave the joint ranges the robot's "
+      << (harmonics && maps ? "joint harmonics and error maps" : harmonics ? "joint harmonics" : "error maps")
+      << " were identified over (";
   bool first = true;
-  for (std::size_t i = 0; i < ranges.size(); ++i) {
+  for (int i = 0; i < n; ++i) {
     if (left[i] == 0) continue;
-    out << (first ? "" : ", ") << model.joint_name(static_cast<int>(i)) << " " << ranges[i].min << " .. "
-        << ranges[i].max << " " << api::JointUnit(model, static_cast<int>(i)) << ": " << left[i] << " beyond";
+    out << (first ? "" : ", ") << model.joint_name(i) << " " << ranges[i]->first << " .. " << ranges[i]->second << " "
+        << api::JointUnit(model, i) << ": " << left[i] << " beyond";
     first = false;
   }
-  out << "); there its harmonics extrapolate";
+  out << "); there " << (harmonics ? "its harmonics extrapolate" : "") << (harmonics && maps ? " and " : "")
+      << (maps ? "its maps hold their end values" : "");
   return out.str();
 }
 
@@ -97,16 +116,17 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   const api::FitRequest req = api::ParseFitRequest(body, nominal, options_.limits, reflectors);
   // The model the fit estimates: the robot with the request's joint terms ("auto" starts from the geometric one,
   // and the largest candidate sizes the fit).
-  const RobotModel model = api::FitModel(req, nominal);
+  const RobotModel parsed_model = api::FitModel(req, nominal);
   const RobotModel largest =
-      req.model_auto ? nominal.WithErrorTerms({nominal.has_masses(), kMaxJointHarmonics}) : model;
+      req.model_auto ? nominal.WithErrorTerms({.compliance = nominal.has_masses(), .joint_harmonics = kMaxJointHarmonics})
+                     : parsed_model;
   const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
   if (count == 0) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
   IdentificationOptions options = api::ToIdentificationOptions(
-      req, model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm),
+      req, parsed_model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm),
       reflectors);
   CheckFitSize(largest, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
@@ -114,9 +134,13 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   measurements->reserve(static_cast<std::size_t>(count));
   sequences->reserve(static_cast<std::size_t>(count));
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    measurements->push_back(MeasurementToCore(model, ReadMeasurement(s), campaign));
+    measurements->push_back(MeasurementToCore(parsed_model, ReadMeasurement(s), campaign));
     sequences->push_back(s.sequence);
   });
+  // Joint maps are placed over the measurements' range of each joint; the fit's size counts their coefficients.
+  const RobotModel model =
+      req.model.joint_maps ? api::FitModel(req, nominal, *measurements, options) : parsed_model;
+  if (req.model.joint_maps) CheckFitSize(model, options, count, false, options_.limits);
   // An offset named for a nest without shots cannot be estimated: say so by the request's field.
   if (!reflectors.empty()) {
     std::vector<char> measured(reflectors.size(), 0);

@@ -126,7 +126,7 @@ Eigen::VectorXd RandomErrorsWithTerms(const RobotModel& model, Rng* rng) {
 
 TEST(JointTermJacobianTest, IdentificationJacobianMatchesFiniteDifferences) {
   for (const char* name : {"ur5e", "puma560", "grinder5"}) {
-    const RobotModel model = Preset(name).WithErrorTerms({true, 2});
+    const RobotModel model = Preset(name).WithErrorTerms({.compliance = true, .joint_harmonics = 2});
     ASSERT_GT(model.joint_terms().size(), 0u);
     Rng rng(3);
     const Payload payload{6.0, Eigen::Vector3d(10, 40, 80)};
@@ -157,7 +157,7 @@ TEST(JointTermJacobianTest, IdentificationJacobianMatchesFiniteDifferences) {
 }
 
 TEST(JointTermJacobianTest, JointJacobianIncludesTheDeflectionsDependenceOnTheJoints) {
-  const RobotModel model = Preset("ur5e").WithErrorTerms({true, 2});
+  const RobotModel model = Preset("ur5e").WithErrorTerms({.compliance = true, .joint_harmonics = 2});
   Rng rng(5);
   const Payload payload{6.0, Eigen::Vector3d(10, 40, 80)};
   for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 8, 13)) {
@@ -186,7 +186,7 @@ TEST(JointTermJacobianTest, JointJacobianIncludesTheDeflectionsDependenceOnTheJo
 }
 
 TEST(JointTermJacobianTest, FoldedChainDeflectsAsForwardKinematics) {
-  const RobotModel model = Preset("puma560").WithErrorTerms({true, 1});
+  const RobotModel model = Preset("puma560").WithErrorTerms({.compliance = true, .joint_harmonics = 1});
   Rng rng(9);
   const Eigen::VectorXd eps = RandomErrorsWithTerms(model, &rng);
   const Payload payload{3.0, Eigen::Vector3d(0, 25, 50)};
@@ -235,7 +235,7 @@ Calibration FitCompliantly(VirtualCell* cell, const RobotModel& nominal, std::ui
   IdentificationOptions options;
   options.reject_outliers = false;
   options.estimate_model_error = false;
-  return Identify(nominal.WithErrorTerms({true, 2}), shots, options);
+  return Identify(nominal.WithErrorTerms({.compliance = true, .joint_harmonics = 2}), shots, options);
 }
 
 TEST(JointTermRecoveryTest, NoiseFreeRecoversComplianceHarmonicsAndGeometryAndCompensatesUnderANewPayload) {
@@ -309,7 +309,7 @@ TEST(JointTermRecoveryTest, CompliantFitIsNearTheNoiseFloorUnderAThirdPayload) {
   double floor = 0.0;
   for (const Measurement& m : held_out) floor += (m.T_world_tool.translation() - cell.TruePose(m.joints, kPayloadC).translation()).norm();
   floor /= static_cast<double>(held_out.size());
-  const Calibration compliant = Identify(nominal.WithErrorTerms({true, 0}), shots);
+  const Calibration compliant = Identify(nominal.WithErrorTerms({.compliance = true, .joint_harmonics = 0}), shots);
   const Calibration geometric = Identify(nominal, shots);
   ASSERT_NE(compliant.summary.termination, Termination::kFailure) << compliant.summary.message;
   const double with = HeldOutMean(compliant, held_out), without = HeldOutMean(geometric, held_out);
@@ -338,7 +338,7 @@ TEST(ModelChoiceTest, AutoPicksTheGeometricModelWhenTheRobotHasNoCompliance) {
   EXPECT_LE(HeldOutMean(automatic, held_out), 1.05 * HeldOutMean(geometric, held_out))
       << automatic.summary.FullReport();
   // Fitted anyway, the compliances are consistent with zero.
-  const Calibration compliant = Identify(nominal.WithErrorTerms({true, 0}), shots);
+  const Calibration compliant = Identify(nominal.WithErrorTerms({.compliance = true, .joint_harmonics = 0}), shots);
   for (const IdentifiedParameter& p : compliant.parameters) {
     if (p.index >= compliant.model.num_geometric_parameters()) {
       EXPECT_LT(std::abs(p.value), 3.5 * p.std) << p.name;
@@ -367,7 +367,7 @@ TEST(ModelChoiceTest, AutoPicksComplianceWhenTheRobotHasIt) {
 // A compliance no robot joint has (here put into exact data on purpose, as a term the poses hardly drive ends up
 // after fitting the noise) makes the fit DEGRADED, says which, and keeps its model from being chosen.
 TEST(ModelChoiceTest, ImplausibleJointTermsAreDegradedAndNotChosen) {
-  const RobotModel model = Preset("ur5e").WithErrorTerms({true, 0});
+  const RobotModel model = Preset("ur5e").WithErrorTerms({.compliance = true, .joint_harmonics = 0});
   Eigen::VectorXd eps = Eigen::VectorXd::Zero(model.num_error_parameters());
   const int wrist = model.ParameterIndex("joint4.compliance");
   ASSERT_GE(wrist, 0);
@@ -420,7 +420,7 @@ TEST(JointTermInputTest, BadMassesOrdersAndMissingMassesAreRefusedByField) {
   EXPECT_FALSE(massless.has_masses());
   VirtualCell cell(Preset("ur5e"), NoisyCell(61, 0.0));
   const std::vector<Measurement> shots = MeasureUnder(&cell, massless, 40, 500, kPayloadB);
-  const Calibration c = Identify(massless.WithErrorTerms({true, 0}), shots);
+  const Calibration c = Identify(massless.WithErrorTerms({.compliance = true, .joint_harmonics = 0}), shots);
   EXPECT_EQ(c.summary.termination, Termination::kFailure);
   EXPECT_THAT(c.summary.message, ::testing::HasSubstr("model.compliance"));
   EXPECT_EQ(ModelCandidates(massless, {}).size(), 3u);  // no compliance candidates without masses
@@ -443,7 +443,8 @@ double LargestPoseDifference(const Transform& a, const Transform& b) {
 // microradians). Geometry and harmonics carry over exactly.
 TEST(FixedJointTermTest, ACalibrationsSpecHoldsItsJointTermsAndMovesAsTheCalibration) {
   for (const char* name : {"ur5e", "puma560", "grinder5"}) {
-    for (const JointErrorTerms terms : {JointErrorTerms{false, 2}, JointErrorTerms{true, 2}}) {
+    for (const JointErrorTerms& terms : {JointErrorTerms{.compliance = false, .joint_harmonics = 2},
+                                         JointErrorTerms{.compliance = true, .joint_harmonics = 2}}) {
       SCOPED_TRACE(std::string(name) + " " + terms.Describe());
       const RobotModel model = Preset(name).WithErrorTerms(terms);
       Rng rng(41);
@@ -502,7 +503,7 @@ RobotModelSpec HeldAndFittedTerms() {
     spec.joints[i].compliance_rad_per_nm = (i % 2 == 0 ? 0.5 : -0.3) * kImplausibleComplianceRadPerNm / 10.0;
     spec.joints[i].harmonics_rad = Eigen::Vector4d(3e-3, -2e-3, 1e-3, 4e-3) * (1.0 + 0.1 * static_cast<double>(i));
   }
-  spec.error_terms = {true, 2};
+  spec.error_terms = {.compliance = true, .joint_harmonics = 2};
   return spec;
 }
 
@@ -624,7 +625,7 @@ TEST(FixedJointTermTest, ImplausibleJointTermsAreJudgedOnHeldPlusFitted) {
   const auto fit = [](double held_deg, double correction_deg) {
     RobotModelSpec spec = PresetSpec("ur5e");
     spec.joints[1].harmonics_rad[0] = held_deg * kRadPerDeg;
-    const RobotModel robot = RobotModel::Build(spec).WithErrorTerms({false, 1});
+    const RobotModel robot = RobotModel::Build(spec).WithErrorTerms({.compliance = false, .joint_harmonics = 1});
     Eigen::VectorXd truth = Eigen::VectorXd::Zero(robot.num_error_parameters());
     truth[robot.ParameterIndex(robot.joint_name(1) + ".sin1")] = correction_deg * kRadPerDeg;
     std::vector<Measurement> shots;

@@ -140,7 +140,7 @@ TEST(PredictPositionErrorTest, ParameterPartMatchesCentralDifferences) {
   cell_options.compliance_deflection_mm = 0.3;
   VirtualCell cell(nominal, cell_options);
   const Payload payload{3.0, Eigen::Vector3d(10, -20, 50)};
-  const Calibration c = FitWithKnownNoise(nominal.WithErrorTerms({true, 1}), &cell,
+  const Calibration c = FitWithKnownNoise(nominal.WithErrorTerms({.compliance = true, .joint_harmonics = 1}), &cell,
                                           test::RandomConfigurations(nominal, 120, 40), payload);
   ASSERT_NE(c.summary.termination, Termination::kFailure) << c.summary.message;
   KinematicsWorkspace ws(c.model);

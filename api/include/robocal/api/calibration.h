@@ -57,21 +57,60 @@ inline void from_json(const nlohmann::json& j, ArmConfiguration& c) { api::from_
 
 namespace robocal::api {
 
+/// Where a fit placed one joint's map (JointMapTerms): its first knot and its intervals. Set by the server in a
+/// fit's result.
+struct MapGridWire {
+  int joint = 1;  ///< 1-based
+  double first_knot_deg = 0.0;
+  int intervals = 1;
+};
+template <>
+struct WireFields<MapGridWire> {
+  using S = MapGridWire;
+  static constexpr auto fields = std::make_tuple(Field{"joint", &S::joint}, Field{"first_knot_deg", &S::first_knot_deg},
+                                                 Field{"intervals", &S::intervals});
+};
+ROBOCAL_WIRE_DECLARE(MapGridWire);
+
+/// "joint_maps" of a model (docs/identification.md, "Joint error maps"): each listed joint's angle error as a cubic
+/// B-spline of its angle, knots every knot_spacing_deg over the range the calibration poses cover, with a
+/// second-difference penalty of weight `smoothness`.
+struct JointMapsWire {
+  /// 1-based joint numbers, ascending; absent or empty in a request: every revolute joint.
+  std::vector<int> joints;
+  double knot_spacing_deg = 4.0;
+  double smoothness = 1.0;
+  /// Set by the server: where each map's knots lie.
+  std::vector<MapGridWire> grids;
+};
+template <>
+struct WireFields<JointMapsWire> {
+  using S = JointMapsWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"joints", &S::joints, Presence::kOmitEmpty}, Field{"knot_spacing_deg", &S::knot_spacing_deg},
+      Field{"smoothness", &S::smoothness, Presence::kOptionalOnRead}, Field{"grids", &S::grids, Presence::kServerOnly});
+};
+ROBOCAL_WIRE_DECLARE(JointMapsWire);
+
 /// POST /v1/campaigns/{c}:fit.
 /// The model of a fit beyond geometry (docs/identification.md, "Beyond geometry"): joint compliance under gravity
-/// and the payload, and joint harmonics of order up to 2. Both off: the geometric model.
+/// and the payload, joint harmonics of order up to 2, and joint error maps. All off: the geometric model.
 struct ModelWire {
   bool compliance = false;
   int joint_harmonics = 0;
+  std::optional<JointMapsWire> joint_maps;
 };
 template <>
 struct WireFields<ModelWire> {
   using S = ModelWire;
   static constexpr auto fields = std::make_tuple(
       Field{"compliance", &S::compliance},
-      Field{"joint_harmonics", &S::joint_harmonics});
+      Field{"joint_harmonics", &S::joint_harmonics},
+      Field{"joint_maps", &S::joint_maps, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ModelWire);
+/// The core's terms of a model: with joint maps, their grids as the wire's `grids` place them (a stored result), or
+/// none yet (a parsed request, whose `joints` the parser filled: WithTermsFor places them over the measurements).
 JointErrorTerms ToCore(const ModelWire& model);
 ModelWire ToWire(const JointErrorTerms& terms);
 
@@ -106,7 +145,7 @@ struct FitRequest {
   std::string scope = "all";
   /// The model: on the wire "model" is "geometric" (the default), "auto" (chosen by k-fold cross-validation on
   /// the calibration measurements: the simplest candidate within one standard error of the best) or an object
-  /// {"compliance": bool, "joint_harmonics": 0..2}. `model_auto` is true for "auto".
+  /// {"compliance": bool, "joint_harmonics": 0..2, "joint_maps": {...}}. `model_auto` is true for "auto".
   ModelWire model;
   bool model_auto = false;
   /// For "auto" only.
@@ -141,8 +180,10 @@ struct WireFields<FitRequest> {
 };
 ROBOCAL_WIRE_DECLARE(FitRequest);
 /// The model a fit estimates: `nominal` with the request's joint terms (the geometric one for "auto", whose
-/// candidates are built by the core).
-RobotModel FitModel(const FitRequest& request, const RobotModel& nominal);
+/// candidates are built by the core), its joint maps placed over `measurements` (WithTermsFor; without
+/// measurements, the model without its maps, which names the parameters a request may give).
+RobotModel FitModel(const FitRequest& request, const RobotModel& nominal,
+                    const std::vector<Measurement>& measurements = {}, const IdentificationOptions& options = {});
 /// `parameters` name the model's error parameters and, in a campaign with reflectors, their offsets
 /// ("reflector.<id>.dx").
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,

@@ -15,6 +15,22 @@
 
 namespace robocal::api {
 
+/// A joint's error map (JointMap) in wire units: knots every knot_spacing_deg from first_knot_deg, and the cubic
+/// B-spline's coefficients in degrees (intervals + 3 of them); beyond its knots the map holds its end value.
+struct JointMapWire {
+  double first_knot_deg = 0.0;
+  double knot_spacing_deg = 0.0;
+  std::vector<double> coefficients_deg;
+};
+template <>
+struct WireFields<JointMapWire> {
+  using S = JointMapWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"first_knot_deg", &S::first_knot_deg}, Field{"knot_spacing_deg", &S::knot_spacing_deg},
+                      Field{"coefficients_deg", &S::coefficients_deg});
+};
+ROBOCAL_WIRE_DECLARE(JointMapWire);
+
 /// One joint of a robot definition. Angles in degrees, lengths in mm. Limits are in the joint's unit:
 /// "min_deg"/"max_deg" for a revolute joint, "min_mm"/"max_mm" for a prismatic one. The geometry is the
 /// convention's: a dh / mdh row (mdh: alpha and a of the previous link, as in Craig's table), or for
@@ -34,6 +50,8 @@ struct JointWire {
   /// registered from a calibration with joint terms holds them.
   double compliance_deg_per_nm = 0.0;
   std::array<double, 4> harmonics_deg{0.0, 0.0, 0.0, 0.0};
+  /// The joint's error map (JointSpec::error_map); unset: none.
+  std::optional<JointMapWire> error_map;
   /// The convention of the robot the joint belongs to, which picks its geometry keys. Not a key of the joint:
   /// the robot's "convention" gives it (a robot's joints are written and read with the robot's; JointToWire
   /// sets it, so that a joint written on its own has its robot's keys too).
@@ -74,7 +92,8 @@ struct WireFields<JointWire> {
                         return j.mass_kg > 0.0;
                       }),
                       Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
-                      Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty}));
+                      Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty},
+                      Field{"error_map", &S::error_map, Presence::kOmitEmpty}));
 };
 ROBOCAL_WIRE_DECLARE(JointWire);
 
@@ -274,7 +293,8 @@ struct WireFields<RobotJoint> {
       std::make_tuple(Field{"name", &JointWire::name}), JointGeometryFields::fields,
       std::make_tuple(Field{"mass_kg", &JointWire::mass_kg}, Field{"com_mm", &JointWire::com_mm},
                       Field{"compliance_deg_per_nm", &JointWire::compliance_deg_per_nm},
-                      Field{"harmonics_deg", &JointWire::harmonics_deg}, Field{"unit", &S::unit}));
+                      Field{"harmonics_deg", &JointWire::harmonics_deg},
+                      Field{"error_map", &JointWire::error_map, Presence::kOmitEmpty}, Field{"unit", &S::unit}));
 };
 ROBOCAL_WIRE_DECLARE(RobotJoint);
 

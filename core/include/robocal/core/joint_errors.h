@@ -22,17 +22,28 @@ inline constexpr double kStandardGravity = 9.80665;
 Eigen::VectorXd GravityTorques(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
                                Eigen::MatrixXd* dtau_dq = nullptr);
 
+/// The cubic B-spline basis of a map grid (JointMap) at joint value q (rad): returns j, the index of the first of
+/// the four coefficients non-zero at q, and their basis values in b[0..3] (they sum to 1); db[0..3], if not null,
+/// receives their derivatives per rad, zero beyond the knots, where the map is clamped.
+int MapBasis(double first_knot_rad, double knot_spacing_rad, int intervals, double q, double b[4],
+             double db[4] = nullptr);
+/// A map's value at q (rad) and, if not null, its derivative per rad.
+double MapValue(const JointMap& map, double q, double* derivative = nullptr);
+
 /// The factor by which each joint term of `model` (RobotModel::joint_terms(), in order) turns its joint per unit
 /// of its parameter at command q: tau_i (N*m) for a compliance (parameter rad per N*m), sin(k q_i) and cos(k q_i)
-/// for a harmonic of order k (parameter rad). Empty for a model without joint terms.
+/// for a harmonic of order k (parameter rad), the basis value B_k for a map coefficient (parameter rad). Empty for
+/// a model without joint terms.
 /// dfactor_dq, if not null, receives its derivative (terms x num_joints).
 Eigen::VectorXd JointTermFactors(const RobotModel& model, const Eigen::VectorXd& q, const Payload& payload,
                                  Eigen::MatrixXd* dfactor_dq = nullptr);
 
-/// The value the robot holds for joint term `term` (JointSpec::compliance_rad_per_nm, or harmonics_rad's element
-/// for its order and kind): a fitted parameter of that term is a correction on top of it.
+/// The value the robot holds for joint term `term` (JointSpec::compliance_rad_per_nm, harmonics_rad's element for
+/// its order and kind, or the coefficient of the held error_map when it has the term's grid, else 0): a fitted
+/// parameter of that term is a correction on top of it.
 double HeldJointTerm(const RobotModel& model, const JointTermParameter& term);
-/// The same element, writable, in a spec's joints.
+/// The same element, writable, in a spec's joints (a map term's joint gets a zero map on the model's grid first
+/// if it holds none; throws std::invalid_argument if it holds one on another grid).
 double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term);
 
 /// The joint deflection dq (rad per joint; zero for prismatic joints) at command q: the joint terms the robot holds

@@ -29,6 +29,33 @@ enum class GeometryConvention {
 const char* ToString(JointType type);
 const char* ToString(GeometryConvention convention);
 
+/// A joint's error map: the angle error of a revolute joint as a uniform cubic B-spline of its own angle,
+///   e(q) = sum_k c_k B_k(u),  u = (clamp(q, first_knot, last_knot) - first_knot) / knot_spacing,
+/// with knots every knot_spacing_rad from first_knot_rad and intervals() = coefficients - 3 intervals between them
+/// (last_knot = first_knot + intervals * spacing). B_k is the uniform cubic B-spline that is non-zero on
+/// intervals k - 3 .. k; on interval j the four non-zero ones are k = j .. j + 3. Beyond the knots the map is held
+/// at its value at the nearer end (clamped): it was fitted over that range and says nothing beyond it. Gears
+/// and encoders err with the angle at a few degrees' period, finer than a harmonic follows (docs/identification.md).
+struct JointMap {
+  double first_knot_rad = 0.0;
+  double knot_spacing_rad = 0.0;
+  std::vector<double> coefficients_rad;  ///< empty: no map
+  bool empty() const { return coefficients_rad.empty(); }
+  int intervals() const { return static_cast<int>(coefficients_rad.size()) - 3; }
+  double last_knot_rad() const { return first_knot_rad + intervals() * knot_spacing_rad; }
+  bool operator==(const JointMap& other) const {
+    return first_knot_rad == other.first_knot_rad && knot_spacing_rad == other.knot_spacing_rad &&
+           coefficients_rad == other.coefficients_rad;
+  }
+};
+
+/// Knot spacings a map may have: below 0.5 deg the knots outnumber what a tracker resolves between poses; above
+/// 90 deg a map is a poorer harmonic.
+inline constexpr double kMinMapKnotSpacingRad = 0.5 * 3.14159265358979323846 / 180.0;
+inline constexpr double kMaxMapKnotSpacingRad = 90.0 * 3.14159265358979323846 / 180.0;
+/// The most intervals a map may have (a full four turns at 0.5 deg is 2880).
+inline constexpr int kMaxMapIntervals = 2880;
+
 /// One joint of a spec. Lengths in mm, angles in rad; joint values q in rad (revolute) or mm (prismatic).
 struct JointSpec {
   std::string name;
@@ -58,19 +85,53 @@ struct JointSpec {
   /// revolute joints only, within kImplausibleComplianceRadPerNm / kImplausibleHarmonicRad.
   double compliance_rad_per_nm = 0.0;
   Eigen::Vector4d harmonics_rad = Eigen::Vector4d::Zero();
+  /// The error map the joint holds (revolute joints only; empty: none), on top of its command like the terms above.
+  JointMap error_map = {};
+};
+
+/// Joint error maps as error parameters (JointMap): for each joint in `joints` (0-based, revolute, ascending), the
+/// coefficients of a cubic B-spline of its angle error with knots every knot_spacing_rad over the range the
+/// calibration poses cover, and a second-difference penalty of weight `smoothness` beside the measurements. A
+/// map's constant is the joint's offset, which the geometric parameters hold: a fitted map's coefficients sum to
+/// zero (a constraint row beside the penalty). The grid of each map (first knot, intervals) and the measurements'
+/// information come from the measurements (WithTermsFor, identification.h) before a model with maps is built:
+/// RobotModel::Build refuses maps without.
+struct JointMapTerms {
+  std::vector<int> joints;
+  double knot_spacing_rad = 0.0;
+  /// The penalty's weight relative to the measurements: 1 weighs a map's second difference as much as the
+  /// measurements weigh one of its coefficients on average; 0 is no penalty.
+  double smoothness = 1.0;
+  /// Per entry of `joints`: the map's first knot (rad), its intervals, and the measurements' mean information per
+  /// coefficient (1/rad^2, in their weighted rows), which scales the penalty rows: sqrt(smoothness x information)
+  /// times each second difference. Empty for a calibration's model that is not fitted again (a stored one): no
+  /// penalty then.
+  std::vector<double> first_knot_rad;
+  std::vector<int> intervals;
+  std::vector<double> information;
+  bool empty() const { return joints.empty(); }
+  bool resolved() const { return !joints.empty() && first_knot_rad.size() == joints.size(); }
+  bool operator==(const JointMapTerms& other) const {
+    return joints == other.joints && knot_spacing_rad == other.knot_spacing_rad && smoothness == other.smoothness &&
+           first_knot_rad == other.first_knot_rad && intervals == other.intervals &&
+           information == other.information;
+  }
 };
 
 /// Which joint errors beyond the geometric ones a model carries (joint_errors.h): one compliance per revolute
 /// joint (a rotation about its axis proportional to the gravity torque on it), and harmonics of each revolute
 /// joint's own angle up to `joint_harmonics` (0, 1 or 2). The default is the geometric model.
+/// Joint error maps on `maps.joints` (JointMapTerms), which take no harmonics on the same robot (a map follows
+/// them and more).
 struct JointErrorTerms {
   bool compliance = false;
   int joint_harmonics = 0;
+  JointMapTerms maps = {};
   bool operator==(const JointErrorTerms& other) const {
-    return compliance == other.compliance && joint_harmonics == other.joint_harmonics;
+    return compliance == other.compliance && joint_harmonics == other.joint_harmonics && maps == other.maps;
   }
   bool operator!=(const JointErrorTerms& other) const { return !(*this == other); }
-  /// "geometric", "compliance", "harmonics 2", "compliance + harmonics 1".
+  /// "geometric", "compliance", "harmonics 2", "compliance + harmonics 1", "compliance + maps 4 deg (joints 1-5)".
   std::string Describe() const;
 };
 
@@ -142,8 +203,9 @@ enum class ParameterUnit { kMm, kRad, kRadPerNm };
 
 /// One error parameter beyond the geometric sites (RobotModelSpec::error_terms): joint `joint`'s compliance,
 /// or the sine or cosine amplitude (rad) of its harmonic of order `order`.
+/// Or coefficient `order` of its error map (JointMapTerms; parameter rad).
 struct JointTermParameter {
-  enum class Kind { kCompliance, kSin, kCos };
+  enum class Kind { kCompliance, kSin, kCos, kMap };
   Kind kind = Kind::kCompliance;
   int joint = 0;
   int order = 0;
@@ -182,14 +244,15 @@ class RobotModel {
 
   /// Error parameters: 6 per site, sites ordered base, joints 1..n, tool (the geometric ones), then the joint
   /// terms of spec().error_terms: every revolute joint's compliance, then every revolute joint's harmonics
-  /// (order 1 sine, cosine, order 2 sine, cosine).
+  /// (order 1 sine, cosine, order 2 sine, cosine), then the map coefficients of each mapped joint in turn.
   int num_error_sites() const { return num_joints() + 2; }
   int num_geometric_parameters() const { return 6 * num_error_sites(); }
   int num_error_parameters() const { return static_cast<int>(parameter_names_.size()); }
   /// The joint terms, in parameter order: parameter num_geometric_parameters() + t is joint_terms()[t].
   const std::vector<JointTermParameter>& joint_terms() const { return joint_terms_; }
   const JointErrorTerms& error_terms() const { return spec_.error_terms; }
-  /// Name of error parameter k, e.g. "base.dx", "joint3.rz", "tool.dz", "joint2.compliance", "joint4.sin1".
+  /// Name of error parameter k, e.g. "base.dx", "joint3.rz", "tool.dz", "joint2.compliance", "joint4.sin1",
+  /// "joint5.map17".
   const std::string& parameter_name(int k) const { return parameter_names_[k]; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   /// Index of a parameter by name, or -1.
@@ -200,7 +263,9 @@ class RobotModel {
   ParameterUnit parameter_unit(int k) const;
   /// Whether any link has a mass (the compliance model needs them).
   bool has_masses() const;
-  /// Whether any joint holds fixed joint terms (JointSpec::compliance_rad_per_nm, harmonics_rad).
+  /// Per joint: the index of its first map coefficient among the error parameters, or -1 (no map term).
+  int map_parameter(int joint) const { return map_first_[static_cast<size_t>(joint)]; }
+  /// Whether any joint holds fixed joint terms (JointSpec::compliance_rad_per_nm, harmonics_rad, error_map).
   bool has_fixed_joint_terms() const { return has_fixed_joint_terms_; }
   /// Whether the joints deflect: fixed joint terms, or joint-term error parameters.
   bool deflects() const { return has_fixed_joint_terms_ || !joint_terms_.empty(); }
@@ -220,6 +285,7 @@ class RobotModel {
   std::vector<std::string> parameter_names_;
   std::vector<JointTermParameter> joint_terms_;
   std::vector<Transform> link_frame_;
+  std::vector<int> map_first_;
   bool has_fixed_joint_terms_ = false;
 };
 
