@@ -1,14 +1,13 @@
 // Calibration, compensation and evaluation on the wire.
 #include "robocal/api/calibration.h"
 
-#include "robocal/core/arm_kinematics.h"
-
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <limits>
 
 #include "robocal/api/json_reader.h"
+#include "robocal/core/arm_kinematics.h"
 
 namespace robocal::api {
 
@@ -41,9 +40,10 @@ JointErrorTerms ToCore(const ModelWire& model) {
   maps.smoothness = w.smoothness;
   if (!w.grids.empty()) {
     for (int joint : maps.joints) {
-      const auto grid = std::find_if(w.grids.begin(), w.grids.end(),
-                                     [&](const MapGridWire& g) { return g.joint == joint + 1; });
-      if (grid == w.grids.end()) throw WireError("model.joint_maps.grids", "no grid for joint " + std::to_string(joint + 1));
+      const auto grid =
+          std::find_if(w.grids.begin(), w.grids.end(), [&](const MapGridWire& g) { return g.joint == joint + 1; });
+      if (grid == w.grids.end())
+        throw WireError("model.joint_maps.grids", "no grid for joint " + std::to_string(joint + 1));
       maps.first_knot_rad.push_back(grid->first_knot_deg * kRadPerDeg);
       maps.intervals.push_back(grid->intervals);
     }
@@ -54,8 +54,10 @@ JointErrorTerms ToCore(const ModelWire& model) {
 ModelWire ToWire(const JointErrorTerms& terms) {
   ModelWire model{.compliance = terms.compliance, .joint_harmonics = terms.joint_harmonics, .joint_maps = {}};
   if (terms.maps.empty()) return model;
-  JointMapsWire w{.joints = {}, .knot_spacing_deg = terms.maps.knot_spacing_rad * kDegPerRad,
-                  .smoothness = terms.maps.smoothness, .grids = {}};
+  JointMapsWire w{.joints = {},
+                  .knot_spacing_deg = terms.maps.knot_spacing_rad * kDegPerRad,
+                  .smoothness = terms.maps.smoothness,
+                  .grids = {}};
   for (size_t m = 0; m < terms.maps.joints.size(); ++m) {
     w.joints.push_back(terms.maps.joints[m] + 1);
     if (m < terms.maps.intervals.size()) {
@@ -135,8 +137,9 @@ void ParseJointMaps(const nlohmann::json& value, const RobotModel& robot, const 
   r.Number("smoothness", false, &maps.smoothness, 0.0, 1e12);
   r.RejectUnknown(WireFieldNames<JointMapsWire>());
   if (model.joint_harmonics > 0) {
-    problems->Add(path, "a model with joint maps takes no joint_harmonics (a map follows a joint's harmonics and "
-                        "errors finer than them)");
+    problems->Add(path,
+                  "a model with joint maps takes no joint_harmonics (a map follows a joint's harmonics and "
+                  "errors finer than them)");
   }
   *out = std::move(maps);
 }
@@ -155,7 +158,8 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       ObjectReader m(*v, "model", problems);
       m.Bool("compliance", false, &req->model.compliance);
       m.Int("joint_harmonics", false, &req->model.joint_harmonics, 0, kMaxJointHarmonics);
-      if (const nlohmann::json* jm = m.Get("joint_maps")) ParseJointMaps(*jm, model, req->model, problems, &req->model.joint_maps);
+      if (const nlohmann::json* jm = m.Get("joint_maps"))
+        ParseJointMaps(*jm, model, req->model, problems, &req->model.joint_maps);
       m.RejectUnknown(WireFieldNames<ModelWire>());
       if (req->model.compliance && !model.has_masses()) {
         problems->Add("model.compliance", "robot \"" + model.name() +
@@ -222,8 +226,9 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
     problems.Add("parameters", "\"model\": \"auto\" chooses the parameters with the model: leave out parameters");
   }
   if (req.model.joint_maps && !req.parameters.empty()) {
-    problems.Add("parameters", "a model with joint maps places its coefficients over the measurements: leave out "
-                               "parameters");
+    problems.Add("parameters",
+                 "a model with joint maps places its coefficients over the measurements: leave out "
+                 "parameters");
   }
   if (req.scope == "frames" &&
       (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0 || req.model.joint_maps)) {
@@ -254,13 +259,12 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
     for (int k = 0; k < 6; ++k) options.parameters.push_back(k);
     for (int k = 0; k < 3; ++k) options.parameters.push_back(tool + k);
     const int rotations = !reflectors.empty() || type == MeasurementType::kPose ? 3
-                          : type == MeasurementType::kPositionAxis           ? 2
-                                                                              : 0;
+                          : type == MeasurementType::kPositionAxis              ? 2
+                                                                                : 0;
     for (int k = 0; k < rotations; ++k) options.parameters.push_back(tool + 3 + k);
   }
   std::sort(options.parameters.begin(), options.parameters.end());
-  options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()),
-                           options.parameters.end());
+  options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()), options.parameters.end());
   options.register_base = req.register_base;
   options.max_iterations = req.max_iterations;
   options.reject_outliers = req.reject_outliers;
@@ -312,8 +316,7 @@ std::vector<IdentifiedParameter> ToCore(const std::vector<ParameterEstimate>& pa
     if (index < 0) {
       throw WireError(WirePath(IndexPath(path, k), "name"), "\"" + p.name + "\" is not a parameter of the robot");
     }
-    const ParameterUnit unit =
-        index >= model.num_error_parameters() ? ParameterUnit::kMm : model.parameter_unit(index);
+    const ParameterUnit unit = index >= model.num_error_parameters() ? ParameterUnit::kMm : model.parameter_unit(index);
     if (p.unit != ParameterUnitName(unit)) {
       throw WireError(WirePath(IndexPath(path, k), "unit"),
                       "\"" + p.unit + "\" is not the unit of " + p.name + " (" + ParameterUnitName(unit) + ")");
@@ -394,15 +397,15 @@ void ParseConfiguration(const nlohmann::json& value, const std::string& path, Pr
                                      {"wrist", "noflip or flip", &out->wrist}}) {
     std::string text;
     if (!r.String(flag, false, &text, 16)) continue;
-    if (!ParseConfigurationFlag(flag, text, target)) problems->Add(JoinPath(path, flag), std::string("must be ") + names);
+    if (!ParseConfigurationFlag(flag, text, target))
+      problems->Add(JoinPath(path, flag), std::string("must be ") + names);
   }
   r.RejectUnknown(WireFieldNames<ArmConfiguration>());
 }
 
 }  // namespace
 
-CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model,
-                                         const Limits& limits) {
+CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits) {
   Problems problems;
   CompensateRequest req;
   ObjectReader r(body, "", &problems);
@@ -439,7 +442,8 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
         }
       }
       PayloadWire payload;
-      if (const nlohmann::json* v = t.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
+      if (const nlohmann::json* v = t.Get("payload");
+          v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
       t.RejectUnknown(WireFieldNames<CompensationTargetWire>());

@@ -96,8 +96,8 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         jr.Number(MaxKey(j.type), true, &j.max, -bound, bound);
         const JointType other = revolute ? JointType::kPrismatic : JointType::kRevolute;
         if (jr.ok() && (jr.Has(MinKey(other)) || jr.Has(MaxKey(other)))) {
-          problems.Add(path, std::string("limits of a ") + WireName(j.type) + " joint are given as " +
-                                 MinKey(j.type) + "/" + MaxKey(j.type));
+          problems.Add(path, std::string("limits of a ") + WireName(j.type) + " joint are given as " + MinKey(j.type) +
+                                 "/" + MaxKey(j.type));
         }
         // Every geometry key is taken whatever the convention (the convention's are used).
         jr.RejectUnknown(WireFieldNames<JointWire>());
@@ -287,7 +287,8 @@ Robot RobotFromModel(const std::string& id, const RobotModel& model, bool preset
   robot.description = description;
   robot.convention = spec.convention;
   robot.num_joints = model.num_joints();
-  for (int i = 0; i < model.num_joints(); ++i) robot.joints.push_back({JointToWire(spec.joints[i], spec.convention), JointUnit(model, i)});
+  for (int i = 0; i < model.num_joints(); ++i)
+    robot.joints.push_back({JointToWire(spec.joints[i], spec.convention), JointUnit(model, i)});
   robot.base = TransformToPose(spec.T_world_base);
   robot.tool = TransformToPose(spec.T_flange_tool);
   robot.flange = TransformToPose(spec.T_lastjoint_flange);
@@ -353,8 +354,8 @@ const char* JointUnit(const RobotModel& model, int joint) {
 bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const std::string& path,
                  Problems* problems) {
   if (static_cast<int>(wire.size()) != model.num_joints()) {
-    problems->Add(path, "expected " + std::to_string(model.num_joints()) + " values, got " +
-                            std::to_string(wire.size()));
+    problems->Add(path,
+                  "expected " + std::to_string(model.num_joints()) + " values, got " + std::to_string(wire.size()));
     return false;
   }
   bool ok = true;
@@ -374,8 +375,8 @@ bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const
   return ok;
 }
 
-bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model,
-                     Problems* problems, std::vector<double>* out) {
+bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model, Problems* problems,
+                     std::vector<double>* out) {
   std::vector<double> q;
   // Size is checked by CheckJoints with a message naming the robot's joint count.
   if (!ReadNumberArray(value, path, problems, &q, 0, 64)) return false;

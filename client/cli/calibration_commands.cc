@@ -94,10 +94,12 @@ bool ParseJointMapsPart(const std::string& part, api::JointMapsWire* maps) {
     const std::size_t plus = std::min(joints.find('+', start), joints.size());
     const std::string item = joints.substr(start, plus - start);
     const std::size_t dash = item.find('-');
-    const int from = static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(0, dash), 1, 64));
-    const int to = dash == std::string::npos
-                       ? from
-                       : static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(dash + 1), 1, 64));
+    const int from =
+        static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(0, dash), 1, 64));
+    const int to =
+        dash == std::string::npos
+            ? from
+            : static_cast<int>(tools::ParseIntegerFlag("--model joint_maps joints", item.substr(dash + 1), 1, 64));
     for (int j = from; j <= to; ++j) maps->joints.push_back(j);
     start = plus + 1;
   }

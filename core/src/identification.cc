@@ -8,8 +8,8 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <iomanip>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -254,7 +254,8 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
     // The parameters the nests' offsets took over (FindIdentifiableParameters' gauge): they stay nominal.
     std::string held;
     for (const DroppedParameter& d : out.dropped) {
-      if (d.index < n_all && d.reason.find("reflector.") != std::string::npos) held += (held.empty() ? "" : ", ") + d.name;
+      if (d.index < n_all && d.reason.find("reflector.") != std::string::npos)
+        held += (held.empty() ? "" : ", ") + d.name;
     }
     out.note = "free reflector nests locate themselves, not the tool point: " +
                (held.empty() ? std::string("nothing") : held) +
@@ -478,7 +479,8 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   if (!s.implausible_joint_terms.empty()) {
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
     msg << "; implausible joint terms (";
-    for (size_t k = 0; k < s.implausible_joint_terms.size(); ++k) msg << (k ? ", " : "") << s.implausible_joint_terms[k];
+    for (size_t k = 0; k < s.implausible_joint_terms.size(); ++k)
+      msg << (k ? ", " : "") << s.implausible_joint_terms[k];
     msg << "): the measured poses hardly vary what drives them (a payload, the arm's posture, the joint's angle); "
            "fit a simpler model or measure more varied poses";
   }
@@ -593,7 +595,11 @@ std::string IdentificationSummary::FullReport() const {
       const bool mm = IsTranslationName(p.name);
       const bool compliance = p.name.size() > 11 && p.name.compare(p.name.size() - 11, 11, ".compliance") == 0;
       out << "  " << std::left << std::setw(12) << p.name << std::right << std::setw(14) << std::setprecision(6)
-          << p.value << std::setw(14) << p.std << "  " << (mm ? "mm" : compliance ? "rad/(N*m)" : "rad") << "\n";
+          << p.value << std::setw(14) << p.std << "  "
+          << (mm           ? "mm"
+              : compliance ? "rad/(N*m)"
+                           : "rad")
+          << "\n";
     }
   }
   if (rejection_rounds > 0) {

@@ -186,7 +186,8 @@ int HarmonicIndex(const JointTermParameter& term) {
 JointMap MapGrid(const JointMapTerms& maps, int joint) {
   for (size_t m = 0; m < maps.joints.size(); ++m) {
     if (maps.joints[m] == joint && m < maps.intervals.size()) {
-      return {.first_knot_rad = maps.first_knot_rad[m], .knot_spacing_rad = maps.knot_spacing_rad,
+      return {.first_knot_rad = maps.first_knot_rad[m],
+              .knot_spacing_rad = maps.knot_spacing_rad,
               .coefficients_rad = std::vector<double>(static_cast<size_t>(maps.intervals[m] + 3), 0.0)};
     }
   }
@@ -217,7 +218,8 @@ double& HeldJointTerm(RobotModelSpec* spec, const JointTermParameter& term) {
 double HeldJointTerm(const RobotModel& model, const JointTermParameter& term) {
   const JointSpec& joint = model.spec().joints.at(static_cast<size_t>(term.joint));
   if (term.kind == JointTermParameter::Kind::kMap) {
-    if (joint.error_map.empty() || !SameGrid(joint.error_map, MapGrid(model.error_terms().maps, term.joint))) return 0.0;
+    if (joint.error_map.empty() || !SameGrid(joint.error_map, MapGrid(model.error_terms().maps, term.joint)))
+      return 0.0;
     return joint.error_map.coefficients_rad.at(static_cast<size_t>(term.order));
   }
   const int h = HarmonicIndex(term);
@@ -294,7 +296,8 @@ PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::Vecto
   return out;
 }
 
-Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared, const Eigen::VectorXd& eps) {
+Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared,
+                                const Eigen::VectorXd& eps) {
   if (!model.deflects()) return Eigen::VectorXd::Zero(model.num_joints());
   Eigen::VectorXd dq = prepared.held;
   if (!HasTermErrors(model, eps)) return dq;

@@ -95,14 +95,15 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
     for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
   }
   prepared_.reserve(poses_.size());
-  for (size_t p = 0; p < poses_.size(); ++p) prepared_.push_back(PrepareDeflection(model_, poses_[p], shot_groups.payloads[p]));
+  for (size_t p = 0; p < poses_.size(); ++p)
+    prepared_.push_back(PrepareDeflection(model_, poses_[p], shot_groups.payloads[p]));
   if (o.noise.HasSharedError()) {
-    // The shots of one group share the robot's repeatability error and its model error: their residuals are correlated. With H
-    // an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance
-    // of the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n
-    // times the shared one, and the n - 1 Helmert contrasts the tracker's alone (the shots of a group
-    // are measured at the same point to within the noise, so one tracker covariance, at their mean, serves
-    // them). Only the mean depends on the parameters; the contrasts carry the scatter of the shots.
+    // The shots of one group share the robot's repeatability error and its model error: their residuals are correlated.
+    // With H an orthonormal (Helmert) basis of the shots whose first vector is the mean direction, the covariance of
+    // the n shots becomes block diagonal: sqrt(n) times their mean has the tracker's covariance plus n times the shared
+    // one, and the n - 1 Helmert contrasts the tracker's alone (the shots of a group are measured at the same point to
+    // within the noise, so one tracker covariance, at their mean, serves them). Only the mean depends on the
+    // parameters; the contrasts carry the scatter of the shots.
     for (const Group& g : groups_) {
       Eigen::Vector3d mean = Eigen::Vector3d::Zero();
       for (int i : g.shots) mean += measurements[i].T_world_tool.translation();
@@ -200,8 +201,9 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
   }
 }
 
-void Problem::EvaluateByGroup(const std::vector<Transform>& prediction, const std::vector<Eigen::MatrixXd>& group_jacobian,
-                              Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) const {
+void Problem::EvaluateByGroup(const std::vector<Transform>& prediction,
+                              const std::vector<Eigen::MatrixXd>& group_jacobian, Eigen::VectorXd* residual,
+                              Eigen::MatrixXd* jacobian) const {
   Eigen::VectorXd r(rows_), sum(rows_), contrast(rows_);
   Eigen::Index row = 0;
   for (size_t g = 0; g < groups_.size(); ++g) {

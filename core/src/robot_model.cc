@@ -35,8 +35,8 @@ void ValidateMap(const JointMap& map, const std::string& prefix, std::vector<Fie
   if (!std::isfinite(map.first_knot_rad)) errors->push_back({prefix + ".first_knot", "must be a finite number"});
   if (!(map.knot_spacing_rad >= kMinMapKnotSpacingRad * (1 - 1e-12) &&
         map.knot_spacing_rad <= kMaxMapKnotSpacingRad * (1 + 1e-12))) {
-    errors->push_back({prefix + ".knot_spacing", "must be in [0.5, 90] degrees, got " +
-                                                     Num(map.knot_spacing_rad * 180.0 / M_PI) + " degrees"});
+    errors->push_back({prefix + ".knot_spacing",
+                       "must be in [0.5, 90] degrees, got " + Num(map.knot_spacing_rad * 180.0 / M_PI) + " degrees"});
   }
   if (map.intervals() < 1 || map.intervals() > kMaxMapIntervals) {
     errors->push_back({prefix + ".coefficients", "a cubic map has intervals + 3 coefficients, 4 to " +
@@ -63,8 +63,8 @@ void ValidateMapTerms(const RobotModelSpec& spec, std::vector<FieldError>* error
     const int j = maps.joints[k];
     const std::string field = "model.joint_maps.joints[" + std::to_string(k) + "]";
     if (j < 0 || j >= n) {
-      errors->push_back({field, "joint " + std::to_string(j + 1) + " is not one of the robot's " + std::to_string(n) +
-                                    " joints"});
+      errors->push_back(
+          {field, "joint " + std::to_string(j + 1) + " is not one of the robot's " + std::to_string(n) + " joints"});
     } else if (spec.joints[j].type != JointType::kRevolute) {
       errors->push_back({field, "joint " + std::to_string(j + 1) + " ('" + spec.joints[j].name +
                                     "') is prismatic: error maps are for revolute joints"});
@@ -81,12 +81,14 @@ void ValidateMapTerms(const RobotModelSpec& spec, std::vector<FieldError>* error
     errors->push_back({"model.joint_maps.smoothness", "must be a finite number >= 0, got " + Num(maps.smoothness)});
   }
   if (spec.error_terms.joint_harmonics > 0) {
-    errors->push_back({"model.joint_maps", "a model with joint maps takes no joint_harmonics (a map follows a "
-                                           "joint's harmonics and errors finer than them)"});
+    errors->push_back({"model.joint_maps",
+                       "a model with joint maps takes no joint_harmonics (a map follows a "
+                       "joint's harmonics and errors finer than them)"});
   }
   if (!maps.resolved()) {
-    errors->push_back({"model.joint_maps", "the maps' knots are not placed yet (ResolveJointMaps places them over "
-                                           "the calibration poses)"});
+    errors->push_back({"model.joint_maps",
+                       "the maps' knots are not placed yet (ResolveJointMaps places them over "
+                       "the calibration poses)"});
     return;
   }
   if (maps.intervals.size() != maps.joints.size() ||
@@ -136,8 +138,8 @@ void ValidateJoint(const JointSpec& joint, int i, GeometryConvention convention,
   if (!min_ok) errors->push_back({prefix + ".min", "must be a finite number"});
   if (!max_ok) errors->push_back({prefix + ".max", "must be a finite number"});
   if (min_ok && max_ok && !(joint.min < joint.max)) {
-    errors->push_back({prefix + ".max", "must be greater than min (min " + Num(joint.min) + ", max " +
-                                            Num(joint.max) + ")"});
+    errors->push_back(
+        {prefix + ".max", "must be greater than min (min " + Num(joint.min) + ", max " + Num(joint.max) + ")"});
   }
   if (!std::isfinite(joint.mass_kg) || joint.mass_kg < 0.0) {
     errors->push_back({prefix + ".mass_kg", "must be a finite number >= 0 (kg), got " + Num(joint.mass_kg)});
@@ -215,8 +217,7 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
   CheckTransform(spec.T_world_base, "base", &errors);
   CheckTransform(spec.T_flange_tool, "tool", &errors);
   CheckTransform(spec.T_lastjoint_flange, "flange", &errors);
-  if (spec.convention != GeometryConvention::kTransform &&
-      !spec.T_lastjoint_flange.matrix().isIdentity(0.0)) {
+  if (spec.convention != GeometryConvention::kTransform && !spec.T_lastjoint_flange.matrix().isIdentity(0.0)) {
     errors.push_back({"flange", "only the transform convention takes a flange transform (DH derives it)"});
   }
   if (!spec.gravity_base.allFinite() || std::abs(spec.gravity_base.norm() - 1.0) > 1e-6) {
@@ -228,8 +229,9 @@ RobotModel RobotModel::Build(const RobotModelSpec& spec) {
     fixed_compliance = fixed_compliance || j.compliance_rad_per_nm != 0.0;
   }
   if (fixed_compliance && !masses) {
-    errors.push_back({"joints", "a joint's compliance needs the links' masses (mass_kg, com_mm): without them there "
-                                "is no gravity torque to deflect it"});
+    errors.push_back({"joints",
+                      "a joint's compliance needs the links' masses (mass_kg, com_mm): without them there "
+                      "is no gravity torque to deflect it"});
   }
   if (spec.error_terms.joint_harmonics < 0 || spec.error_terms.joint_harmonics > kMaxJointHarmonics) {
     errors.push_back({"model.joint_harmonics", "must be 0, 1 or " + std::to_string(kMaxJointHarmonics) + ", got " +

@@ -12,9 +12,9 @@
 #include "robocal/core/dh_table.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/identification.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/model_choice.h"
 #include "robocal/core/prediction.h"
-#include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
 #include "robocal/urdf/urdf_export.h"
 #include "service_support.h"
@@ -32,8 +32,8 @@ using api::Status;
 std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, const RobotModel& model,
                                    const std::vector<Measurement>& measurements) {
   const int n = model.num_joints();
-  const bool have_ranges = definition.calibrated_from &&
-                           definition.calibrated_from->joint_ranges.size() == static_cast<std::size_t>(n);
+  const bool have_ranges =
+      definition.calibrated_from && definition.calibrated_from->joint_ranges.size() == static_cast<std::size_t>(n);
   // Per joint: the range its held terms cover (in the wire's unit), or none.
   std::vector<std::optional<std::pair<double, double>>> ranges(static_cast<std::size_t>(n));
   bool any = false;
@@ -67,9 +67,10 @@ std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, 
   }
   if (poses == 0) return "";
   std::ostringstream out;
-  out << std::setprecision(4) << poses << " of " << measurements.size()
-      << " shots leave the joint ranges the robot's "
-      << (harmonics && maps ? "joint harmonics and error maps" : harmonics ? "joint harmonics" : "error maps")
+  out << std::setprecision(4) << poses << " of " << measurements.size() << " shots leave the joint ranges the robot's "
+      << (harmonics && maps ? "joint harmonics and error maps"
+          : harmonics       ? "joint harmonics"
+                            : "error maps")
       << " were identified over (";
   bool first = true;
   for (int i = 0; i < n; ++i) {
@@ -118,16 +119,17 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   // and the largest candidate sizes the fit).
   const RobotModel parsed_model = api::FitModel(req, nominal);
   const RobotModel largest =
-      req.model_auto ? nominal.WithErrorTerms({.compliance = nominal.has_masses(), .joint_harmonics = kMaxJointHarmonics})
-                     : parsed_model;
+      req.model_auto
+          ? nominal.WithErrorTerms({.compliance = nominal.has_masses(), .joint_harmonics = kMaxJointHarmonics})
+          : parsed_model;
   const std::int64_t count = storage_->CountMeasurements(campaign_id, "calibration");
   if (count == 0) {
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
   IdentificationOptions options = api::ToIdentificationOptions(
-      req, parsed_model, campaign.measurement_type, api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm),
-      reflectors);
+      req, parsed_model, campaign.measurement_type,
+      api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm), reflectors);
   CheckFitSize(largest, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();
@@ -138,8 +140,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     sequences->push_back(s.sequence);
   });
   // Joint maps are placed over the measurements' range of each joint; the fit's size counts their coefficients.
-  const RobotModel model =
-      req.model.joint_maps ? api::FitModel(req, nominal, *measurements, options) : parsed_model;
+  const RobotModel model = req.model.joint_maps ? api::FitModel(req, nominal, *measurements, options) : parsed_model;
   if (req.model.joint_maps) CheckFitSize(model, options, count, false, options_.limits);
   // An offset named for a nest without shots cannot be estimated: say so by the request's field.
   if (!reflectors.empty()) {
@@ -275,8 +276,8 @@ std::string Service::CalibrationUrdf(const std::string& campaign_id) {
     // After the XML declaration, if any: a comment may stand anywhere after it.
     const std::size_t declaration = text.rfind("<?xml", 0) == 0 ? text.find("?>") : std::string::npos;
     const std::size_t at = declaration == std::string::npos ? 0 : declaration + 2;
-    text.insert(at, (at == 0 ? "" : "\n") + std::string("<!-- robocal: ") + JointTermsNote(c) + " -->" +
-                        (at == 0 ? "\n" : ""));
+    text.insert(
+        at, (at == 0 ? "" : "\n") + std::string("<!-- robocal: ") + JointTermsNote(c) + " -->" + (at == 0 ? "\n" : ""));
   }
   return text;
 }
@@ -286,8 +287,8 @@ api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id,
   const Calibration& c = loaded.calibration;
   const char* name = ToString(convention);
   try {
-    const RobotModelSpec spec = CalibratedDhSpec(c.model.WithErrorTerms({}),
-                                                 c.errors.head(c.model.num_geometric_parameters()), convention);
+    const RobotModelSpec spec =
+        CalibratedDhSpec(c.model.WithErrorTerms({}), c.errors.head(c.model.num_geometric_parameters()), convention);
     // An id that registers as it is: the campaign's, with the convention (ids are at most 64 characters).
     const std::string suffix = std::string("-") + name;
     const std::string id = campaign_id.substr(0, 64 - suffix.size()) + suffix;
@@ -298,8 +299,8 @@ api::RegisterRobotRequest Service::CalibrationDh(const std::string& campaign_id,
   } catch (const DhTableError& e) {
     throw ApiError(Status::kFailedPrecondition,
                    "the calibration of \"" + campaign_id + "\" has no " + name + " table: " + e.what(),
-                   {{"format", std::string("the calibrated kinematics cannot be written as a ") + name +
-                                   " table (" + e.field() + ")"}});
+                   {{"format", std::string("the calibrated kinematics cannot be written as a ") + name + " table (" +
+                                   e.field() + ")"}});
   }
 }
 
@@ -311,7 +312,7 @@ api::ForwardResult Service::CampaignForward(const std::string& campaign_id, cons
   result.campaign = campaign_id;
   result.frame = "tracker";
   // Under the request's payload, else the campaign's (a compliance model deflects under it).
-  const Payload payload = req.payload            ? api::ToCore(*req.payload)
+  const Payload payload = req.payload               ? api::ToCore(*req.payload)
                           : loaded.campaign.payload ? api::ToCore(*loaded.campaign.payload)
                                                     : Payload();
   result.poses = ForwardPoses(loaded.calibration.model, loaded.calibration.errors, req, payload);
@@ -361,8 +362,8 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
     payloads.push_back(targets[i].payload);
   }
   const std::vector<double> predicted = PredictPositionErrorBounds(
-      loaded.calibration, joints, payloads,
-      {.probability = 0.95, .repeatability_mm = loaded.campaign.repeatability_mm}, options_.compensation_threads);
+      loaded.calibration, joints, payloads, {.probability = 0.95, .repeatability_mm = loaded.campaign.repeatability_mm},
+      options_.compensation_threads);
   result.results.reserve(solved.size());
   for (std::size_t i = 0; i < solved.size(); ++i) {
     api::Compensation c = api::ToWire(model, solved[i]);

@@ -1,17 +1,17 @@
 // The campaign report: the renderer on hand-made data (escaping, numbers equal to their inputs, statistics by
 // hand, sections without data), and GET /v1/campaigns/{c}/report on the real server (its numbers against the
 // calibration and :evaluate replies, the recomputed condition number against the fit's, the refusals).
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
+#include "raw_http.h"
 #include "robocal/api/calibration.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
-#include "raw_http.h"
 #include "server/src/report_html.h"
 #include "test_server.h"
 
@@ -73,11 +73,20 @@ report::ReportData HandMadeData() {
 TEST(ReportHtmlTest, TheModelChoiceIsShown) {
   report::ReportData d = HandMadeData();
   api::CalibrationResult& c = d.fit.calibration;
-  c.model = {true, 2};
+  c.model = {.compliance = true, .joint_harmonics = 2};
   c.model_choice = api::ModelChoiceWire{
-      5, {{{false, 0}, "geometric", 48, 0.41, 0.46, 0.017, 0, "", false},
-          {{true, 0}, "compliance", 54, 0, 0, 0, 2, "fold 1: implausible joint4.compliance 31 deg/(N*m)", false},
-          {{true, 2}, "compliance + harmonics 2", 78, 0.342, 0.38, 0.0165, 0, "", true}}};
+      5,
+      {{{.compliance = false, .joint_harmonics = 0}, "geometric", 48, 0.41, 0.46, 0.017, 0, "", false},
+       {{.compliance = true, .joint_harmonics = 0},
+        "compliance",
+        54,
+        0,
+        0,
+        0,
+        2,
+        "fold 1: implausible joint4.compliance 31 deg/(N*m)",
+        false},
+       {{.compliance = true, .joint_harmonics = 2}, "compliance + harmonics 2", 78, 0.342, 0.38, 0.0165, 0, "", true}}};
   c.parameters.push_back({"joint2.compliance", "deg/(N*m)", 6.3147e-4, 3.38e-5});
   const std::string page = report::RenderReport(d);
   EXPECT_NE(page.find("<td>compliance + harmonics 2 (chosen by cross-validation, below)</td>"), std::string::npos);
@@ -255,10 +264,15 @@ TEST(ReportHtmlTest, ManyOutliersListAtMostTheCap) {
 TEST(ReportEndpointTest, NumbersEqualTheCalibrationAndTheEvaluation) {
   TestServer s({}, {}, {}, OpenSqliteStorage(":memory:"));
   const RobotModel model = Preset("grinder5");
-  const Reply plan = s.Post("/v1/plans", {{"robot", "grinder5"}, {"num_configurations", 12}, {"seed", 3},
-                                          {"num_validation", 10}, {"options", {{"k_max", 20}}}});
+  const Reply plan = s.Post("/v1/plans", {{"robot", "grinder5"},
+                                          {"num_configurations", 12},
+                                          {"seed", 3},
+                                          {"num_validation", 10},
+                                          {"options", {{"k_max", 20}}}});
   ASSERT_EQ(plan.status, 200) << plan.text;
-  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "rep"}, {"robot", "grinder5"}, {"plan", plan.body["id"]},
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "rep"},
+                                     {"robot", "grinder5"},
+                                     {"plan", plan.body["id"]},
                                      {"description", "<script>alert(1)</script> & co"}})
                 .status,
             200);
@@ -273,7 +287,8 @@ TEST(ReportEndpointTest, NumbersEqualTheCalibrationAndTheEvaluation) {
   o.shots_per_pose = 2;
   VirtualCell cell(model, o);
   std::vector<Eigen::VectorXd> configurations;
-  for (const auto& q : plan.body["configurations"]) configurations.push_back(api::JointsToCore(model, q.get<std::vector<double>>()));
+  for (const auto& q : plan.body["configurations"])
+    configurations.push_back(api::JointsToCore(model, q.get<std::vector<double>>()));
   std::vector<Measurement> shots = cell.MeasureAll(configurations);
   shots[5].T_world_tool.translation() += Eigen::Vector3d(2.0, 0.0, 0.0);  // one gross error
   ASSERT_EQ(s.Post("/v1/campaigns/rep/measurements", Batch(model, shots, "cal", "calibration")).status, 200);
@@ -357,7 +372,6 @@ TEST(ReportEndpointTest, ACampaignWithoutPlanOrValidationSaysSo) {
   EXPECT_EQ(Count(page.text, "<g class=\"pose"), 2u * 15u);
 }
 
-
 // A campaign without a plan, `configurations` poses x 3 shots of calibration measurements and 10 validation
 // poses, fitted.
 void CalibratedCampaign(TestServer& s, const std::string& id, int configurations, json* fit) {
@@ -368,10 +382,11 @@ void CalibratedCampaign(TestServer& s, const std::string& id, int configurations
   o.shots_per_pose = 3;
   VirtualCell cell(model, o);
   Rng rng(6);
-  ASSERT_EQ(s.Post("/v1/campaigns/" + id + "/measurements",
-                   Batch(model, cell.MeasureAll(RandomConfigurations(model, configurations, &rng)), "cal", "calibration"))
-                .status,
-            200);
+  ASSERT_EQ(
+      s.Post("/v1/campaigns/" + id + "/measurements",
+             Batch(model, cell.MeasureAll(RandomConfigurations(model, configurations, &rng)), "cal", "calibration"))
+          .status,
+      200);
   ASSERT_EQ(s.Post("/v1/campaigns/" + id + "/measurements",
                    Batch(model, cell.MeasureAll(RandomConfigurations(model, 10, &rng), 1), "val", "validation"))
                 .status,
@@ -447,25 +462,28 @@ TEST(ReportEndpointTest, QueryIsStrict) {
   CalibratedCampaign(s, "q", 12, &fit);
   // Decimal numbers, as the client writes them (%.17g).
   EXPECT_NE(s.Get("/v1/campaigns/q/report").text.find("id=\"h-mm\" data-value=\"30\""), std::string::npos);
-  for (const auto& [query, h] : std::vector<std::pair<std::string, std::string>>{
-           {"h_mm=50", "50"}, {"h_mm=12.5", "12.5"}, {"h_mm=1e3", "1000"}, {"h_mm=1.0000000000000001e-05", "1.0000000000000001e-05"}}) {
+  for (const auto& [query, h] :
+       std::vector<std::pair<std::string, std::string>>{{"h_mm=50", "50"},
+                                                        {"h_mm=12.5", "12.5"},
+                                                        {"h_mm=1e3", "1000"},
+                                                        {"h_mm=1.0000000000000001e-05", "1.0000000000000001e-05"}}) {
     const Reply r = s.Get("/v1/campaigns/q/report?" + query);
     EXPECT_EQ(r.status, 200) << query;
     EXPECT_NE(r.text.find("id=\"h-mm\" data-value=\"" + h + "\""), std::string::npos) << query;
   }
   // Anything else is 400 naming the parameter; raw bytes, so that no client library tidies the query first.
   const auto refused = [&](const std::string& query, const std::string& field, const std::string& message) {
-    const RawReply r = RawConnection::Exchange(s.port(), "GET /v1/campaigns/q/report?" + query +
-                                                             " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    const RawReply r = RawConnection::Exchange(
+        s.port(), "GET /v1/campaigns/q/report?" + query + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
     EXPECT_EQ(r.status, 400) << query << ": " << r.body.substr(0, 300);
     ASSERT_TRUE(r.json.is_object()) << query << ": " << r.body.substr(0, 300);
     EXPECT_EQ(r.json["error"]["details"][0]["field"], field) << query << ": " << r.body;
     EXPECT_NE(r.json["error"]["message"].get<std::string>().find(message), std::string::npos)
         << query << ": " << r.body;
   };
-  for (const char* query : {"h_mm=0x10", "h_mm=0x1p3", "h_mm=", "h_mm", "h_mm=inf", "h_mm=nan", "h_mm=INF",
-                            "h_mm=%2030", "h_mm=30%20", "h_mm=+30", "h_mm=30.", "h_mm=.5", "h_mm=1e400", "h_mm=30mm",
-                            "h_mm=3,5"}) {
+  for (const char* query :
+       {"h_mm=0x10", "h_mm=0x1p3", "h_mm=", "h_mm", "h_mm=inf", "h_mm=nan", "h_mm=INF", "h_mm=%2030", "h_mm=30%20",
+        "h_mm=+30", "h_mm=30.", "h_mm=.5", "h_mm=1e400", "h_mm=30mm", "h_mm=3,5"}) {
     refused(query, "h_mm", "invalid report request: h_mm");
   }
   refused("h_mm=-1", "h_mm", "invalid report request: h_mm");

@@ -1,5 +1,7 @@
 // The wire shapes of api/: every resource the service returns survives wire -> typed -> wire unchanged, every
 // required field is required by name, and stored documents of the previous schema version still load.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -7,13 +9,11 @@
 #include <set>
 #include <string>
 
-#include <gtest/gtest.h>
-
-#include "robocal/api/health.h"
 #include "robocal/api/cells.h"
+#include "robocal/api/health.h"
+#include "robocal/api/programs.h"
 #include "robocal/api/stored.h"
 #include "robocal/api/tracker_files.h"
-#include "robocal/api/programs.h"
 #include "robocal/core/arm_kinematics.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/planning.h"
@@ -155,10 +155,16 @@ void ExpectEveryFieldRequired(const T& value, const std::set<std::string>& optio
 }
 
 // The rpy_deg beside each quaternion of a reply is derived, not read.
-const std::set<std::string> kDerived = {"base.rpy_deg", "tool.rpy_deg", "flange.rpy_deg", "robots[0].flange.rpy_deg",
+const std::set<std::string> kDerived = {"base.rpy_deg",
+                                        "tool.rpy_deg",
+                                        "flange.rpy_deg",
+                                        "robots[0].flange.rpy_deg",
                                         "registered_base.rpy_deg",
-                                        "robots[0].base.rpy_deg", "robots[0].tool.rpy_deg", "poses[0].rpy_deg",
-                                        "result.base.rpy_deg", "result.tool.rpy_deg",
+                                        "robots[0].base.rpy_deg",
+                                        "robots[0].tool.rpy_deg",
+                                        "poses[0].rpy_deg",
+                                        "result.base.rpy_deg",
+                                        "result.tool.rpy_deg",
                                         "result.registered_base.rpy_deg"};
 
 std::set<std::string> With(std::set<std::string> a, const std::set<std::string>& b) {
@@ -251,26 +257,28 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectRoundTrip(fit_);
   // The robust fit's members, the model error and the model are absent from fits stored before them; inside
   // them every member is required.
-  ExpectEveryFieldRequired(fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
-                                                 "reflectors", "model"}));
+  ExpectEveryFieldRequired(
+      fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error", "reflectors", "model"}));
   CalibrationResult with_outliers = fit_;
   with_outliers.outliers.push_back({7, "smr2", 123.5, true});
   with_outliers.reflectors.push_back({"smr2", {1.0, 2.0, 3.0}, true});
   with_outliers.parameters_with_outliers = fit_.parameters;
   ExpectRoundTrip(with_outliers);
-  ExpectEveryFieldRequired(with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
-                                                          "reflectors", "outliers[0].reflector", "model"}));
+  ExpectEveryFieldRequired(
+      with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error", "reflectors",
+                                     "outliers[0].reflector", "model"}));
   // A fit with its model chosen by cross-validation: the comparison round-trips, every member required.
   CalibrationResult chosen = fit_;
-  chosen.model = {true, 2};
-  chosen.model_choice = ModelChoiceWire{5, {{{false, 0}, "geometric", 42, 0.4, 0.45, 0.01, 0, "", false},
-                                            {{true, 2}, "compliance + harmonics 2", 72, 0.33, 0.37, 0.011, 0, "", true}}};
+  chosen.model = {.compliance = true, .joint_harmonics = 2};
+  chosen.model_choice = ModelChoiceWire{
+      5,
+      {{{.compliance = false, .joint_harmonics = 0}, "geometric", 42, 0.4, 0.45, 0.01, 0, "", false},
+       {{.compliance = true, .joint_harmonics = 2}, "compliance + harmonics 2", 72, 0.33, 0.37, 0.011, 0, "", true}}};
   ExpectRoundTrip(chosen);
   ExpectEveryFieldRequired(chosen, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
                                                    "reflectors", "model", "model_choice"}));
   EXPECT_EQ(json(service_->GetCalibration("w")), json(fit_));
-  const CompensateResult comp = service_->Compensate(
-      "w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
+  const CompensateResult comp = service_->Compensate("w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
                                       {"pose":{"position_mm":[400,0,300],"rpy_deg":[180,0,0]},"frame":"base"}]})"));
   ASSERT_EQ(comp.results.size(), 2u);
   for (const Compensation& c : comp.results) {
@@ -344,9 +352,10 @@ TEST_F(WireTest, CompensationSequenceFollowsTheProgram) {
   const CompensateResult apart = service_->Compensate("w", {{"targets", smooth}});
   for (const Compensation& c : apart.results) EXPECT_TRUE(std::isnan(c.joint_jump_deg));
   // A 30 -> -40 deg passes A = 0 between steps 17 and 18: C swings there, and only there.
-  const CompensateResult through = service_->Compensate(
-      "w", {{"targets", program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, -40})}, {"sequence", true},
-            {"max_joint_jump_deg", 5}});
+  const CompensateResult through =
+      service_->Compensate("w", {{"targets", program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, -40})},
+                                 {"sequence", true},
+                                 {"max_joint_jump_deg", 5}});
   std::vector<std::size_t> flagged;
   for (std::size_t i = 0; i < through.results.size(); ++i) {
     EXPECT_TRUE(through.results[i].converged) << i << ": " << through.results[i].message;
@@ -454,7 +463,8 @@ TEST_F(WireTest, CellRequestsRefuseIdsAndSizesThatBreakReports) {
   comma["reflectors"] = {{{"id", "a,b"}, {"position_mm", {0, 0, 100}}, {"normal", {0, 0, 1}}}};
   EXPECT_EQ(refused_field(comma), "reflectors[0].id");
   json named_like_a_link = base;
-  named_like_a_link["obstacles"] = {{{"id", "link 1"}, {"box", {{"min_mm", {3000, 0, 0}}, {"max_mm", {3100, 50, 50}}}}}};
+  named_like_a_link["obstacles"] = {
+      {{"id", "link 1"}, {"box", {{"min_mm", {3000, 0, 0}}, {"max_mm", {3100, 50, 50}}}}}};
   EXPECT_EQ(refused_field(named_like_a_link), "obstacles[0].id");
   json zero_tool = base;
   zero_tool["tool_radius_mm"] = 0;
@@ -515,7 +525,9 @@ TEST_F(WireTest, RobotsHoldJointTermsInWireUnits) {
        "mass_kg":4,"com_mm":[0,0,50],"harmonics_deg":[0.01,-0.02,0,0.005]},
       {"name":"e","type":"revolute","xyz_mm":[0,0,200],"rpy_deg":[90,0,0],"min_deg":-90,"max_deg":90,
        "mass_kg":2,"com_mm":[100,0,0],"compliance_deg_per_nm":0.002}])");
-  const json body = {{"id", "held"}, {"convention", "transform"}, {"joints", joints},
+  const json body = {{"id", "held"},
+                     {"convention", "transform"},
+                     {"joints", joints},
                      {"tool", {{"position_mm", {150, 0, 0}}, {"rpy_deg", {0, 0, 0}}}}};
   const Robot robot = service_->CreateRobot(body);
   ExpectRoundTrip(robot);
@@ -708,20 +720,32 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
   std::ifstream in(ROBOCAL_OPENAPI_JSON);
   ASSERT_TRUE(in) << ROBOCAL_OPENAPI_JSON;
   const json spec = json::parse(in);
-  const std::map<std::string, std::vector<std::string>> tables = {
-      {"measurement_type", WireNames<MeasurementType>()}, {"termination", WireNames<Termination>()},
-      {"objective", WireNames<ObservabilityIndex>()},     {"optimiser", WireNames<Optimiser>()},
-      {"scaling", WireNames<ColumnScaling>()},            {"kind", WireNames<OperationKind>()},
-      {"state", WireNames<OperationState>()},             {"status", WireNames<Status>()},
-      {"convention", WireNames<GeometryConvention>()},    {"type", WireNames<JointType>()},
-      {"frame", WireNames<TargetFrame>()},                {"role", WireNames<MeasurementRole>()},
-      {"from_preset", PresetNames()},                   {"format", TrackerFileFormats()},
-      {"unit", TrackerFileUnits()},                     {"match", TrackerFileMatches()},
-      {"shoulder", {ShoulderName(1), ShoulderName(-1)}},  {"elbow", {ElbowName(1), ElbowName(-1)}},
-      {"wrist", {WristName(1), WristName(-1)}},          {"delimiter", TrackerFileDelimiters()},
-      {"decimal", TrackerFileDecimals()},                {"representation", OrientationRepresentations()},
-      {"order", QuaternionOrders()},                     {"scope", FitScopes()},
-      {"dialect", WireNames<programs::Dialect>()},       {"on_failure", WireNames<programs::OnFailure>()}};
+  const std::map<std::string, std::vector<std::string>> tables = {{"measurement_type", WireNames<MeasurementType>()},
+                                                                  {"termination", WireNames<Termination>()},
+                                                                  {"objective", WireNames<ObservabilityIndex>()},
+                                                                  {"optimiser", WireNames<Optimiser>()},
+                                                                  {"scaling", WireNames<ColumnScaling>()},
+                                                                  {"kind", WireNames<OperationKind>()},
+                                                                  {"state", WireNames<OperationState>()},
+                                                                  {"status", WireNames<Status>()},
+                                                                  {"convention", WireNames<GeometryConvention>()},
+                                                                  {"type", WireNames<JointType>()},
+                                                                  {"frame", WireNames<TargetFrame>()},
+                                                                  {"role", WireNames<MeasurementRole>()},
+                                                                  {"from_preset", PresetNames()},
+                                                                  {"format", TrackerFileFormats()},
+                                                                  {"unit", TrackerFileUnits()},
+                                                                  {"match", TrackerFileMatches()},
+                                                                  {"shoulder", {ShoulderName(1), ShoulderName(-1)}},
+                                                                  {"elbow", {ElbowName(1), ElbowName(-1)}},
+                                                                  {"wrist", {WristName(1), WristName(-1)}},
+                                                                  {"delimiter", TrackerFileDelimiters()},
+                                                                  {"decimal", TrackerFileDecimals()},
+                                                                  {"representation", OrientationRepresentations()},
+                                                                  {"order", QuaternionOrders()},
+                                                                  {"scope", FitScopes()},
+                                                                  {"dialect", WireNames<programs::Dialect>()},
+                                                                  {"on_failure", WireNames<programs::OnFailure>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
@@ -733,8 +757,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
        WireNames<programs::TargetKind>()}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
-  const std::set<std::vector<std::string>> fixed = {
-      {"ok"}, {"tracker"}, {"world (nominal base)"}, {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};
+  const std::set<std::vector<std::string>> fixed = {{"ok"},        {"tracker"},   {"world (nominal base)"},
+                                                    {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};
   int checked = 0;
   std::function<void(const json&, const std::string&)> walk = [&](const json& node, const std::string& path) {
     if (node.is_object()) {
@@ -744,9 +768,11 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
           const auto values = schema["enum"].get<std::vector<std::string>>();
           if (fixed.count(values)) continue;
           const auto by_path = at_path.find(path + "." + name);
-          ASSERT_TRUE(by_path != at_path.end() || tables.count(name)) << path << "." << name << " has an enum no table owns";
+          ASSERT_TRUE(by_path != at_path.end() || tables.count(name))
+              << path << "." << name << " has an enum no table owns";
           const std::vector<std::string>& table = by_path != at_path.end() ? by_path->second : tables.at(name);
-          EXPECT_EQ(std::set<std::string>(values.begin(), values.end()), std::set<std::string>(table.begin(), table.end()))
+          EXPECT_EQ(std::set<std::string>(values.begin(), values.end()),
+                    std::set<std::string>(table.begin(), table.end()))
               << path << "." << name;
           ++checked;
         }

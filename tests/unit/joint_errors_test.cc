@@ -1,18 +1,19 @@
 // Joint errors beyond geometry: gravity torques against hand-computed cases, their derivatives and the new
 // Jacobian columns against finite differences, recovery from a simulated cell, compensation under a payload the
 // calibration never saw, and the model choice by cross-validation.
+#include "robocal/core/joint_errors.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
 
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
-
 #include "robocal/core/compensation.h"
 #include "robocal/core/dh_table.h"
 #include "robocal/core/identification.h"
-#include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/model_choice.h"
 #include "robocal/core/presets.h"
@@ -56,8 +57,8 @@ TEST(GravityTorqueTest, PlanarArmMatchesTheHandComputedTorques) {
       // Torque about +z of a weight -m g y at x: -m g x.
       const double x12 = std::cos(q1 + q2);
       const double tau2 = -g * (m2 * c2 * x12 + mp * l2 * x12);
-      const double tau1 = -g * (m1 * c1 * std::cos(q1) + m2 * (l1 * std::cos(q1) + c2 * x12) +
-                                mp * (l1 * std::cos(q1) + l2 * x12));
+      const double tau1 =
+          -g * (m1 * c1 * std::cos(q1) + m2 * (l1 * std::cos(q1) + c2 * x12) + mp * (l1 * std::cos(q1) + l2 * x12));
       EXPECT_NEAR(tau[0], tau1, 1e-12) << q1 << " " << q2;
       EXPECT_NEAR(tau[1], tau2, 1e-12) << q1 << " " << q2;
     }
@@ -74,9 +75,9 @@ TEST(GravityTorqueTest, DerivativesMatchFiniteDifferences) {
     for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 10, 7)) {
       Eigen::MatrixXd analytic;
       GravityTorques(model, q, payload, &analytic);
-      const Eigen::MatrixXd numeric = test::CentralDifferences(
-          [&](const Eigen::VectorXd& x) { return GravityTorques(model, x, payload); }, q,
-          Eigen::VectorXd::Constant(q.size(), 1e-6));
+      const Eigen::MatrixXd numeric =
+          test::CentralDifferences([&](const Eigen::VectorXd& x) { return GravityTorques(model, x, payload); }, q,
+                                   Eigen::VectorXd::Constant(q.size(), 1e-6));
       EXPECT_LT((analytic - numeric).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + analytic.cwiseAbs().maxCoeff())) << name;
     }
   }
@@ -116,8 +117,7 @@ TEST(GravityTorqueTest, TorquesAreMinusThePotentialEnergysDerivatives) {
 // harmonic amplitudes of 1e-4 rad.
 Eigen::VectorXd RandomErrorsWithTerms(const RobotModel& model, Rng* rng) {
   Eigen::VectorXd eps = Eigen::VectorXd::Zero(model.num_error_parameters());
-  eps.head(model.num_geometric_parameters()) =
-      test::RandomErrors(model.WithErrorTerms({}), rng);
+  eps.head(model.num_geometric_parameters()) = test::RandomErrors(model.WithErrorTerms({}), rng);
   for (int k = model.num_geometric_parameters(); k < model.num_error_parameters(); ++k) {
     eps[k] = (model.parameter_unit(k) == ParameterUnit::kRadPerNm ? 1e-5 : 1e-4) * rng->Normal();
   }
@@ -138,9 +138,9 @@ TEST(JointTermJacobianTest, IdentificationJacobianMatchesFiniteDifferences) {
       const Transform at = ForwardKinematics(model, q, eps, &ws, payload);
       Eigen::VectorXd steps(eps.size());
       for (int k = 0; k < eps.size(); ++k) {
-        steps[k] = model.parameter_unit(k) == ParameterUnit::kMm ? 1e-3
+        steps[k] = model.parameter_unit(k) == ParameterUnit::kMm    ? 1e-3
                    : model.parameter_unit(k) == ParameterUnit::kRad ? 1e-6
-                                                                     : 1e-8;
+                                                                    : 1e-8;
       }
       // residual(eps + d) ~= residual(eps) - J d: J is minus the residual's derivative against a fixed measurement.
       const Eigen::MatrixXd numeric = -test::CentralDifferences(
@@ -307,7 +307,8 @@ TEST(JointTermRecoveryTest, CompliantFitIsNearTheNoiseFloorUnderAThirdPayload) {
   shots.insert(shots.end(), loaded.begin(), loaded.end());
   const std::vector<Measurement> held_out = MeasureUnder(&cell, nominal, 200, 202, kPayloadC);
   double floor = 0.0;
-  for (const Measurement& m : held_out) floor += (m.T_world_tool.translation() - cell.TruePose(m.joints, kPayloadC).translation()).norm();
+  for (const Measurement& m : held_out)
+    floor += (m.T_world_tool.translation() - cell.TruePose(m.joints, kPayloadC).translation()).norm();
   floor /= static_cast<double>(held_out.size());
   const Calibration compliant = Identify(nominal.WithErrorTerms({.compliance = true, .joint_harmonics = 0}), shots);
   const Calibration geometric = Identify(nominal, shots);
@@ -461,9 +462,8 @@ TEST(FixedJointTermTest, ACalibrationsSpecHoldsItsJointTermsAndMovesAsTheCalibra
         const Eigen::Index k = model.num_geometric_parameters() + static_cast<Eigen::Index>(t);
         const JointSpec& joint = spec.joints[static_cast<size_t>(term.joint)];
         const double held = term.kind == JointTermParameter::Kind::kCompliance ? joint.compliance_rad_per_nm
-                            : term.kind == JointTermParameter::Kind::kSin
-                                ? joint.harmonics_rad[2 * (term.order - 1)]
-                                : joint.harmonics_rad[2 * term.order - 1];
+                            : term.kind == JointTermParameter::Kind::kSin ? joint.harmonics_rad[2 * (term.order - 1)]
+                                                                          : joint.harmonics_rad[2 * term.order - 1];
         EXPECT_EQ(held, eps[k]) << model.parameter_name(static_cast<int>(k));
       }
       Eigen::VectorXd compliance(model.num_joints());
@@ -475,17 +475,17 @@ TEST(FixedJointTermTest, ACalibrationsSpecHoldsItsJointTermsAndMovesAsTheCalibra
       for (const Payload& payload : {kPayloadA, kPayloadB, kPayloadC}) {
         for (const Eigen::VectorXd& q : test::RandomConfigurations(model, 10, 43)) {
           KinematicsWorkspace ws(model), robot_ws(robot);
-          const Eigen::VectorXd shift = compliance.cwiseProduct(GravityTorques(robot, q, payload) -
-                                                               GravityTorques(model, q, payload));
+          const Eigen::VectorXd shift =
+              compliance.cwiseProduct(GravityTorques(robot, q, payload) - GravityTorques(model, q, payload));
           EXPECT_LE(shift.cwiseAbs().maxCoeff(), terms.compliance ? 1e-5 : 0.0);
           const Transform calibrated = ForwardKinematics(model, q + shift, eps, &ws, payload);
           Eigen::MatrixXd expected(6, model.num_joints()), held(6, model.num_joints());
           JointJacobian(model, q + shift, eps, MeasurementType::kPose, &ws, expected, payload);
           // Second order in the shift (its own deflection's change, c dtau/dq shift): 1e-3 of the first-order 1e-3 mm.
           const double tolerance = terms.compliance ? 1e-5 : 1e-9;
-          EXPECT_LT(LargestPoseDifference(ForwardKinematics(robot, q, Eigen::VectorXd(), &robot_ws, payload),
-                                          calibrated),
-                    tolerance);
+          EXPECT_LT(
+              LargestPoseDifference(ForwardKinematics(robot, q, Eigen::VectorXd(), &robot_ws, payload), calibrated),
+              tolerance);
           EXPECT_LT(LargestPoseDifference(chain.WithPayload(payload).Forward(q, nullptr), calibrated), tolerance);
           JointJacobian(robot, q, Eigen::VectorXd(), MeasurementType::kPose, &robot_ws, held, payload);
           EXPECT_LT((expected - held).cwiseAbs().maxCoeff(), terms.compliance ? 1e-2 : 1e-9);

@@ -2,11 +2,11 @@
 // columns and a held map's joint derivative against finite differences, a simulated robot's fine joint error
 // recovered exactly without noise and within its reported std with noise, the penalty's effect, and the terms a
 // model refuses by field.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "robocal/core/identification.h"
 #include "robocal/core/joint_errors.h"
@@ -271,7 +271,8 @@ TEST(MapPenaltyTest, AStrongPenaltyStraightensTheMap) {
   EXPECT_LT(curvature(stiff_fit.calibration), 0.01 * curvature(free_fit.calibration));
   // Its std shrinks with the penalty (the penalty is information), and the straight map leaves the sine's error
   // in the residuals.
-  EXPECT_GT(stiff_fit.calibration.summary.after.rms_position_mm, 2.0 * free_fit.calibration.summary.after.rms_position_mm);
+  EXPECT_GT(stiff_fit.calibration.summary.after.rms_position_mm,
+            2.0 * free_fit.calibration.summary.after.rms_position_mm);
 }
 
 TEST(MapTermsTest, AModelRefusesMapsItCannotTakeByField) {

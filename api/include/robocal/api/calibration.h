@@ -4,11 +4,10 @@
 
 #include <cstdint>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "robocal/api/campaigns.h"
 #include "robocal/api/robots.h"
@@ -98,15 +97,14 @@ ROBOCAL_WIRE_DECLARE(JointMapsWire);
 struct ModelWire {
   bool compliance = false;
   int joint_harmonics = 0;
-  std::optional<JointMapsWire> joint_maps;
+  std::optional<JointMapsWire> joint_maps = std::nullopt;
 };
 template <>
 struct WireFields<ModelWire> {
   using S = ModelWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"compliance", &S::compliance},
-      Field{"joint_harmonics", &S::joint_harmonics},
-      Field{"joint_maps", &S::joint_maps, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"compliance", &S::compliance}, Field{"joint_harmonics", &S::joint_harmonics},
+                      Field{"joint_maps", &S::joint_maps, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ModelWire);
 /// The core's terms of a model: with joint maps, their grids as the wire's `grids` place them (a stored result), or
@@ -122,8 +120,8 @@ struct CrossValidationWire {
 };
 template <>
 struct WireFields<CrossValidationWire> {
-  static constexpr auto fields = std::make_tuple(Field{"folds", &CrossValidationWire::folds},
-                                                 Field{"seed", &CrossValidationWire::seed});
+  static constexpr auto fields =
+      std::make_tuple(Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed});
 };
 ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 
@@ -157,15 +155,13 @@ template <>
 struct WireFields<FitRequest> {
   using S = FitRequest;
   static constexpr auto fields = std::make_tuple(
-      Field{"parameters", &S::parameters},
-      Field{"register_base", &S::register_base},
+      Field{"parameters", &S::parameters}, Field{"register_base", &S::register_base},
       Field{"max_iterations", &S::max_iterations},
       // Absent in requests stored before the robust fit and the model error's estimate: they did not exist.
       Field{"reject_outliers", &S::reject_outliers, Presence::kAbsentIsEmpty},
       Field{"outlier_probability", &S::outlier_probability, Presence::kOptionalOnRead},
       Field{"estimate_model_error", &S::estimate_model_error, Presence::kAbsentIsEmpty},
-      Field{"scope", &S::scope, Presence::kOptionalOnRead},
-      Field{"async", &S::async},
+      Field{"scope", &S::scope, Presence::kOptionalOnRead}, Field{"async", &S::async},
       // "auto" or the model object; absent in requests stored before models beyond geometry: the geometric one.
       Computed<S>{"model",
                   +[](const S& s, nlohmann::json* value) {
@@ -192,8 +188,8 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, 
 const std::vector<std::string>& FitScopes();
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
 /// empty) and `reflectors`. Parameters named in the request become sorted, unique indices of the fit's space.
-IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model,
-                                              MeasurementType type, const MeasurementNoise& noise,
+IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model, MeasurementType type,
+                                              const MeasurementNoise& noise,
                                               const std::vector<Reflector>& reflectors = {});
 
 /// The units of identified parameters on the wire: "mm", "deg", "deg/(N*m)" (a compliance).
@@ -212,11 +208,8 @@ struct ParameterEstimate {
 template <>
 struct WireFields<ParameterEstimate> {
   using S = ParameterEstimate;
-  static constexpr auto fields = std::make_tuple(
-      Field{"name", &S::name},
-      Field{"unit", &S::unit},
-      Field{"value", &S::value},
-      Field{"std", &S::std});
+  static constexpr auto fields = std::make_tuple(Field{"name", &S::name}, Field{"unit", &S::unit},
+                                                 Field{"value", &S::value}, Field{"std", &S::std});
 };
 ROBOCAL_WIRE_DECLARE(ParameterEstimate);
 
@@ -233,12 +226,9 @@ template <>
 struct WireFields<Residuals> {
   using S = Residuals;
   static constexpr auto fields = std::make_tuple(
-      Field{"num_measurements", &S::num_measurements},
-      Field{"rms_position_mm", &S::rms_position_mm},
-      Field{"max_position_mm", &S::max_position_mm},
-      Field{"rms_orientation_deg", &S::rms_orientation_deg},
-      Field{"max_orientation_deg", &S::max_orientation_deg},
-      Field{"rms_weighted", &S::rms_weighted});
+      Field{"num_measurements", &S::num_measurements}, Field{"rms_position_mm", &S::rms_position_mm},
+      Field{"max_position_mm", &S::max_position_mm}, Field{"rms_orientation_deg", &S::rms_orientation_deg},
+      Field{"max_orientation_deg", &S::max_orientation_deg}, Field{"rms_weighted", &S::rms_weighted});
 };
 ROBOCAL_WIRE_DECLARE(Residuals);
 Residuals ToWire(const ResidualStatistics& stats);
@@ -265,18 +255,11 @@ template <>
 struct WireFields<FitSummary> {
   using S = FitSummary;
   static constexpr auto fields = std::make_tuple(
-      Field{"termination", &S::termination},
-      Field{"message", &S::message},
-      Field{"measurement_type", &S::measurement_type},
-      Field{"num_measurements", &S::num_measurements},
-      Field{"num_poses", &S::num_poses},
-      Field{"num_parameters", &S::num_parameters},
-      Field{"iterations", &S::iterations},
-      Field{"initial_cost", &S::initial_cost},
-      Field{"final_cost", &S::final_cost},
-      Field{"sigma_hat", &S::sigma_hat},
-      Field{"seconds", &S::seconds},
-      Field{"brief", &S::brief},
+      Field{"termination", &S::termination}, Field{"message", &S::message},
+      Field{"measurement_type", &S::measurement_type}, Field{"num_measurements", &S::num_measurements},
+      Field{"num_poses", &S::num_poses}, Field{"num_parameters", &S::num_parameters},
+      Field{"iterations", &S::iterations}, Field{"initial_cost", &S::initial_cost}, Field{"final_cost", &S::final_cost},
+      Field{"sigma_hat", &S::sigma_hat}, Field{"seconds", &S::seconds}, Field{"brief", &S::brief},
       Field{"deadline_exceeded", &S::deadline_exceeded});
 };
 ROBOCAL_WIRE_DECLARE(FitSummary);
@@ -293,11 +276,9 @@ struct OutlierWire {
 template <>
 struct WireFields<OutlierWire> {
   using S = OutlierWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"sequence", &S::sequence},
-      Field{"reflector", &S::reflector, Presence::kOmitEmpty},
-      Field{"normalized_residual", &S::normalized_residual},
-      Field{"excluded", &S::excluded});
+  static constexpr auto fields =
+      std::make_tuple(Field{"sequence", &S::sequence}, Field{"reflector", &S::reflector, Presence::kOmitEmpty},
+                      Field{"normalized_residual", &S::normalized_residual}, Field{"excluded", &S::excluded});
 };
 ROBOCAL_WIRE_DECLARE(OutlierWire);
 
@@ -312,11 +293,8 @@ struct RobustFitWire {
 template <>
 struct WireFields<RobustFitWire> {
   using S = RobustFitWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"enabled", &S::enabled},
-      Field{"threshold", &S::threshold},
-      Field{"scale", &S::scale},
-      Field{"rounds", &S::rounds});
+  static constexpr auto fields = std::make_tuple(Field{"enabled", &S::enabled}, Field{"threshold", &S::threshold},
+                                                 Field{"scale", &S::scale}, Field{"rounds", &S::rounds});
 };
 ROBOCAL_WIRE_DECLARE(RobustFitWire);
 
@@ -333,12 +311,10 @@ struct ModelErrorWire {
 template <>
 struct WireFields<ModelErrorWire> {
   using S = ModelErrorWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"estimated", &S::estimated},
-      Field{"model_error_mm", &S::model_error_mm},
-      Field{"model_error_deg", &S::model_error_deg},
-      Field{"tracker_rms_mm", &S::tracker_rms_mm},
-      Field{"tracker_rms_deg", &S::tracker_rms_deg});
+  static constexpr auto fields =
+      std::make_tuple(Field{"estimated", &S::estimated}, Field{"model_error_mm", &S::model_error_mm},
+                      Field{"model_error_deg", &S::model_error_deg}, Field{"tracker_rms_mm", &S::tracker_rms_mm},
+                      Field{"tracker_rms_deg", &S::tracker_rms_deg});
 };
 ROBOCAL_WIRE_DECLARE(ModelErrorWire);
 
@@ -358,16 +334,11 @@ struct ModelCandidateWire {
 template <>
 struct WireFields<ModelCandidateWire> {
   using S = ModelCandidateWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"model", &S::model},
-      Field{"description", &S::description},
-      Field{"num_parameters", &S::num_parameters},
-      Field{"cv_mean_mm", &S::cv_mean_mm},
-      Field{"cv_rms_mm", &S::cv_rms_mm},
-      Field{"cv_standard_error_mm", &S::cv_standard_error_mm},
-      Field{"failed_folds", &S::failed_folds},
-      Field{"note", &S::note},
-      Field{"chosen", &S::chosen});
+  static constexpr auto fields =
+      std::make_tuple(Field{"model", &S::model}, Field{"description", &S::description},
+                      Field{"num_parameters", &S::num_parameters}, Field{"cv_mean_mm", &S::cv_mean_mm},
+                      Field{"cv_rms_mm", &S::cv_rms_mm}, Field{"cv_standard_error_mm", &S::cv_standard_error_mm},
+                      Field{"failed_folds", &S::failed_folds}, Field{"note", &S::note}, Field{"chosen", &S::chosen});
 };
 ROBOCAL_WIRE_DECLARE(ModelCandidateWire);
 
@@ -379,9 +350,7 @@ struct ModelChoiceWire {
 template <>
 struct WireFields<ModelChoiceWire> {
   using S = ModelChoiceWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"folds", &S::folds},
-      Field{"candidates", &S::candidates});
+  static constexpr auto fields = std::make_tuple(Field{"folds", &S::folds}, Field{"candidates", &S::candidates});
 };
 ROBOCAL_WIRE_DECLARE(ModelChoiceWire);
 
@@ -425,28 +394,18 @@ template <>
 struct WireFields<CalibrationResult> {
   using S = CalibrationResult;
   static constexpr auto fields = std::make_tuple(
-      Field{"campaign", &S::campaign},
-      Field{"robot", &S::robot},
-      Field{"measurement_type", &S::measurement_type},
-      Field{"created_unix_ms", &S::created_unix_ms},
-      Field{"stored", &S::stored},
-      Field{"parameters", &S::parameters},
-      Field{"dropped", &S::dropped},
-      Field{"base", &S::base},
-      Field{"tool", &S::tool},
-      Field{"registered_base", &S::registered_base},
-      Field{"residuals_before", &S::residuals_before},
-      Field{"residuals_after", &S::residuals_after},
-      Field{"condition_number", &S::condition_number},
-      Field{"scaling", &S::scaling},
-      Field{"robust", &S::robust, Presence::kOptionalOnRead},
+      Field{"campaign", &S::campaign}, Field{"robot", &S::robot}, Field{"measurement_type", &S::measurement_type},
+      Field{"created_unix_ms", &S::created_unix_ms}, Field{"stored", &S::stored}, Field{"parameters", &S::parameters},
+      Field{"dropped", &S::dropped}, Field{"base", &S::base}, Field{"tool", &S::tool},
+      Field{"registered_base", &S::registered_base}, Field{"residuals_before", &S::residuals_before},
+      Field{"residuals_after", &S::residuals_after}, Field{"condition_number", &S::condition_number},
+      Field{"scaling", &S::scaling}, Field{"robust", &S::robust, Presence::kOptionalOnRead},
       Field{"outliers", &S::outliers, Presence::kOptionalOnRead},
       Field{"parameters_with_outliers", &S::parameters_with_outliers, Presence::kOptionalOnRead},
       Field{"model_error", &S::model_error, Presence::kOptionalOnRead},
       Field{"model", &S::model, Presence::kOptionalOnRead},
       Field{"model_choice", &S::model_choice, Presence::kOmitEmpty},
-      Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead},
-      Field{"summary", &S::summary});
+      Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead}, Field{"summary", &S::summary});
 };
 ROBOCAL_WIRE_DECLARE(CalibrationResult);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).
@@ -474,13 +433,13 @@ template <>
 struct WireFields<CompensationTargetWire> {
   using S = CompensationTargetWire;
   static constexpr bool (*kPoseTarget)(const S&) = +[](const S& s) { return s.pose.has_value(); };
-  static constexpr auto fields = std::make_tuple(
-      Field{"pose", &S::pose, Presence::kOmitEmpty},
-      Field{"joints", &S::joints}.When(+[](const S& s) { return !s.pose.has_value(); }),
-      Field{"frame", &S::frame, Presence::kOptionalOnRead}.When(kPoseTarget),
-      Field{"start_joints", &S::start_joints, Presence::kOmitEmpty}.When(kPoseTarget),
-      Field{"configuration", &S::configuration, Presence::kOmitEmpty}.When(kPoseTarget),
-      Field{"payload", &S::payload, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"pose", &S::pose, Presence::kOmitEmpty},
+                      Field{"joints", &S::joints}.When(+[](const S& s) { return !s.pose.has_value(); }),
+                      Field{"frame", &S::frame, Presence::kOptionalOnRead}.When(kPoseTarget),
+                      Field{"start_joints", &S::start_joints, Presence::kOmitEmpty}.When(kPoseTarget),
+                      Field{"configuration", &S::configuration, Presence::kOmitEmpty}.When(kPoseTarget),
+                      Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CompensationTargetWire);
 
@@ -499,10 +458,8 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
 template <>
 struct WireFields<CompensateRequest> {
   using S = CompensateRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"targets", &S::targets},
-      Field{"sequence", &S::sequence},
-      Field{"max_joint_jump_deg", &S::max_joint_jump_deg});
+  static constexpr auto fields = std::make_tuple(Field{"targets", &S::targets}, Field{"sequence", &S::sequence},
+                                                 Field{"max_joint_jump_deg", &S::max_joint_jump_deg});
 };
 ROBOCAL_WIRE_DECLARE(CompensateRequest);
 
@@ -539,18 +496,11 @@ template <>
 struct WireFields<Compensation> {
   using S = Compensation;
   static constexpr auto fields = std::make_tuple(
-      Field{"joints", &S::joints},
-      Field{"position_error_mm", &S::position_error_mm},
-      Field{"orientation_error_deg", &S::orientation_error_deg},
-      Field{"free_rotation_deg", &S::free_rotation_deg},
-      Field{"converged", &S::converged},
-      Field{"termination", &S::termination},
-      Field{"iterations", &S::iterations},
-      Field{"message", &S::message},
-      Field{"joint_jump_deg", &S::joint_jump_deg},
-      Field{"joint_jump", &S::joint_jump},
-      Field{"configuration", &S::configuration},
-      Field{"branch_change", &S::branch_change},
+      Field{"joints", &S::joints}, Field{"position_error_mm", &S::position_error_mm},
+      Field{"orientation_error_deg", &S::orientation_error_deg}, Field{"free_rotation_deg", &S::free_rotation_deg},
+      Field{"converged", &S::converged}, Field{"termination", &S::termination}, Field{"iterations", &S::iterations},
+      Field{"message", &S::message}, Field{"joint_jump_deg", &S::joint_jump_deg}, Field{"joint_jump", &S::joint_jump},
+      Field{"configuration", &S::configuration}, Field{"branch_change", &S::branch_change},
       Field{"predicted_error_mm", &S::predicted_error_mm, Presence::kOptionalOnRead});
 };
 ROBOCAL_WIRE_DECLARE(Compensation);
@@ -564,9 +514,7 @@ struct CompensateResult {
 template <>
 struct WireFields<CompensateResult> {
   using S = CompensateResult;
-  static constexpr auto fields = std::make_tuple(
-      Field{"campaign", &S::campaign},
-      Field{"results", &S::results});
+  static constexpr auto fields = std::make_tuple(Field{"campaign", &S::campaign}, Field{"results", &S::results});
 };
 ROBOCAL_WIRE_DECLARE(CompensateResult);
 /// The reply of :compensate as JSON text: the document json(r) is (same keys in the same order, same values,
@@ -583,8 +531,7 @@ EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body);
 template <>
 struct WireFields<EvaluateRequest> {
   using S = EvaluateRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"h_mm", &S::h_mm});
+  static constexpr auto fields = std::make_tuple(Field{"h_mm", &S::h_mm});
 };
 ROBOCAL_WIRE_DECLARE(EvaluateRequest);
 
@@ -599,12 +546,8 @@ struct Statistics {
 template <>
 struct WireFields<Statistics> {
   using S = Statistics;
-  static constexpr auto fields = std::make_tuple(
-      Field{"count", &S::count},
-      Field{"mean", &S::mean},
-      Field{"std", &S::std},
-      Field{"max", &S::max},
-      Field{"rp", &S::rp});
+  static constexpr auto fields = std::make_tuple(Field{"count", &S::count}, Field{"mean", &S::mean},
+                                                 Field{"std", &S::std}, Field{"max", &S::max}, Field{"rp", &S::rp});
 };
 ROBOCAL_WIRE_DECLARE(Statistics);
 
@@ -618,11 +561,8 @@ struct Accuracy {
 template <>
 struct WireFields<Accuracy> {
   using S = Accuracy;
-  static constexpr auto fields = std::make_tuple(
-      Field{"h_mm", &S::h_mm},
-      Field{"e_xyz_mm", &S::e_xyz_mm},
-      Field{"e_cos_deg", &S::e_cos_deg},
-      Field{"e_tot_mm", &S::e_tot_mm});
+  static constexpr auto fields = std::make_tuple(Field{"h_mm", &S::h_mm}, Field{"e_xyz_mm", &S::e_xyz_mm},
+                                                 Field{"e_cos_deg", &S::e_cos_deg}, Field{"e_tot_mm", &S::e_tot_mm});
 };
 ROBOCAL_WIRE_DECLARE(Accuracy);
 Accuracy ToWire(const AccuracyReport& report);
@@ -638,11 +578,8 @@ struct Improvement {
 template <>
 struct WireFields<Improvement> {
   using S = Improvement;
-  static constexpr auto fields = std::make_tuple(
-      Field{"e_xyz_mean", &S::e_xyz_mean},
-      Field{"e_xyz_rp", &S::e_xyz_rp},
-      Field{"e_tot_mean", &S::e_tot_mean},
-      Field{"e_tot_rp", &S::e_tot_rp});
+  static constexpr auto fields = std::make_tuple(Field{"e_xyz_mean", &S::e_xyz_mean}, Field{"e_xyz_rp", &S::e_xyz_rp},
+                                                 Field{"e_tot_mean", &S::e_tot_mean}, Field{"e_tot_rp", &S::e_tot_rp});
 };
 ROBOCAL_WIRE_DECLARE(Improvement);
 /// The core's ComputeImprovement of the statistics the wire reports (NaN where undefined).
@@ -663,13 +600,9 @@ template <>
 struct WireFields<Evaluation> {
   using S = Evaluation;
   static constexpr auto fields = std::make_tuple(
-      Field{"campaign", &S::campaign},
-      Field{"num_validation", &S::num_validation},
-      Field{"h_mm", &S::h_mm},
-      Field{"nominal", &S::nominal},
-      Field{"calibrated", &S::calibrated},
-      Field{"improvement_percent", &S::improvement_percent},
-      Field{"note", &S::note, Presence::kOmitEmpty});
+      Field{"campaign", &S::campaign}, Field{"num_validation", &S::num_validation}, Field{"h_mm", &S::h_mm},
+      Field{"nominal", &S::nominal}, Field{"calibrated", &S::calibrated},
+      Field{"improvement_percent", &S::improvement_percent}, Field{"note", &S::note, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(Evaluation);
 

@@ -4,11 +4,10 @@
 
 #include <array>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "robocal/api/wire.h"
 #include "robocal/core/robot_model.h"
@@ -67,18 +66,13 @@ struct JointGeometryFields {
   static constexpr bool (*kDh)(const S&) = +[](const S& j) { return j.convention != GeometryConvention::kTransform; };
   static constexpr bool (*kRevolute)(const S&) = +[](const S& j) { return j.type == JointType::kRevolute; };
   static constexpr bool (*kPrismatic)(const S&) = +[](const S& j) { return j.type == JointType::kPrismatic; };
-  static constexpr auto fields = std::make_tuple(
-      Field{"type", &S::type},
-      Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
-      Field{"rpy_deg", &S::rpy_deg}.When(kTransform),
-      Field{"a_mm", &S::a_mm}.When(kDh),
-      Field{"alpha_deg", &S::alpha_deg}.When(kDh),
-      Field{"d_mm", &S::d_mm}.When(kDh),
-      Field{"theta_deg", &S::theta_deg}.When(kDh),
-      Field{"min_deg", &S::min}.When(kRevolute),
-      Field{"max_deg", &S::max}.When(kRevolute),
-      Field{"min_mm", &S::min}.When(kPrismatic),
-      Field{"max_mm", &S::max}.When(kPrismatic));
+  static constexpr auto fields =
+      std::make_tuple(Field{"type", &S::type}, Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
+                      Field{"rpy_deg", &S::rpy_deg}.When(kTransform), Field{"a_mm", &S::a_mm}.When(kDh),
+                      Field{"alpha_deg", &S::alpha_deg}.When(kDh), Field{"d_mm", &S::d_mm}.When(kDh),
+                      Field{"theta_deg", &S::theta_deg}.When(kDh), Field{"min_deg", &S::min}.When(kRevolute),
+                      Field{"max_deg", &S::max}.When(kRevolute), Field{"min_mm", &S::min}.When(kPrismatic),
+                      Field{"max_mm", &S::max}.When(kPrismatic));
 };
 /// A joint of a definition: the name may be left out (the core names the joint), the mass properties and joint
 /// terms are given when there are any (com_mm with a mass).
@@ -87,13 +81,12 @@ struct WireFields<JointWire> {
   using S = JointWire;
   static constexpr auto fields = std::tuple_cat(
       std::make_tuple(Field{"name", &S::name, Presence::kOmitEmpty}), JointGeometryFields::fields,
-      std::make_tuple(Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty},
-                      Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.When(+[](const S& j) {
-                        return j.mass_kg > 0.0;
-                      }),
-                      Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
-                      Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty},
-                      Field{"error_map", &S::error_map, Presence::kOmitEmpty}));
+      std::make_tuple(
+          Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty},
+          Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.When(+[](const S& j) { return j.mass_kg > 0.0; }),
+          Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
+          Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty},
+          Field{"error_map", &S::error_map, Presence::kOmitEmpty}));
 };
 ROBOCAL_WIRE_DECLARE(JointWire);
 
@@ -133,11 +126,9 @@ struct CalibrationSource {
 template <>
 struct WireFields<CalibrationSource> {
   using S = CalibrationSource;
-  static constexpr auto fields = std::make_tuple(
-      Field{"campaign", &S::campaign},
-      Field{"robot", &S::robot},
-      Field{"created_unix_ms", &S::created_unix_ms},
-      Field{"joint_ranges", &S::joint_ranges, Presence::kOmitEmpty});
+  static constexpr auto fields = std::make_tuple(Field{"campaign", &S::campaign}, Field{"robot", &S::robot},
+                                                 Field{"created_unix_ms", &S::created_unix_ms},
+                                                 Field{"joint_ranges", &S::joint_ranges, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CalibrationSource);
 
@@ -191,22 +182,18 @@ template <>
 struct WireFields<RegisterRobotRequest> {
   using S = RegisterRobotRequest;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"description", &S::description, Presence::kOmitEmpty},
+      Field{"id", &S::id}, Field{"description", &S::description, Presence::kOmitEmpty},
       Field{"from_preset", &S::from_preset, Presence::kOmitEmpty},
       // A table, unless the definition is a preset's.
       Field{"convention", &S::convention}.When(+[](const S& r) { return r.from_preset.empty(); }),
-      Computed<S>{"joints",
-                  +[](const S& r, nlohmann::json* value) {
-                    return r.from_preset.empty() && detail::WriteJoints(r, value);
-                  },
-                  +[](const nlohmann::json* value, const std::string& path, S* r) {
-                    if (r->from_preset.empty()) detail::ReadJoints(value, path, r);
-                  }},
-      Field{"base", &S::base, Presence::kOmitEmpty},
-      Field{"tool", &S::tool, Presence::kOmitEmpty},
-      Field{"flange", &S::flange, Presence::kOmitEmpty},
-      Field{"gravity", &S::gravity, Presence::kOmitEmpty},
+      Computed<S>{
+          "joints",
+          +[](const S& r, nlohmann::json* value) { return r.from_preset.empty() && detail::WriteJoints(r, value); },
+          +[](const nlohmann::json* value, const std::string& path, S* r) {
+            if (r->from_preset.empty()) detail::ReadJoints(value, path, r);
+          }},
+      Field{"base", &S::base, Presence::kOmitEmpty}, Field{"tool", &S::tool, Presence::kOmitEmpty},
+      Field{"flange", &S::flange, Presence::kOmitEmpty}, Field{"gravity", &S::gravity, Presence::kOmitEmpty},
       Field{"urdf_source", &S::urdf, Presence::kServerOnly},
       Field{"calibrated_from", &S::calibrated_from, Presence::kServerOnly});
 };
@@ -233,13 +220,9 @@ template <>
 struct WireFields<ImportUrdfRequest> {
   using S = ImportUrdfRequest;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id, Presence::kOmitEmpty},
-      Field{"description", &S::description, Presence::kOmitEmpty},
-      Field{"urdf", &S::urdf},
-      Field{"base_link", &S::base_link},
-      Field{"tip_link", &S::tip_link},
-      Field{"base", &S::base, Presence::kOmitEmpty},
-      Field{"tool", &S::tool, Presence::kOmitEmpty});
+      Field{"id", &S::id, Presence::kOmitEmpty}, Field{"description", &S::description, Presence::kOmitEmpty},
+      Field{"urdf", &S::urdf}, Field{"base_link", &S::base_link}, Field{"tip_link", &S::tip_link},
+      Field{"base", &S::base, Presence::kOmitEmpty}, Field{"tool", &S::tool, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ImportUrdfRequest);
 
@@ -258,10 +241,9 @@ RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::jso
 template <>
 struct WireFields<RobotFromCalibrationRequest> {
   using S = RobotFromCalibrationRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"description", &S::description, Presence::kOmitEmpty},
-      Field{"from_calibration", &S::campaign});
+  static constexpr auto fields =
+      std::make_tuple(Field{"id", &S::id}, Field{"description", &S::description, Presence::kOmitEmpty},
+                      Field{"from_calibration", &S::campaign});
 };
 ROBOCAL_WIRE_DECLARE(RobotFromCalibrationRequest);
 
@@ -322,20 +304,12 @@ template <>
 struct WireFields<Robot> {
   using S = Robot;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"preset", &S::preset},
-      Field{"description", &S::description},
-      Field{"convention", &S::convention},
-      Field{"num_joints", &S::num_joints},
-      Computed<S>{"joints", &detail::WriteJoints<S>, &detail::ReadJoints<S>},
-      Field{"base", &S::base},
-      Field{"tool", &S::tool},
-      Field{"flange", &S::flange},
-      Field{"urdf", &S::urdf, Presence::kOmitEmpty},
-      Field{"calibrated_from", &S::calibrated_from, Presence::kOmitEmpty},
-      Field{"gravity", &S::gravity},
-      Field{"has_masses", &S::has_masses},
-      Field{"error_parameters", &S::error_parameters});
+      Field{"id", &S::id}, Field{"preset", &S::preset}, Field{"description", &S::description},
+      Field{"convention", &S::convention}, Field{"num_joints", &S::num_joints},
+      Computed<S>{"joints", &detail::WriteJoints<S>, &detail::ReadJoints<S>}, Field{"base", &S::base},
+      Field{"tool", &S::tool}, Field{"flange", &S::flange}, Field{"urdf", &S::urdf, Presence::kOmitEmpty},
+      Field{"calibrated_from", &S::calibrated_from, Presence::kOmitEmpty}, Field{"gravity", &S::gravity},
+      Field{"has_masses", &S::has_masses}, Field{"error_parameters", &S::error_parameters});
 };
 ROBOCAL_WIRE_DECLARE(Robot);
 /// The resource of a model.
@@ -349,9 +323,8 @@ struct RobotList {
 template <>
 struct WireFields<RobotList> {
   using S = RobotList;
-  static constexpr auto fields = std::make_tuple(
-      Field{"robots", &S::robots},
-      Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"robots", &S::robots}, Field{"next_page_token", &S::next_page_token, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(RobotList);
 
@@ -371,9 +344,8 @@ ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& 
 template <>
 struct WireFields<ForwardRequest> {
   using S = ForwardRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"joints", &S::joints},
-      Field{"payload", &S::payload, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"joints", &S::joints}, Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ForwardRequest);
 
@@ -388,11 +360,9 @@ struct ForwardResult {
 template <>
 struct WireFields<ForwardResult> {
   using S = ForwardResult;
-  static constexpr auto fields = std::make_tuple(
-      Field{"robot", &S::robot, Presence::kOmitEmpty},
-      Field{"campaign", &S::campaign, Presence::kOmitEmpty},
-      Field{"frame", &S::frame},
-      Field{"poses", &S::poses});
+  static constexpr auto fields = std::make_tuple(Field{"robot", &S::robot, Presence::kOmitEmpty},
+                                                 Field{"campaign", &S::campaign, Presence::kOmitEmpty},
+                                                 Field{"frame", &S::frame}, Field{"poses", &S::poses});
   static void Check(const S& result) {
     if (!result.robot && !result.campaign) throw WireError("robot or campaign", "required");
   }
@@ -406,10 +376,9 @@ std::vector<double> JointsToWire(const RobotModel& model, const Eigen::VectorXd&
 const char* JointUnit(const RobotModel& model, int joint);
 
 /// Checks a wire joint vector against the model (size, limits) and records violations at `path`.
-bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const std::string& path,
-                 Problems* problems);
+bool CheckJoints(const RobotModel& model, const std::vector<double>& wire, const std::string& path, Problems* problems);
 /// Reads a joint vector of a request at `path` (numbers, then CheckJoints).
-bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model,
-                     Problems* problems, std::vector<double>* out);
+bool ReadJointVector(const nlohmann::json& value, const std::string& path, const RobotModel& model, Problems* problems,
+                     std::vector<double>* out);
 
 }  // namespace robocal::api

@@ -1,11 +1,10 @@
 // RobotModel: the immutable description of a serial robot, and the spec it is built and validated from.
 #pragma once
 
+#include <Eigen/Core>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "robocal/core/transforms.h"
 
@@ -113,8 +112,7 @@ struct JointMapTerms {
   bool resolved() const { return !joints.empty() && first_knot_rad.size() == joints.size(); }
   bool operator==(const JointMapTerms& other) const {
     return joints == other.joints && knot_spacing_rad == other.knot_spacing_rad && smoothness == other.smoothness &&
-           first_knot_rad == other.first_knot_rad && intervals == other.intervals &&
-           information == other.information;
+           first_knot_rad == other.first_knot_rad && intervals == other.intervals && information == other.information;
   }
 };
 
