@@ -257,7 +257,7 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        2: sin and cos of each joint's own angle up to order N), e.g. compliance,harmonics=2,
                        and joint_maps=Sdeg[:JOINTS] (each joint's angle error as a cubic B-spline of its
                        angle, knots every S degrees over the poses' range; JOINTS e.g. 1-5 or 2+3, every
-                       revolute joint by default) with smoothness=L (its penalty's weight, default 1),
+                       revolute joint by default) with smoothness=L (its penalty's weight, default 0.01),
                        e.g. compliance,joint_maps=4deg:1-5;
                        or auto: every candidate cross-validated on the calibration measurements, the
                        simplest within one standard error of the best chosen, and the comparison printed

@@ -58,42 +58,6 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
       poses_(shot_groups.poses),
       groups_(shot_groups.groups),
       group_of_(shot_groups.group_of) {
-  // The maps' rows: per map, its constant held at zero (the joint's offset is a geometric parameter's) by a row
-  // of kMapConstantWeight times the information's root on the mean of its coefficients, and the penalty,
-  // sqrt(smoothness x information) times each second difference c_k - 2 c_k+1 + c_k+2 (a row whose coefficients
-  // are not all chosen is left out: those are held at zero).
-  const JointMapTerms& maps = model.error_terms().maps;
-  if (!maps.empty()) {
-    constexpr double kMapConstantWeight = 1e3;
-    std::map<int, int> reduced;
-    for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
-    std::vector<Eigen::RowVectorXd> rows;
-    for (size_t m = 0; m < maps.joints.size(); ++m) {
-      const int first = model.map_parameter(maps.joints[m]);
-      const int count = maps.intervals[m] + 3;
-      const double information = maps.information.empty() ? 0.0 : maps.information[m];
-      const double scale = information > 0.0 ? std::sqrt(information) : 1.0;
-      Eigen::RowVectorXd constant = Eigen::RowVectorXd::Zero(num_parameters());
-      for (int k = 0; k < count; ++k) {
-        const auto at = reduced.find(first + k);
-        if (at != reduced.end()) constant[at->second] = kMapConstantWeight * scale / count;
-      }
-      if (!constant.isZero(0.0)) rows.push_back(std::move(constant));
-      const double w = std::sqrt(maps.smoothness * information);
-      if (w == 0.0) continue;
-      for (int k = 0; k + 2 < count; ++k) {
-        const auto a = reduced.find(first + k), b = reduced.find(first + k + 1), c = reduced.find(first + k + 2);
-        if (a == reduced.end() || b == reduced.end() || c == reduced.end()) continue;
-        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
-        row[a->second] = w;
-        row[b->second] = -2.0 * w;
-        row[c->second] = w;
-        rows.push_back(std::move(row));
-      }
-    }
-    penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
-    for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
-  }
   prepared_.reserve(poses_.size());
   for (size_t p = 0; p < poses_.size(); ++p)
     prepared_.push_back(PrepareDeflection(model_, poses_[p], shot_groups.payloads[p]));
@@ -122,6 +86,56 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
       o.noise.Whitening(type_, m.T_world_tool.translation(), w);
       whitening_.push_back(std::move(w));
     }
+  }
+  // The maps' rows: per map, its constant held at zero (the joint's offset is a geometric parameter's) by a row
+  // of kMapConstantWeight times the information's root on the mean of its coefficients, and the penalty,
+  // sqrt(smoothness x information) times each second difference c_k - 2 c_k+1 + c_k+2 (a row whose coefficients
+  // are not all chosen is left out: those are held at zero). The information is the measurements' mean per
+  // coefficient under this problem's weights (its Jacobian at zero), so that the smoothness keeps its meaning as
+  // the weights change (the model error's estimate).
+  const JointMapTerms& maps = model.error_terms().maps;
+  if (!maps.empty()) {
+    Eigen::VectorXd r0;
+    Eigen::MatrixXd j0;
+    Evaluate(Eigen::VectorXd::Zero(num_parameters()), &r0, &j0);
+    const Eigen::VectorXd column_information = j0.colwise().squaredNorm().transpose();
+    constexpr double kMapConstantWeight = 1e3;
+    std::map<int, int> reduced;
+    for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
+    std::vector<Eigen::RowVectorXd> rows;
+    for (size_t m = 0; m < maps.joints.size(); ++m) {
+      const int first = model.map_parameter(maps.joints[m]);
+      const int count = maps.intervals[m] + 3;
+      double information = 0.0;
+      int counted = 0;
+      for (int k = 0; k < count; ++k) {
+        const auto at = reduced.find(first + k);
+        if (at == reduced.end()) continue;
+        information += column_information[at->second];
+        ++counted;
+      }
+      information = counted > 0 ? information / counted : 0.0;
+      const double scale = information > 0.0 ? std::sqrt(information) : 1.0;
+      Eigen::RowVectorXd constant = Eigen::RowVectorXd::Zero(num_parameters());
+      for (int k = 0; k < count; ++k) {
+        const auto at = reduced.find(first + k);
+        if (at != reduced.end()) constant[at->second] = kMapConstantWeight * scale / count;
+      }
+      if (!constant.isZero(0.0)) rows.push_back(std::move(constant));
+      const double w = std::sqrt(maps.smoothness * information);
+      if (w == 0.0) continue;
+      for (int k = 0; k + 2 < count; ++k) {
+        const auto a = reduced.find(first + k), b = reduced.find(first + k + 1), c = reduced.find(first + k + 2);
+        if (a == reduced.end() || b == reduced.end() || c == reduced.end()) continue;
+        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
+        row[a->second] = w;
+        row[b->second] = -2.0 * w;
+        row[c->second] = w;
+        rows.push_back(std::move(row));
+      }
+    }
+    penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
+    for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
   }
 }
 

@@ -139,6 +139,9 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
       information += j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
       if (angle_rows > 0) information += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
     }
+    // The joint maps' rows (their constant and their penalty) are information too: without them a map's
+    // coefficients leave the information singular.
+    if (problem.penalty().rows() > 0) information += problem.penalty().transpose() * problem.penalty();
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
     if (ldlt.info() != Eigen::Success) break;
     double redundancy_p = 0.0, redundancy_o = 0.0;

@@ -78,7 +78,7 @@ struct JointMapsWire {
   /// 1-based joint numbers, ascending; absent or empty in a request: every revolute joint.
   std::vector<int> joints;
   double knot_spacing_deg = 4.0;
-  double smoothness = 1.0;
+  double smoothness = 0.01;
   /// Set by the server: where each map's knots lie.
   std::vector<MapGridWire> grids;
 };
