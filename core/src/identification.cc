@@ -380,18 +380,28 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
     s.initial_cost = 0.5 * r.squaredNorm();
     if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
-    const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(), options.identifiability.rank_tolerance);
-    if (rank < s.num_parameters) {
-      std::ostringstream msg;
-      msg << "degenerate configurations: rank-deficient Jacobian, the " << s.num_poses << " poses determine only "
-          << rank << " of " << s.num_parameters << " parameters (undetermined:";
-      const auto& perm = qr.colsPermutation().indices();
-      for (int k = rank; k < std::min(s.num_parameters, rank + 4); ++k) {
-        msg << " " << name(parameters[perm[k]]);
+    // Beyond kDenseParameterLimit the normal equations' eigenvalues decide first; the pivoted QR (seconds at
+    // hundreds of columns) only names what is undetermined.
+    const bool full_rank = s.num_parameters > kDenseParameterLimit &&
+                           FullRankByNormal(j, std::max(options.identifiability.rank_tolerance, kNormalRankTolerance));
+    if (!full_rank) {
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
+      // Beyond kDenseParameterLimit, the cut of the normal equations that found a deficiency.
+      const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(),
+                                 s.num_parameters > kDenseParameterLimit
+                                     ? std::max(options.identifiability.rank_tolerance, kNormalRankTolerance)
+                                     : options.identifiability.rank_tolerance);
+      if (rank < s.num_parameters) {
+        std::ostringstream msg;
+        msg << "degenerate configurations: rank-deficient Jacobian, the " << s.num_poses << " poses determine only "
+            << rank << " of " << s.num_parameters << " parameters (undetermined:";
+        const auto& perm = qr.colsPermutation().indices();
+        for (int k = rank; k < std::min(s.num_parameters, rank + 4); ++k) {
+          msg << " " << name(parameters[perm[k]]);
+        }
+        msg << (s.num_parameters - rank > 4 ? " ...)" : ")");
+        return fail(msg.str());
       }
-      msg << (s.num_parameters - rank > 4 ? " ...)" : ")");
-      return fail(msg.str());
     }
   }
 

@@ -6,13 +6,12 @@
 // linearisation, chi-square).
 #pragma once
 
+#include <Eigen/Core>
 #include <chrono>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "robocal/core/identification.h"
 #include "robocal/core/joint_errors.h"
@@ -116,6 +115,10 @@ class Problem {
     Eigen::MatrixXd contrast;
   };
 
+  // Per chosen parameter: the squared norm of its column of the weighted Jacobian at zero (the maps' penalty
+  // scale).
+  Eigen::VectorXd ColumnInformation();
+
   // Rows of the repeatability model (see the constructor): per group, sqrt(n) times the mean residual of its n
   // shots whitened by `mean`, then the n - 1 Helmert contrasts whitened by `contrast` (no parameter moves them).
   void EvaluateByGroup(const std::vector<Transform>& prediction, const std::vector<Eigen::MatrixXd>& group_jacobian,
@@ -135,8 +138,8 @@ class Problem {
   const std::vector<int>& group_of_;
   std::vector<Eigen::MatrixXd> whitening_;       // per measurement, with a tracker model and no repeatability
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
-  std::vector<PreparedDeflection> prepared_;      // per pose: its deflection's parts that do not depend on x
-  Eigen::MatrixXd penalty_;                       // the maps' penalty rows (constant: the penalty is linear)
+  std::vector<PreparedDeflection> prepared_;     // per pose: its deflection's parts that do not depend on x
+  Eigen::MatrixXd penalty_;                      // the maps' penalty rows (constant: the penalty is linear)
   // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
   // some tens of times, a cross-validated model choice some thousands): per pose its Jacobian (its rows x n_model_,
   // side by side) and tool pose; Evaluate's predictions and Jacobians per group.
@@ -162,6 +165,26 @@ struct LmResult {
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
 LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o);
+
+// Beyond this many parameters (joint maps: some hundreds, each touching a few poses) the normal matrix J'J is summed
+// over each row's non-zero entries, and the covariance comes from the scaled normal matrix's eigenvalues and
+// Cholesky factor instead of an SVD of J (seconds at 500 columns).
+inline constexpr int kDenseParameterLimit = 150;
+// The normal equations resolve singular values down to about 1e-7 of the largest: with more than
+// kDenseParameterLimit parameters the rank cut is at least that.
+inline constexpr double kNormalRankTolerance = 1e-7;
+
+// J'J: by a matrix product, or over each row's non-zero entries beyond kDenseParameterLimit columns.
+Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian);
+
+// Whether the column-scaled J has its full column rank by the Cholesky factor of its normal matrix: its estimated
+// reciprocal condition number (of J'J, the squared singular values' ratio) above tolerance^2. A quick test for the
+// many parameters of joint maps; no singular values.
+bool FullRankByNormal(const Eigen::MatrixXd& jacobian, double tolerance);
+
+// The columns of j with a non-zero entry, ascending, and j's part of them.
+std::vector<int> NonzeroColumns(const Eigen::MatrixXd& j);
+Eigen::MatrixXd ColumnsOf(const Eigen::MatrixXd& j, const std::vector<int>& columns);
 
 // Singular values and covariance of a weighted Jacobian through its column-scaled form Js = J D (unit columns):
 // (J'J)^-1 = D (Js'Js)^-1 D. False, with nothing written, when Js is rank deficient: no covariance exists.

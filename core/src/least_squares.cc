@@ -95,10 +95,7 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
   // the weights change (the model error's estimate).
   const JointMapTerms& maps = model.error_terms().maps;
   if (!maps.empty()) {
-    Eigen::VectorXd r0;
-    Eigen::MatrixXd j0;
-    Evaluate(Eigen::VectorXd::Zero(num_parameters()), &r0, &j0);
-    const Eigen::VectorXd column_information = j0.colwise().squaredNorm().transpose();
+    const Eigen::VectorXd column_information = ColumnInformation();
     constexpr double kMapConstantWeight = 1e3;
     std::map<int, int> reduced;
     for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
@@ -242,6 +239,28 @@ void Problem::EvaluateByGroup(const std::vector<Transform>& prediction,
     }
     row += rows_ * static_cast<Eigen::Index>(shots.size());
   }
+}
+
+Eigen::VectorXd Problem::ColumnInformation() {
+  // The squared norms of the weighted Jacobian's columns at zero, as Evaluate weights them, from the groups'
+  // Jacobians (without building the whole weighted Jacobian).
+  Predict(Eigen::VectorXd::Zero(num_parameters()), &prediction_, &group_jacobian_);
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(num_parameters());
+  if (!group_whitening_.empty()) {
+    for (size_t g = 0; g < groups_.size(); ++g) {
+      const double n = static_cast<double>(groups_[g].shots.size());
+      out += n * (group_whitening_[g].mean * group_jacobian_[g]).colwise().squaredNorm().transpose();
+    }
+    return out;
+  }
+  for (size_t i = 0; i < measurements_.size(); ++i) {
+    const Eigen::MatrixXd& j = group_jacobian_[group_of_[i]];
+    out += (whitening_.empty() ? Eigen::MatrixXd(weights_.asDiagonal() * j) : Eigen::MatrixXd(whitening_[i] * j))
+               .colwise()
+               .squaredNorm()
+               .transpose();
+  }
+  return out;
 }
 
 double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty) {

@@ -1,5 +1,6 @@
 // The solver loop of a fit and its covariance (identification_internal.h).
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -7,6 +8,7 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "identification_internal.h"
 #include "robocal/core/column_scaling.h"
@@ -51,7 +53,7 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
       return out;
     }
     ++out.iterations;
-    const Eigen::MatrixXd normal = out.jacobian.transpose() * out.jacobian;
+    const Eigen::MatrixXd normal = NormalMatrix(out.jacobian);
     const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-300);
     Eigen::MatrixXd damped = normal;
     damped.diagonal() += lambda * diag;
@@ -108,9 +110,79 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
 // Singular values and covariance of a weighted Jacobian through its column-scaled form Js = J D (unit columns):
 // (J'J)^-1 = D (Js'Js)^-1 D. False, with nothing written, when Js is rank deficient: no covariance exists.
 // The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
+Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian) {
+  const Eigen::Index n = jacobian.cols();
+  if (n <= kDenseParameterLimit) return jacobian.transpose() * jacobian;
+  // Written here rather than with Eigen's sparse product: the Jacobian is dense storage with mostly zero map
+  // columns, and converting it costs as much as this sum. Rows are copied to row-major blocks for the scan; each
+  // row adds the products of its non-zero entries.
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block;
+  std::vector<Eigen::Index> index;
+  std::vector<double> value;
+  index.reserve(static_cast<std::size_t>(n));
+  value.reserve(static_cast<std::size_t>(n));
+  constexpr Eigen::Index kBlockRows = 64;
+  for (Eigen::Index start = 0; start < jacobian.rows(); start += kBlockRows) {
+    const Eigen::Index rows = std::min(kBlockRows, jacobian.rows() - start);
+    block = jacobian.middleRows(start, rows);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      index.clear();
+      value.clear();
+      const double* row = block.data() + r * n;
+      for (Eigen::Index c = 0; c < n; ++c) {
+        if (row[c] == 0.0) continue;
+        index.push_back(c);
+        value.push_back(row[c]);
+      }
+      // The lower triangle: element (index[b], index[a]) for b >= a, column index[a] contiguous.
+      for (std::size_t a = 0; a < index.size(); ++a) {
+        double* column = normal.data() + index[a] * n;
+        const double va = value[a];
+        for (std::size_t b = a; b < index.size(); ++b) column[index[b]] += va * value[b];
+      }
+    }
+  }
+  normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
+  return normal;
+}
+
+bool FullRankByNormal(const Eigen::MatrixXd& jacobian, double tolerance) {
+  const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
+  if ((d.array() == 0.0).any()) return false;
+  const Eigen::LLT<Eigen::MatrixXd> llt(d.asDiagonal() * NormalMatrix(jacobian) * d.asDiagonal());
+  return llt.info() == Eigen::Success && llt.rcond() > tolerance * tolerance;
+}
+
+std::vector<int> NonzeroColumns(const Eigen::MatrixXd& j) {
+  std::vector<int> out;
+  for (Eigen::Index c = 0; c < j.cols(); ++c) {
+    if (!j.col(c).isZero(0.0)) out.push_back(static_cast<int>(c));
+  }
+  return out;
+}
+
+Eigen::MatrixXd ColumnsOf(const Eigen::MatrixXd& j, const std::vector<int>& columns) {
+  Eigen::MatrixXd out(j.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k) out.col(static_cast<Eigen::Index>(k)) = j.col(columns[k]);
+  return out;
+}
+
 bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
                       Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance) {
   const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
+  if (jacobian.cols() > kDenseParameterLimit) {
+    const Eigen::MatrixXd scaled = d.asDiagonal() * NormalMatrix(jacobian) * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
+    const Eigen::VectorXd sv = eig.eigenvalues().reverse().cwiseMax(0.0).cwiseSqrt();
+    if (PivotRank(sv, std::max(rank_tolerance, kNormalRankTolerance)) < jacobian.cols()) return false;
+    const Eigen::LLT<Eigen::MatrixXd> llt(scaled);
+    if (llt.info() != Eigen::Success) return false;
+    const Eigen::MatrixXd inverse_scaled = llt.solve(Eigen::MatrixXd::Identity(scaled.rows(), scaled.cols()));
+    *covariance = sigma_hat * sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
+    *singular_values = sv;
+    return true;
+  }
   const Eigen::MatrixXd scaled = jacobian * d.asDiagonal();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();

@@ -24,7 +24,6 @@ using namespace identification_detail;
 
 namespace {
 
-
 double Median(std::vector<double> values) {
   const size_t mid = values.size() / 2;
   std::nth_element(values.begin(), values.begin() + mid, values.end());
@@ -105,9 +104,9 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
     shots[g] = n;
     mean[g] /= n;
     at /= n;
-    const Eigen::Matrix3d c = noise.tracker ? noise.tracker->PositionCovariance(at)
-                                            : Eigen::Matrix3d(noise.position_mm * noise.position_mm *
-                                                              Eigen::Matrix3d::Identity());
+    const Eigen::Matrix3d c =
+        noise.tracker ? noise.tracker->PositionCovariance(at)
+                      : Eigen::Matrix3d(noise.position_mm * noise.position_mm * Eigen::Matrix3d::Identity());
     out.tracker_variance_mm2 += c.trace() * n;
     tracker[g] = c / n + repeatability * repeatability * Eigen::Matrix3d::Identity();
   }
@@ -127,6 +126,18 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
   const double median_angle = angle_rows > 0 ? ChiSquareQuantile(angle_rows, 0.5) : 0.0;
   std::vector<double> lever_p(num_groups), lever_o(num_groups);
   const int p = static_cast<int>(parameters.size());
+  // Each pose's Jacobian touches few of a map's coefficients: its non-zero columns, and its part of them.
+  std::vector<std::vector<int>> columns(num_groups);
+  std::vector<Eigen::MatrixXd> compact(num_groups);
+  for (size_t g = 0; g < num_groups; ++g) {
+    columns[g] = NonzeroColumns(jacobian[g]);
+    compact[g] = ColumnsOf(jacobian[g], columns[g]);
+  }
+  const auto scatter = [](const std::vector<int>& at, const Eigen::MatrixXd& block, Eigen::MatrixXd* into) {
+    for (size_t a = 0; a < at.size(); ++a) {
+      for (size_t b = 0; b < at.size(); ++b) (*into)(at[a], at[b]) += block(a, b);
+    }
+  };
   for (int cycle = 0; cycle < 20; ++cycle) {
     // Leverages at the current components: the hat matrix's traces per pose and component.
     std::vector<Eigen::Matrix3d> inverse_p(num_groups);
@@ -135,19 +146,22 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
     for (size_t g = 0; g < num_groups; ++g) {
       inverse_p[g] = (tracker[g] + sp2 * Eigen::Matrix3d::Identity()).inverse();
       inverse_o[g] = 1.0 / (t * t / shots[g] + so2);
-      const Eigen::MatrixXd& j = jacobian[g];
-      information += j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
-      if (angle_rows > 0) information += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
+      const Eigen::MatrixXd& j = compact[g];
+      Eigen::MatrixXd block = j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
+      if (angle_rows > 0) block += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
+      scatter(columns[g], block, &information);
     }
     // The joint maps' rows (their constant and their penalty) are information too: without them a map's
     // coefficients leave the information singular.
     if (problem.penalty().rows() > 0) information += problem.penalty().transpose() * problem.penalty();
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
     if (ldlt.info() != Eigen::Success) break;
+    const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(p, p));
     double redundancy_p = 0.0, redundancy_o = 0.0;
     for (size_t g = 0; g < num_groups; ++g) {
-      const Eigen::MatrixXd& j = jacobian[g];
-      const Eigen::MatrixXd solved = ldlt.solve(j.transpose());  // N^-1 J_g'
+      const Eigen::MatrixXd& j = compact[g];
+      const Eigen::MatrixXd solved = ColumnsOf(ColumnsOf(inverse, columns[g]).transpose(), columns[g]) *
+                                     j.transpose();  // (N^-1 J_g') on the pose's columns
       lever_p[g] = (inverse_p[g] * j.topRows(3) * solved.leftCols(3)).trace();
       redundancy_p += 3.0 - lever_p[g];
       if (angle_rows > 0) {
@@ -182,17 +196,15 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
     };
     const double new_sp2 = solve(
         3, redundancy_p,
-        [&](size_t g, double v) {
-          return (projected_squares[g].array() / (tracker_eigenvalues[g].array() + v)).sum();
-        },
+        [&](size_t g, double v) { return (projected_squares[g].array() / (tracker_eigenvalues[g].array() + v)).sum(); },
         lever_p, median3);
     const double new_so2 =
-        angle_rows == 0 ? 0.0
-                        : solve(angle_rows, redundancy_o,
-                                [&](size_t g, double v) {
-                                  return mean[g].tail(angle_rows).squaredNorm() / (t * t / shots[g] + v);
-                                },
-                                lever_o, median_angle);
+        angle_rows == 0
+            ? 0.0
+            : solve(
+                  angle_rows, redundancy_o,
+                  [&](size_t g, double v) { return mean[g].tail(angle_rows).squaredNorm() / (t * t / shots[g] + v); },
+                  lever_o, median_angle);
     const bool settled = std::abs(new_sp2 - sp2) <= 1e-4 * (new_sp2 + out.tracker_variance_mm2 / 3.0) &&
                          std::abs(new_so2 - so2) <= 1e-4 * (new_so2 + t * t);
     sp2 = new_sp2;
@@ -236,8 +248,10 @@ std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vect
       out[i] = a.norm();
       continue;
     }
-    const Eigen::MatrixXd b = w * jacobian[g];
-    const Eigen::MatrixXd h = b * inverse * b.transpose();
+    // On the pose's non-zero columns only (a map's coefficients are mostly zero at a pose).
+    const std::vector<int> columns = NonzeroColumns(jacobian[g]);
+    const Eigen::MatrixXd b = w * ColumnsOf(jacobian[g], columns);
+    const Eigen::MatrixXd h = b * ColumnsOf(ColumnsOf(inverse, columns).transpose(), columns) * b.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (h + h.transpose()));
     const Eigen::VectorXd u = eig.eigenvectors().transpose() * a;
     double z2 = 0.0;
@@ -249,8 +263,6 @@ std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vect
   }
   return out;
 }
-
-
 
 constexpr double kMinRobustScale = 1e-3;
 // A measurement the fit used must exceed the outlier threshold by this factor to be excluded (Identify).
@@ -368,7 +380,8 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
   };
   // Writes the model error into a summary (and the sentence into its message).
   const auto report_model_error = [&](IdentificationSummary* s) {
-    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->message.rfind("cancelled", 0) == 0) {
+    if (!options.estimate_model_error || s->termination == Termination::kFailure ||
+        s->message.rfind("cancelled", 0) == 0) {
       return;
     }
     const int angle_rows = MeasurementRows(options.measurement_type) - 3;
