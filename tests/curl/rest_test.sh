@@ -470,8 +470,25 @@ robot_deflection=$(deflection /v1/robots/grinder5-compliant:forward)
 campaign_deflection=$(deflection "/v1/campaigns/$tracked:forward")
 expect "... it deflects under a payload as the calibration does" \
   "$(jq -n "$robot_deflection > 1e-4 and ($robot_deflection - $campaign_deflection | fabs) < 0.01 * $robot_deflection")" true
+# Joint error maps: each listed joint's angle error as a cubic B-spline of its own angle, knots placed over the
+# range the poses cover; registered as a robot, the joints hold them. grinder5's revolute joints are C and A (4, 5).
+call POST "/v1/campaigns/$tracked:fit" '{"model": {"joint_maps": {"joints": [4, 5], "knot_spacing_deg": 30}}}' \
+  >"$work/maps.json"
+expect "fit with joint maps on C and A: placed over the poses, each with its coefficients" \
+  "$(status) $(jq -c '[.model.joint_maps.joints, [.model.joint_maps.grids[].joint], .model.joint_maps.smoothness, ([.parameters[] | select(.name | test("^[CA][.]map[0-9]+$"))] | length >= 8)]' "$work/maps.json")" \
+  '200 [[4,5],[4,5],0.01,true]'
+call POST /v1/robots "{\"id\": \"grinder5-mapped\", \"from_calibration\": \"$tracked\"}" >"$work/mapped_robot.json"
+expect "... registered as a robot, C and A hold their maps" \
+  "$(status) $(jq -c '[.joints[] | .error_map != null]' "$work/mapped_robot.json")" "200 [false,false,false,true,true]"
 call POST "/v1/campaigns/$tracked:fit" '{}' >/dev/null
-for bad in '{"model": {"joint_harmonics": 3}}|model.joint_harmonics' '{"model": "rich"}|model' \
+for bad in '{"model": {"joint_maps": {"knot_spacing_deg": 0.4}}}|model.joint_maps.knot_spacing_deg' \
+  '{"model": {"joint_maps": {"knot_spacing_deg": 91}}}|model.joint_maps.knot_spacing_deg' \
+  '{"model": {"joint_maps": {"joints": [6], "knot_spacing_deg": 4}}}|model.joint_maps.joints[0]' \
+  '{"model": {"joint_maps": {"joints": [1], "knot_spacing_deg": 4}}}|model.joint_maps.joints[0]' \
+  '{"model": {"joint_maps": {"knot_spacing_deg": 4, "smoothness": -1}}}|model.joint_maps.smoothness' \
+  '{"model": {"joint_maps": {"joints": [4]}}}|model.joint_maps.knot_spacing_deg' \
+  '{"model": {"joint_harmonics": 1, "joint_maps": {"knot_spacing_deg": 4}}}|model.joint_maps' \
+  '{"model": {"joint_harmonics": 3}}|model.joint_harmonics' '{"model": "rich"}|model' \
   '{"model": "auto", "parameters": ["A.rz"]}|parameters' '{"cross_validation": {"folds": 3}}|cross_validation' \
   '{"model": "auto", "cross_validation": {"folds": 1}}|cross_validation.folds' \
   '{"model": {"compliance": true}, "scope": "frames"}|scope'; do
