@@ -352,9 +352,11 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
   for (const OutlierMeasurement& o : s.outliers) {
     const bool mapped = o.measurement >= 0 && static_cast<std::size_t>(o.measurement) < sequences.size();
     const bool named = o.reflector >= 0 && static_cast<std::size_t>(o.reflector) < c.reflectors.size();
-    w.outliers.push_back({mapped ? sequences[static_cast<std::size_t>(o.measurement)] : o.measurement,
-                          named ? c.reflectors[static_cast<std::size_t>(o.reflector)].id : std::string(),
-                          o.normalized_residual, true});
+    w.outliers.push_back({.sequence = mapped ? sequences[static_cast<std::size_t>(o.measurement)] : o.measurement,
+                          .reflector = named ? c.reflectors[static_cast<std::size_t>(o.reflector)].id : std::string(),
+                          .normalized_residual = o.normalized_residual,
+                          .excluded = true,
+                          .cause = o.cause});
   }
   w.parameters_with_outliers = ToWire(s.parameters_with_outliers, c.model, n_model);
   w.model_error = {s.model_error_estimated, s.model_error_mm, s.model_error_rad * kDegPerRad, s.tracker_rms_mm,
@@ -598,6 +600,9 @@ ROBOCAL_WIRE_DEFINE(FitRequest);
 ROBOCAL_WIRE_DEFINE(ParameterEstimate);
 ROBOCAL_WIRE_DEFINE(Residuals);
 ROBOCAL_WIRE_DEFINE(FitSummary);
+const char* EnumTable<OutlierMeasurement::Cause>::Name(OutlierMeasurement::Cause value) {
+  return value == OutlierMeasurement::Cause::kStale ? "stale" : "residual";
+}
 ROBOCAL_WIRE_DEFINE(OutlierWire);
 ROBOCAL_WIRE_DEFINE(RobustFitWire);
 ROBOCAL_WIRE_DEFINE(ModelErrorWire);

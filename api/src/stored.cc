@@ -178,7 +178,8 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
     const OutlierWire& o = r.outliers[k];
     s.outliers.push_back({.measurement = indexed ? stored.outlier_measurements[k] : -1,
                           .reflector = ReflectorIndex(r.reflectors, o.reflector),
-                          .normalized_residual = o.normalized_residual});
+                          .normalized_residual = o.normalized_residual,
+                          .cause = o.cause});
   }
   s.outlier_threshold = r.robust.threshold;
   s.robust_scale = r.robust.scale;

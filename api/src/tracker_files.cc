@@ -1,5 +1,6 @@
 #include "robocal/api/tracker_files.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -11,8 +12,6 @@
 #include <string_view>
 #include <utility>
 
-#include <Eigen/Geometry>
-
 #include "robocal/api/json_reader.h"
 
 namespace robocal::api {
@@ -21,7 +20,6 @@ namespace {
 // The file formats are read by hand: they are line-oriented text with a handful of rules (a unit header line,
 // comma or white-space separated fields, CSV quotes), and no Debian library reads Spatial Analyzer exports; a
 // general CSV library would still leave the unit, column and line-number rules here.
-
 
 // No export has more columns than this, and no import more points (the server's own batch limit is lower).
 constexpr std::ptrdiff_t kMaxCsvFields = 1000;
@@ -231,9 +229,8 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
       if (sep == std::string::npos || (header[sep] != ':' && header[sep] != '=')) continue;
       const std::size_t first = header.find_first_not_of(" \t", sep + 1);
       std::string word;
-      for (std::size_t k = first; k != std::string::npos && k < header.size() &&
-                                  std::isalpha(static_cast<unsigned char>(header[k]));
-           ++k) {
+      for (std::size_t k = first;
+           k != std::string::npos && k < header.size() && std::isalpha(static_cast<unsigned char>(header[k])); ++k) {
         word += header[k];
       }
       if (word.empty() && first != std::string::npos) word = header.substr(first);
@@ -271,8 +268,8 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
     for (int k = 0; k < 3; ++k) {
       const std::optional<double> v = Number(fields[3 + k]);
       if (!v) {
-        problems->Add("text", LineReason(line, std::string(kAxes[k]) + " " + Shown(fields[3 + k]) +
-                                                   " is not a finite number"));
+        problems->Add("text",
+                      LineReason(line, std::string(kAxes[k]) + " " + Shown(fields[3 + k]) + " is not a finite number"));
         ok = false;
       } else {
         p.position_mm[k] = *v;
@@ -322,9 +319,9 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
     return;
   }
   if (header.size() < 3) {
-    problems->Add("text", LineReason(header_line, "the header has " + std::to_string(header.size()) +
-                                                      " column(s) at delimiter " + Shown(std::string(1, delimiter)) +
-                                                      ": is the delimiter right?"));
+    problems->Add(
+        "text", LineReason(header_line, "the header has " + std::to_string(header.size()) + " column(s) at delimiter " +
+                                            Shown(std::string(1, delimiter)) + ": is the delimiter right?"));
     return;
   }
   // The columns the import needs: target (matching by name), x, y, z, the nest, the joints, the orientation.
@@ -339,10 +336,12 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
     wanted.push_back({field, name});
     return wanted.size() - 1;
   };
-  const std::size_t target = req.match == "name" && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
+  const std::size_t target =
+      req.match == "name" && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
   const std::size_t axes[3] = {want("columns.x", req.columns.x), want("columns.y", req.columns.y),
                                want("columns.z", req.columns.z)};
-  const std::size_t reflector = req.columns.reflector.empty() ? SIZE_MAX : want("columns.reflector", req.columns.reflector);
+  const std::size_t reflector =
+      req.columns.reflector.empty() ? SIZE_MAX : want("columns.reflector", req.columns.reflector);
   std::vector<std::size_t> joint_columns, orientation_columns;
   for (std::size_t k = 0; k < req.joints.columns.size(); ++k) {
     joint_columns.push_back(want("joints.columns[" + std::to_string(k) + "]", req.joints.columns[k]));
@@ -609,6 +608,18 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
   if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
     req.payload = payload;
   }
+  if (const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes)) {
+    for (std::size_t k = 0; k < a->size(); ++k) {
+      const nlohmann::json& v = (*a)[k];
+      if (!v.is_number_integer() || v.get<std::int64_t>() < 1 || v.get<std::int64_t>() > kMaxTrackerFileBytes) {
+        problems.Add(IndexPath("rows", k), "expected a line number of the text, 1 or more");
+      } else if (!req.rows.empty() && v.get<std::int64_t>() <= req.rows.back()) {
+        problems.Add(IndexPath("rows", k), "lines must be ascending, each once");
+      } else {
+        req.rows.push_back(static_cast<int>(v.get<std::int64_t>()));
+      }
+    }
+  }
   r.RejectUnknown(WireFieldNames<ImportMeasurementsRequest>());
   problems.ThrowIfAny("invalid measurement import");
   return req;
@@ -659,8 +670,8 @@ bool CheckNests(const ImportMeasurementsRequest& request, const std::vector<Trac
     if (p.reflector.empty()) {
       problems->Add("text", LineReason(p.line, "no nest in column " + Shown(request.columns.reflector)));
     } else if (ReflectorIndex(reflectors, p.reflector) < 0) {
-      problems->Add("text", LineReason(p.line, "unknown nest " + Shown(p.reflector) + " (the campaign has " +
-                                                   known + ")"));
+      problems->Add("text",
+                    LineReason(p.line, "unknown nest " + Shown(p.reflector) + " (the campaign has " + known + ")"));
     }
   }
   return true;
@@ -671,16 +682,21 @@ bool CheckNests(const ImportMeasurementsRequest& request, const std::vector<Trac
 Eigen::Matrix3d EulerToRotation(const std::string& sequence, bool intrinsic, double a, double b, double c) {
   const auto axis = [&](char letter) -> Eigen::Vector3d {
     switch (std::toupper(static_cast<unsigned char>(letter))) {
-      case 'X': return Eigen::Vector3d::UnitX();
-      case 'Y': return Eigen::Vector3d::UnitY();
-      case 'Z': return Eigen::Vector3d::UnitZ();
-      default: return Eigen::Vector3d::Zero();
+      case 'X':
+        return Eigen::Vector3d::UnitX();
+      case 'Y':
+        return Eigen::Vector3d::UnitY();
+      case 'Z':
+        return Eigen::Vector3d::UnitZ();
+      default:
+        return Eigen::Vector3d::Zero();
     }
   };
-  const bool valid = sequence.size() == 3 && std::all_of(sequence.begin(), sequence.end(), [&](char l) {
-                       return !axis(l).isZero();
-                     }) && std::toupper(static_cast<unsigned char>(sequence[0])) != std::toupper(static_cast<unsigned char>(sequence[1])) &&
-                     std::toupper(static_cast<unsigned char>(sequence[1])) != std::toupper(static_cast<unsigned char>(sequence[2]));
+  const bool valid =
+      sequence.size() == 3 &&
+      std::all_of(sequence.begin(), sequence.end(), [&](char l) { return !axis(l).isZero(); }) &&
+      std::toupper(static_cast<unsigned char>(sequence[0])) != std::toupper(static_cast<unsigned char>(sequence[1])) &&
+      std::toupper(static_cast<unsigned char>(sequence[1])) != std::toupper(static_cast<unsigned char>(sequence[2]));
   if (!valid) {
     throw std::invalid_argument("'" + sequence.substr(0, 8) +
                                 "' is not an Euler sequence: three of X, Y, Z with no axis twice in a row (XYZ, "
@@ -748,9 +764,9 @@ MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& r
                                                              " has no configuration number (its trailing digits, 1..." +
                                                              std::to_string(m) + ")"));
       } else if (static_cast<std::size_t>(c) >= m) {
-        problems->Add("text", LineReason(points[k].line, "target " + Shown(points[k].target) + " is configuration " +
-                                                             std::to_string(c + 1) + "; the plan has " +
-                                                             std::to_string(m)));
+        problems->Add("text",
+                      LineReason(points[k].line, "target " + Shown(points[k].target) + " is configuration " +
+                                                     std::to_string(c + 1) + "; the plan has " + std::to_string(m)));
       } else {
         configuration[k] = c;
       }

@@ -68,7 +68,8 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
         << " sigma):";
     for (const api::OutlierWire& o : c.outliers) {
       out << " #" << o.sequence << (o.reflector.empty() ? "" : " " + o.reflector) << " ("
-          << Fixed(o.normalized_residual, 1) << ")";
+          << (o.cause == OutlierMeasurement::Cause::kStale ? "stale reading, " : "") << Fixed(o.normalized_residual, 1)
+          << ")";
     }
     out << "\n";
   }

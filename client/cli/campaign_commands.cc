@@ -33,8 +33,8 @@ int Show(Invocation& in, const api::Campaign& campaign) {
              << " mm (flange)\n";
     }
     for (const api::CampaignReflectorWire& r : campaign.reflectors) {
-      in.out << "reflector " << r.id << " at " << r.position_mm[0] << " " << r.position_mm[1] << " "
-             << r.position_mm[2] << " mm (flange)" << (r.fixed ? ", fixed" : ", offset identified") << "\n";
+      in.out << "reflector " << r.id << " at " << r.position_mm[0] << " " << r.position_mm[1] << " " << r.position_mm[2]
+             << " mm (flange)" << (r.fixed ? ", fixed" : ", offset identified") << "\n";
     }
   }
   return kExitOk;
@@ -216,7 +216,8 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
   if (in.Has("--payload")) request.payload = ParsePayloadFlag(in.Option("--payload"));
 
   // --calibration-rows N: N data rows drawn at random (--seed) are calibration measurements, the rest
-  // validation: two imports of the same text with the other rows blanked, so that every line keeps its number.
+  // validation: two imports of the whole text, each storing its role's rows (`rows`, by line), so that the server
+  // reads the file in the order the tracker took it (a stale reading repeats the row before it).
   std::vector<api::ImportMeasurementsRequest> imports;
   if (in.Has("--calibration-rows")) {
     if (in.Has("--role")) throw UsageError("--calibration-rows sets the roles itself: leave out --role");
@@ -252,11 +253,9 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
     for (const api::MeasurementRole role : {api::MeasurementRole::kCalibration, api::MeasurementRole::kValidation}) {
       api::ImportMeasurementsRequest part = request;
       part.role = role;
-      part.text.clear();
       const bool want_calibration = role == api::MeasurementRole::kCalibration;
       for (std::size_t i = 0; i < lines.size(); ++i) {
-        if (!is_data[i] || (calibration[i] != 0) == want_calibration) part.text += lines[i];
-        if (i + 1 < lines.size()) part.text += '\n';
+        if (is_data[i] && (calibration[i] != 0) == want_calibration) part.rows.push_back(static_cast<int>(i) + 1);
       }
       if (!request.request_id.empty()) part.request_id += "-" + std::string(api::WireName(role));
       imports.push_back(std::move(part));
@@ -274,9 +273,9 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
     if (in.json) {
       PrintJson(in.out, r);
     } else {
-      in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " "
-             << api::WireName(part.role) << " measurements from " << in.args[1] << ", batch " << r.batch_id
-             << ", request id " << r.request_id << "; campaign total " << r.campaign_total << "\n";
+      in.out << (r.replayed ? "already stored (replayed): " : "stored ") << r.count << " " << api::WireName(part.role)
+             << " measurements from " << in.args[1] << ", batch " << r.batch_id << ", request id " << r.request_id
+             << "; campaign total " << r.campaign_total << "\n";
     }
   }
   return kExitOk;
@@ -286,10 +285,10 @@ int Upload(Invocation& in) {
   const std::string& campaign_id = in.args[0];
   const std::string& path = in.args[1];
   if (in.Has("--format")) return ImportTrackerFile(in, in.Option("--format"));
-  for (const char* option : {"--plan", "--unit", "--columns", "--match", "--shots", "--joints", "--joint-unit",
-                             "--orientation-columns", "--quaternion-order", "--euler", "--euler-convention",
-                             "--angle-unit", "--delimiter", "--decimal", "--encoding", "--calibration-rows",
-                             "--seed"}) {
+  for (const char* option :
+       {"--plan", "--unit", "--columns", "--match", "--shots", "--joints", "--joint-unit", "--orientation-columns",
+        "--quaternion-order", "--euler", "--euler-convention", "--angle-unit", "--delimiter", "--decimal", "--encoding",
+        "--calibration-rows", "--seed"}) {
     if (in.Has(option)) throw UsageError(std::string(option) + " is for --format sa|csv (a tracker export)");
   }
   const std::string text = ReadFile(path);
@@ -327,8 +326,8 @@ int Measurements(Invocation& in) {
   std::optional<api::MeasurementRole> role;
   if (in.Has("--role")) role = Invocation::ParseEnum<api::MeasurementRole>("--role", in.Option("--role"));
   std::int64_t after = in.Integer("--after", 0, 0, std::numeric_limits<std::int64_t>::max());
-  const long long limit = in.Integer("--limit", std::numeric_limits<long long>::max(), 1,
-                                     std::numeric_limits<long long>::max());
+  const long long limit =
+      in.Integer("--limit", std::numeric_limits<long long>::max(), 1, std::numeric_limits<long long>::max());
   const std::string out_file = in.Option("--out");
   if (!out_file.empty() && !EndsWith(out_file, ".csv")) throw UsageError("--out takes FILE.csv");
   const api::Campaign campaign = in.Client().GetCampaign(in.args[0]);

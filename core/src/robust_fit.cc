@@ -2,6 +2,7 @@
 // gross errors by their studentised residuals, until the set of excluded measurements settles.
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -325,8 +326,108 @@ constexpr double kSuspiciousOutlierFraction = 0.2;
 
 }  // namespace
 
+Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                 const IdentificationOptions& options);
+
 Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                      const IdentificationOptions& options) {
+  std::vector<int> kept_index, stale_index;
+  std::vector<Measurement> kept;
+  for (size_t i = 0; i < measurements.size(); ++i) {
+    (measurements[i].stale ? stale_index : kept_index).push_back(static_cast<int>(i));
+    if (!measurements[i].stale) kept.push_back(measurements[i]);
+  }
+  if (stale_index.empty()) return IdentifyWithoutStale(nominal, measurements, options);
+  // Stale readings are wrong data, not noise: out before any fit, listed with their cause and their residual.
+  Calibration c = IdentifyWithoutStale(nominal, kept, options);
+  IdentificationSummary& s = c.summary;
+  for (OutlierMeasurement& o : s.outliers) o.measurement = kept_index[static_cast<size_t>(o.measurement)];
+  const MeasurementNoise noise = FittedNoise(s, options.noise);
+  const std::vector<Eigen::Vector3d> in_tool = ReflectorsInTool(c.model, c.reflectors, Eigen::VectorXd());
+  KinematicsWorkspace ws(c.model);
+  const int rows = MeasurementRows(options.measurement_type);
+  Eigen::VectorXd r(rows);
+  Eigen::MatrixXd w(rows, rows);
+  for (int i : stale_index) {
+    const Measurement& m = measurements[static_cast<size_t>(i)];
+    double z = 0.0;
+    if (s.termination != Termination::kFailure && m.joints.size() == c.model.num_joints()) {
+      const Transform& tool = ForwardKinematics(c.model, m.joints, c.errors, &ws, m.payload);
+      const Transform predicted = m.reflector < 0 || m.reflector >= static_cast<int>(in_tool.size())
+                                      ? tool
+                                      : AtReflector(tool, in_tool[m.reflector]);
+      MeasurementResidual(options.measurement_type, m.T_world_tool, predicted, r);
+      noise.Whitening(options.measurement_type, m.T_world_tool.translation(), w);
+      z = (w * r).norm();
+    }
+    s.outliers.push_back({.measurement = i,
+                          .reflector = m.reflector,
+                          .normalized_residual = z,
+                          .cause = OutlierMeasurement::Cause::kStale});
+  }
+  std::sort(s.outliers.begin(), s.outliers.end(),
+            [](const OutlierMeasurement& a, const OutlierMeasurement& b) { return a.measurement < b.measurement; });
+  s.message += "; " + std::to_string(stale_index.size()) +
+               " stale tracker reading(s) left out (each repeats the shot before it although the robot moved)";
+  return c;
+}
+
+std::vector<char> FlagStaleShots(const RobotModel& nominal, const std::vector<Measurement>& shots, MeasurementType type,
+                                 double repeatability_mm, const StaleShotTolerance& tolerance,
+                                 const Measurement* before) {
+  std::vector<char> out(shots.size(), 0);
+  const double moved_mm = std::max(10.0 * tolerance.position_mm, 3.0 * repeatability_mm);
+  const double turned_rad = 10.0 * tolerance.angle_rad;
+  const bool angles = type != MeasurementType::kPosition;
+  KinematicsWorkspace ws(nominal);
+  Transform previous_nominal = Transform::Identity();
+  const Measurement* previous = before;
+  if (previous != nullptr && previous->joints.size() == nominal.num_joints()) {
+    previous_nominal = ForwardKinematics(nominal, previous->joints, Eigen::VectorXd(), &ws);
+  }
+  for (size_t i = 0; i < shots.size(); ++i) {
+    const Measurement& m = shots[i];
+    if (m.joints.size() != nominal.num_joints()) {
+      previous = nullptr;
+      continue;
+    }
+    const Transform current = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws);
+    if (previous != nullptr && previous->joints.size() == nominal.num_joints() && previous->reflector == m.reflector) {
+      const double measured_move = (m.T_world_tool.translation() - previous->T_world_tool.translation()).norm();
+      const double nominal_move = (current.translation() - previous_nominal.translation()).norm();
+      double measured_turn = 0.0;
+      const double nominal_turn = Eigen::AngleAxisd(previous_nominal.linear().transpose() * current.linear()).angle();
+      // The angle between the orientations (pose) or the tool axes (position_axis) of the two shots.
+      const auto turn = [type](const Transform& a, const Transform& b) {
+        if (type == MeasurementType::kPositionAxis) {
+          const Eigen::Vector3d za = a.linear().col(2), zb = b.linear().col(2);
+          return std::atan2(za.cross(zb).norm(), za.dot(zb));
+        }
+        return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
+      };
+      if (angles) {
+        measured_turn = turn(previous->T_world_tool, m.T_world_tool);
+      }
+      const bool repeats = measured_move <= tolerance.position_mm && (!angles || measured_turn <= tolerance.angle_rad);
+      // The joints moved: a joint's command changed by more than its tolerance (a shot of the same command again
+      // repeats by right). Measuring positions only, the nominal robot must also move the point: a point on the
+      // last joint's axis stays where it is as that joint turns.
+      double joint_move = 0.0;
+      for (int j = 0; j < nominal.num_joints(); ++j) {
+        const double unit = nominal.joint_type(j) == JointType::kRevolute ? tolerance.joint_rad : tolerance.joint_mm;
+        joint_move = std::max(joint_move, std::abs(m.joints[j] - previous->joints[j]) / unit);
+      }
+      const bool robot_moved = joint_move > 1.0 && (angles || nominal_move > moved_mm || nominal_turn > turned_rad);
+      out[i] = repeats && robot_moved ? 1 : 0;
+    }
+    previous = &m;
+    previous_nominal = current;
+  }
+  return out;
+}
+
+Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                 const IdentificationOptions& options) {
   const Clock::time_point start = Clock::now();
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("IdentificationOptions: " + error);

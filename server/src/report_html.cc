@@ -558,10 +558,14 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
         listed.resize(kMaxOutlierRows);
       }
       out << "<table id=\"outliers\">\n<thead><tr><th>sequence</th><th>reflector</th><th>normalised residual "
-             "(sigmas)</th></tr></thead>\n<tbody>\n";
+             "(sigmas)</th><th>cause</th></tr></thead>\n<tbody>\n";
       for (const api::OutlierWire* o : listed) {
         out << "<tr>" << IntCell(o->sequence, "sequence") << TextCell(o->reflector.empty() ? "-" : o->reflector)
-            << NumCell(o->normalized_residual, 2, "normalized_residual") << "</tr>\n";
+            << NumCell(o->normalized_residual, 2, "normalized_residual")
+            << TextCell(o->cause == OutlierMeasurement::Cause::kStale
+                            ? "stale tracker reading (repeats the shot before it)"
+                            : "residual beyond the threshold")
+            << "</tr>\n";
       }
       out << "</tbody></table>\n";
     }

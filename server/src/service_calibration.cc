@@ -135,6 +135,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   auto sequences = std::make_shared<std::vector<std::int64_t>>();
   measurements->reserve(static_cast<std::size_t>(count));
   sequences->reserve(static_cast<std::size_t>(count));
+  // Each carries its stale flag (set on upload): the fit leaves stale readings out and lists them.
   ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
     measurements->push_back(MeasurementToCore(parsed_model, ReadMeasurement(s), campaign));
     sequences->push_back(s.sequence);

@@ -120,13 +120,22 @@ std::size_t RobotJoints(const api::StoredCampaign& campaign) {
              : campaign.robot_definition.joints.size();
 }
 
+// The shot stored last in a campaign, if any.
+std::optional<Measurement> LastStored(Storage* storage, const api::StoredCampaign& campaign, const RobotModel& model) {
+  const std::int64_t total = storage->CountMeasurements(campaign.id, "");
+  if (total <= 0) return std::nullopt;
+  const std::vector<StoredMeasurement> last = storage->ListMeasurements(campaign.id, "", total - 1, 1);
+  if (last.empty()) return std::nullopt;
+  return MeasurementToCore(model, ReadMeasurement(last.front()), campaign);
+}
+
 // The points of a tracker file; every bad line (and too many points for one batch) thrown as one error.
 std::vector<api::TrackerPoint> ReadPoints(const api::ImportMeasurementsRequest& req, std::size_t max_points) {
   api::Problems problems;
   std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(req, &problems);
   if (points.size() > max_points) {
-    problems.Add("text", std::to_string(points.size()) + " points exceed the server's limit max_array_length = " +
-                             std::to_string(max_points));
+    problems.Add("text", std::to_string(points.size()) +
+                             " points exceed the server's limit max_array_length = " + std::to_string(max_points));
   }
   problems.ThrowIfAny("invalid tracker file");
   return points;
@@ -159,10 +168,10 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
     throw ApiError(Status::kInvalidArgument, "plan \"" + plan_id + "\" does not exist", {{"plan", "unknown plan"}});
   }
   if (plan.robot != campaign.robot) {
-    throw ApiError(Status::kInvalidArgument,
-                   "plan \"" + plan_id + "\" is for robot \"" + plan.robot + "\", the campaign's is \"" +
-                       campaign.robot + "\"",
-                   {{"plan", "a plan of another robot"}});
+    throw ApiError(
+        Status::kInvalidArgument,
+        "plan \"" + plan_id + "\" is for robot \"" + plan.robot + "\", the campaign's is \"" + campaign.robot + "\"",
+        {{"plan", "a plan of another robot"}});
   }
   const std::vector<api::TrackerPoint> points = ReadPoints(req, options_.limits.max_array_length);
   // A plan of a robot that was deleted and registered again with other joints matches no more.
@@ -180,7 +189,43 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
   problems.ThrowIfAny("invalid tracker file");
   for (api::MeasurementWire& m : batch.measurements) m.payload = req.payload;
   // The batch goes the way of every upload: the campaign's checks, one transaction, the request id's replay.
-  return AppendMeasurements(campaign_id, nlohmann::json(batch));
+  return StoreImported(campaign, req, points, std::move(batch));
+}
+
+api::BatchResult Service::StoreImported(const api::StoredCampaign& campaign, const api::ImportMeasurementsRequest& req,
+                                        const std::vector<api::TrackerPoint>& points,
+                                        api::MeasurementBatchRequest batch) {
+  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  // The campaign's checks, on every row (those not stored too: they are the same file).
+  batch = api::ParseMeasurementBatchRequest(nlohmann::json(batch), model, campaign.measurement_type, options_.limits,
+                                            campaign.reflectors);
+  // Stale readings in the file's own order; its first row against the shot stored last when every row is stored
+  // (a file split by rows is compared within itself).
+  const std::optional<Measurement> before =
+      req.rows.empty() ? LastStored(storage_, campaign, model) : std::optional<Measurement>();
+  std::vector<Measurement> shots;
+  shots.reserve(batch.measurements.size());
+  for (const api::MeasurementWire& m : batch.measurements) shots.push_back(MeasurementToCore(model, m, campaign));
+  const std::vector<char> flags = FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
+                                                 before ? &*before : nullptr);
+  if (req.rows.empty()) return StoreBatch(campaign, model, std::move(batch), flags);
+  // Only the rows asked for; each must be a data row of the file.
+  std::vector<api::MeasurementWire> kept;
+  std::vector<char> kept_flags;
+  api::Problems problems;
+  std::size_t p = 0;
+  for (std::size_t k = 0; k < req.rows.size(); ++k) {
+    while (p < points.size() && points[p].line < req.rows[k]) ++p;
+    if (p == points.size() || points[p].line != req.rows[k]) {
+      problems.Add(api::IndexPath("rows", k), "line " + std::to_string(req.rows[k]) + " is not a data row of the text");
+      continue;
+    }
+    kept.push_back(batch.measurements[p]);
+    kept_flags.push_back(flags[p]);
+  }
+  problems.ThrowIfAny("invalid measurement import");
+  batch.measurements = std::move(kept);
+  return StoreBatch(campaign, model, std::move(batch), kept_flags);
 }
 
 api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campaign_id,
@@ -188,10 +233,11 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
                                                        const api::ImportMeasurementsRequest& req) {
   // An export with joints needs no plan; a 6-DoF campaign needs the measured orientation.
   if (campaign.measurement_type != MeasurementType::kPosition && req.orientation.representation.empty()) {
-    throw ApiError(Status::kInvalidArgument,
-                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
-                       ": the file's orientation columns are needed",
-                   {{"orientation", std::string("required for a ") + api::WireName(campaign.measurement_type) + " campaign"}});
+    throw ApiError(
+        Status::kInvalidArgument,
+        "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
+            ": the file's orientation columns are needed",
+        {{"orientation", std::string("required for a ") + api::WireName(campaign.measurement_type) + " campaign"}});
   }
   RequireNestColumn(campaign_id, campaign, req);
   const std::size_t joints = RobotJoints(campaign);
@@ -208,7 +254,7 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
   for (api::MeasurementWire& m : batch.measurements) m.payload = req.payload;
   // The batch goes the way of every upload: the campaign's checks (joint limits among them), one transaction,
   // the request id's replay.
-  return AppendMeasurements(campaign_id, nlohmann::json(batch));
+  return StoreImported(campaign, req, points, std::move(batch));
 }
 
 api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, const nlohmann::json& body) {
@@ -216,18 +262,35 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   const api::MeasurementBatchRequest req =
       api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits, campaign.reflectors);
+  return StoreBatch(campaign, model, req, std::nullopt);
+}
+
+api::BatchResult Service::StoreBatch(const api::StoredCampaign& campaign, const RobotModel& model,
+                                     api::MeasurementBatchRequest req, std::optional<std::vector<char>> stale) {
   const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
-  std::vector<std::string> texts;
-  texts.reserve(req.measurements.size());
+  // The request id's replay compares the client's content: the texts without the server's stale flags.
   const std::string role = api::WireName(req.role);
   std::string all = role;
-  for (const auto& m : req.measurements) {
-    texts.push_back(nlohmann::json(m).dump());
-    all += "\n" + texts.back();
+  for (const auto& m : req.measurements) all += "\n" + nlohmann::json(m).dump();
+  if (!stale) {
+    // Against the shot stored last (a concurrent upload may come between: then against the one stored last at
+    // the time of this one), then the batch's own in order.
+    const std::optional<Measurement> before = LastStored(storage_, campaign, model);
+    std::vector<Measurement> shots;
+    shots.reserve(req.measurements.size());
+    for (const api::MeasurementWire& m : req.measurements) shots.push_back(MeasurementToCore(model, m, campaign));
+    stale = FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
+                           before ? &*before : nullptr);
+  }
+  std::vector<std::string> texts;
+  texts.reserve(req.measurements.size());
+  for (std::size_t i = 0; i < req.measurements.size(); ++i) {
+    req.measurements[i].stale = i < stale->size() && (*stale)[i] != 0;
+    texts.push_back(nlohmann::json(req.measurements[i]).dump());
   }
   BatchResult r;
   try {
-    r = storage_->AppendMeasurements(campaign_id, req.request_id, api::ContentHash(all), role, texts,
+    r = storage_->AppendMeasurements(campaign.id, req.request_id, api::ContentHash(all), role, texts,
                                      options_.max_measurements_per_campaign);
   } catch (const StorageError& e) {
     if (e.kind() == StorageError::Kind::kAlreadyExists) {
@@ -241,6 +304,17 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
                      {{"measurements", "limit max_measurements_per_campaign = " + limit}});
     }
     throw;
+  }
+  // The batch's stale readings as stored (a replay's: as the first time).
+  if (r.replayed) {
+    for (const StoredMeasurement& m :
+         storage_->ListMeasurements(campaign.id, "", r.first_sequence - 1, static_cast<int>(r.count))) {
+      if (ReadMeasurement(m).stale) r.stale.push_back(m.sequence);
+    }
+  } else {
+    for (std::size_t i = 0; i < stale->size(); ++i) {
+      if ((*stale)[i]) r.stale.push_back(r.first_sequence + static_cast<std::int64_t>(i));
+    }
   }
   return r;
 }

@@ -113,6 +113,7 @@ Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWir
   m.joints = api::JointsToCore(model, w.joints);
   m.T_world_tool = api::PoseToTransform(w.pose);
   m.reflector = w.reflector.empty() ? -1 : api::ReflectorIndex(campaign.reflectors, w.reflector);
+  m.stale = w.stale;
   if (w.payload) {
     m.payload = api::ToCore(*w.payload);
   } else if (campaign.payload) {

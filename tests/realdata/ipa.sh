@@ -57,7 +57,8 @@ columns=(--format csv --unit mm --decimal , --columns x=measurement_x,y=measurem
 for n in 100 400; do
   c=b$n
   cli campaign create ur10 pose --id "$c" --tracker datasheet >/dev/null
-  cli upload "$c" "$data/ipa/series_b_joint_configurations.csv" "${columns[@]}" --calibration-rows "$n" --seed 1 >/dev/null
+  cli --json upload "$c" "$data/ipa/series_b_joint_configurations.csv" "${columns[@]}" --calibration-rows "$n" \
+    --seed 1 >"$work/$c.upload.json"
   cli --json fit "$c" >"$work/$c.fit.json"
   cli --json evaluate "$c" >"$work/$c.eval.json"
   termination=$(jqv .summary.termination "$work/$c.fit.json")
@@ -201,6 +202,32 @@ check "D: the frames fit of the robot holding joint terms ends (beyond its range
   "'$(jqv .summary.termination "$work/$c.fit.json")' in ('CONVERGENCE', 'DEGRADED')"
 check "... and says its 30 poses leave the ranges B's harmonics were identified over" \
   "'$(jq '.summary.message | contains("30 of 30 shots leave the joint ranges the robot'"'"'s joint harmonics were identified over")' "$work/$c.fit.json")' == 'true'"
+
+# Stale tracker readings: rows of B that repeat the row before them within 0.1 mm although the joints moved, found
+# here by a plain scan of the file (position within 0.1 mm, orientation within 0.01 deg, a joint moved by more than
+# 0.01 deg); the server flags those rows on import and no others, and a fit lists the calibration ones as stale.
+expected=$(python3 - "$data/ipa/series_b_joint_configurations.csv" <<'PY'
+import math, sys
+rows = [l.split(';') for l in open(sys.argv[1]).read().splitlines()[1:] if l.strip()]
+num = lambda x: float(x.replace(',', '.'))
+found = []
+for k in range(1, len(rows)):
+    a, b = rows[k - 1], rows[k]
+    moved = math.dist([num(b[i]) for i in (14, 16, 18)], [num(a[i]) for i in (14, 16, 18)])
+    turned = max(abs(num(b[i]) - num(a[i])) for i in (20, 22, 24))
+    joints = max(abs(num(b[i]) - num(a[i])) for i in range(7, 13)) * 180 / math.pi
+    if moved < 0.1 and turned < 0.01 and joints > 0.01:
+        found.append([round(num(b[i]) * 180 / math.pi, 6) for i in range(7, 13)])
+print(sorted(found))
+PY
+)
+cli --json measurements b400 >"$work/b400.measurements.json"
+flagged=$(jq -c '[.measurements[] | select(.stale) | .joints | map(. * 1e6 | round / 1e6)] | sort' "$work/b400.measurements.json")
+echo "B's stale rows: $(jq -s '[.[].stale // [] | length] | add' "$work/b400.upload.json") flagged on import; by a plain scan of the file: $expected"
+check "B: the import flags exactly the rows that repeat the one before them" \
+  "$(python3 -c "import json; print(json.loads('$flagged') == json.loads('$expected') and len(json.loads('$expected')) > 0)")"
+check "B N=400: the fit lists its stale calibration rows with cause stale" \
+  "$(jq '[.outliers[] | select(.cause == "stale")] | length' "$work/b400.fit.json") == $(jq '[.measurements[] | select(.stale and .role == "calibration")] | length' "$work/b400.measurements.json")"
 
 # Joint error maps (docs/identification.md, "Joint error maps"): B's 400 calibration poses with compliance and a map
 # every 4 deg on joints 1-5; then B's calibration as a robot holding its maps, in Series D's cell with base and tool

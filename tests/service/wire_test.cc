@@ -260,13 +260,13 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectEveryFieldRequired(
       fit_, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error", "reflectors", "model"}));
   CalibrationResult with_outliers = fit_;
-  with_outliers.outliers.push_back({7, "smr2", 123.5, true});
+  with_outliers.outliers.push_back({7, "smr2", 123.5, true, OutlierMeasurement::Cause::kStale});
   with_outliers.reflectors.push_back({"smr2", {1.0, 2.0, 3.0}, true});
   with_outliers.parameters_with_outliers = fit_.parameters;
   ExpectRoundTrip(with_outliers);
   ExpectEveryFieldRequired(
       with_outliers, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error", "reflectors",
-                                     "outliers[0].reflector", "model"}));
+                                     "outliers[0].reflector", "outliers[0].cause", "model"}));
   // A fit with its model chosen by cross-validation: the comparison round-trips, every member required.
   CalibrationResult chosen = fit_;
   chosen.model = {.compliance = true, .joint_harmonics = 2};
@@ -745,7 +745,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
                                                                   {"order", QuaternionOrders()},
                                                                   {"scope", FitScopes()},
                                                                   {"dialect", WireNames<programs::Dialect>()},
-                                                                  {"on_failure", WireNames<programs::OnFailure>()}};
+                                                                  {"on_failure", WireNames<programs::OnFailure>()},
+                                                                  {"cause", WireNames<OutlierMeasurement::Cause>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {

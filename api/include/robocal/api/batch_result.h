@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace robocal::api {
 
@@ -20,6 +21,9 @@ struct BatchResult {
   std::int64_t count = 0;
   /// Measurements in the campaign after the append (all roles).
   std::int64_t campaign_total = 0;
+  /// The batch's stale tracker readings by sequence: each repeats the shot before it (in the campaign's order)
+  /// although the robot moved. Set by the service, not the storage; fits leave them out.
+  std::vector<std::int64_t> stale;
 };
 
 }  // namespace robocal::api

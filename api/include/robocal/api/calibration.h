@@ -266,19 +266,31 @@ ROBOCAL_WIRE_DECLARE(FitSummary);
 
 /// A calibration measurement the robust fit excluded: its stored sequence number and its normalised residual
 /// (sigmas, against the final fit).
+/// Why a measurement was excluded from a fit: "residual" (the robust fit) or "stale" (a stale tracker reading). The
+/// table spelt out, as for the programs' enums (GCC 12 and a nested enum in ROBOCAL_API_ENUM_TABLE).
+template <>
+struct EnumTable<OutlierMeasurement::Cause> {
+  static constexpr std::array<OutlierMeasurement::Cause, 2> values = {OutlierMeasurement::Cause::kResidual,
+                                                                      OutlierMeasurement::Cause::kStale};
+  static const char* Name(OutlierMeasurement::Cause value);
+};
+
 struct OutlierWire {
   std::int64_t sequence = 0;
   /// The reflector of the shot (a campaign with reflectors; absent otherwise).
   std::string reflector;
   double normalized_residual = 0.0;
   bool excluded = true;
+  /// Absent in fits stored before stale readings were told apart: those were all the robust fit's.
+  OutlierMeasurement::Cause cause = OutlierMeasurement::Cause::kResidual;
 };
 template <>
 struct WireFields<OutlierWire> {
   using S = OutlierWire;
   static constexpr auto fields =
       std::make_tuple(Field{"sequence", &S::sequence}, Field{"reflector", &S::reflector, Presence::kOmitEmpty},
-                      Field{"normalized_residual", &S::normalized_residual}, Field{"excluded", &S::excluded});
+                      Field{"normalized_residual", &S::normalized_residual}, Field{"excluded", &S::excluded},
+                      Field{"cause", &S::cause, Presence::kOptionalOnRead});
 };
 ROBOCAL_WIRE_DECLARE(OutlierWire);
 

@@ -154,6 +154,9 @@ struct MeasurementWire {
   std::string reflector{};
   /// The payload during the shot; unset (absent on the wire): the campaign's.
   std::optional<PayloadWire> payload{};
+  /// Set by the server on upload: a stale tracker reading (it repeats the shot before it although the robot
+  /// moved); fits leave it out.
+  bool stale = false;
 };
 template <>
 struct WireFields<MeasurementWire> {
@@ -161,7 +164,8 @@ struct WireFields<MeasurementWire> {
   static constexpr auto fields =
       std::make_tuple(Field{"joints", &S::joints}, Field{"pose", &S::pose},
                       Field{"reflector", &S::reflector, Presence::kOmitEmpty},
-                      Field{"payload", &S::payload, Presence::kOmitEmpty});
+                      Field{"payload", &S::payload, Presence::kOmitEmpty},
+                      Field{"stale", &S::stale, Presence::kServerOnly});
 };
 ROBOCAL_WIRE_DECLARE(MeasurementWire);
 
@@ -192,7 +196,7 @@ struct WireFields<BatchResult> {
       std::make_tuple(Field{"campaign", &S::campaign}, Field{"batch_id", &S::batch_id},
                       Field{"request_id", &S::request_id}, Field{"replayed", &S::replayed},
                       Field{"first_sequence", &S::first_sequence}, Field{"count", &S::count},
-                      Field{"campaign_total", &S::campaign_total});
+                      Field{"campaign_total", &S::campaign_total}, Field{"stale", &S::stale, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(BatchResult);
 

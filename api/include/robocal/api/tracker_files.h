@@ -135,6 +135,10 @@ struct ImportMeasurementsRequest {
   std::string decimal = ".";
   /// The payload the robot carried for every point of the file; unset: the campaign's.
   std::optional<PayloadWire> payload;
+  /// The data rows to store, by 1-based line of `text`, ascending; empty: every row. The other rows are read and
+  /// checked as well, and give the order the tracker took its shots in (a stale reading repeats the row before
+  /// it), but are not stored: a file split into calibration and validation rows is sent whole, once per role.
+  std::vector<int> rows;
 };
 /// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);
@@ -157,7 +161,8 @@ struct WireFields<ImportMeasurementsRequest> {
       Field{"delimiter", &S::delimiter, Presence::kOmitEmpty}.When(kCsv),
       Field{"decimal", &S::decimal, Presence::kOptionalOnRead}.When(kCsv),
       Field{"orientation", &S::orientation, Presence::kOmitEmpty},
-      Field{"payload", &S::payload, Presence::kOmitEmpty});
+      Field{"payload", &S::payload, Presence::kOmitEmpty},
+      Field{"rows", &S::rows, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ImportMeasurementsRequest);
 

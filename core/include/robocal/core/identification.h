@@ -88,12 +88,38 @@ struct IdentifiedParameter {
 
 /// A measurement the robust fit excluded.
 struct OutlierMeasurement {
+  /// Why it was excluded: the robust fit found its residual too large, or it is a stale tracker reading
+  /// (Measurement::stale), left out before any fit.
+  enum class Cause { kResidual, kStale };
   /// Index into the measurements given to Identify, and its reflector (Measurement::reflector).
   int measurement = -1;
   int reflector = -1;
-  /// The studentised residual (sigma units, against the final fit; over the robust scale where that applies).
+  /// The studentised residual (sigma units, against the final fit; over the robust scale where that applies); for
+  /// a stale shot its whitened residual against the final fit (the fit's noise, model error included).
   double normalized_residual = 0.0;
+  Cause cause = Cause::kResidual;
 };
+
+/// What makes a tracker reading stale (FlagStaleShots): its measurement within `position_mm` (and, measuring
+/// orientation, `angle_rad`) of the shot before it, while a joint's command changed by more than `joint_rad`
+/// (revolute) or `joint_mm` (prismatic).
+struct StaleShotTolerance {
+  double position_mm = 0.1;
+  double angle_rad = 0.01 * 3.14159265358979323846 / 180.0;
+  double joint_rad = 0.01 * 3.14159265358979323846 / 180.0;
+  double joint_mm = 0.01;
+};
+
+/// Flags stale tracker readings in `shots` (in the order they were taken): a shot whose measurement repeats the
+/// previous shot's within `tolerance` although the joints moved (a joint's command changed beyond the tolerance;
+/// on the IPA UR10 the stale rows follow a change of arm configuration to the same tool pose, where a real reading
+/// differs by tenths of a mm). Measuring positions only, the nominal robot must also move the point by more than
+/// max(10 x tolerance.position_mm, 3 x repeatability_mm) or turn the tool by more than 10 x tolerance.angle_rad: a
+/// point on the last joint's axis stays where it is as that joint turns. Shots of different reflectors are not
+/// compared. `before`, if not null, is the shot taken just before shots[0]. Returns one flag per shot.
+std::vector<char> FlagStaleShots(const RobotModel& nominal, const std::vector<Measurement>& shots, MeasurementType type,
+                                 double repeatability_mm, const StaleShotTolerance& tolerance = {},
+                                 const Measurement* before = nullptr);
 
 /// Residuals of a model against the measurements (measured - model).
 struct ResidualStatistics {

@@ -25,6 +25,9 @@ struct Measurement {
   /// The payload on the flange during the shot (mass 0: none). With a compliance model it sets the gravity
   /// torques the joints deflect under (joint_errors.h).
   Payload payload{};
+  /// A stale tracker reading (FlagStaleShots): it repeats the shot before it although the robot moved. A fit
+  /// leaves it out and lists it among its outliers with its cause.
+  bool stale = false;
 };
 
 }  // namespace robocal

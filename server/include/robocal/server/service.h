@@ -145,6 +145,14 @@ class Service {
   // An import of a file that carries its joints (no plan): ImportMeasurements' second way.
   api::BatchResult ImportMeasurementsWithJoints(const std::string& campaign_id, const api::StoredCampaign& campaign,
                                                 const api::ImportMeasurementsRequest& request);
+  // Stores a parsed batch in one transaction with each measurement's stale flag (FlagStaleShots): `stale` as given
+  // (an import's, in its file's order), or against the shot stored last and then in the batch's order.
+  api::BatchResult StoreBatch(const api::StoredCampaign& campaign, const RobotModel& model,
+                              api::MeasurementBatchRequest request, std::optional<std::vector<char>> stale);
+  // An import's measurements, one per point of its file in order: checked as an upload, flagged stale in the
+  // file's order, and stored (only request.rows, if given).
+  api::BatchResult StoreImported(const api::StoredCampaign& campaign, const api::ImportMeasurementsRequest& request,
+                                 const std::vector<api::TrackerPoint>& points, api::MeasurementBatchRequest batch);
   /// A stored cell with the model of its robot's stored definition (NOT_FOUND for an unknown cell).
   struct LoadedCell {
     api::CellWire wire;
