@@ -211,6 +211,23 @@ bad=$(jq -c '.request_id = "bad-1" | .measurements[3].joints = [1, 2]' "$work/ca
 expect "a short joint vector -> its field" \
   "$(call POST "/v1/campaigns/$campaign/measurements" "$bad" | jq -r '.error.details[0].field')" "measurements[3].joints"
 expect "... and nothing was stored" "$(call GET "/v1/campaigns/$campaign" | jq .counts.calibration)" 100
+# Stale tracker readings: a shot that repeats the one before it although the joints moved is flagged on upload,
+# stored with the flag and left out of fits (listed with cause stale); a client cannot set the flag.
+stale_campaign=$(call POST /v1/campaigns '{"robot": "grinder5", "measurement_type": "pose"}' | jq -r .id)
+jq -c '{request_id: "stale-1", measurements: .measurements[0:12]} | .measurements[5].pose = .measurements[4].pose' \
+  "$work/validation.json" >"$work/stale.json"
+expect "upload with a reading that repeats the one before it: flagged by sequence" \
+  "$(call POST "/v1/campaigns/$stale_campaign/measurements" "@$work/stale.json" | jq -c .stale)" "[6]"
+expect "... stored with the flag" \
+  "$(call GET "/v1/campaigns/$stale_campaign/measurements" | jq -c '[.measurements[] | select(.stale) | .sequence]')" "[6]"
+expect "... replayed: the same flags" \
+  "$(call POST "/v1/campaigns/$stale_campaign/measurements" "@$work/stale.json" | jq -c '[.replayed, .stale]')" "[true,[6]]"
+expect "... and the fit leaves it out, with its cause" \
+  "$(call POST "/v1/campaigns/$stale_campaign:fit" '{"scope": "frames"}' | jq -c '[.outliers[] | select(.cause == "stale") | .sequence]')" "[6]"
+call POST "/v1/campaigns/$stale_campaign/measurements" \
+  "$(jq -c '.request_id = "stale-2" | .measurements = [.measurements[0] | .stale = true]' "$work/stale.json")" >/dev/null
+expect "a client's stale flag -> 400 naming it" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 measurements[0].stale"
 expect "GET measurements (page of 5)" \
   "$(call GET "/v1/campaigns/$campaign/measurements?role=calibration&limit=5" | jq '.measurements | length')" 5
 
@@ -320,6 +337,16 @@ csv_import=$(jq -nc --arg t "$csv_text" --arg plan "$plan" '{request_id: "csv-1"
 expect "POST measurements:import (CSV, inches, by order) -> validation measurements" \
   "$(call POST "/v1/campaigns/$points_campaign/measurements:import" "$csv_import" | jq .count) $(call GET "/v1/campaigns/$points_campaign" | jq .counts.validation)" \
   "10 10"
+# rows: only the lines asked for are stored (the others read for their order); a line that holds no point is named.
+rows_campaign=$(call POST /v1/campaigns '{"robot": "grinder5", "measurement_type": "position"}' | jq -r .id)
+expect "POST measurements:import with rows [3, 5] -> those two stored" \
+  "$(call POST "/v1/campaigns/$rows_campaign/measurements:import" "$(jq -c '.request_id = "rows-1" | .rows = [3, 5]' <<<"$sa_import")" | jq .count)" 2
+call POST "/v1/campaigns/$rows_campaign/measurements:import" "$(jq -c '.request_id = "rows-2" | .rows = [1]' <<<"$sa_import")" >/dev/null
+expect "... rows [1] (a header line) -> 400 naming rows[0]" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 rows[0]"
+call POST "/v1/campaigns/$rows_campaign/measurements:import" "$(jq -c '.request_id = "rows-3" | .rows = [5, 3]' <<<"$sa_import")" >/dev/null
+expect "... rows out of order -> 400 naming rows[1]" "$(status) $(jq -r '.error.details[0].field' "$work/body")" \
+  "400 rows[1]"
 call POST "/v1/campaigns/$campaign/measurements:import" "$sa_import" >/dev/null
 expect "... into a pose campaign -> 400 naming format" "$(status) $(jq -r '.error.details[0].field' "$work/body")" "400 format"
 call GET "/v1/campaigns/$campaign/calibration?format=dxf" >/dev/null
