@@ -265,7 +265,8 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
 }
 
 Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                         const IdentificationOptions& options, const ParameterSelection& selection) {
+                         const IdentificationOptions& options, const ParameterSelection& selection,
+                         const Eigen::VectorXd* x0) {
   const Clock::time_point start = Clock::now();
   const int n_all = nominal.num_error_parameters();
   const int num_reflectors = static_cast<int>(options.reflectors.size());
@@ -405,7 +406,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     }
   }
 
-  LmResult lm = LevenbergMarquardt(&problem, options);
+  LmResult lm = LevenbergMarquardt(&problem, options, x0);
   s.iterations = lm.iterations;
   if (lm.termination == Termination::kFailure || !lm.x.allFinite()) return fail("optimisation failed: " + lm.reason);
 
@@ -417,7 +418,10 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   // covariance of the penalised estimate (the penalty as a prior), and sigma_hat takes the measurements' rows over
   // their redundancy: the rows less the effective parameters (a penalised coefficient counts less than one).
   Eigen::VectorXd sv;
-  if (!ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance)) {
+  const bool by_normal = lm.jacobian.cols() > kDenseParameterLimit && lm.normal.rows() == lm.jacobian.cols();
+  if (!(by_normal ? ScaledCovarianceOfNormal(lm.normal, 1.0, options.identifiability.rank_tolerance, &sv,
+                                             &cal.covariance)
+                  : ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance))) {
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
   const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty());

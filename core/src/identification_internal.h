@@ -153,6 +153,8 @@ struct LmResult {
   Eigen::VectorXd x;
   Eigen::VectorXd residual;
   Eigen::MatrixXd jacobian;
+  // J'J at x (NormalMatrix(jacobian)), for the covariance; empty if the loop ended before forming it.
+  Eigen::MatrixXd normal;
   int iterations = 0;
   Termination termination = Termination::kNoConvergence;
   std::string reason;
@@ -164,7 +166,9 @@ struct LmResult {
 // one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o);
+// From `start` (the reduced parameters of a fit of nearly the same problem: the model error's cycles, the robust
+// rounds), or from zero.
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start = nullptr);
 
 // Beyond this many parameters (joint maps: some hundreds, each touching a few poses) the normal matrix J'J is summed
 // over each row's non-zero entries, and the covariance comes from the scaled normal matrix's eigenvalues and
@@ -191,6 +195,9 @@ Eigen::MatrixXd ColumnsOf(const Eigen::MatrixXd& j, const std::vector<int>& colu
 // The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
 bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double rank_tolerance,
                       Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance);
+// The same from J'J itself (beyond kDenseParameterLimit parameters, where it is formed from the normal matrix).
+bool ScaledCovarianceOfNormal(const Eigen::MatrixXd& normal, double sigma_hat, double rank_tolerance,
+                              Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance);
 
 // The effective number of parameters of a fit with penalty rows P: tr(N^-1 J'J) = n - tr(N^-1 P'P), where N is the
 // information with the penalty (`inverse` = N^-1, the covariance at unit sigma). n without penalty rows.
@@ -208,8 +215,11 @@ struct ParameterSelection {
 ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                                     const IdentificationOptions& options);
 
+// One weighted fit; its Levenberg-Marquardt starts from `start` (reduced parameters, the selection's order) when
+// given: a refit of nearly the same problem converges in a few iterations from the last solution.
 Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                         const IdentificationOptions& options, const ParameterSelection& selection);
+                         const IdentificationOptions& options, const ParameterSelection& selection,
+                         const Eigen::VectorXd* start = nullptr);
 
 // A fit parameter is a translation (mm) by its name's axis: the model's and the reflectors' offsets (past the
 // model's parameters, where RobotModel::IsTranslationParameter's index rule does not reach) end in .dx/.dy/.dz.

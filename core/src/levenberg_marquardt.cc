@@ -25,10 +25,10 @@ namespace robocal::identification_detail {
 // one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start) {
   LmResult out;
   const int n = problem->num_parameters();
-  out.x = Eigen::VectorXd::Zero(n);
+  out.x = start != nullptr && start->size() == n && start->allFinite() ? *start : Eigen::VectorXd::Zero(n);
   problem->Evaluate(out.x, &out.residual, &out.jacobian);
   double cost = 0.5 * out.residual.squaredNorm();
   double lambda = 1e-4;
@@ -36,6 +36,10 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
   Eigen::VectorXd candidate_residual;
   Eigen::MatrixXd candidate_jacobian;
   while (true) {
+    // Beyond kDenseParameterLimit formed before the tests, so that a loop that ends here leaves it for the
+    // covariance (which, with fewer parameters, comes from the SVD of J instead).
+    const bool many = n > kDenseParameterLimit;
+    if (many) out.normal = NormalMatrix(out.jacobian);
     const Eigen::VectorXd gradient = out.jacobian.transpose() * out.residual;
     if (gradient.cwiseAbs().maxCoeff() <= o.gradient_tolerance) {
       out.termination = Termination::kConvergence;
@@ -53,7 +57,8 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o) {
       return out;
     }
     ++out.iterations;
-    const Eigen::MatrixXd normal = NormalMatrix(out.jacobian);
+    if (!many) out.normal = NormalMatrix(out.jacobian);
+    const Eigen::MatrixXd& normal = out.normal;
     const Eigen::VectorXd diag = normal.diagonal().cwiseMax(1e-300);
     Eigen::MatrixXd damped = normal;
     damped.diagonal() += lambda * diag;
@@ -147,6 +152,21 @@ Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian) {
   return normal;
 }
 
+bool ScaledCovarianceOfNormal(const Eigen::MatrixXd& normal, double sigma_hat, double rank_tolerance,
+                              Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance) {
+  const Eigen::VectorXd d = UnitColumnFactors(normal.diagonal().cwiseMax(0.0).cwiseSqrt());
+  const Eigen::MatrixXd scaled = d.asDiagonal() * normal * d.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
+  const Eigen::VectorXd sv = eig.eigenvalues().reverse().cwiseMax(0.0).cwiseSqrt();
+  if (PivotRank(sv, std::max(rank_tolerance, kNormalRankTolerance)) < normal.cols()) return false;
+  const Eigen::LLT<Eigen::MatrixXd> llt(scaled);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd inverse_scaled = llt.solve(Eigen::MatrixXd::Identity(scaled.rows(), scaled.cols()));
+  *covariance = sigma_hat * sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
+  *singular_values = sv;
+  return true;
+}
+
 bool FullRankByNormal(const Eigen::MatrixXd& jacobian, double tolerance) {
   const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
   if ((d.array() == 0.0).any()) return false;
@@ -172,16 +192,7 @@ bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double 
                       Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance) {
   const Eigen::VectorXd d = UnitColumnFactorsOf(jacobian);
   if (jacobian.cols() > kDenseParameterLimit) {
-    const Eigen::MatrixXd scaled = d.asDiagonal() * NormalMatrix(jacobian) * d.asDiagonal();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled, Eigen::EigenvaluesOnly);
-    const Eigen::VectorXd sv = eig.eigenvalues().reverse().cwiseMax(0.0).cwiseSqrt();
-    if (PivotRank(sv, std::max(rank_tolerance, kNormalRankTolerance)) < jacobian.cols()) return false;
-    const Eigen::LLT<Eigen::MatrixXd> llt(scaled);
-    if (llt.info() != Eigen::Success) return false;
-    const Eigen::MatrixXd inverse_scaled = llt.solve(Eigen::MatrixXd::Identity(scaled.rows(), scaled.cols()));
-    *covariance = sigma_hat * sigma_hat * d.asDiagonal() * inverse_scaled * d.asDiagonal();
-    *singular_values = sv;
-    return true;
+    return ScaledCovarianceOfNormal(NormalMatrix(jacobian), sigma_hat, rank_tolerance, singular_values, covariance);
   }
   const Eigen::MatrixXd scaled = jacobian * d.asDiagonal();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);

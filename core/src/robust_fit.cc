@@ -74,7 +74,7 @@ bool InverseInformation(const Calibration& cal, const std::vector<Measurement>& 
 // components; they are recomputed until the components settle.
 ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<Measurement>& measurements,
                                       const IdentificationOptions& options, const std::vector<int>& parameters,
-                                      bool robust) {
+                                      bool robust, const ModelErrorEstimate& start) {
   const MeasurementType type = options.measurement_type;
   const int rows = MeasurementRows(type);
   const int angle_rows = rows - 3;
@@ -122,7 +122,8 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
     projected_squares[g] = (eig.eigenvectors().transpose() * mean[g].head<3>()).cwiseAbs2();
   }
 
-  double sp2 = 0.0, so2 = 0.0;
+  // From the last estimate (the leverages' cycles below then settle in one or two): a fit's refits change it little.
+  double sp2 = start.position_mm * start.position_mm, so2 = start.orientation_rad * start.orientation_rad;
   const double median3 = ChiSquareQuantile(3, 0.5);
   const double median_angle = angle_rows > 0 ? ChiSquareQuantile(angle_rows, 0.5) : 0.0;
   std::vector<double> lever_p(num_groups), lever_o(num_groups);
@@ -455,12 +456,17 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
   ModelErrorEstimate model_error;
   // One fit over `data`, with the model error estimated beside it (estimate_model_error): fit, estimate the
   // components from its residuals, refit with them, until they settle.
-  const auto fit = [&](const std::vector<Measurement>& data, bool robust) {
-    Calibration cal = IdentifyOnce(nominal, data, current_options, selection);
+  // Each fit after the first starts from the last solution (Levenberg-Marquardt then takes a few iterations).
+  const auto start_of = [](const Calibration& c) {
+    return c.summary.termination == Termination::kFailure ? Eigen::VectorXd() : ReducedParameters(c);
+  };
+  const auto fit = [&](const std::vector<Measurement>& data, bool robust, const Calibration* from) {
+    const Eigen::VectorXd first_start = from != nullptr ? start_of(*from) : Eigen::VectorXd();
+    Calibration cal = IdentifyOnce(nominal, data, current_options, selection, &first_start);
     if (!options.estimate_model_error) return cal;
     for (int cycle = 0; cycle < kMaxModelErrorCycles; ++cycle) {
       if (cal.summary.termination == Termination::kFailure || cancelled(cal)) return cal;
-      model_error = EstimateModelError(cal, data, current_options, selection.parameters, robust);
+      model_error = EstimateModelError(cal, data, current_options, selection.parameters, robust, model_error);
       MeasurementNoise& noise = current_options.noise;
       const double dp = model_error.position_mm * model_error.position_mm - noise.model_error_mm * noise.model_error_mm;
       const double dor =
@@ -475,7 +481,8 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
       if (settled) break;
       noise.model_error_mm = model_error.position_mm;
       noise.model_error_rad = model_error.orientation_rad;
-      cal = IdentifyOnce(nominal, data, current_options, selection);
+      const Eigen::VectorXd start = start_of(cal);
+      cal = IdentifyOnce(nominal, data, current_options, selection, &start);
     }
     return cal;
   };
@@ -501,7 +508,7 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
     s->message += note.str();
   };
 
-  Calibration all = fit(measurements, options.reject_outliers);
+  Calibration all = fit(measurements, options.reject_outliers, nullptr);
   if (!options.reject_outliers || all.summary.termination == Termination::kFailure || cancelled(all)) {
     report_model_error(&all.summary);
     return all;
@@ -572,7 +579,7 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
       if (!excluded[i]) kept.push_back(measurements[i]);
     const IdentificationOptions before = current_options;
     const ModelErrorEstimate estimate_before = model_error;
-    Calibration next = fit(kept, false);
+    Calibration next = fit(kept, false, &current);
     robust_estimate = false;
     if (cancelled(next)) return next;
     if (next.summary.termination == Termination::kFailure) {
