@@ -177,6 +177,7 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
     if (cv.Int("seed", false, &seed, 0, std::numeric_limits<std::int64_t>::max())) {
       req->cross_validation.seed = static_cast<std::uint64_t>(seed);
     }
+    cv.Bool("joint_maps", false, &req->cross_validation.joint_maps);
     cv.RejectUnknown(WireFieldNames<CrossValidationWire>());
     if (!req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
   }

@@ -152,8 +152,9 @@ int Fit(Invocation& in) {
   request.estimate_model_error = !in.Has("--no-model-error");
   request.scope = in.Option("--scope", request.scope);  // the service names a bad value
   if (in.Has("--model")) ParseModelOption(in.Option("--model"), &request);
-  if (in.Has("--folds") || in.Has("--cv-seed")) {
-    if (!request.model_auto) throw UsageError("--folds and --cv-seed apply with --model auto only");
+  if (in.Has("--folds") || in.Has("--cv-seed") || in.Has("--cv-maps")) {
+    if (!request.model_auto) throw UsageError("--folds, --cv-seed and --cv-maps apply with --model auto only");
+    request.cross_validation.joint_maps = in.Has("--cv-maps");
     // Any integer: the service checks the range and names cross_validation.folds.
     request.cross_validation.folds = static_cast<int>(in.Integer("--folds", request.cross_validation.folds, 0, 1000));
     request.cross_validation.seed =

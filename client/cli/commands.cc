@@ -95,6 +95,7 @@ const std::vector<Command>& Commands() {
         {"--model", "auto|geometric|compliance,harmonics=N,joint_maps=Sdeg[:JOINTS],smoothness=L"},
         {"--folds", "N"},
         {"--cv-seed", "S"},
+        {"--cv-maps"},
         {"--async"}},
        &help::kFit,
        Fit},

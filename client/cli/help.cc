@@ -263,6 +263,8 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        simplest within one standard error of the best chosen, and the comparison printed
   --folds N            auto: cross-validation folds (default 5; 2 to 20)
   --cv-seed S          auto: the seed that deals the poses to the folds (default 1)
+  --cv-maps            auto: the candidates include joint error maps on every revolute joint, knots every 8,
+                       4 and 2 degrees (with compliance if the robot has masses); their fits take longer
   --async              run as a long-running operation and wait for it with a progress bar on stderr
                        (robocal operation cancel ID stops it; a cancelled fit is not stored)
 )"};

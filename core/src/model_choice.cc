@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -77,6 +78,16 @@ bool ModelChoiceOptions::IsValid(std::string* error) const {
              std::to_string(max_joint_harmonics);
     return false;
   }
+  for (double spacing : map_knot_spacings_rad) {
+    if (!(spacing >= kMinMapKnotSpacingRad * (1 - 1e-12) && spacing <= kMaxMapKnotSpacingRad * (1 + 1e-12))) {
+      *error = "map_knot_spacings_rad must lie in [0.5, 90] degrees";
+      return false;
+    }
+  }
+  if (!(map_smoothness >= 0.0) || !std::isfinite(map_smoothness)) {
+    *error = "map_smoothness must be finite and >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -90,6 +101,20 @@ std::vector<JointErrorTerms> ModelCandidates(const RobotModel& nominal, const Mo
   std::stable_sort(out.begin(), out.end(), [](const JointErrorTerms& a, const JointErrorTerms& b) {
     return (a.compliance ? 1 : 0) + 2 * a.joint_harmonics < (b.compliance ? 1 : 0) + 2 * b.joint_harmonics;
   });
+  // Maps last (tens of coefficients per joint), coarsest first.
+  std::vector<int> revolute;
+  for (int i = 0; i < nominal.num_joints(); ++i) {
+    if (nominal.joint_type(i) == JointType::kRevolute) revolute.push_back(i);
+  }
+  std::vector<double> spacings = options.map_knot_spacings_rad;
+  std::sort(spacings.begin(), spacings.end(), std::greater<>());
+  for (double spacing : revolute.empty() ? std::vector<double>() : spacings) {
+    JointErrorTerms terms{.compliance = nominal.has_masses(), .joint_harmonics = 0};
+    terms.maps.joints = revolute;
+    terms.maps.knot_spacing_rad = spacing;
+    terms.maps.smoothness = options.map_smoothness;
+    out.push_back(terms);
+  }
   return out;
 }
 
@@ -119,7 +144,8 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
   const double total_fits = static_cast<double>(terms.size() * static_cast<size_t>(choice.folds)) + 1.0;
   int fits_done = 0;
   for (const JointErrorTerms& t : terms) {
-    const RobotModel model = nominal.WithErrorTerms(t);
+    // A map's knots lie over the poses it is fitted on: each fold's own; its size is that of every pose's.
+    const RobotModel model = WithTermsFor(nominal, t, measurements, options);
     ModelCandidate candidate;
     candidate.terms = t;
     candidate.num_parameters = model.num_error_parameters();
@@ -137,7 +163,7 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
           return false;
         };
       }
-      const Calibration c = Identify(model, training, o);
+      const Calibration c = Identify(t.maps.empty() ? model : WithTermsFor(nominal, t, training, o), training, o);
       ++fits_done;
       if (out.cancelled) break;
       if (c.summary.termination == Termination::kFailure) {
@@ -248,7 +274,7 @@ Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector
   if (options.progress) {
     o.progress = [&](double fraction) { return options.progress((done + fraction) / (done + 1.0)); };
   }
-  Calibration c = Identify(nominal.WithErrorTerms(mc.candidates[mc.chosen].terms), measurements, o);
+  Calibration c = Identify(WithTermsFor(nominal, mc.candidates[mc.chosen].terms, measurements, options), measurements, o);
   attach(&c);
   c.summary.message = mc.message + "; " + c.summary.message;
   return c;

@@ -172,6 +172,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     ModelChoiceOptions choice;
     choice.folds = req.cross_validation.folds;
     choice.seed = req.cross_validation.seed;
+    if (req.cross_validation.joint_maps) choice.map_knot_spacings_rad = kMapKnotSpacingsRad;
     const Calibration calibration =
         req.model_auto ? IdentifyWithModelChoice(model, *measurements, o, choice) : Identify(model, *measurements, o);
     if (calibration.summary.termination == Termination::kFailure) {

@@ -117,11 +117,16 @@ struct CrossValidationWire {
   /// 2..20.
   int folds = 5;
   std::uint64_t seed = 1;
+  /// Whether the candidates include joint error maps (every revolute joint, knots every 8, 4 and 2 deg, with
+  /// compliance for a robot with masses): three more candidates whose fits take some times as long.
+  bool joint_maps = false;
 };
 template <>
 struct WireFields<CrossValidationWire> {
-  static constexpr auto fields =
-      std::make_tuple(Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed});
+  static constexpr auto fields = std::make_tuple(
+      Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed},
+      // Absent in requests stored before maps: none.
+      Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kAbsentIsEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 

@@ -12,6 +12,11 @@
 
 namespace robocal {
 
+/// The knot spacings a model choice with maps tries: 8, 4 and 2 degrees.
+inline const std::vector<double> kMapKnotSpacingsRad = {8.0 * 3.14159265358979323846 / 180.0,
+                                                        4.0 * 3.14159265358979323846 / 180.0,
+                                                        2.0 * 3.14159265358979323846 / 180.0};
+
 struct ModelChoiceOptions {
   /// Folds of the cross-validation (2..20). The calibration set's distinct poses (a configuration under a
   /// payload, with all its shots and reflectors) are shuffled with `seed` and dealt to the folds in turn.
@@ -20,6 +25,11 @@ struct ModelChoiceOptions {
   /// The candidates: the geometric model, with compliance (robots with masses only), with joint harmonics of
   /// order 1 .. max_joint_harmonics, and compliance with each harmonic order.
   int max_joint_harmonics = kMaxJointHarmonics;
+  /// Then joint error maps on every revolute joint (with compliance for a robot with masses), one candidate per
+  /// knot spacing here (rad; coarsest first), each with `map_smoothness`. Empty (the default): no maps; the
+  /// service's "cross_validation": {"joint_maps": true} asks for kMapKnotSpacingsRad.
+  std::vector<double> map_knot_spacings_rad;
+  double map_smoothness = 0.01;
 
   bool IsValid(std::string* error) const;
 };
