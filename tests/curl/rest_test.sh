@@ -471,6 +471,10 @@ call POST "/v1/campaigns/$tracked:fit" '{"model": "auto", "cross_validation": {"
 expect "fit with model auto: 6 candidates over 3 folds, one chosen" \
   "$(status) $(jq -c '[.model_choice.folds, (.model_choice.candidates | length), ([.model_choice.candidates[] | select(.chosen)] | length)]' "$work/auto.json")" \
   "200 [3,6,1]"
+call POST "/v1/campaigns/$tracked:fit" '{"model": "auto", "cross_validation": {"folds": 3, "joint_maps": true}}' >"$work/automaps.json"
+expect "fit with model auto and joint_maps: 9 candidates, the last three maps on C and A" \
+  "$(status) $(jq -c '[(.model_choice.candidates | length), [.model_choice.candidates[6:][] | .model.joint_maps.joints]]' "$work/automaps.json")" \
+  "200 [9,[[4,5],[4,5],[4,5]]]"
 expect "... the fitted model is the chosen candidate's" \
   "$(jq -c '(.model_choice.candidates[] | select(.chosen) | .model) == .model' "$work/auto.json")" true
 # A compliant calibration's exports hold its geometry and say what they leave out. Registered as a robot it holds
