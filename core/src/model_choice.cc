@@ -136,8 +136,8 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
   const std::vector<int> fold = AssignFolds(measurements, choice.folds, choice.seed, &num_poses);
   const std::vector<JointErrorTerms> terms = ModelCandidates(nominal, choice);
   if (num_poses < choice.folds) {
-    out.message = std::to_string(num_poses) + " distinct poses cannot be dealt to " + std::to_string(choice.folds) +
-                  " folds";
+    out.message =
+        std::to_string(num_poses) + " distinct poses cannot be dealt to " + std::to_string(choice.folds) + " folds";
     return out;
   }
   // Progress counts one fit more than the folds': the final fit on every pose (IdentifyWithModelChoice).
@@ -274,7 +274,8 @@ Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector
   if (options.progress) {
     o.progress = [&](double fraction) { return options.progress((done + fraction) / (done + 1.0)); };
   }
-  Calibration c = Identify(WithTermsFor(nominal, mc.candidates[mc.chosen].terms, measurements, options), measurements, o);
+  Calibration c =
+      Identify(WithTermsFor(nominal, mc.candidates[mc.chosen].terms, measurements, options), measurements, o);
   attach(&c);
   c.summary.message = mc.message + "; " + c.summary.message;
   return c;

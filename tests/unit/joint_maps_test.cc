@@ -11,6 +11,7 @@
 #include "robocal/core/identification.h"
 #include "robocal/core/joint_errors.h"
 #include "robocal/core/kinematics.h"
+#include "robocal/core/model_choice.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/units.h"
 #include "robocal/core/virtual_cell.h"
@@ -315,6 +316,38 @@ TEST(MapTermsTest, AModelRefusesMapsItCannotTakeByField) {
     EXPECT_EQ(e.errors().at(0).field, "model.joint_maps.joints[0]");
     EXPECT_NE(e.errors().at(0).reason.find("prismatic"), std::string::npos);
   }
+}
+
+}  // namespace
+}  // namespace robocal
+
+namespace robocal {
+namespace {
+
+TEST(MapChoiceTest, ARobotWithoutFineJointErrorsChoosesNoMaps) {
+  // Geometric errors and tracker noise only: maps every 8 deg (and compliance) are a candidate, evaluated on every
+  // fold, and not chosen.
+  const RobotModel nominal = Preset("ur5e");
+  VirtualCellOptions o;
+  o.seed = 61;
+  o.shots_per_pose = 1;
+  VirtualCell cell(nominal, o);
+  std::vector<Eigen::VectorXd> configurations = test::RandomConfigurations(nominal, 150, 62);
+  for (Eigen::VectorXd& q : configurations) q = q.cwiseMax(-2.0).cwiseMin(2.0);
+  const std::vector<Measurement> shots = cell.MeasureAll(configurations);
+  IdentificationOptions options;
+  options.measurement_type = MeasurementType::kPose;
+  ModelChoiceOptions choice;
+  choice.folds = 3;
+  choice.max_joint_harmonics = 0;
+  choice.map_knot_spacings_rad = {8.0 * kRadPerDeg};
+  const ModelChoice mc = ChooseModel(nominal, shots, options, choice);
+  ASSERT_GE(mc.chosen, 0) << mc.message;
+  ASSERT_FALSE(mc.candidates.empty());
+  const ModelCandidate& maps = mc.candidates.back();
+  ASSERT_FALSE(maps.terms.maps.empty());
+  EXPECT_EQ(maps.failed_folds, 0) << maps.note;
+  EXPECT_TRUE(mc.candidates[mc.chosen].terms.maps.empty()) << mc.message;
 }
 
 }  // namespace
