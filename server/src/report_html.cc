@@ -723,6 +723,49 @@ std::string Cdf(const std::vector<double>& before_mm, const std::vector<double>&
   return svg.Finish();
 }
 
+// A joint's error map: its value over its knots (deg against deg) with the 2-sigma band shaded.
+std::string MapPlot(const MapCurve& c, const std::string& id) {
+  const double width = 640.0, height = 220.0, left = 64.0, right = 16.0, top = 24.0, bottom = 40.0;
+  const double plot_w = width - left - right, plot_h = height - top - bottom;
+  double lo = 0.0, hi = 0.0;
+  for (std::size_t i = 0; i < c.value_deg.size(); ++i) {
+    lo = std::min(lo, c.value_deg[i] - c.band_deg[i]);
+    hi = std::max(hi, c.value_deg[i] + c.band_deg[i]);
+  }
+  if (!(hi > lo)) hi = lo + 1e-3;
+  const double a0 = c.angle_deg.front(), a1 = c.angle_deg.back() > a0 ? c.angle_deg.back() : a0 + 1.0;
+  const auto X = [&](double a) { return left + plot_w * (a - a0) / (a1 - a0); };
+  const auto Y = [&](double v) { return top + plot_h * (1.0 - (v - lo) / (hi - lo)); };
+  Svg svg(width, height, id, "error map of joint " + c.joint + " with its 2-sigma band");
+  svg.Rect(left, top, plot_w, plot_h, "#fff", "#000");
+  svg.Line(left, Y(0.0), left + plot_w, Y(0.0), "#ccc");
+  std::vector<std::pair<double, double>> band, line;
+  for (std::size_t i = 0; i < c.angle_deg.size(); ++i) band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] + c.band_deg[i]));
+  for (std::size_t i = c.angle_deg.size(); i-- > 0;) band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] - c.band_deg[i]));
+  svg.Polygon(band, "#d5d8dc", " class=\"map-band\"");
+  for (std::size_t i = 0; i < c.angle_deg.size(); ++i) line.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i]));
+  svg.Polyline(line, "#000", 1.5, nullptr,
+               " class=\"map-curve\" data-joint=\"" + EscapeHtml(c.joint) + "\" data-samples=\"" +
+                   std::to_string(line.size()) + "\"");
+  svg.Text(left - 4, Y(hi) + 4, Sig(hi, 3), "end");
+  svg.Text(left - 4, Y(lo) + 4, Sig(lo, 3), "end");
+  svg.Text(left, top + plot_h + 14, Fixed(a0, 1), "middle");
+  svg.Text(left + plot_w, top + plot_h + 14, Fixed(a1, 1), "middle");
+  svg.Text(left + plot_w / 2, height - 8, "joint " + c.joint + " angle (deg)", "middle");
+  svg.Text(14, top + plot_h / 2, "error (deg)", "middle", "#000", -90.0);
+  svg.Text(left + 6, 16, "fitted map (line) and its 2-sigma band (shaded); held at its end values beyond");
+  return svg.Finish();
+}
+
+void MapSection(const ReportData& d, std::ostringstream& out) {
+  if (d.fit.maps.empty()) return;
+  out << "<section id=\"joint-maps\">\n<h2>Joint error maps</h2>\n<p class=\"note\">Each mapped joint's fitted "
+         "angle error over its knots (docs/identification.md, \"Joint error maps\"); its constant, the joint's "
+         "offset, is in the geometric parameters.</p>\n";
+  for (std::size_t k = 0; k < d.fit.maps.size(); ++k) out << MapPlot(d.fit.maps[k], "map-" + std::to_string(k));
+  out << "</section>\n";
+}
+
 void ValidationSectionHtml(const ReportData& d, std::ostringstream& out) {
   out << "<section id=\"validation\">\n<h2>5. Validation</h2>\n";
   if (!d.validation) {
@@ -853,6 +896,7 @@ std::string RenderReport(const ReportData& data) {
   PlanSectionHtml(data, out);
   FitSectionHtml(data, out);
   ResidualSection(data, out);
+  MapSection(data, out);
   ValidationSectionHtml(data, out);
   out << "<footer><p class=\"note\">Made by robocal from the stored campaign, plan, calibration and measurements; "
          "the per-pose residuals are recomputed from them with the fit's own weighting. docs/report.md explains every section.</p></footer>\n</body>\n</html>\n";

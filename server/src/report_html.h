@@ -68,8 +68,17 @@ struct PoseResidual {
 };
 
 /// The fit, as stored, and its residuals recomputed over the measurements it saw.
+/// One joint's fitted error map, sampled over its knots: the angle (deg), the map's value (deg) and its 2-sigma
+/// band (deg, from the fit's covariance of the map's coefficients).
+struct MapCurve {
+  std::string joint;
+  std::vector<double> angle_deg, value_deg, band_deg;
+};
+
 struct FitSection {
   api::CalibrationResult calibration;
+  /// Per mapped joint (a fit with joint maps): its map as a curve with its band.
+  std::vector<MapCurve> maps;
   /// As the fit computed them at its solution and stored them: singular values of the weighted, column-scaled
   /// Jacobian (descending), its condition number, and the covariance's most correlated pairs (largest |rho|
   /// first, at most kTopCorrelations).

@@ -159,6 +159,43 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
         report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
   }
 
+  // Each fitted map over its knots, with the 2-sigma band of its value from the coefficients' covariance.
+  const JointMapTerms& map_terms = calibration.model.error_terms().maps;
+  if (calibration.covariance.size() > 0 && map_terms.resolved()) {
+    std::map<int, int> reduced;  // error parameter -> its row in the covariance
+    for (std::size_t k = 0; k < calibration.parameters.size(); ++k) {
+      reduced[calibration.parameters[k].index] = static_cast<int>(k);
+    }
+    constexpr int kSamples = 241;
+    for (std::size_t m = 0; m < map_terms.joints.size(); ++m) {
+      const int joint = map_terms.joints[m];
+      const int first = calibration.model.map_parameter(joint);
+      const int intervals = map_terms.intervals[m];
+      const double from = map_terms.first_knot_rad[m], spacing = map_terms.knot_spacing_rad;
+      report::MapCurve curve;
+      curve.joint = calibration.model.joint_name(joint);
+      for (int i = 0; i < kSamples; ++i) {
+        const double q = from + spacing * intervals * i / (kSamples - 1.0);
+        double b[4];
+        const int j = MapBasis(from, spacing, intervals, q, b);
+        double value = 0.0, variance = 0.0;
+        for (int r = 0; r < 4; ++r) {
+          value += b[r] * calibration.errors[first + j + r];
+          const auto row = reduced.find(first + j + r);
+          if (row == reduced.end()) continue;
+          for (int t = 0; t < 4; ++t) {
+            const auto col = reduced.find(first + j + t);
+            if (col != reduced.end()) variance += b[r] * b[t] * calibration.covariance(row->second, col->second);
+          }
+        }
+        curve.angle_deg.push_back(q * kDegPerRad);
+        curve.value_deg.push_back(value * kDegPerRad);
+        curve.band_deg.push_back(2.0 * std::sqrt(std::max(variance, 0.0)) * kDegPerRad);
+      }
+      fit.maps.push_back(std::move(curve));
+    }
+  }
+
   // Every calibration measurement's residual before (nominal model, registered base, given reflectors) and after,
   // as the fit's own before/after statistics compute them; then the RMS per joint configuration.
   const std::vector<MeasurementResidualNorms> before =

@@ -508,6 +508,9 @@ call POST "/v1/campaigns/$tracked:fit" '{"model": {"joint_maps": {"joints": [4, 
 expect "fit with joint maps on C and A: placed over the poses, each with its coefficients" \
   "$(status) $(jq -c '[.model.joint_maps.joints, [.model.joint_maps.grids[].joint], .model.joint_maps.smoothness, ([.parameters[] | select(.name | test("^[CA][.]map[0-9]+$"))] | length >= 8)]' "$work/maps.json")" \
   '200 [[4,5],[4,5],0.01,true]'
+expect "... the report draws each map with its band" \
+  "$(call GET "/v1/campaigns/$tracked/report" | grep -o 'class="map-curve" data-joint="[A-Z]*"' | sed 's/.*data-joint=//' | tr -d '"' | tr '\n' ' ')" \
+  "C A "
 call POST /v1/robots "{\"id\": \"grinder5-mapped\", \"from_calibration\": \"$tracked\"}" >"$work/mapped_robot.json"
 expect "... registered as a robot, C and A hold their maps" \
   "$(status) $(jq -c '[.joints[] | .error_map != null]' "$work/mapped_robot.json")" "200 [false,false,false,true,true]"

@@ -3,6 +3,7 @@
 // calibration and :evaluate replies, the recomputed condition number against the fit's, the refusals).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -70,6 +71,20 @@ report::ReportData HandMadeData() {
 
 // A fit whose model was chosen by cross-validation: the model and every candidate's held-out error are shown, a
 // compliance in its own unit with its significant digits.
+TEST(ReportHtmlTest, EachJointMapIsACurveWithItsBand) {
+  report::ReportData d = HandMadeData();
+  EXPECT_EQ(report::RenderReport(d).find("joint-maps"), std::string::npos);
+  d.fit.maps.push_back({"J2", {-10.0, 0.0, 10.0}, {0.001, -0.002, 0.003}, {0.0005, 0.0004, 0.0006}});
+  const std::string page = report::RenderReport(d);
+  EXPECT_NE(page.find("<section id=\"joint-maps\">"), std::string::npos);
+  EXPECT_NE(page.find("class=\"map-curve\" data-joint=\"J2\" data-samples=\"3\""), std::string::npos);
+  // The band: the three upper points, then the three lower ones.
+  const std::size_t band = page.find("class=\"map-band\" points=\"");
+  ASSERT_NE(band, std::string::npos);
+  const std::string points = page.substr(band, page.find('"', band + 30) - band);
+  EXPECT_EQ(std::count(points.begin(), points.end(), ','), 6) << points;
+}
+
 TEST(ReportHtmlTest, TheModelChoiceIsShown) {
   report::ReportData d = HandMadeData();
   api::CalibrationResult& c = d.fit.calibration;
