@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
 
 namespace robocal {
 
@@ -307,6 +310,33 @@ Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflectio
     dq[terms[t].joint] += eps[first + static_cast<Eigen::Index>(t)] * prepared.factor[static_cast<Eigen::Index>(t)];
   }
   return dq;
+}
+
+std::string BeyondMapKnots(const RobotModel& model, const Eigen::VectorXd& q) {
+  if (q.size() != model.num_joints()) return "";
+  std::ostringstream out;
+  out << std::setprecision(4);
+  const JointMapTerms& maps = model.error_terms().maps;
+  for (int i = 0; i < model.num_joints(); ++i) {
+    double first = 0.0, last = 0.0;
+    bool mapped = false;
+    for (std::size_t m = 0; m < maps.joints.size() && m < maps.intervals.size(); ++m) {
+      if (maps.joints[m] != i) continue;
+      first = maps.first_knot_rad[m];
+      last = first + maps.intervals[m] * maps.knot_spacing_rad;
+      mapped = true;
+    }
+    const JointMap& held = model.spec().joints[static_cast<std::size_t>(i)].error_map;
+    if (!mapped && !held.empty()) {
+      first = held.first_knot_rad;
+      last = held.last_knot_rad();
+      mapped = true;
+    }
+    if (!mapped || (q[i] >= first - 1e-12 && q[i] <= last + 1e-12)) continue;
+    out << (out.tellp() > 0 ? ", " : "") << "joint " << model.joint_name(i) << " at " << q[i] * kDegPerRad
+        << " deg lies beyond its error map's knots (" << first * kDegPerRad << " .. " << last * kDegPerRad << " deg)";
+  }
+  return out.tellp() > 0 ? out.str() + ", where the map holds its end value" : "";
 }
 
 }  // namespace robocal

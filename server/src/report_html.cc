@@ -59,8 +59,8 @@ std::string Attr(std::string_view name, std::string_view value) {
 
 // A table cell holding a number: rounded text, the exact value in data-value, `key` in data-key.
 std::string NumCell(double value, int digits, const std::string& key = "") {
-  return "<td class=\"num\"" + (key.empty() ? std::string() : Attr("data-key", key)) + Attr("data-value", Exact(value)) +
-         ">" + Fixed(value, digits) + "</td>";
+  return "<td class=\"num\"" + (key.empty() ? std::string() : Attr("data-key", key)) +
+         Attr("data-value", Exact(value)) + ">" + Fixed(value, digits) + "</td>";
 }
 std::string IntCell(std::int64_t value, const std::string& key = "") {
   return "<td class=\"num\"" + (key.empty() ? std::string() : Attr("data-key", key)) +
@@ -98,7 +98,8 @@ std::vector<double> LinearTicks(double lo, double hi, int count) {
     step = m * power;
     if (step >= raw) break;
   }
-  for (double t = std::ceil(lo / step) * step; t <= hi + 1e-9 * step; t += step) ticks.push_back(std::abs(t) < 1e-9 * step ? 0.0 : t);
+  for (double t = std::ceil(lo / step) * step; t <= hi + 1e-9 * step; t += step)
+    ticks.push_back(std::abs(t) < 1e-9 * step ? 0.0 : t);
   return ticks;
 }
 
@@ -130,8 +131,8 @@ std::string DecadeLabel(int exponent) {
 class Svg {
  public:
   Svg(double width, double height, const std::string& id, const std::string& label) {
-    out_ << "<svg xmlns=\"http://www.w3.org/2000/svg\"" << Attr("id", id) << " width=\"" << Px(width)
-         << "\" height=\"" << Px(height) << "\" viewBox=\"0 0 " << Px(width) << " " << Px(height) << "\" role=\"img\""
+    out_ << "<svg xmlns=\"http://www.w3.org/2000/svg\"" << Attr("id", id) << " width=\"" << Px(width) << "\" height=\""
+         << Px(height) << "\" viewBox=\"0 0 " << Px(width) << " " << Px(height) << "\" role=\"img\""
          << Attr("aria-label", label) << " font-family=\"DejaVu Sans, Arial, sans-serif\" font-size=\"11\">\n"
          << "<title>" << EscapeHtml(label) << "</title>\n";
   }
@@ -168,7 +169,8 @@ class Svg {
   }
   void Text(double x, double y, std::string_view text, const char* anchor = "start", const char* fill = "#000",
             double rotate = 0.0) {
-    out_ << "<text x=\"" << Px(x) << "\" y=\"" << Px(y) << "\" text-anchor=\"" << anchor << "\" fill=\"" << fill << "\"";
+    out_ << "<text x=\"" << Px(x) << "\" y=\"" << Px(y) << "\" text-anchor=\"" << anchor << "\" fill=\"" << fill
+         << "\"";
     if (rotate != 0.0) out_ << " transform=\"rotate(" << Px(rotate) << " " << Px(x) << " " << Px(y) << ")\"";
     out_ << ">" << EscapeHtml(text) << "</text>\n";
   }
@@ -283,7 +285,8 @@ std::string StickView(const CellFigure& f, int h, int v, double mm_per_px, doubl
     for (const auto& p : f.chains[c]) points.emplace_back(X(p[h]), Y(p[v]));
     svg.Polyline(points, colour, 1.6, nullptr, " class=\"configuration\" data-index=\"" + std::to_string(c + 1) + "\"");
     for (const auto& [x, y] : points) svg.Circle(x, y, 1.8, colour);
-    if (!points.empty()) svg.Text(points.back().first + 3, points.back().second - 3, std::to_string(c + 1), "start", colour);
+    if (!points.empty())
+      svg.Text(points.back().first + 3, points.back().second - 3, std::to_string(c + 1), "start", colour);
   }
   // The base (first point of every chain) and the tracker at the origin.
   if (!f.chains.empty() && !f.chains[0].empty()) {
@@ -316,8 +319,8 @@ std::string StickFigures(const CellFigure& f) {
   std::ostringstream out;
   out << "<figure id=\"cell-figure\" class=\"views\">\n"
       << StickView(f, 0, 1, mm_per_px, mid(0), mid(1), "view-top", "top view (x-y)")
-      << StickView(f, 0, 2, mm_per_px, mid(0), mid(2), "view-side", "side view (x-z)")
-      << "<figcaption>The " << f.chains.size() << " planned configurations in cell <b>" << EscapeHtml(f.cell)
+      << StickView(f, 0, 2, mm_per_px, mid(0), mid(2), "view-side", "side view (x-z)") << "<figcaption>The "
+      << f.chains.size() << " planned configurations in cell <b>" << EscapeHtml(f.cell)
       << "</b> as stick figures: the base, each joint frame's origin, the flange and the tool point (nominal "
          "forward kinematics), numbered as in the table above; tracker frame with the tracker at the origin (at ("
       << Fixed(f.tracker_in_base_mm[0], 0) << ", " << Fixed(f.tracker_in_base_mm[1], 0) << ", "
@@ -342,8 +345,8 @@ void PlanSectionHtml(const ReportData& d, std::ostringstream& out) {
   const api::PlanResult& p = d.plan->plan;
   out << "<table id=\"plan-summary\">\n<tr><th>plan</th>" << TextCell(p.id) << "</tr>\n<tr><th>optimiser</th>"
       << TextCell(api::WireName(p.optimiser)) << "</tr>\n<tr><th>objective</th>" << TextCell(api::WireName(p.objective))
-      << "</tr>\n<tr><th>measurement type</th>" << TextCell(ToString(p.measurement_type))
-      << "</tr>\n<tr><th>cell</th>" << TextCell(p.cell ? *p.cell : "(none)") << "</tr>\n<tr><th>termination</th>"
+      << "</tr>\n<tr><th>measurement type</th>" << TextCell(ToString(p.measurement_type)) << "</tr>\n<tr><th>cell</th>"
+      << TextCell(p.cell ? *p.cell : "(none)") << "</tr>\n<tr><th>termination</th>"
       << TextCell(api::WireName(p.summary.termination)) << "</tr>\n<tr><th>made</th>"
       << TextCell(UtcTime(p.created_unix_ms)) << "</tr>\n</table>\n";
 
@@ -384,8 +387,7 @@ void PlanSectionHtml(const ReportData& d, std::ostringstream& out) {
   for (std::size_t i = 0; i < p.configurations.size(); ++i) {
     out << "<tr>" << IntCell(static_cast<std::int64_t>(i + 1));
     for (std::size_t k = 0; k < p.configurations[i].size(); ++k) {
-      out << NumCell(p.configurations[i][k], 3,
-                     "plan.configurations." + std::to_string(i) + "." + std::to_string(k));
+      out << NumCell(p.configurations[i][k], 3, "plan.configurations." + std::to_string(i) + "." + std::to_string(k));
     }
     if (checks) {
       out << TextCell(p.configuration_checks[i].feasible ? "yes" : "no")
@@ -407,8 +409,8 @@ void ResidualRow(std::ostringstream& out, const char* label, const char* key, co
   out << "<tr><th>" << label << "</th>" << IntCell(r.num_measurements, k + ".num_measurements")
       << NumCell(r.rms_position_mm, 4, k + ".rms_position_mm") << NumCell(r.max_position_mm, 4, k + ".max_position_mm")
       << NumCell(r.rms_orientation_deg, 5, k + ".rms_orientation_deg")
-      << NumCell(r.max_orientation_deg, 5, k + ".max_orientation_deg") << NumCell(r.rms_weighted, 3, k + ".rms_weighted")
-      << "</tr>\n";
+      << NumCell(r.max_orientation_deg, 5, k + ".max_orientation_deg")
+      << NumCell(r.rms_weighted, 3, k + ".rms_weighted") << "</tr>\n";
 }
 
 void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
@@ -429,9 +431,10 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   if (c.model_error.estimated) {
     // The robot error the geometric model does not explain, beside the tracker's own (RMS).
     const bool angle = c.measurement_type != MeasurementType::kPosition;
-    out << "<tr><th>model error, RMS (mm)</th>" << NumCell(c.model_error.model_error_mm, 4, "model_error.model_error_mm")
-        << "</tr>\n<tr><th>tracker, RMS (mm)</th>" << NumCell(c.model_error.tracker_rms_mm, 4, "model_error.tracker_rms_mm")
-        << "</tr>\n";
+    out << "<tr><th>model error, RMS (mm)</th>"
+        << NumCell(c.model_error.model_error_mm, 4, "model_error.model_error_mm")
+        << "</tr>\n<tr><th>tracker, RMS (mm)</th>"
+        << NumCell(c.model_error.tracker_rms_mm, 4, "model_error.tracker_rms_mm") << "</tr>\n";
     if (angle) {
       out << "<tr><th>model error, RMS (deg)</th>"
           << NumCell(c.model_error.model_error_deg, 5, "model_error.model_error_deg")
@@ -441,8 +444,8 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   } else {
     out << "<tr><th>model error</th>" << TextCell("not estimated: the noise model is the whole error") << "</tr>\n";
   }
-  out << "<tr><th>model</th>" << TextCell(api::ToCore(c.model).Describe() +
-                                           (c.model_choice ? " (chosen by cross-validation, below)" : ""))
+  out << "<tr><th>model</th>"
+      << TextCell(api::ToCore(c.model).Describe() + (c.model_choice ? " (chosen by cross-validation, below)" : ""))
       << "</tr>\n";
   out << "<tr><th>fitted</th>" << TextCell(UtcTime(c.created_unix_ms)) << "</tr>\n</table>\n";
 
@@ -539,9 +542,10 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
   if (!c.robust.enabled) {
     out << None("The robust fit was off (reject_outliers: false): every measurement was used.");
   } else {
-    out << "<table id=\"robust\">\n<tr><th>threshold (sigmas)</th>" << NumCell(c.robust.threshold, 3, "robust.threshold")
-        << "</tr>\n<tr><th>robust scale</th>" << NumCell(c.robust.scale, 3, "robust.scale")
-        << "</tr>\n<tr><th>fits</th>" << IntCell(c.robust.rounds, "robust.rounds") << "</tr>\n</table>\n";
+    out << "<table id=\"robust\">\n<tr><th>threshold (sigmas)</th>"
+        << NumCell(c.robust.threshold, 3, "robust.threshold") << "</tr>\n<tr><th>robust scale</th>"
+        << NumCell(c.robust.scale, 3, "robust.scale") << "</tr>\n<tr><th>fits</th>"
+        << IntCell(c.robust.rounds, "robust.rounds") << "</tr>\n</table>\n";
     if (c.outliers.empty()) {
       out << None("No outliers: no measurement was excluded.");
     } else {
@@ -552,8 +556,8 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
         return a->normalized_residual > b->normalized_residual;
       });
       if (listed.size() > kMaxOutlierRows) {
-        out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of "
-            << listed.size() << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
+        out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of " << listed.size()
+            << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
             << " more are not (GET .../calibration has them all).</p>\n";
         listed.resize(kMaxOutlierRows);
       }
@@ -576,7 +580,9 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
 // Paired bars per configuration on a logarithmic axis: before (grey) and after (black), outliers marked.
 std::string ResidualBars(const std::vector<PoseResidual>& poses, bool orientation, const std::string& id) {
   const std::size_t n = std::min(poses.size(), kMaxResidualBars);
-  const auto before = [&](const PoseResidual& p) { return orientation ? p.before_orientation_deg : p.before_position_mm; };
+  const auto before = [&](const PoseResidual& p) {
+    return orientation ? p.before_orientation_deg : p.before_position_mm;
+  };
   const auto after = [&](const PoseResidual& p) { return orientation ? p.after_orientation_deg : p.after_position_mm; };
   std::vector<double> values;
   for (std::size_t i = 0; i < n; ++i) {
@@ -647,16 +653,18 @@ void ResidualSection(const ReportData& d, std::ostringstream& out) {
   for (const PoseResidual& p : f.poses) outlier_poses += p.outliers > 0 ? 1 : 0;
   out << "<p class=\"note\">Each configuration's calibration shots against the nominal model with the registered "
          "base (before) and the calibrated model (after): the RMS of their residuals, on a logarithmic axis. "
-      << (d.calibration_after_fit > 0 ? "Only the measurements the fit saw. " : "")
-      << f.poses.size() << " configuration(s), " << outlier_poses << " with excluded shots.";
+      << (d.calibration_after_fit > 0 ? "Only the measurements the fit saw. " : "") << f.poses.size()
+      << " configuration(s), " << outlier_poses << " with excluded shots.";
   if (f.poses.size() > kMaxResidualBars) {
     out << " The first " << kMaxResidualBars << " configurations are drawn.";
   }
-  out << "</p>\n<figure>\n" << ResidualBars(f.poses, false, "residual-position-chart")
+  out << "</p>\n<figure>\n"
+      << ResidualBars(f.poses, false, "residual-position-chart")
       << "<figcaption>Position residual (mm).</figcaption>\n</figure>\n";
   if (d.measurement_type != MeasurementType::kPosition) {
-    out << "<figure>\n" << ResidualBars(f.poses, true, "residual-orientation-chart")
-        << "<figcaption>" << (d.measurement_type == MeasurementType::kPose ? "Orientation" : "Tool-axis")
+    out << "<figure>\n"
+        << ResidualBars(f.poses, true, "residual-orientation-chart") << "<figcaption>"
+        << (d.measurement_type == MeasurementType::kPose ? "Orientation" : "Tool-axis")
         << " residual (deg).</figcaption>\n</figure>\n";
   }
   out << "</section>\n";
@@ -666,7 +674,8 @@ void AccuracyRow(std::ostringstream& out, const char* label, const char* key, co
                  const api::Statistics& after, double factor, int digits) {
   const std::string k = key;
   out << "<tr" << Attr("data-error", k) << "><th>" << label << "</th>";
-  for (const auto& [side, s] : {std::pair<const char*, const api::Statistics&>{"nominal", before}, {"calibrated", after}}) {
+  for (const auto& [side, s] :
+       {std::pair<const char*, const api::Statistics&>{"nominal", before}, {"calibrated", after}}) {
     const std::string prefix = std::string(side) + "." + k + ".";
     out << NumCell(s.mean * factor, digits, prefix + "mean") << NumCell(s.std * factor, digits, prefix + "std")
         << NumCell(s.max * factor, digits, prefix + "max") << NumCell(s.rp * factor, digits, prefix + "rp");
@@ -708,9 +717,9 @@ std::string Cdf(const std::vector<double>& before_mm, const std::vector<double>&
       points.emplace_back(X(values[i]), Y(static_cast<double>(i + 1) / n));
     }
     if (!points.empty()) points.emplace_back(left + plot_w, Y(1.0));
-    svg.Polyline(points, stroke, width_px, dash,
-                 std::string(" class=\"cdf\" data-curve=\"") + name + "\" data-count=\"" +
-                     std::to_string(values.size()) + "\"");
+    svg.Polyline(
+        points, stroke, width_px, dash,
+        std::string(" class=\"cdf\" data-curve=\"") + name + "\" data-count=\"" + std::to_string(values.size()) + "\"");
   };
   curve(before_mm, "#808080", 2.5, "6 3", "before");
   curve(after_mm, "#000", 2.0, nullptr, "after");
@@ -740,8 +749,10 @@ std::string MapPlot(const MapCurve& c, const std::string& id) {
   svg.Rect(left, top, plot_w, plot_h, "#fff", "#000");
   svg.Line(left, Y(0.0), left + plot_w, Y(0.0), "#ccc");
   std::vector<std::pair<double, double>> band, line;
-  for (std::size_t i = 0; i < c.angle_deg.size(); ++i) band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] + c.band_deg[i]));
-  for (std::size_t i = c.angle_deg.size(); i-- > 0;) band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] - c.band_deg[i]));
+  for (std::size_t i = 0; i < c.angle_deg.size(); ++i)
+    band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] + c.band_deg[i]));
+  for (std::size_t i = c.angle_deg.size(); i-- > 0;)
+    band.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i] - c.band_deg[i]));
   svg.Polygon(band, "#d5d8dc", " class=\"map-band\"");
   for (std::size_t i = 0; i < c.angle_deg.size(); ++i) line.emplace_back(X(c.angle_deg[i]), Y(c.value_deg[i]));
   svg.Polyline(line, "#000", 1.5, nullptr,
@@ -769,8 +780,9 @@ void MapSection(const ReportData& d, std::ostringstream& out) {
 void ValidationSectionHtml(const ReportData& d, std::ostringstream& out) {
   out << "<section id=\"validation\">\n<h2>5. Validation</h2>\n";
   if (!d.validation) {
-    out << None("No validation measurements: upload measurements with role validation to see the accuracy "
-                "before and after calibration.")
+    out << None(
+               "No validation measurements: upload measurements with role validation to see the accuracy "
+               "before and after calibration.")
         << "</section>\n";
     return;
   }
@@ -796,7 +808,8 @@ void ValidationSectionHtml(const ReportData& d, std::ostringstream& out) {
       << NumCell(i.e_xyz_mean, 1, "improvement.e_xyz_mean") << NumCell(i.e_xyz_rp, 1, "improvement.e_xyz_rp")
       << NumCell(i.e_tot_mean, 1, "improvement.e_tot_mean") << NumCell(i.e_tot_rp, 1, "improvement.e_tot_rp")
       << "</tr></tbody></table>\n";
-  out << "<figure>\n" << Cdf(d.validation->e_xyz_before_mm, d.validation->e_xyz_after_mm)
+  out << "<figure>\n"
+      << Cdf(d.validation->e_xyz_before_mm, d.validation->e_xyz_after_mm)
       << "<figcaption>Cumulative distribution of E_xyz over the validation poses: the share of poses whose "
          "position error is at most the value on the axis. A curve further left is more accurate.</figcaption>\n"
          "</figure>\n</section>\n";
@@ -845,11 +858,21 @@ std::string EscapeHtml(std::string_view raw) {
   for (const char ch : raw) {
     const unsigned char c = static_cast<unsigned char>(ch);
     switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
       default:
         if ((c < 0x20 && ch != '\n' && ch != '\t') || c == 0x7F) {
           out += "\xEF\xBF\xBD";  // U+FFFD
@@ -880,7 +903,8 @@ std::vector<Correlation> TopCorrelations(const std::vector<std::string>& names, 
                    [](const Pair& a, const Pair& b) { return std::abs(a.rho) > std::abs(b.rho); });
   std::vector<Correlation> out;
   for (std::size_t k = 0; k < std::min(count, pairs.size()); ++k) {
-    out.push_back({names[static_cast<std::size_t>(pairs[k].i)], names[static_cast<std::size_t>(pairs[k].j)], pairs[k].rho});
+    out.push_back(
+        {names[static_cast<std::size_t>(pairs[k].i)], names[static_cast<std::size_t>(pairs[k].j)], pairs[k].rho});
   }
   return out;
 }
@@ -899,7 +923,8 @@ std::string RenderReport(const ReportData& data) {
   MapSection(data, out);
   ValidationSectionHtml(data, out);
   out << "<footer><p class=\"note\">Made by robocal from the stored campaign, plan, calibration and measurements; "
-         "the per-pose residuals are recomputed from them with the fit's own weighting. docs/report.md explains every section.</p></footer>\n</body>\n</html>\n";
+         "the per-pose residuals are recomputed from them with the fit's own weighting. docs/report.md explains every "
+         "section.</p></footer>\n</body>\n</html>\n";
   return out.str();
 }
 

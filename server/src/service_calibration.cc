@@ -370,6 +370,9 @@ api::CompensateResult Service::Compensate(const std::string& campaign_id, const 
   for (std::size_t i = 0; i < solved.size(); ++i) {
     api::Compensation c = api::ToWire(model, solved[i]);
     c.predicted_error_mm = predicted[i];
+    if (const std::string beyond = BeyondMapKnots(loaded.calibration.model, solved[i].joints); !beyond.empty()) {
+      c.message += (c.message.empty() ? "" : "; ") + beyond;
+    }
     if (req.sequence && i > 0 && solved[i].joints.size() == model.num_joints() &&
         solved[i - 1].joints.size() == model.num_joints()) {
       // The largest revolute joint move from the previous result (prismatic axes are not compared in deg).

@@ -106,8 +106,9 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
     section.plan = ReadStored<api::StoredPlan>(*doc).plan;
     const api::PlanResult& plan = section.plan;
     if (!plan.cell) {
-      section.no_figure_reason = "The plan was made without a cell: there is no tracker to draw the configurations "
-                                 "around (plan in a cell to see them here).";
+      section.no_figure_reason =
+          "The plan was made without a cell: there is no tracker to draw the configurations "
+          "around (plan in a cell to see them here).";
     } else if (const auto cell_doc = storage_->Get(kCells, *plan.cell); !cell_doc) {
       section.no_figure_reason = "The plan's cell \"" + *plan.cell + "\" is no longer stored: nothing to draw.";
     } else {
@@ -155,8 +156,7 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
     fit.condition_number = calibration.summary.condition_number;
     std::vector<std::string> names;
     for (const IdentifiedParameter& p : calibration.parameters) names.push_back(p.name);
-    fit.correlations =
-        report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
+    fit.correlations = report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
   }
 
   // Each fitted map over its knots, with the 2-sigma band of its value from the coefficients' covariance.

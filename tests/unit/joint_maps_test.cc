@@ -352,3 +352,30 @@ TEST(MapChoiceTest, ARobotWithoutFineJointErrorsChoosesNoMaps) {
 
 }  // namespace
 }  // namespace robocal
+
+namespace robocal {
+namespace {
+
+TEST(MapRangeTest, AJointBeyondItsMapsKnotsIsNamed) {
+  RobotModelSpec spec = Preset("ur5e").spec();
+  spec.joints[1].error_map = {.first_knot_rad = -1.0, .knot_spacing_rad = 0.1, .coefficients_rad = {}};
+  spec.joints[1].error_map.coefficients_rad.assign(23, 1e-4);
+  spec.error_terms = MapsOn({3}, 0.0, 1.0, 0.1);
+  const RobotModel model = RobotModel::Build(spec);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(6);
+  q[1] = 0.5;
+  q[3] = 0.5;
+  EXPECT_EQ(BeyondMapKnots(model, q), "");
+  q[1] = 1.5;   // beyond the held map's last knot (1.0 rad)
+  q[3] = -0.2;  // before the fitted map's first knot (0 rad)
+  const std::string said = BeyondMapKnots(model, q);
+  EXPECT_NE(
+      said.find("joint " + model.joint_name(1) + " at 85.94 deg lies beyond its error map's knots (-57.3 .. 57.3 deg)"),
+      std::string::npos)
+      << said;
+  EXPECT_NE(said.find("joint " + model.joint_name(3) + " at -11.46 deg"), std::string::npos) << said;
+  EXPECT_NE(said.find("where the map holds its end value"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace robocal

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <string>
 
 #include "robocal/core/robot_model.h"
 
@@ -64,6 +65,12 @@ PreparedDeflection PrepareDeflection(const RobotModel& model, const Eigen::Vecto
 
 /// JointDeflection(model, q, eps, payload) from PrepareDeflection(model, q, payload): the same dq, by the same
 /// operations. Throws std::invalid_argument if eps has neither 0 nor num_error_parameters values.
-Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared, const Eigen::VectorXd& eps);
+Eigen::VectorXd JointDeflection(const RobotModel& model, const PreparedDeflection& prepared,
+                                const Eigen::VectorXd& eps);
+
+/// The joints of `q` (rad / mm) that lie beyond the knots of an error map `model` fits (its JointMapTerms) or holds
+/// (JointSpec::error_map), where the map holds its end value: "joint J at A deg lies beyond its error map's knots
+/// (F .. L deg), ..., where the map holds its end value"; empty when none does.
+std::string BeyondMapKnots(const RobotModel& model, const Eigen::VectorXd& q);
 
 }  // namespace robocal
