@@ -125,8 +125,8 @@ template <>
 struct WireFields<CrossValidationWire> {
   static constexpr auto fields = std::make_tuple(
       Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed},
-      // Absent in requests stored before maps: none.
-      Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kAbsentIsEmpty});
+      // Written when true; absent (and in requests stored before maps): none.
+      Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 
