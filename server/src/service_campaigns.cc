@@ -129,6 +129,17 @@ std::optional<Measurement> LastStored(Storage* storage, const api::StoredCampaig
   return MeasurementToCore(model, ReadMeasurement(last.front()), campaign);
 }
 
+// The stale tracker readings (FlagStaleShots) among `measurements` in their order, the first against `before`.
+std::vector<char> StaleFlags(const api::StoredCampaign& campaign, const RobotModel& model,
+                             const std::vector<api::MeasurementWire>& measurements,
+                             const std::optional<Measurement>& before) {
+  std::vector<Measurement> shots;
+  shots.reserve(measurements.size());
+  for (const api::MeasurementWire& m : measurements) shots.push_back(MeasurementToCore(model, m, campaign));
+  return FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
+                        before ? &*before : nullptr);
+}
+
 // The points of a tracker file; every bad line (and too many points for one batch) thrown as one error.
 std::vector<api::TrackerPoint> ReadPoints(const api::ImportMeasurementsRequest& req, std::size_t max_points) {
   api::Problems problems;
@@ -201,13 +212,9 @@ api::BatchResult Service::StoreImported(const api::StoredCampaign& campaign, con
                                             campaign.reflectors);
   // Stale readings in the file's own order; its first row against the shot stored last when every row is stored
   // (a file split by rows is compared within itself).
-  const std::optional<Measurement> before =
-      req.rows.empty() ? LastStored(storage_, campaign, model) : std::optional<Measurement>();
-  std::vector<Measurement> shots;
-  shots.reserve(batch.measurements.size());
-  for (const api::MeasurementWire& m : batch.measurements) shots.push_back(MeasurementToCore(model, m, campaign));
-  const std::vector<char> flags = FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
-                                                 before ? &*before : nullptr);
+  const std::vector<char> flags =
+      StaleFlags(campaign, model, batch.measurements,
+                 req.rows.empty() ? LastStored(storage_, campaign, model) : std::optional<Measurement>());
   if (req.rows.empty()) return StoreBatch(campaign, model, std::move(batch), flags);
   // Only the rows asked for; each must be a data row of the file.
   std::vector<api::MeasurementWire> kept;
@@ -268,25 +275,24 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
 api::BatchResult Service::StoreBatch(const api::StoredCampaign& campaign, const RobotModel& model,
                                      api::MeasurementBatchRequest req, std::optional<std::vector<char>> stale) {
   const TrimWhenDone trim(&trimmer_, req.measurements.size() >= kLargeRequest);
-  // The request id's replay compares the client's content: the texts without the server's stale flags.
+  // Against the shot stored last (a concurrent upload may come between: then against the one stored last at the
+  // time of this one), then the batch's own in order.
+  if (!stale) stale = StaleFlags(campaign, model, req.measurements, LastStored(storage_, campaign, model));
+  // The request id's replay compares the client's content: the texts without the server's stale flags (a flag is
+  // written only when set, so only a flagged measurement's text is written again with it).
   const std::string role = api::WireName(req.role);
   std::string all = role;
-  for (const auto& m : req.measurements) all += "\n" + nlohmann::json(m).dump();
-  if (!stale) {
-    // Against the shot stored last (a concurrent upload may come between: then against the one stored last at
-    // the time of this one), then the batch's own in order.
-    const std::optional<Measurement> before = LastStored(storage_, campaign, model);
-    std::vector<Measurement> shots;
-    shots.reserve(req.measurements.size());
-    for (const api::MeasurementWire& m : req.measurements) shots.push_back(MeasurementToCore(model, m, campaign));
-    stale = FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
-                           before ? &*before : nullptr);
-  }
   std::vector<std::string> texts;
   texts.reserve(req.measurements.size());
   for (std::size_t i = 0; i < req.measurements.size(); ++i) {
-    req.measurements[i].stale = i < stale->size() && (*stale)[i] != 0;
-    texts.push_back(nlohmann::json(req.measurements[i]).dump());
+    api::MeasurementWire& m = req.measurements[i];
+    m.stale = false;
+    texts.push_back(nlohmann::json(m).dump());
+    all += "\n" + texts.back();
+    if (i < stale->size() && (*stale)[i] != 0) {
+      m.stale = true;
+      texts.back() = nlohmann::json(m).dump();
+    }
   }
   BatchResult r;
   try {
