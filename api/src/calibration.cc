@@ -89,12 +89,12 @@ const std::string& ParameterUnitName(ParameterUnit unit) {
 
 double ParameterUnitScale(ParameterUnit unit) { return unit == ParameterUnit::kMm ? 1.0 : kDegPerRad; }
 
-RobotModel FitModel(const FitRequest& request, const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                    const IdentificationOptions& options) {
+RobotModel FitModel(const FitRequest& request, const RobotModel& nominal,
+                    const std::vector<Measurement>& measurements) {
   if (request.model_auto) return nominal;
   JointErrorTerms terms = ToCore(request.model);
   if (!terms.maps.empty() && measurements.empty()) terms.maps = {};
-  return WithTermsFor(nominal, terms, measurements, options);
+  return WithTermsFor(nominal, terms, measurements);
 }
 
 namespace {

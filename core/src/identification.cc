@@ -419,9 +419,9 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   // their redundancy: the rows less the effective parameters (a penalised coefficient counts less than one).
   Eigen::VectorXd sv;
   const bool by_normal = lm.jacobian.cols() > kDenseParameterLimit && lm.normal.rows() == lm.jacobian.cols();
-  if (!(by_normal ? ScaledCovarianceOfNormal(lm.normal, 1.0, options.identifiability.rank_tolerance, &sv,
-                                             &cal.covariance)
-                  : ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance))) {
+  if (!(by_normal
+            ? ScaledCovarianceOfNormal(lm.normal, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance)
+            : ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance))) {
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
   const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty());
@@ -506,13 +506,12 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
 }  // namespace identification_detail
 
 RobotModel WithTermsFor(const RobotModel& robot, const JointErrorTerms& terms,
-                        const std::vector<Measurement>& measurements, const IdentificationOptions& options) {
+                        const std::vector<Measurement>& measurements) {
   if (terms.maps.empty()) return robot.WithErrorTerms(terms);
   JointErrorTerms resolved = terms;
   JointMapTerms& maps = resolved.maps;
   maps.first_knot_rad.assign(maps.joints.size(), 0.0);
   maps.intervals.assign(maps.joints.size(), 1);
-  maps.information.assign(maps.joints.size(), 0.0);
   const int n = robot.num_joints();
   const double h = maps.knot_spacing_rad;
   // Out-of-range joints and spacings: let Build name them (a placeholder grid meanwhile).
@@ -537,27 +536,6 @@ RobotModel WithTermsFor(const RobotModel& robot, const JointErrorTerms& terms,
     maps.intervals[m] = intervals;
     maps.first_knot_rad[m] = 0.5 * (lo + hi) - 0.5 * intervals * h;
   }
-  const MeasurementType type = options.measurement_type;
-  const Eigen::VectorXd w = options.noise.RowWeights(type);
-  const ShotGroups groups(measurements);
-  const RobotModel geometric = robot.WithErrorTerms({});
-  KinematicsWorkspace ws(geometric);
-  Eigen::MatrixXd joint_columns(MeasurementRows(type), n);
-  std::vector<Eigen::VectorXd> information(maps.joints.size());
-  for (size_t m = 0; m < maps.joints.size(); ++m) information[m] = Eigen::VectorXd::Zero(maps.intervals[m] + 3);
-  for (size_t p = 0; p < groups.poses.size(); ++p) {
-    const Eigen::VectorXd& q = groups.poses[p];
-    if (q.size() != n) continue;
-    JointJacobian(geometric, q, Eigen::VectorXd(), type, &ws, joint_columns, groups.payloads[p]);
-    for (size_t m = 0; m < maps.joints.size(); ++m) {
-      const int i = maps.joints[m];
-      const double column = w.cwiseProduct(joint_columns.col(i)).squaredNorm();
-      double b[4];
-      const int j = MapBasis(maps.first_knot_rad[m], h, maps.intervals[m], q[i], b);
-      for (int r = 0; r < 4; ++r) information[m][j + r] += b[r] * b[r] * column;
-    }
-  }
-  for (size_t m = 0; m < maps.joints.size(); ++m) maps.information[m] = information[m].mean();
   return robot.WithErrorTerms(resolved);
 }
 

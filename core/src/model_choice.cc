@@ -145,7 +145,7 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
   int fits_done = 0;
   for (const JointErrorTerms& t : terms) {
     // A map's knots lie over the poses it is fitted on: each fold's own; its size is that of every pose's.
-    const RobotModel model = WithTermsFor(nominal, t, measurements, options);
+    const RobotModel model = WithTermsFor(nominal, t, measurements);
     ModelCandidate candidate;
     candidate.terms = t;
     candidate.num_parameters = model.num_error_parameters();
@@ -163,7 +163,7 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
           return false;
         };
       }
-      const Calibration c = Identify(t.maps.empty() ? model : WithTermsFor(nominal, t, training, o), training, o);
+      const Calibration c = Identify(t.maps.empty() ? model : WithTermsFor(nominal, t, training), training, o);
       ++fits_done;
       if (out.cancelled) break;
       if (c.summary.termination == Termination::kFailure) {
@@ -274,8 +274,7 @@ Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector
   if (options.progress) {
     o.progress = [&](double fraction) { return options.progress((done + fraction) / (done + 1.0)); };
   }
-  Calibration c =
-      Identify(WithTermsFor(nominal, mc.candidates[mc.chosen].terms, measurements, options), measurements, o);
+  Calibration c = Identify(WithTermsFor(nominal, mc.candidates[mc.chosen].terms, measurements), measurements, o);
   attach(&c);
   c.summary.message = mc.message + "; " + c.summary.message;
   return c;

@@ -91,18 +91,14 @@ void ValidateMapTerms(const RobotModelSpec& spec, std::vector<FieldError>* error
                        "the calibration poses)"});
     return;
   }
-  if (maps.intervals.size() != maps.joints.size() ||
-      (!maps.information.empty() && maps.information.size() != maps.joints.size())) {
-    errors->push_back({"model.joint_maps", "one grid (and information, if any) per mapped joint"});
+  if (maps.intervals.size() != maps.joints.size()) {
+    errors->push_back({"model.joint_maps", "one grid per mapped joint"});
     return;
   }
   for (size_t k = 0; k < maps.joints.size(); ++k) {
-    const double information = maps.information.empty() ? 0.0 : maps.information[k];
-    if (!std::isfinite(maps.first_knot_rad[k]) || maps.intervals[k] < 1 || maps.intervals[k] > kMaxMapIntervals ||
-        !(information >= 0.0) || !std::isfinite(information)) {
-      errors->push_back({"model.joint_maps", "map " + std::to_string(k) + ": a finite first knot, 1 to " +
-                                                 std::to_string(kMaxMapIntervals) +
-                                                 " intervals and a finite information >= 0"});
+    if (!std::isfinite(maps.first_knot_rad[k]) || maps.intervals[k] < 1 || maps.intervals[k] > kMaxMapIntervals) {
+      errors->push_back({"model.joint_maps", "map " + std::to_string(k) + ": a finite first knot and 1 to " +
+                                                 std::to_string(kMaxMapIntervals) + " intervals"});
     }
   }
 }

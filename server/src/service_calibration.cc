@@ -141,7 +141,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     sequences->push_back(s.sequence);
   });
   // Joint maps are placed over the measurements' range of each joint; the fit's size counts their coefficients.
-  const RobotModel model = req.model.joint_maps ? api::FitModel(req, nominal, *measurements, options) : parsed_model;
+  const RobotModel model = req.model.joint_maps ? api::FitModel(req, nominal, *measurements) : parsed_model;
   if (req.model.joint_maps) CheckFitSize(model, options, count, false, options_.limits);
   // An offset named for a nest without shots cannot be estimated: say so by the request's field.
   if (!reflectors.empty()) {

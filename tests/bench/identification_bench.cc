@@ -74,7 +74,7 @@ void BM_IdentifyJointTerms(benchmark::State& state) {
     terms.maps.joints = {0, 1, 2, 3, 4};
     terms.maps.knot_spacing_rad = 4.0 * M_PI / 180.0;
   }
-  const RobotModel fitted = WithTermsFor(model, terms, measurements, options);
+  const RobotModel fitted = WithTermsFor(model, terms, measurements);
   int iterations = 0;
   for (auto _ : state) {
     const Calibration cal = Identify(fitted, measurements, options);

@@ -69,8 +69,8 @@ TEST(MapBasisTest, MapsReproduceConstantsAndLinesAndTheirSlopeMatchesFiniteDiffe
   }
 }
 
-// Maps on the given joints (0-based) with a grid over [from, to] and the given penalty weight.
-JointErrorTerms MapsOn(std::vector<int> joints, double from, double to, double spacing, double weight = 0.0) {
+// Maps on the given joints (0-based) with a grid over [from, to].
+JointErrorTerms MapsOn(std::vector<int> joints, double from, double to, double spacing) {
   JointErrorTerms terms;
   terms.maps.joints = joints;
   terms.maps.knot_spacing_rad = spacing;
@@ -78,7 +78,6 @@ JointErrorTerms MapsOn(std::vector<int> joints, double from, double to, double s
   for (size_t k = 0; k < joints.size(); ++k) {
     terms.maps.first_knot_rad.push_back(from);
     terms.maps.intervals.push_back(static_cast<int>(std::lround((to - from) / spacing)));
-    terms.maps.information.push_back(weight);
   }
   return terms;
 }
@@ -182,7 +181,7 @@ MapFit FitJoint2Map(double position_noise_mm, double angle_noise_rad, double smo
   terms.maps.joints = {1};
   terms.maps.knot_spacing_rad = kSpacing;
   terms.maps.smoothness = smoothness;
-  const RobotModel model = WithTermsFor(nominal, terms, shots, options);
+  const RobotModel model = WithTermsFor(nominal, terms, shots);
   return {Identify(model, shots, options), cell.true_model()};
 }
 

@@ -123,10 +123,10 @@ struct CrossValidationWire {
 };
 template <>
 struct WireFields<CrossValidationWire> {
-  static constexpr auto fields = std::make_tuple(
-      Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed},
-      // Written when true; absent (and in requests stored before maps): none.
-      Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed},
+                      // Written when true; absent (and in requests stored before maps): none.
+                      Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 
@@ -184,7 +184,7 @@ ROBOCAL_WIRE_DECLARE(FitRequest);
 /// candidates are built by the core), its joint maps placed over `measurements` (WithTermsFor; without
 /// measurements, the model without its maps, which names the parameters a request may give).
 RobotModel FitModel(const FitRequest& request, const RobotModel& nominal,
-                    const std::vector<Measurement>& measurements = {}, const IdentificationOptions& options = {});
+                    const std::vector<Measurement>& measurements = {});
 /// `parameters` name the model's error parameters and, in a campaign with reflectors, their offsets
 /// ("reflector.<id>.dx").
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,

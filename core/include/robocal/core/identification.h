@@ -2,12 +2,11 @@
 // least squares (Levenberg-Marquardt), after registering the unknown tracker -> base frame.
 #pragma once
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <functional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/identifiability.h"
@@ -249,12 +248,10 @@ Calibration Identify(const RobotModel& nominal, const std::vector<Measurement>& 
 /// `robot` with the joint error terms `terms` for a fit over `measurements`: with joint maps (JointMapTerms),
 /// each map's grid is placed over the range its joint takes in the measurements (knots every knot_spacing_rad,
 /// centred on that range; one interval at least), or, when the joint already holds a map of that spacing, on the
-/// held map's grid (so the fitted coefficients add to the held ones); and each map gets the measurements' mean
-/// information per coefficient (JointMapTerms::information), computed from the nominal joint columns at the
-/// measured poses with options.noise's row weights. Without maps: robot.WithErrorTerms(terms).
+/// held map's grid (so the fitted coefficients add to the held ones). Without maps: robot.WithErrorTerms(terms).
 /// Throws InvalidModelError for terms the robot cannot take (an unknown or prismatic joint, a spacing out of range).
 RobotModel WithTermsFor(const RobotModel& robot, const JointErrorTerms& terms,
-                        const std::vector<Measurement>& measurements, const IdentificationOptions& options);
+                        const std::vector<Measurement>& measurements);
 
 /// The noise a fit weighted with: `noise` with the model error `summary` estimated (model_error_mm over sqrt(3)
 /// per position axis; model_error_rad over sqrt(3), or sqrt(2) for axis rows, per orientation row); `noise`

@@ -92,9 +92,9 @@ struct JointSpec {
 /// coefficients of a cubic B-spline of its angle error with knots every knot_spacing_rad over the range the
 /// calibration poses cover, and a second-difference penalty of weight `smoothness` beside the measurements. A
 /// map's constant is the joint's offset, which the geometric parameters hold: a fitted map's coefficients sum to
-/// zero (a constraint row beside the penalty). The grid of each map (first knot, intervals) and the measurements'
-/// information come from the measurements (WithTermsFor, identification.h) before a model with maps is built:
-/// RobotModel::Build refuses maps without.
+/// zero (a constraint row beside the penalty). The grid of each map (first knot, intervals) comes from the
+/// measurements (WithTermsFor, identification.h) before a model with maps is built: RobotModel::Build refuses maps
+/// without.
 struct JointMapTerms {
   std::vector<int> joints;
   double knot_spacing_rad = 0.0;
@@ -103,19 +103,16 @@ struct JointMapTerms {
   /// (Series B, 400 poses, knots every 4 deg on joints 1-5 with compliance) it leaves 0.102 mm held out, 0.1 leaves
   /// 0.135 and 1 leaves 0.216.
   double smoothness = 0.01;
-  /// Per entry of `joints`: the map's first knot (rad), its intervals, and the measurements' mean information per
-  /// coefficient (1/rad^2, in their weighted rows), which scales the penalty rows: sqrt(smoothness x information)
-  /// times each second difference, as WithTermsFor found it under the options' weights (a fit's least-squares
-  /// problem computes it again under its own weights, which the model error's estimate changes). Empty for a
-  /// calibration's model that is not fitted again (a stored one).
+  /// Per entry of `joints`: the map's first knot (rad) and its intervals. The penalty rows' scale, the
+  /// measurements' mean information per coefficient, is each least-squares problem's own (it changes with the
+  /// model error's estimate).
   std::vector<double> first_knot_rad;
   std::vector<int> intervals;
-  std::vector<double> information;
   bool empty() const { return joints.empty(); }
   bool resolved() const { return !joints.empty() && first_knot_rad.size() == joints.size(); }
   bool operator==(const JointMapTerms& other) const {
     return joints == other.joints && knot_spacing_rad == other.knot_spacing_rad && smoothness == other.smoothness &&
-           first_knot_rad == other.first_knot_rad && intervals == other.intervals && information == other.information;
+           first_knot_rad == other.first_knot_rad && intervals == other.intervals;
   }
 };
 
