@@ -611,7 +611,8 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
   if (const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes)) {
     for (std::size_t k = 0; k < a->size(); ++k) {
       const nlohmann::json& v = (*a)[k];
-      if (!v.is_number_integer() || v.get<std::int64_t>() < 1 || v.get<std::int64_t>() > kMaxTrackerFileBytes) {
+      if (!v.is_number_integer() || v.get<std::int64_t>() < 1 ||
+          v.get<std::int64_t>() > static_cast<std::int64_t>(kMaxTrackerFileBytes)) {
         problems.Add(IndexPath("rows", k), "expected a line number of the text, 1 or more");
       } else if (!req.rows.empty() && v.get<std::int64_t>() <= req.rows.back()) {
         problems.Add(IndexPath("rows", k), "lines must be ascending, each once");

@@ -166,7 +166,7 @@ FitLinearization LinearizeFit(const Calibration& calibration, const std::vector<
     throw std::invalid_argument("LinearizeFit: rank-deficient or non-finite Jacobian at the solution");
   }
   // As the fit computes them (IdentifyOnce): the measurements' rows over their redundancy.
-  const double dof = problem.num_measurement_rows() - EffectiveParameters(out.covariance, problem.penalty());
+  const double dof = problem.num_measurement_rows() - EffectiveParameters(out.covariance, problem.penalty_normal());
   out.sigma_hat = std::sqrt(residual.head(problem.num_measurement_rows()).squaredNorm() / dof);
   out.covariance *= out.sigma_hat * out.sigma_hat;
   out.condition_number = out.singular_values[0] / out.singular_values[out.singular_values.size() - 1];

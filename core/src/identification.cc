@@ -374,10 +374,11 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
 
   // Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters
-  // they cannot determine named, instead of producing a meaningless fit.
+  // they cannot determine named, instead of producing a meaningless fit. Its Jacobian's storage goes on to the solver.
+  Eigen::MatrixXd start_jacobian;
   {
     Eigen::VectorXd r;
-    Eigen::MatrixXd j;
+    Eigen::MatrixXd& j = start_jacobian;
     problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
     s.initial_cost = 0.5 * r.squaredNorm();
     if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
@@ -406,7 +407,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     }
   }
 
-  LmResult lm = LevenbergMarquardt(&problem, options, x0);
+  LmResult lm = LevenbergMarquardt(&problem, options, x0, std::move(start_jacobian));
   s.iterations = lm.iterations;
   if (lm.termination == Termination::kFailure || !lm.x.allFinite()) return fail("optimisation failed: " + lm.reason);
 
@@ -424,7 +425,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
             : ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance))) {
     return fail("degenerate configurations: rank-deficient Jacobian at the solution");
   }
-  const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty());
+  const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty_normal());
   s.sigma_hat = std::sqrt(lm.residual.head(problem.num_measurement_rows()).squaredNorm() / dof);
   cal.covariance *= s.sigma_hat * s.sigma_hat;
   s.condition_number = sv[0] / sv[sv.size() - 1];

@@ -80,6 +80,8 @@ class Problem {
   int num_measurement_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
   // The penalty rows over the chosen parameters (num_penalty_rows x num_parameters; none without maps).
   const Eigen::MatrixXd& penalty() const { return penalty_; }
+  // P'P of the penalty rows (num_parameters square; empty without maps).
+  const Eigen::MatrixXd& penalty_normal() const { return penalty_normal_; }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
 
   // The model's error parameters (num_error_parameters) and the reflectors' offset errors (3 each) at x.
@@ -140,6 +142,7 @@ class Problem {
   std::vector<GroupWhitening> group_whitening_;  // per group, with repeatability
   std::vector<PreparedDeflection> prepared_;     // per pose: its deflection's parts that do not depend on x
   Eigen::MatrixXd penalty_;                      // the maps' penalty rows (constant: the penalty is linear)
+  Eigen::MatrixXd penalty_normal_;               // their P'P
   // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
   // some tens of times, a cross-validated model choice some thousands): per pose its Jacobian (its rows x n_model_,
   // side by side) and tool pose; Evaluate's predictions and Jacobians per group.
@@ -167,8 +170,10 @@ struct LmResult {
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
 // From `start` (the reduced parameters of a fit of nearly the same problem: the model error's cycles, the robust
-// rounds), or from zero.
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start = nullptr);
+// rounds), or from zero. `jacobian` is storage for the result's Jacobian (a fit's rank test hands its own on: at
+// hundreds of parameters a Jacobian is megabytes, and fresh memory costs more to touch than to fill).
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start = nullptr,
+                            Eigen::MatrixXd jacobian = {});
 
 // Beyond this many parameters (joint maps: some hundreds, each touching a few poses) the normal matrix J'J is summed
 // over each row's non-zero entries, and the covariance comes from the scaled normal matrix's eigenvalues and
@@ -178,7 +183,7 @@ inline constexpr int kDenseParameterLimit = 150;
 // kDenseParameterLimit parameters the rank cut is at least that.
 inline constexpr double kNormalRankTolerance = 1e-7;
 
-// J'J: by a matrix product, or over each row's non-zero entries beyond kDenseParameterLimit columns.
+// J'J: by a matrix product, or over each block of rows' non-zero columns beyond kDenseParameterLimit columns.
 Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian);
 
 // Whether the column-scaled J has its full column rank by the Cholesky factor of its normal matrix: its estimated
@@ -200,8 +205,9 @@ bool ScaledCovarianceOfNormal(const Eigen::MatrixXd& normal, double sigma_hat, d
                               Eigen::VectorXd* singular_values, Eigen::MatrixXd* covariance);
 
 // The effective number of parameters of a fit with penalty rows P: tr(N^-1 J'J) = n - tr(N^-1 P'P), where N is the
-// information with the penalty (`inverse` = N^-1, the covariance at unit sigma). n without penalty rows.
-double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty);
+// information with the penalty (`inverse` = N^-1, the covariance at unit sigma) and `penalty_normal` P'P (empty:
+// no penalty rows, n).
+double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty_normal);
 
 // Which parameters a fit estimates, chosen once for the robust fit's rounds.
 struct ParameterSelection {

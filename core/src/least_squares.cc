@@ -133,6 +133,7 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
     }
     penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
     for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
+    penalty_normal_ = NormalMatrix(penalty_);
   }
 }
 
@@ -263,9 +264,10 @@ Eigen::VectorXd Problem::ColumnInformation() {
   return out;
 }
 
-double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty) {
-  if (penalty.rows() == 0) return static_cast<double>(inverse.rows());
-  return static_cast<double>(inverse.rows()) - (inverse * (penalty.transpose() * penalty)).trace();
+double EffectiveParameters(const Eigen::MatrixXd& inverse, const Eigen::MatrixXd& penalty_normal) {
+  if (penalty_normal.size() == 0) return static_cast<double>(inverse.rows());
+  // tr(A B) for symmetric A and B is the sum of their elementwise product (no matrix product).
+  return static_cast<double>(inverse.rows()) - inverse.cwiseProduct(penalty_normal).sum();
 }
 
 }  // namespace robocal::identification_detail

@@ -25,16 +25,19 @@ namespace robocal::identification_detail {
 // one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start) {
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start,
+                            Eigen::MatrixXd jacobian) {
   LmResult out;
+  out.jacobian.swap(jacobian);
   const int n = problem->num_parameters();
   out.x = start != nullptr && start->size() == n && start->allFinite() ? *start : Eigen::VectorXd::Zero(n);
   problem->Evaluate(out.x, &out.residual, &out.jacobian);
   double cost = 0.5 * out.residual.squaredNorm();
   double lambda = 1e-4;
   double nu = 2.0;
+  // A candidate step is judged by its residual alone; the Jacobian is evaluated once a step is taken (the
+  // kinematics twice then, which costs less than a second Jacobian's storage and a rejected step's Jacobian).
   Eigen::VectorXd candidate_residual;
-  Eigen::MatrixXd candidate_jacobian;
   while (true) {
     // Beyond kDenseParameterLimit formed before the tests, so that a loop that ends here leaves it for the
     // covariance (which, with fewer parameters, comes from the SVD of J instead).
@@ -74,7 +77,7 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, co
       return out;
     }
     const Eigen::VectorXd x_new = out.x + step;
-    problem->Evaluate(x_new, &candidate_residual, &candidate_jacobian);
+    problem->Evaluate(x_new, &candidate_residual, nullptr);
     const double new_cost = 0.5 * candidate_residual.squaredNorm();
     // Predicted decrease of the linear model: 0.5 step' (lambda D step + g), positive for any lambda > 0.
     const double predicted = 0.5 * step.dot(lambda * diag.cwiseProduct(step) + gradient);
@@ -82,8 +85,7 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, co
     if (rho > 0.0) {
       const double change = cost - new_cost;
       out.x = x_new;
-      out.residual.swap(candidate_residual);
-      out.jacobian.swap(candidate_jacobian);
+      problem->Evaluate(out.x, &out.residual, &out.jacobian);
       const double old_cost = cost;
       cost = new_cost;
       lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
@@ -119,32 +121,37 @@ Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian) {
   const Eigen::Index n = jacobian.cols();
   if (n <= kDenseParameterLimit) return jacobian.transpose() * jacobian;
   // Written here rather than with Eigen's sparse product: the Jacobian is dense storage with mostly zero map
-  // columns, and converting it costs as much as this sum. Rows are copied to row-major blocks for the scan; each
-  // row adds the products of its non-zero entries.
-  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block;
-  std::vector<Eigen::Index> index;
-  std::vector<double> value;
-  index.reserve(static_cast<std::size_t>(n));
-  value.reserve(static_cast<std::size_t>(n));
-  constexpr Eigen::Index kBlockRows = 64;
-  for (Eigen::Index start = 0; start < jacobian.rows(); start += kBlockRows) {
-    const Eigen::Index rows = std::min(kBlockRows, jacobian.rows() - start);
-    block = jacobian.middleRows(start, rows);
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      index.clear();
-      value.clear();
-      const double* row = block.data() + r * n;
-      for (Eigen::Index c = 0; c < n; ++c) {
-        if (row[c] == 0.0) continue;
-        index.push_back(c);
-        value.push_back(row[c]);
+  // columns, and converting it costs as much as this sum. The rows go in blocks of kBlockRows (a pose's rows
+  // share their non-zero columns): one pass down the columns finds each block's non-zero columns, and each block
+  // adds the product of its compacted rows (a few dozen columns) to the lower triangle.
+  constexpr Eigen::Index kBlockRows = 6;
+  const Eigen::Index rows = jacobian.rows();
+  const Eigen::Index blocks = (rows + kBlockRows - 1) / kBlockRows;
+  std::vector<std::vector<Eigen::Index>> columns(static_cast<std::size_t>(blocks));
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const double* column = jacobian.data() + c * rows;
+    for (Eigen::Index b = 0; b < blocks; ++b) {
+      const Eigen::Index first = b * kBlockRows, last = std::min(first + kBlockRows, rows);
+      for (Eigen::Index r = first; r < last; ++r) {
+        if (column[r] != 0.0) {
+          columns[static_cast<std::size_t>(b)].push_back(c);
+          break;
+        }
       }
-      // The lower triangle: element (index[b], index[a]) for b >= a, column index[a] contiguous.
-      for (std::size_t a = 0; a < index.size(); ++a) {
-        double* column = normal.data() + index[a] * n;
-        const double va = value[a];
-        for (std::size_t b = a; b < index.size(); ++b) column[index[b]] += va * value[b];
+    }
+  }
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
+  Eigen::MatrixXd compact, product;
+  for (Eigen::Index b = 0; b < blocks; ++b) {
+    const std::vector<Eigen::Index>& at = columns[static_cast<std::size_t>(b)];
+    if (at.empty()) continue;
+    const Eigen::Index first = b * kBlockRows, count = std::min(kBlockRows, rows - first);
+    compact = jacobian(Eigen::seqN(first, count), at);
+    product.noalias() = compact.transpose() * compact;
+    for (std::size_t a = 0; a < at.size(); ++a) {
+      double* column = normal.data() + at[a] * n;
+      for (std::size_t k = a; k < at.size(); ++k) {
+        column[at[k]] += product(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(a));
       }
     }
   }

@@ -155,15 +155,15 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
     }
     // The joint maps' rows (their constant and their penalty) are information too: without them a map's
     // coefficients leave the information singular.
-    if (problem.penalty().rows() > 0) information += problem.penalty().transpose() * problem.penalty();
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(information);
-    if (ldlt.info() != Eigen::Success) break;
-    const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+    if (problem.penalty_normal().size() > 0) information += problem.penalty_normal();
+    // Cholesky (blocked, unlike LDLT); an information that is not positive definite has no leverages.
+    const Eigen::LLT<Eigen::MatrixXd> llt(information);
+    if (llt.info() != Eigen::Success) break;
+    const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(p, p));
     double redundancy_p = 0.0, redundancy_o = 0.0;
     for (size_t g = 0; g < num_groups; ++g) {
       const Eigen::MatrixXd& j = compact[g];
-      const Eigen::MatrixXd solved = ColumnsOf(ColumnsOf(inverse, columns[g]).transpose(), columns[g]) *
-                                     j.transpose();  // (N^-1 J_g') on the pose's columns
+      const Eigen::MatrixXd solved = inverse(columns[g], columns[g]) * j.transpose();  // (N^-1 J_g') on its columns
       lever_p[g] = (inverse_p[g] * j.topRows(3) * solved.leftCols(3)).trace();
       redundancy_p += 3.0 - lever_p[g];
       if (angle_rows > 0) {
@@ -253,7 +253,7 @@ std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vect
     // On the pose's non-zero columns only (a map's coefficients are mostly zero at a pose).
     const std::vector<int> columns = NonzeroColumns(jacobian[g]);
     const Eigen::MatrixXd b = w * ColumnsOf(jacobian[g], columns);
-    const Eigen::MatrixXd h = b * ColumnsOf(ColumnsOf(inverse, columns).transpose(), columns) * b.transpose();
+    const Eigen::MatrixXd h = b * inverse(columns, columns) * b.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (h + h.transpose()));
     const Eigen::VectorXd u = eig.eigenvectors().transpose() * a;
     double z2 = 0.0;

@@ -157,7 +157,14 @@ class PgStorage final : public Storage {
           if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
             throw BatchConflict(campaign_id, request_id);
           }
-          return BatchResult{campaign_id, r.Text(0, 0), request_id, true, r.Int(0, 3), r.Int(0, 4), total};
+          return BatchResult{.campaign = campaign_id,
+                             .batch_id = r.Text(0, 0),
+                             .request_id = request_id,
+                             .replayed = true,
+                             .first_sequence = r.Int(0, 3),
+                             .count = r.Int(0, 4),
+                             .campaign_total = total,
+                             .stale = {}};
         }
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
@@ -179,7 +186,14 @@ class PgStorage final : public Storage {
             {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
       }
       tx.Commit();
-      return BatchResult{campaign_id, batch_id, request_id, false, first_sequence, count, total + count};
+      return BatchResult{.campaign = campaign_id,
+                         .batch_id = batch_id,
+                         .request_id = request_id,
+                         .replayed = false,
+                         .first_sequence = first_sequence,
+                         .count = count,
+                         .campaign_total = total + count,
+                         .stale = {}};
     });
   }
 

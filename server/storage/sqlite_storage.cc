@@ -234,7 +234,14 @@ class SqliteStorage final : public Storage {
           throw BatchConflict(campaign_id, request_id);
         }
         // Nothing written: the transaction rolls back (a no-op) when tx goes out of scope.
-        return BatchResult{campaign_id, stmt.Text(0), request_id, true, stmt.Int(3), stmt.Int(4), total};
+        return BatchResult{.campaign = campaign_id,
+                           .batch_id = stmt.Text(0),
+                           .request_id = request_id,
+                           .replayed = true,
+                           .first_sequence = stmt.Int(3),
+                           .count = stmt.Int(4),
+                           .campaign_total = total,
+                           .stale = {}};
       }
     }
 
@@ -266,7 +273,14 @@ class SqliteStorage final : public Storage {
           .Run();
     }
     tx.Commit();
-    return BatchResult{campaign_id, batch_id, request_id, false, first_sequence, count, total + count};
+    return BatchResult{.campaign = campaign_id,
+                       .batch_id = batch_id,
+                       .request_id = request_id,
+                       .replayed = false,
+                       .first_sequence = first_sequence,
+                       .count = count,
+                       .campaign_total = total + count,
+                       .stale = {}};
   }
 
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,
@@ -353,8 +367,7 @@ class SqliteStorage final : public Storage {
     return true;
   }
 
-  std::vector<std::string> ExpireLeases(bool all,
-                                        const std::function<std::string(const Document&)>& expire) override {
+  std::vector<std::string> ExpireLeases(bool all, const std::function<std::string(const Document&)>& expire) override {
     std::lock_guard lock(mutex_);
     std::vector<std::string> ended;
     Transaction tx(*this);
@@ -451,9 +464,10 @@ class SqliteStorage final : public Storage {
   void Migrate() {
     int version = UserVersion();
     if (version > kSqliteSchemaVersion) {
-      throw StorageError(Kind::kUnavailable,
-                         "database schema version " + std::to_string(version) + " is newer than this build supports (" +
-                             std::to_string(kSqliteSchemaVersion) + "); run a newer robocal-server or restore a backup");
+      throw StorageError(Kind::kUnavailable, "database schema version " + std::to_string(version) +
+                                                 " is newer than this build supports (" +
+                                                 std::to_string(kSqliteSchemaVersion) +
+                                                 "); run a newer robocal-server or restore a backup");
     }
     while (version < kSqliteSchemaVersion) {
       Transaction tx(*this);
@@ -523,8 +537,8 @@ class SqliteStorage final : public Storage {
   }
 
   std::optional<OperationLease> LeaseLocked(const std::string& id) {
-    Statement stmt = Prepare(
-        "SELECT owner, progress, cancel_requested, expires_unix_ms - ?2 FROM operation_leases WHERE id = ?1");
+    Statement stmt =
+        Prepare("SELECT owner, progress, cancel_requested, expires_unix_ms - ?2 FROM operation_leases WHERE id = ?1");
     stmt.Bind(1, id).Bind(2, NowUnixMs());
     if (!stmt.Step()) return std::nullopt;
     return OperationLease{stmt.Text(0), stmt.Double(1), stmt.Int(2) != 0, stmt.Int(3)};

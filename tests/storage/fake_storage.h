@@ -99,9 +99,14 @@ class FakeStorage : public Storage {
     }
     char batch_id[19];
     std::snprintf(batch_id, sizeof batch_id, "b-%016llx", static_cast<unsigned long long>(++clock_));
-    BatchResult r{campaign_id, batch_id, request_id, false,
-                  static_cast<std::int64_t>(list.size()) + 1,
-                  static_cast<std::int64_t>(measurements_json.size()), total};
+    BatchResult r{.campaign = campaign_id,
+                  .batch_id = batch_id,
+                  .request_id = request_id,
+                  .replayed = false,
+                  .first_sequence = static_cast<std::int64_t>(list.size()) + 1,
+                  .count = static_cast<std::int64_t>(measurements_json.size()),
+                  .campaign_total = total,
+                  .stale = {}};
     for (const auto& m : measurements_json) {
       list.push_back({static_cast<std::int64_t>(list.size()) + 1, r.batch_id, role, m});
     }
@@ -166,8 +171,7 @@ class FakeStorage : public Storage {
     Update("operations", id, json, 0);
     return true;
   }
-  std::vector<std::string> ExpireLeases(bool all,
-                                        const std::function<std::string(const Document&)>& expire) override {
+  std::vector<std::string> ExpireLeases(bool all, const std::function<std::string(const Document&)>& expire) override {
     std::lock_guard lock(mutex_);
     std::vector<std::string> ended;
     const std::int64_t now = NowMs();
@@ -218,8 +222,7 @@ class FakeStorage : public Storage {
     std::int64_t expires_ms = 0;  // steady clock
   };
   static std::int64_t NowMs() {
-    return std::chrono::duration_cast<std::chrono::milliseconds>(
-               std::chrono::steady_clock::now().time_since_epoch())
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now().time_since_epoch())
         .count();
   }
   OperationLease LeaseOf(const Lease& l) const {

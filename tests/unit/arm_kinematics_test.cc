@@ -85,7 +85,9 @@ TEST_P(ArmSolverPresetTest, EveryBranchReachesThePoseAndTheConfigurationsOwnIsAm
   }
   // The spherical wrist reaches a pose on all eight branches unless a singularity is near (rare in a uniform
   // draw); the offset wrist's branches of the other shoulder or wrist often leave the elbow out of reach.
-  if (arm.family() == ArmFamily::kSphericalWrist) EXPECT_GE(eight, 490);
+  if (arm.family() == ArmFamily::kSphericalWrist) {
+    EXPECT_GE(eight, 490);
+  }
   RecordProperty("poses_with_eight_solutions", eight);
 }
 

@@ -71,7 +71,9 @@ TEST(StaleShotTest, AFitLeavesAStaleShotOutAndListsItsCause) {
   }
   EXPECT_TRUE(listed) << with_stale.summary.message;
   for (const OutlierMeasurement& o : with_stale.summary.outliers) {
-    if (o.measurement != 30) EXPECT_EQ(o.cause, OutlierMeasurement::Cause::kResidual);
+    if (o.measurement != 30) {
+      EXPECT_EQ(o.cause, OutlierMeasurement::Cause::kResidual);
+    }
   }
   EXPECT_NE(with_stale.summary.message.find("1 stale tracker reading(s) left out"), std::string::npos);
 }
