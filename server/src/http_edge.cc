@@ -273,7 +273,9 @@ bool Serve(int sock, Transport* transport, const Limits& limits, const CannedRep
   current = &state;
   bool ok = true;
   bool unread = false;  // the client may still be sending
-  for (std::size_t n = 0; n < limits.keep_alive_max_requests && listening != INVALID_SOCKET; ++n) {
+  // The first request's turn comes even when the server is stopping: a connection that waited in the queue until
+  // then is told so (503), not closed in silence.
+  for (std::size_t n = 0; n < limits.keep_alive_max_requests && (n == 0 || listening != INVALID_SOCKET); ++n) {
     const Clock::time_point wait_until = n == 0 ? accepted + limits.request_read_timeout
                                                 : Clock::now() + limits.keep_alive_timeout;
     if (!stream.WaitForRequest(wait_until, listening)) {
@@ -281,6 +283,10 @@ bool Serve(int sock, Transport* transport, const Limits& limits, const CannedRep
         // Connected and silent until the deadline: say why it is closed.
         ++counters->timed_out;
         (void)stream.write(canned.timeout.data(), canned.timeout.size());
+      } else if (n == 0) {
+        // Stopping before this connection's first request was read (it may still be sending it).
+        (void)stream.write(canned.stopping.data(), canned.stopping.size());
+        unread = true;
       }
       break;
     }

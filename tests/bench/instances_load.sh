@@ -64,12 +64,18 @@ start_instances() {
   local n=$1 db=$2
   urls=()
   for i in $(seq "$n"); do
+    # Its first line, once bound, says where it listens: read from a pipe, waiting for that line or its exit.
+    rm -f "$work/out$i"
+    mkfifo "$work/out$i"
     "$server" --port 0 --db "$db" --log-level warn --threads 8 --db-pool-size 8 \
       --max-measurements-per-campaign 100000000 >"$work/out$i" 2>"$work/err$i" &
     pids+=($!)
-    for _ in $(seq 100); do grep -q 'listening on' "$work/out$i" 2>/dev/null && break; sleep 0.1; done
-    local u
-    u=$(sed -n 's/.*listening on \(http[^ ]*\).*/\1/p' "$work/out$i")
+    local u fd line=
+    exec {fd}<"$work/out$i"
+    IFS= read -r line <&"$fd" || true
+    cat <&"$fd" >"$work/out$i.rest" &
+    exec {fd}<&-
+    u=$(printf '%s\n' "$line" | sed -n 's/.*listening on \(http[^ ]*\).*/\1/p')
     [ -n "$u" ] || { echo "instances_load: instance $i did not start" >&2; cat "$work/err$i" >&2; exit 1; }
     urls+=("$u")
   done

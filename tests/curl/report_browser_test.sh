@@ -57,16 +57,7 @@ run_chromium() {
     --hide-scrollbars --user-data-dir="$work/profile" --virtual-time-budget=5000 "$@" \
     "$ROBOCAL_URL/v1/campaigns/$campaign/report" >"$out" 2>"$work/chromium.log" &
   browser_pgid=$!
-  local waited=0
-  while kill -0 "$browser_pgid" 2>/dev/null; do
-    if [ "$waited" -ge 900 ]; then
-      echo "FAIL: chromium did not finish within 90 s" >&2
-      tail -20 "$work/chromium.log" >&2
-      return 1
-    fi
-    sleep 0.1
-    waited=$((waited + 1))
-  done
+  # Until it exits (no time limit: a busy machine is slower; a hang is the test runner's timeout's).
   wait "$browser_pgid" || {
     echo "FAIL: chromium exited with an error" >&2
     tail -20 "$work/chromium.log" >&2

@@ -2,22 +2,30 @@
 # database, and the server stopped when the script exits. Source it, then: start_server BUILD_DIR [server flags].
 # Sets ROBOCAL_URL and SERVER_PID; SERVER_TMP holds the database and the server's log.
 
+# read_listening_line FIFO: waits for the server's readiness signal, the first line of its stdout ("robocal-server
+# listening on URL ..."), which it prints once its socket is bound, and prints the URL. The read blocks until the
+# line is written or the server exits (end of file): an event, with no time limit that a busy machine could overrun
+# (a server that hangs is the test runner's timeout's). The rest of stdout is drained to FIFO.out in the background,
+# so that the server never blocks on a full pipe.
+read_listening_line() {
+  local fifo=$1 fd line=
+  exec {fd}<"$fifo"
+  IFS= read -r line <&"$fd" || true
+  cat <&"$fd" >"$fifo.out" &
+  exec {fd}<&-
+  printf '%s\n' "$line" | sed -n 's/^robocal-server listening on \([^ ]*\).*/\1/p'
+}
+
 start_server() {
   local build_dir=$1
   shift
   SERVER_TMP=$(mktemp -d)
+  mkfifo "$SERVER_TMP/server.out"
   "$build_dir/server/robocal-server" --port 0 --db "$SERVER_TMP/robocal.db" --log-level warn "$@" \
     >"$SERVER_TMP/server.out" 2>"$SERVER_TMP/server.log" &
   SERVER_PID=$!
   trap stop_server EXIT
-  ROBOCAL_URL=
-  # The server prints its URL once it is bound; wait for that line (up to 10 s).
-  for _ in $(seq 1 100); do
-    ROBOCAL_URL=$(sed -n 's/^robocal-server listening on \([^ ]*\).*/\1/p' "$SERVER_TMP/server.out")
-    [ -n "$ROBOCAL_URL" ] && break
-    kill -0 "$SERVER_PID" 2>/dev/null || break
-    sleep 0.1
-  done
+  ROBOCAL_URL=$(read_listening_line "$SERVER_TMP/server.out")
   if [ -z "$ROBOCAL_URL" ]; then
     echo "robocal-server did not start:" >&2
     cat "$SERVER_TMP/server.log" >&2
