@@ -41,13 +41,17 @@ fuzz: sanitize-build
 	cd $(SANITIZE_BUILD_DIR) && ROBOCAL_FUZZ_SECONDS=$(FUZZ_SECONDS) UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) -L fuzz --timeout $$(($(FUZZ_SECONDS) + 300))
 
-# Starts the server on 127.0.0.1:8080 with its SQLite file under ./var (Ctrl-C stops it).
-run: build
+# Starts the server on 127.0.0.1:8080 with its SQLite file under ./var (Ctrl-C stops it). Builds only the server:
+# a fresh machine answers after the server's build, not after every test, benchmark and fuzz target's.
+run: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target robocal-server
 	mkdir -p var
 	$(BUILD_DIR)/server/robocal-server --host 127.0.0.1 --port 8080 --db ./var/robocal.db
 
-# The whole calibration against a throw-away server: plan, measure (simulated), fit, validate, the table.
-demo: build
+# The whole calibration against a throw-away server: plan, measure (simulated), fit, validate, the table. Builds
+# only the programs it runs.
+demo: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target robocal-server robocal-mock-tracker
 	bash tests/curl/demo.sh $(BUILD_DIR)
 
 bench: build
@@ -57,8 +61,10 @@ bench: build
 	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
 	$(BUILD_DIR)/tests/bench/robocal_program_bench
 
+# Formats the lines changed since the last commit (staged or not) with the project's .clang-format; older code
+# is left as it is, so that a change's diff holds only the change.
 format:
-	find core api server client tests -name '*.h' -o -name '*.cc' | xargs -r clang-format -i
+	git clang-format --force
 
 clean:
 	rm -rf $(BUILD_DIR)
