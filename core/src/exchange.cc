@@ -171,6 +171,7 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
   if (cancelled) {
     s.termination = Termination::kNoConvergence;
     s.message = "cancelled";
+    s.cancelled = true;
   } else if (converged) {
     s.termination = Termination::kConvergence;
     s.message = "no exchange improves the objective after " + std::to_string(s.iterations) + " iterations";

@@ -450,6 +450,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   std::ostringstream msg;
   msg << lm.reason;
   s.termination = lm.termination;
+  s.cancelled = lm.cancelled;
   if (lm.termination == Termination::kConvergence && identifiability_termination == Termination::kDegraded) {
     s.termination = Termination::kDegraded;
     msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";

@@ -161,6 +161,7 @@ struct LmResult {
   int iterations = 0;
   Termination termination = Termination::kNoConvergence;
   std::string reason;
+  bool cancelled = false;  // the progress callback asked to stop
 };
 
 // Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the

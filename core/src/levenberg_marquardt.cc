@@ -109,6 +109,7 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, co
     if (o.progress && !o.progress(static_cast<double>(out.iterations) / o.max_iterations)) {
       out.termination = Termination::kNoConvergence;
       out.reason = "cancelled";
+      out.cancelled = true;
       return out;
     }
   }

@@ -263,6 +263,7 @@ Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector
     if (mc.cancelled) {
       c.summary.termination = Termination::kNoConvergence;
       c.summary.message = "cancelled";
+      c.summary.cancelled = true;
     } else if (c.summary.termination != Termination::kFailure) {
       c.summary.termination = Termination::kDegraded;
       c.summary.message = "model choice: " + mc.message + "; the geometric model was fitted: " + c.summary.message;

@@ -221,6 +221,7 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   }
   s.termination = cancelled ? Termination::kNoConvergence : Termination::kConvergence;
   s.message = cancelled ? "cancelled" : "best of " + std::to_string(s.evaluations) + " random sets";
+  s.cancelled = cancelled;
   RecordDraws(account, &s);
   FinishPlan(start_time, model, observability, &plan);
   return plan;

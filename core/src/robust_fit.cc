@@ -441,7 +441,7 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
   }
   const ParameterSelection selection = SelectParameters(nominal, measurements, options);
   // A cancelled fit (progress returned false) is not refitted.
-  const auto cancelled = [](const Calibration& c) { return c.summary.message.rfind("cancelled", 0) == 0; };
+  const auto cancelled = [](const Calibration& c) { return c.summary.cancelled; };
   // The options of the fits: the model error's components are the estimate so far.
   IdentificationOptions current_options = options;
   // Identify makes several fits (the model error's cycles, the robust rounds): the progress it reports is the
@@ -488,8 +488,7 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
   };
   // Writes the model error into a summary (and the sentence into its message).
   const auto report_model_error = [&](IdentificationSummary* s) {
-    if (!options.estimate_model_error || s->termination == Termination::kFailure ||
-        s->message.rfind("cancelled", 0) == 0) {
+    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->cancelled) {
       return;
     }
     const int angle_rows = MeasurementRows(options.measurement_type) - 3;

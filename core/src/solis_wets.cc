@@ -60,7 +60,7 @@ class SolisWetsSearch {
   bool budget_left() const { return options_.max_evaluations == 0 || s_.evaluations < options_.max_evaluations; }
 
   // One run from `start_set` (`first`: the plan's first, whose indices are the summary's initial ones). False
-  // when the budget ran out or the caller cancelled (summary.message "cancelled").
+  // when the budget ran out or the caller cancelled (summary.cancelled).
   bool Run(const std::vector<Eigen::VectorXd>& start_set, bool first) {
     Eigen::VectorXd x = normaliser_.ToZ(start_set);
     double fx = Evaluate(x, false);
@@ -122,6 +122,7 @@ class SolisWetsSearch {
       s_.objective_trace.push_back(best_f_);
       if (options_.progress && !options_.progress(FractionDone())) {
         s_.message = "cancelled";
+        s_.cancelled = true;
         return false;
       }
     }
@@ -250,7 +251,7 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
   s.final = std::move(search.best_indices());
   if (stopped) {
     s.termination = Termination::kNoConvergence;
-    if (s.message != "cancelled") s.message = "evaluation budget reached";
+    if (!s.cancelled) s.message = "evaluation budget reached";
   } else {
     // Solis & Wets has no convergence test: finishing its k_max iterations is its normal end.
     s.termination = Termination::kConvergence;

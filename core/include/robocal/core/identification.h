@@ -152,6 +152,8 @@ struct ModelCandidate {
 struct IdentificationSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
+  /// options.progress asked to stop: NO_CONVERGENCE with the best solution so far (message "cancelled ...").
+  bool cancelled = false;
   MeasurementType measurement_type = MeasurementType::kPose;
   /// Measurements the fit used: the ones given less the excluded outliers.
   int num_measurements = 0;

@@ -178,6 +178,8 @@ struct ExchangeOptions {
 struct PlanSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
+  /// The options' progress callback asked to stop: NO_CONVERGENCE with the best set so far.
+  bool cancelled = false;
   /// "solis_wets", "random" or "exchange".
   std::string method;
   ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
