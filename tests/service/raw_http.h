@@ -54,8 +54,9 @@ class RawConnection {
     return true;
   }
   /// Reads until the server closes the connection, a whole reply (by Content-Length) has arrived, or `wait`
-  /// passes; returns what came.
-  RawReply Read(std::chrono::milliseconds wait = std::chrono::milliseconds(5000)) {
+  /// passes; returns what came. The default wait is a hang guard: a reply returns as soon as it is whole, and a
+  /// busy machine may take seconds.
+  RawReply Read(std::chrono::milliseconds wait = std::chrono::milliseconds(30000)) {
     const auto until = std::chrono::steady_clock::now() + wait;
     std::string data;
     data.swap(pending_);
@@ -100,7 +101,7 @@ class RawConnection {
 
   /// One whole request's reply: send, then read.
   static RawReply Exchange(int port, const std::string& request,
-                           std::chrono::milliseconds wait = std::chrono::milliseconds(5000)) {
+                           std::chrono::milliseconds wait = std::chrono::milliseconds(30000)) {
     RawConnection c(port);
     c.Send(request);
     return c.Read(wait);
