@@ -8,6 +8,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <map>
 #include <sstream>
@@ -264,13 +265,17 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   return out;
 }
 
-Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
-                         const IdentificationOptions& options, const ParameterSelection& selection,
-                         const Eigen::VectorXd* x0) {
-  const Clock::time_point start = Clock::now();
-  const int n_all = nominal.num_error_parameters();
+namespace {
+
+// The steps of one fit (IdentifyOnce): check, register, rank test, solve, judge. Each returns the reason the fit
+// fails ("" to go on) and writes what it finds into the calibration or its summary.
+
+// Check, part one: every shot well formed. Throws std::invalid_argument for joint vectors of the wrong size (a
+// caller's error, not the data's).
+std::string CheckShots(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                       const IdentificationOptions& options) {
+  const MeasurementType type = options.measurement_type;
   const int num_reflectors = static_cast<int>(options.reflectors.size());
-  const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
   for (size_t i = 0; i < measurements.size(); ++i) {
     if (measurements[i].joints.size() != nominal.num_joints()) {
       throw std::invalid_argument("Identify: measurements[" + std::to_string(i) + "].joints has " +
@@ -278,196 +283,152 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
                                   "' has " + std::to_string(nominal.num_joints()) + " joints");
     }
   }
-
-  const MeasurementType type = options.measurement_type;
-  Calibration cal{.model = nominal,
-                  .errors = Eigen::VectorXd::Zero(n_all),
-                  .parameters = {},
-                  .covariance = {},
-                  .T_world_base = nominal.T_world_base(),
-                  .T_flange_tool = nominal.T_flange_tool(),
-                  .reflectors = options.reflectors,
-                  .summary = {}};
-  IdentificationSummary& s = cal.summary;
-  s.measurement_type = type;
-  s.model = nominal.error_terms();
-  s.num_measurements = static_cast<int>(measurements.size());
-  s.num_residuals = MeasurementRows(type) * s.num_measurements;
-  s.scaling = DescribeScaling(options.noise);
-  s.T_world_base = cal.T_world_base;
-  s.T_flange_tool = cal.T_flange_tool;
-  const auto fail = [&](const std::string& message) {
-    s.termination = Termination::kFailure;
-    s.message = message;
-    s.seconds = Seconds(start);
-    return cal;
-  };
-
-  if (measurements.empty()) return fail("no measurements");
+  if (measurements.empty()) return "no measurements";
   for (size_t i = 0; i < measurements.size(); ++i) {
     const std::string problem = CheckMeasurement(measurements[i], type);
-    if (!problem.empty()) return fail("measurements[" + std::to_string(i) + "]: " + problem);
+    if (!problem.empty()) return "measurements[" + std::to_string(i) + "]: " + problem;
     const int reflector = measurements[i].reflector;
     if (num_reflectors == 0 && reflector != -1) {
-      return fail("measurements[" + std::to_string(i) + "]: names reflector " + std::to_string(reflector) +
-                  " but the fit has no reflectors");
+      return "measurements[" + std::to_string(i) + "]: names reflector " + std::to_string(reflector) +
+             " but the fit has no reflectors";
     }
     if (num_reflectors > 0 && (reflector < 0 || reflector >= num_reflectors)) {
-      return fail("measurements[" + std::to_string(i) + "]: reflector " + std::to_string(reflector) +
-                  " is not one of the " + std::to_string(num_reflectors) + " reflectors (0.." +
-                  std::to_string(num_reflectors - 1) + ")");
+      return "measurements[" + std::to_string(i) + "]: reflector " + std::to_string(reflector) + " is not one of the " +
+             std::to_string(num_reflectors) + " reflectors (0.." + std::to_string(num_reflectors - 1) + ")";
     }
   }
+  return "";
+}
 
-  // Which parameters to estimate.
-  if (!selection.failure.empty()) return fail(selection.failure);
-  const std::vector<int>& parameters = selection.parameters;
-  const Termination identifiability_termination = selection.termination;
-  s.dropped = selection.dropped;
-  s.num_parameters = static_cast<int>(parameters.size());
-
-  // Distinct poses (and reflectors) bound the information; repeated shots only average the noise.
-  const ShotGroups groups(measurements);
-  s.num_poses = static_cast<int>(groups.poses.size());
+// Check, part two: more rows from distinct poses than parameters (with equality the fit interpolates the pose
+// means and only the scatter of repeated shots would be left to estimate sigma_hat from).
+std::string CheckRedundancy(MeasurementType type, const ShotGroups& groups, const IdentificationSummary* s) {
   const int rows = MeasurementRows(type);
-  // Rows from distinct poses must exceed the parameters: with equality the fit interpolates the pose means and
-  // only the scatter of repeated shots would be left to estimate sigma_hat from.
   const int num_groups = static_cast<int>(groups.groups.size());
-  if (rows * num_groups <= s.num_parameters) {
+  if (rows * num_groups <= s->num_parameters) {
     std::ostringstream msg;
-    msg << "too few distinct poses: " << s.num_poses << " distinct joint configuration(s) among " << s.num_measurements
-        << " measurements give " << rows * num_groups << " independent " << ToString(type) << " rows for "
-        << s.num_parameters << " parameters; need at least " << s.num_parameters / rows + 1 << " distinct poses";
-    return fail(msg.str());
+    msg << "too few distinct poses: " << s->num_poses << " distinct joint configuration(s) among "
+        << s->num_measurements << " measurements give " << rows * num_groups << " independent " << ToString(type)
+        << " rows for " << s->num_parameters << " parameters; need at least " << s->num_parameters / rows + 1
+        << " distinct poses";
+    return msg.str();
   }
+  return "";
+}
 
-  // Each reflector's nominal point in the tool frame (empty without reflectors).
-  const std::vector<Eigen::Vector3d> nominal_in_tool = ReflectorsInTool(nominal, options.reflectors, Eigen::VectorXd());
-  // Tracker -> base registration: nominal tool (or reflector) positions (nominal world frame) onto the measured
-  // ones.
-  RobotModel model = nominal;
-  if (options.register_base) {
-    std::vector<Eigen::Vector3d> from, to;
-    from.reserve(measurements.size());
-    to.reserve(measurements.size());
-    KinematicsWorkspace ws(nominal);
-    for (const Measurement& m : measurements) {
-      // Under the shot's payload: a robot holding compliances sags under it.
-      const Transform& tool = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws, m.payload);
-      from.push_back(m.reflector < 0 ? tool.translation() : tool * nominal_in_tool.at(m.reflector));
-      to.push_back(m.T_world_tool.translation());
-    }
-    Transform T;
-    try {
-      T = RegisterPoints(from, to);
-    } catch (const std::invalid_argument&) {
-      return fail(
-          "degenerate configurations: the tool positions are collinear or coincident, so the tracker -> "
-          "base frame cannot be registered");
-    }
-    RobotModelSpec spec = nominal.spec();
-    spec.T_world_base = T * nominal.T_world_base();
-    model = RobotModel::Build(spec);
+// Register: the tracker -> base frame from the nominal tool (or reflector) positions onto the measured ones, each
+// under its shot's payload (a robot holding compliances sags under it). `model` is the nominal robot so placed.
+std::string RegisterBase(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const std::vector<Eigen::Vector3d>& nominal_in_tool, RobotModel* model) {
+  std::vector<Eigen::Vector3d> from, to;
+  from.reserve(measurements.size());
+  to.reserve(measurements.size());
+  KinematicsWorkspace ws(nominal);
+  for (const Measurement& m : measurements) {
+    const Transform& tool = ForwardKinematics(nominal, m.joints, Eigen::VectorXd(), &ws, m.payload);
+    from.push_back(m.reflector < 0 ? tool.translation() : tool * nominal_in_tool.at(m.reflector));
+    to.push_back(m.T_world_tool.translation());
   }
-
-  Problem problem(model, measurements, groups, options, parameters);
-  s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
-
-  // Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters
-  // they cannot determine named, instead of producing a meaningless fit. Its Jacobian's storage goes on to the solver.
-  Eigen::MatrixXd start_jacobian;
-  {
-    Eigen::VectorXd r;
-    Eigen::MatrixXd& j = start_jacobian;
-    problem.Evaluate(Eigen::VectorXd::Zero(s.num_parameters), &r, &j);
-    s.initial_cost = 0.5 * r.squaredNorm();
-    if (!std::isfinite(s.initial_cost) || !AllFinite(j)) return fail("non-finite residuals at the start");
-    // Beyond kDenseParameterLimit the normal equations' eigenvalues decide first; the pivoted QR (seconds at
-    // hundreds of columns) only names what is undetermined.
-    const bool full_rank = s.num_parameters > kDenseParameterLimit &&
-                           FullRankByNormal(j, std::max(options.identifiability.rank_tolerance, kNormalRankTolerance));
-    if (!full_rank) {
-      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
-      // Beyond kDenseParameterLimit, the cut of the normal equations that found a deficiency.
-      const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(),
-                                 s.num_parameters > kDenseParameterLimit
-                                     ? std::max(options.identifiability.rank_tolerance, kNormalRankTolerance)
-                                     : options.identifiability.rank_tolerance);
-      if (rank < s.num_parameters) {
-        std::ostringstream msg;
-        msg << "degenerate configurations: rank-deficient Jacobian, the " << s.num_poses << " poses determine only "
-            << rank << " of " << s.num_parameters << " parameters (undetermined:";
-        const auto& perm = qr.colsPermutation().indices();
-        for (int k = rank; k < std::min(s.num_parameters, rank + 4); ++k) {
-          msg << " " << name(parameters[perm[k]]);
-        }
-        msg << (s.num_parameters - rank > 4 ? " ...)" : ")");
-        return fail(msg.str());
-      }
-    }
+  Transform T;
+  try {
+    T = RegisterPoints(from, to);
+  } catch (const std::invalid_argument&) {
+    return "degenerate configurations: the tool positions are collinear or coincident, so the tracker -> base "
+           "frame cannot be registered";
   }
+  RobotModelSpec spec = nominal.spec();
+  spec.T_world_base = T * nominal.T_world_base();
+  *model = RobotModel::Build(spec);
+  return "";
+}
 
-  LmResult lm = LevenbergMarquardt(&problem, options, x0, std::move(start_jacobian));
-  s.iterations = lm.iterations;
-  if (lm.termination == Termination::kFailure || !lm.x.allFinite()) return fail("optimisation failed: " + lm.reason);
+// Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters they
+// cannot determine named, instead of producing a meaningless fit. Beyond kDenseParameterLimit the normal
+// equations' Cholesky factor decides first; the pivoted QR (seconds at hundreds of columns) only names what is
+// undetermined. `jacobian` keeps the start's Jacobian (its storage goes on to the solver).
+std::string RankTest(Problem* problem, const std::vector<int>& parameters, const IdentificationOptions& options,
+                     const std::function<std::string(int)>& name, IdentificationSummary* s, Eigen::MatrixXd* jacobian) {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd& j = *jacobian;
+  problem->Evaluate(Eigen::VectorXd::Zero(s->num_parameters), &r, &j);
+  s->initial_cost = 0.5 * r.squaredNorm();
+  if (!std::isfinite(s->initial_cost) || !AllFinite(j)) return "non-finite residuals at the start";
+  const bool many = s->num_parameters > kDenseParameterLimit;
+  const double tolerance = many ? std::max(options.identifiability.rank_tolerance, kNormalRankTolerance)
+                                : options.identifiability.rank_tolerance;
+  if (many && FullRankByNormal(j, tolerance)) return "";
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
+  const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(), tolerance);
+  if (rank >= s->num_parameters) return "";
+  std::ostringstream msg;
+  msg << "degenerate configurations: rank-deficient Jacobian, the " << s->num_poses << " poses determine only " << rank
+      << " of " << s->num_parameters << " parameters (undetermined:";
+  const auto& perm = qr.colsPermutation().indices();
+  for (int k = rank; k < std::min(s->num_parameters, rank + 4); ++k) msg << " " << name(parameters[perm[k]]);
+  msg << (s->num_parameters - rank > 4 ? " ...)" : ")");
+  return msg.str();
+}
 
-  const Eigen::VectorXd errors = problem.FullErrors(lm.x);
-  s.final_cost = 0.5 * lm.residual.squaredNorm();
-
-  // Covariance and condition number from the column-scaled Jacobian; the rank test of the start, on the
-  // singular values at the solution: the covariance needs every one. With the maps' penalty rows it is the
-  // covariance of the penalised estimate (the penalty as a prior), and sigma_hat takes the measurements' rows over
-  // their redundancy: the rows less the effective parameters (a penalised coefficient counts less than one).
+// Solve: Levenberg-Marquardt from `x0`, then the covariance and condition number from the column-scaled Jacobian
+// (the rank test of the start, on the singular values at the solution: the covariance needs every one). With the
+// maps' penalty rows it is the covariance of the penalised estimate (the penalty as a prior), and sigma_hat takes
+// the measurements' rows over their redundancy: the rows less the effective parameters (a penalised coefficient
+// counts less than one). Writes the parameters, errors, frames and residual statistics into `cal`.
+std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                  const IdentificationOptions& options, const std::vector<int>& parameters,
+                  const std::function<std::string(int)>& name, const Eigen::VectorXd* x0,
+                  Eigen::MatrixXd start_jacobian, Problem* problem, RobotModel* model, LmResult* lm, Calibration* cal) {
+  IdentificationSummary& s = cal->summary;
+  *lm = LevenbergMarquardt(problem, options, x0, std::move(start_jacobian));
+  s.iterations = lm->iterations;
+  if (lm->termination == Termination::kFailure || !lm->x.allFinite()) return "optimisation failed: " + lm->reason;
+  const Eigen::VectorXd errors = problem->FullErrors(lm->x);
+  s.final_cost = 0.5 * lm->residual.squaredNorm();
   Eigen::VectorXd sv;
-  const bool by_normal = lm.jacobian.cols() > kDenseParameterLimit && lm.normal.rows() == lm.jacobian.cols();
-  if (!(by_normal
-            ? ScaledCovarianceOfNormal(lm.normal, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance)
-            : ScaledCovariance(lm.jacobian, 1.0, options.identifiability.rank_tolerance, &sv, &cal.covariance))) {
-    return fail("degenerate configurations: rank-deficient Jacobian at the solution");
+  const bool by_normal = lm->jacobian.cols() > kDenseParameterLimit && lm->normal.rows() == lm->jacobian.cols();
+  const double tolerance = options.identifiability.rank_tolerance;
+  if (!(by_normal ? ScaledCovarianceOfNormal(lm->normal, 1.0, tolerance, &sv, &cal->covariance)
+                  : ScaledCovariance(lm->jacobian, 1.0, tolerance, &sv, &cal->covariance))) {
+    return "degenerate configurations: rank-deficient Jacobian at the solution";
   }
-  const double dof = s.num_residuals - EffectiveParameters(cal.covariance, problem.penalty_normal());
-  s.sigma_hat = std::sqrt(lm.residual.head(problem.num_measurement_rows()).squaredNorm() / dof);
-  cal.covariance *= s.sigma_hat * s.sigma_hat;
+  const double dof = s.num_residuals - EffectiveParameters(cal->covariance, problem->penalty_normal());
+  s.sigma_hat = std::sqrt(lm->residual.head(problem->num_measurement_rows()).squaredNorm() / dof);
+  cal->covariance *= s.sigma_hat * s.sigma_hat;
   s.condition_number = sv[0] / sv[sv.size() - 1];
   s.singular_values = sv;
-
   for (int k = 0; k < s.num_parameters; ++k) {
-    cal.parameters.push_back({parameters[k], name(parameters[k]), lm.x[k], std::sqrt(cal.covariance(k, k))});
+    cal->parameters.push_back({parameters[k], name(parameters[k]), lm->x[k], std::sqrt(cal->covariance(k, k))});
   }
-  s.parameters = cal.parameters;
-  const Eigen::VectorXd reflector_errors = problem.ReflectorErrors(lm.x);
-  s.after = ComputeResidualStatistics(model, errors, measurements, type, options.noise,
+  s.parameters = cal->parameters;
+  const Eigen::VectorXd reflector_errors = problem->ReflectorErrors(lm->x);
+  s.after = ComputeResidualStatistics(*model, errors, measurements, options.measurement_type, options.noise,
                                       ReflectorsInTool(nominal, options.reflectors, reflector_errors));
-  for (int k = 0; k < num_reflectors; ++k) cal.reflectors[k].position_mm += reflector_errors.segment<3>(3 * k);
-
-  cal.T_world_base = model.T_world_base() * ErrorTransform(errors.data());
-  cal.T_flange_tool = model.T_flange_tool() * ErrorTransform(errors.data() + 6 * (model.num_error_sites() - 1));
-  s.T_world_base = cal.T_world_base;
-  s.T_flange_tool = cal.T_flange_tool;
-  cal.errors = errors;
-  cal.model = std::move(model);
-
-  std::ostringstream msg;
-  msg << lm.reason;
-  s.termination = lm.termination;
-  s.cancelled = lm.cancelled;
-  if (lm.termination == Termination::kConvergence && identifiability_termination == Termination::kDegraded) {
-    s.termination = Termination::kDegraded;
-    msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";
+  for (size_t k = 0; k < options.reflectors.size(); ++k) {
+    cal->reflectors[k].position_mm += reflector_errors.segment<3>(3 * static_cast<Eigen::Index>(k));
   }
-  if (!selection.note.empty()) msg << "; " << selection.note;
-  // Geometric errors are tenths of a mm and hundredths of a degree; a fit that needs metres or tens of degrees
-  // matched the shots with a wrong nominal geometry (a tool, a reflector position, a table typed wrong).
+  cal->T_world_base = model->T_world_base() * ErrorTransform(errors.data());
+  cal->T_flange_tool = model->T_flange_tool() * ErrorTransform(errors.data() + 6 * (model->num_error_sites() - 1));
+  s.T_world_base = cal->T_world_base;
+  s.T_flange_tool = cal->T_flange_tool;
+  cal->errors = errors;
+  cal->model = std::move(*model);  // the problem, which refers to it, is done
+  return "";
+}
+
+// Judge, part one: parameters no robot has. Geometric errors are tenths of a mm and hundredths of a degree; a fit
+// that needs metres or tens of degrees matched the shots with a wrong nominal geometry (a tool, a reflector
+// position, a table typed wrong). A joint term: a compliance beyond kImplausibleComplianceRadPerNm is no robot
+// joint, a harmonic beyond kImplausibleHarmonicRad no gear; the data then hold too little of its effect to say what
+// it is (a term nearly constant over the measured poses, fitted to the noise), and it extrapolates wildly. Judged
+// on the joint's whole term: what the robot holds (a calibration registered as a robot) and the fitted correction
+// on top. Returns the first three implausible geometric errors and their count; the joint terms go to the summary.
+std::string ImplausibleErrors(const RobotModel& nominal, const std::vector<IdentifiedParameter>& parameters, int* count,
+                              std::vector<std::string>* joint_terms) {
   std::string implausible;
-  int count = 0;
-  for (const IdentifiedParameter& p : cal.parameters) {
+  *count = 0;
+  for (const IdentifiedParameter& p : parameters) {
     const bool mm = IsTranslationName(p.name);
     if (p.index >= nominal.num_geometric_parameters() && p.index < nominal.num_error_parameters()) {
-      // A joint term: a compliance beyond kImplausibleComplianceRadPerNm is no robot joint, a harmonic beyond
-      // kImplausibleHarmonicRad no gear; the data then hold too little of its effect to say what it is (a term
-      // that is nearly constant over the measured poses, fitted to the noise), and it extrapolates wildly.
-      // Judged on the joint's whole term: what the robot holds (a calibration registered as a robot) and the
-      // fitted correction on top.
       const bool compliance = nominal.parameter_unit(p.index) == ParameterUnit::kRadPerNm;
       const double held = HeldJointTerm(nominal, nominal.joint_terms()[p.index - nominal.num_geometric_parameters()]);
       if (std::abs(held + p.value) > (compliance ? kImplausibleComplianceRadPerNm : kImplausibleHarmonicRad)) {
@@ -475,18 +436,34 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
         one << std::setprecision(4) << p.name << " " << (held + p.value) * kDegPerRad
             << (compliance ? " deg/(N*m)" : " deg");
         if (held != 0.0) one << " (held " << held * kDegPerRad << " + fitted " << p.value * kDegPerRad << ")";
-        s.implausible_joint_terms.push_back(one.str());
+        joint_terms->push_back(one.str());
       }
       continue;
     }
-    if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad)) {
-      if (++count <= 3) {
-        std::ostringstream one;
-        one << std::setprecision(4) << p.name << " " << (mm ? p.value : p.value * kDegPerRad) << (mm ? " mm" : " deg");
-        implausible += (implausible.empty() ? "" : ", ") + one.str();
-      }
+    if (std::abs(p.value) > (mm ? kImplausibleErrorMm : kImplausibleErrorRad) && ++*count <= 3) {
+      std::ostringstream one;
+      one << std::setprecision(4) << p.name << " " << (mm ? p.value : p.value * kDegPerRad) << (mm ? " mm" : " deg");
+      implausible += (implausible.empty() ? "" : ", ") + one.str();
     }
   }
+  return implausible;
+}
+
+// Judge: the termination and the message from the solver's end, the identifiable set's clarity, the selection's
+// note and the implausible parameters (each of those degrades a converged fit).
+void Judge(const RobotModel& nominal, const ParameterSelection& selection, const LmResult& lm, Calibration* cal) {
+  IdentificationSummary& s = cal->summary;
+  std::ostringstream msg;
+  msg << lm.reason;
+  s.termination = lm.termination;
+  s.cancelled = lm.cancelled;
+  if (lm.termination == Termination::kConvergence && selection.termination == Termination::kDegraded) {
+    s.termination = Termination::kDegraded;
+    msg << "; the identifiable set was unclear (see FindIdentifiableParameters)";
+  }
+  if (!selection.note.empty()) msg << "; " << selection.note;
+  int count = 0;
+  const std::string implausible = ImplausibleErrors(nominal, cal->parameters, &count, &s.implausible_joint_terms);
   if (count > 0) {
     if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
     msg << "; implausible geometric errors (" << implausible << (count > 3 ? ", ..." : "")
@@ -501,8 +478,67 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
            "fit a simpler model or measure more varied poses";
   }
   s.message = msg.str();
-  s.seconds = Seconds(start);
-  return cal;
+}
+
+}  // namespace
+
+Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                         const IdentificationOptions& options, const ParameterSelection& selection,
+                         const Eigen::VectorXd* x0) {
+  const Clock::time_point start = Clock::now();
+  const MeasurementType type = options.measurement_type;
+  const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
+  Calibration cal{.model = nominal,
+                  .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
+                  .parameters = {},
+                  .covariance = {},
+                  .T_world_base = nominal.T_world_base(),
+                  .T_flange_tool = nominal.T_flange_tool(),
+                  .reflectors = options.reflectors,
+                  .summary = {}};
+  IdentificationSummary& s = cal.summary;
+  s.measurement_type = type;
+  s.model = nominal.error_terms();
+  s.num_measurements = static_cast<int>(measurements.size());
+  s.num_residuals = MeasurementRows(type) * s.num_measurements;
+  s.scaling = DescribeScaling(options.noise);
+  s.T_world_base = cal.T_world_base;
+  s.T_flange_tool = cal.T_flange_tool;
+  const auto ended = [&](const std::string& failure) {
+    if (!failure.empty()) {
+      s.termination = Termination::kFailure;
+      s.message = failure;
+    }
+    s.seconds = Seconds(start);
+    return cal;
+  };
+  std::string failure = CheckShots(nominal, measurements, options);
+  if (failure.empty()) failure = selection.failure;  // which parameters to estimate
+  if (!failure.empty()) return ended(failure);
+  s.dropped = selection.dropped;
+  s.num_parameters = static_cast<int>(selection.parameters.size());
+  // Distinct poses (and reflectors) bound the information; repeated shots only average the noise.
+  const ShotGroups groups(measurements);
+  s.num_poses = static_cast<int>(groups.poses.size());
+  if (!(failure = CheckRedundancy(type, groups, &s)).empty()) return ended(failure);
+  // Each reflector's nominal point in the tool frame (empty without reflectors).
+  const std::vector<Eigen::Vector3d> nominal_in_tool = ReflectorsInTool(nominal, options.reflectors, Eigen::VectorXd());
+  RobotModel model = nominal;
+  if (options.register_base && !(failure = RegisterBase(nominal, measurements, nominal_in_tool, &model)).empty()) {
+    return ended(failure);
+  }
+  Problem problem(model, measurements, groups, options, selection.parameters);
+  s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
+  Eigen::MatrixXd start_jacobian;
+  if (!(failure = RankTest(&problem, selection.parameters, options, name, &s, &start_jacobian)).empty()) {
+    return ended(failure);
+  }
+  LmResult lm;
+  failure = Solve(nominal, measurements, options, selection.parameters, name, x0, std::move(start_jacobian), &problem,
+                  &model, &lm, &cal);
+  if (!failure.empty()) return ended(failure);
+  Judge(nominal, selection, lm, &cal);
+  return ended("");
 }
 
 }  // namespace identification_detail
