@@ -427,6 +427,242 @@ std::vector<char> FlagStaleShots(const RobotModel& nominal, const std::vector<Me
   return out;
 }
 
+namespace {
+
+// The robust fit (Identify): the model-error cycle around each fit, and the outlier rounds around that. Its state
+// is the options of its fits (the model error's components so far) and the estimate.
+class RobustFit {
+ public:
+  RobustFit(const RobotModel& nominal, const IdentificationOptions& options, const ParameterSelection& selection)
+      : nominal_(nominal), options_(options), selection_(selection), current_(options) {
+    // Identify makes several fits (the model error's cycles, the robust rounds): the progress it reports is the
+    // furthest any of them got, so that it never goes back.
+    if (options.progress) {
+      current_.progress = [this](double fraction) {
+        progress_so_far_ = std::max(progress_so_far_, fraction);
+        return options_.progress(progress_so_far_);
+      };
+    }
+  }
+  RobustFit(const RobustFit&) = delete;
+  RobustFit& operator=(const RobustFit&) = delete;
+
+  // The model-error cycle: one fit over `data` with the model error estimated beside it (estimate_model_error):
+  // fit, estimate the components from its residuals (`robust`: by their median), refit with them, until they
+  // settle. Each fit after the first starts from the last solution (from `from`'s, when given).
+  Calibration Fit(const std::vector<Measurement>& data, bool robust, const Calibration* from) {
+    const Eigen::VectorXd first_start = from != nullptr ? StartOf(*from) : Eigen::VectorXd();
+    Calibration cal = IdentifyOnce(nominal_, data, current_, selection_, &first_start);
+    if (!options_.estimate_model_error) return cal;
+    for (int cycle = 0; cycle < kMaxModelErrorCycles; ++cycle) {
+      if (cal.summary.termination == Termination::kFailure || cal.summary.cancelled) return cal;
+      model_error_ = EstimateModelError(cal, data, current_, selection_.parameters, robust, model_error_);
+      // Settled: the fit's own weights stay the answer's (the estimate moved them by less than the tolerance).
+      if (Settled()) break;
+      current_.noise.model_error_mm = model_error_.position_mm;
+      current_.noise.model_error_rad = model_error_.orientation_rad;
+      const Eigen::VectorXd start = StartOf(cal);
+      cal = IdentifyOnce(nominal_, data, current_, selection_, &start);
+    }
+    return cal;
+  }
+
+  // Writes the model error into a summary (and the sentence into its message).
+  void ReportModelError(IdentificationSummary* s) const {
+    if (!options_.estimate_model_error || s->termination == Termination::kFailure || s->cancelled) return;
+    const int angle_rows = MeasurementRows(options_.measurement_type) - 3;
+    s->model_error_estimated = true;
+    s->model_error_mm = std::sqrt(3.0) * current_.noise.model_error_mm;
+    s->model_error_rad = std::sqrt(static_cast<double>(angle_rows)) * current_.noise.model_error_rad;
+    s->tracker_rms_mm = std::sqrt(model_error_.tracker_variance_mm2);
+    s->tracker_rms_rad = std::sqrt(model_error_.tracker_variance_rad2);
+    std::ostringstream note;
+    note << std::setprecision(2) << "; robot error the geometric model does not explain: " << s->model_error_mm
+         << " mm";
+    if (angle_rows > 0) note << ", " << s->model_error_rad * kDegPerRad << " deg";
+    note << " RMS (tracker: " << s->tracker_rms_mm << " mm";
+    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * kDegPerRad << " deg";
+    note << ")";
+    s->message += note.str();
+  }
+
+  // The outlier rounds: iterative rejection on studentised residuals from the first fit `all`, refitting without
+  // the flagged measurements until the flagged set repeats.
+  Calibration RejectOutliers(const std::vector<Measurement>& measurements, const Calibration& all) {
+    const size_t n = measurements.size();
+    Rejection state{.excluded = std::vector<char>(n, 0), .current = all};
+    std::vector<char> previous(n, 0);
+    // The first fit's model error is the robust (median) one; the answer's is the mean one over the measurements
+    // kept, so the set is only settled after a fit with it.
+    bool robust_estimate = options_.estimate_model_error;
+    // The excluded sets fitted so far, and whether the current fit is the last (a cycle was resolved).
+    std::vector<std::vector<char>> fitted_sets = {state.excluded};
+    bool last_round = false;
+    for (; state.rounds <= kMaxRejectionRounds; ++state.rounds) {
+      std::vector<char> flagged = Flag(measurements, &state);
+      if ((flagged == state.excluded && !robust_estimate) || last_round) {
+        state.settled = true;
+        break;
+      }
+      if (state.rounds == kMaxRejectionRounds) break;
+      if (!robust_estimate) last_round = ResolveCycle(fitted_sets, &flagged);
+      state.excluded = flagged;
+      fitted_sets.push_back(state.excluded);
+      std::vector<Measurement> kept;
+      kept.reserve(n);
+      for (size_t i = 0; i < n; ++i)
+        if (!state.excluded[i]) kept.push_back(measurements[i]);
+      const IdentificationOptions before = current_;
+      const ModelErrorEstimate estimate_before = model_error_;
+      Calibration next = Fit(kept, false, &state.current);
+      robust_estimate = false;
+      if (next.summary.cancelled) return next;
+      if (next.summary.termination == Termination::kFailure) {
+        // Too few measurements left to fit (the flagged ones took whole poses with them): the rejection cannot
+        // go on, and the last fit that worked is the answer, DEGRADED and saying why; its own outliers (the
+        // previous round's) stay listed.
+        const int count = static_cast<int>(n - kept.size());
+        state.stopped = "the robust fit stopped: excluding " + std::to_string(count) + " measurement(s) left " +
+                        next.summary.message + "; this is the fit before that round";
+        state.excluded = previous;
+        current_ = before;
+        model_error_ = estimate_before;
+        break;
+      }
+      previous = state.excluded;
+      state.current = std::move(next);
+    }
+    Summarise(measurements, all, &state);
+    return std::move(state.current);
+  }
+
+ private:
+  // Where the outlier rounds are.
+  struct Rejection {
+    std::vector<char> excluded;
+    Calibration current;
+    std::vector<double> z;  // each measurement's studentised residual over the clean residuals' scale
+    double scale = 0.0;
+    double threshold = 0.0;
+    int rounds = 1;
+    bool settled = false;
+    std::string stopped;  // why the rounds stopped early, if they did
+  };
+
+  static Eigen::VectorXd StartOf(const Calibration& c) {
+    return c.summary.termination == Termination::kFailure ? Eigen::VectorXd() : ReducedParameters(c);
+  }
+
+  // Whether the estimate moved the total variance per row by less than kModelErrorSettled (2 %): the weights no
+  // longer change the fit.
+  bool Settled() const {
+    const MeasurementNoise& noise = current_.noise;
+    const ModelErrorEstimate& e = model_error_;
+    const double dp = e.position_mm * e.position_mm - noise.model_error_mm * noise.model_error_mm;
+    const double dor = e.orientation_rad * e.orientation_rad - noise.model_error_rad * noise.model_error_rad;
+    return std::abs(dp) <= kModelErrorSettled * (e.tracker_variance_mm2 / 3.0 + e.position_mm * e.position_mm) &&
+           std::abs(dor) <= kModelErrorSettled * (noise.OrientationSigmaRad() * noise.OrientationSigmaRad() +
+                                                  e.orientation_rad * e.orientation_rad);
+  }
+
+  // One round's judgement: the studentised residuals of the current fit, their robust scale and distribution,
+  // the threshold, and the measurements above it.
+  std::vector<char> Flag(const std::vector<Measurement>& measurements, Rejection* state) const {
+    const size_t n = measurements.size();
+    const int rows = MeasurementRows(options_.measurement_type);
+    state->z = StudentizedResiduals(state->current, measurements, state->excluded, current_, selection_.parameters);
+    std::vector<double> squares(n);
+    for (size_t i = 0; i < n; ++i) squares[i] = state->z[i] * state->z[i];
+    // A median-based scale, robust to up to half the data being gross errors (Rousseeuw & Leroy 1987); floored:
+    // data a thousand times more precise than the noise model says (a noise-free simulation) are exact, and
+    // their round-off is no outlier.
+    state->scale = std::max(std::sqrt(Median(squares) / ChiSquareQuantile(rows, 0.5)), kMinRobustScale);
+    // The distribution the clean residuals follow, c chi^2(nu) (ResidualDistribution): without the model
+    // error's estimate chi^2(rows) over the robust scale, as the noise model says; with it, fitted.
+    const ScaledChiSquare shape = ResidualDistribution(squares, rows, state->scale, options_.estimate_model_error);
+    state->threshold = std::sqrt(ChiSquareQuantile(shape.dof, options_.outlier_probability));
+    // A measurement in the fit is flagged above kNewOutlierMargin times the threshold, one out of it stays out
+    // above the threshold: a measurement on the threshold, which each refit's model error moves a little, would
+    // otherwise go in and out forever.
+    std::vector<char> flagged(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      state->z[i] /= std::sqrt(shape.scale);
+      flagged[i] = state->z[i] > state->threshold * (state->excluded[i] ? 1.0 : kNewOutlierMargin) ? 1 : 0;
+    }
+    return flagged;
+  }
+
+  // A set fitted before (not the last one): the rejection cycles through sets that differ in measurements on the
+  // threshold, which each refit moves across it. Those stay in: `flagged` becomes what every set of the cycle
+  // excluded, and true says that its fit is the last.
+  static bool ResolveCycle(const std::vector<std::vector<char>>& fitted_sets, std::vector<char>* flagged) {
+    for (size_t k = 0; k + 1 < fitted_sets.size(); ++k) {
+      if (fitted_sets[k] != *flagged) continue;
+      for (size_t j = k; j < fitted_sets.size(); ++j) {
+        for (size_t i = 0; i < flagged->size(); ++i) (*flagged)[i] = (*flagged)[i] && fitted_sets[j][i];
+      }
+      return true;
+    }
+    return false;
+  }
+
+  // The answer's summary: the outliers and the rounds, and what the rounds and the robust scale say about the fit.
+  void Summarise(const std::vector<Measurement>& measurements, const Calibration& all, Rejection* state) const {
+    IdentificationSummary& s = state->current.summary;
+    const size_t n = measurements.size();
+    s.outlier_threshold = state->threshold;
+    s.robust_scale = state->scale;
+    s.rejection_rounds = state->rounds;
+    for (size_t i = 0; i < n; ++i) {
+      if (state->excluded[i]) s.outliers.push_back({static_cast<int>(i), measurements[i].reflector, state->z[i]});
+    }
+    if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
+    const auto degrade = [&s] {
+      if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
+    };
+    if (!state->stopped.empty()) {
+      degrade();
+      s.message += "; " + state->stopped;
+    } else if (!state->settled) {
+      degrade();
+      s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
+    }
+    // The scale is 1 when the noise model is right. Without the model error's estimate, far above, the data
+    // scatter more than the model says and gross errors can hide in the scatter (or more than half the data are
+    // gross errors); far below, the model is too pessimistic, and where its proportions are wrong (e.g. across
+    // against along the beam) the whitened residuals are no longer chi-square shaped and clean shots get flagged.
+    const double scale = state->scale;
+    if (scale > kScaleWarning && !options_.estimate_model_error) {
+      degrade();
+      std::ostringstream note;
+      note << "; the residuals scatter " << std::setprecision(3) << scale
+           << " times what the noise model says (robust scale): outliers may be missed; check the tracker figures, "
+              "the repeatability and the data, or estimate the model error";
+      s.message += note.str();
+    } else if (scale < 1.0 / kScaleWarning && scale > kMinRobustScale) {
+      std::ostringstream note;
+      note << "; the residuals scatter only " << std::setprecision(3) << scale
+           << " times what the noise model says (robust scale): the model is pessimistic";
+      s.message += note.str();
+    }
+    ReportModelError(&s);
+    if (static_cast<double>(s.outliers.size()) > kSuspiciousOutlierFraction * static_cast<double>(n)) {
+      degrade();
+      s.message += "; " + std::to_string(s.outliers.size()) + " of " + std::to_string(n) +
+                   " measurements are outliers: check the noise model and the reflector";
+    }
+  }
+
+  const RobotModel& nominal_;
+  const IdentificationOptions& options_;
+  const ParameterSelection& selection_;
+  IdentificationOptions current_;  // the options of the fits: the model error's components are the estimate so far
+  ModelErrorEstimate model_error_;
+  double progress_so_far_ = 0.0;
+};
+
+}  // namespace
+
 Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                                  const IdentificationOptions& options) {
   const Clock::time_point start = Clock::now();
@@ -440,202 +676,16 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
                                 std::to_string(options.reflectors.size()) + " reflector(s)");
   }
   const ParameterSelection selection = SelectParameters(nominal, measurements, options);
+  RobustFit robust(nominal, options, selection);
+  Calibration all = robust.Fit(measurements, options.reject_outliers, nullptr);
   // A cancelled fit (progress returned false) is not refitted.
-  const auto cancelled = [](const Calibration& c) { return c.summary.cancelled; };
-  // The options of the fits: the model error's components are the estimate so far.
-  IdentificationOptions current_options = options;
-  // Identify makes several fits (the model error's cycles, the robust rounds): the progress it reports is the
-  // furthest any of them got, so that it never goes back.
-  double progress_so_far = 0.0;
-  if (options.progress) {
-    current_options.progress = [&](double fraction) {
-      progress_so_far = std::max(progress_so_far, fraction);
-      return options.progress(progress_so_far);
-    };
-  }
-  ModelErrorEstimate model_error;
-  // One fit over `data`, with the model error estimated beside it (estimate_model_error): fit, estimate the
-  // components from its residuals, refit with them, until they settle.
-  // Each fit after the first starts from the last solution (Levenberg-Marquardt then takes a few iterations).
-  const auto start_of = [](const Calibration& c) {
-    return c.summary.termination == Termination::kFailure ? Eigen::VectorXd() : ReducedParameters(c);
-  };
-  const auto fit = [&](const std::vector<Measurement>& data, bool robust, const Calibration* from) {
-    const Eigen::VectorXd first_start = from != nullptr ? start_of(*from) : Eigen::VectorXd();
-    Calibration cal = IdentifyOnce(nominal, data, current_options, selection, &first_start);
-    if (!options.estimate_model_error) return cal;
-    for (int cycle = 0; cycle < kMaxModelErrorCycles; ++cycle) {
-      if (cal.summary.termination == Termination::kFailure || cancelled(cal)) return cal;
-      model_error = EstimateModelError(cal, data, current_options, selection.parameters, robust, model_error);
-      MeasurementNoise& noise = current_options.noise;
-      const double dp = model_error.position_mm * model_error.position_mm - noise.model_error_mm * noise.model_error_mm;
-      const double dor =
-          model_error.orientation_rad * model_error.orientation_rad - noise.model_error_rad * noise.model_error_rad;
-      // Settled when the total variance per row moves by less than 2 %: the weights no longer change the fit.
-      const bool settled =
-          std::abs(dp) <= kModelErrorSettled * (model_error.tracker_variance_mm2 / 3.0 +
-                                                model_error.position_mm * model_error.position_mm) &&
-          std::abs(dor) <= kModelErrorSettled * (noise.OrientationSigmaRad() * noise.OrientationSigmaRad() +
-                                                 model_error.orientation_rad * model_error.orientation_rad);
-      // Settled: the fit's own weights stay the answer's (the estimate moved them by less than the tolerance).
-      if (settled) break;
-      noise.model_error_mm = model_error.position_mm;
-      noise.model_error_rad = model_error.orientation_rad;
-      const Eigen::VectorXd start = start_of(cal);
-      cal = IdentifyOnce(nominal, data, current_options, selection, &start);
-    }
-    return cal;
-  };
-  // Writes the model error into a summary (and the sentence into its message).
-  const auto report_model_error = [&](IdentificationSummary* s) {
-    if (!options.estimate_model_error || s->termination == Termination::kFailure || s->cancelled) {
-      return;
-    }
-    const int angle_rows = MeasurementRows(options.measurement_type) - 3;
-    s->model_error_estimated = true;
-    s->model_error_mm = std::sqrt(3.0) * current_options.noise.model_error_mm;
-    s->model_error_rad = std::sqrt(static_cast<double>(angle_rows)) * current_options.noise.model_error_rad;
-    s->tracker_rms_mm = std::sqrt(model_error.tracker_variance_mm2);
-    s->tracker_rms_rad = std::sqrt(model_error.tracker_variance_rad2);
-    std::ostringstream note;
-    note << std::setprecision(2) << "; robot error the geometric model does not explain: " << s->model_error_mm
-         << " mm";
-    if (angle_rows > 0) note << ", " << s->model_error_rad * kDegPerRad << " deg";
-    note << " RMS (tracker: " << s->tracker_rms_mm << " mm";
-    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * kDegPerRad << " deg";
-    note << ")";
-    s->message += note.str();
-  };
-
-  Calibration all = fit(measurements, options.reject_outliers, nullptr);
-  if (!options.reject_outliers || all.summary.termination == Termination::kFailure || cancelled(all)) {
-    report_model_error(&all.summary);
+  if (!options.reject_outliers || all.summary.termination == Termination::kFailure || all.summary.cancelled) {
+    robust.ReportModelError(&all.summary);
     return all;
   }
-
-  // The robust fit: iterative rejection on studentised residuals, refitting without the flagged measurements
-  // until the flagged set repeats.
-  const int rows = MeasurementRows(options.measurement_type);
-  const double median_chi2 = ChiSquareQuantile(rows, 0.5);
-  const size_t n = measurements.size();
-  std::vector<char> excluded(n, 0), previous(n, 0);
-  std::string stopped;
-  Calibration current = all;
-  std::vector<double> z;
-  double scale = 0.0;
-  double threshold = 0.0;
-  int rounds = 1;
-  bool settled = false;
-  // The first fit's model error is the robust (median) one; the answer's is the mean one over the measurements
-  // kept, so the set is only settled after a fit with it.
-  bool robust_estimate = options.estimate_model_error;
-  // The excluded sets fitted so far, and whether the current fit is the last (a cycle was resolved).
-  std::vector<std::vector<char>> fitted_sets = {excluded};
-  bool last_round = false;
-  for (; rounds <= kMaxRejectionRounds; ++rounds) {
-    z = StudentizedResiduals(current, measurements, excluded, current_options, selection.parameters);
-    std::vector<double> squares(n);
-    for (size_t i = 0; i < n; ++i) squares[i] = z[i] * z[i];
-    // A median-based scale, robust to up to half the data being gross errors (Rousseeuw & Leroy 1987); floored:
-    // data a thousand times more precise than the noise model says (a noise-free simulation) are exact, and
-    // their round-off is no outlier.
-    scale = std::max(std::sqrt(Median(squares) / median_chi2), kMinRobustScale);
-    // The distribution the clean residuals follow, c chi^2(nu) (ResidualDistribution): without the model
-    // error's estimate chi^2(rows) over the robust scale, as the noise model says; with it, fitted.
-    const ScaledChiSquare shape = ResidualDistribution(squares, rows, scale, options.estimate_model_error);
-    threshold = std::sqrt(ChiSquareQuantile(shape.dof, options.outlier_probability));
-    // A measurement in the fit is flagged above kNewOutlierMargin times the threshold, one out of it stays out
-    // above the threshold: a measurement on the threshold, which each refit's model error moves a little, would
-    // otherwise go in and out forever.
-    std::vector<char> flagged(n, 0);
-    for (size_t i = 0; i < n; ++i) {
-      z[i] /= std::sqrt(shape.scale);
-      flagged[i] = z[i] > threshold * (excluded[i] ? 1.0 : kNewOutlierMargin) ? 1 : 0;
-    }
-    if ((flagged == excluded && !robust_estimate) || last_round) {
-      settled = true;
-      break;
-    }
-    if (rounds == kMaxRejectionRounds) break;
-    // A set fitted before (not the last one): the rejection cycles through sets that differ in measurements on
-    // the threshold, which each refit moves across it. Those stay in: the answer excludes what every set of the
-    // cycle excluded.
-    if (!robust_estimate) {
-      for (size_t k = 0; k + 1 < fitted_sets.size(); ++k) {
-        if (fitted_sets[k] != flagged) continue;
-        for (size_t j = k; j < fitted_sets.size(); ++j) {
-          for (size_t i = 0; i < n; ++i) flagged[i] = flagged[i] && fitted_sets[j][i];
-        }
-        last_round = true;
-        break;
-      }
-    }
-    excluded = flagged;
-    fitted_sets.push_back(excluded);
-    std::vector<Measurement> kept;
-    kept.reserve(n);
-    for (size_t i = 0; i < n; ++i)
-      if (!excluded[i]) kept.push_back(measurements[i]);
-    const IdentificationOptions before = current_options;
-    const ModelErrorEstimate estimate_before = model_error;
-    Calibration next = fit(kept, false, &current);
-    robust_estimate = false;
-    if (cancelled(next)) return next;
-    if (next.summary.termination == Termination::kFailure) {
-      // Too few measurements left to fit (the flagged ones took whole poses with them): the rejection cannot
-      // go on, and the last fit that worked is the answer, DEGRADED and saying why; its own outliers (the
-      // previous round's) stay listed below.
-      const int count = static_cast<int>(n - kept.size());
-      stopped = "the robust fit stopped: excluding " + std::to_string(count) + " measurement(s) left " +
-                next.summary.message + "; this is the fit before that round";
-      for (size_t i = 0; i < n; ++i) excluded[i] = previous[i];
-      current_options = before;
-      model_error = estimate_before;
-      break;
-    }
-    previous = excluded;
-    current = std::move(next);
-  }
-  IdentificationSummary& s = current.summary;
-  s.outlier_threshold = threshold;
-  s.robust_scale = scale;
-  s.rejection_rounds = rounds;
-  for (size_t i = 0; i < n; ++i) {
-    if (excluded[i]) s.outliers.push_back({static_cast<int>(i), measurements[i].reflector, z[i]});
-  }
-  if (!s.outliers.empty()) s.parameters_with_outliers = all.parameters;
-  if (!stopped.empty()) {
-    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
-    s.message += "; " + stopped;
-  } else if (!settled) {
-    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
-    s.message += "; the outlier set did not settle in " + std::to_string(kMaxRejectionRounds) + " rounds";
-  }
-  // The scale is 1 when the noise model is right. Without the model error's estimate, far above, the data
-  // scatter more than the model says and gross errors can hide in the scatter (or more than half the data are
-  // gross errors); far below, the model is too pessimistic, and where its proportions are wrong (e.g. across
-  // against along the beam) the whitened residuals are no longer chi-square shaped and clean shots get flagged.
-  if (scale > kScaleWarning && !options.estimate_model_error) {
-    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
-    std::ostringstream note;
-    note << "; the residuals scatter " << std::setprecision(3) << scale
-         << " times what the noise model says (robust scale): outliers may be missed; check the tracker figures, "
-            "the repeatability and the data, or estimate the model error";
-    s.message += note.str();
-  } else if (scale < 1.0 / kScaleWarning && scale > kMinRobustScale) {
-    std::ostringstream note;
-    note << "; the residuals scatter only " << std::setprecision(3) << scale
-         << " times what the noise model says (robust scale): the model is pessimistic";
-    s.message += note.str();
-  }
-  report_model_error(&s);
-  if (static_cast<double>(s.outliers.size()) > kSuspiciousOutlierFraction * static_cast<double>(n)) {
-    if (s.termination == Termination::kConvergence) s.termination = Termination::kDegraded;
-    s.message += "; " + std::to_string(s.outliers.size()) + " of " + std::to_string(n) +
-                 " measurements are outliers: check the noise model and the reflector";
-  }
-  s.seconds = Seconds(start);
-  return current;
+  Calibration out = robust.RejectOutliers(measurements, all);
+  if (!out.summary.cancelled) out.summary.seconds = Seconds(start);
+  return out;
 }
 
 }  // namespace robocal
