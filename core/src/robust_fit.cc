@@ -63,6 +63,133 @@ bool InverseInformation(const Calibration& cal, const std::vector<Measurement>& 
   return true;
 }
 
+// Per pose (group) of a fit: its mean residual, the covariance of that mean from the tracker (over its shots) and
+// the repeatability, and that covariance's eigenvalues with the squared projections of the position residual on its
+// eigenvectors: with C_g = U diag(lambda) U', d' (C_g + s^2 I)^-1 d = sum_k (u_k' d)^2 / (lambda_k + s^2), so that
+// a bisection step costs three divisions per pose instead of a factorisation.
+struct PoseResiduals {
+  std::vector<Eigen::VectorXd> mean;
+  std::vector<Eigen::Matrix3d> covariance;
+  std::vector<double> shots;
+  std::vector<Eigen::Vector3d> eigenvalues, projected_squares;
+};
+
+PoseResiduals MeanResiduals(const std::vector<Measurement>& measurements, const ShotGroups& groups,
+                            const std::vector<Transform>& prediction, const IdentificationOptions& options,
+                            ModelErrorEstimate* out) {
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
+  const MeasurementNoise& noise = options.noise;
+  const double repeatability = noise.RepeatabilitySigmaMm();
+  const size_t num_groups = groups.groups.size();
+  PoseResiduals p{.mean = std::vector<Eigen::VectorXd>(num_groups, Eigen::VectorXd::Zero(rows)),
+                  .covariance = std::vector<Eigen::Matrix3d>(num_groups),
+                  .shots = std::vector<double>(num_groups),
+                  .eigenvalues = std::vector<Eigen::Vector3d>(num_groups),
+                  .projected_squares = std::vector<Eigen::Vector3d>(num_groups)};
+  Eigen::VectorXd r(rows);
+  for (size_t g = 0; g < num_groups; ++g) {
+    const std::vector<int>& members = groups.groups[g].shots;
+    Eigen::Vector3d at = Eigen::Vector3d::Zero();
+    for (int i : members) {
+      MeasurementResidual(type, measurements[i].T_world_tool, prediction[g], r);
+      p.mean[g] += r;
+      at += measurements[i].T_world_tool.translation();
+    }
+    const double n = static_cast<double>(members.size());
+    p.shots[g] = n;
+    p.mean[g] /= n;
+    at /= n;
+    const Eigen::Matrix3d c =
+        noise.tracker ? noise.tracker->PositionCovariance(at)
+                      : Eigen::Matrix3d(noise.position_mm * noise.position_mm * Eigen::Matrix3d::Identity());
+    out->tracker_variance_mm2 += c.trace() * n;
+    p.covariance[g] = c / n + repeatability * repeatability * Eigen::Matrix3d::Identity();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(p.covariance[g]);
+    p.eigenvalues[g] = eig.eigenvalues();
+    p.projected_squares[g] = (eig.eigenvectors().transpose() * p.mean[g].head<3>()).cwiseAbs2();
+  }
+  out->tracker_variance_mm2 /= static_cast<double>(measurements.size());
+  const double t = noise.OrientationSigmaRad();
+  out->tracker_variance_rad2 = (rows - 3) * t * t;
+  return p;
+}
+
+// The leverages of the poses at the components sp2 (position) and so2 (orientation): the hat matrix's traces per
+// pose and component, from each pose's Jacobian on its non-zero columns (`columns`, `compact`) and the information
+// with the maps' rows (without them a map's coefficients leave it singular). The redundancies are the rows less
+// the leverages. False if the information is not positive definite (no leverages).
+struct Leverages {
+  std::vector<double> position, orientation;
+  double redundancy_position = 0.0, redundancy_orientation = 0.0;
+};
+
+bool LeveragesAt(double sp2, double so2, const PoseResiduals& poses, double t, int angle_rows,
+                 const std::vector<std::vector<int>>& columns, const std::vector<Eigen::MatrixXd>& compact,
+                 const Eigen::MatrixXd& penalty_normal, int p, Leverages* out) {
+  const size_t num_groups = compact.size();
+  std::vector<Eigen::Matrix3d> inverse_p(num_groups);
+  std::vector<double> inverse_o(num_groups);
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
+  for (size_t g = 0; g < num_groups; ++g) {
+    inverse_p[g] = (poses.covariance[g] + sp2 * Eigen::Matrix3d::Identity()).inverse();
+    inverse_o[g] = 1.0 / (t * t / poses.shots[g] + so2);
+    const Eigen::MatrixXd& j = compact[g];
+    Eigen::MatrixXd block = j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
+    if (angle_rows > 0) block += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
+    for (size_t a = 0; a < columns[g].size(); ++a) {
+      for (size_t b = 0; b < columns[g].size(); ++b) information(columns[g][a], columns[g][b]) += block(a, b);
+    }
+  }
+  if (penalty_normal.size() > 0) information += penalty_normal;
+  // Cholesky (blocked, unlike LDLT); an information that is not positive definite has no leverages.
+  const Eigen::LLT<Eigen::MatrixXd> llt(information);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(p, p));
+  out->position.assign(num_groups, 0.0);
+  out->orientation.assign(num_groups, 0.0);
+  out->redundancy_position = out->redundancy_orientation = 0.0;
+  for (size_t g = 0; g < num_groups; ++g) {
+    const Eigen::MatrixXd& j = compact[g];
+    const Eigen::MatrixXd solved = inverse(columns[g], columns[g]) * j.transpose();  // (N^-1 J_g') on its columns
+    out->position[g] = (inverse_p[g] * j.topRows(3) * solved.leftCols(3)).trace();
+    out->redundancy_position += 3.0 - out->position[g];
+    if (angle_rows > 0) {
+      out->orientation[g] = inverse_o[g] * (j.bottomRows(angle_rows) * solved.rightCols(angle_rows)).trace();
+      out->redundancy_orientation += angle_rows - out->orientation[g];
+    }
+  }
+  return true;
+}
+
+// One component: the variance s^2 >= 0 at which the condition holds (with `robust`, the median of the squares
+// corrected for the leverage is the chi-square median `median`; else their sum is the redundancy), by bisection
+// (the whitened squares fall as s^2 grows). `square(g, v)` is pose g's whitened square at variance v.
+double SolveComponent(int dim, double redundancy, bool robust, const std::function<double(size_t, double)>& square,
+                      const std::vector<double>& lever, double median) {
+  if (redundancy <= 0.5) return 0.0;
+  const size_t num_groups = lever.size();
+  const auto excess = [&](double v) {
+    if (!robust) {
+      double sum = 0.0;
+      for (size_t g = 0; g < num_groups; ++g) sum += square(g, v);
+      return sum - redundancy;
+    }
+    std::vector<double> q(num_groups);
+    for (size_t g = 0; g < num_groups; ++g) q[g] = square(g, v) / std::max(1.0 - lever[g] / dim, 1e-3);
+    return Median(q) - median;
+  };
+  if (excess(0.0) <= 0.0) return 0.0;
+  double hi = 1e-12;
+  while (excess(hi) > 0.0 && hi < 1e12) hi *= 4.0;
+  double lo = hi / 4.0 < 1e-12 ? 0.0 : hi / 4.0;
+  for (int k = 0; k < 60 && hi - lo > 1e-9 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (excess(mid) > 0.0 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 // Variance-component estimation of the model error (Foerstner 1979, "Ein Verfahren zur Schaetzung von Varianz-
 // und Kovarianzkomponenten"; Koch 1999, "Parameter Estimation and Hypothesis Testing in Linear Models", 3.6):
 // the residual of a pose's mean has the covariance C_g (the tracker's, over the shots; the repeatability) plus
@@ -71,142 +198,47 @@ bool InverseInformation(const Calibration& cal, const std::vector<Measurement>& 
 // traces of the hat matrix), the fixed point of Foerstner's iteration; with `robust`, so that their median,
 // corrected for the leverage, is the chi-square median instead (Rousseeuw & Leroy 1987): the first round,
 // before gross errors are excluded, must not take them for model error. The leverages depend on the
-// components; they are recomputed until the components settle.
+// components; they are recomputed until the components settle, from the last estimate `start` (a fit's refits
+// change it little: the cycles then settle in one or two).
 ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<Measurement>& measurements,
                                       const IdentificationOptions& options, const std::vector<int>& parameters,
                                       bool robust, const ModelErrorEstimate& start) {
-  const MeasurementType type = options.measurement_type;
-  const int rows = MeasurementRows(type);
-  const int angle_rows = rows - 3;
+  const int angle_rows = MeasurementRows(options.measurement_type) - 3;
   const ShotGroups groups(measurements);
   Problem problem(cal.model, measurements, groups, options, parameters);
   std::vector<Transform> prediction;
   std::vector<Eigen::MatrixXd> jacobian;
   problem.Predict(ReducedParameters(cal), &prediction, &jacobian);
-  const MeasurementNoise& noise = options.noise;
-  const double repeatability = noise.RepeatabilitySigmaMm();
-  const double t = noise.OrientationSigmaRad();
-  // Per pose (group): the mean residual and the tracker's covariance of the mean.
-  const size_t num_groups = groups.groups.size();
-  std::vector<Eigen::VectorXd> mean(num_groups, Eigen::VectorXd::Zero(rows));
-  std::vector<Eigen::Matrix3d> tracker(num_groups);
-  std::vector<double> shots(num_groups);
+  const double t = options.noise.OrientationSigmaRad();
   ModelErrorEstimate out;
-  Eigen::VectorXd r(rows);
-  for (size_t g = 0; g < num_groups; ++g) {
-    const std::vector<int>& members = groups.groups[g].shots;
-    Eigen::Vector3d at = Eigen::Vector3d::Zero();
-    for (int i : members) {
-      MeasurementResidual(type, measurements[i].T_world_tool, prediction[g], r);
-      mean[g] += r;
-      at += measurements[i].T_world_tool.translation();
-    }
-    const double n = static_cast<double>(members.size());
-    shots[g] = n;
-    mean[g] /= n;
-    at /= n;
-    const Eigen::Matrix3d c =
-        noise.tracker ? noise.tracker->PositionCovariance(at)
-                      : Eigen::Matrix3d(noise.position_mm * noise.position_mm * Eigen::Matrix3d::Identity());
-    out.tracker_variance_mm2 += c.trace() * n;
-    tracker[g] = c / n + repeatability * repeatability * Eigen::Matrix3d::Identity();
-  }
-  out.tracker_variance_mm2 /= static_cast<double>(measurements.size());
-  out.tracker_variance_rad2 = angle_rows * t * t;
-  // With C_g = U diag(lambda) U', d' (C_g + s^2 I)^-1 d = sum_k (u_k' d)^2 / (lambda_k + s^2): the bisection below
-  // costs three divisions per pose and step instead of a factorisation.
-  std::vector<Eigen::Vector3d> tracker_eigenvalues(num_groups), projected_squares(num_groups);
-  for (size_t g = 0; g < num_groups; ++g) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(tracker[g]);
-    tracker_eigenvalues[g] = eig.eigenvalues();
-    projected_squares[g] = (eig.eigenvectors().transpose() * mean[g].head<3>()).cwiseAbs2();
-  }
-
-  // From the last estimate (the leverages' cycles below then settle in one or two): a fit's refits change it little.
-  double sp2 = start.position_mm * start.position_mm, so2 = start.orientation_rad * start.orientation_rad;
-  const double median3 = ChiSquareQuantile(3, 0.5);
-  const double median_angle = angle_rows > 0 ? ChiSquareQuantile(angle_rows, 0.5) : 0.0;
-  std::vector<double> lever_p(num_groups), lever_o(num_groups);
-  const int p = static_cast<int>(parameters.size());
+  const PoseResiduals poses = MeanResiduals(measurements, groups, prediction, options, &out);
   // Each pose's Jacobian touches few of a map's coefficients: its non-zero columns, and its part of them.
+  const size_t num_groups = groups.groups.size();
   std::vector<std::vector<int>> columns(num_groups);
   std::vector<Eigen::MatrixXd> compact(num_groups);
   for (size_t g = 0; g < num_groups; ++g) {
     columns[g] = NonzeroColumns(jacobian[g]);
     compact[g] = ColumnsOf(jacobian[g], columns[g]);
   }
-  const auto scatter = [](const std::vector<int>& at, const Eigen::MatrixXd& block, Eigen::MatrixXd* into) {
-    for (size_t a = 0; a < at.size(); ++a) {
-      for (size_t b = 0; b < at.size(); ++b) (*into)(at[a], at[b]) += block(a, b);
-    }
+  const auto position_square = [&](size_t g, double v) {
+    return (poses.projected_squares[g].array() / (poses.eigenvalues[g].array() + v)).sum();
   };
+  const auto angle_square = [&](size_t g, double v) {
+    return poses.mean[g].tail(angle_rows).squaredNorm() / (t * t / poses.shots[g] + v);
+  };
+  double sp2 = start.position_mm * start.position_mm, so2 = start.orientation_rad * start.orientation_rad;
+  Leverages lever;
   for (int cycle = 0; cycle < 20; ++cycle) {
-    // Leverages at the current components: the hat matrix's traces per pose and component.
-    std::vector<Eigen::Matrix3d> inverse_p(num_groups);
-    std::vector<double> inverse_o(num_groups);
-    Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
-    for (size_t g = 0; g < num_groups; ++g) {
-      inverse_p[g] = (tracker[g] + sp2 * Eigen::Matrix3d::Identity()).inverse();
-      inverse_o[g] = 1.0 / (t * t / shots[g] + so2);
-      const Eigen::MatrixXd& j = compact[g];
-      Eigen::MatrixXd block = j.topRows(3).transpose() * inverse_p[g] * j.topRows(3);
-      if (angle_rows > 0) block += inverse_o[g] * j.bottomRows(angle_rows).transpose() * j.bottomRows(angle_rows);
-      scatter(columns[g], block, &information);
+    if (!LeveragesAt(sp2, so2, poses, t, angle_rows, columns, compact, problem.penalty_normal(),
+                     static_cast<int>(parameters.size()), &lever)) {
+      break;
     }
-    // The joint maps' rows (their constant and their penalty) are information too: without them a map's
-    // coefficients leave the information singular.
-    if (problem.penalty_normal().size() > 0) information += problem.penalty_normal();
-    // Cholesky (blocked, unlike LDLT); an information that is not positive definite has no leverages.
-    const Eigen::LLT<Eigen::MatrixXd> llt(information);
-    if (llt.info() != Eigen::Success) break;
-    const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(p, p));
-    double redundancy_p = 0.0, redundancy_o = 0.0;
-    for (size_t g = 0; g < num_groups; ++g) {
-      const Eigen::MatrixXd& j = compact[g];
-      const Eigen::MatrixXd solved = inverse(columns[g], columns[g]) * j.transpose();  // (N^-1 J_g') on its columns
-      lever_p[g] = (inverse_p[g] * j.topRows(3) * solved.leftCols(3)).trace();
-      redundancy_p += 3.0 - lever_p[g];
-      if (angle_rows > 0) {
-        lever_o[g] = inverse_o[g] * (j.bottomRows(angle_rows) * solved.rightCols(angle_rows)).trace();
-        redundancy_o += angle_rows - lever_o[g];
-      }
-    }
-    // One component: the variance s^2 >= 0 at which the (mean or median) condition holds, by bisection (the
-    // whitened squares fall as s^2 grows).
-    const auto solve = [&](int dim, double redundancy, const std::function<double(size_t, double)>& square,
-                           const std::vector<double>& lever, double median) {
-      if (redundancy <= 0.5) return 0.0;
-      const auto excess = [&](double v) {
-        if (!robust) {
-          double sum = 0.0;
-          for (size_t g = 0; g < num_groups; ++g) sum += square(g, v);
-          return sum - redundancy;
-        }
-        std::vector<double> q(num_groups);
-        for (size_t g = 0; g < num_groups; ++g) q[g] = square(g, v) / std::max(1.0 - lever[g] / dim, 1e-3);
-        return Median(q) - median;
-      };
-      if (excess(0.0) <= 0.0) return 0.0;
-      double hi = 1e-12;
-      while (excess(hi) > 0.0 && hi < 1e12) hi *= 4.0;
-      double lo = hi / 4.0 < 1e-12 ? 0.0 : hi / 4.0;
-      for (int k = 0; k < 60 && hi - lo > 1e-9 * hi; ++k) {
-        const double mid = 0.5 * (lo + hi);
-        (excess(mid) > 0.0 ? lo : hi) = mid;
-      }
-      return 0.5 * (lo + hi);
-    };
-    const double new_sp2 = solve(
-        3, redundancy_p,
-        [&](size_t g, double v) { return (projected_squares[g].array() / (tracker_eigenvalues[g].array() + v)).sum(); },
-        lever_p, median3);
-    const double new_so2 =
-        angle_rows == 0
-            ? 0.0
-            : solve(
-                  angle_rows, redundancy_o,
-                  [&](size_t g, double v) { return mean[g].tail(angle_rows).squaredNorm() / (t * t / shots[g] + v); },
-                  lever_o, median_angle);
+    const double new_sp2 = SolveComponent(3, lever.redundancy_position, robust, position_square, lever.position,
+                                          ChiSquareQuantile(3, 0.5));
+    const double new_so2 = angle_rows == 0
+                               ? 0.0
+                               : SolveComponent(angle_rows, lever.redundancy_orientation, robust, angle_square,
+                                                lever.orientation, ChiSquareQuantile(angle_rows, 0.5));
     const bool settled = std::abs(new_sp2 - sp2) <= 1e-4 * (new_sp2 + out.tracker_variance_mm2 / 3.0) &&
                          std::abs(new_so2 - so2) <= 1e-4 * (new_so2 + t * t);
     sp2 = new_sp2;
