@@ -10,11 +10,12 @@
 namespace robocal::api {
 namespace {
 
-constexpr std::array<std::pair<Status, const char*>, 10> kStatusNames = {{
+constexpr std::array<std::pair<Status, const char*>, 11> kStatusNames = {{
     {Status::kInvalidArgument, "INVALID_ARGUMENT"},
     {Status::kFailedPrecondition, "FAILED_PRECONDITION"},
     {Status::kNotFound, "NOT_FOUND"},
     {Status::kAlreadyExists, "ALREADY_EXISTS"},
+    {Status::kAborted, "ABORTED"},
     {Status::kUnauthenticated, "UNAUTHENTICATED"},
     {Status::kPermissionDenied, "PERMISSION_DENIED"},
     {Status::kResourceExhausted, "RESOURCE_EXHAUSTED"},
@@ -74,6 +75,8 @@ int HttpStatusOf(Status status) {
     case Status::kNotFound:
       return 404;
     case Status::kAlreadyExists:
+      return 409;
+    case Status::kAborted:
       return 409;
     case Status::kUnauthenticated:
       return 401;

@@ -188,6 +188,9 @@ void WriteStorageError(httplib::Response& res, const StorageError& e) {
     case StorageError::Kind::kAlreadyExists:
       WriteError(res, Status::kAlreadyExists, e.what());
       return;
+    case StorageError::Kind::kVersionConflict:
+      WriteError(res, Status::kAborted, e.what());
+      return;
     case StorageError::Kind::kResourceExhausted:
       WriteError(res, Status::kResourceExhausted, e.what());
       return;

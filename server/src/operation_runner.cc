@@ -298,7 +298,7 @@ int OperationRunner::Recover() {
         storage_->Update(kOperations, d.id, FailedDocument(d, message), d.version);
         ++marked;
       } catch (const StorageError& e) {
-        if (e.kind() != StorageError::Kind::kAlreadyExists && e.kind() != StorageError::Kind::kNotFound) throw;
+        if (e.kind() != StorageError::Kind::kVersionConflict && e.kind() != StorageError::Kind::kNotFound) throw;
       }
     }
     after = docs.back().id;

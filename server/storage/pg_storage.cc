@@ -74,11 +74,7 @@ class PgStorage final : public Storage {
       pg::Transaction tx(c);
       std::optional<Document> doc = GetDocument(c, collection, id, true);
       if (!doc) throw StorageError(Kind::kNotFound, collection + "/" + id + " not found");
-      if (expected_version > 0 && expected_version != doc->version) {
-        throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " is at version " +
-                                                     std::to_string(doc->version) + ", not " +
-                                                     std::to_string(expected_version) + " (a concurrent update won)");
-      }
+      CheckVersion(collection, id, doc->version, expected_version);
       WriteDocument(c, *doc, json);
       tx.Commit();
       return *doc;

@@ -152,11 +152,7 @@ class SqliteStorage final : public Storage {
     Transaction tx(*this);
     std::optional<Document> doc = GetLocked(collection, id);
     if (!doc) throw StorageError(Kind::kNotFound, collection + "/" + id + " not found");
-    if (expected_version > 0 && expected_version != doc->version) {
-      throw StorageError(Kind::kAlreadyExists, collection + "/" + id + " is at version " +
-                                                   std::to_string(doc->version) + ", not " +
-                                                   std::to_string(expected_version) + " (a concurrent update won)");
-    }
+    CheckVersion(collection, id, doc->version, expected_version);
     WriteLocked(*doc, json);
     tx.Commit();
     return *doc;

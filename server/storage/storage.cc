@@ -99,6 +99,15 @@ StorageError BatchConflict(const std::string& campaign_id, const std::string& re
                       "request_id " + request_id + " of campaign " + campaign_id + " was used before for a different batch");
 }
 
+void CheckVersion(const std::string& collection, const std::string& id, std::int64_t version,
+                  std::int64_t expected_version) {
+  if (expected_version > 0 && expected_version != version) {
+    throw StorageError(StorageError::Kind::kVersionConflict,
+                       collection + "/" + id + " is at version " + std::to_string(version) + ", not " +
+                           std::to_string(expected_version) + " (a concurrent update won)");
+  }
+}
+
 void CheckCampaignTotal(const std::string& campaign_id, std::int64_t total, std::int64_t count,
                         std::int64_t max_campaign_total) {
   if (max_campaign_total > 0 && total + count > max_campaign_total) {

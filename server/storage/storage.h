@@ -23,6 +23,7 @@ class StorageError : public std::runtime_error {
   enum class Kind {
     kNotFound,           ///< no document / campaign with that id
     kAlreadyExists,      ///< id taken; or a request_id reused with different content
+    kVersionConflict,    ///< an update that expected another version: a concurrent update won
     kResourceExhausted,  ///< a stored limit would be exceeded (e.g. measurements per campaign)
     kUnavailable,        ///< the database cannot be opened / is busy / disk full
     kInternal,           ///< corruption or a bug
@@ -84,7 +85,7 @@ class Storage {
   virtual Document Create(const std::string& collection, const std::string& id, const std::string& json) = 0;
   virtual std::optional<Document> Get(const std::string& collection, const std::string& id) = 0;
   /// Replaces the document's json. If expected_version > 0 and differs from the stored version, throws
-  /// kAlreadyExists (a concurrent update won). Throws kNotFound if absent.
+  /// kVersionConflict (a concurrent update won; CheckVersion). Throws kNotFound if absent.
   virtual Document Update(const std::string& collection, const std::string& id, const std::string& json,
                           std::int64_t expected_version = 0) = 0;
   /// Create or replace.

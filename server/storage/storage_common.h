@@ -15,6 +15,9 @@ std::string NewRandomId(const std::string& prefix);
 
 /// The error of a request_id used before for a batch of other content or role (kAlreadyExists).
 StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id);
+/// Storage::Update's rule: throws kVersionConflict if `expected_version` > 0 and is not the stored `version`.
+void CheckVersion(const std::string& collection, const std::string& id, std::int64_t version,
+                  std::int64_t expected_version);
 /// Throws kResourceExhausted if `count` more measurements would take a campaign holding `total` beyond
 /// `max_campaign_total` (0: no limit).
 void CheckCampaignTotal(const std::string& campaign_id, std::int64_t total, std::int64_t count,

@@ -35,7 +35,7 @@ class FakeStorage : public Storage {
     auto it = c.find(id);
     if (it == c.end()) throw StorageError(StorageError::Kind::kNotFound, id);
     if (expected_version > 0 && expected_version != it->second.version) {
-      throw StorageError(StorageError::Kind::kAlreadyExists, "version");
+      throw StorageError(StorageError::Kind::kVersionConflict, "version");
     }
     it->second.json = json;
     ++it->second.version;

@@ -108,7 +108,7 @@ TEST_P(StorageTest, UpdateChecksVersionAndExistence) {
   EXPECT_EQ(ErrorKind([&] { storage_->Update("robots", "none", "{}"); }), Kind::kNotFound);
   storage_->Create("robots", "r", "{}");
   storage_->Update("robots", "r", R"({"v":2})", 1);
-  EXPECT_EQ(ErrorKind([&] { storage_->Update("robots", "r", R"({"v":3})", 1); }), Kind::kAlreadyExists);
+  EXPECT_EQ(ErrorKind([&] { storage_->Update("robots", "r", R"({"v":3})", 1); }), Kind::kVersionConflict);
   EXPECT_EQ(storage_->Get("robots", "r")->json, R"({"v":2})");
   EXPECT_EQ(storage_->Update("robots", "r", R"({"v":3})", 2).version, 3);
 }

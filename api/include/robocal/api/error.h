@@ -16,6 +16,8 @@ enum class Status {
   kFailedPrecondition,
   kNotFound,
   kAlreadyExists,
+  /// A concurrent change won (a stored document's version moved on); read it again and retry (HTTP 409).
+  kAborted,
   kUnauthenticated,
   kPermissionDenied,
   kResourceExhausted,

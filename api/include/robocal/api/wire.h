@@ -78,7 +78,7 @@ ROBOCAL_API_ENUM_TABLE(OperationState, OperationState::kRunning, OperationState:
 ROBOCAL_API_ENUM_TABLE(CellRule, CellRule::kJointRange, CellRule::kObstacle, CellRule::kSelfCollision,
                        CellRule::kDistance, CellRule::kIncidence, CellRule::kBeam);
 ROBOCAL_API_ENUM_TABLE(Status, Status::kInvalidArgument, Status::kFailedPrecondition, Status::kNotFound,
-                       Status::kAlreadyExists, Status::kUnauthenticated, Status::kPermissionDenied,
+                       Status::kAlreadyExists, Status::kAborted, Status::kUnauthenticated, Status::kPermissionDenied,
                        Status::kResourceExhausted, Status::kInternal, Status::kUnavailable, Status::kDeadlineExceeded);
 #undef ROBOCAL_API_ENUM_TABLE
 
