@@ -162,11 +162,11 @@ Pool::Pool(const std::string& url, int size, std::chrono::milliseconds wait, std
   for (int i = 0; i < size; ++i) idle_.push_back(std::make_unique<Connection>(url, lock_timeout_ms));
 }
 
-Pool::Lease::~Lease() {
+Pool::BorrowedConnection::~BorrowedConnection() {
   if (connection_) pool_->Return(std::move(connection_));
 }
 
-Pool::Lease Pool::Borrow() {
+Pool::BorrowedConnection Pool::Borrow() {
   std::unique_ptr<Connection> connection;
   {
     std::unique_lock lock(mutex_);
@@ -177,10 +177,10 @@ Pool::Lease Pool::Borrow() {
     connection = std::move(idle_.back());
     idle_.pop_back();
   }
-  Lease lease(this, std::move(connection));
-  if (!lease->ok()) lease->Reconnect();  // throws kUnavailable; the lease returns the connection to the pool
-  lease->Borrowed();
-  return lease;
+  BorrowedConnection borrowed(this, std::move(connection));
+  if (!borrowed->ok()) borrowed->Reconnect();  // throws kUnavailable; `borrowed` returns the connection to the pool
+  borrowed->Borrowed();
+  return borrowed;
 }
 
 void Pool::Return(std::unique_ptr<Connection> connection) {

@@ -108,13 +108,14 @@ class Pool {
   Pool(const std::string& url, int size, std::chrono::milliseconds wait, std::int64_t lock_timeout_ms = 5000);
 
   /// A borrowed connection, returned to the pool on scope exit.
-  class Lease {
+  class BorrowedConnection {
    public:
-    Lease(Pool* pool, std::unique_ptr<Connection> connection) : pool_(pool), connection_(std::move(connection)) {}
-    Lease(Lease&&) = default;
-    Lease(const Lease&) = delete;
-    Lease& operator=(const Lease&) = delete;
-    ~Lease();
+    BorrowedConnection(Pool* pool, std::unique_ptr<Connection> connection)
+        : pool_(pool), connection_(std::move(connection)) {}
+    BorrowedConnection(BorrowedConnection&&) = default;
+    BorrowedConnection(const BorrowedConnection&) = delete;
+    BorrowedConnection& operator=(const BorrowedConnection&) = delete;
+    ~BorrowedConnection();
     Connection& operator*() { return *connection_; }
     Connection* operator->() { return connection_.get(); }
 
@@ -124,7 +125,7 @@ class Pool {
   };
 
   /// A connection (re-established first if it was lost); kUnavailable if none is free within the wait.
-  Lease Borrow();
+  BorrowedConnection Borrow();
 
   /// Runs `work(connection)` on a borrowed connection. If its first statement found the connection dead (it
   /// died while idle in the pool), nothing of the work reached the database, so it runs once more on the
@@ -133,7 +134,7 @@ class Pool {
   template <typename Work>
   auto Run(Work&& work) {
     for (int attempt = 0;; ++attempt) {
-      Lease connection = Borrow();
+      BorrowedConnection connection = Borrow();
       try {
         return work(*connection);
       } catch (const StorageError&) {
