@@ -497,7 +497,7 @@ void AppendString(std::string* out, const std::string& text) {
 
 }  // namespace
 
-std::string DumpCompensateResult(const CompensateResult& r) {
+std::string DumpCompensateResult(const CompensatedTargets& r) {
   std::string out;
   out.reserve(64 + r.results.size() * 400);
   out += "{\"campaign\":";
@@ -613,7 +613,7 @@ ROBOCAL_WIRE_DEFINE(CalibrationResult);
 ROBOCAL_WIRE_DEFINE(CompensationTargetWire);
 ROBOCAL_WIRE_DEFINE(CompensateRequest);
 ROBOCAL_WIRE_DEFINE(Compensation);
-ROBOCAL_WIRE_DEFINE(CompensateResult);
+ROBOCAL_WIRE_DEFINE(CompensatedTargets);
 ROBOCAL_WIRE_DEFINE(EvaluateRequest);
 ROBOCAL_WIRE_DEFINE(Statistics);
 ROBOCAL_WIRE_DEFINE(Accuracy);

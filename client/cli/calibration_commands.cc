@@ -205,7 +205,7 @@ int Compensate(Invocation& in) {
   request.sequence = in.Has("--sequence");
   request.max_joint_jump_deg = in.Number("--max-jump", request.max_joint_jump_deg, 0.0);
   if (in.Has("--max-jump") && !request.sequence) throw UsageError("--max-jump applies with --sequence only");
-  const api::CompensateResult result = in.Client().Compensate(campaign.id, request);
+  const api::CompensatedTargets result = in.Client().Compensate(campaign.id, request);
   Output output(in.Option("--out"), in.out);
   if (in.json) {
     PrintJson(output.stream(), result);

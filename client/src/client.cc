@@ -474,11 +474,11 @@ api::CalibrationResult Client::GetCalibration(const std::string& campaign) {
       Call("GET", "/v1/campaigns/" + Segment(campaign) + "/calibration", nullptr, true), "calibration");
 }
 
-api::CompensateResult Client::Compensate(const std::string& campaign, const api::CompensateRequest& request) {
+api::CompensatedTargets Client::Compensate(const std::string& campaign, const api::CompensateRequest& request) {
   const json body = request;
   // Compensation is a pure computation on the stored calibration: safe to retry.
-  return Parse<api::CompensateResult>(
-      Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate", &body, true), "compensation");
+  return Parse<api::CompensatedTargets>(Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate", &body, true),
+                                        "compensation");
 }
 
 api::CompensateProgramResult Client::CompensateProgram(const std::string& campaign,
@@ -489,8 +489,8 @@ api::CompensateProgramResult Client::CompensateProgram(const std::string& campai
       Call("POST", "/v1/campaigns/" + Segment(campaign) + ":compensate-program", &body, true), "program compensation");
 }
 
-api::CompensateResult Client::CompensateJoints(const std::string& campaign,
-                                               const std::vector<std::vector<double>>& nominal_joints) {
+api::CompensatedTargets Client::CompensateJoints(const std::string& campaign,
+                                                 const std::vector<std::vector<double>>& nominal_joints) {
   api::CompensateRequest request;
   for (const auto& q : nominal_joints) {
     api::CompensationTargetWire target;

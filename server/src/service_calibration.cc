@@ -321,12 +321,12 @@ api::ForwardResult Service::CampaignForward(const std::string& campaign_id, cons
   return result;
 }
 
-api::CompensateResult Service::Compensate(const std::string& campaign_id, const nlohmann::json& body) {
+api::CompensatedTargets Service::Compensate(const std::string& campaign_id, const nlohmann::json& body) {
   const Calibrated loaded = LoadCalibrated(campaign_id);
   const RobotModel& model = loaded.model;
   const api::CompensateRequest req = api::ParseCompensateRequest(body, model, options_.limits);
   const TrimWhenDone trim(&trimmer_, req.targets.size() >= kLargeRequest);
-  api::CompensateResult result;
+  api::CompensatedTargets result;
   result.campaign = campaign_id;
   std::vector<CompensationTarget> targets;
   targets.reserve(req.targets.size());

@@ -187,7 +187,7 @@ TEST_F(CliTest, WholeFlow) {
   // free_rotation_deg).
   const Result compensated_json = RunCli(server + " compensate " + campaign + " " + Path("plan.csv") + " --json");
   ASSERT_EQ(compensated_json.exit_code, 0);
-  const auto compensation = api::FromWire<api::CompensateResult>(nlohmann::json::parse(compensated_json.out));
+  const auto compensation = api::FromWire<api::CompensatedTargets>(nlohmann::json::parse(compensated_json.out));
   EXPECT_EQ(compensation.campaign, campaign);
   ASSERT_EQ(compensation.results.size(), 10u);
   EXPECT_GT(compensation.results[0].iterations, 0);

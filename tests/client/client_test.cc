@@ -241,7 +241,7 @@ TEST(ClientTest, CampaignFlow) {
   EXPECT_FALSE(calibration.parameters.empty());
   EXPECT_LT(calibration.residuals_after.rms_position_mm, calibration.residuals_before.rms_position_mm);
 
-  const api::CompensateResult compensated = c.CompensateJoints(id, {calibrated.plan.configurations[0]});
+  const api::CompensatedTargets compensated = c.CompensateJoints(id, {calibrated.plan.configurations[0]});
   EXPECT_EQ(compensated.campaign, id);
   ASSERT_EQ(compensated.results.size(), 1u);
   EXPECT_TRUE(compensated.results[0].converged) << compensated.results[0].message;

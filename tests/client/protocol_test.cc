@@ -194,7 +194,7 @@ TEST(ProtocolTest, OtherResourcesNameTheirFields) {
   server.Answer(Without(json(op), "state"));
   EXPECT_NE(ProtocolErrorOf([&] { c.GetOperation("op-1"); }).find("state: required"), std::string::npos);
 
-  api::CompensateResult compensated;
+  api::CompensatedTargets compensated;
   compensated.campaign = "c1";
   compensated.results.resize(2);
   server.Answer(Without(json(compensated), "results[1].free_rotation_deg"));

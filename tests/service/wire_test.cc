@@ -278,7 +278,7 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectEveryFieldRequired(chosen, With(kDerived, {"robust", "outliers", "parameters_with_outliers", "model_error",
                                                    "reflectors", "model", "model_choice"}));
   EXPECT_EQ(json(service_->GetCalibration("w")), json(fit_));
-  const CompensateResult comp = service_->Compensate("w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
+  const CompensatedTargets comp = service_->Compensate("w", json::parse(R"({"targets":[{"joints":[10,20,30,40,50]},
                                       {"pose":{"position_mm":[400,0,300],"rpy_deg":[180,0,0]},"frame":"base"}]})"));
   ASSERT_EQ(comp.results.size(), 2u);
   for (const Compensation& c : comp.results) {
@@ -290,7 +290,7 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   ExpectEveryFieldRequired(comp, {"results[0].predicted_error_mm"});
   // The reply as the server writes it is the same document, with every kind of value a result can hold.
   EXPECT_EQ(json::parse(DumpCompensateResult(comp)), json(comp));
-  CompensateResult odd = comp;
+  CompensatedTargets odd = comp;
   odd.campaign = "c-\"quoted\"";
   odd.results[0].message = "tab\there, newline\n, \u00e9, backslash \\";
   odd.results[0].configuration = ArmConfiguration{-1, 1, -1};
@@ -302,7 +302,7 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   odd.results[1].predicted_error_mm = std::nan("");
   odd.results[1].termination = Termination::kFailure;
   EXPECT_EQ(json::parse(DumpCompensateResult(odd)), json(odd));
-  EXPECT_EQ(json::parse(DumpCompensateResult(CompensateResult{})), json(CompensateResult{}));
+  EXPECT_EQ(json::parse(DumpCompensateResult(CompensatedTargets{})), json(CompensatedTargets{}));
   const Evaluation eval = service_->Evaluate("w", json::object());
   EXPECT_EQ(eval.num_validation, 8);
   ExpectRoundTrip(eval);
@@ -333,7 +333,7 @@ TEST_F(WireTest, CompensationSequenceFollowsTheProgram) {
   };
   // C 20 -> 60 deg, A 30 -> 100 deg: 1 and 1.75 deg per step, away from A = 0.
   const json smooth = program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, 100});
-  const CompensateResult program =
+  const CompensatedTargets program =
       service_->Compensate("w", {{"targets", smooth}, {"sequence", true}, {"max_joint_jump_deg", 5}});
   ASSERT_EQ(program.results.size(), static_cast<std::size_t>(kSteps + 1));
   EXPECT_TRUE(std::isnan(program.results[0].joint_jump_deg));
@@ -345,14 +345,14 @@ TEST_F(WireTest, CompensationSequenceFollowsTheProgram) {
   }
   ExpectRoundTrip(program);
   // The same program with a threshold below the step flags every move after the first.
-  const CompensateResult tight =
+  const CompensatedTargets tight =
       service_->Compensate("w", {{"targets", smooth}, {"sequence", true}, {"max_joint_jump_deg", 1}});
   for (std::size_t i = 1; i < tight.results.size(); ++i) EXPECT_TRUE(tight.results[i].joint_jump) << i;
   // Without sequence no jumps are reported.
-  const CompensateResult apart = service_->Compensate("w", {{"targets", smooth}});
+  const CompensatedTargets apart = service_->Compensate("w", {{"targets", smooth}});
   for (const Compensation& c : apart.results) EXPECT_TRUE(std::isnan(c.joint_jump_deg));
   // A 30 -> -40 deg passes A = 0 between steps 17 and 18: C swings there, and only there.
-  const CompensateResult through =
+  const CompensatedTargets through =
       service_->Compensate("w", {{"targets", program_of({300, 200, 250, 20, 30}, {420, 260, 300, 60, -40})},
                                  {"sequence", true},
                                  {"max_joint_jump_deg", 5}});

@@ -524,20 +524,20 @@ ROBOCAL_WIRE_DECLARE(Compensation);
 Compensation ToWire(const RobotModel& model, const CompensationResult& result);
 
 /// The reply of :compensate, one result per target in order.
-struct CompensateResult {
+struct CompensatedTargets {
   std::string campaign;
   std::vector<Compensation> results;
 };
 template <>
-struct WireFields<CompensateResult> {
-  using S = CompensateResult;
+struct WireFields<CompensatedTargets> {
+  using S = CompensatedTargets;
   static constexpr auto fields = std::make_tuple(Field{"campaign", &S::campaign}, Field{"results", &S::results});
 };
-ROBOCAL_WIRE_DECLARE(CompensateResult);
+ROBOCAL_WIRE_DECLARE(CompensatedTargets);
 /// The reply of :compensate as JSON text: the document json(r) is (same keys in the same order, same values,
 /// tested), written directly. Why by hand: building the JSON tree (a map of 12 members per result) and dumping
 /// it took 90 ms for a 10,000-target reply whose compensation takes 25 ms on 2 cores; this takes about 10 ms.
-std::string DumpCompensateResult(const CompensateResult& r);
+std::string DumpCompensateResult(const CompensatedTargets& r);
 
 /// POST /v1/campaigns/{c}:evaluate.
 struct EvaluateRequest {

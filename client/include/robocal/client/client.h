@@ -182,7 +182,7 @@ class Client {
   /// the validation table (unset: the server's default, 30 mm). ProtocolError if the reply is not an HTML page.
   std::string GetCampaignReport(const std::string& campaign, std::optional<double> h_mm = std::nullopt);
   /// One result per target, in order.
-  api::CompensateResult Compensate(const std::string& campaign, const api::CompensateRequest& request);
+  api::CompensatedTargets Compensate(const std::string& campaign, const api::CompensateRequest& request);
   /// A robot program in its controller's language, compensated on the campaign's calibration (docs/programs.md):
   /// the files back with every target corrected, and a report per target. ApiError 400 naming file, line and
   /// column for a program the service cannot read; 400 FAILED_PRECONDITION naming the targets when
@@ -190,8 +190,8 @@ class Client {
   api::CompensateProgramResult CompensateProgram(const std::string& campaign,
                                                  const api::CompensateProgramRequest& request);
   /// Convenience: compensated joints for nominal joint commands (deg / mm).
-  api::CompensateResult CompensateJoints(const std::string& campaign,
-                                         const std::vector<std::vector<double>>& nominal_joints);
+  api::CompensatedTargets CompensateJoints(const std::string& campaign,
+                                           const std::vector<std::vector<double>>& nominal_joints);
   /// Tool poses of the calibrated robot (frame "tracker") for joint vectors, under `payload` (unset: the
   /// campaign's, or none).
   api::ForwardResult CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints,

@@ -109,7 +109,7 @@ class Service {
   /// GET .../calibration?format=dh|mdh: the calibrated robot as a DH (standard or modified) table, a body that
   /// registers it (POST /v1/robots); FAILED_PRECONDITION naming the parameters where no DH table can hold it.
   api::RegisterRobotRequest CalibrationDh(const std::string& campaign, GeometryConvention convention);
-  api::CompensateResult Compensate(const std::string& campaign, const nlohmann::json& body);
+  api::CompensatedTargets Compensate(const std::string& campaign, const nlohmann::json& body);
   /// A robot program in its controller's language, compensated (service_programs.cc, docs/programs.md).
   api::CompensateProgramResult CompensateProgram(const std::string& campaign, const nlohmann::json& body);
   api::ForwardResult CampaignForward(const std::string& campaign, const nlohmann::json& body);
