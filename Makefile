@@ -61,10 +61,11 @@ bench: build
 	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
 	$(BUILD_DIR)/tests/bench/robocal_program_bench
 
-# Formats the lines changed since the last commit (staged or not) with the project's .clang-format; older code
-# is left as it is, so that a change's diff holds only the change.
+# Formats the C++ lines changed since the last commit (staged or not) with the project's .clang-format; older
+# code is left as it is, so that a change's diff holds only the change. C++ only: clang-format would rewrite
+# api/openapi.json, which keeps the layout of json.dumps(indent=1).
 format:
-	git clang-format --force
+	git clang-format --force --extensions h,cc
 
 clean:
 	rm -rf $(BUILD_DIR)
