@@ -7,21 +7,18 @@
 server_pid=
 url=
 
+# shellcheck source=../curl/listening_line.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../curl/listening_line.sh"
+
 bench_start_server() {
   local name=$1 binary=$2
   shift 2
-  # Port 0: the server picks a free port and names it on its first line, once bound; the read waits for that
-  # line or the server's exit (an event, no time limit), and the rest of stdout drains to $work/stdout.out.
+  # Port 0: the server picks a free port and names it on its first line, once bound (read_listening_line).
   rm -f "$work/stdout"
   mkfifo "$work/stdout"
   "$binary" --port 0 --db "$work/robocal.db" --log-level warn "$@" >"$work/stdout" 2>"$work/stderr" &
   server_pid=$!
-  local fd line=
-  exec {fd}<"$work/stdout"
-  IFS= read -r line <&"$fd" || true
-  cat <&"$fd" >"$work/stdout.out" &
-  exec {fd}<&-
-  url=$(printf '%s\n' "$line" | sed -n 's/.*listening on \(http[^ ]*\).*/\1/p')
+  url=$(read_listening_line "$work/stdout")
   [ -n "$url" ] || { echo "$name: the server did not start" >&2; cat "$work/stderr" >&2; exit 1; }
 }
 

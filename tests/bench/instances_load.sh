@@ -70,12 +70,8 @@ start_instances() {
     "$server" --port 0 --db "$db" --log-level warn --threads 8 --db-pool-size 8 \
       --max-measurements-per-campaign 100000000 >"$work/out$i" 2>"$work/err$i" &
     pids+=($!)
-    local u fd line=
-    exec {fd}<"$work/out$i"
-    IFS= read -r line <&"$fd" || true
-    cat <&"$fd" >"$work/out$i.rest" &
-    exec {fd}<&-
-    u=$(printf '%s\n' "$line" | sed -n 's/.*listening on \(http[^ ]*\).*/\1/p')
+    local u
+    u=$(read_listening_line "$work/out$i")
     [ -n "$u" ] || { echo "instances_load: instance $i did not start" >&2; cat "$work/err$i" >&2; exit 1; }
     urls+=("$u")
   done
