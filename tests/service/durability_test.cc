@@ -35,9 +35,7 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
   std::string operation;
   {
     ServerProcess server({"--db", db, "--log-level", "error"});
-    httplib::Client client("127.0.0.1", server.port());
-    client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-    client.set_write_timeout(120, 0);
+    httplib::Client client = GuardedClient(server.port());
     auto created = client.Post("/v1/campaigns", R"({"id":"dur","robot":"ur5e"})", "application/json");
     ASSERT_TRUE(created && created->status == 200);
     auto op = client.Post("/v1/plans",
@@ -61,9 +59,7 @@ TEST(DurabilityTest, AcknowledgedUploadsSurviveSigkill) {
     EXPECT_EQ(storage->CountMeasurements("dur"), acknowledged);
   }
   ServerProcess restarted({"--db", db, "--log-level", "error"});
-  httplib::Client client("127.0.0.1", restarted.port());
-  client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  client.set_write_timeout(120, 0);
+  httplib::Client client = GuardedClient(restarted.port());
   auto campaign = client.Get("/v1/campaigns/dur");
   ASSERT_TRUE(campaign && campaign->status == 200);
   EXPECT_EQ(json::parse(campaign->body)["counts"]["calibration"], acknowledged);

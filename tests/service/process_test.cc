@@ -135,9 +135,7 @@ TEST(ProcessTest, APortInUseIsRefusedAtStart) {
   std::ostringstream err;
   for (const std::string& line : ReadLines(log)) err << line << "\n";
   EXPECT_NE(err.str().find("cannot bind 127.0.0.1:" + std::to_string(first.port())), std::string::npos) << err.str();
-  httplib::Client client("127.0.0.1", first.port());
-  client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  client.set_write_timeout(120, 0);
+  httplib::Client client = GuardedClient(first.port());
   const auto health = client.Get("/healthz");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
@@ -147,9 +145,7 @@ TEST(ProcessTest, JsonLogHasOneLinePerRequest) {
   TempDir dir("robocal_log");
   const std::string log = dir.File("server.log");
   ServerProcess server({"--db", dir.File("robocal.db"), "--log-format", "json", "--log-level", "info"}, log);
-  httplib::Client client("127.0.0.1", server.port());
-  client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  client.set_write_timeout(120, 0);
+  httplib::Client client = GuardedClient(server.port());
   auto r = client.Get("/v1/robots/ur5e", {{"X-Request-Id", "log-test-1"}});
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
@@ -196,9 +192,7 @@ TEST(ProcessTest, WorkLimitsComeFromTheFlags) {
   ServerProcess server({"--db", dir.File("robocal.db"), "--log-level", "error", "--max-plan-evaluations", "5000",
                         "--max-plan-jacobians", "6000", "--max-plan-candidates", "300", "--max-fit-jacobian-entries",
                         "100"});
-  httplib::Client client("127.0.0.1", server.port());
-  client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  client.set_write_timeout(120, 0);
+  httplib::Client client = GuardedClient(server.port());
   auto reason = [&](const std::string& path, const std::string& body) {
     auto r = client.Post(path, body, "application/json");
     EXPECT_TRUE(r && r->status == 400) << path << " " << body;
@@ -252,9 +246,7 @@ TEST(ProcessTest, SigtermCancelsOperationsAndExitsZero) {
   std::string operation;
   {
     ServerProcess server({"--db", db, "--log-format", "json"}, log);
-    httplib::Client client("127.0.0.1", server.port());
-    client.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-    client.set_write_timeout(120, 0);
+    httplib::Client client = GuardedClient(server.port());
     auto op = client.Post("/v1/plans",
                           R"({"robot":"ur5e","num_configurations":20,"async":true,)"
                           R"("options":{"k_max":1000000,"max_evaluations":400000}})",

@@ -316,9 +316,7 @@ TEST(ReportEndpointTest, NumbersEqualTheCalibrationAndTheEvaluation) {
   const Reply evaluation = s.Post("/v1/campaigns/rep:evaluate", {{"h_mm", 50}});
   ASSERT_EQ(evaluation.status, 200);
 
-  httplib::Client http("127.0.0.1", s.port());
-  http.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  http.set_write_timeout(120, 0);
+  httplib::Client http = GuardedClient(s.port());
   const auto reply = http.Get("/v1/campaigns/rep/report?h_mm=50");
   ASSERT_TRUE(reply);
   ASSERT_EQ(reply->status, 200) << reply->body;

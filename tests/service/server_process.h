@@ -17,6 +17,8 @@
 #include <thread>
 #include <vector>
 
+#include "guarded_client.h"
+
 namespace robocal::server::testing {
 
 class ServerProcess {

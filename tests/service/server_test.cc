@@ -866,9 +866,7 @@ TEST(OperationLeaseTest, RecoveryAtStartFailsOnlyOperationsNoLiveInstanceRuns) {
 TEST(ServerTest, FormEncodedBodyGetsAContentTypeHint) {
   // curl -d sends application/x-www-form-urlencoded: the reply must say what to change, whatever the size.
   TestServer s;
-  httplib::Client raw("127.0.0.1", s.port());
-  raw.set_read_timeout(120, 0);  // a hang guard: the library's 5 s is short for a busy machine
-  raw.set_write_timeout(120, 0);
+  httplib::Client raw = GuardedClient(s.port());
   for (const std::size_t size : {10, 9000}) {
     auto form = raw.Post("/v1/robots", std::string(size, ' ') + "{}", "application/x-www-form-urlencoded");
     ASSERT_TRUE(form);

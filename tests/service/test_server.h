@@ -1,18 +1,19 @@
 // The real HTTP server in-process on a free port, stopped on scope exit, and a small JSON client for it.
 #pragma once
 
+#include <gtest/gtest.h>
+#include <httplib.h>
+
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <httplib.h>
-#include <nlohmann/json.hpp>
-
 #include "fake_storage.h"
+#include "guarded_client.h"
 #include "robocal/api/robots.h"
 #include "robocal/core/measurement.h"
 #include "robocal/server/http_server.h"
@@ -41,8 +42,7 @@ class TestServer {
     port_ = server_->Bind();
     EXPECT_GT(port_, 0);
     thread_ = std::thread([this] { server_->Listen(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_->set_read_timeout(120, 0);
+    client_ = std::make_unique<httplib::Client>(GuardedClient(port_));
   }
   ~TestServer() {
     server_->Stop();
