@@ -497,7 +497,7 @@ void AppendString(std::string* out, const std::string& text) {
 
 }  // namespace
 
-std::string DumpCompensateResult(const CompensatedTargets& r) {
+std::string DumpCompensatedTargets(const CompensatedTargets& r) {
   std::string out;
   out.reserve(64 + r.results.size() * 400);
   out += "{\"campaign\":";

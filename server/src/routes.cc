@@ -39,8 +39,8 @@ template <typename... T>
 std::string Reply(const std::variant<T...>& value) {
   return std::visit([](const auto& v) { return Dump(json(v)); }, value);
 }
-// The largest reply of the API is written directly (api::DumpCompensateResult says why).
-std::string Reply(const api::CompensatedTargets& value) { return api::DumpCompensateResult(value); }
+// The largest reply of the API is written directly (api::DumpCompensatedTargets says why).
+std::string Reply(const api::CompensatedTargets& value) { return api::DumpCompensatedTargets(value); }
 std::string Id(const httplib::Request& req, int i = 1) { return req.matches[i].str(); }
 std::string Query(const httplib::Request& req, const char* key) {
   return req.has_param(key) ? req.get_param_value(key) : "";

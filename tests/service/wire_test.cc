@@ -289,7 +289,7 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   // A reply of an older server has no predicted_error_mm.
   ExpectEveryFieldRequired(comp, {"results[0].predicted_error_mm"});
   // The reply as the server writes it is the same document, with every kind of value a result can hold.
-  EXPECT_EQ(json::parse(DumpCompensateResult(comp)), json(comp));
+  EXPECT_EQ(json::parse(DumpCompensatedTargets(comp)), json(comp));
   CompensatedTargets odd = comp;
   odd.campaign = "c-\"quoted\"";
   odd.results[0].message = "tab\there, newline\n, \u00e9, backslash \\";
@@ -301,8 +301,8 @@ TEST_F(WireTest, CalibrationCompensationEvaluationRoundTripAndRequireEveryField)
   odd.results[1].position_error_mm = std::nan("");
   odd.results[1].predicted_error_mm = std::nan("");
   odd.results[1].termination = Termination::kFailure;
-  EXPECT_EQ(json::parse(DumpCompensateResult(odd)), json(odd));
-  EXPECT_EQ(json::parse(DumpCompensateResult(CompensatedTargets{})), json(CompensatedTargets{}));
+  EXPECT_EQ(json::parse(DumpCompensatedTargets(odd)), json(odd));
+  EXPECT_EQ(json::parse(DumpCompensatedTargets(CompensatedTargets{})), json(CompensatedTargets{}));
   const Evaluation eval = service_->Evaluate("w", json::object());
   EXPECT_EQ(eval.num_validation, 8);
   ExpectRoundTrip(eval);

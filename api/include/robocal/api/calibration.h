@@ -537,7 +537,7 @@ ROBOCAL_WIRE_DECLARE(CompensatedTargets);
 /// The reply of :compensate as JSON text: the document json(r) is (same keys in the same order, same values,
 /// tested), written directly. Why by hand: building the JSON tree (a map of 12 members per result) and dumping
 /// it took 90 ms for a 10,000-target reply whose compensation takes 25 ms on 2 cores; this takes about 10 ms.
-std::string DumpCompensateResult(const CompensatedTargets& r);
+std::string DumpCompensatedTargets(const CompensatedTargets& r);
 
 /// POST /v1/campaigns/{c}:evaluate.
 struct EvaluateRequest {
