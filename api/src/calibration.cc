@@ -132,9 +132,7 @@ void ParseJointMaps(const nlohmann::json& value, const RobotModel& robot, const 
       if (robot.joint_type(i) == JointType::kRevolute) maps.joints.push_back(i + 1);
     }
   }
-  r.Number("knot_spacing_deg", true, &maps.knot_spacing_deg, kMinMapKnotSpacingRad * kDegPerRad,
-           kMaxMapKnotSpacingRad * kDegPerRad);
-  r.Number("smoothness", false, &maps.smoothness, 0.0, 1e12);
+  ReadRequest(r, &maps);
   r.RejectUnknown(WireFieldNames<JointMapsWire>());
   if (model.joint_harmonics > 0) {
     problems->Add(path,
@@ -156,8 +154,7 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       }
     } else if (v->is_object()) {
       ObjectReader m(*v, "model", problems);
-      m.Bool("compliance", false, &req->model.compliance);
-      m.Int("joint_harmonics", false, &req->model.joint_harmonics, 0, kMaxJointHarmonics);
+      ReadRequest(m, &req->model);
       if (const nlohmann::json* jm = m.Get("joint_maps"))
         ParseJointMaps(*jm, model, req->model, problems, &req->model.joint_maps);
       m.RejectUnknown(WireFieldNames<ModelWire>());
@@ -170,17 +167,8 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       problems->Add("model", "expected \"geometric\", \"auto\" or an object");
     }
   }
-  if (const nlohmann::json* v = r.Get("cross_validation")) {
-    ObjectReader cv(*v, "cross_validation", problems);
-    cv.Int("folds", false, &req->cross_validation.folds, 2, 20);
-    std::int64_t seed = 1;
-    if (cv.Int("seed", false, &seed, 0, std::numeric_limits<std::int64_t>::max())) {
-      req->cross_validation.seed = static_cast<std::uint64_t>(seed);
-    }
-    cv.Bool("joint_maps", false, &req->cross_validation.joint_maps);
-    cv.RejectUnknown(WireFieldNames<CrossValidationWire>());
-    if (!req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
-  }
+  // Read with the request's other members (its row holds for "auto" only).
+  if (r.Has("cross_validation") && !req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
 }
 
 }  // namespace
@@ -214,15 +202,10 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
       }
     }
   }
-  r.Bool("register_base", false, &req.register_base);
-  r.Int("max_iterations", false, &req.max_iterations, 1, 1000);
-  r.Bool("reject_outliers", false, &req.reject_outliers);
-  r.Number("outlier_probability", false, &req.outlier_probability, 1e-12, 0.1);
-  r.Bool("estimate_model_error", false, &req.estimate_model_error);
-  if (r.Enum("scope", false, FitScopes(), &req.scope) && req.scope == "frames" && !req.parameters.empty()) {
+  ReadRequest(r, &req);
+  if (req.scope == FitScope::kFrames && !req.parameters.empty()) {
     problems.Add("scope", "\"frames\" chooses the parameters itself: leave out parameters");
   }
-  r.Bool("async", false, &req.async);
   if (req.model_auto && !req.parameters.empty()) {
     problems.Add("parameters", "\"model\": \"auto\" chooses the parameters with the model: leave out parameters");
   }
@@ -231,18 +214,13 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
                  "a model with joint maps places its coefficients over the measurements: leave out "
                  "parameters");
   }
-  if (req.scope == "frames" &&
+  if (req.scope == FitScope::kFrames &&
       (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0 || req.model.joint_maps)) {
     problems.Add("scope", "\"frames\" fits the base and the tool of the robot as it is: leave out \"model\"");
   }
   r.RejectUnknown(WireFieldNames<FitRequest>());
   problems.ThrowIfAny("invalid fit request");
   return req;
-}
-
-const std::vector<std::string>& FitScopes() {
-  static const std::vector<std::string> names = {"all", "frames"};
-  return names;
 }
 
 IdentificationOptions ToIdentificationOptions(const FitRequest& req, const RobotModel& model, MeasurementType type,
@@ -253,7 +231,7 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   options.noise = noise;
   options.identifiability.noise = options.noise;
   for (const std::string& name : req.parameters) options.parameters.push_back(ParameterIndex(model, reflectors, name));
-  if (req.scope == "frames") {
+  if (req.scope == FitScope::kFrames) {
     // The base site's six and the tool site's translations; its rotations where the measurements see them: a
     // point sees none, a point and an axis the two that tilt the axis, a pose (or nests about the tool) all three.
     const int tool = 6 * (model.num_error_sites() - 1);
@@ -446,7 +424,7 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
       }
       PayloadWire payload;
       if (const nlohmann::json* v = t.Get("payload");
-          v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
+          v && ReadRequestObject(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
       t.RejectUnknown(WireFieldNames<CompensationTargetWire>());
@@ -557,9 +535,7 @@ std::string DumpCompensatedTargets(const CompensatedTargets& r) {
 EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
   Problems problems;
   EvaluateRequest req;
-  ObjectReader r(body, "", &problems);
-  r.Number("h_mm", false, &req.h_mm, 1e-9, 1e6);
-  r.RejectUnknown(WireFieldNames<EvaluateRequest>());
+  ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid evaluate request");
   return req;
 }

@@ -34,63 +34,35 @@ int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const s
   return -1;
 }
 
-// "reflectors" of a campaign or plan request: at most max_count, ids by the id rule and unique, positions
-// finite within 10 m of the flange.
-void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out,
-                     std::size_t max_count) {
-  if (value == nullptr) return;
-  if (!value->is_array()) {
-    problems->Add("reflectors", std::string("expected an array, got ") + value->type_name());
-    return;
+void WireFields<CampaignReflectorWire>::CheckRequest(const S& reflector, const std::string& path, Problems* problems) {
+  const auto& p = reflector.position_mm;
+  if (std::hypot(p[0], p[1], p[2]) > 1e4) {
+    problems->Add(JoinPath(path, "position_mm"), "must be within 10000 mm of the flange");
   }
-  if (value->size() > max_count) {
-    problems->Add("reflectors", "too many elements: " + std::to_string(value->size()) + " (limit " +
-                                    std::to_string(max_count) + ")");
-    return;
-  }
-  for (std::size_t k = 0; k < value->size(); ++k) {
-    const std::string path = IndexPath("reflectors", k);
-    ObjectReader r((*value)[k], path, problems);
-    CampaignReflectorWire w;
-    if (r.String("id", true, &w.id, 64)) {
-      if (!IsValidId(w.id)) {
-        problems->Add(JoinPath(path, "id"), kIdRule);
-      } else if (ReflectorIndex(*out, w.id) >= 0) {
-        problems->Add(JoinPath(path, "id"), "\"" + w.id + "\" is given twice");
+}
+
+void CheckReflectorIds(const std::vector<CampaignReflectorWire>& reflectors, Problems* problems) {
+  for (std::size_t k = 0; k < reflectors.size(); ++k) {
+    for (std::size_t i = 0; i < k; ++i) {
+      if (reflectors[i].id == reflectors[k].id) {
+        problems->Add(JoinPath(IndexPath("reflectors", k), "id"), "\"" + reflectors[k].id + "\" is given twice");
+        break;
       }
     }
-    if (r.FixedNumbers("position_mm", true, w.position_mm.data(), 3) &&
-        std::hypot(w.position_mm[0], w.position_mm[1], w.position_mm[2]) > 1e4) {
-      problems->Add(JoinPath(path, "position_mm"), "must be within 10000 mm of the flange");
-    }
-    r.Bool("fixed", false, &w.fixed);
-    r.RejectUnknown(WireFieldNames<CampaignReflectorWire>());
-    out->push_back(std::move(w));
+  }
+}
+
+void WireFields<CreateCampaignRequest>::CheckRequest(const S& req, const std::string&, Problems* problems) {
+  CheckReflectorIds(req.reflectors, problems);
+  if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
+    problems->Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
   }
 }
 
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   Problems problems;
   CreateCampaignRequest req;
-  ObjectReader r(body, "", &problems);
-  if (r.String("id", false, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
-  r.String("description", false, &req.description, 1024);
-  r.String("robot", true, &req.robot, 64);
-  MeasurementType type = MeasurementType::kPose;
-  if (r.Enum("measurement_type", false, &type)) req.measurement_type = type;
-  r.String("plan", false, &req.plan, 64);
-  ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
-  ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
-  r.Number("repeatability_mm", false, &req.repeatability_mm, 0.0, 10.0);
-  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors, kMaxFitReflectors);
-  PayloadWire payload;
-  if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
-    req.payload = payload;
-  }
-  if (!req.reflectors.empty() && req.measurement_type && *req.measurement_type != MeasurementType::kPosition) {
-    problems.Add("reflectors", "need position measurements (a 6-DoF probe measures the tool's orientation itself)");
-  }
-  r.RejectUnknown(WireFieldNames<CreateCampaignRequest>());
+  ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid campaign");
   return req;
 }
@@ -140,7 +112,8 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
         }
       }
       PayloadWire payload;
-      if (const nlohmann::json* v = m.Get("payload"); v && ParsePayload(*v, JoinPath(path, "payload"), &problems, &payload)) {
+      if (const nlohmann::json* v = m.Get("payload");
+          v && ReadRequestObject(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
       m.RejectUnknown(WireFieldNames<MeasurementWire>());

@@ -11,36 +11,8 @@
 namespace robocal::api {
 namespace {
 
-// Beyond this a count is a typing mistake, not a cell: more reflectors than any tool carries (lengths:
-// kMaxLengthMm).
-constexpr std::size_t kMaxReflectors = 16;
-// A cell's boxes: floor, tables, fixtures, fences. The bound keeps one configuration's check (every capsule and
-// beam against every box) within tens of microseconds, so a :check of max_array_length configurations stays
-// well under a second.
-constexpr std::size_t kMaxObstacles = 128;
-
-// Records a problem for each coordinate of `v` beyond the plausible length.
-void CheckLengths(const std::array<double, 3>& v, const std::string& path, Problems* problems) {
-  for (std::size_t i = 0; i < 3; ++i) {
-    if (std::abs(v[i]) > kMaxLengthMm) problems->Add(IndexPath(path, i), "implausibly large (limit 1e9 mm)");
-  }
-}
-
 Eigen::Vector3d Vec(const std::array<double, 3>& a) { return Eigen::Vector3d(a[0], a[1], a[2]); }
 std::array<double, 3> Arr(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
-
-// Reads a named list of objects at `key` with `read` for each element.
-template <typename T, typename Read>
-void ReadList(ObjectReader& r, const char* key, std::size_t max_size, Problems* problems, std::vector<T>* out,
-              Read read) {
-  if (const nlohmann::json* a = r.Array(key, false, 0, max_size)) {
-    out->resize(a->size());
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      ObjectReader item((*a)[i], IndexPath(key, i), problems);
-      read(item, &(*out)[i]);
-    }
-  }
-}
 
 void CheckUniqueIds(const std::vector<std::string>& ids, const char* list, Problems* problems) {
   std::set<std::string> seen;
@@ -57,78 +29,19 @@ CellWire ParseCellRequest(const nlohmann::json& body, const RobotModel& model, c
   Problems problems;
   CellWire cell;
   ObjectReader r(body, "", &problems);
-  if (r.String("id", true, &cell.id) && !IsValidId(cell.id)) problems.Add("id", kIdRule);
-  r.String("description", false, &cell.description, 1024);
-  r.String("robot", true, &cell.robot, 64);
-  if (const nlohmann::json* t = r.Get("tracker")) {
-    ObjectReader tr(*t, "tracker", &problems);
-    if (tr.FixedNumbers("position_mm", true, cell.tracker.position_mm.data(), 3)) {
-      CheckLengths(cell.tracker.position_mm, "tracker.position_mm", &problems);
-    }
-    tr.Number("min_distance_mm", false, &cell.tracker.min_distance_mm, 0.0, kMaxLengthMm);
-    double max = 0.0;
-    if (tr.Number("max_distance_mm", false, &max, 0.0, kMaxLengthMm)) cell.tracker.max_distance_mm = max;
-    tr.RejectUnknown(WireFieldNames<TrackerWire>());
-  } else if (r.ok()) {
-    problems.Add("tracker", "required");
-  }
-  ReadList(r, "reflectors", kMaxReflectors, &problems, &cell.reflectors,
-           [&problems](ObjectReader& item, ReflectorWire* w) {
-    // Ids as the service's own (no commas, quotes or spaces: they appear in CSV columns and in blocked_by).
-    if (item.String("id", true, &w->id, 64) && !IsValidId(w->id)) problems.Add(JoinPath(item.path(), "id"), kIdRule);
-    if (item.FixedNumbers("position_mm", true, w->position_mm.data(), 3)) {
-      CheckLengths(w->position_mm, JoinPath(item.path(), "position_mm"), &problems);
-    }
-    item.FixedNumbers("normal", true, w->normal.data(), 3);
-    // The core refuses 0 with its reason; (0, 180] as the core and docs/cells.md say.
-    item.Number("acceptance_half_angle_deg", false, &w->acceptance_half_angle_deg, 0.0, 180.0);
-    item.RejectUnknown(WireFieldNames<ReflectorWire>());
-  });
-  ReadList(r, "obstacles", std::min(kMaxObstacles, limits.max_array_length), &problems, &cell.obstacles,
-           [&problems](ObjectReader& item, ObstacleWire* w) {
-             if (item.String("id", true, &w->id, 64) && !IsValidId(w->id)) {
-               problems.Add(JoinPath(item.path(), "id"), kIdRule);
-             }
-             if (const nlohmann::json* b = item.Get("box")) {
-               ObjectReader box(*b, JoinPath(item.path(), "box"), &problems);
-               if (box.FixedNumbers("min_mm", true, w->box.min_mm.data(), 3)) {
-                 CheckLengths(w->box.min_mm, JoinPath(box.path(), "min_mm"), &problems);
-               }
-               if (box.FixedNumbers("max_mm", true, w->box.max_mm.data(), 3)) {
-                 CheckLengths(w->box.max_mm, JoinPath(box.path(), "max_mm"), &problems);
-               }
-               box.RejectUnknown(WireFieldNames<BoxWire>());
-             } else if (item.ok()) {
-               problems.Add(JoinPath(item.path(), "box"), "required");
-             }
-             item.RejectUnknown(WireFieldNames<ObstacleWire>());
-           });
+  ReadRequest(r, &cell);
   const std::size_t joints = static_cast<std::size_t>(model.num_joints());
-  if (r.Numbers("link_radii_mm", false, &cell.link_radii_mm, joints, joints)) {
-    for (std::size_t i = 0; i < cell.link_radii_mm.size(); ++i) {
-      if (cell.link_radii_mm[i] < 0.0 || cell.link_radii_mm[i] > kMaxLengthMm) {
-        problems.Add(IndexPath("link_radii_mm", i), "must be in [0, 1e9] mm");
-      }
-    }
+  if (cell.obstacles.size() > limits.max_array_length) {
+    problems.Add("obstacles", "too many elements: " + std::to_string(cell.obstacles.size()) + " (limit " +
+                                  std::to_string(limits.max_array_length) + ")");
   }
-  double tool_radius = 0.0;
-  if (r.Number("tool_radius_mm", false, &tool_radius, 0.0, kMaxLengthMm)) {
-    // Absent means the last link's radius; a given radius must be one.
-    if (tool_radius > 0.0) {
-      cell.tool_radius_mm = tool_radius;
-    } else {
-      problems.Add("tool_radius_mm", "must be > 0 mm (leave it out for the last link's radius)");
-    }
+  if (r.Has("link_radii_mm") && cell.link_radii_mm.size() != joints) {
+    problems.Add("link_radii_mm",
+                 "expected " + std::to_string(joints) + " values, got " + std::to_string(cell.link_radii_mm.size()));
   }
-  r.Number("clearance_mm", false, &cell.clearance_mm, 0.0, kMaxLengthMm);
-  if (const nlohmann::json* a = r.Array("joint_ranges", false, joints, joints)) {
-    cell.joint_ranges.resize(a->size());
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      ObjectReader range((*a)[i], IndexPath("joint_ranges", i), &problems);
-      range.Number("min", true, &cell.joint_ranges[i].min);
-      range.Number("max", true, &cell.joint_ranges[i].max);
-      range.RejectUnknown(WireFieldNames<JointRangeWire>());
-    }
+  if (r.Has("joint_ranges") && cell.joint_ranges.size() != joints) {
+    problems.Add("joint_ranges", "expected " + std::to_string(joints) + " ranges (one per joint), got " +
+                                     std::to_string(cell.joint_ranges.size()));
   }
   r.RejectUnknown(WireFieldNames<CellWire>());
   std::vector<std::string> ids;

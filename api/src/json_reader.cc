@@ -342,6 +342,15 @@ const nlohmann::json* ObjectReader::Array(const std::string& key, bool required,
   return v;
 }
 
+namespace detail {
+bool InRange(double x, const RequestRule& rule, const std::string& path, Problems* problems) {
+  if (x >= rule.min && x <= rule.max) return true;
+  problems->Add(path, "must be in [" + nlohmann::json(rule.min).dump() + ", " + nlohmann::json(rule.max).dump() +
+                          "], got " + nlohmann::json(x).dump());
+  return false;
+}
+}  // namespace detail
+
 void ObjectReader::RejectUnknown(std::initializer_list<const char*> known) {
   RejectUnknown(std::span<const char* const>(known.begin(), known.size()));
 }

@@ -61,50 +61,26 @@ void CheckPlanWork(const PlanRequest& req, const Limits& limits, Problems* probl
 
 }  // namespace
 
+void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Problems* problems) {
+  CheckReflectorIds(req.reflectors, problems);
+  if (!req.reflectors.empty() && req.measurement_type != MeasurementType::kPosition) {
+    problems->Add("reflectors",
+                  std::string("need position measurements; measurement_type is ") + WireName(req.measurement_type));
+  }
+}
+
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   Problems problems;
   PlanRequest req;
-  ObjectReader r(body, "", &problems);
-  r.String("robot", true, &req.robot, 64);
-  if (r.String("cell", false, &req.cell, 64) && !IsValidId(req.cell)) problems.Add("cell", kIdRule);
-  if (r.Int("num_configurations", false, &req.num_configurations, 1, kMaxInt) &&
-      req.num_configurations > limits.max_plan_configurations) {
+  ReadRequestObject(body, "", &problems, &req);
+  if (req.num_configurations > limits.max_plan_configurations) {
     problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
                                                  limits.max_plan_configurations));
   }
-  r.Enum("measurement_type", false, &req.measurement_type);
-  r.Enum("objective", false, &req.objective);
-  r.Enum("optimiser", false, &req.optimiser);
-  r.Enum("scaling", false, &req.scaling);
-  ParseNoise(r.Get("noise"), "noise", &problems, &req.noise);
-  ParseTrackerModel(r.Get("tracker"), "tracker", &problems, &req.tracker);
-  ParseReflectors(r.Get("reflectors"), &problems, &req.reflectors, kMaxPlanReflectors);
-  if (!req.reflectors.empty() && req.measurement_type != MeasurementType::kPosition) {
-    problems.Add("reflectors", std::string("need position measurements; measurement_type is ") +
-                                   WireName(req.measurement_type));
+  if (req.options.max_evaluations > limits.max_plan_evaluations) {
+    problems.Add("options.max_evaluations", OverLimit(req.options.max_evaluations, "evaluations",
+                                                      "max_plan_evaluations", limits.max_plan_evaluations));
   }
-  std::int64_t seed = 1;
-  if (r.Int("seed", false, &seed, 0, INT64_MAX)) req.seed = static_cast<std::uint64_t>(seed);
-  r.Int("num_validation", false, &req.num_validation, 1, 10000);
-  r.Bool("async", false, &req.async);
-  if (const nlohmann::json* o = r.Get("options")) {
-    ObjectReader opt(*o, "options", &problems);
-    // Each option within the core's own range; what they add up to is checked against the limits below.
-    opt.Int("k_max", false, &req.options.k_max, 1, 10000000);
-    opt.Int("restarts", false, &req.options.restarts, 0, 10000);
-    if (opt.Int("max_evaluations", false, &req.options.max_evaluations, 0, kMaxInt) &&
-        req.options.max_evaluations > limits.max_plan_evaluations) {
-      problems.Add("options.max_evaluations", OverLimit(req.options.max_evaluations, "evaluations",
-                                                        "max_plan_evaluations", limits.max_plan_evaluations));
-    }
-    opt.Number("step_fraction", false, &req.options.step_fraction, 1e-6, 1.0);
-    opt.Int("num_sets", false, &req.options.num_sets, 1, 10000000);
-    opt.Int("num_candidates", false, &req.options.num_candidates, 1, 1000000);
-    opt.Int("screen", false, &req.options.screen, 1, 1000000);
-    opt.Int("max_iterations", false, &req.options.max_iterations, 1, 10000000);
-    opt.RejectUnknown(WireFieldNames<PlanOptionsWire>());
-  }
-  r.RejectUnknown(WireFieldNames<PlanRequest>());
   // Only the chosen optimiser's options count (clients may send every option with its default).
   if (req.optimiser == Optimiser::kExchange && req.options.num_candidates > limits.max_plan_candidates) {
     problems.Add("options.num_candidates", OverLimit(req.options.num_candidates, "candidates", "max_plan_candidates",

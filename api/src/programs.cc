@@ -117,7 +117,7 @@ CompensateProgramRequest ParseCompensateProgramRequest(const nlohmann::json& bod
   if (r.Number("max_path_deviation_mm", false, &deviation, 1e-6, 1000.0)) req.max_path_deviation_mm = deviation;
   r.Enum("on_failure", false, &req.on_failure);
   PayloadWire payload;
-  if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+  if (const nlohmann::json* v = r.Get("payload"); v && ReadRequestObject(*v, "payload", &problems, &payload)) {
     req.payload = payload;
   }
   (void)limits;

@@ -12,14 +12,6 @@
 namespace robocal::api {
 namespace {
 
-// Angles beyond this are typing mistakes, not geometry: a million degrees (lengths: kMaxLengthMm).
-constexpr double kMaxAngleDeg = 1e6;
-// A link heavier than 100 t is a unit mistake.
-constexpr double kMaxMassKg = 1e5;
-// Joint terms a robot may hold: the core's bounds of a plausible joint (robot_model.h) in wire units.
-constexpr double kMaxComplianceDegPerNm = kImplausibleComplianceRadPerNm * kDegPerRad;
-constexpr double kMaxHarmonicDeg = kImplausibleHarmonicRad * kDegPerRad;
-
 const char* MinKey(JointType type) { return type == JointType::kRevolute ? "min_deg" : "min_mm"; }
 const char* MaxKey(JointType type) { return type == JointType::kRevolute ? "max_deg" : "max_mm"; }
 
@@ -31,14 +23,7 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
   Problems problems;
   RegisterRobotRequest req;
   ObjectReader r(body, "", &problems);
-  if (r.String("id", true, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
-  r.String("description", false, &req.description, 1024);
-  PoseWire pose;
-  if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
-  if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
-  if (const nlohmann::json* v = r.Get("flange"); v && ParsePose(*v, "flange", true, &problems, &pose)) {
-    req.flange = pose;
-  }
+  ReadRequest(r, &req);
   if (r.Has("from_preset")) {
     r.Enum("from_preset", true, PresetNames(), &req.from_preset);
     if (r.Has("joints")) problems.Add("joints", "give either from_preset or joints, not both");
@@ -49,51 +34,10 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         const std::string path = IndexPath("joints", i);
         ObjectReader jr((*joints)[i], path, &problems);
         JointWire j;
-        jr.String("name", false, &j.name, 64);
-        jr.Enum("type", true, &j.type);
-        jr.Number("a_mm", false, &j.a_mm, -kMaxLengthMm, kMaxLengthMm);
-        jr.Number("alpha_deg", false, &j.alpha_deg, -360.0, 360.0);
-        jr.Number("d_mm", false, &j.d_mm, -kMaxLengthMm, kMaxLengthMm);
-        jr.Number("theta_deg", false, &j.theta_deg, -360.0, 360.0);
-        jr.FixedNumbers("xyz_mm", false, j.xyz_mm.data(), 3);
-        jr.FixedNumbers("rpy_deg", false, j.rpy_deg.data(), 3);
-        jr.Number("mass_kg", false, &j.mass_kg, 0.0, kMaxMassKg);
-        jr.FixedNumbers("com_mm", false, j.com_mm.data(), 3);
-        jr.Number("compliance_deg_per_nm", false, &j.compliance_deg_per_nm, -kMaxComplianceDegPerNm,
-                  kMaxComplianceDegPerNm);
-        if (jr.FixedNumbers("harmonics_deg", false, j.harmonics_deg.data(), 4)) {
-          for (std::size_t k = 0; k < j.harmonics_deg.size(); ++k) {
-            if (std::abs(j.harmonics_deg[k]) > kMaxHarmonicDeg) {
-              problems.Add(IndexPath(path + ".harmonics_deg", k),
-                           "must lie within +-0.573 degrees (0.01 rad): beyond is no robot joint's harmonic");
-            }
-          }
-        }
-        if (const nlohmann::json* v = jr.Get("error_map")) {
-          ObjectReader mr(*v, path + ".error_map", &problems);
-          JointMapWire map;
-          mr.Number("first_knot_deg", true, &map.first_knot_deg, -kMaxAngleDeg, kMaxAngleDeg);
-          mr.Number("knot_spacing_deg", true, &map.knot_spacing_deg, kMinMapKnotSpacingRad * kDegPerRad,
-                    kMaxMapKnotSpacingRad * kDegPerRad);
-          if (const nlohmann::json* c = mr.Array("coefficients_deg", true, 4, kMaxMapIntervals + 3)) {
-            for (std::size_t k = 0; k < c->size(); ++k) {
-              const nlohmann::json& x = (*c)[k];
-              if (!x.is_number() || !std::isfinite(x.get<double>()) || std::abs(x.get<double>()) > kMaxHarmonicDeg) {
-                problems.Add(IndexPath(path + ".error_map.coefficients_deg", k),
-                             "must be a number within +-0.573 degrees (0.01 rad): beyond is no gear's or encoder's "
-                             "error");
-              } else {
-                map.coefficients_deg.push_back(x.get<double>());
-              }
-            }
-          }
-          mr.RejectUnknown(WireFieldNames<JointMapWire>());
-          j.error_map = std::move(map);
-        }
+        // The convention picks the geometry keys read (the others are taken and left unused).
+        j.convention = req.convention;
+        ReadRequest(jr, &j);
         const bool revolute = j.type == JointType::kRevolute;
-        const double bound = revolute ? kMaxAngleDeg : kMaxLengthMm;
-        jr.Number(MinKey(j.type), true, &j.min, -bound, bound);
-        jr.Number(MaxKey(j.type), true, &j.max, -bound, bound);
         const JointType other = revolute ? JointType::kPrismatic : JointType::kRevolute;
         if (jr.ok() && (jr.Has(MinKey(other)) || jr.Has(MaxKey(other)))) {
           problems.Add(path, std::string("limits of a ") + WireName(j.type) + " joint are given as " + MinKey(j.type) +
@@ -103,14 +47,6 @@ RegisterRobotRequest ParseRegisterRobotRequest(const nlohmann::json& body, const
         jr.RejectUnknown(WireFieldNames<JointWire>());
         req.joints.push_back(j);
       }
-    }
-  }
-  std::array<double, 3> gravity{};
-  if (r.FixedNumbers("gravity", false, gravity.data(), 3)) {
-    if (Eigen::Vector3d(gravity[0], gravity[1], gravity[2]).norm() > 0.0) {
-      req.gravity = gravity;
-    } else {
-      problems.Add("gravity", "must be a non-zero vector (the direction of gravity in the base frame)");
     }
   }
   r.RejectUnknown(WireFieldNames<RegisterRobotRequest>());
@@ -124,14 +60,9 @@ bool IsFromCalibration(const nlohmann::json& body) { return body.is_object() && 
 RobotFromCalibrationRequest ParseRobotFromCalibrationRequest(const nlohmann::json& body) {
   Problems problems;
   RobotFromCalibrationRequest req;
-  ObjectReader r(body, "", &problems);
-  if (r.String("id", true, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
-  r.String("description", false, &req.description, 1024);
-  if (r.String("from_calibration", true, &req.campaign, 64) && !IsValidId(req.campaign)) {
-    problems.Add("from_calibration", "a campaign id: " + std::string(kIdRule));
-  }
-  // The geometry is the calibration's: a table, preset, URDF, base or tool beside it would contradict it.
-  r.RejectUnknown(WireFieldNames<RobotFromCalibrationRequest>());
+  // The geometry is the calibration's: a table, preset, URDF, base or tool beside it would contradict it (unknown
+  // keys).
+  ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid robot");
   return req;
 }
@@ -143,16 +74,7 @@ bool IsUrdfImport(const nlohmann::json& body) {
 ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limits&) {
   Problems problems;
   ImportUrdfRequest req;
-  ObjectReader r(body, "", &problems);
-  if (r.String("id", false, &req.id) && !IsValidId(req.id)) problems.Add("id", kIdRule);
-  r.String("description", false, &req.description, 1024);
-  r.String("urdf", true, &req.urdf, kMaxUrdfBytes);
-  r.String("base_link", true, &req.base_link, 256);
-  r.String("tip_link", true, &req.tip_link, 256);
-  PoseWire pose;
-  if (const nlohmann::json* v = r.Get("base"); v && ParsePose(*v, "base", true, &problems, &pose)) req.base = pose;
-  if (const nlohmann::json* v = r.Get("tool"); v && ParsePose(*v, "tool", true, &problems, &pose)) req.tool = pose;
-  r.RejectUnknown(WireFieldNames<ImportUrdfRequest>());
+  ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid robot");
   return req;
 }
@@ -317,7 +239,7 @@ ForwardRequest ParseJointsRequest(const nlohmann::json& body, const RobotModel& 
   }
   PayloadWire payload;
   if (with_payload) {
-    if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+    if (const nlohmann::json* v = r.Get("payload"); v && ReadRequestObject(*v, "payload", &problems, &payload)) {
       req.payload = payload;
     }
     r.RejectUnknown(WireFieldNames<ForwardRequest>());

@@ -605,7 +605,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
     }
   }
   PayloadWire payload;
-  if (const nlohmann::json* v = r.Get("payload"); v && ParsePayload(*v, "payload", &problems, &payload)) {
+  if (const nlohmann::json* v = r.Get("payload"); v && ReadRequestObject(*v, "payload", &problems, &payload)) {
     req.payload = payload;
   }
   if (const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes)) {

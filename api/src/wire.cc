@@ -37,6 +37,8 @@ const char* EnumTable<MeasurementRole>::Name(MeasurementRole v) {
 
 const char* EnumTable<OperationKind>::Name(OperationKind v) { return v == OperationKind::kFit ? "fit" : "plan"; }
 
+const char* EnumTable<FitScope>::Name(FitScope v) { return v == FitScope::kFrames ? "frames" : "all"; }
+
 const char* EnumTable<OperationState>::Name(OperationState v) {
   switch (v) {
     case OperationState::kRunning:
@@ -211,26 +213,6 @@ void SkipDerived(const nlohmann::json*, const std::string&, PoseWire*) {}
 
 }  // namespace detail
 
-bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out) {
-  const std::size_t before = problems->size();
-  ObjectReader r(value, path, problems);
-  if (!r.ok()) return false;
-  PayloadWire payload;
-  r.Number("mass_kg", true, &payload.mass_kg, 0.0, kMaxPayloadKg);
-  if (r.FixedNumbers("com_mm", false, payload.com_mm.data(), 3)) {
-    for (double v : payload.com_mm) {
-      if (!(std::abs(v) <= 1e5)) {
-        problems->Add(JoinPath(path, "com_mm"), "must lie within 100 m (1e5 mm) of the flange");
-        break;
-      }
-    }
-  }
-  r.RejectUnknown(WireFieldNames<PayloadWire>());
-  if (problems->size() != before) return false;
-  *out = payload;
-  return true;
-}
-
 Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
 
 Transform PoseToTransform(const PoseWire& p) {
@@ -261,30 +243,21 @@ std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dr
   return out;
 }
 
-void ParseNoise(const nlohmann::json* v, const std::string& path, Problems* problems, NoiseWire* out) {
-  if (v == nullptr) return;
-  ObjectReader n(*v, path, problems);
-  n.Number("position_mm", false, &out->position_mm, 1e-9, 1e3);
-  n.Number("orientation_deg", false, &out->orientation_deg, 1e-9, 90.0);
-  n.RejectUnknown(WireFieldNames<NoiseWire>());
-}
-
 MeasurementNoise ToCore(const NoiseWire& noise) {
   return MeasurementNoise{noise.position_mm, noise.orientation_deg * kRadPerDeg, std::nullopt};
 }
 
-void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problems* problems,
-                       std::optional<TrackerModelWire>* out) {
-  if (v == nullptr) return;
+bool RequestReader<TrackerModelWire>::Read(const nlohmann::json& value, const std::string& path, Problems* problems,
+                                           TrackerModelWire* out) {
+  const std::size_t before = problems->size();
   TrackerModelWire t;
-  ObjectReader r(*v, path, problems);
-  if (!r.ok()) return;
+  ObjectReader r(value, path, problems);
+  if (!r.ok()) return false;
   // [constant um, um per m]: the constant positive, the slope >= 0; 1 mm (1000 um) bounds what any tracker
   // could mean.
   const auto pair = [&](const char* key, std::array<double, 2>* value) {
     std::array<double, 2> read{};
     if (!r.FixedNumbers(key, false, read.data(), 2)) return;
-    if (!r.Has(key)) return;
     if (!(read[0] >= kMinTrackerUm && read[0] <= 1000.0)) {
       problems->Add(JoinPath(path, key) + "[0]", "the constant (um) must be in [0.001, 1000]");
     } else if (!(read[1] >= 0.0 && read[1] <= 1000.0)) {
@@ -298,7 +271,9 @@ void ParseTrackerModel(const nlohmann::json* v, const std::string& path, Problem
   r.Number("orientation_deg", false, &t.orientation_deg, kMinTrackerOrientationDeg, 90.0);
   r.Number("mpe_sigmas", false, &t.mpe_sigmas, 0.1, 10.0);
   r.RejectUnknown(WireFieldNames<TrackerModelWire>());
+  if (problems->size() != before) return false;
   *out = t;
+  return true;
 }
 
 TrackerUncertainty ToCore(const TrackerModelWire& t) {

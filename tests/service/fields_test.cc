@@ -180,7 +180,7 @@ TEST(FieldTableTest, FitRequestStoredBeforeItsSwitchesReadsThemOff) {
   EXPECT_FALSE(old.estimate_model_error);
   EXPECT_FALSE(old.model_auto);
   EXPECT_FALSE(old.model.compliance);
-  EXPECT_EQ(old.scope, "all");
+  EXPECT_EQ(old.scope, FitScope::kAll);
   EXPECT_EQ(old.max_iterations, 50);
 }
 

@@ -743,7 +743,7 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
                                                                   {"decimal", TrackerFileDecimals()},
                                                                   {"representation", OrientationRepresentations()},
                                                                   {"order", QuaternionOrders()},
-                                                                  {"scope", FitScopes()},
+                                                                  {"scope", WireNames<FitScope>()},
                                                                   {"dialect", WireNames<programs::Dialect>()},
                                                                   {"on_failure", WireNames<programs::OnFailure>()},
                                                                   {"cause", WireNames<OutlierMeasurement::Cause>()}};

@@ -66,8 +66,9 @@ struct MapGridWire {
 template <>
 struct WireFields<MapGridWire> {
   using S = MapGridWire;
-  static constexpr auto fields = std::make_tuple(Field{"joint", &S::joint}, Field{"first_knot_deg", &S::first_knot_deg},
-                                                 Field{"intervals", &S::intervals});
+  static constexpr auto fields = std::make_tuple(Field{"joint", &S::joint}.Range(1, RequestRule::kNoBound),
+                                                 Field{"first_knot_deg", &S::first_knot_deg},
+                                                 Field{"intervals", &S::intervals}.Range(1, RequestRule::kNoBound));
 };
 ROBOCAL_WIRE_DECLARE(MapGridWire);
 
@@ -86,8 +87,12 @@ template <>
 struct WireFields<JointMapsWire> {
   using S = JointMapsWire;
   static constexpr auto fields = std::make_tuple(
-      Field{"joints", &S::joints, Presence::kOmitEmpty}, Field{"knot_spacing_deg", &S::knot_spacing_deg},
-      Field{"smoothness", &S::smoothness, Presence::kOptionalOnRead}, Field{"grids", &S::grids, Presence::kServerOnly});
+      // Joints of the robot, ascending, each once: the parser's (it knows the robot).
+      Field{"joints", &S::joints, Presence::kOmitEmpty}.Apart().Size(1, 0).Range(1, RequestRule::kNoBound),
+      Field{"knot_spacing_deg", &S::knot_spacing_deg}.Mandatory().Range(kMinMapKnotSpacingRad* kDegPerRad,
+                                                                        kMaxMapKnotSpacingRad* kDegPerRad),
+      Field{"smoothness", &S::smoothness, Presence::kOptionalOnRead}.Range(0.0, 1e12),
+      Field{"grids", &S::grids, Presence::kServerOnly});
 };
 ROBOCAL_WIRE_DECLARE(JointMapsWire);
 
@@ -102,9 +107,10 @@ struct ModelWire {
 template <>
 struct WireFields<ModelWire> {
   using S = ModelWire;
-  static constexpr auto fields =
-      std::make_tuple(Field{"compliance", &S::compliance}, Field{"joint_harmonics", &S::joint_harmonics},
-                      Field{"joint_maps", &S::joint_maps, Presence::kOmitEmpty});
+  static constexpr auto fields = std::make_tuple(
+      Field{"compliance", &S::compliance}, Field{"joint_harmonics", &S::joint_harmonics}.Range(0, kMaxJointHarmonics),
+      // Read by the parser with the robot's joints (JointMapsWire's table).
+      Field{"joint_maps", &S::joint_maps, Presence::kOmitEmpty}.Apart());
 };
 ROBOCAL_WIRE_DECLARE(ModelWire);
 /// The core's terms of a model: with joint maps, their grids as the wire's `grids` place them (a stored result), or
@@ -124,7 +130,8 @@ struct CrossValidationWire {
 template <>
 struct WireFields<CrossValidationWire> {
   static constexpr auto fields =
-      std::make_tuple(Field{"folds", &CrossValidationWire::folds}, Field{"seed", &CrossValidationWire::seed},
+      std::make_tuple(Field{"folds", &CrossValidationWire::folds}.Range(2, 20),
+                      Field{"seed", &CrossValidationWire::seed}.Range(0, RequestRule::kNoBound),
                       // Written when true; absent (and in requests stored before maps): none.
                       Field{"joint_maps", &CrossValidationWire::joint_maps, Presence::kOmitEmpty});
 };
@@ -142,10 +149,10 @@ struct FitRequest {
   /// Estimate the robot error the geometric model does not explain beside the tracker's noise
   /// (docs/identification.md, "Model error"); false: the campaign's noise model is the whole error.
   bool estimate_model_error = true;
-  /// "all" (default): the identifiable parameters (or `parameters`); "frames": the base and the tool only
-  /// (the robot's kinematics held as they are: a calibrated robot in a new cell, docs/api.md), i.e. base.* and
+  /// kAll (default): the identifiable parameters (or `parameters`); kFrames: the base and the tool only (the
+  /// robot's kinematics held as they are: a calibrated robot in a new cell, docs/api.md), i.e. base.* and
   /// tool.dx/dy/dz, with tool.rx/ry for position_axis and tool.rx/ry/rz for pose measurements or nests.
-  std::string scope = "all";
+  FitScope scope = FitScope::kAll;
   /// The model: on the wire "model" is "geometric" (the default), "auto" (chosen by k-fold cross-validation on
   /// the calibration measurements: the simplest candidate within one standard error of the best) or an object
   /// {"compliance": bool, "joint_harmonics": 0..2, "joint_maps": {...}}. `model_auto` is true for "auto".
@@ -160,11 +167,12 @@ template <>
 struct WireFields<FitRequest> {
   using S = FitRequest;
   static constexpr auto fields = std::make_tuple(
-      Field{"parameters", &S::parameters}, Field{"register_base", &S::register_base},
-      Field{"max_iterations", &S::max_iterations},
+      // Names of the fit's model (the parser knows it).
+      Field{"parameters", &S::parameters}.Apart(), Field{"register_base", &S::register_base},
+      Field{"max_iterations", &S::max_iterations}.Range(1, 1000),
       // Absent in requests stored before the robust fit and the model error's estimate: they did not exist.
       Field{"reject_outliers", &S::reject_outliers, Presence::kAbsentIsEmpty},
-      Field{"outlier_probability", &S::outlier_probability, Presence::kOptionalOnRead},
+      Field{"outlier_probability", &S::outlier_probability, Presence::kOptionalOnRead}.Range(1e-12, 0.1),
       Field{"estimate_model_error", &S::estimate_model_error, Presence::kAbsentIsEmpty},
       Field{"scope", &S::scope, Presence::kOptionalOnRead}, Field{"async", &S::async},
       // "auto" or the model object; absent in requests stored before models beyond geometry: the geometric one.
@@ -189,8 +197,6 @@ RobotModel FitModel(const FitRequest& request, const RobotModel& nominal,
 /// ("reflector.<id>.dx").
 FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& model, const Limits& limits,
                            const std::vector<Reflector>& reflectors = {});
-/// The wire names of a fit's scope ("all", "frames").
-const std::vector<std::string>& FitScopes();
 /// The core's options for a fit of `model` with measurements of `type` and the campaign's `noise` (progress left
 /// empty) and `reflectors`. Parameters named in the request become sorted, unique indices of the fit's space.
 IdentificationOptions ToIdentificationOptions(const FitRequest& request, const RobotModel& model, MeasurementType type,
@@ -475,8 +481,11 @@ CompensateRequest ParseCompensateRequest(const nlohmann::json& body, const Robot
 template <>
 struct WireFields<CompensateRequest> {
   using S = CompensateRequest;
-  static constexpr auto fields = std::make_tuple(Field{"targets", &S::targets}, Field{"sequence", &S::sequence},
-                                                 Field{"max_joint_jump_deg", &S::max_joint_jump_deg});
+  // Targets need the robot (joint vectors, named configurations): the parser reads them. The jump's range is
+  // (0, 720]: the parser refuses 0.
+  static constexpr auto fields =
+      std::make_tuple(Field{"targets", &S::targets}.Mandatory().Size(1, 0).Apart(), Field{"sequence", &S::sequence},
+                      Field{"max_joint_jump_deg", &S::max_joint_jump_deg}.Range(0.0, 720.0));
 };
 ROBOCAL_WIRE_DECLARE(CompensateRequest);
 
@@ -548,7 +557,7 @@ EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body);
 template <>
 struct WireFields<EvaluateRequest> {
   using S = EvaluateRequest;
-  static constexpr auto fields = std::make_tuple(Field{"h_mm", &S::h_mm});
+  static constexpr auto fields = std::make_tuple(Field{"h_mm", &S::h_mm}.Range(1e-9, 1e6));
 };
 ROBOCAL_WIRE_DECLARE(EvaluateRequest);
 

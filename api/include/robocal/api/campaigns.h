@@ -28,16 +28,16 @@ template <>
 struct WireFields<CampaignReflectorWire> {
   using S = CampaignReflectorWire;
   static constexpr auto fields =
-      std::make_tuple(Field{"id", &S::id}, Field{"position_mm", &S::position_mm}, Field{"fixed", &S::fixed});
+      std::make_tuple(Field{"id", &S::id}.Mandatory().Size(0, 64).Rule(&IsValidId, kIdRule),
+                      Field{"position_mm", &S::position_mm}.Mandatory(), Field{"fixed", &S::fixed});
+  /// Within 10 m of the flange.
+  static void CheckRequest(const S& reflector, const std::string& path, Problems* problems);
 };
 ROBOCAL_WIRE_DECLARE(CampaignReflectorWire);
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors);
 std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors);
-class Problems;
-/// Reads a request's "reflectors" (at most max_count; ids by the id rule and unique; positions finite within
-/// 10 m of the flange), recording every problem.
-void ParseReflectors(const nlohmann::json* value, Problems* problems, std::vector<CampaignReflectorWire>* out,
-                     std::size_t max_count);
+/// A request's "reflectors" name each nest once.
+void CheckReflectorIds(const std::vector<CampaignReflectorWire>& reflectors, Problems* problems);
 /// The index of each measurement's reflector id among `reflectors` (-1 for none).
 int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const std::string& id);
 
@@ -67,11 +67,12 @@ struct WireFields<CreateCampaignRequest> {
   using S = CreateCampaignRequest;
   static constexpr Presence kOmit = Presence::kOmitEmpty;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id, kOmit}, Field{"description", &S::description, kOmit}, Field{"robot", &S::robot},
-      Field{"measurement_type", &S::measurement_type, kOmit}, Field{"plan", &S::plan, kOmit},
-      Field{"noise", &S::noise, kOmit}, Field{"tracker", &S::tracker, kOmit},
-      Field{"repeatability_mm", &S::repeatability_mm, kOmit}, Field{"reflectors", &S::reflectors, kOmit},
-      Field{"payload", &S::payload, kOmit});
+      Field{"id", &S::id, kOmit}.Rule(&IsValidId, kIdRule), Field{"description", &S::description, kOmit}.Size(0, 1024),
+      Field{"robot", &S::robot}.Mandatory().Size(0, 64), Field{"measurement_type", &S::measurement_type, kOmit},
+      Field{"plan", &S::plan, kOmit}.Size(0, 64), Field{"noise", &S::noise, kOmit},
+      Field{"tracker", &S::tracker, kOmit}, Field{"repeatability_mm", &S::repeatability_mm, kOmit}.Range(0.0, 10.0),
+      Field{"reflectors", &S::reflectors, kOmit}.Size(0, kMaxFitReflectors), Field{"payload", &S::payload, kOmit});
+  static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };
 ROBOCAL_WIRE_DECLARE(CreateCampaignRequest);
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
@@ -162,7 +163,8 @@ template <>
 struct WireFields<MeasurementWire> {
   using S = MeasurementWire;
   static constexpr auto fields =
-      std::make_tuple(Field{"joints", &S::joints}, Field{"pose", &S::pose},
+      // Joints and pose need the robot and the campaign's measurement type: the batch's parser reads them.
+      std::make_tuple(Field{"joints", &S::joints}.Mandatory().Apart(), Field{"pose", &S::pose}.Mandatory().Apart(),
                       Field{"reflector", &S::reflector, Presence::kOmitEmpty},
                       Field{"payload", &S::payload, Presence::kOmitEmpty},
                       Field{"stale", &S::stale, Presence::kServerOnly});
@@ -178,8 +180,9 @@ struct MeasurementBatchRequest {
 template <>
 struct WireFields<MeasurementBatchRequest> {
   using S = MeasurementBatchRequest;
-  static constexpr auto fields = std::make_tuple(Field{"request_id", &S::request_id}, Field{"role", &S::role},
-                                                 Field{"measurements", &S::measurements});
+  static constexpr auto fields =
+      std::make_tuple(Field{"request_id", &S::request_id}.Mandatory().Size(0, 128), Field{"role", &S::role},
+                      Field{"measurements", &S::measurements}.Mandatory().Size(1, 0).Apart());
 };
 ROBOCAL_WIRE_DECLARE(MeasurementBatchRequest);
 /// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
@@ -192,11 +195,11 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
 template <>
 struct WireFields<BatchResult> {
   using S = BatchResult;
-  static constexpr auto fields =
-      std::make_tuple(Field{"campaign", &S::campaign}, Field{"batch_id", &S::batch_id},
-                      Field{"request_id", &S::request_id}, Field{"replayed", &S::replayed},
-                      Field{"first_sequence", &S::first_sequence}, Field{"count", &S::count},
-                      Field{"campaign_total", &S::campaign_total}, Field{"stale", &S::stale, Presence::kOmitEmpty});
+  static constexpr auto fields = std::make_tuple(
+      Field{"campaign", &S::campaign}, Field{"batch_id", &S::batch_id}, Field{"request_id", &S::request_id},
+      Field{"replayed", &S::replayed}, Field{"first_sequence", &S::first_sequence}, Field{"count", &S::count},
+      Field{"campaign_total", &S::campaign_total},
+      Field{"stale", &S::stale, Presence::kOmitEmpty}.Range(1, RequestRule::kNoBound));
 };
 ROBOCAL_WIRE_DECLARE(BatchResult);
 

@@ -42,39 +42,45 @@ struct ObstacleWire {
   BoxWire box;
 };
 
+/// A cell's boxes: floor, tables, fixtures, fences. The bound keeps one configuration's check (every capsule and
+/// beam against every box) within tens of microseconds, so a :check of max_array_length configurations stays
+/// well under a second.
+inline constexpr std::size_t kMaxCellObstacles = 128;
+
 template <>
 struct WireFields<TrackerWire> {
   using S = TrackerWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"position_mm", &S::position_mm},
-      Field{"min_distance_mm", &S::min_distance_mm},
-      Field{"max_distance_mm", &S::max_distance_mm, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"position_mm", &S::position_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+                      Field{"min_distance_mm", &S::min_distance_mm}.Range(0.0, kMaxLengthMm),
+                      Field{"max_distance_mm", &S::max_distance_mm, Presence::kOmitEmpty}.Range(0.0, kMaxLengthMm));
 };
 ROBOCAL_WIRE_DECLARE(TrackerWire);
 template <>
 struct WireFields<ReflectorWire> {
   using S = ReflectorWire;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"position_mm", &S::position_mm},
-      Field{"normal", &S::normal},
-      Field{"acceptance_half_angle_deg", &S::acceptance_half_angle_deg});
+      // Ids as the service's own (no commas, quotes or spaces: they appear in CSV columns and in blocked_by).
+      Field{"id", &S::id}.Mandatory().Size(0, 64).Rule(&IsValidId, kIdRule),
+      Field{"position_mm", &S::position_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+      Field{"normal", &S::normal}.Mandatory(),
+      // The core refuses 0 with its reason; (0, 180] as the core and docs/cells.md say.
+      Field{"acceptance_half_angle_deg", &S::acceptance_half_angle_deg}.Range(0.0, 180.0));
 };
 ROBOCAL_WIRE_DECLARE(ReflectorWire);
 template <>
 struct WireFields<BoxWire> {
   using S = BoxWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"min_mm", &S::min_mm},
-      Field{"max_mm", &S::max_mm});
+  static constexpr auto fields =
+      std::make_tuple(Field{"min_mm", &S::min_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+                      Field{"max_mm", &S::max_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm));
 };
 ROBOCAL_WIRE_DECLARE(BoxWire);
 template <>
 struct WireFields<ObstacleWire> {
   using S = ObstacleWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"box", &S::box});
+  static constexpr auto fields = std::make_tuple(Field{"id", &S::id}.Mandatory().Size(0, 64).Rule(&IsValidId, kIdRule),
+                                                 Field{"box", &S::box}.Mandatory());
 };
 ROBOCAL_WIRE_DECLARE(ObstacleWire);
 
@@ -99,15 +105,19 @@ template <>
 struct WireFields<CellWire> {
   using S = CellWire;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"description", &S::description},
-      Field{"robot", &S::robot},
-      Field{"tracker", &S::tracker},
-      Field{"reflectors", &S::reflectors},
-      Field{"obstacles", &S::obstacles},
-      Field{"link_radii_mm", &S::link_radii_mm, Presence::kSetByServer},
-      Field{"tool_radius_mm", &S::tool_radius_mm, Presence::kSetByServer},
-      Field{"clearance_mm", &S::clearance_mm},
+      Field{"id", &S::id}.Mandatory().Rule(&IsValidId, kIdRule), Field{"description", &S::description}.Size(0, 1024),
+      Field{"robot", &S::robot}.Mandatory().Size(0, 64), Field{"tracker", &S::tracker}.Mandatory(),
+      Field{"reflectors", &S::reflectors}.Size(0, kMaxReflectors),
+      Field{"obstacles", &S::obstacles}.Size(0, kMaxCellObstacles),
+      // One per joint (the parser checks the count against the robot).
+      Field{"link_radii_mm", &S::link_radii_mm, Presence::kSetByServer}.Range(0.0, kMaxLengthMm),
+      // Absent: the last link's radius; a given radius must be one.
+      Field{"tool_radius_mm", &S::tool_radius_mm, Presence::kSetByServer}
+          .Range(0.0, kMaxLengthMm)
+          .Rule(
+              +[](const std::optional<double>& r) { return *r > 0.0; },
+              "must be > 0 mm (leave it out for the last link's radius)"),
+      Field{"clearance_mm", &S::clearance_mm}.Range(0.0, kMaxLengthMm),
       Field{"joint_ranges", &S::joint_ranges, Presence::kSetByServer});
 };
 ROBOCAL_WIRE_DECLARE(CellWire);

@@ -2,13 +2,14 @@
 // {field, reason} (e.g. "measurements[3].joints: expected 6 values, got 5") and all of them are collected.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <initializer_list>
+#include <limits>
+#include <nlohmann/json.hpp>
 #include <span>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "robocal/api/error.h"
 #include "robocal/api/wire.h"
@@ -40,6 +41,7 @@ class ObjectReader {
 
   bool ok() const { return object_ != nullptr; }
   const std::string& path() const { return path_; }
+  Problems* problems() const { return problems_; }
   bool Has(const std::string& key) const;
   /// The member, or nullptr if absent.
   const nlohmann::json* Get(const std::string& key) const;
@@ -81,10 +83,199 @@ class ObjectReader {
   Problems* problems_;
 };
 
+// ------------------------------------------------------------------------------------------------ by the table
+
+/// Reads the members of `*out` a request may set, by its field table (wire.h): each Field row that is not
+/// kServerOnly, not Apart(), and whose When holds of the members read so far, by its type, with its RequestRule
+/// (range, size, required) and its Rule; members of a shape with a table are read by that table, recursively;
+/// absent members keep their defaults. Computed and Nested rows are the parser's own. Every problem is recorded
+/// with its path. Does not reject unknown keys (the parser does, once it has read its Apart rows).
+template <typename T>
+void ReadRequest(ObjectReader& r, T* out);
+
+/// An object at `path` read by ReadRequest, its unknown keys rejected, and then the table's `static void
+/// CheckRequest(const T&, const std::string& path, Problems*)` if it has one (a rule across fields). True when no
+/// problem was recorded.
+template <typename T>
+bool ReadRequestObject(const nlohmann::json& value, const std::string& path, Problems* problems, T* out);
+
 /// A finite number from a JSON value (records a violation at `path` otherwise).
 bool ReadFiniteNumber(const nlohmann::json& value, const std::string& path, Problems* problems, double* out);
 /// An array of finite numbers at `path` with a size in [min_size, max_size].
 bool ReadNumberArray(const nlohmann::json& value, const std::string& path, Problems* problems,
                      std::vector<double>* out, std::size_t min_size, std::size_t max_size);
+
+namespace detail {
+
+template <typename M, typename = void>
+inline constexpr bool kHasRequestReader = false;
+template <typename M>
+inline constexpr bool kHasRequestReader<M, std::void_t<decltype(&RequestReader<M>::Read)>> = true;
+template <typename M>
+inline constexpr bool kAlwaysFalse = false;
+template <typename M>
+inline constexpr bool kIsNumberArray = false;
+template <std::size_t N>
+inline constexpr bool kIsNumberArray<std::array<double, N>> = true;
+// A list of shapes ReadRequest reads element by element.
+template <typename M>
+inline constexpr bool kIsShapeList = false;
+template <typename E>
+inline constexpr bool kIsShapeList<std::vector<E>> = kHasRequestReader<E> || kHasWireFields<E>;
+
+/// "must be in [min, max], got x" at `path` when x is outside the rule's range.
+bool InRange(double x, const RequestRule& rule, const std::string& path, Problems* problems);
+
+// One member's value under `key`, by its type (see ReadRequest). True when *out was set.
+template <typename M>
+bool ReadRequestValue(ObjectReader& r, const char* key, const RequestRule& rule, M* out) {
+  Problems* problems = r.problems();
+  if constexpr (IsOptional<M>::value) {
+    typename M::value_type value{};
+    if (!ReadRequestValue(r, key, rule, &value)) return false;
+    *out = std::move(value);
+    return true;
+  } else if constexpr (std::is_same_v<M, double>) {
+    return r.Number(key, rule.required, out, rule.min, rule.max);
+  } else if constexpr (std::is_same_v<M, bool>) {
+    return r.Bool(key, rule.required, out);
+  } else if constexpr (kIsWireEnum<M>) {
+    return r.Enum(key, rule.required, out);
+  } else if constexpr (std::is_integral_v<M>) {
+    // Integers the type holds, within the rule's range (unsigned ones up to INT64_MAX, JSON's integers).
+    const double lo = std::max(rule.min, static_cast<double>(std::numeric_limits<M>::lowest()));
+    const double hi = std::min({rule.max, static_cast<double>(std::numeric_limits<M>::max()),
+                                static_cast<double>(std::numeric_limits<std::int64_t>::max())});
+    std::int64_t value = 0;
+    const std::int64_t min = lo <= -9.2e18 ? std::numeric_limits<std::int64_t>::min() : static_cast<std::int64_t>(lo);
+    const std::int64_t max = hi >= 9.2e18 ? std::numeric_limits<std::int64_t>::max() : static_cast<std::int64_t>(hi);
+    if (!r.Int(key, rule.required, &value, min, max)) return false;
+    *out = static_cast<M>(value);
+    return true;
+  } else if constexpr (std::is_same_v<M, std::string>) {
+    return r.String(key, rule.required, out, rule.max_size > 0 ? rule.max_size : 256);
+  } else if constexpr (kIsNumberArray<M>) {
+    M values{};
+    if (!r.FixedNumbers(key, rule.required, values.data(), values.size())) return false;
+    bool ok = true;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      ok = InRange(values[i], rule, IndexPath(JoinPath(r.path(), key), i), problems) && ok;
+    }
+    if (ok) *out = values;
+    return ok;
+  } else if constexpr (std::is_same_v<M, std::vector<double>>) {
+    std::vector<double> values;
+    if (!r.Numbers(key, rule.required, &values, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000)) {
+      return false;
+    }
+    bool ok = true;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      ok = InRange(values[i], rule, IndexPath(JoinPath(r.path(), key), i), problems) && ok;
+    }
+    if (ok) *out = std::move(values);
+    return ok;
+  } else if constexpr (kHasRequestReader<M> || kHasWireFields<M>) {
+    const nlohmann::json* value = r.Get(key);
+    if (value == nullptr) {
+      if (rule.required && r.ok()) problems->Add(JoinPath(r.path(), key), "required");
+      return false;
+    }
+    M read{};
+    bool ok = false;
+    if constexpr (kHasRequestReader<M>) {
+      ok = RequestReader<M>::Read(*value, JoinPath(r.path(), key), problems, &read);
+    } else {
+      ok = ReadRequestObject(*value, JoinPath(r.path(), key), problems, &read);
+    }
+    if (ok) *out = std::move(read);
+    return ok;
+  } else if constexpr (kIsShapeList<M>) {
+    using E = typename M::value_type;
+    const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000);
+    if (list == nullptr) return false;
+    M values(list->size());
+    bool ok = true;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const std::string path = IndexPath(JoinPath(r.path(), key), i);
+      if constexpr (kHasRequestReader<E>) {
+        ok = RequestReader<E>::Read((*list)[i], path, problems, &values[i]) && ok;
+      } else {
+        ok = ReadRequestObject((*list)[i], path, problems, &values[i]) && ok;
+      }
+    }
+    if (ok) *out = std::move(values);
+    return ok;
+  } else {
+    static_assert(kAlwaysFalse<M>, "unreachable: ReadRequestRow checks kReadable");
+    return false;
+  }
+}
+
+// Whether ReadRequestValue reads a member of type M.
+template <typename M>
+constexpr bool Readable() {
+  if constexpr (IsOptional<M>::value) {
+    return Readable<typename M::value_type>();
+  } else {
+    return std::is_arithmetic_v<M> || kIsWireEnum<M> || std::is_same_v<M, std::string> || kIsNumberArray<M> ||
+           std::is_same_v<M, std::vector<double>> || kHasRequestReader<M> || kHasWireFields<M> || kIsShapeList<M>;
+  }
+}
+// A row ReadRequest reads, or one it may leave: every Field row a request may set has a readable type or is
+// Apart() (checked at compile time, so that a new member of a type the reader does not know is not silently
+// left unread).
+template <typename S, typename M>
+constexpr bool RowReadOrLeft(const Field<S, M>& row) {
+  return Readable<M>() || row.request.apart || row.presence == Presence::kServerOnly;
+}
+template <typename Row>
+constexpr bool RowReadOrLeft(const Row&) {
+  return true;
+}
+
+template <typename T, typename S, typename M>
+void ReadReadableRow(ObjectReader& r, T* shape, const Field<S, M>& row) {
+  if (row.presence == Presence::kServerOnly || row.request.apart) return;
+  if (row.when && !row.when(*shape)) return;
+  M* member = &(shape->*(row.member));
+  if (ReadRequestValue(r, row.name, row.request, member) && row.valid && !row.valid(*member)) {
+    r.problems()->Add(JoinPath(r.path(), row.name), row.invalid_reason);
+  }
+}
+
+template <typename T, typename S, typename M>
+void ReadRequestRow(ObjectReader& r, T* shape, const Field<S, M>& row) {
+  if constexpr (!Readable<M>()) {
+    return;
+  } else {
+    ReadReadableRow(r, shape, row);
+  }
+}
+template <typename T, typename Row>
+void ReadRequestRow(ObjectReader&, T*, const Row&) {}  // Computed and Nested rows: the parser's own
+
+}  // namespace detail
+
+template <typename T>
+void ReadRequest(ObjectReader& r, T* out) {
+  static_assert(
+      std::apply([](const auto&... row) { return (detail::RowReadOrLeft(row) && ...); }, WireFields<T>::fields),
+      "a row of this table has a type ReadRequest cannot read: mark it Apart() and read it in the "
+      "parser, or give the type a RequestReader");
+  std::apply([&](const auto&... row) { (detail::ReadRequestRow(r, out, row), ...); }, WireFields<T>::fields);
+}
+
+template <typename T>
+bool ReadRequestObject(const nlohmann::json& value, const std::string& path, Problems* problems, T* out) {
+  const std::size_t before = problems->size();
+  ObjectReader r(value, path, problems);
+  if (!r.ok()) return false;
+  ReadRequest(r, out);
+  r.RejectUnknown(WireFieldNames<T>());
+  if constexpr (requires { WireFields<T>::CheckRequest(*out, path, problems); }) {
+    if (problems->size() == before) WireFields<T>::CheckRequest(*out, path, problems);
+  }
+  return problems->size() == before;
+}
 
 }  // namespace robocal::api

@@ -3,11 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
@@ -32,15 +32,13 @@ struct PlanOptionsWire {
 template <>
 struct WireFields<PlanOptionsWire> {
   using S = PlanOptionsWire;
+  // Each option within the core's own range; what they add up to is checked against the server's limits.
   static constexpr auto fields = std::make_tuple(
-      Field{"k_max", &S::k_max},
-      Field{"restarts", &S::restarts},
-      Field{"max_evaluations", &S::max_evaluations},
-      Field{"step_fraction", &S::step_fraction},
-      Field{"num_sets", &S::num_sets},
-      Field{"num_candidates", &S::num_candidates},
-      Field{"screen", &S::screen},
-      Field{"max_iterations", &S::max_iterations});
+      Field{"k_max", &S::k_max}.Range(1, 1e7), Field{"restarts", &S::restarts}.Range(0, 1e4),
+      Field{"max_evaluations", &S::max_evaluations}.Range(0, std::numeric_limits<int>::max()),
+      Field{"step_fraction", &S::step_fraction}.Range(1e-6, 1.0), Field{"num_sets", &S::num_sets}.Range(1, 1e7),
+      Field{"num_candidates", &S::num_candidates}.Range(1, 1e6), Field{"screen", &S::screen}.Range(1, 1e6),
+      Field{"max_iterations", &S::max_iterations}.Range(1, 1e7));
 };
 ROBOCAL_WIRE_DECLARE(PlanOptionsWire);
 
@@ -70,21 +68,18 @@ struct PlanRequest {
 template <>
 struct WireFields<PlanRequest> {
   using S = PlanRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"robot", &S::robot},
-      Field{"cell", &S::cell, Presence::kOmitEmpty},
-      Field{"num_configurations", &S::num_configurations},
-      Field{"measurement_type", &S::measurement_type},
-      Field{"objective", &S::objective},
-      Field{"optimiser", &S::optimiser},
-      Field{"scaling", &S::scaling},
-      Field{"noise", &S::noise},
-      Field{"tracker", &S::tracker, Presence::kOmitEmpty},
-      Field{"reflectors", &S::reflectors, Presence::kOmitEmpty},
-      Field{"seed", &S::seed},
-      Field{"num_validation", &S::num_validation},
-      Field{"async", &S::async},
-      Field{"options", &S::options});
+  static constexpr auto fields =
+      std::make_tuple(Field{"robot", &S::robot}.Mandatory().Size(0, 64),
+                      Field{"cell", &S::cell, Presence::kOmitEmpty}.Size(0, 64).Rule(&IsValidId, kIdRule),
+                      Field{"num_configurations", &S::num_configurations}.Range(1, std::numeric_limits<int>::max()),
+                      Field{"measurement_type", &S::measurement_type}, Field{"objective", &S::objective},
+                      Field{"optimiser", &S::optimiser}, Field{"scaling", &S::scaling}, Field{"noise", &S::noise},
+                      Field{"tracker", &S::tracker, Presence::kOmitEmpty},
+                      Field{"reflectors", &S::reflectors, Presence::kOmitEmpty}.Size(0, kMaxPlanReflectors),
+                      Field{"seed", &S::seed}, Field{"num_validation", &S::num_validation}.Range(1, 10000),
+                      Field{"async", &S::async}, Field{"options", &S::options});
+  /// Reflectors named once and with position measurements.
+  static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };
 ROBOCAL_WIRE_DECLARE(PlanRequest);
 /// Validates a request; also refuses one whose work (MaxWork) exceeds the limits, naming the fields that set it.

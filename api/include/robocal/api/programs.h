@@ -59,12 +59,12 @@ CompensateProgramRequest ParseCompensateProgramRequest(const nlohmann::json& bod
 template <>
 struct WireFields<CompensateProgramRequest> {
   using S = CompensateProgramRequest;
-  static constexpr auto fields =
-      std::make_tuple(Field{"dialect", &S::dialect, Presence::kOmitEmpty}, Field{"files", &S::files},
-                      Field{"tools", &S::tools, Presence::kOmitEmpty}, Field{"bases", &S::bases, Presence::kOmitEmpty},
-                      Field{"max_path_deviation_mm", &S::max_path_deviation_mm, Presence::kOmitEmpty},
-                      Field{"on_failure", &S::on_failure, Presence::kOptionalOnRead},
-                      Field{"payload", &S::payload, Presence::kOmitEmpty});
+  static constexpr auto fields = std::make_tuple(
+      Field{"dialect", &S::dialect, Presence::kOmitEmpty}, Field{"files", &S::files},
+      Field{"tools", &S::tools, Presence::kOmitEmpty}, Field{"bases", &S::bases, Presence::kOmitEmpty},
+      Field{"max_path_deviation_mm", &S::max_path_deviation_mm, Presence::kOmitEmpty}.Range(1e-6, 1000.0),
+      Field{"on_failure", &S::on_failure, Presence::kOptionalOnRead},
+      Field{"payload", &S::payload, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(CompensateProgramRequest);
 

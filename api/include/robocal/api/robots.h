@@ -21,12 +21,26 @@ struct JointMapWire {
   double knot_spacing_deg = 0.0;
   std::vector<double> coefficients_deg;
 };
+/// Angles beyond this are typing mistakes, not geometry: a million degrees (lengths: kMaxLengthMm).
+inline constexpr double kMaxAngleDeg = 1e6;
+/// A link heavier than 100 t is a unit mistake.
+inline constexpr double kMaxMassKg = 1e5;
+/// Joint terms a robot may hold: the core's bounds of a plausible joint (robot_model.h) in wire units; beyond is
+/// no robot joint's compliance, harmonic, gear's or encoder's error.
+inline constexpr double kMaxComplianceDegPerNm = kImplausibleComplianceRadPerNm * kDegPerRad;
+inline constexpr double kMaxHarmonicDeg = kImplausibleHarmonicRad * kDegPerRad;
+
 template <>
 struct WireFields<JointMapWire> {
   using S = JointMapWire;
   static constexpr auto fields =
-      std::make_tuple(Field{"first_knot_deg", &S::first_knot_deg}, Field{"knot_spacing_deg", &S::knot_spacing_deg},
-                      Field{"coefficients_deg", &S::coefficients_deg});
+      std::make_tuple(Field{"first_knot_deg", &S::first_knot_deg}.Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
+                      Field{"knot_spacing_deg", &S::knot_spacing_deg}.Mandatory().Range(
+                          kMinMapKnotSpacingRad* kDegPerRad, kMaxMapKnotSpacingRad* kDegPerRad),
+                      Field{"coefficients_deg", &S::coefficients_deg}
+                          .Mandatory()
+                          .Size(4, kMaxMapIntervals + 3)
+                          .Range(-kMaxHarmonicDeg, kMaxHarmonicDeg));
 };
 ROBOCAL_WIRE_DECLARE(JointMapWire);
 
@@ -67,12 +81,16 @@ struct JointGeometryFields {
   static constexpr bool (*kRevolute)(const S&) = +[](const S& j) { return j.type == JointType::kRevolute; };
   static constexpr bool (*kPrismatic)(const S&) = +[](const S& j) { return j.type == JointType::kPrismatic; };
   static constexpr auto fields =
-      std::make_tuple(Field{"type", &S::type}, Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
-                      Field{"rpy_deg", &S::rpy_deg}.When(kTransform), Field{"a_mm", &S::a_mm}.When(kDh),
-                      Field{"alpha_deg", &S::alpha_deg}.When(kDh), Field{"d_mm", &S::d_mm}.When(kDh),
-                      Field{"theta_deg", &S::theta_deg}.When(kDh), Field{"min_deg", &S::min}.When(kRevolute),
-                      Field{"max_deg", &S::max}.When(kRevolute), Field{"min_mm", &S::min}.When(kPrismatic),
-                      Field{"max_mm", &S::max}.When(kPrismatic));
+      std::make_tuple(Field{"type", &S::type}.Mandatory(), Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
+                      Field{"rpy_deg", &S::rpy_deg}.When(kTransform),
+                      Field{"a_mm", &S::a_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm),
+                      Field{"alpha_deg", &S::alpha_deg}.When(kDh).Range(-360.0, 360.0),
+                      Field{"d_mm", &S::d_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm),
+                      Field{"theta_deg", &S::theta_deg}.When(kDh).Range(-360.0, 360.0),
+                      Field{"min_deg", &S::min}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
+                      Field{"max_deg", &S::max}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
+                      Field{"min_mm", &S::min}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+                      Field{"max_mm", &S::max}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm));
 };
 /// A joint of a definition: the name may be left out (the core names the joint), the mass properties and joint
 /// terms are given when there are any (com_mm with a mass).
@@ -80,12 +98,13 @@ template <>
 struct WireFields<JointWire> {
   using S = JointWire;
   static constexpr auto fields = std::tuple_cat(
-      std::make_tuple(Field{"name", &S::name, Presence::kOmitEmpty}), JointGeometryFields::fields,
+      std::make_tuple(Field{"name", &S::name, Presence::kOmitEmpty}.Size(0, 64)), JointGeometryFields::fields,
       std::make_tuple(
-          Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty},
+          Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty}.Range(0.0, kMaxMassKg),
           Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.When(+[](const S& j) { return j.mass_kg > 0.0; }),
-          Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty},
-          Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty},
+          Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty}.Range(-kMaxComplianceDegPerNm,
+                                                                                                kMaxComplianceDegPerNm),
+          Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty}.Range(-kMaxHarmonicDeg, kMaxHarmonicDeg),
           Field{"error_map", &S::error_map, Presence::kOmitEmpty}));
 };
 ROBOCAL_WIRE_DECLARE(JointWire);
@@ -182,10 +201,12 @@ template <>
 struct WireFields<RegisterRobotRequest> {
   using S = RegisterRobotRequest;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id}, Field{"description", &S::description, Presence::kOmitEmpty},
-      Field{"from_preset", &S::from_preset, Presence::kOmitEmpty},
+      Field{"id", &S::id}.Mandatory().Rule(&IsValidId, kIdRule),
+      Field{"description", &S::description, Presence::kOmitEmpty}.Size(0, 1024),
+      // One of the presets (a list the table cannot hold), and then no joints: the parser's.
+      Field{"from_preset", &S::from_preset, Presence::kOmitEmpty}.Apart(),
       // A table, unless the definition is a preset's.
-      Field{"convention", &S::convention}.When(+[](const S& r) { return r.from_preset.empty(); }),
+      Field{"convention", &S::convention}.When(+[](const S& r) { return r.from_preset.empty(); }).Apart(),
       Computed<S>{
           "joints",
           +[](const S& r, nlohmann::json* value) { return r.from_preset.empty() && detail::WriteJoints(r, value); },
@@ -193,7 +214,12 @@ struct WireFields<RegisterRobotRequest> {
             if (r->from_preset.empty()) detail::ReadJoints(value, path, r);
           }},
       Field{"base", &S::base, Presence::kOmitEmpty}, Field{"tool", &S::tool, Presence::kOmitEmpty},
-      Field{"flange", &S::flange, Presence::kOmitEmpty}, Field{"gravity", &S::gravity, Presence::kOmitEmpty},
+      Field{"flange", &S::flange, Presence::kOmitEmpty},
+      Field{"gravity", &S::gravity, Presence::kOmitEmpty}.Rule(
+          +[](const std::optional<std::array<double, 3>>& g) {
+            return (*g)[0] != 0.0 || (*g)[1] != 0.0 || (*g)[2] != 0.0;
+          },
+          "must be a non-zero vector (the direction of gravity in the base frame)"),
       Field{"urdf_source", &S::urdf, Presence::kServerOnly},
       Field{"calibrated_from", &S::calibrated_from, Presence::kServerOnly});
 };
@@ -219,10 +245,12 @@ ImportUrdfRequest ParseImportUrdfRequest(const nlohmann::json& body, const Limit
 template <>
 struct WireFields<ImportUrdfRequest> {
   using S = ImportUrdfRequest;
-  static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id, Presence::kOmitEmpty}, Field{"description", &S::description, Presence::kOmitEmpty},
-      Field{"urdf", &S::urdf}, Field{"base_link", &S::base_link}, Field{"tip_link", &S::tip_link},
-      Field{"base", &S::base, Presence::kOmitEmpty}, Field{"tool", &S::tool, Presence::kOmitEmpty});
+  static constexpr auto fields =
+      std::make_tuple(Field{"id", &S::id, Presence::kOmitEmpty}.Rule(&IsValidId, kIdRule),
+                      Field{"description", &S::description, Presence::kOmitEmpty}.Size(0, 1024),
+                      Field{"urdf", &S::urdf}.Mandatory().Size(0, kMaxUrdfBytes),
+                      Field{"base_link", &S::base_link}.Mandatory(), Field{"tip_link", &S::tip_link}.Mandatory(),
+                      Field{"base", &S::base, Presence::kOmitEmpty}, Field{"tool", &S::tool, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(ImportUrdfRequest);
 
@@ -242,8 +270,10 @@ template <>
 struct WireFields<RobotFromCalibrationRequest> {
   using S = RobotFromCalibrationRequest;
   static constexpr auto fields =
-      std::make_tuple(Field{"id", &S::id}, Field{"description", &S::description, Presence::kOmitEmpty},
-                      Field{"from_calibration", &S::campaign});
+      std::make_tuple(Field{"id", &S::id}.Mandatory().Rule(&IsValidId, kIdRule),
+                      Field{"description", &S::description, Presence::kOmitEmpty}.Size(0, 1024),
+                      Field{"from_calibration", &S::campaign}.Mandatory().Size(0, 64).Rule(
+                          &IsValidId, "a campaign id: must match [a-z0-9][a-z0-9_.-]{0,63}"));
 };
 ROBOCAL_WIRE_DECLARE(RobotFromCalibrationRequest);
 
@@ -306,7 +336,7 @@ struct WireFields<Robot> {
   static constexpr auto fields = std::make_tuple(
       Field{"id", &S::id}, Field{"preset", &S::preset}, Field{"description", &S::description},
       Field{"convention", &S::convention}, Field{"num_joints", &S::num_joints},
-      Computed<S>{"joints", &detail::WriteJoints<S>, &detail::ReadJoints<S>}, Field{"base", &S::base},
+      Computed<S>{"joints", &detail::WriteJoints<S>, &detail::ReadJoints<S>, true}, Field{"base", &S::base},
       Field{"tool", &S::tool}, Field{"flange", &S::flange}, Field{"urdf", &S::urdf, Presence::kOmitEmpty},
       Field{"calibrated_from", &S::calibrated_from, Presence::kOmitEmpty}, Field{"gravity", &S::gravity},
       Field{"has_masses", &S::has_masses}, Field{"error_parameters", &S::error_parameters});

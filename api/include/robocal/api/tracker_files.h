@@ -68,7 +68,7 @@ struct JointColumns {
 template <>
 struct WireFields<JointColumns> {
   static constexpr auto fields =
-      std::make_tuple(Field{"columns", &JointColumns::columns}, Field{"unit", &JointColumns::unit});
+      std::make_tuple(Field{"columns", &JointColumns::columns}.Size(1, kMaxJoints), Field{"unit", &JointColumns::unit});
 };
 ROBOCAL_WIRE_DECLARE(JointColumns);
 
@@ -92,13 +92,10 @@ struct WireFields<OrientationColumns> {
   using S = OrientationColumns;
   static constexpr bool (*kQuaternion)(const S&) = +[](const S& o) { return o.representation == "quaternion"; };
   static constexpr bool (*kEuler)(const S&) = +[](const S& o) { return o.representation == "euler"; };
-  static constexpr auto fields = std::make_tuple(
-      Field{"representation", &S::representation},
-      Field{"columns", &S::columns},
-      Field{"order", &S::order}.When(kQuaternion),
-      Field{"sequence", &S::sequence}.When(kEuler),
-      Field{"convention", &S::convention}.When(kEuler),
-      Field{"unit", &S::unit}.When(kEuler));
+  static constexpr auto fields =
+      std::make_tuple(Field{"representation", &S::representation}, Field{"columns", &S::columns}.Size(3, 4),
+                      Field{"order", &S::order}.When(kQuaternion), Field{"sequence", &S::sequence}.When(kEuler),
+                      Field{"convention", &S::convention}.When(kEuler), Field{"unit", &S::unit}.When(kEuler));
 };
 ROBOCAL_WIRE_DECLARE(OrientationColumns);
 
@@ -147,22 +144,19 @@ struct WireFields<ImportMeasurementsRequest> {
   using S = ImportMeasurementsRequest;
   static constexpr bool (*kCsv)(const S&) = +[](const S& r) { return r.format == "csv"; };
   static constexpr auto fields = std::make_tuple(
-      Field{"request_id", &S::request_id},
-      Field{"role", &S::role},
-      Field{"format", &S::format},
-      Field{"text", &S::text},
-      Field{"unit", &S::unit, Presence::kOmitEmpty},
-      Field{"plan", &S::plan, Presence::kOmitEmpty},
+      // The parser reads these with the ranges given here (ParseImportMeasurementsRequest).
+      Field{"request_id", &S::request_id}.Mandatory().Size(0, 128), Field{"role", &S::role},
+      Field{"format", &S::format}, Field{"text", &S::text}.Mandatory().Size(0, kMaxTrackerFileBytes),
+      Field{"unit", &S::unit, Presence::kOmitEmpty}, Field{"plan", &S::plan, Presence::kOmitEmpty},
       Field{"joints", &S::joints, Presence::kOmitEmpty},
       // A file with joints is not matched to a plan.
       Field{"match", &S::match, Presence::kOptionalOnRead}.When(+[](const S& r) { return r.joints.empty(); }),
-      Field{"shots_per_configuration", &S::shots_per_configuration, Presence::kOmitEmpty},
+      Field{"shots_per_configuration", &S::shots_per_configuration, Presence::kOmitEmpty}.Range(1, 1000),
       Field{"columns", &S::columns, Presence::kOptionalOnRead}.When(kCsv),
       Field{"delimiter", &S::delimiter, Presence::kOmitEmpty}.When(kCsv),
       Field{"decimal", &S::decimal, Presence::kOptionalOnRead}.When(kCsv),
-      Field{"orientation", &S::orientation, Presence::kOmitEmpty},
-      Field{"payload", &S::payload, Presence::kOmitEmpty},
-      Field{"rows", &S::rows, Presence::kOmitEmpty});
+      Field{"orientation", &S::orientation, Presence::kOmitEmpty}, Field{"payload", &S::payload, Presence::kOmitEmpty},
+      Field{"rows", &S::rows, Presence::kOmitEmpty}.Size(1, 0).Range(1, RequestRule::kNoBound));
 };
 ROBOCAL_WIRE_DECLARE(ImportMeasurementsRequest);
 

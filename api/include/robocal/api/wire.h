@@ -45,6 +45,8 @@ enum class Optimiser { kSolisWets, kRandom, kExchange };
 enum class MeasurementRole { kCalibration, kValidation };
 enum class OperationKind { kPlan, kFit };
 enum class OperationState { kRunning, kSucceeded, kFailed, kCancelled };
+/// What a fit estimates: every identifiable parameter, or the base and the tool frames only.
+enum class FitScope { kAll, kFrames };
 
 /// The wire names of an enum: one table per enum, specialised below. Core enums take their names from the
 /// core's ToString, so that the wire and the core's reports agree.
@@ -73,6 +75,7 @@ ROBOCAL_API_ENUM_TABLE(ObservabilityIndex, ObservabilityIndex::kConditionNumber,
 ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Optimiser::kExchange);
 ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
 ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
+ROBOCAL_API_ENUM_TABLE(FitScope, FitScope::kAll, FitScope::kFrames);
 ROBOCAL_API_ENUM_TABLE(OperationState, OperationState::kRunning, OperationState::kSucceeded, OperationState::kFailed,
                        OperationState::kCancelled);
 ROBOCAL_API_ENUM_TABLE(CellRule, CellRule::kJointRange, CellRule::kObstacle, CellRule::kSelfCollision,
@@ -288,9 +291,10 @@ namespace robocal::api {
 // ------------------------------------------------------------------------------------------------ field tables
 
 // One declaration per wire field. A shape that lists its fields in a WireFields table gets its to_json, its
-// strict from_json and the allowed keys of its request parser from that one list, so a field is declared in
-// three places: the struct's member, its row in the table, and the OpenAPI spec (tests/service/wire_test.cc
-// checks the spec against the shapes). docs/architecture.md, "How to add a field", walks through it.
+// strict from_json, the allowed keys and the reading of its request parser (ReadRequest, json_reader.h: type,
+// range, size, required) from that one list, so a field is declared in three places: the struct's member, its
+// row in the table, and the OpenAPI spec's description of it (tests/service/spec_test.cc checks the spec's types,
+// bounds and required lists against the tables). docs/architecture.md, "How to add a field", walks through it.
 //
 //   struct BatchResult { std::string campaign; std::int64_t count = 0; ... };
 //   template <>
@@ -333,6 +337,31 @@ enum class Presence {
   kServerOnly,
 };
 
+/// What a request may send under a key, beside its type (ReadRequest, json_reader.h; the OpenAPI spec's
+/// minimum, maximum, minItems, maxItems, maxLength and required, which tests/service/spec_test.cc checks against
+/// it): a number's range (of each element of a list or array of numbers, and of an integer), a list's size, a
+/// string's length, whether a request must send it, and whether its parser reads it apart (a member whose
+/// reading needs more than its own value: measurements need the robot's joints).
+struct RequestRule {
+  /// Beyond +-1e300 is no bound (ObjectReader::Number's defaults): the spec then gives none.
+  static constexpr double kNoBound = 1e300;
+  double min = -kNoBound;
+  double max = kNoBound;
+  /// A list's fewest and most elements (0: no own limit below the server's max_array_length); a string's most
+  /// characters (0: 256).
+  std::size_t min_size = 0;
+  std::size_t max_size = 0;
+  bool required = false;
+  bool apart = false;
+};
+
+/// A request member whose reading has rules its field table cannot state (a pose's two orientation forms, a
+/// tracker model's pairs): specialise with `static bool Read(const nlohmann::json& value, const std::string& path,
+/// Problems* problems, M* out)`, true when *out was set. ReadRequest (json_reader.h) then reads every member of
+/// that type with it.
+template <typename M>
+struct RequestReader;
+
 /// A member `member` of S under the key `name`.
 template <typename S, typename M>
 struct Field {
@@ -341,12 +370,50 @@ struct Field {
   Presence presence = Presence::kRequired;
   /// Null: the key belongs to every form of the shape (see When).
   bool (*when)(const S&) = nullptr;
+  /// What a request may send (see RequestRule; the builders below set it).
+  RequestRule request{};
+  /// A rule of the value a request sends beyond its range, and the reason given when it fails (an id's form).
+  bool (*valid)(const M&) = nullptr;
+  const char* invalid_reason = nullptr;
 
   /// The same row for one form of the shape only: written when `condition` holds of the shape, read when it
   /// holds of the members read so far (otherwise the member keeps its default and the key is not read).
   constexpr Field When(bool (*condition)(const S&)) const {
     Field f = *this;
     f.when = condition;
+    return f;
+  }
+  /// A number's range in its wire unit (each element's, for lists and arrays of numbers).
+  constexpr Field Range(double min, double max) const {
+    Field f = *this;
+    f.request.min = min;
+    f.request.max = max;
+    return f;
+  }
+  /// A list's fewest and most elements, or (min 0) a string's most characters.
+  constexpr Field Size(std::size_t min, std::size_t max) const {
+    Field f = *this;
+    f.request.min_size = min;
+    f.request.max_size = max;
+    return f;
+  }
+  /// A request must send the key.
+  constexpr Field Mandatory() const {
+    Field f = *this;
+    f.request.required = true;
+    return f;
+  }
+  /// The request's parser reads the key itself (ReadRequest leaves it).
+  constexpr Field Apart() const {
+    Field f = *this;
+    f.request.apart = true;
+    return f;
+  }
+  /// A value a request sends must satisfy `rule`; `reason` is given when it does not.
+  constexpr Field Rule(bool (*rule)(const M&), const char* reason) const {
+    Field f = *this;
+    f.valid = rule;
+    f.invalid_reason = reason;
     return f;
   }
 };
@@ -364,6 +431,8 @@ struct Computed {
   bool (*write)(const S& shape, nlohmann::json* value);
   /// Reads the key's value (null: the key is absent) into `*shape`; WireError at `path` (the key's) when bad.
   void (*read)(const nlohmann::json* value, const std::string& path, S* shape);
+  /// Whether `write` always writes the key (the spec then lists it as required in replies).
+  bool always_written = false;
 };
 
 /// Rows of the shape written as the object `name` (see above).
@@ -629,6 +698,13 @@ struct PoseWire {
 /// Validates a request pose at `path`; false (with problems recorded) if invalid.
 bool ParsePose(const nlohmann::json& value, const std::string& path, bool orientation_required,
                Problems* problems, PoseWire* out);
+/// A pose member of a request: orientation required.
+template <>
+struct RequestReader<PoseWire> {
+  static bool Read(const nlohmann::json& value, const std::string& path, Problems* problems, PoseWire* out) {
+    return ParsePose(value, path, true, problems, out);
+  }
+};
 namespace detail {
 // The orientation of a pose: the quaternion (left out without orientation), read optionally (absent: identity,
 // has_orientation false) or, in a result, required; rpy_deg derived from it, never read.
@@ -641,9 +717,11 @@ void SkipDerived(const nlohmann::json* value, const std::string& path, PoseWire*
 /// {"position_mm", "quaternion"}: requests and stored documents.
 template <>
 struct WireFields<PoseWire> {
-  static constexpr auto fields =
-      std::make_tuple(Field{"position_mm", &PoseWire::position_mm},
-                      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadPoseQuaternion});
+  static constexpr auto fields = std::make_tuple(
+      Field{"position_mm", &PoseWire::position_mm}.Mandatory(),
+      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadPoseQuaternion},
+      // A request's alternative to the quaternion (ParsePose reads it); never written here.
+      Computed<PoseWire>{"rpy_deg", +[](const PoseWire&, nlohmann::json*) { return false; }, &detail::SkipDerived});
 };
 ROBOCAL_WIRE_DECLARE(PoseWire);
 
@@ -655,10 +733,10 @@ struct PoseResultWire : PoseWire {
 };
 template <>
 struct WireFields<PoseResultWire> {
-  static constexpr auto fields =
-      std::make_tuple(Field{"position_mm", &PoseWire::position_mm},
-                      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadResultQuaternion},
-                      Computed<PoseWire>{"rpy_deg", &detail::WritePoseRpy, &detail::SkipDerived});
+  static constexpr auto fields = std::make_tuple(
+      Field{"position_mm", &PoseWire::position_mm},
+      Computed<PoseWire>{"quaternion", &detail::WritePoseQuaternion, &detail::ReadResultQuaternion, true},
+      Computed<PoseWire>{"rpy_deg", &detail::WritePoseRpy, &detail::SkipDerived, true});
 };
 ROBOCAL_WIRE_DECLARE(PoseResultWire);
 
@@ -671,9 +749,7 @@ struct JointRangeWire {
 template <>
 struct WireFields<JointRangeWire> {
   using S = JointRangeWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"min", &S::min},
-      Field{"max", &S::max});
+  static constexpr auto fields = std::make_tuple(Field{"min", &S::min}.Mandatory(), Field{"max", &S::max}.Mandatory());
 };
 ROBOCAL_WIRE_DECLARE(JointRangeWire);
 
@@ -686,15 +762,13 @@ struct PayloadWire {
 };
 /// The heaviest payload taken (kg): more than any industrial robot lifts.
 inline constexpr double kMaxPayloadKg = 10000.0;
-/// Validates a request payload at `path` (mass in [0, kMaxPayloadKg], finite centre of mass within 100 m); false
-/// (with problems recorded) if invalid.
-bool ParsePayload(const nlohmann::json& value, const std::string& path, Problems* problems, PayloadWire* out);
 template <>
 struct WireFields<PayloadWire> {
   using S = PayloadWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"mass_kg", &S::mass_kg},
-      Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead});
+  static constexpr auto fields =
+      std::make_tuple(Field{"mass_kg", &S::mass_kg}.Mandatory().Range(0.0, kMaxPayloadKg),
+                      // Within 100 m of the flange: beyond is a unit mistake.
+                      Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.Range(-1e5, 1e5));
 };
 ROBOCAL_WIRE_DECLARE(PayloadWire);
 Payload ToCore(const PayloadWire& payload);
@@ -725,13 +799,10 @@ struct NoiseWire {
 template <>
 struct WireFields<NoiseWire> {
   using S = NoiseWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"position_mm", &S::position_mm},
-      Field{"orientation_deg", &S::orientation_deg});
+  static constexpr auto fields = std::make_tuple(Field{"position_mm", &S::position_mm}.Range(1e-9, 1e3),
+                                                 Field{"orientation_deg", &S::orientation_deg}.Range(1e-9, 90.0));
 };
 ROBOCAL_WIRE_DECLARE(NoiseWire);
-/// Validates an optional request member "noise" (nullptr: absent, *out keeps its default).
-void ParseNoise(const nlohmann::json* value, const std::string& path, Problems* problems, NoiseWire* out);
 MeasurementNoise ToCore(const NoiseWire& noise);
 
 /// The tracker's uncertainty model on the wire (core TrackerUncertainty; docs/identification.md, "Weighting"):
@@ -754,10 +825,12 @@ struct WireFields<TrackerModelWire> {
       Field{"mpe_sigmas", &S::mpe_sigmas});
 };
 ROBOCAL_WIRE_DECLARE(TrackerModelWire);
-/// Validates an optional request member "tracker" (nullptr: absent, *out stays unset); a member given fills
-/// the others from the defaults above.
-void ParseTrackerModel(const nlohmann::json* value, const std::string& path, Problems* problems,
-                       std::optional<TrackerModelWire>* out);
+/// A request's tracker model: a member given fills the others from the defaults above; each pair's constant and
+/// slope have their own ranges.
+template <>
+struct RequestReader<TrackerModelWire> {
+  static bool Read(const nlohmann::json& value, const std::string& path, Problems* problems, TrackerModelWire* out);
+};
 TrackerUncertainty ToCore(const TrackerModelWire& tracker);
 /// The core's noise: the tracker model when given, else the isotropic noise; and the robot's repeatability
 /// (ISO 9283 RP, mm), shared by the shots of one joint configuration.
