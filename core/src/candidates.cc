@@ -300,9 +300,9 @@ CandidateCoverage AnalyseCoverage(const RobotModel& model, const ObservabilityOp
   } else {
     for (size_t i = 0; i < out.narrow_joints.size(); ++i) {
       const JointCoverage& c = out.joints[out.narrow_joints[i]];
-      w << (i == 0 ? "" : "; ") << c.name << " covers " << DegreesOrMm(model, out.narrow_joints[i], c.max - c.min)
-        << " of " << DegreesOrMm(model, out.narrow_joints[i], c.upper_limit - c.lower_limit) << " ("
-        << 100.0 * c.fraction << " %)";
+      w << (i == 0 ? "" : ", ") << c.name << " (" << DegreesOrMm(model, out.narrow_joints[i], c.max - c.min) << " of "
+        << DegreesOrMm(model, out.narrow_joints[i], c.upper_limit - c.lower_limit) << ", " << 100.0 * c.fraction
+        << " %)";
     }
     w << (out.narrow_joints.size() == 1 ? " is" : " are") << " too narrow: ";
   }
