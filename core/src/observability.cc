@@ -140,6 +140,10 @@ bool ObservabilityOptions::IsValid(const RobotModel& model, std::string* error) 
     *error = "orientation_length_mm must be positive and finite";
     return false;
   }
+  if (!(model_error_mm >= 0.0) || !std::isfinite(model_error_mm)) {
+    *error = "model_error_mm must be finite and >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -320,7 +324,9 @@ double ObservabilityEvaluator::PredictedError(const Eigen::MatrixXd& normal) con
   if (!(pivots.minCoeff() > kNormalPivotTolerance * pivots.maxCoeff())) return inf;
   const double variance =
       ldlt.solve(d.asDiagonal() * validation_information_ * d.asDiagonal()).trace() / num_validation_;
-  return variance >= 0.0 && std::isfinite(variance) ? std::sqrt(variance) : inf;
+  // The model error adds in quadrature: no set of poses removes it (ObservabilityOptions::model_error_mm).
+  const double model_variance = options_.model_error_mm * options_.model_error_mm;
+  return variance >= 0.0 && std::isfinite(variance) ? std::sqrt(variance + model_variance) : inf;
 }
 
 void ObservabilityEvaluator::Refresh() {

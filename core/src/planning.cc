@@ -101,10 +101,21 @@ std::int64_t CappedBy(std::int64_t evaluations, int max_evaluations) {
 PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options) {
   // Each run evaluates its starting set, then at most a forward and a reversed step per iteration.
   const std::int64_t per_run = 2 * static_cast<std::int64_t>(options.k_max) + 1;
-  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
+  const std::int64_t validation = ValidationDrawsOf(options);
   PlanWork work;
   work.evaluations = CappedBy(SaturatingProduct(options.restarts + 1, per_run), options.max_evaluations);
-  work.jacobians = SaturatingSum(SaturatingProduct(work.evaluations, num_configurations), validation);
+  if (options.candidates.given()) {
+    // Over candidates: each candidate's block once, every set's normal matrix from them; the predicate once per
+    // candidate (and for the drawn validation sample).
+    const std::int64_t pool = static_cast<std::int64_t>(options.candidates.configurations->size());
+    work.jacobians = SaturatingSum(pool, ValidationJacobiansOf(options));
+    if (options.feasible) {
+      work.feasibility_checks = SaturatingSum(pool, SaturatingProduct(options.max_draws_per_configuration, validation));
+    }
+    return work;
+  }
+  work.jacobians =
+      SaturatingSum(SaturatingProduct(work.evaluations, num_configurations), ValidationJacobiansOf(options));
   if (options.feasible) {
     // Rejection sampling of the starting sets and the validation sample, then M checks per candidate set. An
     // infeasible candidate costs no evaluation, so the candidates are bounded by the iterations, not the budget.
@@ -118,11 +129,18 @@ PlanWork MaxPlanWork(int num_configurations, const SolisWetsOptions& options) {
 }
 
 PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& options) {
-  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
+  const std::int64_t validation = ValidationDrawsOf(options);
   const std::int64_t drawn = SaturatingProduct(options.num_sets, num_configurations);
   PlanWork work;
   work.evaluations = options.num_sets;
-  work.jacobians = SaturatingSum(drawn, validation);
+  work.jacobians = SaturatingSum(drawn, ValidationJacobiansOf(options));
+  if (options.candidates.given()) {
+    if (options.feasible) {
+      work.feasibility_checks = SaturatingSum(static_cast<std::int64_t>(options.candidates.configurations->size()),
+                                              SaturatingProduct(options.max_draws_per_configuration, validation));
+    }
+    return work;
+  }
   if (options.feasible) {
     work.feasibility_checks = SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(drawn, validation));
   }
@@ -130,21 +148,36 @@ PlanWork MaxPlanWork(int num_configurations, const RandomSelectionOptions& optio
 }
 
 PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options) {
-  const std::int64_t outside = std::max(0, options.num_candidates - num_configurations);
-  const std::int64_t per_iteration = options.num_candidates + std::min<std::int64_t>(options.screen, outside);
+  const bool given = options.candidates.given();
+  // A plan from candidates has at most the given candidates in its pool.
+  const std::int64_t pool =
+      given ? static_cast<std::int64_t>(options.candidates.configurations->size()) : options.num_candidates;
+  const std::int64_t outside = std::max<std::int64_t>(0, pool - num_configurations);
+  const std::int64_t per_iteration = pool + std::min<std::int64_t>(options.screen, outside);
   PlanWork work;
   work.evaluations = CappedBy(
       std::min(SaturatingProduct(options.max_iterations, per_iteration), std::numeric_limits<std::int64_t>::max() - 1) +
           1,
       options.max_evaluations);
-  const std::int64_t validation = ValidationDraws(options.objective, options.num_validation);
-  work.jacobians = SaturatingSum(options.num_candidates, validation);
+  const std::int64_t validation = ValidationDrawsOf(options);
+  work.jacobians = SaturatingSum(pool, ValidationJacobiansOf(options));
   if (options.feasible) {
     work.feasibility_checks =
-        SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(options.num_candidates, validation));
+        given ? SaturatingSum(pool, SaturatingProduct(options.max_draws_per_configuration, validation))
+              : SaturatingProduct(options.max_draws_per_configuration, SaturatingSum(pool, validation));
   }
   return work;
 }
+
+namespace planning_detail {
+
+std::vector<int> DrawDistinct(std::vector<int> from, int count, Rng* rng) {
+  for (int i = 0; i < count; ++i) std::swap(from[i], from[i + rng->Index(from.size() - i)]);
+  from.resize(count);
+  return from;
+}
+
+}  // namespace planning_detail
 
 std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, Rng* rng) {
   std::vector<Eigen::VectorXd> out;
@@ -186,20 +219,36 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   std::string error;
   const bool valid = options.IsValid(&error);
   CheckCommon(model, num_configurations, observability, valid, "RandomSelectionOptions: " + error);
+  CheckTask(model, options.task);
+  const bool from_candidates = options.candidates.given();
+  UsableCandidates usable;
+  if (from_candidates) usable = CheckCandidates(model, options.candidates, options.feasible);
   const auto start_time = Clock::now();
   Plan plan = StartPlan("random", options.objective);
   PlanSummary& s = plan.summary;
+  s.candidates = usable.account;
+  if (from_candidates && static_cast<int>(usable.indices.size()) < num_configurations) {
+    FailForCandidates(start_time, usable.account, num_configurations, &plan);
+    return plan;
+  }
   ObservabilityEvaluator evaluator(model, observability);
   Rng rng(options.seed);
   FeasibleDraws account;
-  const std::int64_t drawn = PrepareDraws(model, options, SaturatingProduct(options.num_sets, num_configurations),
-                                          start_time, &evaluator, &account, &plan);
+  const std::int64_t drawn =
+      PrepareDraws(model, options, from_candidates ? 0 : SaturatingProduct(options.num_sets, num_configurations),
+                   start_time, &evaluator, &account, &plan);
   if (drawn < 0) return plan;
   double best_f = std::numeric_limits<double>::infinity();
   bool cancelled = false;
   for (int set = 0; set < options.num_sets; ++set) {
     std::vector<Eigen::VectorXd> configurations;
-    if (!DrawFeasibleConfigurations(model, num_configurations, options.feasible, &rng, &account, &configurations)) {
+    std::vector<int> indices;
+    if (from_candidates) {
+      // M distinct usable candidates, drawn as the exchange optimiser draws its start.
+      indices = DrawDistinct(usable.indices, num_configurations, &rng);
+      for (int i : indices) configurations.push_back((*options.candidates.configurations)[i]);
+    } else if (!DrawFeasibleConfigurations(model, num_configurations, options.feasible, &rng, &account,
+                                           &configurations)) {
       FailForFeasibility(start_time, account, drawn, options.max_draws_per_configuration, &plan);
       return plan;
     }
@@ -210,6 +259,7 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
     if (f < best_f || plan.configurations.empty()) {
       best_f = f;
       plan.configurations = std::move(configurations);
+      plan.candidate_indices = std::move(indices);
       s.final = evaluator.indices();
     }
     ++s.iterations;
@@ -246,6 +296,7 @@ std::string PlanSummary::FullReport() const {
   out << "  random configurations drawn: " << feasibility_draws
       << ", rejected as infeasible: " << feasibility_rejections
       << "; infeasible candidate sets: " << infeasible_candidates << "\n";
+  if (candidates.num_candidates > 0) out << "  candidates: " << candidates.Describe() << "\n";
   return out.str();
 }
 

@@ -48,6 +48,87 @@ inline std::int64_t ValidationDraws(ObservabilityIndex objective, int num_valida
   return objective == ObservabilityIndex::kPredictedError ? num_validation : 0;
 }
 
+// The same for a planner's options: none when the caller gave the task.
+template <typename Options>
+std::int64_t ValidationDrawsOf(const Options& options) {
+  return options.task ? 0 : ValidationDraws(options.objective, options.num_validation);
+}
+
+// The validation Jacobians of the predicted_error objective: the task's, or the drawn sample's.
+template <typename Options>
+std::int64_t ValidationJacobiansOf(const Options& options) {
+  if (options.objective != ObservabilityIndex::kPredictedError) return 0;
+  return options.task ? static_cast<std::int64_t>(options.task->size()) : options.num_validation;
+}
+
+// A task a caller gives: non-empty, each configuration of the model's joint count and finite (within the limits
+// or not: a cell's planning ranges need not cover where the robot works). Throws std::invalid_argument.
+void CheckTask(const RobotModel& model, const TaskConfigurations& task);
+
+// The candidates a planner may choose from (ascending indices into the caller's list) and the account of the
+// others. Throws std::invalid_argument for the first malformed candidate under MalformedCandidates::kThrow.
+struct UsableCandidates {
+  std::vector<int> indices;
+  CandidateAccount account;
+};
+UsableCandidates CheckCandidates(const RobotModel& model, const CandidatePool& pool,
+                                 const FeasibilityPredicate& feasible);
+
+// The end of a plan from candidates with fewer usable candidates than configurations: FAILURE, no configurations,
+// the account in the summary and both counts in the message.
+void FailForCandidates(Clock::time_point start_time, const CandidateAccount& account, int num_configurations,
+                       Plan* plan);
+
+// `count` distinct values of `from`, drawn by a partial Fisher-Yates shuffle (the exchange optimiser's random start).
+std::vector<int> DrawDistinct(std::vector<int> from, int count, Rng* rng);
+
+// The weighted, reduced blocks (rows x L) of a candidate pool in one allocation: they are the exchange optimiser's
+// memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed when
+// needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored (L^2
+// doubles per candidate, several times the blocks).
+struct PoolBlocks {
+  PoolBlocks(int rows, int l, int count) : l(l), blocks(rows, static_cast<Eigen::Index>(count) * l) {}
+  int count() const { return static_cast<int>(blocks.cols() / l); }
+  auto block(int c) const { return blocks.middleCols(static_cast<Eigen::Index>(c) * l, l); }
+  auto block(int c) { return blocks.middleCols(static_cast<Eigen::Index>(c) * l, l); }
+  Eigen::MatrixXd Contribution(int c) const { return block(c).transpose() * block(c); }
+  Eigen::MatrixXd Normal(const std::vector<int>& members) const {
+    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(l, l);
+    for (int c : members) normal += Contribution(c);
+    return normal;
+  }
+
+  int l;
+  Eigen::MatrixXd blocks;
+};
+
+// The blocks of the usable candidates, in the order of `usable.indices`.
+PoolBlocks CandidateBlocks(const std::vector<Eigen::VectorXd>& candidates, const std::vector<int>& usable,
+                           ObservabilityEvaluator* evaluator);
+
+// The exchange optimiser's addition step: the pool member outside the set (in_set[c] == 0) whose addition to the
+// set with normal matrix `normal` gives the best objective for `size` configurations, screened as PlanExchange
+// says (every screening gain and every exact evaluation counted in *evaluations). -1 when none is outside.
+struct Addition {
+  int candidate = -1;
+  double value = std::numeric_limits<double>::infinity();
+};
+Addition BestAddition(const PoolBlocks& pool, const Eigen::MatrixXd& normal, const std::vector<char>& in_set, int size,
+                      const ObservabilityEvaluator& evaluator, ObservabilityIndex objective, int screen,
+                      int* evaluations);
+
+// The exchange iterations of PlanExchange from `members` (distinct pool members): counts iterations, evaluations
+// and the trace in *s, sets s->initial.
+struct ExchangeOutcome {
+  std::vector<int> members;
+  ObservabilityIndices indices;
+  bool cancelled = false;
+  bool converged = false;
+  bool budget_reached = false;
+};
+ExchangeOutcome RunExchange(const PoolBlocks& pool, std::vector<int> members, const ExchangeOptions& options,
+                            const ObservabilityEvaluator& evaluator, PlanSummary* s);
+
 // The rejection-sampling account of a plan that draws at most `configurations`.
 inline FeasibleDraws DrawBudget(int max_draws_per_configuration, std::int64_t configurations) {
   FeasibleDraws account;
@@ -57,10 +138,16 @@ inline FeasibleDraws DrawBudget(int max_draws_per_configuration, std::int64_t co
 
 // Gives the evaluator the predicted_error objective's validation sample, drawn (feasible) from its own generator
 // so that the planner's draws do not depend on the objective. False when rejection sampling ran out.
+// A caller's task replaces the sample. `always`: set it up whatever the objective (the predicted error against N of
+// the pose count reports it beside any objective).
 inline bool SetUpObjective(const RobotModel& model, ObservabilityIndex objective, int num_validation,
-                           std::uint64_t seed, const FeasibilityPredicate& feasible, FeasibleDraws* account,
-                           ObservabilityEvaluator* evaluator) {
-  if (objective != ObservabilityIndex::kPredictedError) return true;
+                           std::uint64_t seed, const FeasibilityPredicate& feasible, const TaskConfigurations& task,
+                           FeasibleDraws* account, ObservabilityEvaluator* evaluator, bool always = false) {
+  if (objective != ObservabilityIndex::kPredictedError && !always) return true;
+  if (task) {
+    evaluator->SetValidation(*task);
+    return true;
+  }
   Rng rng(seed + kPredictedErrorSeedOffset);
   std::vector<Eigen::VectorXd> validation;
   if (!DrawFeasibleConfigurations(model, num_validation, feasible, &rng, account, &validation)) return false;
@@ -190,10 +277,10 @@ template <typename Options>
 std::int64_t PrepareDraws(const RobotModel& model, const Options& options, std::int64_t configurations,
                           Clock::time_point start_time, ObservabilityEvaluator* evaluator, FeasibleDraws* account,
                           Plan* plan) {
-  const std::int64_t drawn = SaturatingSum(configurations, ValidationDraws(options.objective, options.num_validation));
+  const std::int64_t drawn = SaturatingSum(configurations, ValidationDrawsOf(options));
   *account = DrawBudget(options.max_draws_per_configuration, drawn);
-  if (SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, account,
-                     evaluator)) {
+  if (SetUpObjective(model, options.objective, options.num_validation, options.seed, options.feasible, options.task,
+                     account, evaluator)) {
     return drawn;
   }
   FailForFeasibility(start_time, *account, drawn, options.max_draws_per_configuration, plan);

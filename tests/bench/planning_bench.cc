@@ -1,8 +1,10 @@
 // Planning: one index evaluation after a single-configuration change (M = 10 and 200), the paper's Solis &
 // Wets preset on grinder5, and exchange selecting 50 of 5,000 candidates on ur5e; the paper preset and the
-// exchange optimiser in a cell.
+// exchange optimiser in a cell; plans of 30 from 2,000 given candidates in the cell, and the predicted error against
+// N from them.
 #include <benchmark/benchmark.h>
 
+#include "robocal/core/candidates.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/planning.h"
@@ -141,6 +143,82 @@ void BM_ExchangeUr5eInCell(benchmark::State& state) {
   state.SetLabel("ur5e pose M=50 of 5000 feasible");
 }
 BENCHMARK(BM_ExchangeUr5eInCell)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// 2,000 of the cell's own configurations (here: feasible random ones, as a cell's taught or measured poses are, and
+// checked against the cell again as any candidate list is), N = 30, log_det. Arg: 0 exchange, 1 Solis & Wets (paper
+// preset) over the candidates, 2 random selection (best of 50 draws from the pool).
+std::shared_ptr<const std::vector<Eigen::VectorXd>> FeasibleCandidates(const RobotModel& model,
+                                                                       const FeasibilityPredicate& feasible,
+                                                                       int count) {
+  Rng rng(1);
+  FeasibleDraws account;
+  std::vector<Eigen::VectorXd> out;
+  DrawFeasibleConfigurations(model, count, feasible, &rng, &account, &out);
+  return std::make_shared<const std::vector<Eigen::VectorXd>>(std::move(out));
+}
+
+void BM_PlanFromCandidates(benchmark::State& state) {
+  const RobotModel model = Preset("ur5e");
+  const Cell cell = BenchCell(model);
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  const FeasibilityPredicate feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(model, cell, q); };
+  CandidatePool pool;
+  pool.configurations = FeasibleCandidates(model, feasible, 2000);
+  pool.infeasibility_reasons = CellRuleReasons(model, cell);
+  for (auto _ : state) {
+    Plan plan;
+    if (state.range(0) == 0) {
+      ExchangeOptions options;
+      options.objective = ObservabilityIndex::kLogDet;
+      options.feasible = feasible;
+      options.candidates = pool;
+      plan = PlanExchange(model, 30, o, options);
+    } else if (state.range(0) == 1) {
+      SolisWetsOptions options = SolisWetsOptions::Paper();
+      options.objective = ObservabilityIndex::kLogDet;
+      options.feasible = feasible;
+      options.candidates = pool;
+      plan = PlanSolisWets(model, 30, o, options);
+    } else {
+      RandomSelectionOptions options;
+      options.num_sets = 50;
+      options.objective = ObservabilityIndex::kLogDet;
+      options.feasible = feasible;
+      options.candidates = pool;
+      plan = PlanRandom(model, 30, o, options);
+    }
+    state.counters["usable"] = plan.summary.candidates.num_usable;
+    state.counters["iterations"] = plan.summary.iterations;
+    state.counters["log_det"] = plan.summary.final.log_det;
+    state.counters["start_log_det"] = plan.summary.initial.log_det;
+  }
+  state.SetLabel(state.range(0) == 0   ? "ur5e pose N=30 of 2000 candidates, exchange, log_det"
+                 : state.range(0) == 1 ? "ur5e pose N=30 of 2000 candidates, Solis & Wets, log_det"
+                                       : "ur5e pose N=30 of 2000 candidates, best of 50 random, log_det");
+}
+BENCHMARK(BM_PlanFromCandidates)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// The predicted error against N = 6..60 from the same 2,000 candidates (the cell's checks on), predicted_error over
+// 50 task configurations.
+void BM_PoseCountFromCandidates(benchmark::State& state) {
+  const RobotModel model = Preset("ur5e");
+  const Cell cell = BenchCell(model);
+  const ObservabilityOptions o = OptionsFor(model, MeasurementType::kPose);
+  Rng rng(2);
+  PoseCountOptions options;
+  options.exchange.objective = ObservabilityIndex::kPredictedError;
+  options.exchange.feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(model, cell, q); };
+  options.exchange.candidates.configurations = FeasibleCandidates(model, options.exchange.feasible, 2000);
+  options.exchange.task = std::make_shared<const std::vector<Eigen::VectorXd>>(RandomConfigurations(model, 50, &rng));
+  for (auto _ : state) {
+    const PoseCountCurve curve = PlanPoseCount(model, o, options);
+    state.counters["points"] = static_cast<double>(curve.points.size());
+    state.counters["error_N6"] = curve.points.front().predicted_error_mm;
+    state.counters["error_N60"] = curve.points.back().predicted_error_mm;
+  }
+  state.SetLabel("ur5e pose N=6..60 of 2000 candidates, predicted_error");
+}
+BENCHMARK(BM_PoseCountFromCandidates)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 }  // namespace robocal

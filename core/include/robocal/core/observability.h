@@ -49,6 +49,12 @@ struct ObservabilityOptions {
   /// the position error they cause this far from the tool point (mm per rad), the h of E_tot = E_xyz + h E_cos
   /// in accuracy.h (30 mm there too).
   double orientation_length_mm = 30.0;
+  /// predicted_error only: the robot's model error (mm, 1-sigma RMS of the tool position error the geometric model
+  /// does not explain, IdentificationSummary::model_error_mm of an earlier fit), added in quadrature: predicted
+  /// error^2 = the parameter part + model_error_mm^2 (the total of prediction.h's unmodelled variance over the
+  /// three axes). More poses shrink only the parameter part, so the prediction flattens at the model error. 0:
+  /// tracker noise only. Finite, >= 0. It does not change which set is best, only the value reported.
+  double model_error_mm = 0.0;
   /// Reflector nests on the tool (position measurements only; reflectors.h): every configuration gives 3 rows
   /// per reflector, at its point (whitened there with a tracker model), and `parameters` index the fit's space:
   /// the model's error parameters, then 3 offset errors per reflector (a fixed reflector's have no effect).
@@ -77,7 +83,8 @@ struct ObservabilityIndices {
   double log_det = 0.0;
   /// The predicted_error index (mm): with C = (E*' W E*)^-1 the parameter covariance of the set (rows weighted by
   /// the noise, so C is in parameter units for that noise) and J_v the tool's pose Jacobian at validation
-  /// configuration v (reduced to the parameters), sqrt(mean_v [trace(J_pos C J_pos') + h^2 trace(J_rot C J_rot')]),
+  /// configuration v (reduced to the parameters), sqrt(mean_v [trace(J_pos C J_pos') + h^2 trace(J_rot C J_rot')]
+  /// + model_error_mm^2) (ObservabilityOptions::model_error_mm),
   /// h = orientation_length_mm for types that observe orientation and 0 for kPosition. +inf for a set that does
   /// not determine every parameter; NaN when no validation sample was given (ComputeIndicesBySvd,
   /// IndicesFromSingularValues, an evaluator without SetValidation).
@@ -152,8 +159,8 @@ class ObservabilityEvaluator {
   /// G of SetValidation (L x L, unweighted: mm^2 per squared parameter unit).
   const Eigen::MatrixXd& validation_information() const { return validation_information_; }
   /// The predicted_error index of a normal matrix A = E*' W E* (as ObservabilityIndices::predicted_error_mm):
-  /// sqrt(trace(A^-1 G) / V), with A^-1 from an LDLT of the unit-column-scaled A (C does not depend on the
-  /// scaling; the unit columns keep the factorisation accurate). +inf when the LDLT fails or its smallest pivot
+  /// sqrt(trace(A^-1 G) / V + model_error_mm^2), with A^-1 from an LDLT of the unit-column-scaled A (C does not depend
+  /// on the scaling; the unit columns keep the factorisation accurate). +inf when the LDLT fails or its smallest pivot
   /// is at most 1e-12 of its largest: the normal matrix resolves no finer (cond(E*) ~1e6), and such a set
   /// predicts errors ~10^6 times the noise. NaN without a validation sample.
   double PredictedError(const Eigen::MatrixXd& normal) const;

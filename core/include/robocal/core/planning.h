@@ -1,14 +1,15 @@
 // Choosing measurement configurations: Solis & Wets random search (the paper), random selection (the paper's
-// baseline) and an exchange optimiser over a candidate pool (a stronger baseline).
+// baseline) and an exchange optimiser over a candidate pool (a stronger baseline); each either draws joint vectors
+// itself or chooses from the cell's own candidate configurations (CandidatePool).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "robocal/core/observability.h"
 #include "robocal/core/random.h"
@@ -50,6 +51,65 @@ bool DrawFeasibleConfiguration(const RobotModel& model, const FeasibilityPredica
 /// false when the draws ran out first; *out then holds the feasible ones found.
 bool DrawFeasibleConfigurations(const RobotModel& model, int count, const FeasibilityPredicate& feasible, Rng* rng,
                                 FeasibleDraws* account, std::vector<Eigen::VectorXd>* out);
+
+/// What a planner does with a candidate it cannot use as given: the wrong number of joints, a value that is not
+/// finite, or a value beyond the model's limits.
+enum class MalformedCandidates {
+  /// std::invalid_argument naming the first such candidate's index: the caller's list is wrong.
+  kThrow,
+  /// Counted as rejected with its reason, as an infeasible candidate is (a file of taught poses may hold a few).
+  kReject,
+};
+
+/// At most this many indices of the candidates rejected for one reason are kept (the first ones).
+inline constexpr int kRejectedIndicesKept = 5;
+
+/// The candidates rejected for one reason.
+struct CandidateRejections {
+  /// "joint_count", "not_finite", "beyond_limits" (malformed); "infeasible" (the feasibility predicate), or the
+  /// names CandidatePool::infeasibility_reasons gives instead (a cell's rules: "obstacle", "beam", ...).
+  std::string reason;
+  int count = 0;
+  /// The first kRejectedIndicesKept indices (into the caller's list) rejected for it, ascending.
+  std::vector<int> first_indices;
+};
+
+/// The check of a candidate pool: how many were given, how many the planner could choose from, and why the
+/// others were not.
+struct CandidateAccount {
+  int num_candidates = 0;
+  /// Well-formed, within the limits and feasible: the pool the planner chose from.
+  int num_usable = 0;
+  /// The malformed reasons first (joint_count, not_finite, beyond_limits; a candidate counts for the first it
+  /// fails), then the feasibility reasons in order of first occurrence. A candidate the predicate rejects counts
+  /// once for each reason infeasibility_reasons names (as a cell's census counts rules), so the counts may add up
+  /// to more than num_candidates - num_usable.
+  std::vector<CandidateRejections> rejected;
+  /// "1994 of 2000 candidates usable; rejected: beyond_limits 2 (#3, #17), obstacle 4 (#8, #9, #40, #41)".
+  std::string Describe() const;
+};
+
+/// The cell's own configurations (taught, measured before, or from a file) for a planner to choose from instead
+/// of drawing joint vectors itself (docs/planning.md, "Plans from the cell's own configurations"). Every
+/// candidate is checked first: joint count, finite values, the model's limits (give planners the robot's model,
+/// not Cell::PlanningModel, if a candidate beyond the cell's joint ranges should count as the cell's
+/// joint_range rule rather than as malformed), then the options' feasibility predicate. The plan's
+/// configurations are then exactly candidates, and Plan::candidate_indices maps them back to this list.
+struct CandidatePool {
+  /// Joint vectors (rad / mm per joint). Null: the planner draws (every option below is then unused). Shared,
+  /// not copied, by options that are copied around.
+  std::shared_ptr<const std::vector<Eigen::VectorXd>> configurations;
+  MalformedCandidates malformed = MalformedCandidates::kThrow;
+  /// Names why the feasibility predicate rejected a candidate (CellRuleReasons of candidates.h for a cell: the
+  /// rules CheckConfiguration finds). Called for rejected candidates only. Empty, or an empty answer: "infeasible".
+  std::function<std::vector<std::string>(const Eigen::VectorXd& q)> infeasibility_reasons;
+
+  bool given() const { return configurations != nullptr; }
+};
+
+/// The configurations a robot will work in, for the predicted_error objective (its validation sample): joint
+/// vectors (rad / mm; finite, the model's joint count; the cell need not see them). Null: num_validation drawn.
+using TaskConfigurations = std::shared_ptr<const std::vector<Eigen::VectorXd>>;
 
 /// Called after every iteration with the fraction done (0..1); return false to cancel the optimisation (it
 /// then stops with NO_CONVERGENCE and the best set so far).
@@ -119,6 +179,11 @@ struct SolisWetsOptions {
   /// Validation configurations of the predicted_error objective (drawn once, feasible, from
   /// Rng(seed + kPredictedErrorSeedOffset)); unused by the other objectives.
   int num_validation = 50;
+  /// predicted_error over these configurations instead of num_validation drawn ones.
+  TaskConfigurations task;
+  /// Choose from these instead of searching the joint space: the search then runs over candidate indices (each
+  /// moved configuration snaps to the nearest unused candidate, docs/planning.md); no initial set may be given.
+  CandidatePool candidates;
 
   /// The paper's settings: k_max 100, Scent 5, Fcent 3, sigma_0 1, sigma_ub 3, sigma_lb 0.1, ex 2, ct 0.5,
   /// mu_0 0, objective the condition number.
@@ -140,6 +205,10 @@ struct RandomSelectionOptions {
   int max_draws_per_configuration = kDefaultMaxDrawsPerConfiguration;
   /// Validation configurations of the predicted_error objective (as SolisWetsOptions::num_validation).
   int num_validation = 50;
+  /// As SolisWetsOptions::task.
+  TaskConfigurations task;
+  /// Draw each set's M configurations from these (distinct candidates) instead of the joint space.
+  CandidatePool candidates;
   bool IsValid(std::string* error) const;
 };
 
@@ -172,6 +241,10 @@ struct ExchangeOptions {
   int max_draws_per_configuration = kDefaultMaxDrawsPerConfiguration;
   /// Validation configurations of the predicted_error objective (as SolisWetsOptions::num_validation).
   int num_validation = 50;
+  /// As SolisWetsOptions::task.
+  TaskConfigurations task;
+  /// The pool is these instead of num_candidates drawn configurations.
+  CandidatePool candidates;
   bool IsValid(std::string* error) const;
 };
 
@@ -202,6 +275,8 @@ struct PlanSummary {
   /// Indices of the starting set and of the result.
   ObservabilityIndices initial;
   ObservabilityIndices final;
+  /// A plan from candidates: the pool's check (num_candidates 0 for a plan that drew its configurations).
+  CandidateAccount candidates;
 
   std::string BriefReport() const;
   std::string FullReport() const;
@@ -210,6 +285,9 @@ struct PlanSummary {
 struct Plan {
   /// M configurations, each within the model's joint limits (rad / mm per joint).
   std::vector<Eigen::VectorXd> configurations;
+  /// A plan from candidates: configurations[m] is exactly candidate candidate_indices[m] of the pool. Empty for a
+  /// plan that drew its configurations.
+  std::vector<int> candidate_indices;
   PlanSummary summary;
 };
 
@@ -238,6 +316,11 @@ PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options);
 /// Throws std::invalid_argument for invalid options, M < 1 or a wrongly sized, out-of-limits or infeasible initial
 /// set. Every planner returns FAILURE with no configurations when rejection sampling runs out of draws (the cell
 /// leaves too little feasible), and only configurations satisfying options.feasible otherwise.
+///
+/// From candidates (options.candidates): std::invalid_argument for a malformed candidate under
+/// MalformedCandidates::kThrow, a task configuration of the wrong size or not finite, or an empty task; FAILURE
+/// with no configurations, the account in summary.candidates and a message naming both counts ("30
+/// configurations asked, 12 of 2000 candidates usable") when fewer than M candidates are usable.
 Plan PlanSolisWets(const RobotModel& model, int num_configurations, const ObservabilityOptions& observability,
                    const SolisWetsOptions& options, const std::vector<Eigen::VectorXd>& initial = {});
 
