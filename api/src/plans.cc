@@ -61,21 +61,142 @@ void CheckPlanWork(const PlanRequest& req, const Limits& limits, Problems* probl
 
 }  // namespace
 
+void WireFields<TaskBoxWire>::CheckRequest(const S& box, const std::string& path, Problems* problems) {
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (box.min_mm[i] > box.max_mm[i]) {
+      problems->Add(IndexPath(JoinPath(path, "max_mm"), i), "must not be below min_mm[" + std::to_string(i) + "]");
+    }
+  }
+}
+
 void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Problems* problems) {
   CheckReflectorIds(req.reflectors, problems);
   if (!req.reflectors.empty() && req.measurement_type != MeasurementType::kPosition) {
     problems->Add("reflectors",
                   std::string("need position measurements; measurement_type is ") + WireName(req.measurement_type));
   }
+  if (req.num_configurations_auto && !req.accuracy_goal_mm) {
+    problems->Add("accuracy_goal_mm", "required with \"num_configurations\": \"auto\" (the accuracy the plan is for)");
+  }
+  if (!req.num_configurations_auto && req.accuracy_goal_mm) {
+    problems->Add("accuracy_goal_mm", "only with \"num_configurations\": \"auto\"");
+  }
+  if (req.min_configurations > req.max_configurations) {
+    problems->Add("max_configurations",
+                  "must not be below min_configurations (" + std::to_string(req.min_configurations) + ")");
+  }
+  if (req.task && req.task->joints.empty() == !req.task->box) {
+    problems->Add("task", "give exactly one of joints (joint vectors) or box");
+  }
+  if (req.objective == ObservabilityIndex::kPredictedError && req.task && req.num_validation != 100) {
+    problems->Add("num_validation", "the task is predicted_error's sample: leave out num_validation");
+  }
 }
+
+ObservabilityIndex PlanObjective(const PlanRequest& req) {
+  if (req.objective) return *req.objective;
+  if (req.task) return ObservabilityIndex::kPredictedError;
+  return req.candidates || req.num_configurations_auto ? ObservabilityIndex::kLogDet
+                                                       : ObservabilityIndex::kConditionNumber;
+}
+
+namespace detail {
+bool WriteNumConfigurations(const PlanRequest& req, nlohmann::json* value) {
+  *value = req.num_configurations_auto ? nlohmann::json("auto") : nlohmann::json(req.num_configurations);
+  return true;
+}
+void ReadNumConfigurations(const nlohmann::json* value, const std::string& path, PlanRequest* req) {
+  if (value == nullptr) ThrowWire(path, "required");
+  if (value->is_string() && value->get<std::string>() == "auto") {
+    req->num_configurations_auto = true;
+  } else {
+    ReadWire(*value, path, &req->num_configurations);
+  }
+}
+}  // namespace detail
+
+namespace {
+
+// A list of joint vectors at `path`: arrays of finite numbers (their count and limits are the robot's, checked
+// when the plan is made).
+void ReadJointLists(const nlohmann::json& value, const std::string& path, std::size_t max_count, Problems* problems,
+                    std::vector<std::vector<double>>* out) {
+  if (!value.is_array()) {
+    problems->Add(path, std::string("expected an array of joint vectors, got ") + value.type_name());
+    return;
+  }
+  if (value.empty() || value.size() > max_count) {
+    problems->Add(path, value.empty() ? "must not be empty"
+                                      : "too many elements: " + std::to_string(value.size()) + " (limit " +
+                                            std::to_string(max_count) + ")");
+    return;
+  }
+  out->resize(value.size());
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    ReadNumberArray(value[i], IndexPath(path, i), problems, &(*out)[i], 1, static_cast<std::size_t>(kMaxJoints));
+    if (problems->size() > 100) return;
+  }
+}
+
+// "candidates": a list of joint vectors, or {"joints" | "campaign" | "file", "malformed"}.
+void ReadCandidates(const nlohmann::json& value, const Limits& limits, Problems* problems,
+                    std::optional<PlanCandidatesWire>* out) {
+  PlanCandidatesWire c;
+  if (value.is_array()) {
+    ReadJointLists(value, "candidates", limits.max_array_length, problems, &c.joints);
+    *out = std::move(c);
+    return;
+  }
+  ObjectReader r(value, "candidates", problems);
+  if (!r.ok()) return;
+  ReadRequest(r, &c);
+  if (const nlohmann::json* joints = r.Get("joints")) {
+    ReadJointLists(*joints, "candidates.joints", limits.max_array_length, problems, &c.joints);
+  }
+  if (const nlohmann::json* file = r.Get("file")) {
+    // An import request's members, read by the import's own parser (request_id only makes an import idempotent).
+    nlohmann::json body = *file;
+    if (body.is_object() && !body.contains("request_id")) body["request_id"] = "candidates";
+    try {
+      c.file = ParseImportMeasurementsRequest(body);
+      if (c.file->joints.empty()) problems->Add("candidates.file.joints", "required: candidates are joint vectors");
+    } catch (const ApiError& e) {
+      for (const FieldViolation& v : e.details()) problems->Add(JoinPath("candidates.file", v.field), v.reason);
+    }
+  }
+  r.RejectUnknown(WireFieldNames<PlanCandidatesWire>());
+  const int sources = (c.joints.empty() ? 0 : 1) + (c.campaign.empty() ? 0 : 1) + (c.file ? 1 : 0);
+  if (sources != 1 && r.ok() && problems->empty()) {
+    problems->Add("candidates", "give exactly one of joints, campaign or file");
+  }
+  *out = std::move(c);
+}
+
+}  // namespace
 
 PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   Problems problems;
   PlanRequest req;
-  ReadRequestObject(body, "", &problems, &req);
-  if (req.num_configurations > limits.max_plan_configurations) {
-    problems.Add("num_configurations", OverLimit(req.num_configurations, "configurations", "max_plan_configurations",
-                                                 limits.max_plan_configurations));
+  ObjectReader r(body, "", &problems);
+  problems.ThrowIfAny("invalid plan request");
+  if (const nlohmann::json* n = r.Get("num_configurations")) {
+    if (n->is_string() && n->get<std::string>() == "auto") {
+      req.num_configurations_auto = true;
+    } else {
+      r.Int("num_configurations", false, &req.num_configurations, 1, std::numeric_limits<int>::max());
+    }
+  }
+  if (const nlohmann::json* c = r.Get("candidates")) ReadCandidates(*c, limits, &problems, &req.candidates);
+  ReadRequest(r, &req);
+  if (const nlohmann::json* t = r.Get("task"); req.task && t->contains("joints")) {
+    ReadJointLists((*t)["joints"], "task.joints", 10000, &problems, &req.task->joints);
+  }
+  r.RejectUnknown(WireFieldNames<PlanRequest>());
+  if (problems.empty()) WireFields<PlanRequest>::CheckRequest(req, "", &problems);
+  const int largest = req.num_configurations_auto ? req.max_configurations : req.num_configurations;
+  if (largest > limits.max_plan_configurations) {
+    problems.Add(req.num_configurations_auto ? "max_configurations" : "num_configurations",
+                 OverLimit(largest, "configurations", "max_plan_configurations", limits.max_plan_configurations));
   }
   if (req.options.max_evaluations > limits.max_plan_evaluations) {
     problems.Add("options.max_evaluations", OverLimit(req.options.max_evaluations, "evaluations",
@@ -85,7 +206,8 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
   if (req.optimiser == Optimiser::kExchange && req.options.num_candidates > limits.max_plan_candidates) {
     problems.Add("options.num_candidates", OverLimit(req.options.num_candidates, "candidates", "max_plan_candidates",
                                                      limits.max_plan_candidates));
-  } else if (req.optimiser == Optimiser::kExchange && req.options.num_candidates < req.num_configurations) {
+  } else if (req.optimiser == Optimiser::kExchange && !req.candidates &&
+             req.options.num_candidates < req.num_configurations) {
     problems.Add("options.num_candidates", "the pool (" + std::to_string(req.options.num_candidates) +
                                                ") must hold at least num_configurations (" +
                                                std::to_string(req.num_configurations) + ")");
@@ -101,7 +223,7 @@ SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
   o.restarts = req.options.restarts;
   o.max_evaluations = req.options.max_evaluations;
   o.step_fraction = req.options.step_fraction;
-  o.objective = req.objective;
+  o.objective = PlanObjective(req);
   o.seed = req.seed;
   return o;
 }
@@ -109,7 +231,7 @@ SolisWetsOptions ToSolisWetsOptions(const PlanRequest& req) {
 RandomSelectionOptions ToRandomSelectionOptions(const PlanRequest& req) {
   RandomSelectionOptions o;
   o.num_sets = req.options.num_sets;
-  o.objective = req.objective;
+  o.objective = PlanObjective(req);
   o.seed = req.seed;
   return o;
 }
@@ -120,13 +242,13 @@ ExchangeOptions ToExchangeOptions(const PlanRequest& req) {
   o.screen = req.options.screen;
   o.max_iterations = req.options.max_iterations;
   o.max_evaluations = req.options.max_evaluations;
-  o.objective = req.objective;
+  o.objective = PlanObjective(req);
   o.seed = req.seed;
   return o;
 }
 
 PlanWork MaxWork(const PlanRequest& req) {
-  const int m = req.num_configurations;
+  const int m = req.num_configurations_auto ? req.max_configurations : req.num_configurations;
   PlanWork work = req.optimiser == Optimiser::kRandom     ? MaxPlanWork(m, ToRandomSelectionOptions(req))
                   : req.optimiser == Optimiser::kExchange ? MaxPlanWork(m, ToExchangeOptions(req))
                                                 : MaxPlanWork(m, ToSolisWetsOptions(req));
@@ -147,24 +269,58 @@ ObservabilityOptions ToObservabilityOptions(const PlanRequest& req) {
 // ---------------------------------------------------------------------------------------------- the resource
 
 Indices ToWire(const ObservabilityIndices& x) {
-  return {x.num_configurations,
-          x.num_parameters,
-          x.condition_number,
-          x.o1,
-          x.o2,
-          x.o3,
-          x.o4,
-          x.o5,
-          x.log_det,
-          x.predicted_error_mm,
-          std::vector<double>(x.singular_values.data(), x.singular_values.data() + x.singular_values.size()),
-          x.scaling};
+  return {.num_configurations = x.num_configurations,
+          .num_parameters = x.num_parameters,
+          .condition_number = x.condition_number,
+          .o1 = x.o1,
+          .o2 = x.o2,
+          .o3 = x.o3,
+          .o4 = x.o4,
+          .o5 = x.o5,
+          .log_det = x.log_det,
+          .predicted_error_mm = x.predicted_error_mm,
+          .singular_values =
+              std::vector<double>(x.singular_values.data(), x.singular_values.data() + x.singular_values.size()),
+          .scaling = x.scaling};
 }
 
 PredictedAccuracyWire ToWire(const PredictedAccuracy& a) {
-  return {a.num_validation, a.rms_position_mm, a.max_position_mm,
-          a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN(),
-          a.rms_error_mm};
+  return {.num_validation = a.num_validation,
+          .rms_position_mm = a.rms_position_mm,
+          .max_position_mm = a.max_position_mm,
+          .rms_orientation_deg =
+              a.has_orientation ? a.rms_orientation_rad * kDegPerRad : std::numeric_limits<double>::quiet_NaN(),
+          .rms_error_mm = a.rms_error_mm};
+}
+
+CandidateAccountWire ToWire(const CandidateAccount& account) {
+  CandidateAccountWire w{.num_candidates = account.num_candidates, .num_usable = account.num_usable, .rejected = {}};
+  for (const CandidateRejections& r : account.rejected) {
+    w.rejected.push_back({.reason = r.reason, .count = r.count, .first_indices = r.first_indices});
+  }
+  return w;
+}
+
+CoverageWire ToWire(const RobotModel& model, const CandidateCoverage& coverage) {
+  CoverageWire w;
+  for (std::size_t i = 0; i < coverage.joints.size(); ++i) {
+    const JointCoverage& j = coverage.joints[i];
+    // The joint's wire unit: degrees for a revolute joint.
+    const double scale = model.joint_type(static_cast<int>(i)) == JointType::kRevolute ? kDegPerRad : 1.0;
+    w.joints.push_back({.joint = j.name,
+                        .min = j.min * scale,
+                        .max = j.max * scale,
+                        .lower_limit = j.lower_limit * scale,
+                        .upper_limit = j.upper_limit * scale,
+                        .fraction = j.fraction,
+                        .too_narrow = j.too_narrow});
+  }
+  for (int k : coverage.poorly_determined) {
+    const ParameterDetermination& p = coverage.parameters[static_cast<std::size_t>(k)];
+    w.poorly_determined.push_back({.parameter = p.name, .std_ratio = p.std_ratio});
+  }
+  w.warning = coverage.warning;
+  return w;
 }
 
 PlanSummaryWire ToWire(const PlanSummary& s) {
@@ -182,6 +338,16 @@ PlanSummaryWire ToWire(const PlanSummary& s) {
 }
 
 // The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).
+ROBOCAL_WIRE_DEFINE(PlanCandidatesWire);
+ROBOCAL_WIRE_DEFINE(TaskBoxWire);
+ROBOCAL_WIRE_DEFINE(PlanTaskWire);
+ROBOCAL_WIRE_DEFINE(CandidateRejectionWire);
+ROBOCAL_WIRE_DEFINE(CandidateAccountWire);
+ROBOCAL_WIRE_DEFINE(JointCoverageWire);
+ROBOCAL_WIRE_DEFINE(PoorlyDeterminedWire);
+ROBOCAL_WIRE_DEFINE(CoverageWire);
+ROBOCAL_WIRE_DEFINE(PoseCountPointWire);
+ROBOCAL_WIRE_DEFINE(PoseCountWire);
 ROBOCAL_WIRE_DEFINE(PlanOptionsWire);
 ROBOCAL_WIRE_DEFINE(PlanRequest);
 ROBOCAL_WIRE_DEFINE(Indices);

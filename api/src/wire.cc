@@ -39,6 +39,10 @@ const char* EnumTable<OperationKind>::Name(OperationKind v) { return v == Operat
 
 const char* EnumTable<FitScope>::Name(FitScope v) { return v == FitScope::kFrames ? "frames" : "all"; }
 
+const char* EnumTable<MalformedCandidates>::Name(MalformedCandidates v) {
+  return v == MalformedCandidates::kReject ? "reject" : "refuse";
+}
+
 const char* EnumTable<OperationState>::Name(OperationState v) {
   switch (v) {
     case OperationState::kRunning:

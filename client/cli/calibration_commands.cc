@@ -150,11 +150,7 @@ int Fit(Invocation& in) {
   request.max_iterations = static_cast<int>(in.Integer("--max-iterations", 100, 1, 1000));
   request.reject_outliers = !in.Has("--keep-outliers");
   request.estimate_model_error = !in.Has("--no-model-error");
-  if (in.Has("--scope") && !api::FromWireName(in.Option("--scope"), &request.scope)) {
-    std::string names;
-    for (const std::string& n : api::WireNames<api::FitScope>()) names += (names.empty() ? "" : ", ") + n;
-    throw UsageError("--scope must be one of " + names + ", got \"" + in.Option("--scope") + "\"");
-  }
+  request.scope = in.Enum("--scope", request.scope);
   if (in.Has("--model")) ParseModelOption(in.Option("--model"), &request);
   if (in.Has("--folds") || in.Has("--cv-seed") || in.Has("--cv-maps")) {
     if (!request.model_auto) throw UsageError("--folds, --cv-seed and --cv-maps apply with --model auto only");

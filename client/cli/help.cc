@@ -126,11 +126,24 @@ Asks the service for M measurement configurations that make the calibration well
 them (one row per configuration, in the joints' units) with their observability indices and predicted
 accuracy against a random set of the same size.
 
-  --count M            configurations (default 10)
+  --count M|auto       configurations (default 10); auto: the smallest N in --min-count..--max-count (default
+                       6..60) whose predicted error on the task reaches --goal-mm MM (prints the curve)
+  --candidates SOURCE  choose the configurations among the cell's own: a joints CSV (as --out writes), a JSON
+                       file (a list of joint vectors), a tracker export with joint columns (with --format csv
+                       --joints H1,... --joint-unit deg|rad and upload's --unit, --delimiter, --decimal,
+                       --encoding), or a campaign id (the joints of its measurements); prints the candidates'
+                       account and a warning naming joints too narrow to determine the model's parameters
+  --malformed refuse|reject  a candidate with the wrong joint count or beyond the limits: refuse the request
+                       (default) or count it as rejected
+  --task FILE.csv      the poses the robot will work in (joints CSV): predicted_error's sample (and then the
+                       default objective) and the predicted accuracy's
+  --task-box X0,Y0,Z0:X1,Y1,Z1  or a box of the base frame (mm), with --task-rpy R,P,Y/... tool orientations
+                       (deg) and --task-count N configurations (default 50)
   --cell CELL          plan only configurations the cell can measure (robocal cell create); each planned
                        configuration comes with its feasibility report (--json: configuration_checks)
   --type TYPE          pose, position_axis or position (default pose)
-  --objective NAME     condition_number, o1, o2, o3, o4, o5, log_det (default condition_number)
+  --objective NAME     condition_number, o1, o2, o3, o4, o5, log_det, predicted_error (default
+                       condition_number; from candidates or with auto log_det, with a task predicted_error)
   --optimiser NAME     solis_wets, random or exchange (default solis_wets)
   --seed N             seed of the search (default 1); the same seed gives the same plan
   --tracker MODEL      weigh the rows by the tracker's uncertainty model, as campaign create takes it

@@ -1,7 +1,12 @@
 // robocal plan, plan get, and operation wait | get | cancel (the long-running form of plans and fits).
+#include <array>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
+#include <optional>
+#include <sstream>
 
 #include "cli.h"
 #include "command.h"
@@ -47,6 +52,23 @@ void PrintPlan(const api::PlanResult& plan, std::ostream& out) {
   PrintIndices(out, "plan", plan.indices, plan.predicted_accuracy);
   PrintIndices(out, "random", plan.baseline.indices, plan.baseline.predicted_accuracy);
   out << plan.identifiable_parameters.size() << " identifiable parameters; " << plan.summary.brief << "\n";
+  if (plan.candidates) {
+    out << "candidates: " << plan.candidates->num_usable << " of " << plan.candidates->num_candidates << " usable";
+    for (const api::CandidateRejectionWire& r : plan.candidates->rejected) out << "; " << r.count << " " << r.reason;
+    out << "\n";
+  }
+  if (plan.coverage && !plan.coverage->warning.empty()) out << "warning: " << plan.coverage->warning << "\n";
+  if (plan.pose_count) {
+    const api::PoseCountWire& c = *plan.pose_count;
+    out << "predicted error on the task against N (goal " << Fixed(c.accuracy_goal_mm, 3) << " mm";
+    if (c.model_error_mm > 0.0) out << ", robot model error " << Fixed(c.model_error_mm, 3) << " mm";
+    out << "):\n";
+    for (const api::PoseCountPointWire& p : c.points) {
+      out << std::setw(6) << p.num_configurations << std::setw(10) << Fixed(p.predicted_error_mm, 4) << " mm"
+          << (c.chosen && *c.chosen == p.num_configurations ? "  <- chosen" : "") << "\n";
+    }
+    if (!c.chosen) out << "no N up to " << c.points.back().num_configurations << " reaches the goal\n";
+  }
 }
 
 std::string OutFile(const Invocation& in) {
@@ -98,6 +120,76 @@ int ShowOperation(Invocation& in, const api::Operation& op) {
   return kExitOk;
 }
 
+// --candidates SOURCE: a tracker export with joint columns (with --format csv and the upload's column options), a
+// joints CSV (as plan --out writes), a JSON file (a list of joint vectors, or the candidates object), or else a
+// campaign's id.
+api::PlanCandidatesWire CandidatesOption(Invocation& in, const std::string& robot_id) {
+  const std::string source = in.Option("--candidates");
+  api::PlanCandidatesWire candidates;
+  if (in.Has("--format")) {
+    candidates.file = TrackerFileRequest(in, in.Option("--format"), source);
+  } else if (std::filesystem::exists(source)) {
+    if (EndsWith(source, ".json")) {
+      nlohmann::json value;
+      try {
+        value = nlohmann::json::parse(ReadFile(source));
+        if (value.is_array()) {
+          candidates.joints = value.get<std::vector<std::vector<double>>>();
+        } else {
+          candidates = api::FromWire<api::PlanCandidatesWire>(value);
+        }
+      } catch (const std::exception& e) {
+        throw UsageError(source + ": " + e.what());
+      }
+    } else {
+      candidates.joints = ReadJointsFile(source, in.Client().GetRobot(robot_id));
+    }
+  } else {
+    candidates.campaign = source;
+  }
+  candidates.malformed = in.Enum("--malformed", candidates.malformed);
+  return candidates;
+}
+
+// Three numbers "X,Y,Z" of `option`.
+std::array<double, 3> Triple(const std::string& option, const std::string& text) {
+  const std::vector<std::string> parts = tools::SplitList(option, text);
+  if (parts.size() != 3) throw UsageError(option + ": expected X,Y,Z, got '" + text + "'");
+  std::array<double, 3> v{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    v[k] = tools::ParseDoubleFlag(option, parts[k], std::numeric_limits<double>::lowest());
+  }
+  return v;
+}
+
+// --task FILE.csv (joints CSV) or --task-box X0,Y0,Z0:X1,Y1,Z1 [--task-rpy R,P,Y/R,P,Y...] [--task-count N].
+std::optional<api::PlanTaskWire> TaskOption(Invocation& in, const std::string& robot_id) {
+  if (in.Has("--task") && in.Has("--task-box")) throw UsageError("--task and --task-box exclude each other");
+  api::PlanTaskWire task;
+  if (in.Has("--task")) {
+    task.joints = ReadJointsFile(in.Option("--task"), in.Client().GetRobot(robot_id));
+    return task;
+  }
+  if (!in.Has("--task-box")) {
+    if (in.Has("--task-rpy") || in.Has("--task-count")) throw UsageError("--task-rpy and --task-count need --task-box");
+    return std::nullopt;
+  }
+  const std::string box = in.Option("--task-box");
+  const std::size_t colon = box.find(':');
+  if (colon == std::string::npos) throw UsageError("--task-box takes X0,Y0,Z0:X1,Y1,Z1 (mm, base frame)");
+  api::TaskBoxWire w;
+  w.min_mm = Triple("--task-box", box.substr(0, colon));
+  w.max_mm = Triple("--task-box", box.substr(colon + 1));
+  if (in.Has("--task-rpy")) {
+    std::istringstream list(in.Option("--task-rpy"));
+    std::string item;
+    while (std::getline(list, item, '/')) w.orientations_rpy_deg.push_back(Triple("--task-rpy", item));
+  }
+  w.count = static_cast<int>(in.Integer("--task-count", w.count, 1, 1000000));
+  task.box = w;
+  return task;
+}
+
 }  // namespace
 
 int Plan(Invocation& in) {
@@ -105,9 +197,26 @@ int Plan(Invocation& in) {
   api::PlanRequest request;
   request.robot = in.args[0];
   request.cell = in.Option("--cell");
-  request.num_configurations = static_cast<int>(in.Integer("--count", 10, 1, 100000));
+  if (in.Option("--count") == "auto") {
+    // The service names a missing goal (accuracy_goal_mm) and the range's bounds.
+    request.num_configurations_auto = true;
+    if (in.Has("--goal-mm")) request.accuracy_goal_mm = in.Number("--goal-mm", 0.0, 0.0);
+    request.min_configurations = static_cast<int>(in.Integer("--min-count", request.min_configurations, 1, 100000));
+    request.max_configurations = static_cast<int>(in.Integer("--max-count", request.max_configurations, 1, 100000));
+  } else {
+    if (in.Has("--goal-mm") || in.Has("--min-count") || in.Has("--max-count")) {
+      throw UsageError("--goal-mm, --min-count and --max-count go with --count auto");
+    }
+    request.num_configurations = static_cast<int>(in.Integer("--count", 10, 1, 100000));
+  }
   request.measurement_type = in.Enum("--type", MeasurementType::kPose);
-  request.objective = in.Enum("--objective", ObservabilityIndex::kConditionNumber);
+  if (in.Has("--objective")) request.objective = in.Enum("--objective", ObservabilityIndex::kConditionNumber);
+  if (in.Has("--candidates")) {
+    request.candidates = CandidatesOption(in, request.robot);
+  } else if (in.Has("--malformed") || in.Has("--format")) {
+    throw UsageError("--malformed and --format go with --candidates");
+  }
+  request.task = TaskOption(in, request.robot);
   request.optimiser = in.Enum("--optimiser", api::Optimiser::kSolisWets);
   request.seed = in.Seed("--seed", 1);
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "cli.h"
+#include "robocal/api/text.h"
 #include "robocal/client/csv.h"
 
 namespace robocal::cli {
@@ -159,6 +160,111 @@ int ReportUnfinished(const api::Operation& done, std::ostream& err) {
       done.error ? std::string(api::WireName(done.error->status)) + ": " + done.error->message : state;
   err << "robocal: operation " << done.id << " " << state << ": " << message << "\n";
   return kExitServiceError;
+}
+
+namespace {
+
+// A Latin-1 (ISO 8859-1) text as UTF-8: every byte is the code point of its value. By hand: iconv would do it
+// too, but it is two lines, and the client library stays free of locale state.
+std::string Latin1ToUtf8(const std::string& text) {
+  std::string out;
+  out.reserve(text.size() + text.size() / 8);
+  for (unsigned char c : text) {
+    if (c < 0x80) {
+      out += static_cast<char>(c);
+    } else {
+      out += static_cast<char>(0xC0 | (c >> 6));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
+}
+
+// The comma-separated list of an option (empty items refused, naming the option).
+std::vector<std::string> ListOption(Invocation& in, const char* option) {
+  return tools::SplitList(option, in.Option(option));
+}
+
+}  // namespace
+
+api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::string& format, const std::string& path) {
+  if (format != "sa" && format != "csv") throw UsageError("--format takes sa or csv, got '" + format + "'");
+  api::ImportMeasurementsRequest request;
+  request.format = format;
+  request.text = ReadFile(path);
+  if (request.text.empty()) throw UsageError(path + " is empty or not a file");
+  // The text goes as JSON, which is UTF-8: a Latin-1 export (µ, ° in its header) is converted first.
+  const std::string encoding = in.Option("--encoding", "auto");
+  if (encoding != "auto" && encoding != "utf-8" && encoding != "latin-1") {
+    throw UsageError("--encoding takes auto, utf-8 or latin-1, got '" + encoding + "'");
+  }
+  if (encoding == "latin-1" || (encoding == "auto" && !api::IsValidUtf8(request.text))) {
+    request.text = Latin1ToUtf8(request.text);
+    if (encoding == "auto") in.err << path << " is not UTF-8: read as Latin-1\n";
+  }
+  request.role = in.Enum("--role", request.role);
+  request.request_id = in.Option("--request-id");
+  request.plan = in.Option("--plan");
+  request.unit = in.Option("--unit");
+  request.match = in.Option("--match", request.match);
+  request.shots_per_configuration = static_cast<int>(in.Integer("--shots", 0, 1, 1000));
+  if (in.Has("--columns")) {
+    if (format != "csv") throw UsageError("--columns is for --format csv");
+    // target=Name,x=X,y=Y,z=Z,reflector=Nest: the header names of the columns the import reads.
+    std::istringstream list(in.Option("--columns"));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const std::size_t eq = item.find('=');
+      const std::string key = item.substr(0, eq);
+      std::string* out = key == "target"      ? &request.columns.target
+                         : key == "x"         ? &request.columns.x
+                         : key == "y"         ? &request.columns.y
+                         : key == "z"         ? &request.columns.z
+                         : key == "reflector" ? &request.columns.reflector
+                                              : nullptr;
+      if (eq == std::string::npos || out == nullptr) {
+        throw UsageError("--columns takes KEY=HEADER,... with keys target, x, y, z, reflector; got '" + item + "'");
+      }
+      *out = item.substr(eq + 1);
+    }
+  }
+  // A file that carries the joints (and the measured orientation): no plan; the service checks the values and
+  // names the field.
+  if (in.Has("--joints")) {
+    request.joints.columns = ListOption(in, "--joints");
+    request.joints.unit = in.Option("--joint-unit");
+    if (request.joints.unit.empty()) throw UsageError("--joints needs --joint-unit deg|rad");
+  } else if (in.Has("--joint-unit")) {
+    throw UsageError("--joint-unit is for --joints");
+  }
+  const bool quaternion = in.Has("--quaternion-order"), euler = in.Has("--euler");
+  if (quaternion && euler) throw UsageError("--quaternion-order and --euler exclude each other");
+  if ((quaternion || euler) != in.Has("--orientation-columns")) {
+    throw UsageError("--orientation-columns goes with --quaternion-order or --euler");
+  }
+  if (quaternion || euler) {
+    api::OrientationColumns& o = request.orientation;
+    o.representation = quaternion ? "quaternion" : "euler";
+    o.columns = ListOption(in, "--orientation-columns");
+    if (quaternion) {
+      o.order = in.Option("--quaternion-order");
+    } else {
+      o.sequence = in.Option("--euler");
+      o.convention = in.Option("--euler-convention");
+      o.unit = in.Option("--angle-unit");
+      if (o.convention.empty() || o.unit.empty()) {
+        throw UsageError("--euler needs --euler-convention intrinsic|extrinsic and --angle-unit deg|rad");
+      }
+    }
+  }
+  if (in.Has("--delimiter")) {
+    request.delimiter = in.Option("--delimiter");
+    if (request.delimiter == "tab") request.delimiter = "\t";
+  }
+  request.decimal = in.Option("--decimal", request.decimal);
+  if (in.Has("--payload")) request.payload = ParsePayloadFlag(in.Option("--payload"));
+
+  return request;
 }
 
 }  // namespace robocal::cli

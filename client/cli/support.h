@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "command.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/api/wire.h"
 
 namespace robocal::cli {
@@ -37,6 +38,11 @@ class Output {
   std::ostream& out_;
   std::ofstream file_;
 };
+
+/// The import request of a tracker export at `path` in `format` ("sa" or "csv") from the upload options (--unit,
+/// --columns, --joints, --joint-unit, --orientation-columns, --delimiter, --decimal, --encoding, ...): upload
+/// --format and plan --candidates FILE --format csv.
+api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::string& format, const std::string& path);
 
 /// The joints CSV at `path` for `robot`, as a usage error when malformed or empty.
 std::vector<std::vector<double>> ReadJointsFile(const std::string& path, const api::Robot& robot);

@@ -373,7 +373,7 @@ TaskSample SampleTaskConfigurations(const RobotModel& model, const TaskBox& box,
   };
   const std::optional<ArmSolver> solver = box.orientations.empty() ? std::nullopt : ArmSolver::For(model);
   if (solver) {
-    out.method = "inverse_kinematics";
+    out.method = kTaskByInverseKinematics;
     const Eigen::VectorXd reference = 0.5 * (model.lower_limits() + model.upper_limits());
     while (static_cast<int>(out.configurations.size()) < count && out.attempts < max_attempts) {
       ++out.attempts;
@@ -393,7 +393,7 @@ TaskSample SampleTaskConfigurations(const RobotModel& model, const TaskBox& box,
       out.configurations.push_back(reachable[rng.Index(reachable.size())]);
     }
   } else {
-    out.method = "rejection_sampling";
+    out.method = kTaskByRejectionSampling;
     const Transform T_base_world = model.T_world_base().inverse();
     while (static_cast<int>(out.configurations.size()) < count && out.attempts < max_attempts) {
       ++out.attempts;
@@ -410,7 +410,7 @@ TaskSample SampleTaskConfigurations(const RobotModel& model, const TaskBox& box,
   std::ostringstream m;
   m << out.configurations.size() << " of " << count << " task configurations by " << out.method << " in "
     << out.attempts << " attempts";
-  if (out.method == "rejection_sampling") {
+  if (out.method == kTaskByRejectionSampling) {
     m << (box.orientations.empty() ? " (any orientation)"
                                    : " (the model has no closed-form inverse kinematics: orientations not imposed)");
   }

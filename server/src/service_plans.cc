@@ -1,7 +1,9 @@
 // The service's plans: measurement configurations chosen by the requested optimiser.
 #include <cmath>
 #include <memory>
+#include <set>
 
+#include "robocal/core/candidates.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/observability.h"
@@ -13,6 +15,8 @@ namespace robocal::server {
 namespace {
 
 using api::ApiError;
+using api::FieldViolation;
+using api::Problems;
 using api::Status;
 
 std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vector<Eigen::VectorXd>& configurations) {
@@ -40,12 +44,182 @@ void Service::CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed) {
                  {{"cell", reason}});
 }
 
-api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const std::string& plan_id,
-                                 WorkControl& control, const LoadedCell* cell) {
+namespace {
+
+// Joint values of the wire (deg / mm) in the core's units, whatever their count: a candidate with the wrong count is
+// the planner's to reject (MalformedCandidates::kReject), so it is converted as given.
+Eigen::VectorXd AnyJointsToCore(const RobotModel& model, const std::vector<double>& wire) {
+  Eigen::VectorXd q(static_cast<Eigen::Index>(wire.size()));
+  for (std::size_t i = 0; i < wire.size(); ++i) {
+    const bool revolute =
+        static_cast<int>(i) < model.num_joints() && model.joint_type(static_cast<int>(i)) == JointType::kRevolute;
+    q[static_cast<Eigen::Index>(i)] = revolute ? wire[i] * kRadPerDeg : wire[i];
+  }
+  return q;
+}
+
+// Appends `joints` unless it repeats the last pose (shots of one pose in a row), with its `line` (0: none).
+void AddPose(const std::vector<double>& joints, int line, std::vector<std::vector<double>>* poses,
+             std::vector<int>* lines) {
+  if (!poses->empty() && poses->back() == joints) return;
+  poses->push_back(joints);
+  if (line > 0) lines->push_back(line);
+}
+
+// The core's plan options beside the optimiser's own: the request's progress and stop, the cell, the evaluation
+// budget, the candidates and the task.
+struct PlanSetup {
+  std::function<bool(const Eigen::VectorXd&)> feasible;
+  PlanProgressCallback progress;
+  int evaluation_limit = 0;
+  CandidatePool pool;
+  TaskConfigurations task;
+
+  template <typename Options>
+  Options Apply(Options options) const {
+    if constexpr (requires { options.max_evaluations; }) {
+      if (options.max_evaluations == 0) options.max_evaluations = evaluation_limit;
+    }
+    options.progress = progress;
+    options.feasible = feasible;
+    options.candidates = pool;
+    options.task = task;
+    return options;
+  }
+};
+
+Plan RunOptimiser(const RobotModel& model, const api::PlanRequest& req, int n, const ObservabilityOptions& obs,
+                  const PlanSetup& setup) {
+  switch (req.optimiser) {
+    case api::Optimiser::kRandom:
+      return PlanRandom(model, n, obs, setup.Apply(api::ToRandomSelectionOptions(req)));
+    case api::Optimiser::kExchange:
+      return PlanExchange(model, n, obs, setup.Apply(api::ToExchangeOptions(req)));
+    case api::Optimiser::kSolisWets:
+      break;
+  }
+  return PlanSolisWets(model, n, obs, setup.Apply(api::ToSolisWetsOptions(req)));
+}
+
+// "num_configurations": "auto": the predicted error on the task against N over the candidates (a drawn pool of
+// options.num_candidates feasible configurations when the request gives none), and the smallest N that reaches the
+// goal (the range's largest when none does).
+api::PoseCountWire ChooseCount(const RobotModel& model, const api::PlanRequest& req, const ObservabilityOptions& obs,
+                               PlanSetup setup, int* chosen) {
+  if (!setup.pool.given()) {
+    Rng rng(req.seed + 3000017);
+    FeasibleDraws draws;
+    draws.max_draws = static_cast<std::int64_t>(kDefaultMaxDrawsPerConfiguration) * req.options.num_candidates;
+    std::vector<Eigen::VectorXd> pool;
+    DrawFeasibleConfigurations(model, req.options.num_candidates, setup.feasible, &rng, &draws, &pool);
+    setup.pool.configurations = std::make_shared<const std::vector<Eigen::VectorXd>>(std::move(pool));
+  }
+  PoseCountOptions options;
+  for (int n = req.min_configurations; n <= req.max_configurations; ++n) options.num_configurations.push_back(n);
+  options.accuracy_goal_mm = *req.accuracy_goal_mm;
+  options.exchange = setup.Apply(api::ToExchangeOptions(req));
+  options.exchange.objective = api::PlanObjective(req);
+  const PoseCountCurve curve = PlanPoseCount(model, obs, options);
+  if (curve.termination == Termination::kFailure) {
+    throw ApiError(Status::kFailedPrecondition, "no pose count curve: " + curve.message,
+                   {{"min_configurations", curve.message}});
+  }
+  api::PoseCountWire w;
+  w.accuracy_goal_mm = *req.accuracy_goal_mm;
+  w.model_error_mm = obs.model_error_mm;
+  for (const PoseCountPoint& p : curve.points) {
+    w.points.push_back({.num_configurations = p.num_configurations, .predicted_error_mm = p.predicted_error_mm});
+  }
+  w.message = curve.message;
+  if (curve.chosen >= 0) {
+    w.chosen = curve.points[static_cast<std::size_t>(curve.chosen)].num_configurations;
+    *chosen = *w.chosen;
+  } else {
+    *chosen = curve.points.back().num_configurations;
+  }
+  return w;
+}
+
+}  // namespace
+
+Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, const ResolvedRobot& robot) {
+  const RobotModel& model = robot.model;
+  PlanInputs inputs;
+  Problems problems;
+  const bool refuse = !req.candidates || req.candidates->malformed == MalformedCandidates::kThrow;
+  if (req.candidates) {
+    const api::PlanCandidatesWire& c = *req.candidates;
+    std::vector<std::vector<double>> poses;
+    std::string path = "candidates.joints";
+    if (!c.joints.empty()) {
+      poses = c.joints;
+    } else if (!c.campaign.empty()) {
+      path = "candidates.campaign";
+      const api::StoredCampaign campaign = LoadCampaign(c.campaign);
+      if (campaign.robot != req.robot) {
+        throw ApiError(Status::kFailedPrecondition,
+                       "campaign \"" + c.campaign + "\" measured robot " + campaign.robot + ", not " + req.robot,
+                       {{"candidates.campaign", "a campaign of another robot"}});
+      }
+      for (const char* role : {"calibration", "validation"}) {
+        ForEachMeasurement(storage_, c.campaign, role, [&](const StoredMeasurement& m) {
+          AddPose(ReadMeasurement(m).joints, 0, &poses, &inputs.candidate_lines);
+        });
+      }
+      if (poses.empty()) {
+        throw ApiError(Status::kFailedPrecondition, "campaign \"" + c.campaign + "\" has no measurements",
+                       {{"candidates.campaign", "no measurements"}});
+      }
+    } else if (c.file) {
+      path = "candidates.file";
+      Problems read;
+      const std::vector<api::TrackerPoint> points = api::ReadTrackerPoints(*c.file, &read);
+      for (const FieldViolation& v : read.list()) problems.Add(api::JoinPath("candidates.file", v.field), v.reason);
+      problems.ThrowIfAny("invalid plan request");
+      const std::set<int> rows(c.file->rows.begin(), c.file->rows.end());
+      for (const api::TrackerPoint& p : points) {
+        if (!rows.empty() && rows.count(p.line) == 0) continue;
+        AddPose(p.joints_deg, p.line, &poses, &inputs.candidate_lines);
+      }
+    }
+    std::vector<Eigen::VectorXd> configurations;
+    configurations.reserve(poses.size());
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      // A malformed candidate refused names its place (the planner, under kReject, counts it).
+      if (refuse && !api::CheckJoints(model, poses[i], api::IndexPath(path, i), &problems)) continue;
+      configurations.push_back(AnyJointsToCore(model, poses[i]));
+    }
+    inputs.candidates = std::make_shared<const std::vector<Eigen::VectorXd>>(std::move(configurations));
+  }
+  if (req.task && !req.task->joints.empty()) {
+    std::vector<Eigen::VectorXd> task;
+    for (std::size_t i = 0; i < req.task->joints.size(); ++i) {
+      if (api::CheckJoints(model, req.task->joints[i], api::IndexPath("task.joints", i), &problems)) {
+        task.push_back(api::JointsToCore(model, req.task->joints[i]));
+      }
+    }
+    inputs.task = std::make_shared<const std::vector<Eigen::VectorXd>>(std::move(task));
+  }
+  problems.ThrowIfAny("invalid plan request");
+  // A robot registered from a calibration carries its model error: the part of the robot's error no plan
+  // removes, where the predicted error flattens.
+  if (robot.definition.calibrated_from) {
+    try {
+      const api::CalibrationResult calibration = GetCalibration(robot.definition.calibrated_from->campaign);
+      if (calibration.model_error.estimated) inputs.model_error_mm = calibration.model_error.model_error_mm;
+    } catch (const ApiError&) {
+      // The campaign or its calibration is gone: the plan predicts without a model error.
+    }
+  }
+  return inputs;
+}
+
+api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const PlanInputs& inputs,
+                                 const std::string& plan_id, WorkControl& control, const LoadedCell* cell) {
   // In a cell: the joint limits narrowed to its ranges, and every configuration feasible in it.
   const RobotModel model = cell ? cell->cell.PlanningModel(nominal) : nominal;
-  std::function<bool(const Eigen::VectorXd&)> feasible;
-  if (cell) feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
+  PlanSetup setup;
+  if (cell) setup.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   IdentifiabilityOptions id_options;
   id_options.noise = api::ToCore(req.noise, req.tracker);
   id_options.reflectors = api::ToCore(req.reflectors);
@@ -56,57 +230,83 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   }
   ObservabilityOptions obs = api::ToObservabilityOptions(req);
   obs.parameters = ident.identifiable;
+  obs.model_error_mm = inputs.model_error_mm;
   // The cell's tracker (base frame) in the planning model's world frame: the rows of each configuration are
   // whitened by the tracker model at its distance and direction from there.
   if (cell) obs.tracker_position_mm = model.T_world_base() * cell->cell.spec().tracker.position_mm;
   // ParsePlanRequest refused plans whose work exceeds max_plan_evaluations; the limit is also the optimiser's
   // budget, so that no plan can count past it.
-  const int evaluation_limit =
-      static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
-  // What every optimiser shares: the request's progress and stop, the cell, and the evaluation budget.
-  const auto common = [&](auto options) {
-    if constexpr (requires { options.max_evaluations; }) {
-      if (options.max_evaluations == 0) options.max_evaluations = evaluation_limit;
+  setup.evaluation_limit = static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
+  setup.progress = control.Callback();
+  // Candidates: the robot's own limits check them (the cell's ranges then count as the cell's rejections, by
+  // rule, rather than as malformed candidates).
+  if (inputs.candidates) {
+    setup.pool.configurations = inputs.candidates;
+    setup.pool.malformed = req.candidates->malformed;
+    if (cell) {
+      setup.pool.infeasibility_reasons = CellRuleReasons(cell->model, cell->cell);
+      setup.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
     }
-    options.progress = control.Callback();
-    options.feasible = feasible;
-    return options;
-  };
-  Plan plan;
-  switch (req.optimiser) {
-    case api::Optimiser::kRandom:
-      plan = PlanRandom(model, req.num_configurations, obs, common(api::ToRandomSelectionOptions(req)));
-      break;
-    case api::Optimiser::kExchange:
-      plan = PlanExchange(model, req.num_configurations, obs, common(api::ToExchangeOptions(req)));
-      break;
-    case api::Optimiser::kSolisWets:
-      plan = PlanSolisWets(model, req.num_configurations, obs, common(api::ToSolisWetsOptions(req)));
-      break;
+  }
+  api::PlanResult result;
+  setup.task = inputs.task;
+  if (req.task && req.task->box) {
+    const api::TaskBoxWire& box = *req.task->box;
+    TaskBox core_box;
+    core_box.min_mm = Eigen::Vector3d(box.min_mm[0], box.min_mm[1], box.min_mm[2]);
+    core_box.max_mm = Eigen::Vector3d(box.max_mm[0], box.max_mm[1], box.max_mm[2]);
+    for (const auto& rpy : box.orientations_rpy_deg) {
+      api::PoseWire pose;
+      Problems ignored;
+      api::ParsePose({{"position_mm", {0, 0, 0}}, {"rpy_deg", {rpy[0], rpy[1], rpy[2]}}}, "", true, &ignored, &pose);
+      core_box.orientations.push_back(api::PoseToTransform(pose).linear());
+    }
+    const TaskSample sample = SampleTaskConfigurations(model, core_box, box.count, req.seed + 4000037);
+    if (sample.configurations.empty()) {
+      throw ApiError(Status::kFailedPrecondition, "task box out of reach: " + sample.message,
+                     {{"task.box", "no configuration of the robot reaches it: " + sample.message}});
+    }
+    result.task_method = sample.method;
+    setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(sample.configurations);
   }
 
-  if (cell && plan.summary.termination == Termination::kFailure) {
-    throw ApiError(Status::kFailedPrecondition, "no plan within cell \"" + cell->wire.id + "\": " + plan.summary.message,
-                   {{"cell", plan.summary.message}});
+  int n = req.num_configurations;
+  if (req.num_configurations_auto) result.pose_count = ChooseCount(model, req, obs, setup, &n);
+  const Plan plan = RunOptimiser(model, req, n, obs, setup);
+  if (plan.summary.termination == Termination::kFailure) {
+    if (setup.pool.given()) {
+      throw ApiError(Status::kFailedPrecondition, "no plan from the candidates: " + plan.summary.message,
+                     {{"num_configurations", plan.summary.message}});
+    }
+    if (cell) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "no plan within cell \"" + cell->wire.id + "\": " + plan.summary.message,
+                     {{"cell", plan.summary.message}});
+    }
   }
 
-  // The paper's baseline: one random set of the same size (seeded from the plan's seed), in the same cell.
+  // The paper's baseline: one random set of the same size (seeded from the plan's seed), in the same cell, from
+  // the same candidates.
   RandomSelectionOptions baseline_options;
   baseline_options.seed = req.seed + 1000003;
-  baseline_options.objective = req.objective;
-  baseline_options.feasible = feasible;
+  baseline_options.objective = api::PlanObjective(req);
+  baseline_options.feasible = setup.feasible;
+  baseline_options.candidates = setup.pool;
+  baseline_options.task = setup.task;
   // The census found at least 1 in 100 feasible: 500 draws per configuration leave a wide margin.
   constexpr int kDrawsPerConfiguration = 500;
   baseline_options.max_draws_per_configuration = kDrawsPerConfiguration;
-  const Plan baseline = PlanRandom(model, req.num_configurations, obs, baseline_options);
-  // The predicted accuracy's validation configurations: random, and in a cell feasible in it.
+  const Plan baseline = PlanRandom(model, n, obs, baseline_options);
+  // The predicted accuracy's validation configurations: the task, or random (in a cell feasible in it).
   Rng rng(req.seed + 2000003);
   std::vector<Eigen::VectorXd> validation;
   bool validation_drawn = true;
-  if (feasible) {
+  if (setup.task) {
+    validation = *setup.task;
+  } else if (setup.feasible) {
     FeasibleDraws draws;
     draws.max_draws = static_cast<std::int64_t>(kDrawsPerConfiguration) * std::max(1, req.num_validation);
-    validation_drawn = DrawFeasibleConfigurations(model, req.num_validation, feasible, &rng, &draws, &validation);
+    validation_drawn = DrawFeasibleConfigurations(model, req.num_validation, setup.feasible, &rng, &draws, &validation);
   } else {
     validation = RandomConfigurations(model, req.num_validation, &rng);
   }
@@ -119,12 +319,11 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
                    {{"cell", "too little feasible for " + what}});
   }
 
-  api::PlanResult result;
   result.id = plan_id;
   result.robot = req.robot;
   result.request = req;
   result.measurement_type = req.measurement_type;
-  result.objective = req.objective;
+  result.objective = api::PlanObjective(req);
   result.optimiser = req.optimiser;
   for (int i = 0; i < model.num_joints(); ++i) result.joint_units.emplace_back(api::JointUnit(model, i));
   result.configurations = ToWire(model, plan.configurations);
@@ -145,12 +344,32 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
       result.configuration_checks.push_back(api::ToWire(CheckConfiguration(cell->model, cell->cell, q)));
     }
   }
+  if (setup.pool.given()) {
+    result.candidate_indices = plan.candidate_indices;
+    for (int k : plan.candidate_indices) {
+      if (static_cast<std::size_t>(k) < inputs.candidate_lines.size()) {
+        result.candidate_lines.push_back(inputs.candidate_lines[static_cast<std::size_t>(k)]);
+      }
+    }
+    result.candidates = api::ToWire(plan.summary.candidates);
+    // The coverage of the candidates the planner could use (every one, as the check found them).
+    std::vector<Eigen::VectorXd> usable;
+    for (const Eigen::VectorXd& q : *inputs.candidates) {
+      if (q.size() == model.num_joints() && q.allFinite() && model.WithinLimits(q) &&
+          (!setup.feasible || setup.feasible(q))) {
+        usable.push_back(q);
+      }
+    }
+    if (!usable.empty()) result.coverage = api::ToWire(model, AnalyseCoverage(model, obs, usable));
+  }
   return result;
 }
 
 PlanReply Service::CreatePlan(const nlohmann::json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
-  const RobotModel model = ResolveRobot(req.robot).model;  // NOT_FOUND before any work or operation is created
+  const ResolvedRobot robot = ResolveRobot(req.robot);  // NOT_FOUND before any work or operation is created
+  const RobotModel& model = robot.model;
+  const PlanInputs inputs = ResolvePlanInputs(req, robot);
   std::shared_ptr<const LoadedCell> cell;
   if (!req.cell.empty()) {
     cell = std::make_shared<const LoadedCell>(LoadCell(req.cell));
@@ -174,7 +393,7 @@ PlanReply Service::CreatePlan(const nlohmann::json& body) {
   if (!req.async) {
     const TrimWhenDone trim(&trimmer_, true);
     WorkControl control(std::chrono::steady_clock::now() + options_.request_deadline);
-    api::PlanResult plan = RunPlan(planned, req, plan_id, control, cell.get());
+    api::PlanResult plan = RunPlan(planned, req, inputs, plan_id, control, cell.get());
     if (control.stop() == Stop::kDeadline) {
       DescribeDeadlineStop(options_.request_deadline, "the best set so far", "use async: true for longer searches",
                            &plan.summary);
@@ -186,8 +405,8 @@ PlanReply Service::CreatePlan(const nlohmann::json& body) {
   op.id = NewId("op");
   op.kind = api::OperationKind::kPlan;
   op.plan_request = req;
-  return operations_.Start(op, [this, planned, req, plan_id, cell](WorkControl& control, api::Operation* done) {
-    const api::PlanResult plan = RunPlan(planned, req, plan_id, control, cell.get());
+  return operations_.Start(op, [this, planned, req, inputs, plan_id, cell](WorkControl& control, api::Operation* done) {
+    const api::PlanResult plan = RunPlan(planned, req, inputs, plan_id, control, cell.get());
     if (!control.StillOwned()) return;  // taken over and marked FAILED: nothing of it is stored
     storage_->Create(kPlans, plan_id, nlohmann::json(api::StoredPlan{plan}).dump());
     done->plan = plan_id;

@@ -105,6 +105,8 @@ class SpecChecker {
       Fail(at, "missing: the table has this key");
       return;
     }
+    // A member its parser reads apart (joint vectors, a list or an object): its form is the parser's to state.
+    if (role == Role::kRequest && row.request.apart) return;
     Member<M>(Target(at), role, row.request);
   }
   template <typename T, typename Row_>

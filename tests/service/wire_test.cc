@@ -209,12 +209,14 @@ TEST_F(WireTest, RobotsRoundTripAndRequireEveryField) {
 
 TEST_F(WireTest, PlansAndOperationsRoundTripAndRequireEveryField) {
   ExpectRoundTrip(plan_);
-  ExpectEveryFieldRequired(plan_, {});
+  // Plans stored before "auto" lack its range.
+  ExpectEveryFieldRequired(plan_, {"request.min_configurations", "request.max_configurations"});
   EXPECT_EQ(service_->GetPlan(plan_.id).configurations, plan_.configurations);
   ASSERT_EQ(operation_.state, OperationState::kSucceeded);
   ASSERT_TRUE(operation_.plan.has_value());
   ExpectRoundTrip(operation_);
-  ExpectEveryFieldRequired(operation_, {"request", "result", "campaign"});
+  ExpectEveryFieldRequired(
+      operation_, {"request", "result", "campaign", "request.min_configurations", "request.max_configurations"});
 }
 
 TEST_F(WireTest, CampaignsAndMeasurementsRoundTripAndRequireEveryField) {
@@ -746,7 +748,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
                                                                   {"scope", WireNames<FitScope>()},
                                                                   {"dialect", WireNames<programs::Dialect>()},
                                                                   {"on_failure", WireNames<programs::OnFailure>()},
-                                                                  {"cause", WireNames<OutlierMeasurement::Cause>()}};
+                                                                  {"cause", WireNames<OutlierMeasurement::Cause>()},
+                                                                  {"malformed", WireNames<MalformedCandidates>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
@@ -756,7 +759,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/Calibration/properties/parameters/items.unit", ParameterUnits()},
       {"/components/schemas/Calibration/properties/parameters_with_outliers/items.unit", ParameterUnits()},
       {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
-       WireNames<programs::TargetKind>()}};
+       WireNames<programs::TargetKind>()},
+      {"/components/schemas/Plan.task_method", {kTaskByInverseKinematics, kTaskByRejectionSampling}}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {{"ok"},        {"tracker"},   {"world (nominal base)"},
                                                     {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

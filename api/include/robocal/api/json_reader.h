@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <span>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "robocal/api/error.h"
@@ -122,6 +124,11 @@ template <typename M>
 inline constexpr bool kIsShapeList = false;
 template <typename E>
 inline constexpr bool kIsShapeList<std::vector<E>> = kHasRequestReader<E> || kHasWireFields<E>;
+// A list of fixed-size number arrays (orientations as [r, p, y]).
+template <typename M>
+inline constexpr bool kIsNumberArrayList = false;
+template <std::size_t N>
+inline constexpr bool kIsNumberArrayList<std::vector<std::array<double, N>>> = true;
 
 /// "must be in [min, max], got x" at `path` when x is outside the rule's range.
 bool InRange(double x, const RequestRule& rule, const std::string& path, Problems* problems);
@@ -189,6 +196,26 @@ bool ReadRequestValue(ObjectReader& r, const char* key, const RequestRule& rule,
     }
     if (ok) *out = std::move(read);
     return ok;
+  } else if constexpr (kIsNumberArrayList<M>) {
+    using E = typename M::value_type;
+    const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000);
+    if (list == nullptr) return false;
+    M values(list->size());
+    bool ok = true;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const std::string path = IndexPath(JoinPath(r.path(), key), i);
+      std::vector<double> numbers;
+      if (!ReadNumberArray((*list)[i], path, problems, &numbers, std::tuple_size_v<E>, std::tuple_size_v<E>)) {
+        ok = false;
+        continue;
+      }
+      for (std::size_t k = 0; k < numbers.size(); ++k) {
+        ok = InRange(numbers[k], rule, IndexPath(path, k), problems) && ok;
+        values[i][k] = numbers[k];
+      }
+    }
+    if (ok) *out = std::move(values);
+    return ok;
   } else if constexpr (kIsShapeList<M>) {
     using E = typename M::value_type;
     const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000);
@@ -218,7 +245,8 @@ constexpr bool Readable() {
     return Readable<typename M::value_type>();
   } else {
     return std::is_arithmetic_v<M> || kIsWireEnum<M> || std::is_same_v<M, std::string> || kIsNumberArray<M> ||
-           std::is_same_v<M, std::vector<double>> || kHasRequestReader<M> || kHasWireFields<M> || kIsShapeList<M>;
+           std::is_same_v<M, std::vector<double>> || kHasRequestReader<M> || kHasWireFields<M> || kIsShapeList<M> ||
+           kIsNumberArrayList<M>;
   }
 }
 // A row ReadRequest reads, or one it may leave: every Field row a request may set has a readable type or is
@@ -256,13 +284,30 @@ void ReadRequestRow(ObjectReader&, T*, const Row&) {}  // Computed and Nested ro
 
 }  // namespace detail
 
+namespace detail {
+// Row I of T's table, unless it is Apart() or kServerOnly: decided at compile time, so that the reading of a
+// member the parser reads itself is never instantiated (its type may be one ReadRequest cannot read).
+template <typename T, std::size_t I>
+void ReadRowAt(ObjectReader& r, T* out) {
+  constexpr const auto& row = std::get<I>(WireFields<T>::fields);
+  if constexpr (requires { row.request; }) {
+    if constexpr (!row.request.apart && row.presence != Presence::kServerOnly) ReadRequestRow(r, out, row);
+  }
+}
+template <typename T, std::size_t... I>
+void ReadRows(ObjectReader& r, T* out, std::index_sequence<I...>) {
+  (ReadRowAt<T, I>(r, out), ...);
+}
+}  // namespace detail
+
 template <typename T>
 void ReadRequest(ObjectReader& r, T* out) {
   static_assert(
       std::apply([](const auto&... row) { return (detail::RowReadOrLeft(row) && ...); }, WireFields<T>::fields),
       "a row of this table has a type ReadRequest cannot read: mark it Apart() and read it in the "
       "parser, or give the type a RequestReader");
-  std::apply([&](const auto&... row) { (detail::ReadRequestRow(r, out, row), ...); }, WireFields<T>::fields);
+  detail::ReadRows(r, out,
+                   std::make_index_sequence<std::tuple_size_v<std::remove_cvref_t<decltype(WireFields<T>::fields)>>>{});
 }
 
 template <typename T>

@@ -11,7 +11,9 @@
 
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/api/wire.h"
+#include "robocal/core/candidates.h"
 #include "robocal/core/planning.h"
 
 namespace robocal::api {
@@ -42,13 +44,82 @@ struct WireFields<PlanOptionsWire> {
 };
 ROBOCAL_WIRE_DECLARE(PlanOptionsWire);
 
+/// A plan's "candidates": the cell's own configurations, of which the plan picks N (docs/planning.md, "Plans from
+/// the cell's own configurations"). Exactly one source: joint vectors (deg / mm; a request may give the list
+/// itself as "candidates"), the joints of a campaign's measurements (each pose once), or a tracker export with
+/// joint columns, read as measurements:import reads it (rows with equal joints are one pose).
+struct PlanCandidatesWire {
+  std::vector<std::vector<double>> joints;
+  std::string campaign;
+  /// An import request's members (format "csv" with "joints"; request_id and role are not needed).
+  std::optional<ImportMeasurementsRequest> file;
+  /// A candidate with the wrong joint count, a non-finite value or one beyond the limits: "refuse" the request
+  /// (400 naming it) or "reject" it (counted with its reason, as the cell's rejections are).
+  MalformedCandidates malformed = MalformedCandidates::kThrow;
+};
+template <>
+struct WireFields<PlanCandidatesWire> {
+  using S = PlanCandidatesWire;
+  static constexpr auto fields = std::make_tuple(
+      // Joint vectors and the file are read by ParsePlanRequest (a list, or an import request's members).
+      Field{"joints", &S::joints, Presence::kOmitEmpty}.Apart().Size(1, 0),
+      Field{"campaign", &S::campaign, Presence::kOmitEmpty}.Size(0, 64).Rule(&IsValidId, kIdRule),
+      Field{"file", &S::file, Presence::kOmitEmpty}.Apart(), Field{"malformed", &S::malformed});
+};
+ROBOCAL_WIRE_DECLARE(PlanCandidatesWire);
+
+/// A task box: the tool point in an axis-aligned box of the robot's base frame (mm), in one of the given
+/// orientations of the tool (fixed-axis roll, pitch, yaw in degrees, R = Rz(y) Ry(p) Rx(r), base frame; none: any
+/// orientation), `count` configurations drawn from it (seeded by the plan's seed).
+struct TaskBoxWire {
+  std::array<double, 3> min_mm{0.0, 0.0, 0.0};
+  std::array<double, 3> max_mm{0.0, 0.0, 0.0};
+  std::vector<std::array<double, 3>> orientations_rpy_deg;
+  int count = 50;
+};
+template <>
+struct WireFields<TaskBoxWire> {
+  using S = TaskBoxWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"min_mm", &S::min_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+      Field{"max_mm", &S::max_mm}.Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+      Field{"orientations_rpy_deg", &S::orientations_rpy_deg, Presence::kOmitEmpty}.Size(0, 100).Range(-360.0, 360.0),
+      Field{"count", &S::count}.Range(1, 10000));
+  /// min_mm <= max_mm per axis.
+  static void CheckRequest(const S& box, const std::string& path, Problems* problems);
+};
+ROBOCAL_WIRE_DECLARE(TaskBoxWire);
+
+/// The poses the robot will work in, for the predicted_error objective and the predicted accuracy: joint
+/// vectors (deg / mm), or a box in the base frame with orientations.
+struct PlanTaskWire {
+  std::vector<std::vector<double>> joints;
+  std::optional<TaskBoxWire> box;
+};
+template <>
+struct WireFields<PlanTaskWire> {
+  using S = PlanTaskWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"joints", &S::joints, Presence::kOmitEmpty}.Apart().Size(1, 10000),
+                      Field{"box", &S::box, Presence::kOmitEmpty});
+};
+ROBOCAL_WIRE_DECLARE(PlanTaskWire);
+
 struct PlanRequest {
   std::string robot;
   /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
   std::string cell;
+  /// On the wire a number, or "auto" (num_configurations_auto): the smallest N in [min_configurations,
+  /// max_configurations] whose predicted error on the task reaches accuracy_goal_mm.
   int num_configurations = 10;
+  bool num_configurations_auto = false;
+  int min_configurations = 6;
+  int max_configurations = 60;
+  std::optional<double> accuracy_goal_mm;
   MeasurementType measurement_type = MeasurementType::kPose;
-  ObservabilityIndex objective = ObservabilityIndex::kConditionNumber;
+  /// Unset: condition_number (the paper's) for a drawn plan; for a plan from candidates log_det, or
+  /// predicted_error with a task (PlanObjective).
+  std::optional<ObservabilityIndex> objective;
   Optimiser optimiser = Optimiser::kSolisWets;
   ColumnScaling scaling = ColumnScaling::kColumnNorm;
   NoiseWire noise;
@@ -64,21 +135,38 @@ struct PlanRequest {
   /// Run as a long-running operation.
   bool async = false;
   PlanOptionsWire options;
+  /// The cell's own configurations to choose from; unset: the planner draws configurations itself.
+  std::optional<PlanCandidatesWire> candidates;
+  /// The poses the robot will work in (predicted_error's sample and the predicted accuracy's); unset: num_validation
+  /// random configurations.
+  std::optional<PlanTaskWire> task;
 };
+/// The objective a request plans with (its own, or the default for its kind of plan).
+ObservabilityIndex PlanObjective(const PlanRequest& request);
+namespace detail {
+bool WriteNumConfigurations(const PlanRequest& request, nlohmann::json* value);
+void ReadNumConfigurations(const nlohmann::json* value, const std::string& path, PlanRequest* request);
+}  // namespace detail
 template <>
 struct WireFields<PlanRequest> {
   using S = PlanRequest;
-  static constexpr auto fields =
-      std::make_tuple(Field{"robot", &S::robot}.Mandatory().Size(0, 64),
-                      Field{"cell", &S::cell, Presence::kOmitEmpty}.Size(0, 64).Rule(&IsValidId, kIdRule),
-                      Field{"num_configurations", &S::num_configurations}.Range(1, std::numeric_limits<int>::max()),
-                      Field{"measurement_type", &S::measurement_type}, Field{"objective", &S::objective},
-                      Field{"optimiser", &S::optimiser}, Field{"scaling", &S::scaling}, Field{"noise", &S::noise},
-                      Field{"tracker", &S::tracker, Presence::kOmitEmpty},
-                      Field{"reflectors", &S::reflectors, Presence::kOmitEmpty}.Size(0, kMaxPlanReflectors),
-                      Field{"seed", &S::seed}, Field{"num_validation", &S::num_validation}.Range(1, 10000),
-                      Field{"async", &S::async}, Field{"options", &S::options});
-  /// Reflectors named once and with position measurements.
+  static constexpr auto fields = std::make_tuple(
+      Field{"robot", &S::robot}.Mandatory().Size(0, 64),
+      Field{"cell", &S::cell, Presence::kOmitEmpty}.Size(0, 64).Rule(&IsValidId, kIdRule),
+      // A number or "auto": the parser reads it.
+      Computed<S>{"num_configurations", &detail::WriteNumConfigurations, &detail::ReadNumConfigurations, true},
+      Field{"min_configurations", &S::min_configurations, Presence::kOptionalOnRead}.Range(1, 1000),
+      Field{"max_configurations", &S::max_configurations, Presence::kOptionalOnRead}.Range(1, 1000),
+      Field{"accuracy_goal_mm", &S::accuracy_goal_mm, Presence::kOmitEmpty}.Range(1e-6, 1e3),
+      Field{"measurement_type", &S::measurement_type}, Field{"objective", &S::objective, Presence::kOmitEmpty},
+      Field{"optimiser", &S::optimiser}, Field{"scaling", &S::scaling}, Field{"noise", &S::noise},
+      Field{"tracker", &S::tracker, Presence::kOmitEmpty},
+      Field{"reflectors", &S::reflectors, Presence::kOmitEmpty}.Size(0, kMaxPlanReflectors), Field{"seed", &S::seed},
+      Field{"num_validation", &S::num_validation}.Range(1, 10000), Field{"async", &S::async},
+      Field{"options", &S::options},
+      // A list of joint vectors or the object: the parser reads it.
+      Field{"candidates", &S::candidates, Presence::kOmitEmpty}.Apart(), Field{"task", &S::task, Presence::kOmitEmpty});
+  /// Reflectors named once and with position measurements; "auto" with its goal and range.
   static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };
 ROBOCAL_WIRE_DECLARE(PlanRequest);
@@ -201,6 +289,119 @@ struct WireFields<PlanBaseline> {
 };
 ROBOCAL_WIRE_DECLARE(PlanBaseline);
 
+/// A reason candidates were rejected: how many, and the first few (0-based indices into the candidates).
+struct CandidateRejectionWire {
+  std::string reason;
+  int count = 0;
+  std::vector<int> first_indices;
+};
+template <>
+struct WireFields<CandidateRejectionWire> {
+  using S = CandidateRejectionWire;
+  static constexpr auto fields = std::make_tuple(Field{"reason", &S::reason}, Field{"count", &S::count},
+                                                 Field{"first_indices", &S::first_indices});
+};
+ROBOCAL_WIRE_DECLARE(CandidateRejectionWire);
+
+/// The candidates a plan chose from: how many were given, how many it could use, and why the others were not.
+struct CandidateAccountWire {
+  int num_candidates = 0;
+  int num_usable = 0;
+  std::vector<CandidateRejectionWire> rejected;
+};
+template <>
+struct WireFields<CandidateAccountWire> {
+  using S = CandidateAccountWire;
+  static constexpr auto fields = std::make_tuple(Field{"num_candidates", &S::num_candidates},
+                                                 Field{"num_usable", &S::num_usable}, Field{"rejected", &S::rejected});
+};
+ROBOCAL_WIRE_DECLARE(CandidateAccountWire);
+CandidateAccountWire ToWire(const CandidateAccount& account);
+
+/// The range one joint's candidates cover against its limits, in the joint's unit (deg / mm).
+struct JointCoverageWire {
+  std::string joint;
+  double min = 0.0;
+  double max = 0.0;
+  double lower_limit = 0.0;
+  double upper_limit = 0.0;
+  /// (max - min) / (upper_limit - lower_limit).
+  double fraction = 0.0;
+  /// Named in the warning: spreading this joint alone would determine a poorly determined parameter.
+  bool too_narrow = false;
+};
+template <>
+struct WireFields<JointCoverageWire> {
+  using S = JointCoverageWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"joint", &S::joint}, Field{"min", &S::min}, Field{"max", &S::max}, Field{"lower_limit", &S::lower_limit},
+      Field{"upper_limit", &S::upper_limit}, Field{"fraction", &S::fraction}, Field{"too_narrow", &S::too_narrow});
+};
+ROBOCAL_WIRE_DECLARE(JointCoverageWire);
+
+/// A parameter the candidates determine far worse than as many spread configurations would: its predicted std
+/// over the spread reference's (null: the candidates do not determine it at all).
+struct PoorlyDeterminedWire {
+  std::string parameter;
+  double std_ratio = 0.0;
+};
+template <>
+struct WireFields<PoorlyDeterminedWire> {
+  using S = PoorlyDeterminedWire;
+  static constexpr auto fields = std::make_tuple(Field{"parameter", &S::parameter}, Field{"std_ratio", &S::std_ratio});
+};
+ROBOCAL_WIRE_DECLARE(PoorlyDeterminedWire);
+
+/// How well the candidates cover the joints and determine the parameters (docs/planning.md, "Coverage").
+struct CoverageWire {
+  std::vector<JointCoverageWire> joints;
+  std::vector<PoorlyDeterminedWire> poorly_determined;
+  /// Empty when every parameter is determined well enough.
+  std::string warning;
+};
+template <>
+struct WireFields<CoverageWire> {
+  using S = CoverageWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"joints", &S::joints}, Field{"poorly_determined", &S::poorly_determined}, Field{"warning", &S::warning});
+};
+ROBOCAL_WIRE_DECLARE(CoverageWire);
+CoverageWire ToWire(const RobotModel& model, const CandidateCoverage& coverage);
+
+/// One point of the predicted error on the task against N.
+struct PoseCountPointWire {
+  int num_configurations = 0;
+  /// mm; null when the set does not determine every parameter.
+  double predicted_error_mm = 0.0;
+};
+template <>
+struct WireFields<PoseCountPointWire> {
+  using S = PoseCountPointWire;
+  static constexpr auto fields = std::make_tuple(Field{"num_configurations", &S::num_configurations},
+                                                 Field{"predicted_error_mm", &S::predicted_error_mm});
+};
+ROBOCAL_WIRE_DECLARE(PoseCountPointWire);
+
+/// "num_configurations": "auto": the curve a user reads to decide, and the N it chose.
+struct PoseCountWire {
+  double accuracy_goal_mm = 0.0;
+  /// The robot's model error the prediction includes (mm, RMS; 0 without an earlier calibration).
+  double model_error_mm = 0.0;
+  std::vector<PoseCountPointWire> points;
+  /// The smallest N whose prediction reaches the goal (null: none in the range does; the plan then has the
+  /// range's largest N).
+  std::optional<int> chosen;
+  std::string message;
+};
+template <>
+struct WireFields<PoseCountWire> {
+  using S = PoseCountWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"accuracy_goal_mm", &S::accuracy_goal_mm}, Field{"model_error_mm", &S::model_error_mm},
+                      Field{"points", &S::points}, Field{"chosen", &S::chosen}, Field{"message", &S::message});
+};
+ROBOCAL_WIRE_DECLARE(PoseCountWire);
+
 /// POST /v1/plans (synchronous) and GET /v1/plans/{plan}.
 struct PlanResult {
   std::string id;
@@ -224,28 +425,34 @@ struct PlanResult {
   /// in it (one per configuration; empty without a cell).
   std::optional<std::string> cell;
   std::vector<ConfigurationCheckWire> configuration_checks;
+  /// A plan from candidates: each configuration's 0-based index into the candidates, with its 1-based line of the
+  /// file for candidates from a tracker export; the candidates' account and coverage.
+  std::vector<int> candidate_indices;
+  std::vector<int> candidate_lines;
+  std::optional<CandidateAccountWire> candidates;
+  std::optional<CoverageWire> coverage;
+  /// "num_configurations": "auto".
+  std::optional<PoseCountWire> pose_count;
+  /// A task box: how its configurations were found ("inverse_kinematics" or "rejection_sampling").
+  std::optional<std::string> task_method;
 };
 template <>
 struct WireFields<PlanResult> {
   using S = PlanResult;
   static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id},
-      Field{"robot", &S::robot},
-      Field{"request", &S::request},
-      Field{"measurement_type", &S::measurement_type},
-      Field{"objective", &S::objective},
-      Field{"optimiser", &S::optimiser},
-      Field{"joint_units", &S::joint_units},
-      Field{"configurations", &S::configurations},
-      Field{"indices", &S::indices},
-      Field{"baseline", &S::baseline},
+      Field{"id", &S::id}, Field{"robot", &S::robot}, Field{"request", &S::request},
+      Field{"measurement_type", &S::measurement_type}, Field{"objective", &S::objective},
+      Field{"optimiser", &S::optimiser}, Field{"joint_units", &S::joint_units},
+      Field{"configurations", &S::configurations}, Field{"indices", &S::indices}, Field{"baseline", &S::baseline},
       Field{"identifiable_parameters", &S::identifiable_parameters},
-      Field{"dropped_parameters", &S::dropped_parameters},
-      Field{"predicted_accuracy", &S::predicted_accuracy},
-      Field{"summary", &S::summary},
-      Field{"created_unix_ms", &S::created_unix_ms},
-      Field{"cell", &S::cell},
-      Field{"configuration_checks", &S::configuration_checks});
+      Field{"dropped_parameters", &S::dropped_parameters}, Field{"predicted_accuracy", &S::predicted_accuracy},
+      Field{"summary", &S::summary}, Field{"created_unix_ms", &S::created_unix_ms}, Field{"cell", &S::cell},
+      Field{"configuration_checks", &S::configuration_checks},
+      Field{"candidate_indices", &S::candidate_indices, Presence::kOmitEmpty},
+      Field{"candidate_lines", &S::candidate_lines, Presence::kOmitEmpty},
+      Field{"candidates", &S::candidates, Presence::kOmitEmpty}, Field{"coverage", &S::coverage, Presence::kOmitEmpty},
+      Field{"pose_count", &S::pose_count, Presence::kOmitEmpty},
+      Field{"task_method", &S::task_method, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(PlanResult);
 

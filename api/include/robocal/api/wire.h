@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -24,13 +25,12 @@
 #include <utility>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "robocal/api/error.h"
 #include "robocal/core/cell.h"
 #include "robocal/core/compensation.h"
 #include "robocal/core/error_model.h"
 #include "robocal/core/observability.h"
+#include "robocal/core/planning.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
 #include "robocal/core/transforms.h"
@@ -76,6 +76,7 @@ ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Opt
 ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
 ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
 ROBOCAL_API_ENUM_TABLE(FitScope, FitScope::kAll, FitScope::kFrames);
+ROBOCAL_API_ENUM_TABLE(MalformedCandidates, MalformedCandidates::kThrow, MalformedCandidates::kReject);
 ROBOCAL_API_ENUM_TABLE(OperationState, OperationState::kRunning, OperationState::kSucceeded, OperationState::kFailed,
                        OperationState::kCancelled);
 ROBOCAL_API_ENUM_TABLE(CellRule, CellRule::kJointRange, CellRule::kObstacle, CellRule::kSelfCollision,

@@ -110,6 +110,10 @@ struct TaskBox {
   std::vector<Eigen::Matrix3d> orientations;
 };
 
+/// TaskSample::method's values.
+inline constexpr const char* kTaskByInverseKinematics = "inverse_kinematics";
+inline constexpr const char* kTaskByRejectionSampling = "rejection_sampling";
+
 struct TaskSample {
   /// Joint vectors within the model's limits (rad / mm), at most the count asked for.
   std::vector<Eigen::VectorXd> configurations;

@@ -165,8 +165,18 @@ class Service {
   /// The campaign resource of a stored campaign (counts and calibrated from the storage).
   api::Campaign CampaignResource(const api::StoredCampaign& stored);
   /// Computes a plan for `model` (the resolved request.robot) under `control`, feasible in `cell` if given.
-  api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
-                          WorkControl& control, const LoadedCell* cell);
+  // What a plan is made from beside its request, resolved before any work starts: the candidates in core units
+  // (null: none; with each one's file line for a tracker export), the task's joint vectors, and the robot's model
+  // error from the calibration it was registered from (0 without one).
+  struct PlanInputs {
+    std::shared_ptr<const std::vector<Eigen::VectorXd>> candidates;
+    std::vector<int> candidate_lines;
+    std::shared_ptr<const std::vector<Eigen::VectorXd>> task;
+    double model_error_mm = 0.0;
+  };
+  PlanInputs ResolvePlanInputs(const api::PlanRequest& request, const ResolvedRobot& robot);
+  api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const PlanInputs& inputs,
+                          const std::string& plan_id, WorkControl& control, const LoadedCell* cell);
   /// FAILED_PRECONDITION when a sample of the cell's joint ranges finds (almost) nothing feasible.
   void CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed);
   /// A campaign's nominal model and stored calibration (FAILED_PRECONDITION if not calibrated yet).
