@@ -707,6 +707,8 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
                                 "' has " + std::to_string(nominal.num_error_parameters()) + " error parameters and " +
                                 std::to_string(options.reflectors.size()) + " reflector(s)");
   }
+  // Every prior named must name a parameter: a mistyped name would otherwise leave it without one, silently.
+  if (options.priors) PriorStd(nominal, *options.priors, options.reflectors);
   const ParameterSelection selection = SelectParameters(nominal, measurements, options);
   RobustFit robust(nominal, options, selection);
   Calibration all = robust.Fit(measurements, options.reject_outliers, nullptr);
