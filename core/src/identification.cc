@@ -221,6 +221,7 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   for (int j : id.identifiable) out.parameters.push_back(fit_index(j));
   for (DroppedParameter d : id.dropped) {
     d.index = fit_index(d.index);
+    if (d.alias >= 0) d.alias = fit_index(d.alias);
     out.dropped.push_back(std::move(d));
   }
   // Every coefficient of every map (their constant, the joint's offset, is held by the constraint rows: Problem).

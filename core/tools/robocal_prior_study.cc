@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -139,7 +140,7 @@ int main(int argc, char** argv) {
   int seeds = 5;
   robocal::PriorChoiceOptions choice;
   try {
-    for (const auto& [flag, value] : SplitFlags(args, {})) {
+    for (const auto& [flag, value] : SplitFlags(args, {"--free-frames"})) {
       if (flag == "--csv") {
         csv = value;
       } else if (flag == "--n") {
@@ -148,6 +149,18 @@ int main(int argc, char** argv) {
           sizes.push_back(static_cast<int>(ParseIntegerFlag(flag, n, 10, 1000)));
       } else if (flag == "--seeds") {
         seeds = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000));
+      } else if (flag == "--free-frames") {
+        // No prior on the base and tool sites (the tracker's registration and a hand-mounted tool).
+        const double inf = std::numeric_limits<double>::infinity();
+        choice.priors.base_length_mm = choice.priors.base_angle_rad = inf;
+        choice.priors.tool_length_mm = choice.priors.tool_angle_rad = inf;
+      } else if (flag == "--free") {
+        for (const std::string& name : SplitList(flag, value))
+          choice.priors.parameters[name] = std::numeric_limits<double>::infinity();
+      } else if (flag == "--scales") {
+        choice.scales.clear();
+        for (const std::string& x : SplitList(flag, value))
+          choice.scales.push_back(x == "inf" ? std::numeric_limits<double>::infinity() : std::stod(x));
       } else if (flag == "--folds") {
         choice.folds = static_cast<int>(ParseIntegerFlag(flag, value, 2, 20));
       } else {

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,12 +28,13 @@ TEST(PriorStdTest, DefaultsByKindGroupsAndNames) {
   const auto at = [&](const Eigen::VectorXd& s, const std::string& name) { return s[model.ParameterIndex(name)]; };
   const Eigen::VectorXd d = DefaultPriorStd(model);
   ASSERT_EQ(d.size(), model.num_error_parameters());
-  EXPECT_EQ(at(d, "base.dx"), kDefaultPriorLengthMm);
-  EXPECT_EQ(at(d, "base.rz"), kDefaultPriorAngleRad);
+  // The frames (base and tool sites) have none by default.
+  EXPECT_EQ(at(d, "base.dx"), kInf);
+  EXPECT_EQ(at(d, "base.rz"), kInf);
   EXPECT_EQ(at(d, "joint2.dz"), kDefaultPriorLengthMm);
   EXPECT_EQ(at(d, "joint2.rx"), kDefaultPriorAngleRad);
   EXPECT_EQ(at(d, "joint2.rz"), kDefaultPriorJointOffsetRad);
-  EXPECT_EQ(at(d, "tool.dz"), kDefaultPriorLengthMm);
+  EXPECT_EQ(at(d, "tool.dz"), kInf);
   EXPECT_DOUBLE_EQ(kDefaultPriorAngleRad, 0.1 * M_PI / 180.0);
   EXPECT_EQ(at(DefaultPriorStd(model, 2.0), "joint4.dy"), 2.0 * kDefaultPriorLengthMm);
 
@@ -49,8 +51,8 @@ TEST(PriorStdTest, DefaultsByKindGroupsAndNames) {
   EXPECT_EQ(at(s, "joint3.ry"), 2e-3);
   EXPECT_EQ(at(s, "joint3.rz"), 4e-3);
   EXPECT_EQ(at(s, "tool.dy"), 6.0);
-  EXPECT_EQ(at(s, "tool.rx"), 2e-3);
-  EXPECT_EQ(at(s, "base.dx"), 1.0);
+  EXPECT_EQ(at(s, "tool.rx"), kInf);
+  EXPECT_EQ(at(s, "base.dx"), kInf);
   EXPECT_EQ(at(s, "base.ry"), kInf) << "no prior";
   EXPECT_EQ(at(s, "joint2.dz"), 0.5) << "by name, scaled";
   EXPECT_EQ(at(s, "tool.dx"), 14.0) << "by name over the tool group";
@@ -96,6 +98,15 @@ TEST(PriorStdTest, RefusesWhatIsNoPrior) {
   EXPECT_THROW(Identify(model, data, o), std::invalid_argument);
 }
 
+// The default priors with the frames' too (the lengths' and angles' defaults on the base and tool sites), so that
+// every parameter has one and none inherits another's.
+ParameterPriors WithFramePriors() {
+  ParameterPriors p;
+  p.base_length_mm = p.tool_length_mm = kDefaultPriorLengthMm;
+  p.base_angle_rad = p.tool_angle_rad = kDefaultPriorAngleRad;
+  return p;
+}
+
 // A fit of noisy pose measurements of the virtual cell, on `count` random configurations.
 struct Fixture {
   RobotModel model = Preset("ur5e");
@@ -120,7 +131,7 @@ TEST(PriorFitTest, HugePriorsGiveTheFitWithoutPriors) {
   const Fixture f(3, 25, 0.05);
   const Calibration plain = Identify(f.model, f.data, f.options);
   IdentificationOptions o = f.options;
-  o.priors = ParameterPriors{};
+  o.priors = WithFramePriors();
   o.priors->scale = 1e9;
   const Calibration wide = Identify(f.model, f.data, o);
   ASSERT_EQ(plain.summary.termination, Termination::kConvergence) << plain.summary.FullReport();
@@ -174,7 +185,7 @@ TEST(PriorFitTest, SolutionIsAStationaryPointOfTheMapObjective) {
   IdentificationOptions o = f.options;
   o.estimate_model_error = false;
   o.reject_outliers = false;
-  o.priors = ParameterPriors{};
+  o.priors = WithFramePriors();
   o.priors->scale = 0.05;  // strong: the prior's pull is large beside the data's
   const Calibration cal = Identify(f.model, f.data, o);
   ASSERT_EQ(cal.summary.termination, Termination::kConvergence) << cal.summary.FullReport();
@@ -197,6 +208,41 @@ TEST(PriorFitTest, SolutionIsAStationaryPointOfTheMapObjective) {
   }
   EXPECT_GT(scale, 1.0) << "the prior pulls: the data's own gradient is far from zero";
   EXPECT_LT(worst, 1e-4 * scale);
+}
+
+// A robot without link errors carrying a tool 10 mm (1-sigma) off its nominal offset, as a hand-measured one is:
+// strong priors (0.01 times the defaults) are right for every link parameter and wrong for the frames. The default
+// priors leave the frames to the data, the joint parameter that stands in for a dropped frame parameter included
+// (joint6.dz for tool.dz, joint1.rx for base.rx), and keep the held-out error of the fit without priors; the same
+// priors put on the frames hold the tool at its nominal offset.
+TEST(PriorFitTest, TheFramesAndTheParametersStandingInForThemAreLeftToTheData) {
+  Fixture f(7, 25, 0.02);
+  f.cell_options.joint_translation_sigma_mm = 0.0;
+  f.cell_options.joint_rotation_sigma_rad = 0.0;
+  f.cell_options.tool_translation_sigma_mm = 10.0;
+  VirtualCell cell(f.model, f.cell_options);
+  f.data = cell.MeasureAll(f.configurations);
+  const std::vector<Measurement> held_out = cell.MeasureAll(test::RandomConfigurations(f.model, 40, 77));
+  const auto fit = [&](const std::optional<ParameterPriors>& priors) {
+    IdentificationOptions o = f.options;
+    o.priors = priors;
+    if (o.priors) o.priors->scale = 0.01;
+    const Calibration c = Identify(f.model, f.data, o);
+    EXPECT_NE(c.summary.termination, Termination::kFailure) << c.summary.FullReport();
+    return c;
+  };
+  const auto held_out_rms = [&](const Calibration& c) {
+    return ComputeResidualStatistics(c.model, c.errors, held_out, f.options.measurement_type, f.options.noise)
+        .rms_position_mm;
+  };
+  const Calibration plain = fit(std::nullopt), defaults = fit(ParameterPriors{}), framed = fit(WithFramePriors());
+  // ur5e, pose measurements: 30 parameters kept, of which the base's 3 translations, the tool's 5 and the 4 kept in
+  // place of dropped frame parameters (joint6.dz for tool.dz; joint1.rx, ry, rz for base.rx, ry, rz) have none.
+  ASSERT_EQ(defaults.parameters.size(), 30u);
+  EXPECT_EQ(defaults.summary.num_priors, 18);
+  EXPECT_EQ(framed.summary.num_priors, 30);
+  EXPECT_LT(held_out_rms(defaults), 1.1 * held_out_rms(plain)) << held_out_rms(plain);
+  EXPECT_GT(held_out_rms(framed), 10.0 * held_out_rms(defaults)) << held_out_rms(defaults);
 }
 
 // The estimate of the minimal parameters lies within its reported (posterior) std of the truth, the noise-free fit.

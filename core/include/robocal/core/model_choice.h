@@ -90,13 +90,10 @@ struct PriorChoiceOptions {
 struct PriorChoice {
   /// Every scale's held-out error, the fit without priors first (descending scale).
   std::vector<PriorScaleCandidate> candidates;
-  /// The candidate with the lowest cross-validated mean error, and the chosen one: the first, in that order, whose
-  /// mean is within one standard error of the best's (the one-standard-error rule, Hastie, Tibshirani & Friedman
-  /// 2009, 7.10). The simplest candidate is the fit without priors: a prior is an assumption, and one narrower than a
-  /// parameter's real error biases the fit, a bias the folds see only through their scatter; so a prior is chosen
-  /// only where it beats the fit without by more than a standard error, and the widest such prior is preferred.
-  /// (Taking the strongest prior within one standard error, as ridge regression's lambda.1se does, made the IPA
-  /// UR10's held-out error 3 % worse at 30 poses: docs/identification.md.) -1 when none could be evaluated.
+  /// The candidate with the lowest cross-validated mean error, which is the one chosen: the scale is a continuous
+  /// weight of one prior rather than a choice among nested models, and the one-standard-error rule's preference for
+  /// the fit without priors gave up most of the gain on the IPA UR10 (docs/identification.md, "Parameter priors").
+  /// -1 when none could be evaluated.
   int best = -1;
   int chosen = -1;
   int folds = 0;
