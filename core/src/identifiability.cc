@@ -20,7 +20,7 @@ namespace {
 std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorXd& d, const std::vector<int>& kept,
                            const Eigen::MatrixXd& kept_scaled,
                            const Eigen::ColPivHouseholderQR<Eigen::MatrixXd>& kept_qr, int j, const RobotModel& model,
-                           const std::vector<Reflector>& reflectors, MeasurementType type) {
+                           const std::vector<Reflector>& reflectors, MeasurementType type, int* alias) {
   if (d[j] == 0.0) {
     return std::string("no effect on ") + ToString(type) + " measurements";
   }
@@ -42,6 +42,7 @@ std::string ExplainDropped(const Eigen::MatrixXd& weighted, const Eigen::VectorX
   const int shown = static_cast<int>(std::min<size_t>(3, significant));
   const bool single = significant <= 1;
   out << (single ? "indistinguishable from " : "a combination of ");
+  if (single && significant == 1) *alias = kept[order[0]];
   for (int i = 0; i < (single ? 1 : shown); ++i) {
     const int k = kept[order[i]];
     const double coeff = c[order[i]] * d[k] / d[j];
@@ -191,10 +192,11 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
   std::sort(dropped_indices.begin(), dropped_indices.end());
   for (int j : dropped_indices) {
     const bool held = j >= n_model && reflectors[(j - n_model) / 3].fixed;
-    summary.dropped.push_back(
-        {j, ParameterName(model, reflectors, j),
-         held ? "held at its given position (fixed reflector)"
-              : ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model, reflectors, type)});
+    int alias = -1;
+    const std::string reason = held ? "held at its given position (fixed reflector)"
+                                    : ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model,
+                                                     reflectors, type, &alias);
+    summary.dropped.push_back({j, ParameterName(model, reflectors, j), reason, alias});
   }
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept_scaled);

@@ -51,6 +51,10 @@ bool IdentificationOptions::IsValid(std::string* error) const {
       return false;
     }
   }
+  if (priors && !priors->IsValid(&sub)) {
+    *error = "priors." + sub;
+    return false;
+  }
   if (!ValidateReflectors(reflectors, error)) return false;
   if (!reflectors.empty() && measurement_type != MeasurementType::kPosition) {
     *error = "reflectors need position measurements (a 6-DoF probe measures the tool's orientation itself)";
@@ -217,6 +221,7 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   for (int j : id.identifiable) out.parameters.push_back(fit_index(j));
   for (DroppedParameter d : id.dropped) {
     d.index = fit_index(d.index);
+    if (d.alias >= 0) d.alias = fit_index(d.alias);
     out.dropped.push_back(std::move(d));
   }
   // Every coefficient of every map (their constant, the joint's offset, is held by the constraint rows: Problem).
@@ -369,9 +374,30 @@ std::string RankTest(Problem* problem, const std::vector<int>& parameters, const
   return msg.str();
 }
 
+// The parameters the prior rather than the data determined (PriorDeterminedParameter): the posterior variance at
+// unit variance factor, `inverse` = (J'WJ + P)^-1, above half the prior variance. Judged before the covariance is
+// scaled by sigma_hat^2: whether the data or the prior hold a parameter is a matter of their information, not of
+// how well the noise model's scale was guessed. The data's share 1 - C_kk / sigma_k^2 is I_data / (I_data + I_prior)
+// for a parameter on its own, so the bound is the data's information equal to the prior's.
+void JudgePriors(const Problem& problem, const Eigen::MatrixXd& inverse, const std::vector<int>& parameters,
+                 const std::function<std::string(int)>& name, IdentificationSummary* s) {
+  const Eigen::VectorXd& prior = problem.prior_std();
+  for (Eigen::Index k = 0; k < prior.size(); ++k) {
+    if (!std::isfinite(prior[k])) continue;
+    ++s->num_priors;
+    const double prior_variance = prior[k] * prior[k];
+    if (inverse(k, k) > 0.5 * prior_variance) {
+      const int index = parameters[static_cast<size_t>(k)];
+      s->prior_determined.push_back(
+          {index, name(index), prior[k], std::clamp(1.0 - inverse(k, k) / prior_variance, 0.0, 1.0)});
+    }
+  }
+}
+
 // Solve: Levenberg-Marquardt from `x0`, then the covariance and condition number from the column-scaled Jacobian
 // (the rank test of the start, on the singular values at the solution: the covariance needs every one). With the
-// maps' penalty rows it is the covariance of the penalised estimate (the penalty as a prior), and sigma_hat takes
+// maps' penalty rows or the priors' rows it is the covariance of the penalised (MAP) estimate, the posterior
+// (J'WJ + P)^-1 times sigma_hat^2 (the penalty as a prior), and sigma_hat takes
 // the measurements' rows over their redundancy: the rows less the effective parameters (a penalised coefficient
 // counts less than one). Writes the parameters, errors, frames and residual statistics into `cal`.
 std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& measurements,
@@ -391,8 +417,10 @@ std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& mea
                   : ScaledCovariance(lm->jacobian, 1.0, tolerance, &sv, &cal->covariance))) {
     return "degenerate configurations: rank-deficient Jacobian at the solution";
   }
-  const double dof = s.num_residuals - EffectiveParameters(cal->covariance, problem->penalty_normal());
+  s.effective_parameters = EffectiveParameters(cal->covariance, problem->penalty_normal());
+  const double dof = s.num_residuals - s.effective_parameters;
   s.sigma_hat = std::sqrt(lm->residual.head(problem->num_measurement_rows()).squaredNorm() / dof);
+  JudgePriors(*problem, cal->covariance, parameters, name, &s);
   cal->covariance *= s.sigma_hat * s.sigma_hat;
   s.condition_number = sv[0] / sv[sv.size() - 1];
   s.singular_values = sv;
@@ -650,6 +678,31 @@ std::string IdentificationSummary::FullReport() const {
     } else {
       out << ", held-out mean " << std::setprecision(4) << c.cv_mean_mm << " +- " << c.cv_standard_error_mm
           << " mm, RMS " << c.cv_rms_mm << " mm\n";
+    }
+  }
+  if (num_priors > 0) {
+    out << "  priors: " << num_priors << " of " << num_parameters << " parameters, effective parameters "
+        << std::setprecision(4) << effective_parameters << "; determined by the prior rather than the data ("
+        << prior_determined.size() << ")";
+    for (const PriorDeterminedParameter& p : prior_determined) {
+      out << (&p == &prior_determined.front() ? ": " : ", ") << p.name << " (data share " << std::setprecision(2)
+          << p.data_share << ")";
+    }
+    out << "\n";
+  }
+  for (size_t k = 0; k < prior_candidates.size(); ++k) {
+    const PriorScaleCandidate& c = prior_candidates[k];
+    out << "    " << (static_cast<int>(k) == prior_chosen ? "* " : "  ") << "priors ";
+    if (std::isfinite(c.scale)) {
+      out << "x " << std::left << std::setw(8) << c.scale << std::right;
+    } else {
+      out << std::left << std::setw(10) << "none" << std::right;
+    }
+    if (c.failed_folds > 0) {
+      out << c.failed_folds << " of " << prior_folds << " folds failed: " << c.note << "\n";
+    } else {
+      out << "held-out mean " << std::setprecision(4) << c.cv_mean_mm << " +- " << c.cv_standard_error_mm << " mm, RMS "
+          << c.cv_rms_mm << " mm\n";
     }
   }
   out << "  dropped (" << dropped.size() << "):\n";

@@ -74,14 +74,16 @@ class Problem {
   Problem(const RobotModel& model, const std::vector<Measurement>& measurements, const ShotGroups& shot_groups,
           const IdentificationOptions& o, const std::vector<int>& parameters);
 
-  // The measurements' rows, then the penalty rows of the joint maps (JointMapTerms: each map's second
-  // differences, weighted), which Evaluate appends.
+  // The measurements' rows, then the penalty rows: the joint maps' (JointMapTerms: each map's second differences,
+  // weighted) and the priors' (x_k / sigma_k per parameter with a prior), which Evaluate appends.
   int num_rows() const { return num_measurement_rows() + static_cast<int>(penalty_.rows()); }
   int num_measurement_rows() const { return rows_ * static_cast<int>(measurements_.size()); }
   // The penalty rows over the chosen parameters (num_penalty_rows x num_parameters; none without maps).
   const Eigen::MatrixXd& penalty() const { return penalty_; }
-  // P'P of the penalty rows (num_parameters square; empty without maps).
+  // P'P of the penalty rows (num_parameters square; empty without maps and priors).
   const Eigen::MatrixXd& penalty_normal() const { return penalty_normal_; }
+  // Per chosen parameter its prior standard deviation (+infinity: none); empty without priors.
+  const Eigen::VectorXd& prior_std() const { return prior_std_; }
   int num_parameters() const { return static_cast<int>(parameters_.size()); }
 
   // The model's error parameters (num_error_parameters) and the reflectors' offset errors (3 each) at x.
@@ -143,6 +145,7 @@ class Problem {
   std::vector<PreparedDeflection> prepared_;     // per pose: its deflection's parts that do not depend on x
   Eigen::MatrixXd penalty_;                      // the maps' penalty rows (constant: the penalty is linear)
   Eigen::MatrixXd penalty_normal_;               // their P'P
+  Eigen::VectorXd prior_std_;                    // per chosen parameter (priors only)
   // Kept between evaluations so that they allocate once per fit, not once per pose and evaluation (a fit evaluates
   // some tens of times, a cross-validated model choice some thousands): per pose its Jacobian (its rows x n_model_,
   // side by side) and tool pose; Evaluate's predictions and Jacobians per group.

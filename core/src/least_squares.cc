@@ -94,12 +94,12 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
   // coefficient under this problem's weights (its Jacobian at zero), so that the smoothness keeps its meaning as
   // the weights change (the model error's estimate).
   const JointMapTerms& maps = model.error_terms().maps;
+  std::vector<Eigen::RowVectorXd> rows;
   if (!maps.empty()) {
     const Eigen::VectorXd column_information = ColumnInformation();
     constexpr double kMapConstantWeight = 1e3;
     std::map<int, int> reduced;
     for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
-    std::vector<Eigen::RowVectorXd> rows;
     for (size_t m = 0; m < maps.joints.size(); ++m) {
       const int first = model.map_parameter(maps.joints[m]);
       const int count = maps.intervals[m] + 3;
@@ -131,6 +131,24 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
         rows.push_back(std::move(row));
       }
     }
+  }
+  // The priors' rows (IdentificationOptions::priors): the prior's "measurement" of x_k is zero with standard
+  // deviation sigma_k, a row of 1 / sigma_k in the whitened units of the measurements' rows (sigmas), so that the
+  // cost is the negative log posterior and everything that reads the penalty (the covariance, the effective
+  // parameters, the model error's leverages) reads the prior with it. Unlike the maps' rows they do not scale
+  // with the weights: a prior is in mm and rad, whatever the noise.
+  if (o.priors) {
+    const Eigen::VectorXd all = PriorStd(model, *o.priors, o.reflectors);
+    prior_std_.resize(num_parameters());
+    for (int k = 0; k < num_parameters(); ++k) {
+      prior_std_[k] = all[parameters_[k]];
+      if (!std::isfinite(prior_std_[k])) continue;
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
+      row[k] = 1.0 / prior_std_[k];
+      rows.push_back(std::move(row));
+    }
+  }
+  if (!rows.empty()) {
     penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
     for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
     penalty_normal_ = NormalMatrix(penalty_);

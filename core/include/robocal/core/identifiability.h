@@ -43,7 +43,10 @@ struct DroppedParameter {
   int index = -1;
   std::string name;
   /// E.g. "no effect on position measurements" or "indistinguishable from +1.000 joint1.rz".
-  std::string reason;
+  std::string reason = {};
+  /// The kept parameter it is indistinguishable from (one parameter, any coefficient), which absorbs its error
+  /// in the fit; -1 when none is (no effect, or a combination of several).
+  int alias = -1;
 };
 
 struct IdentifiabilitySummary {

@@ -5,12 +5,14 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "robocal/core/error_model.h"
 #include "robocal/core/identifiability.h"
 #include "robocal/core/measurement.h"
+#include "robocal/core/priors.h"
 #include "robocal/core/reflectors.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/core/termination.h"
@@ -69,6 +71,17 @@ struct IdentificationOptions {
   bool reject_outliers = true;
   /// The probability that a clean measurement is flagged (per measurement), in (0, 0.1].
   double outlier_probability = 1e-3;
+  /// Parameter priors (priors.h, docs/identification.md "Parameter priors"): each estimated parameter k with a
+  /// finite prior standard deviation sigma_k (PriorStd(model, *priors, reflectors)) gets the row x_k / sigma_k
+  /// beside the whitened measurements, so that the fit minimises sum of squared whitened residuals + sum
+  /// (x_k / sigma_k)^2: the MAP estimate under a zero-mean Gaussian prior. Levenberg-Marquardt, the rank test,
+  /// the covariance ((J'WJ + P)^-1 sigma_hat^2, P = diag(1 / sigma_k^2)), sigma_hat's degrees of freedom (the
+  /// rows less the trace of the hat matrix), the model error's redundancies and the studentised residuals all
+  /// see those rows. Which parameters are estimated is chosen as without priors (structurally unidentifiable
+  /// ones stay dropped); a parameter the data leave open but its prior determines passes the rank test and is
+  /// listed in IdentificationSummary::prior_determined. Unset (the default): no priors, the fit is plain
+  /// (weighted) least squares.
+  std::optional<ParameterPriors> priors;
   /// Called after every Levenberg-Marquardt iteration that did not converge, with iterations / max_iterations;
   /// returning false cancels the fit: it stops with NO_CONVERGENCE, message "cancelled", and the best
   /// parameters so far with their covariance (the accepted steps only ever lower the cost).
@@ -149,6 +162,18 @@ struct ModelCandidate {
   std::string note;
 };
 
+/// One candidate of priors: auto (model_choice.h): a scale of the priors and its held-out position error over the
+/// folds (as ModelCandidate's).
+struct PriorScaleCandidate {
+  /// ParameterPriors::scale; +infinity is the fit without priors (the limit of priors infinitely wide).
+  double scale = 0.0;
+  double cv_mean_mm = 0.0;
+  double cv_rms_mm = 0.0;
+  double cv_standard_error_mm = 0.0;
+  int failed_folds = 0;
+  std::string note;
+};
+
 struct IdentificationSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
@@ -211,6 +236,20 @@ struct IdentificationSummary {
   std::vector<ModelCandidate> model_candidates;
   int model_folds = 0;
   int model_chosen = -1;
+  /// The effective number of parameters: the trace of the hat matrix, n - tr(N^-1 P'P) with N the information
+  /// with the penalty rows P of the priors and the joint maps (num_parameters without either). sigma_hat's
+  /// degrees of freedom are the residual rows less it.
+  double effective_parameters = 0.0;
+  /// Parameter priors (IdentificationOptions::priors): how many estimated parameters had one, and those the prior
+  /// rather than the data determined (PriorDeterminedParameter: posterior variance at unit variance factor above
+  /// half the prior variance), in index order.
+  int num_priors = 0;
+  std::vector<PriorDeterminedParameter> prior_determined;
+  /// priors: auto (IdentifyWithPriorChoice, model_choice.h): every candidate scale's held-out error over the folds,
+  /// the folds and the chosen candidate's index; empty candidates otherwise.
+  std::vector<PriorScaleCandidate> prior_candidates;
+  int prior_folds = 0;
+  int prior_chosen = -1;
   double seconds = 0.0;
 
   std::string BriefReport() const;

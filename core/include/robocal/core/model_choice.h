@@ -3,11 +3,13 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "robocal/core/identification.h"
 #include "robocal/core/measurement.h"
+#include "robocal/core/priors.h"
 #include "robocal/core/robot_model.h"
 
 namespace robocal {
@@ -69,5 +71,48 @@ ModelChoice ChooseModel(const RobotModel& nominal, const std::vector<Measurement
 /// and says why.
 Calibration IdentifyWithModelChoice(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                                     const IdentificationOptions& options, const ModelChoiceOptions& choice = {});
+
+/// priors: auto (docs/identification.md, "Parameter priors"): the scale of a set of priors chosen by k-fold
+/// cross-validation, as the model is.
+struct PriorChoiceOptions {
+  /// Folds (2..20) and the seed of their shuffle, as ModelChoiceOptions' (the same seed deals the same folds).
+  int folds = 5;
+  std::uint64_t seed = 1;
+  /// The priors whose scale is chosen: the defaults (ParameterPriors{}) unless given.
+  ParameterPriors priors;
+  /// The candidate scales of `priors` (multiplying priors.scale), each > 0; +infinity is the fit without priors.
+  /// Tried and reported in descending order (the fit without priors first, the narrowest prior last).
+  std::vector<double> scales = {0.25, 0.5, 1.0, 2.0, 4.0, std::numeric_limits<double>::infinity()};
+
+  bool IsValid(std::string* error) const;
+};
+
+struct PriorChoice {
+  /// Every scale's held-out error, the fit without priors first (descending scale).
+  std::vector<PriorScaleCandidate> candidates;
+  /// The candidate with the lowest cross-validated mean error, which is the one chosen: the scale is a continuous
+  /// weight of one prior rather than a choice among nested models, and the one-standard-error rule's preference for
+  /// the fit without priors gave up most of the gain on the IPA UR10 (docs/identification.md, "Parameter priors").
+  /// -1 when none could be evaluated.
+  int best = -1;
+  int chosen = -1;
+  int folds = 0;
+  std::string message;
+  bool cancelled = false;
+};
+
+/// Fits `nominal` with each candidate scale of the priors on all folds but one and measures the position error on
+/// the fold left out, in turn (the folds of ChooseModel). Each fit uses `options` with its priors replaced by the
+/// candidate's (options.priors is not read); options.progress sees the fraction of all fits, the final fit of
+/// IdentifyWithPriorChoice counted. Throws std::invalid_argument for invalid options or a prior naming no
+/// parameter.
+PriorChoice ChoosePriorScale(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                             const IdentificationOptions& options, const PriorChoiceOptions& choice = {});
+
+/// ChoosePriorScale, then Identify with the chosen priors on every measurement; the summary holds the comparison
+/// (prior_candidates, prior_folds, prior_chosen). With no candidate evaluated it fits without priors, DEGRADED,
+/// and says why.
+Calibration IdentifyWithPriorChoice(const RobotModel& nominal, const std::vector<Measurement>& measurements,
+                                    const IdentificationOptions& options, const PriorChoiceOptions& choice = {});
 
 }  // namespace robocal
