@@ -167,8 +167,43 @@ void ParseModel(ObjectReader& r, const RobotModel& model, Problems* problems, Fi
       problems->Add("model", "expected \"geometric\", \"auto\" or an object");
     }
   }
-  // Read with the request's other members (its row holds for "auto" only).
-  if (r.Has("cross_validation") && !req->model_auto) problems->Add("cross_validation", "only for \"model\": \"auto\"");
+}
+
+// "priors": "auto" | {...}: the groups by the table, the named parameters by the model the fit estimates.
+void ParsePriors(ObjectReader& r, const RobotModel& model, const std::vector<Reflector>& reflectors, Problems* problems,
+                 FitRequest* req) {
+  const nlohmann::json* v = r.Get("priors");
+  if (v == nullptr) return;
+  if (v->is_string()) {
+    if (v->get<std::string>() == "auto") {
+      req->priors_auto = true;
+    } else {
+      problems->Add("priors", "expected \"auto\" or an object of standard deviations");
+    }
+    return;
+  }
+  PriorsWire priors;
+  if (!ReadRequestObject(*v, "priors", problems, &priors) || !v->is_object()) return;
+  if (const auto named = v->find("parameters"); named != v->end()) {
+    if (!named->is_object()) {
+      problems->Add("priors.parameters", "expected an object of parameter names and standard deviations");
+      return;
+    }
+    for (const auto& [name, sigma] : named->items()) {
+      const std::string path = "priors.parameters." + name;
+      double value = 0.0;
+      if (!ReadFiniteNumber(sigma, path, problems, &value)) continue;
+      if (ParameterIndex(model, reflectors, name) < 0) {
+        problems->Add(path,
+                      "robot \"" + model.name() + "\" has no parameter \"" + name + "\" (e.g. joint2.dz, base.rx)");
+      } else if (!(value > 0.0 && value <= WireFields<PriorsWire>::kMax)) {
+        problems->Add(path, "must be in (0, 1e6], got " + nlohmann::json(value).dump());
+      } else {
+        priors.parameters[name] = value;
+      }
+    }
+  }
+  req->priors = std::move(priors);
 }
 
 }  // namespace
@@ -181,6 +216,17 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
   ParseModel(r, nominal, &problems, &req);
   // Parameters are named in the model the fit estimates (joint terms included).
   const RobotModel model = problems.empty() ? FitModel(req, nominal) : nominal;
+  ParsePriors(r, model, reflectors, &problems, &req);
+  // Read with the request's other members (its row holds for "auto" only).
+  if (r.Has("cross_validation") && !req.model_auto && !req.priors_auto) {
+    problems.Add("cross_validation", "only for \"model\": \"auto\" or \"priors\": \"auto\"");
+  }
+  if (req.model_auto && req.priors_auto) {
+    problems.Add("priors",
+                 "\"auto\" goes with a given model: \"model\": \"auto\" chooses its own (give the priors "
+                 "as an object to apply them to every candidate)");
+  }
+
   if (const nlohmann::json* a =
           r.Array("parameters", false, 0, model.parameter_names().size() + 3 * reflectors.size())) {
     for (std::size_t i = 0; i < a->size(); ++i) {
@@ -213,6 +259,9 @@ FitRequest ParseFitRequest(const nlohmann::json& body, const RobotModel& nominal
     problems.Add("parameters",
                  "a model with joint maps places its coefficients over the measurements: leave out "
                  "parameters");
+  }
+  if (req.scope == FitScope::kFrames && (req.priors || req.priors_auto)) {
+    problems.Add("priors", "\"frames\" fits the base and the tool, which have no prior: leave out \"priors\"");
   }
   if (req.scope == FitScope::kFrames &&
       (req.model_auto || req.model.compliance || req.model.joint_harmonics > 0 || req.model.joint_maps)) {
@@ -249,7 +298,32 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   options.reject_outliers = req.reject_outliers;
   options.outlier_probability = req.outlier_probability;
   options.estimate_model_error = req.estimate_model_error;
+  // "auto" starts from the defaults; the scale is chosen by cross-validation (IdentifyWithPriorChoice).
+  if (req.priors) options.priors = ToCore(*req.priors, model, reflectors);
+  if (req.priors_auto) options.priors = ParameterPriors{};
   return options;
+}
+
+ParameterPriors ToCore(const PriorsWire& w, const RobotModel& model, const std::vector<Reflector>& reflectors) {
+  const auto rad = [](double deg) { return deg * kRadPerDeg; };
+  ParameterPriors p;
+  p.length_mm = w.lengths_mm;
+  p.angle_rad = rad(w.angles_deg);
+  p.joint_offset_rad = rad(w.joint_offsets_deg);
+  p.joint_offset_mm = w.joint_offsets_mm;
+  if (w.base_length_mm) p.base_length_mm = *w.base_length_mm;
+  if (w.base_angle_deg) p.base_angle_rad = rad(*w.base_angle_deg);
+  if (w.tool_length_mm) p.tool_length_mm = *w.tool_length_mm;
+  if (w.tool_angle_deg) p.tool_angle_rad = rad(*w.tool_angle_deg);
+  const int n_model = model.num_error_parameters();
+  for (const auto& [name, sigma] : w.parameters) {
+    const int index = ParameterIndex(model, reflectors, name);
+    // A reflector's offset is in mm; a model parameter in its own unit (mm, deg, deg/(N*m)).
+    const double scale = index >= 0 && index < n_model ? ParameterUnitScale(model.parameter_unit(index)) : 1.0;
+    p.parameters[name] = sigma / scale;
+  }
+  p.scale = w.scale;
+  return p;
 }
 
 Residuals ToWire(const ResidualStatistics& s) {
@@ -324,6 +398,32 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
   }
   w.reflectors = ToWire(c.reflectors);
   const IdentificationSummary& s = c.summary;
+  if (s.num_priors > 0 || !s.prior_candidates.empty()) {
+    PriorsResultWire p{.num_priors = s.num_priors,
+                       .effective_parameters = s.effective_parameters,
+                       .prior_determined = {},
+                       .candidates = {},
+                       .folds = s.prior_folds};
+    for (const PriorDeterminedParameter& d : s.prior_determined) {
+      const ParameterUnit unit = d.index < n_model ? c.model.parameter_unit(d.index) : ParameterUnit::kMm;
+      p.prior_determined.push_back({.parameter = d.name,
+                                    .prior_std = d.prior_std * ParameterUnitScale(unit),
+                                    .unit = ParameterUnitName(unit),
+                                    .data_share = d.data_share});
+    }
+    for (std::size_t k = 0; k < s.prior_candidates.size(); ++k) {
+      const PriorScaleCandidate& m = s.prior_candidates[k];
+      // No priors (an infinite scale) is null on the wire.
+      p.candidates.push_back({.scale = m.scale,
+                              .cv_mean_mm = m.cv_mean_mm,
+                              .cv_rms_mm = m.cv_rms_mm,
+                              .cv_standard_error_mm = m.cv_standard_error_mm,
+                              .failed_folds = m.failed_folds,
+                              .note = m.note,
+                              .chosen = static_cast<int>(k) == s.prior_chosen});
+    }
+    w.priors = std::move(p);
+  }
   w.robust.enabled = s.rejection_rounds > 0;
   w.robust.threshold = s.outlier_threshold;
   w.robust.scale = s.robust_scale;
@@ -573,7 +673,11 @@ ROBOCAL_WIRE_DEFINE(MapGridWire);
 ROBOCAL_WIRE_DEFINE(JointMapsWire);
 ROBOCAL_WIRE_DEFINE(ModelWire);
 ROBOCAL_WIRE_DEFINE(CrossValidationWire);
+ROBOCAL_WIRE_DEFINE(PriorsWire);
 ROBOCAL_WIRE_DEFINE(FitRequest);
+ROBOCAL_WIRE_DEFINE(PriorDeterminedWire);
+ROBOCAL_WIRE_DEFINE(PriorScaleWire);
+ROBOCAL_WIRE_DEFINE(PriorsResultWire);
 ROBOCAL_WIRE_DEFINE(ParameterEstimate);
 ROBOCAL_WIRE_DEFINE(Residuals);
 ROBOCAL_WIRE_DEFINE(FitSummary);

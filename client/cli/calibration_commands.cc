@@ -1,4 +1,5 @@
 // robocal fit, compensate, evaluate, export, report: a campaign's calibration.
+#include <cmath>
 #include <iomanip>
 #include <limits>
 #include <optional>
@@ -51,6 +52,26 @@ void PrintCalibration(const api::CalibrationResult& c, std::ostream& out) {
     out << ")\n";
   }
   out << "model: " << ModelName(c.model) << "\n";
+  if (c.priors) {
+    out << "priors on " << c.priors->num_priors << " parameters, effective parameters "
+        << Fixed(c.priors->effective_parameters, 1) << "\n";
+    if (!c.priors->candidates.empty()) {
+      out << "prior scale chosen by " << c.priors->folds << "-fold cross-validation (held-out E_xyz, mm):\n";
+      for (const api::PriorScaleWire& p : c.priors->candidates) {
+        out << (p.chosen ? "  * " : "    ") << (std::isfinite(p.scale) ? "x " + Fixed(p.scale, 2) : "none") << ": ";
+        if (p.failed_folds > 0) {
+          out << p.failed_folds << " fold(s) failed: " << p.note << "\n";
+        } else {
+          out << "mean " << Fixed(p.cv_mean_mm, 4) << " +- " << Fixed(p.cv_standard_error_mm, 4) << "\n";
+        }
+      }
+    }
+    if (!c.priors->prior_determined.empty()) {
+      out << "determined by the prior rather than the data:";
+      for (const api::PriorDeterminedWire& d : c.priors->prior_determined) out << " " << d.parameter;
+      out << "\n";
+    }
+  }
   if (c.model_choice) {
     out << "chosen by " << c.model_choice->folds << "-fold cross-validation (held-out E_xyz, mm):\n";
     for (const api::ModelCandidateWire& m : c.model_choice->candidates) {
@@ -143,6 +164,46 @@ void ParseModelOption(const std::string& text, api::FitRequest* request) {
 
 }  // namespace
 
+// --priors auto | defaults | KEY=V,...: KEY a group of the priors object (lengths_mm, angles_deg, joint_offsets_deg,
+// joint_offsets_mm, base_length_mm, base_angle_deg, tool_length_mm, tool_angle_deg, scale) or a parameter name
+// (its value in the parameter's unit). The service checks names and ranges and names the field.
+void ParsePriorsOption(const std::string& text, api::FitRequest* request) {
+  if (text == "auto") {
+    request->priors_auto = true;
+    return;
+  }
+  api::PriorsWire priors;
+  if (text != "defaults") {
+    for (const std::string& item : tools::SplitList("--priors", text)) {
+      const std::size_t eq = item.find('=');
+      if (eq == std::string::npos)
+        throw UsageError("--priors takes auto, defaults or KEY=VALUE,...; got '" + item + "'");
+      const std::string key = item.substr(0, eq);
+      const double value =
+          tools::ParseDoubleFlag("--priors", item.substr(eq + 1), std::numeric_limits<double>::lowest());
+      double* group = key == "lengths_mm"          ? &priors.lengths_mm
+                      : key == "angles_deg"        ? &priors.angles_deg
+                      : key == "joint_offsets_deg" ? &priors.joint_offsets_deg
+                      : key == "joint_offsets_mm"  ? &priors.joint_offsets_mm
+                      : key == "scale"             ? &priors.scale
+                                                   : nullptr;
+      std::optional<double>* frame = key == "base_length_mm"   ? &priors.base_length_mm
+                                     : key == "base_angle_deg" ? &priors.base_angle_deg
+                                     : key == "tool_length_mm" ? &priors.tool_length_mm
+                                     : key == "tool_angle_deg" ? &priors.tool_angle_deg
+                                                               : nullptr;
+      if (group != nullptr) {
+        *group = value;
+      } else if (frame != nullptr) {
+        *frame = value;
+      } else {
+        priors.parameters[key] = value;
+      }
+    }
+  }
+  request->priors = priors;
+}
+
 int Fit(Invocation& in) {
   api::FitRequest request;
   if (in.Has("--parameters")) request.parameters = tools::SplitList("--parameters", in.Option("--parameters"));
@@ -152,8 +213,11 @@ int Fit(Invocation& in) {
   request.estimate_model_error = !in.Has("--no-model-error");
   request.scope = in.Enum("--scope", request.scope);
   if (in.Has("--model")) ParseModelOption(in.Option("--model"), &request);
+  if (in.Has("--priors")) ParsePriorsOption(in.Option("--priors"), &request);
   if (in.Has("--folds") || in.Has("--cv-seed") || in.Has("--cv-maps")) {
-    if (!request.model_auto) throw UsageError("--folds, --cv-seed and --cv-maps apply with --model auto only");
+    if (!request.model_auto && !request.priors_auto) {
+      throw UsageError("--folds, --cv-seed and --cv-maps apply with --model auto or --priors auto only");
+    }
     request.cross_validation.joint_maps = in.Has("--cv-maps");
     // Any integer: the service checks the range and names cross_validation.folds.
     request.cross_validation.folds = static_cast<int>(in.Integer("--folds", request.cross_validation.folds, 0, 1000));

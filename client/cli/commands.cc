@@ -120,6 +120,7 @@ const std::vector<Command>& Commands() {
         {"--scope", "all|frames"},
         {"--no-model-error"},
         {"--model", "auto|geometric|compliance,harmonics=N,joint_maps=Sdeg[:JOINTS],smoothness=L"},
+        {"--priors", "auto|defaults|KEY=V,..."},
         {"--folds", "N"},
         {"--cv-seed", "S"},
         {"--cv-maps"},

@@ -274,6 +274,12 @@ cancelled: then it is printed with "NOT stored". --json: the calibration (fit) r
                        e.g. compliance,joint_maps=4deg:1-5;
                        or auto: every candidate cross-validated on the calibration measurements, the
                        simplest within one standard error of the best chosen, and the comparison printed
+  --priors P           parameter priors (a MAP fit: each parameter held near zero by its expected size):
+                       defaults (1 mm lengths, 0.1 deg angles and joint offsets; none on the base and tool),
+                       KEY=V,... (lengths_mm, angles_deg, joint_offsets_deg, joint_offsets_mm, base_length_mm,
+                       base_angle_deg, tool_length_mm, tool_angle_deg, scale, or a parameter's name, e.g.
+                       joint2.dz=0.5), or auto: the defaults at the scale cross-validation finds best (prints
+                       every scale's held-out error); lists the parameters the prior rather than the data held
   --folds N            auto: cross-validation folds (default 5; 2 to 20)
   --cv-seed S          auto: the seed that deals the poses to the folds (default 1)
   --cv-maps            auto: the candidates include joint error maps on every revolute joint, knots every 8,

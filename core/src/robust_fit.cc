@@ -732,7 +732,9 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
   // Every prior named must name a parameter: a mistyped name would otherwise leave it without one, silently.
   if (options.priors) PriorStd(nominal, *options.priors, options.reflectors);
   const ParameterSelection selection = SelectParameters(nominal, measurements, options);
-  RobustFit robust(nominal, WithInheritedPriors(nominal, options, selection), selection);
+  // RobustFit keeps a reference to its options (and its progress lambda captures them): a local, not a temporary.
+  const IdentificationOptions fit_options = WithInheritedPriors(nominal, options, selection);
+  RobustFit robust(nominal, fit_options, selection);
   Calibration all = robust.Fit(measurements, options.reject_outliers, nullptr);
   // A cancelled fit (progress returned false) is not refitted.
   if (!options.reject_outliers || all.summary.termination == Termination::kFailure || all.summary.cancelled) {

@@ -38,6 +38,9 @@ options:
   --n LIST          calibration poses, comma-separated (default 20,30,100)
   --seeds K         seeds 1..K of the draw (default 5)
   --folds F         folds of priors: auto (default 5)
+  --frame-priors    put the default lengths' and angles' priors on the base and tool sites too
+  --free A,B        no prior on these parameters
+  --scales LIST     the candidate scales of priors: auto (inf: none; default 0.25,0.5,1,2,4,inf)
   --help, -h        this text
 )";
 
@@ -140,7 +143,7 @@ int main(int argc, char** argv) {
   int seeds = 5;
   robocal::PriorChoiceOptions choice;
   try {
-    for (const auto& [flag, value] : SplitFlags(args, {"--free-frames"})) {
+    for (const auto& [flag, value] : SplitFlags(args, {"--frame-priors"})) {
       if (flag == "--csv") {
         csv = value;
       } else if (flag == "--n") {
@@ -149,11 +152,10 @@ int main(int argc, char** argv) {
           sizes.push_back(static_cast<int>(ParseIntegerFlag(flag, n, 10, 1000)));
       } else if (flag == "--seeds") {
         seeds = static_cast<int>(ParseIntegerFlag(flag, value, 1, 1000));
-      } else if (flag == "--free-frames") {
-        // No prior on the base and tool sites (the tracker's registration and a hand-mounted tool).
-        const double inf = std::numeric_limits<double>::infinity();
-        choice.priors.base_length_mm = choice.priors.base_angle_rad = inf;
-        choice.priors.tool_length_mm = choice.priors.tool_angle_rad = inf;
+      } else if (flag == "--frame-priors") {
+        // The lengths' and angles' priors on the base and tool sites too (by default they have none).
+        choice.priors.base_length_mm = choice.priors.tool_length_mm = choice.priors.length_mm;
+        choice.priors.base_angle_rad = choice.priors.tool_angle_rad = choice.priors.angle_rad;
       } else if (flag == "--free") {
         for (const std::string& name : SplitList(flag, value))
           choice.priors.parameters[name] = std::numeric_limits<double>::infinity();

@@ -374,6 +374,32 @@ void PlanSectionHtml(const ReportData& d, std::ostringstream& out) {
       << " random validation configurations from the covariance the plan's measurements would give; columns "
          "scaled: "
       << EscapeHtml(a.scaling) << ".</p>\n";
+  if (p.candidates) {
+    std::string rejected;
+    for (const api::CandidateRejectionWire& r : p.candidates->rejected) {
+      rejected += (rejected.empty() ? "; rejected: " : ", ") + std::to_string(r.count) + " " + r.reason;
+    }
+    out << "<p id=\"plan-candidates\">Chosen from the cell's " << p.candidates->num_candidates << " candidate poses ("
+        << p.candidates->num_usable << " usable" << EscapeHtml(rejected) << ").</p>\n";
+    if (p.coverage && !p.coverage->warning.empty()) {
+      out << "<p class=\"warning\" id=\"plan-coverage\">" << EscapeHtml(p.coverage->warning) << "</p>\n";
+    }
+  }
+  if (p.pose_count) {
+    // The curve a user reads to decide how many poses to measure.
+    const api::PoseCountWire& c = *p.pose_count;
+    out << "<h3>How many poses: predicted error against N</h3>\n<table id=\"pose-count\">\n<thead><tr><th>N</th>"
+           "<th>predicted RMS error (mm)</th><th>predicted mean position error (mm)</th><th></th></tr></thead>\n"
+           "<tbody>\n";
+    for (const api::PoseCountPointWire& point : c.points) {
+      const bool chosen = c.chosen && *c.chosen == point.num_configurations;
+      out << "<tr>" << IntCell(point.num_configurations) << NumCell(point.predicted_error_mm, 4)
+          << NumCell(point.predicted_mean_mm, 4) << TextCell(chosen ? "chosen" : "") << "</tr>\n";
+    }
+    out << "</tbody></table>\n<p class=\"note\">Goal " << Fixed(c.accuracy_goal_mm, 4)
+        << " mm (mean position error); the robot's model error " << Fixed(c.model_error_mm, 4)
+        << " mm RMS is included. " << EscapeHtml(c.message) << "</p>\n";
+  }
 
   out << "<h3>Configurations</h3>\n<table id=\"plan-configurations\">\n<thead><tr><th>#</th>";
   for (std::size_t k = 0; k < p.joint_units.size(); ++k) {
@@ -468,6 +494,39 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     }
     out << "</tbody></table>\n<p>The chosen model is the simplest whose mean is within one standard error of the "
            "best's (docs/identification.md, \"Beyond geometry\").</p>\n";
+  }
+  if (c.priors) {
+    // A MAP fit: what the priors held, and for "auto" the scale's comparison.
+    const api::PriorsResultWire& pr = *c.priors;
+    out << "<h3>Parameter priors</h3>\n<p id=\"priors\">Priors on " << pr.num_priors
+        << " parameters; effective number of parameters " << Fixed(pr.effective_parameters, 1)
+        << " (docs/identification.md, \"Parameter priors\").</p>\n";
+    if (!pr.candidates.empty()) {
+      out << "<table id=\"prior-choice\">\n<thead><tr><th>scale of the priors</th><th>held-out E_xyz mean (mm)</th>"
+             "<th>standard error (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
+      for (const api::PriorScaleWire& s : pr.candidates) {
+        out << "<tr>" << TextCell(std::isfinite(s.scale) ? "x " + Fixed(s.scale, 2) : "no priors");
+        if (s.failed_folds > 0) {
+          out << "<td colspan=\"2\">" << EscapeHtml(std::to_string(s.failed_folds) + " fold(s) failed: " + s.note)
+              << "</td>";
+        } else {
+          out << NumCell(s.cv_mean_mm, 4) << NumCell(s.cv_standard_error_mm, 4);
+        }
+        out << TextCell(s.chosen ? "chosen" : "") << "</tr>\n";
+      }
+      out << "</tbody></table>\n";
+    }
+    if (pr.prior_determined.empty()) {
+      out << None("The data, not the priors, determined every parameter.");
+    } else {
+      out << "<table id=\"prior-determined\">\n<thead><tr><th>determined by its prior</th><th>prior std</th>"
+             "<th>unit</th><th>data's share of its information</th></tr></thead>\n<tbody>\n";
+      for (const api::PriorDeterminedWire& pd : pr.prior_determined) {
+        out << "<tr>" << TextCell(pd.parameter) << NumCell(pd.prior_std, 4) << TextCell(pd.unit)
+            << NumCell(pd.data_share, 3) << "</tr>\n";
+      }
+      out << "</tbody></table>\n";
+    }
   }
 
   out << "<h3>Residuals of the calibration measurements</h3>\n<table id=\"fit-residuals\">\n<thead><tr><th></th>"

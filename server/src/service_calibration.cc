@@ -173,8 +173,12 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     choice.folds = req.cross_validation.folds;
     choice.seed = req.cross_validation.seed;
     if (req.cross_validation.joint_maps) choice.map_knot_spacings_rad = kMapKnotSpacingsRad;
-    const Calibration calibration =
-        req.model_auto ? IdentifyWithModelChoice(model, *measurements, o, choice) : Identify(model, *measurements, o);
+    PriorChoiceOptions prior_choice;
+    prior_choice.folds = req.cross_validation.folds;
+    prior_choice.seed = req.cross_validation.seed;
+    const Calibration calibration = req.model_auto    ? IdentifyWithModelChoice(model, *measurements, o, choice)
+                                    : req.priors_auto ? IdentifyWithPriorChoice(model, *measurements, o, prior_choice)
+                                                      : Identify(model, *measurements, o);
     if (calibration.summary.termination == Termination::kFailure) {
       throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
                      {{"measurements", calibration.summary.message}});

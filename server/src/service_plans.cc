@@ -116,7 +116,8 @@ api::PoseCountWire ChooseCount(const RobotModel& model, const api::PlanRequest& 
   }
   PoseCountOptions options;
   for (int n = req.min_configurations; n <= req.max_configurations; ++n) options.num_configurations.push_back(n);
-  options.accuracy_goal_mm = *req.accuracy_goal_mm;
+  // The goal is a mean position error (as E_xyz's); the prediction an RMS.
+  options.accuracy_goal_mm = *req.accuracy_goal_mm / kMeanOverRms3d;
   options.exchange = setup.Apply(api::ToExchangeOptions(req));
   options.exchange.objective = api::PlanObjective(req);
   const PoseCountCurve curve = PlanPoseCount(model, obs, options);
@@ -128,7 +129,9 @@ api::PoseCountWire ChooseCount(const RobotModel& model, const api::PlanRequest& 
   w.accuracy_goal_mm = *req.accuracy_goal_mm;
   w.model_error_mm = obs.model_error_mm;
   for (const PoseCountPoint& p : curve.points) {
-    w.points.push_back({.num_configurations = p.num_configurations, .predicted_error_mm = p.predicted_error_mm});
+    w.points.push_back({.num_configurations = p.num_configurations,
+                        .predicted_error_mm = p.predicted_error_mm,
+                        .predicted_mean_mm = kMeanOverRms3d * p.predicted_error_mm});
   }
   w.message = curve.message;
   if (curve.chosen >= 0) {
@@ -206,7 +209,10 @@ Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, cons
   if (robot.definition.calibrated_from) {
     try {
       const api::CalibrationResult calibration = GetCalibration(robot.definition.calibrated_from->campaign);
-      if (calibration.model_error.estimated) inputs.model_error_mm = calibration.model_error.model_error_mm;
+      if (calibration.model_error.estimated) {
+        inputs.model_error_mm = calibration.model_error.model_error_mm;
+        inputs.model_error_deg = calibration.model_error.model_error_deg;
+      }
     } catch (const ApiError&) {
       // The campaign or its calibration is gone: the plan predicts without a model error.
     }
@@ -231,6 +237,11 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   ObservabilityOptions obs = api::ToObservabilityOptions(req);
   obs.parameters = ident.identifiable;
   obs.model_error_mm = inputs.model_error_mm;
+  // The model error is also each pose's error the fit will see beside the tracker's (the fit weights its rows by
+  // both: FittedNoise), and it spreads into the parameters as that noise does: the rows are weighted as the fit
+  // will weight them, per position axis and orientation row (RMS over sqrt(3)).
+  obs.noise.model_error_mm = inputs.model_error_mm / std::sqrt(3.0);
+  obs.noise.model_error_rad = inputs.model_error_deg * kRadPerDeg / std::sqrt(3.0);
   // The cell's tracker (base frame) in the planning model's world frame: the rows of each configuration are
   // whitened by the tracker model at its distance and direction from there.
   if (cell) obs.tracker_position_mm = model.T_world_base() * cell->cell.spec().tracker.position_mm;
@@ -270,6 +281,19 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
     setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(sample.configurations);
   }
 
+  // The candidates the planner can use (as its check finds them): their coverage, and without a task what a plan
+  // from them predicts over, since the poses the cell reaches are where it works (a prediction over the whole
+  // joint space would extrapolate far beyond them).
+  std::vector<Eigen::VectorXd> usable;
+  if (setup.pool.given()) {
+    for (const Eigen::VectorXd& q : *inputs.candidates) {
+      if (q.size() == model.num_joints() && q.allFinite() && model.WithinLimits(q) &&
+          (!setup.feasible || setup.feasible(q))) {
+        usable.push_back(q);
+      }
+    }
+    if (!setup.task && !usable.empty()) setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(usable);
+  }
   int n = req.num_configurations;
   if (req.num_configurations_auto) result.pose_count = ChooseCount(model, req, obs, setup, &n);
   const Plan plan = RunOptimiser(model, req, n, obs, setup);
@@ -352,14 +376,6 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
       }
     }
     result.candidates = api::ToWire(plan.summary.candidates);
-    // The coverage of the candidates the planner could use (every one, as the check found them).
-    std::vector<Eigen::VectorXd> usable;
-    for (const Eigen::VectorXd& q : *inputs.candidates) {
-      if (q.size() == model.num_joints() && q.allFinite() && model.WithinLimits(q) &&
-          (!setup.feasible || setup.feasible(q))) {
-        usable.push_back(q);
-      }
-    }
     if (!usable.empty()) result.coverage = api::ToWire(model, AnalyseCoverage(model, obs, usable));
   }
   return result;

@@ -138,6 +138,27 @@ expect "POST /v1/plans" "$(status)" 200
 plan=$(jq -r .id "$work/plan.json")
 expect "plan has 10 configurations" "$(jq '.configurations | length' "$work/plan.json")" 10
 expect "GET /v1/plans/{plan}" "$(call GET "/v1/plans/$plan" | jq -r .id)" "$plan"
+# From the cell's own poses: 40 candidates (a drawn plan's, and its baseline's), 8 chosen among them.
+candidates=$(jq -c '.configurations + .baseline.configurations + .configurations + .baseline.configurations' "$work/plan.json")
+call POST /v1/plans "{\"robot\": \"grinder5\", \"num_configurations\": 8, \"candidates\": $candidates}" >"$work/cplan.json"
+expect "POST /v1/plans with candidates: each configuration is the candidate its index names" \
+  "$(status) $(jq -r --argjson c "$candidates" '[range(.configurations | length) as $m | .configurations[$m] == $c[.candidate_indices[$m]]] | all' "$work/cplan.json") $(jq -r .objective "$work/cplan.json")" \
+  "200 true log_det"
+expect "... with the candidates' account and coverage" \
+  "$(jq -r '"\(.candidates.num_candidates) \(.coverage.joints | length)"' "$work/cplan.json")" "40 5"
+expect "a candidate with 2 of 5 joints -> 400 naming it" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": 2, "candidates": [[0, 0], [0, 0, 0, 0, 0], [10, 10, 10, 10, 10]]}' | jq -r '.error.details[0].field')" \
+  "candidates.joints[0]"
+expect "more configurations than candidates -> 400" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": 3, "candidates": [[0, 0, 0, 0, 0]]}' | jq -r '.error.details[0].field')" \
+  num_configurations
+call POST /v1/plans "{\"robot\": \"grinder5\", \"num_configurations\": \"auto\", \"accuracy_goal_mm\": 0.05, \"max_configurations\": 20, \"candidates\": $candidates}" >"$work/auto.json"
+expect "num_configurations auto: the smallest N whose prediction reaches the goal" \
+  "$(status) $(jq -r '.pose_count.chosen == (.configurations | length) and ([.pose_count.points[] | select(.num_configurations == (.pose_count.chosen // -1)) | .predicted_mean_mm <= 0.05] | all)' "$work/auto.json")" \
+  "200 true"
+expect "auto without accuracy_goal_mm -> 400 naming it" \
+  "$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": "auto"}' | jq -r '.error.details[0].field')" \
+  accuracy_goal_mm
 op=$(call POST /v1/plans '{"robot": "grinder5", "num_configurations": 10, "seed": 1, "async": true}' | jq -r .id)
 # Until the operation says it is done (no time limit: a busy machine is slower; a hang is the test runner's timeout's).
 until [ "$(call GET "/v1/operations/$op" | jq -r .done)" == true ]; do sleep 0.1; done
@@ -237,6 +258,19 @@ expect "fit improves the residuals" \
 expect "GET /calibration" "$(call GET "/v1/campaigns/$campaign/calibration" | jq '.parameters | length')" \
   "$(jq '.parameters | length' "$work/fit.json")"
 expect "the fit says it was stored" "$(jq .stored "$work/fit.json")" true
+# Parameter priors: a MAP fit that says what the priors held, auto with every scale's held-out error; bad ones named.
+held=$(jq -r '.parameters[0].name' "$work/fit.json")
+expect "POST :fit with priors: a parameter held by a tiny prior is named as the prior's" \
+  "$(call POST "/v1/campaigns/$campaign:fit" "{\"priors\": {\"lengths_mm\": 0.5, \"parameters\": {\"$held\": 1e-6}}}" | jq -r --arg p "$held" '[.priors.num_priors > 0, ([.priors.prior_determined[].parameter] | index($p) != null)] | all')" \
+  true
+expect "POST :fit with priors auto: every scale cross-validated, one chosen" \
+  "$(call POST "/v1/campaigns/$campaign:fit" '{"priors": "auto", "cross_validation": {"folds": 3}}' | jq -r '"\(.priors.candidates | length) \([.priors.candidates[] | select(.chosen)] | length)"')" \
+  "6 1"
+expect "a negative prior -> 400 naming it" \
+  "$(call POST "/v1/campaigns/$campaign:fit" '{"priors": {"angles_deg": -1}}' | jq -r '.error.details[0].field')" \
+  priors.angles_deg
+call POST "/v1/campaigns/$campaign:fit" '{}' >"$work/fit.json"
+expect "... the calibration fitted again without priors" "$(status) $(jq 'has("priors")' "$work/fit.json")" "200 false"
 # The calibrated robot as a URDF: imported again at the registered base, it gives the campaign's own poses.
 call GET "/v1/campaigns/$campaign/calibration?format=urdf" >"$work/calibrated.urdf"
 expect "GET /calibration?format=urdf" "$(status) $(grep -c '<link name="robocal_tool"/>' "$work/calibrated.urdf")" "200 1"

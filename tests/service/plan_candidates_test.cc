@@ -241,7 +241,7 @@ TEST(PlanCandidatesTest, AutoPicksTheSmallestCountWhosePredictionReachesTheGoal)
   const int chosen = curve["chosen"];
   EXPECT_EQ(plan.body["configurations"].size(), static_cast<std::size_t>(chosen));
   for (const json& p : curve["points"]) {
-    const json& e = p["predicted_error_mm"];
+    const json& e = p["predicted_mean_mm"];
     const int n = p["num_configurations"];
     if (n == chosen) EXPECT_LE(e.get<double>(), 0.02);
     if (n < chosen) EXPECT_TRUE(e.is_null() || e.get<double>() > 0.02) << p;

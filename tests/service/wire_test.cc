@@ -758,6 +758,7 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/ImportMeasurementsRequest/properties/orientation.convention", EulerConventions()},
       {"/components/schemas/Calibration/properties/parameters/items.unit", ParameterUnits()},
       {"/components/schemas/Calibration/properties/parameters_with_outliers/items.unit", ParameterUnits()},
+      {"/components/schemas/Calibration/properties/priors/properties/prior_determined/items.unit", ParameterUnits()},
       {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
        WireNames<programs::TargetKind>()},
       {"/components/schemas/Plan.task_method", {kTaskByInverseKinematics, kTaskByRejectionSampling}}};

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -15,6 +16,7 @@
 #include "robocal/core/accuracy.h"
 #include "robocal/core/compensation.h"
 #include "robocal/core/identification.h"
+#include "robocal/core/priors.h"
 
 namespace robocal::api {
 
@@ -137,6 +139,45 @@ struct WireFields<CrossValidationWire> {
 };
 ROBOCAL_WIRE_DECLARE(CrossValidationWire);
 
+/// "priors" of a fit (docs/identification.md, "Parameter priors"): each error parameter's a-priori standard deviation,
+/// the expected size of its error, in wire units, by group and by name; the fit is then a MAP estimate. Groups left
+/// out keep the defaults; the base and tool sites have no prior unless given one.
+struct PriorsWire {
+  double lengths_mm = kDefaultPriorLengthMm;
+  double angles_deg = kDefaultPriorAngleRad * kDegPerRad;
+  double joint_offsets_deg = kDefaultPriorJointOffsetRad * kDegPerRad;
+  double joint_offsets_mm = kDefaultPriorLengthMm;
+  std::optional<double> base_length_mm;
+  std::optional<double> base_angle_deg;
+  std::optional<double> tool_length_mm;
+  std::optional<double> tool_angle_deg;
+  /// By parameter name ("joint2.dz", "reflector.smr1.dx"), in the parameter's unit (mm, deg, deg/(N*m)).
+  std::map<std::string, double> parameters;
+  /// Multiplies every standard deviation.
+  double scale = 1.0;
+};
+template <>
+struct WireFields<PriorsWire> {
+  using S = PriorsWire;
+  static constexpr double kMax = 1e6;
+  static constexpr Presence kOmit = Presence::kOmitEmpty;
+  static constexpr auto fields =
+      std::make_tuple(Field{"lengths_mm", &S::lengths_mm, Presence::kOptionalOnRead}.Range(1e-9, kMax),
+                      Field{"angles_deg", &S::angles_deg, Presence::kOptionalOnRead}.Range(1e-9, kMax),
+                      Field{"joint_offsets_deg", &S::joint_offsets_deg, Presence::kOptionalOnRead}.Range(1e-9, kMax),
+                      Field{"joint_offsets_mm", &S::joint_offsets_mm, Presence::kOptionalOnRead}.Range(1e-9, kMax),
+                      Field{"base_length_mm", &S::base_length_mm, kOmit}.Range(1e-9, kMax),
+                      Field{"base_angle_deg", &S::base_angle_deg, kOmit}.Range(1e-9, kMax),
+                      Field{"tool_length_mm", &S::tool_length_mm, kOmit}.Range(1e-9, kMax),
+                      Field{"tool_angle_deg", &S::tool_angle_deg, kOmit}.Range(1e-9, kMax),
+                      // Names of the fit's model: the parser reads them.
+                      Field{"parameters", &S::parameters, kOmit}.Apart(),
+                      Field{"scale", &S::scale, Presence::kOptionalOnRead}.Range(1e-6, 1e6));
+};
+ROBOCAL_WIRE_DECLARE(PriorsWire);
+/// The core's priors of the wire's, for a fit of `model` with `reflectors` (names resolved to their units).
+ParameterPriors ToCore(const PriorsWire& priors, const RobotModel& model, const std::vector<Reflector>& reflectors);
+
 struct FitRequest {
   /// Parameter names to estimate (e.g. "joint2.dz"); empty: the identifiable set.
   std::vector<std::string> parameters;
@@ -158,8 +199,12 @@ struct FitRequest {
   /// {"compliance": bool, "joint_harmonics": 0..2, "joint_maps": {...}}. `model_auto` is true for "auto".
   ModelWire model;
   bool model_auto = false;
-  /// For "auto" only.
+  /// For "auto" only (of the model or the priors).
   CrossValidationWire cross_validation;
+  /// On the wire "priors" is absent (none), "auto" (priors_auto: the defaults at the scale k-fold cross-validation
+  /// chooses) or the object.
+  std::optional<PriorsWire> priors;
+  bool priors_auto = false;
   /// Run as a long-running operation.
   bool async = false;
 };
@@ -185,7 +230,18 @@ struct WireFields<FitRequest> {
                     s->model_auto = value && value->is_string() && value->get<std::string>() == "auto";
                     if (value && !s->model_auto) ReadWire(*value, path, &s->model);
                   }},
-      Field{"cross_validation", &S::cross_validation}.When(+[](const S& s) { return s.model_auto; }));
+      // "auto" or the object; absent in requests stored before priors: none.
+      Computed<S>{"priors",
+                  +[](const S& s, nlohmann::json* value) {
+                    if (s.priors_auto) *value = "auto";
+                    if (s.priors) *value = nlohmann::json(*s.priors);
+                    return s.priors_auto || s.priors.has_value();
+                  },
+                  +[](const nlohmann::json* value, const std::string& path, S* s) {
+                    s->priors_auto = value && value->is_string() && value->get<std::string>() == "auto";
+                    if (value && !s->priors_auto) ReadWire(*value, path, &s->priors);
+                  }},
+      Field{"cross_validation", &S::cross_validation}.When(+[](const S& s) { return s.model_auto || s.priors_auto; }));
 };
 ROBOCAL_WIRE_DECLARE(FitRequest);
 /// The model a fit estimates: `nominal` with the request's joint terms (the geometric one for "auto", whose
@@ -377,6 +433,61 @@ struct WireFields<ModelChoiceWire> {
 };
 ROBOCAL_WIRE_DECLARE(ModelChoiceWire);
 
+/// A parameter its prior rather than the data determined: its prior standard deviation (the parameter's unit) and
+/// the data's share of its information, 0..1.
+struct PriorDeterminedWire {
+  std::string parameter;
+  double prior_std = 0.0;
+  std::string unit;
+  double data_share = 0.0;
+};
+template <>
+struct WireFields<PriorDeterminedWire> {
+  using S = PriorDeterminedWire;
+  static constexpr auto fields = std::make_tuple(Field{"parameter", &S::parameter}, Field{"prior_std", &S::prior_std},
+                                                 Field{"unit", &S::unit}, Field{"data_share", &S::data_share});
+};
+ROBOCAL_WIRE_DECLARE(PriorDeterminedWire);
+
+/// One scale of priors: auto and its cross-validated held-out position error (scale null: no priors).
+struct PriorScaleWire {
+  double scale = 0.0;
+  double cv_mean_mm = 0.0;
+  double cv_rms_mm = 0.0;
+  double cv_standard_error_mm = 0.0;
+  int failed_folds = 0;
+  std::string note;
+  bool chosen = false;
+};
+template <>
+struct WireFields<PriorScaleWire> {
+  using S = PriorScaleWire;
+  static constexpr auto fields =
+      std::make_tuple(Field{"scale", &S::scale}, Field{"cv_mean_mm", &S::cv_mean_mm}, Field{"cv_rms_mm", &S::cv_rms_mm},
+                      Field{"cv_standard_error_mm", &S::cv_standard_error_mm}, Field{"failed_folds", &S::failed_folds},
+                      Field{"note", &S::note}, Field{"chosen", &S::chosen});
+};
+ROBOCAL_WIRE_DECLARE(PriorScaleWire);
+
+/// What the priors did in a fit: how many estimated parameters had one, the effective number of parameters, the
+/// parameters the prior determined, and for "auto" each candidate scale.
+struct PriorsResultWire {
+  int num_priors = 0;
+  double effective_parameters = 0.0;
+  std::vector<PriorDeterminedWire> prior_determined;
+  std::vector<PriorScaleWire> candidates;
+  int folds = 0;
+};
+template <>
+struct WireFields<PriorsResultWire> {
+  using S = PriorsResultWire;
+  static constexpr auto fields = std::make_tuple(
+      Field{"num_priors", &S::num_priors}, Field{"effective_parameters", &S::effective_parameters},
+      Field{"prior_determined", &S::prior_determined}, Field{"candidates", &S::candidates, Presence::kOmitEmpty},
+      Field{"folds", &S::folds, Presence::kOmitEmpty});
+};
+ROBOCAL_WIRE_DECLARE(PriorsResultWire);
+
 /// POST /v1/campaigns/{c}:fit, GET /v1/campaigns/{c}/calibration, and the result of a fit operation.
 struct CalibrationResult {
   std::string campaign;
@@ -411,6 +522,8 @@ struct CalibrationResult {
   /// The campaign's reflectors at their identified positions (flange frame; a fixed one where it was given);
   /// empty without reflectors. Their offsets are also parameters (reflector.<id>.dx, ...) when identified.
   std::vector<CampaignReflectorWire> reflectors;
+  /// A fit with priors: what they did (absent without priors).
+  std::optional<PriorsResultWire> priors;
   FitSummary summary;
 };
 template <>
@@ -428,7 +541,8 @@ struct WireFields<CalibrationResult> {
       Field{"model_error", &S::model_error, Presence::kOptionalOnRead},
       Field{"model", &S::model, Presence::kOptionalOnRead},
       Field{"model_choice", &S::model_choice, Presence::kOmitEmpty},
-      Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead}, Field{"summary", &S::summary});
+      Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead}, Field{"priors", &S::priors, Presence::kOmitEmpty},
+      Field{"summary", &S::summary});
 };
 ROBOCAL_WIRE_DECLARE(CalibrationResult);
 /// The wire form of a core calibration (campaign, robot, created_unix_ms and stored left for the caller).

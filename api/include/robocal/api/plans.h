@@ -371,14 +371,17 @@ CoverageWire ToWire(const RobotModel& model, const CandidateCoverage& coverage);
 /// One point of the predicted error on the task against N.
 struct PoseCountPointWire {
   int num_configurations = 0;
-  /// mm; null when the set does not determine every parameter.
+  /// The predicted RMS error on the task (mm; null when the set does not determine every parameter), and the mean
+  /// position error it implies, kMeanOverRms3d of it, which the goal is compared with.
   double predicted_error_mm = 0.0;
+  double predicted_mean_mm = 0.0;
 };
 template <>
 struct WireFields<PoseCountPointWire> {
   using S = PoseCountPointWire;
   static constexpr auto fields = std::make_tuple(Field{"num_configurations", &S::num_configurations},
-                                                 Field{"predicted_error_mm", &S::predicted_error_mm});
+                                                 Field{"predicted_error_mm", &S::predicted_error_mm},
+                                                 Field{"predicted_mean_mm", &S::predicted_mean_mm});
 };
 ROBOCAL_WIRE_DECLARE(PoseCountPointWire);
 

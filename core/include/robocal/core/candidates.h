@@ -110,6 +110,11 @@ struct TaskBox {
   std::vector<Eigen::Matrix3d> orientations;
 };
 
+/// The mean of the length of a 3-D isotropic normal error over its RMS, sqrt(8 / (3 pi)) (the Maxwell
+/// distribution): how a predicted RMS error compares with a mean error such as E_xyz's. On the IPA UR10 the held-out
+/// mean over the model error's RMS is 0.91.
+inline constexpr double kMeanOverRms3d = 0.9213177319235613;
+
 /// TaskSample::method's values.
 inline constexpr const char* kTaskByInverseKinematics = "inverse_kinematics";
 inline constexpr const char* kTaskByRejectionSampling = "rejection_sampling";

@@ -173,6 +173,7 @@ class Service {
     std::vector<int> candidate_lines;
     std::shared_ptr<const std::vector<Eigen::VectorXd>> task;
     double model_error_mm = 0.0;
+    double model_error_deg = 0.0;
   };
   PlanInputs ResolvePlanInputs(const api::PlanRequest& request, const ResolvedRobot& robot);
   api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const PlanInputs& inputs,
