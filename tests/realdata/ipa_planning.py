@@ -168,5 +168,28 @@ print("  predicted mean error against N: " + ", ".join(f"{n}: {e:.3f}" for n, e 
                                                   if e is not None and (n % 6 == 0 or n == chosen)))
 check(f"auto: N = {chosen} meets the goal on the held-out poses ({mean_auto:.4f} <= {goal:.4f} mm, standard error "
       f"{standard_error:.4f} mm)", chosen is not None and mean_auto <= goal + standard_error)
+# Parameter priors with few poses: N poses drawn at random from the candidates (seeds 1-10), fitted without priors
+# and with "priors": "auto", both judged on the held-out poses.
+for n in (20, 30, 100):
+    plain, auto_priors = [], []
+    for seed in range(1, 11):
+        lines = random.Random(100 + seed).sample(CANDIDATES, n)
+        plain.append(held_out_mean(lines)[2])
+        c = f"p{n}-{seed}"
+        call("POST", "/v1/campaigns", {"id": c, "robot": "ur10", "measurement_type": "pose", "tracker": {}})
+        for role, rows in (("calibration", lines), ("validation", HELD_OUT)):
+            call("POST", f"/v1/campaigns/{c}/measurements:import",
+                 dict(FILE, request_id=f"{c}-{role}", role=role, rows=sorted(rows)))
+        fit = call("POST", f"/v1/campaigns/{c}:fit", {"priors": "auto"})
+        auto_priors.append(call("POST", f"/v1/campaigns/{c}:evaluate", {})["calibrated"]["e_xyz_mm"]["mean"])
+    without, with_priors = statistics.mean(plain), statistics.mean(auto_priors)
+    change = 100.0 * (with_priors / without - 1.0)
+    print(f"priors N {n:3d}: held-out mean without {without:.4f} mm, priors auto {with_priors:.4f} mm ({change:+.1f} %);"
+          " draws " + " ".join(f"{a:.3f}/{b:.3f}" for a, b in zip(plain, auto_priors)))
+    check(f"priors N {n}: auto no worse than without on the held-out mean ({change:+.1f} %)",
+          with_priors <= without * 1.0005)
+    if n == 20:
+        check(f"priors N 20: auto at least 3 % better ({change:+.1f} %)", change <= -3.0)
+
 print(f"{failures} check(s) failed" if failures else "all checks passed")
 sys.exit(1 if failures else 0)
