@@ -81,7 +81,7 @@ void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Pro
   if (!req.num_configurations_auto && req.accuracy_goal_mm) {
     problems->Add("accuracy_goal_mm", "only with \"num_configurations\": \"auto\"");
   }
-  if (req.min_configurations > req.max_configurations) {
+  if (req.min_configurations > req.max_configurations && req.num_configurations_auto) {
     problems->Add("max_configurations",
                   "must not be below min_configurations (" + std::to_string(req.min_configurations) + ")");
   }
@@ -156,7 +156,7 @@ void ReadCandidates(const nlohmann::json& value, const Limits& limits, Problems*
   if (const nlohmann::json* file = r.Get("file")) {
     // An import request's members, read by the import's own parser (request_id only makes an import idempotent).
     nlohmann::json body = *file;
-    if (body.is_object() && !body.contains("request_id")) body["request_id"] = "candidates";
+    if (body.is_object()) body["request_id"] = "candidates";
     try {
       c.file = ParseImportMeasurementsRequest(body);
       if (c.file->joints.empty()) problems->Add("candidates.file.joints", "required: candidates are joint vectors");
@@ -192,6 +192,11 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
     ReadJointLists((*t)["joints"], "task.joints", 10000, &problems, &req.task->joints);
   }
   r.RejectUnknown(WireFieldNames<PlanRequest>());
+  for (const char* key : {"min_configurations", "max_configurations"}) {
+    if (r.Has(key) && !req.num_configurations_auto) {
+      problems.Add(key, "only with \"num_configurations\": \"auto\"");
+    }
+  }
   if (problems.empty()) WireFields<PlanRequest>::CheckRequest(req, "", &problems);
   const int largest = req.num_configurations_auto ? req.max_configurations : req.num_configurations;
   if (largest > limits.max_plan_configurations) {

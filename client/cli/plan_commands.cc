@@ -60,11 +60,11 @@ void PrintPlan(const api::PlanResult& plan, std::ostream& out) {
   if (plan.coverage && !plan.coverage->warning.empty()) out << "warning: " << plan.coverage->warning << "\n";
   if (plan.pose_count) {
     const api::PoseCountWire& c = *plan.pose_count;
-    out << "predicted error on the task against N (goal " << Fixed(c.accuracy_goal_mm, 3) << " mm";
+    out << "predicted mean position error on the task against N (goal " << Fixed(c.accuracy_goal_mm, 3) << " mm";
     if (c.model_error_mm > 0.0) out << ", robot model error " << Fixed(c.model_error_mm, 3) << " mm";
     out << "):\n";
     for (const api::PoseCountPointWire& p : c.points) {
-      out << std::setw(6) << p.num_configurations << std::setw(10) << Fixed(p.predicted_error_mm, 4) << " mm"
+      out << std::setw(6) << p.num_configurations << std::setw(10) << Fixed(p.predicted_mean_mm, 4) << " mm"
           << (c.chosen && *c.chosen == p.num_configurations ? "  <- chosen" : "") << "\n";
     }
     if (!c.chosen) out << "no N up to " << c.points.back().num_configurations << " reaches the goal\n";
@@ -144,6 +144,8 @@ api::PlanCandidatesWire CandidatesOption(Invocation& in, const std::string& robo
     } else {
       candidates.joints = ReadJointsFile(source, in.Client().GetRobot(robot_id));
     }
+  } else if (EndsWith(source, ".csv") || EndsWith(source, ".json")) {
+    throw UsageError("--candidates: no file " + source);
   } else {
     candidates.campaign = source;
   }

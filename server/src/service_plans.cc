@@ -2,6 +2,7 @@
 #include <cmath>
 #include <memory>
 #include <set>
+#include <sstream>
 
 #include "robocal/core/candidates.h"
 #include "robocal/core/cell.h"
@@ -105,7 +106,7 @@ Plan RunOptimiser(const RobotModel& model, const api::PlanRequest& req, int n, c
 // options.num_candidates feasible configurations when the request gives none), and the smallest N that reaches the
 // goal (the range's largest when none does).
 api::PoseCountWire ChooseCount(const RobotModel& model, const api::PlanRequest& req, const ObservabilityOptions& obs,
-                               PlanSetup setup, int* chosen) {
+                               PlanSetup setup, int* chosen, PoseCountPoint* chosen_set) {
   if (!setup.pool.given()) {
     Rng rng(req.seed + 3000017);
     FeasibleDraws draws;
@@ -133,13 +134,26 @@ api::PoseCountWire ChooseCount(const RobotModel& model, const api::PlanRequest& 
                         .predicted_error_mm = p.predicted_error_mm,
                         .predicted_mean_mm = kMeanOverRms3d * p.predicted_error_mm});
   }
-  w.message = curve.message;
+  // Said in the goal's terms (a mean position error), as the points give it.
+  const PoseCountPoint& point =
+      curve.chosen >= 0 ? curve.points[static_cast<std::size_t>(curve.chosen)] : curve.points.back();
+  std::ostringstream message;
+  message.precision(4);
   if (curve.chosen >= 0) {
-    w.chosen = curve.points[static_cast<std::size_t>(curve.chosen)].num_configurations;
-    *chosen = *w.chosen;
+    w.chosen = point.num_configurations;
+    message << "N = " << point.num_configurations << " is the fewest poses predicted to reach the goal of "
+            << *req.accuracy_goal_mm << " mm (mean position error " << kMeanOverRms3d * point.predicted_error_mm
+            << " mm)";
   } else {
-    *chosen = curve.points.back().num_configurations;
+    message << "no N up to " << point.num_configurations << " is predicted to reach the goal of "
+            << *req.accuracy_goal_mm << " mm (at " << point.num_configurations << ": "
+            << kMeanOverRms3d * point.predicted_error_mm << " mm, the robot's model error alone "
+            << kMeanOverRms3d * obs.model_error_mm << " mm); the plan has " << point.num_configurations << " poses";
   }
+  if (curve.termination == Termination::kDegraded) message << "; " << curve.message;
+  w.message = message.str();
+  *chosen = point.num_configurations;
+  *chosen_set = point;
   return w;
 }
 
@@ -180,6 +194,16 @@ Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, cons
       for (const FieldViolation& v : read.list()) problems.Add(api::JoinPath("candidates.file", v.field), v.reason);
       problems.ThrowIfAny("invalid plan request");
       const std::set<int> rows(c.file->rows.begin(), c.file->rows.end());
+      // Every row named must be a data row, as the import says of its own rows.
+      std::set<int> data_lines;
+      for (const api::TrackerPoint& p : points) data_lines.insert(p.line);
+      for (std::size_t k = 0; k < c.file->rows.size(); ++k) {
+        if (data_lines.count(c.file->rows[k]) == 0) {
+          problems.Add(api::IndexPath("candidates.file.rows", k),
+                       "line " + std::to_string(c.file->rows[k]) + " is not a data row of the text");
+        }
+      }
+      problems.ThrowIfAny("invalid plan request");
       for (const api::TrackerPoint& p : points) {
         if (!rows.empty() && rows.count(p.line) == 0) continue;
         AddPose(p.joints_deg, p.line, &poses, &inputs.candidate_lines);
@@ -222,8 +246,9 @@ Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, cons
 
 api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const PlanInputs& inputs,
                                  const std::string& plan_id, WorkControl& control, const LoadedCell* cell) {
-  // In a cell: the joint limits narrowed to its ranges, and every configuration feasible in it.
-  const RobotModel model = cell ? cell->cell.PlanningModel(nominal) : nominal;
+  // In a cell: the joint limits narrowed to its ranges, and every configuration feasible in it. Candidates are
+  // checked against the robot's own limits, so that the cell's ranges reject them by its rule (joint_range).
+  const RobotModel model = cell && !inputs.candidates ? cell->cell.PlanningModel(nominal) : nominal;
   PlanSetup setup;
   if (cell) setup.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   IdentifiabilityOptions id_options;
@@ -295,8 +320,16 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
     if (!setup.task && !usable.empty()) setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(usable);
   }
   int n = req.num_configurations;
-  if (req.num_configurations_auto) result.pose_count = ChooseCount(model, req, obs, setup, &n);
-  const Plan plan = RunOptimiser(model, req, n, obs, setup);
+  PoseCountPoint counted;
+  if (req.num_configurations_auto) result.pose_count = ChooseCount(model, req, obs, setup, &n, &counted);
+  Plan plan;
+  try {
+    plan = RunOptimiser(model, req, n, obs, setup);
+  } catch (const std::invalid_argument& e) {
+    // What the request could not have caught before the planner saw the candidates or the task.
+    throw ApiError(Status::kInvalidArgument, std::string("invalid plan request: ") + e.what(),
+                   {{req.candidates ? "candidates" : "task", e.what()}});
+  }
   if (plan.summary.termination == Termination::kFailure) {
     if (setup.pool.given()) {
       throw ApiError(Status::kFailedPrecondition, "no plan from the candidates: " + plan.summary.message,
@@ -341,6 +374,24 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
                    "cell \"" + cell->wire.id + "\" leaves too little feasible for " + what + ": " +
                        (validation_drawn ? baseline.summary.message : std::string("too few feasible draws")),
                    {{"cell", "too little feasible for " + what}});
+  }
+
+  // "auto": the plan reaches the goal by the prediction the count was chosen by. The optimiser's own set of N is kept
+  // when it does (on real data a better prediction need not be a better set); when it does not (random selection's
+  // may miss it), the set the pose count judged at N is the plan. Without a goal reached, the better of the two.
+  if (req.num_configurations_auto && !counted.configurations.empty() &&
+      plan.summary.termination != Termination::kFailure) {
+    const double planned = PredictAccuracy(model, obs, plan.configurations, validation).rms_error_mm;
+    const double judged = PredictAccuracy(model, obs, counted.configurations, validation).rms_error_mm;
+    const double goal_rms = *req.accuracy_goal_mm / kMeanOverRms3d;
+    const bool misses = result.pose_count->chosen ? !(planned <= goal_rms) : !(planned <= judged);
+    if (misses && judged < planned) {
+      plan.configurations = counted.configurations;
+      plan.candidate_indices = setup.pool.given() ? counted.candidate_indices : std::vector<int>{};
+      plan.summary.final = ComputeIndicesBySvd(model, plan.configurations, obs);
+      plan.summary.message += "; the pose count's set of " + std::to_string(n) +
+                              " poses predicts less error on the task than the optimiser's, and is the plan";
+    }
   }
 
   result.id = plan_id;

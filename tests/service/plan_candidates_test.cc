@@ -173,6 +173,15 @@ TEST(PlanCandidatesTest, ATrackerExportsRowsAreCandidatesWithTheirLines) {
     EXPECT_EQ(plan.body["candidate_lines"][m], line_of[static_cast<std::size_t>(k)]);
     EXPECT_NEAR(plan.body["configurations"][m][0].get<double>(), poses[k][0].get<double>(), 1e-9);
   }
+  // A request_id (as the CLI's import request carries, empty) is no matter here; rows must be data rows.
+  json with_id = file;
+  with_id["request_id"] = "";
+  EXPECT_EQ(s.Post("/v1/plans", PlanFrom({{"file", with_id}}, 10)).status, 200);
+  json rows = file;
+  rows["rows"] = {1, 3, 999};
+  const Reply not_data = s.Post("/v1/plans", PlanFrom({{"file", rows}}, 1));
+  EXPECT_TRUE(NamesField(not_data, "candidates.file.rows[0]")) << not_data.text;
+  EXPECT_TRUE(NamesField(not_data, "candidates.file.rows[2]")) << not_data.text;
   json bad = file;
   bad.erase("joints");
   EXPECT_TRUE(NamesField(s.Post("/v1/plans", PlanFrom({{"file", bad}}, 10)), "candidates.file.joints"));
@@ -254,6 +263,70 @@ TEST(PlanCandidatesTest, AutoPicksTheSmallestCountWhosePredictionReachesTheGoal)
   EXPECT_EQ(unreachable.body["configurations"].size(), 30u);
   request["max_configurations"] = 5;
   EXPECT_TRUE(NamesField(s.Post("/v1/plans", request), "max_configurations"));
+  // The range goes with "auto" only.
+  json fixed = PlanFrom(Candidates(50, 19), 10);
+  fixed["min_configurations"] = 8;
+  EXPECT_TRUE(NamesField(s.Post("/v1/plans", fixed), "min_configurations"));
+}
+
+// Whatever the optimiser, "auto" returns a set predicted to be as good on the task as the one the pose count judged:
+// random selection's own set of N would miss the goal the curve's set reaches.
+TEST(PlanCandidatesTest, AutoNeverReturnsASetWorseThanTheOneItsCountWasJudgedBy) {
+  TestServer s;
+  json request = PlanFrom(Candidates(200, 20), 10);
+  request["num_configurations"] = "auto";
+  request["accuracy_goal_mm"] = 0.03;
+  request["optimiser"] = "random";
+  const Reply plan = s.Post("/v1/plans", request);
+  ASSERT_EQ(plan.status, 200) << plan.text;
+  ASSERT_FALSE(plan.body["pose_count"]["chosen"].is_null());
+  const double predicted_mean = 0.9213177319235613 * plan.body["predicted_accuracy"]["rms_error_mm"].get<double>();
+  EXPECT_LE(predicted_mean, 0.03 * (1.0 + 1e-9)) << plan.body["summary"]["message"];
+  ExpectMembers(plan.body, request["candidates"]);
+}
+
+// In a cell, candidates beyond its joint ranges are the cell's to reject, by its rule: counted as joint_range, not
+// refused as beyond the robot's limits (which they are not).
+TEST(PlanCandidatesTest, ACellsJointRangesRejectCandidatesByTheirRule) {
+  TestServer s;
+  const json cell = {
+      {"id", "narrow"},
+      {"robot", "ur5e"},
+      {"tracker", {{"position_mm", {0, 0, 3000}}}},
+      {"reflectors",
+       {{{"id", "smr"}, {"position_mm", {0, 0, 50}}, {"normal", {0, 0, 1}}, {"acceptance_half_angle_deg", 180}}}},
+      {"joint_ranges",
+       {{{"min", -360}, {"max", 360}},
+        {{"min", -360}, {"max", 360}},
+        {{"min", -360}, {"max", 360}},
+        {{"min", -360}, {"max", 360}},
+        {{"min", -360}, {"max", 360}},
+        {{"min", -90}, {"max", 90}}}}};
+  const Reply made = s.Post("/v1/cells", cell);
+  ASSERT_EQ(made.status, 200) << made.text;
+  json candidates = Candidates(300, 21);
+  for (json& q : candidates) q[5] = 0.0;
+  candidates[3][5] = 120.0;
+  json request = PlanFrom(candidates, 6);
+  request["cell"] = "narrow";
+  for (bool async : {false, true}) {
+    request["async"] = async;
+    Reply plan = s.Post("/v1/plans", request);
+    ASSERT_EQ(plan.status, 200) << plan.text;
+    if (async) {
+      const std::string op = plan.body["id"];
+      do plan = s.Get("/v1/operations/" + op);
+      while (!plan.body["done"].get<bool>());
+      ASSERT_EQ(plan.body["state"], "SUCCEEDED") << plan.text;
+      plan = s.Get("/v1/plans/" + plan.body["result"]["plan"].get<std::string>());
+    }
+    bool named = false;
+    for (const json& r : plan.body["candidates"]["rejected"]) {
+      if (r["reason"] == "joint_range") named = r["first_indices"].get<std::vector<int>>()[0] == 3;
+    }
+    EXPECT_TRUE(named) << plan.body["candidates"];
+    for (const json& k : plan.body["candidate_indices"]) EXPECT_NE(k, 3);
+  }
 }
 
 }  // namespace

@@ -150,13 +150,15 @@ void ReadNumConfigurations(const nlohmann::json* value, const std::string& path,
 template <>
 struct WireFields<PlanRequest> {
   using S = PlanRequest;
+  static constexpr bool (*kAuto)(const S&) = +[](const S& r) { return r.num_configurations_auto; };
   static constexpr auto fields = std::make_tuple(
       Field{"robot", &S::robot}.Mandatory().Size(0, 64),
       Field{"cell", &S::cell, Presence::kOmitEmpty}.Size(0, 64).Rule(&IsValidId, kIdRule),
       // A number or "auto": the parser reads it.
       Computed<S>{"num_configurations", &detail::WriteNumConfigurations, &detail::ReadNumConfigurations, true},
-      Field{"min_configurations", &S::min_configurations, Presence::kOptionalOnRead}.Range(1, 1000),
-      Field{"max_configurations", &S::max_configurations, Presence::kOptionalOnRead}.Range(1, 1000),
+      // "auto"'s range: written and read with "auto" only (a request that gives it otherwise is refused).
+      Field{"min_configurations", &S::min_configurations, Presence::kOptionalOnRead}.When(kAuto).Range(1, 1000),
+      Field{"max_configurations", &S::max_configurations, Presence::kOptionalOnRead}.When(kAuto).Range(1, 1000),
       Field{"accuracy_goal_mm", &S::accuracy_goal_mm, Presence::kOmitEmpty}.Range(1e-6, 1e3),
       Field{"measurement_type", &S::measurement_type}, Field{"objective", &S::objective, Presence::kOmitEmpty},
       Field{"optimiser", &S::optimiser}, Field{"scaling", &S::scaling}, Field{"noise", &S::noise},
