@@ -172,16 +172,21 @@ UsableCandidates CheckCandidates(const RobotModel& model, const CandidatePool& p
   return out;
 }
 
-void FailForCandidates(Clock::time_point start_time, const CandidateAccount& account, int num_configurations,
-                       Plan* plan) {
+bool CheckCandidatesForPlan(const RobotModel& model, const CandidatePool& pool, const FeasibilityPredicate& feasible,
+                            int num_configurations, Clock::time_point start_time, UsableCandidates* usable,
+                            Plan* plan) {
+  if (!pool.given()) return true;
+  *usable = CheckCandidates(model, pool, feasible);
   PlanSummary& s = plan->summary;
+  s.candidates = usable->account;
+  if (static_cast<int>(usable->indices.size()) >= num_configurations) return true;
   plan->configurations.clear();
   plan->candidate_indices.clear();
   s.termination = Termination::kFailure;
-  s.candidates = account;
   s.message = "too few usable candidates: " + std::to_string(num_configurations) + " configurations asked, " +
-              account.Describe();
+              usable->account.Describe();
   s.seconds = Seconds(start_time);
+  return false;
 }
 
 PoolBlocks CandidateBlocks(const std::vector<Eigen::VectorXd>& candidates, const std::vector<int>& usable,

@@ -156,14 +156,12 @@ Plan PlanExchange(const RobotModel& model, int num_configurations, const Observa
                                 ") must be at least the number of configurations (" +
                                 std::to_string(num_configurations) + ")");
   }
-  UsableCandidates usable;
-  if (from_candidates) usable = CheckCandidates(model, options.candidates, options.feasible);
   const auto start_time = Clock::now();
   Plan plan = StartPlan("exchange", options.objective);
   PlanSummary& s = plan.summary;
-  s.candidates = usable.account;
-  if (from_candidates && static_cast<int>(usable.indices.size()) < num_configurations) {
-    FailForCandidates(start_time, usable.account, num_configurations, &plan);
+  UsableCandidates usable;
+  if (!CheckCandidatesForPlan(model, options.candidates, options.feasible, num_configurations, start_time, &usable,
+                              &plan)) {
     return plan;
   }
   ObservabilityEvaluator evaluator(model, observability);

@@ -221,14 +221,12 @@ Plan PlanRandom(const RobotModel& model, int num_configurations, const Observabi
   CheckCommon(model, num_configurations, observability, valid, "RandomSelectionOptions: " + error);
   CheckTask(model, options.task);
   const bool from_candidates = options.candidates.given();
-  UsableCandidates usable;
-  if (from_candidates) usable = CheckCandidates(model, options.candidates, options.feasible);
   const auto start_time = Clock::now();
   Plan plan = StartPlan("random", options.objective);
   PlanSummary& s = plan.summary;
-  s.candidates = usable.account;
-  if (from_candidates && static_cast<int>(usable.indices.size()) < num_configurations) {
-    FailForCandidates(start_time, usable.account, num_configurations, &plan);
+  UsableCandidates usable;
+  if (!CheckCandidatesForPlan(model, options.candidates, options.feasible, num_configurations, start_time, &usable,
+                              &plan)) {
     return plan;
   }
   ObservabilityEvaluator evaluator(model, observability);

@@ -74,10 +74,11 @@ struct UsableCandidates {
 UsableCandidates CheckCandidates(const RobotModel& model, const CandidatePool& pool,
                                  const FeasibilityPredicate& feasible);
 
-// The end of a plan from candidates with fewer usable candidates than configurations: FAILURE, no configurations,
-// the account in the summary and both counts in the message.
-void FailForCandidates(Clock::time_point start_time, const CandidateAccount& account, int num_configurations,
-                       Plan* plan);
+// The start of a plan from candidates, shared by the planners: the candidates checked (nothing when the pool is not
+// given), their account in the plan's summary, and false with the plan a FAILURE (no configurations, both counts in
+// the message) when fewer than num_configurations are usable.
+bool CheckCandidatesForPlan(const RobotModel& model, const CandidatePool& pool, const FeasibilityPredicate& feasible,
+                            int num_configurations, Clock::time_point start_time, UsableCandidates* usable, Plan* plan);
 
 // `count` distinct values of `from`, drawn by a partial Fisher-Yates shuffle (the exchange optimiser's random start).
 std::vector<int> DrawDistinct(std::vector<int> from, int count, Rng* rng);

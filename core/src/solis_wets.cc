@@ -279,14 +279,12 @@ Plan PlanSolisWets(const RobotModel& model, int num_configurations, const Observ
   }
   const Normaliser normaliser{model};
   if (!initial.empty()) CheckInitialSet(model, num_configurations, initial, normaliser, options.feasible);
-  UsableCandidates usable;
-  if (from_candidates) usable = CheckCandidates(model, options.candidates, options.feasible);
   const auto start_time = Clock::now();
   Plan plan = StartPlan("solis_wets", options.objective);
   PlanSummary& s = plan.summary;
-  s.candidates = usable.account;
-  if (from_candidates && static_cast<int>(usable.indices.size()) < num_configurations) {
-    FailForCandidates(start_time, usable.account, num_configurations, &plan);
+  UsableCandidates usable;
+  if (!CheckCandidatesForPlan(model, options.candidates, options.feasible, num_configurations, start_time, &usable,
+                              &plan)) {
     return plan;
   }
   ObservabilityEvaluator evaluator(model, observability);
