@@ -119,19 +119,46 @@ template <typename M>
 inline constexpr bool kIsNumberArray = false;
 template <std::size_t N>
 inline constexpr bool kIsNumberArray<std::array<double, N>> = true;
-// A list of shapes ReadRequest reads element by element.
-template <typename M>
-inline constexpr bool kIsShapeList = false;
+// An element of a list ReadRequest reads one by one: a shape, or a fixed-size number array (orientations as
+// [r, p, y]).
 template <typename E>
-inline constexpr bool kIsShapeList<std::vector<E>> = kHasRequestReader<E> || kHasWireFields<E>;
-// A list of fixed-size number arrays (orientations as [r, p, y]).
+inline constexpr bool kIsElement = kHasRequestReader<E> || kHasWireFields<E> || kIsNumberArray<E>;
 template <typename M>
-inline constexpr bool kIsNumberArrayList = false;
-template <std::size_t N>
-inline constexpr bool kIsNumberArrayList<std::vector<std::array<double, N>>> = true;
+inline constexpr bool kIsElementList = false;
+template <typename E>
+inline constexpr bool kIsElementList<std::vector<E>> = kIsElement<E>;
 
 /// "must be in [min, max], got x" at `path` when x is outside the rule's range.
 bool InRange(double x, const RequestRule& rule, const std::string& path, Problems* problems);
+/// InRange of each value, at path[i]; true when all are.
+template <typename Values>
+bool InRanges(const Values& values, const RequestRule& rule, const std::string& path, Problems* problems) {
+  bool ok = true;
+  for (std::size_t i = 0; i < values.size(); ++i) ok = InRange(values[i], rule, IndexPath(path, i), problems) && ok;
+  return ok;
+}
+/// The most elements of a list (a row's own size, else the largest list the server takes by default).
+inline std::size_t MaxElements(const RequestRule& rule) { return rule.max_size > 0 ? rule.max_size : 10000; }
+
+// One element (kIsElement) at `path`: a shape by its reader or table, a number array by its size and the rule's
+// range. True when *out was set.
+template <typename E>
+bool ReadRequestElement(const nlohmann::json& value, const std::string& path, const RequestRule& rule,
+                        Problems* problems, E* out) {
+  if constexpr (kIsNumberArray<E>) {
+    std::vector<double> numbers;
+    if (!ReadNumberArray(value, path, problems, &numbers, out->size(), out->size()) ||
+        !InRanges(numbers, rule, path, problems)) {
+      return false;
+    }
+    std::copy(numbers.begin(), numbers.end(), out->begin());
+    return true;
+  } else if constexpr (kHasRequestReader<E>) {
+    return RequestReader<E>::Read(value, path, problems, out);
+  } else {
+    return ReadRequestObject(value, path, problems, out);
+  }
+}
 
 // One member's value under `key`, by its type (see ReadRequest). True when *out was set.
 template <typename M>
@@ -163,24 +190,20 @@ bool ReadRequestValue(ObjectReader& r, const char* key, const RequestRule& rule,
     return r.String(key, rule.required, out, rule.max_size > 0 ? rule.max_size : 256);
   } else if constexpr (kIsNumberArray<M>) {
     M values{};
-    if (!r.FixedNumbers(key, rule.required, values.data(), values.size())) return false;
-    bool ok = true;
-    for (std::size_t i = 0; i < values.size(); ++i) {
-      ok = InRange(values[i], rule, IndexPath(JoinPath(r.path(), key), i), problems) && ok;
-    }
-    if (ok) *out = values;
-    return ok;
-  } else if constexpr (std::is_same_v<M, std::vector<double>>) {
-    std::vector<double> values;
-    if (!r.Numbers(key, rule.required, &values, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000)) {
+    if (!r.FixedNumbers(key, rule.required, values.data(), values.size()) ||
+        !InRanges(values, rule, JoinPath(r.path(), key), problems)) {
       return false;
     }
-    bool ok = true;
-    for (std::size_t i = 0; i < values.size(); ++i) {
-      ok = InRange(values[i], rule, IndexPath(JoinPath(r.path(), key), i), problems) && ok;
+    *out = values;
+    return true;
+  } else if constexpr (std::is_same_v<M, std::vector<double>>) {
+    std::vector<double> values;
+    if (!r.Numbers(key, rule.required, &values, rule.min_size, MaxElements(rule)) ||
+        !InRanges(values, rule, JoinPath(r.path(), key), problems)) {
+      return false;
     }
-    if (ok) *out = std::move(values);
-    return ok;
+    *out = std::move(values);
+    return true;
   } else if constexpr (kHasRequestReader<M> || kHasWireFields<M>) {
     const nlohmann::json* value = r.Get(key);
     if (value == nullptr) {
@@ -188,47 +211,16 @@ bool ReadRequestValue(ObjectReader& r, const char* key, const RequestRule& rule,
       return false;
     }
     M read{};
-    bool ok = false;
-    if constexpr (kHasRequestReader<M>) {
-      ok = RequestReader<M>::Read(*value, JoinPath(r.path(), key), problems, &read);
-    } else {
-      ok = ReadRequestObject(*value, JoinPath(r.path(), key), problems, &read);
-    }
-    if (ok) *out = std::move(read);
-    return ok;
-  } else if constexpr (kIsNumberArrayList<M>) {
-    using E = typename M::value_type;
-    const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000);
+    if (!ReadRequestElement(*value, JoinPath(r.path(), key), rule, problems, &read)) return false;
+    *out = std::move(read);
+    return true;
+  } else if constexpr (kIsElementList<M>) {
+    const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, MaxElements(rule));
     if (list == nullptr) return false;
     M values(list->size());
     bool ok = true;
     for (std::size_t i = 0; i < list->size(); ++i) {
-      const std::string path = IndexPath(JoinPath(r.path(), key), i);
-      std::vector<double> numbers;
-      if (!ReadNumberArray((*list)[i], path, problems, &numbers, std::tuple_size_v<E>, std::tuple_size_v<E>)) {
-        ok = false;
-        continue;
-      }
-      for (std::size_t k = 0; k < numbers.size(); ++k) {
-        ok = InRange(numbers[k], rule, IndexPath(path, k), problems) && ok;
-        values[i][k] = numbers[k];
-      }
-    }
-    if (ok) *out = std::move(values);
-    return ok;
-  } else if constexpr (kIsShapeList<M>) {
-    using E = typename M::value_type;
-    const nlohmann::json* list = r.Array(key, rule.required, rule.min_size, rule.max_size > 0 ? rule.max_size : 10000);
-    if (list == nullptr) return false;
-    M values(list->size());
-    bool ok = true;
-    for (std::size_t i = 0; i < list->size(); ++i) {
-      const std::string path = IndexPath(JoinPath(r.path(), key), i);
-      if constexpr (kHasRequestReader<E>) {
-        ok = RequestReader<E>::Read((*list)[i], path, problems, &values[i]) && ok;
-      } else {
-        ok = ReadRequestObject((*list)[i], path, problems, &values[i]) && ok;
-      }
+      ok = ReadRequestElement((*list)[i], IndexPath(JoinPath(r.path(), key), i), rule, problems, &values[i]) && ok;
     }
     if (ok) *out = std::move(values);
     return ok;
@@ -245,8 +237,7 @@ constexpr bool Readable() {
     return Readable<typename M::value_type>();
   } else {
     return std::is_arithmetic_v<M> || kIsWireEnum<M> || std::is_same_v<M, std::string> || kIsNumberArray<M> ||
-           std::is_same_v<M, std::vector<double>> || kHasRequestReader<M> || kHasWireFields<M> || kIsShapeList<M> ||
-           kIsNumberArrayList<M>;
+           std::is_same_v<M, std::vector<double>> || kHasRequestReader<M> || kHasWireFields<M> || kIsElementList<M>;
   }
 }
 // A row ReadRequest reads, or one it may leave: every Field row a request may set has a readable type or is
