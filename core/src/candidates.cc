@@ -328,11 +328,7 @@ CandidateCoverage AnalyseCoverage(const RobotModel& model, const ObservabilityOp
 
 // ---- Task configurations ------------------------------------------------------------------------------------
 
-namespace {
-
-// q's revolute joints shifted by whole turns into the limits (the first turn that fits, from the value itself);
-// false when some joint fits no turn.
-bool PlaceInLimits(const RobotModel& model, Eigen::VectorXd* q) {
+bool planning_detail::ShiftIntoLimits(const RobotModel& model, Eigen::VectorXd* q) {
   constexpr double kTurn = 2.0 * std::numbers::pi;
   for (int j = 0; j < model.num_joints(); ++j) {
     const double lo = model.lower_limits()[j], hi = model.upper_limits()[j];
@@ -345,6 +341,8 @@ bool PlaceInLimits(const RobotModel& model, Eigen::VectorXd* q) {
   }
   return true;
 }
+
+namespace {
 
 void CheckTaskBox(const TaskBox& box, int count, int max_attempts_per_configuration) {
   if (count < 1) throw std::invalid_argument("SampleTaskConfigurations: count must be >= 1");
@@ -389,7 +387,7 @@ TaskSample SampleTaskConfigurations(const RobotModel& model, const TaskBox& box,
       for (ArmSolution& s : solver->Solve(T_base_tool, reference)) {
         // Exact solutions only: the stretched ones just beyond reach are starts for compensation, not poses.
         if (s.position_error_mm > 1e-6 || s.orientation_error_rad > 1e-9) continue;
-        if (PlaceInLimits(model, &s.joints)) reachable.push_back(std::move(s.joints));
+        if (ShiftIntoLimits(model, &s.joints)) reachable.push_back(std::move(s.joints));
       }
       if (reachable.empty()) {
         ++out.failures;

@@ -795,6 +795,18 @@ CompensationResult SolveTarget(const Context& ctx, const CompensationTarget& t, 
 
 }  // namespace
 
+Calibration NominalCalibration(const RobotModel& nominal) {
+  Calibration c{.model = nominal,
+                .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
+                .parameters = {},
+                .covariance = {},
+                .T_world_base = nominal.T_world_base(),
+                .T_flange_tool = nominal.T_flange_tool(),
+                .reflectors = {},
+                .summary = {}};
+  return c;
+}
+
 Eigen::VectorXd DefaultJoints(const RobotModel& model) {
   Eigen::VectorXd q = (model.lower_limits() + model.upper_limits()) / 2.0;
   for (int i = 0; i < model.num_joints(); ++i) {

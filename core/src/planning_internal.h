@@ -65,6 +65,10 @@ std::int64_t ValidationJacobiansOf(const Options& options) {
 // or not: a cell's planning ranges need not cover where the robot works). Throws std::invalid_argument.
 void CheckTask(const RobotModel& model, const TaskConfigurations& task);
 
+// q's revolute joints shifted by whole turns into the limits (the first turn that fits, from the value itself);
+// false when some joint fits no turn.
+bool ShiftIntoLimits(const RobotModel& model, Eigen::VectorXd* q);
+
 // The candidates a planner may choose from (ascending indices into the caller's list) and the account of the
 // others. Throws std::invalid_argument for the first malformed candidate under MalformedCandidates::kThrow.
 struct UsableCandidates {

@@ -145,6 +145,10 @@ struct CompensationTarget {
   Payload payload;
 };
 
+/// The nominal model as a calibration (no errors, the model's own base and tool frames): compensating on it solves
+/// the nominal robot's inverse kinematics, with every branch and limit rule of Compensate.
+Calibration NominalCalibration(const RobotModel& nominal);
+
 /// Zero (the robot's home) for every joint whose range holds it, else the middle of the range.
 Eigen::VectorXd DefaultJoints(const RobotModel& model);
 
