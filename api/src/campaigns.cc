@@ -6,6 +6,7 @@
 
 #include "robocal/api/json_reader.h"
 #include "robocal/api/robots.h"
+#include "robocal/core/iso9283.h"
 
 namespace robocal::api {
 
@@ -69,6 +70,26 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
 
 // ---------------------------------------------------------------------------------------------- measurements
 
+namespace {
+
+// A test shot's pose and cycle: required with role test, refused with the others.
+void ReadTestTags(ObjectReader& m, const std::string& path, MeasurementRole role, Problems* problems,
+                  MeasurementWire* w) {
+  const bool test = role == MeasurementRole::kTest;
+  if (!test) {
+    for (const char* key : {"test_pose", "cycle"}) {
+      if (m.Get(key) != nullptr) problems->Add(JoinPath(path, key), "only shots of role test carry it");
+    }
+    return;
+  }
+  if (m.String("test_pose", true, &w->test_pose, 8) && Iso9283PoseIndex(w->test_pose) < 0) {
+    problems->Add(JoinPath(path, "test_pose"), "must be one of P1, P2, P3, P4, P5 (the ISO 9283 poses)");
+  }
+  m.Int("cycle", true, &w->cycle, 1, kMaxTestCycles);
+}
+
+}  // namespace
+
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
                                                      MeasurementType type, const Limits& limits,
                                                      const std::vector<CampaignReflectorWire>& reflectors) {
@@ -116,6 +137,7 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
           v && ReadRequestObject(*v, JoinPath(path, "payload"), &problems, &payload)) {
         w.payload = payload;
       }
+      ReadTestTags(m, path, req.role, &problems, &w);
       m.RejectUnknown(WireFieldNames<MeasurementWire>());
       // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
       if (problems.size() > 100) break;

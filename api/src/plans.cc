@@ -91,6 +91,13 @@ void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Pro
   if (req.objective == ObservabilityIndex::kPredictedError && req.task && req.num_validation != 100) {
     problems->Add("num_validation", "the task is predicted_error's sample: leave out num_validation");
   }
+  // A test plan's configurations are the test's poses: nothing chooses them.
+  if (req.test) {
+    if (req.candidates) problems->Add("candidates", "not with a test: the test's poses are its configurations");
+    if (req.task) problems->Add("task", "not with a test: the test's poses are its configurations");
+    if (req.num_configurations_auto) problems->Add("num_configurations", "not \"auto\" with a test");
+    if (!req.reflectors.empty()) problems->Add("reflectors", "not with a test: ISO 9283 measures the tool point");
+  }
 }
 
 ObservabilityIndex PlanObjective(const PlanRequest& req) {

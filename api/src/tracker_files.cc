@@ -517,7 +517,11 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
   if (r.String("request_id", true, &req.request_id, 128) && req.request_id.empty()) {
     problems.Add("request_id", "must not be empty (it makes retries of this import safe)");
   }
-  r.Enum("role", false, &req.role);
+  if (r.Enum("role", false, &req.role) && req.role == MeasurementRole::kTest) {
+    problems.Add("role",
+                 "test shots carry their ISO 9283 pose and cycle, which a tracker export does not: upload them "
+                 "as measurements (POST /v1/campaigns/{c}/measurements)");
+  }
   r.Enum("format", true, TrackerFileFormats(), &req.format);
   if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
     problems.Add("text", "the file is empty");

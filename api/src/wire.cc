@@ -32,7 +32,15 @@ const char* EnumTable<Optimiser>::Name(Optimiser v) {
 }
 
 const char* EnumTable<MeasurementRole>::Name(MeasurementRole v) {
-  return v == MeasurementRole::kValidation ? "validation" : "calibration";
+  switch (v) {
+    case MeasurementRole::kCalibration:
+      return "calibration";
+    case MeasurementRole::kValidation:
+      return "validation";
+    case MeasurementRole::kTest:
+      return "test";
+  }
+  return "?";
 }
 
 const char* EnumTable<OperationKind>::Name(OperationKind v) { return v == OperationKind::kFit ? "fit" : "plan"; }

@@ -134,6 +134,8 @@ int Compensate(Invocation& in);
 int CompensateProgram(Invocation& in);
 int Evaluate(Invocation& in);
 int Report(Invocation& in);
+int Iso9283Plan(Invocation& in);
+int Iso9283Report(Invocation& in);
 int Experiment(Invocation& in);
 
 }  // namespace robocal::cli

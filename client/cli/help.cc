@@ -344,6 +344,25 @@ Written to --out FILE (-o FILE), or to stdout. --h-mm H: E_tot = E_xyz + H E_cos
 The campaign must be calibrated (robocal fit) first.
 )"};
 
+const HelpText kIso9283Plan = {"lay out the ISO 9283 pose test: P1-P5 in a cube, the joint commands, the tags", R"(
+Makes a plan (POST /v1/plans with "test") of the ISO 9283 pose test (docs/iso9283.md): P1 at the centre of the
+cube given by --center X,Y,Z (robot base frame, mm) and --size MM, P2-P5 on its diagonal plane at 10 % of the
+diagonal from the corners, the tool in --rpy R,P,Y (fixed-axis roll, pitch, yaw, deg; default 180,0,0: pointing
+down), visited P1 -> P5 --cycles N times (default 30). --size auto (with --cell) takes the largest cube the robot
+reaches in the cell. --compensated-by CAMPAIGN: the joint commands of that calibration, so that the same test
+runs after calibration. Prints the poses and their joint commands; --out PLAN.json writes the plan, which
+robocal-mock-tracker --dump-measurements F --configurations PLAN.json measures as tagged test shots. Create the
+campaign with --plan PLAN so that the report compares with the planned poses.
+)"};
+
+const HelpText kIso9283Report = {"the ISO 9283 pose characteristics (AP, RP, AD, RD) of a campaign's test shots", R"(
+GET /v1/campaigns/{c}/iso9283: per pose AP (with APx, APy, APz, APa, APb, APc) and RP (RPl, RPa, RPb, RPc), and
+the distance accuracy AD and repeatability RD of P1-P2 and P2-P4, from the campaign's shots of role test
+(each tagged with test_pose and cycle). "measured" is the test as run; a calibrated campaign also gets
+"calibrated": the accuracy with commands compensated by its calibration. Repeatability needs 2 cycles: with
+one it is n/a (not measurable). --csv prints the CSV table, --json the report; --out FILE writes to a file.
+)"};
+
 const HelpText kOperationWait = {"wait for an async plan or fit, drawing progress on stderr", R"(
 Polls until the operation is done; exit 1 if it failed. --json: the operation as it ended.
 )"};

@@ -44,6 +44,8 @@ extern const HelpText kCompensate;
 extern const HelpText kCompensateProgram;
 extern const HelpText kEvaluate;
 extern const HelpText kReport;
+extern const HelpText kIso9283Plan;
+extern const HelpText kIso9283Report;
 extern const HelpText kOperationWait;
 extern const HelpText kOperationGet;
 extern const HelpText kOperationCancel;

@@ -67,7 +67,9 @@ Options:
                         offline: write the measurement batch the cell would upload (request body of
                         POST /v1/campaigns/{c}/measurements) to FILE ('-' for stdout) and exit; needs
                         --configurations FILE (a plan JSON as GET /v1/plans/{plan} returns it, or a joints
-                        CSV) or --random N; --role calibration|validation (default calibration)
+                        CSV) or --random N; --role calibration|validation (default calibration). An ISO
+                        9283 test plan's configurations are test shots: one per visit, each tagged with
+                        its test_pose and cycle (docs/iso9283.md)
   --help                this text
 
 Exit codes: 0 calibration improved accuracy, 1 service error, 2 usage error, 3 connection failure,
@@ -96,6 +98,7 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
   if (role == robocal::api::MeasurementRole::kValidation) cell.StartNoiseStream(1);
   const robocal::RobotModel& model = cell.nominal();
   std::vector<std::vector<double>> wire;
+  std::vector<robocal::api::TestTagWire> tags;
   if (!configurations.empty()) {
     std::ifstream in(configurations);
     if (!in) return Usage("cannot read " + configurations);
@@ -103,7 +106,14 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
       wire = robocal::client::ReadJointsCsv(in, model.num_joints());
     } else {
       try {
-        wire = robocal::api::FromWire<robocal::api::PlanResult>(json::parse(in)).configurations;
+        const auto plan = robocal::api::FromWire<robocal::api::PlanResult>(json::parse(in));
+        wire = plan.configurations;
+        // An ISO 9283 test plan: its visits are test shots, each tagged with its pose and cycle.
+        if (plan.test) {
+          tags = plan.test->tags;
+          role = robocal::api::MeasurementRole::kTest;
+          cell.StartNoiseStream(2);
+        }
       } catch (const std::exception& e) {  // not JSON, or not a plan (api::WireError names the field)
         return Usage(configurations + ": not a plan as GET /v1/plans/{plan} returns it: " + e.what());
       }
@@ -118,7 +128,10 @@ int Dump(const robocal::mock::MockTrackerOptions& options, const std::string& fi
       wire.push_back(robocal::api::JointsToWire(model, q));
     }
   }
-  const json batch = robocal::mock::MeasurementBatch(&cell, wire, role, options);
+  if (role == robocal::api::MeasurementRole::kTest && tags.empty()) {
+    return Usage("--role test takes the shots of an ISO 9283 test plan: give it with --configurations PLAN.json");
+  }
+  const json batch = robocal::mock::MeasurementBatch(&cell, wire, role, options, tags);
   if (file == "-") {
     std::cout << batch.dump() << "\n";
   } else {

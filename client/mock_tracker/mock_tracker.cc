@@ -253,17 +253,28 @@ std::optional<ResolvedCell> ResolveCell(client::Client& client, const MockTracke
 }
 
 api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
-                                              api::MeasurementRole role, const MockTrackerOptions& options) {
+                                              api::MeasurementRole role, const MockTrackerOptions& options,
+                                              const std::vector<api::TestTagWire>& tags) {
+  if (role == api::MeasurementRole::kTest && tags.size() != configurations.size()) {
+    throw std::invalid_argument("a test batch needs one tag per configuration (the test plan's test.tags)");
+  }
   const RobotModel& nominal = cell->nominal();
   api::MeasurementBatchRequest batch;
   batch.request_id = "mock-" + std::to_string(options.seed) + "-" + api::WireName(role);
   batch.role = role;
-  for (const auto& wire_q : configurations) {
+  for (std::size_t i = 0; i < configurations.size(); ++i) {
+    const std::vector<double>& wire_q = configurations[i];
     const Eigen::VectorXd q = api::JointsToCore(nominal, wire_q);
-    // One shot per validation pose; the planned poses get the cell's shots per pose, as the paper measures.
-    for (const Measurement& m : cell->Measure(q, role == api::MeasurementRole::kValidation ? 1 : 0)) {
+    // One shot per validation pose and test visit; the planned poses get the cell's shots per pose, as the paper
+    // measures.
+    for (const Measurement& m : cell->Measure(q, role == api::MeasurementRole::kCalibration ? 0 : 1)) {
       const std::string reflector = m.reflector >= 0 ? cell->options().reflectors[m.reflector].id : std::string();
-      batch.measurements.push_back({.joints = wire_q, .pose = api::TransformToPose(m.T_world_tool), .reflector = reflector});
+      api::MeasurementWire w{.joints = wire_q, .pose = api::TransformToPose(m.T_world_tool), .reflector = reflector};
+      if (role == api::MeasurementRole::kTest) {
+        w.test_pose = tags[i].test_pose;
+        w.cycle = tags[i].cycle;
+      }
+      batch.measurements.push_back(std::move(w));
     }
   }
   return batch;

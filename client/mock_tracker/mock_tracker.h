@@ -136,8 +136,10 @@ nlohmann::json ReportToJson(const MockTrackerReport& report);
 /// The measurement batch (POST /v1/campaigns/{c}/measurements) of the cell measuring `configurations` (wire
 /// joints: deg / mm): the cell's shots per pose for calibration, one shot per pose for validation, none for a
 /// configuration its measurement cell finds unmeasurable (cell->unmeasured() counts them); request_id
-/// "mock-<seed>-<role>".
+/// "mock-<seed>-<role>". Role test (an ISO 9283 test plan's configurations): one shot per configuration, tagged with
+/// `tags` (one per configuration, the plan's test.tags).
 api::MeasurementBatchRequest MeasurementBatch(VirtualCell* cell, const std::vector<std::vector<double>>& configurations,
-                                             api::MeasurementRole role, const MockTrackerOptions& options);
+                                              api::MeasurementRole role, const MockTrackerOptions& options,
+                                              const std::vector<api::TestTagWire>& tags = {});
 
 }  // namespace robocal::mock

@@ -513,6 +513,20 @@ api::Evaluation Client::Evaluate(const std::string& campaign, const api::Evaluat
                                 "evaluation");
 }
 
+api::Iso9283ReportWire Client::Iso9283(const std::string& campaign) {
+  return Parse<api::Iso9283ReportWire>(Call("GET", "/v1/campaigns/" + Segment(campaign) + "/iso9283", nullptr, true),
+                                       "ISO 9283 report");
+}
+
+std::string Client::Iso9283Csv(const std::string& campaign) {
+  const std::string path = "/v1/campaigns/" + Segment(campaign) + "/iso9283?format=csv";
+  std::string csv = Send(*impl_->http, impl_->base_url, options_, "GET", path, nullptr, true);
+  if (csv.rfind("set,pose,cycles,", 0) != 0) {
+    throw ProtocolError("not the ISO 9283 CSV from " + impl_->base_url + path + ": " + Snippet(csv));
+  }
+  return csv;
+}
+
 api::Operation Client::GetOperation(const std::string& operation) {
   return Parse<api::Operation>(Call("GET", "/v1/operations/" + Segment(operation), nullptr, true), "operation");
 }

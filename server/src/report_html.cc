@@ -199,6 +199,7 @@ void Header(const ReportData& d, std::ostringstream& out) {
   out << "<tr><th>calibration measurements</th>" << IntCell(d.counts.calibration, "counts.calibration") << "</tr>\n";
   out << "<tr><th>... uploaded after the fit</th>" << IntCell(d.calibration_after_fit, "counts.after_fit") << "</tr>\n";
   out << "<tr><th>validation measurements</th>" << IntCell(d.counts.validation, "counts.validation") << "</tr>\n";
+  out << "<tr><th>test measurements (ISO 9283)</th>" << IntCell(d.counts.test, "counts.test") << "</tr>\n";
   out << "<tr><th>campaign created</th>" << TextCell(UtcTime(d.created_unix_ms)) << "</tr>\n";
   out << "<tr><th>report made</th>" << TextCell(UtcTime(d.generated_unix_ms)) << "</tr>\n";
   out << "</table>\n";
@@ -211,7 +212,8 @@ void Header(const ReportData& d, std::ostringstream& out) {
   }
   out << "<nav><ol class=\"toc\"><li><a href=\"#robot\">Robot</a></li><li><a href=\"#plan\">Plan</a></li>"
          "<li><a href=\"#fit\">Fit</a></li><li><a href=\"#residuals\">Residuals per pose</a></li>"
-         "<li><a href=\"#validation\">Validation</a></li></ol></nav>\n</header>\n";
+         "<li><a href=\"#validation\">Validation</a></li><li><a href=\"#iso9283\">ISO 9283 pose test</a></li></ol>"
+         "</nav>\n</header>\n";
 }
 
 void RobotSection(const ReportData& d, std::ostringstream& out) {
@@ -874,6 +876,55 @@ void ValidationSectionHtml(const ReportData& d, std::ostringstream& out) {
          "</figure>\n</section>\n";
 }
 
+void Iso9283Rows(std::ostringstream& out, const char* set, const api::Iso9283FiguresWire& figures) {
+  for (const api::Iso9283PoseWire& p : figures.poses) {
+    const std::string key = std::string(set) + "." + p.pose;
+    out << "<tr><th>" << set << "</th>" << TextCell(p.pose) << IntCell(p.cycles) << NumCell(p.ap_mm, 4, key + ".ap_mm")
+        << NumCell(p.apx_mm, 4) << NumCell(p.apy_mm, 4) << NumCell(p.apz_mm, 4) << NumCell(p.apa_deg, 5)
+        << NumCell(p.apb_deg, 5) << NumCell(p.apc_deg, 5) << NumCell(p.rpl_mm, 4, key + ".rpl_mm")
+        << NumCell(p.rpa_deg, 5) << NumCell(p.rpb_deg, 5) << NumCell(p.rpc_deg, 5) << "</tr>\n";
+  }
+}
+
+void Iso9283SectionHtml(const ReportData& d, std::ostringstream& out) {
+  out << "<section id=\"iso9283\">\n<h2>6. ISO 9283 pose test</h2>\n";
+  if (!d.iso9283) {
+    out << None(d.iso9283_problem.empty()
+                    ? "No test measurements: upload shots of role test, each tagged with its ISO 9283 pose (P1-P5) "
+                      "and cycle (docs/iso9283.md)."
+                    : d.iso9283_problem)
+        << "</section>\n";
+    return;
+  }
+  const api::Iso9283ReportWire& r = *d.iso9283;
+  out << "<p class=\"note\">" << r.num_shots << " test shots, at most " << r.cycles
+      << " cycles per pose; commands from "
+      << (r.commands == api::TestCommands::kPlan ? "the test plan" : "the robot's model at each shot's joints")
+      << ", tracker frame "
+      << (r.frames == api::TestFrames::kCalibration ? "from the calibration" : "registered on the test shots")
+      << ". measured: the test as the robot ran it; calibrated: the attained poses against the calibrated model, the "
+         "accuracy the robot shows with commands compensated by this calibration. AP and RP in mm, angles in degrees "
+         "about the base axes; an empty cell is not measurable.</p>\n";
+  for (const std::string& note : r.notes) out << "<p class=\"note\">" << EscapeHtml(note) << "</p>\n";
+  out << "<table id=\"iso9283-poses\">\n<thead><tr><th>set</th><th>pose</th><th>cycles</th><th>AP</th><th>APx</th>"
+         "<th>APy</th><th>APz</th><th>APa</th><th>APb</th><th>APc</th><th>RPl</th><th>RPa</th><th>RPb</th><th>RPc</th>"
+         "</tr></thead>\n<tbody>\n";
+  Iso9283Rows(out, "measured", r.measured);
+  if (r.calibrated) Iso9283Rows(out, "calibrated", *r.calibrated);
+  out << "</tbody></table>\n<table id=\"iso9283-distances\">\n<thead><tr><th>set</th><th>poses</th><th>cycles</th>"
+         "<th>D_c</th><th>AD</th><th>ADx</th><th>ADy</th><th>ADz</th><th>RD</th></tr></thead>\n<tbody>\n";
+  const auto distances = [&](const char* set, const api::Iso9283FiguresWire& f) {
+    for (const api::Iso9283DistanceWire& x : f.distances) {
+      out << "<tr><th>" << set << "</th>" << TextCell(x.from + "-" + x.to) << IntCell(x.cycles)
+          << NumCell(x.command_mm, 3) << NumCell(x.ad_mm, 4) << NumCell(x.adx_mm, 4) << NumCell(x.ady_mm, 4)
+          << NumCell(x.adz_mm, 4) << NumCell(x.rd_mm, 4) << "</tr>\n";
+    }
+  };
+  distances("measured", r.measured);
+  if (r.calibrated) distances("calibrated", *r.calibrated);
+  out << "</tbody></table>\n</section>\n";
+}
+
 constexpr const char* kStyle = R"(
 body { font-family: "DejaVu Sans", Arial, sans-serif; font-size: 13px; color: #000; background: #fff;
        margin: 24px auto; max-width: 960px; padding: 0 16px; line-height: 1.35; }
@@ -981,6 +1032,7 @@ std::string RenderReport(const ReportData& data) {
   ResidualSection(data, out);
   MapSection(data, out);
   ValidationSectionHtml(data, out);
+  Iso9283SectionHtml(data, out);
   out << "<footer><p class=\"note\">Made by robocal from the stored campaign, plan, calibration and measurements; "
          "the per-pose residuals are recomputed from them with the fit's own weighting. docs/report.md explains every "
          "section.</p></footer>\n</body>\n</html>\n";

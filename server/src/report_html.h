@@ -8,6 +8,7 @@
 // subtle part, escaping, is a dozen lines tested here.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -15,9 +16,8 @@
 #include <string_view>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "robocal/api/calibration.h"
+#include "robocal/api/iso9283.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
 
@@ -114,6 +114,9 @@ struct ReportData {
   FitSection fit;
   /// Absent: no validation measurements.
   std::optional<ValidationSection> validation;
+  /// The ISO 9283 characteristics of the test shots (absent: none, or iso9283_problem says why they have none).
+  std::optional<api::Iso9283ReportWire> iso9283;
+  std::string iso9283_problem;
   /// When the page was made (ms since the Unix epoch).
   std::int64_t generated_unix_ms = 0;
 };

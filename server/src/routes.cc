@@ -107,8 +107,11 @@ const std::vector<Route>& RouteTable() {
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
        [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
       {"GET", "/v1/cells", "/v1/cells",
-       [](Service& s, const httplib::Request& r) { return Reply(s.ListCells(Query(r, "page_size"), Query(r, "page_token"))); }},
-      {"POST", "/v1/cells", "/v1/cells", [](Service& s, const httplib::Request& r) { return Reply(s.CreateCell(Body(s, r))); }},
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.ListCells(Query(r, "page_size"), Query(r, "page_token")));
+       }},
+      {"POST", "/v1/cells", "/v1/cells",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateCell(Body(s, r))); }},
       {"GET", R"(/v1/cells/([^/:]+))", "/v1/cells/{cell}",
        [](Service& s, const httplib::Request& r) { return Reply(s.GetCell(Id(r))); }},
       {"DELETE", R"(/v1/cells/([^/:]+))", "/v1/cells/{cell}",
@@ -118,7 +121,8 @@ const std::vector<Route>& RouteTable() {
        }},
       {"POST", R"(/v1/cells/([^/:]+):check)", "/v1/cells/{cell}:check",
        [](Service& s, const httplib::Request& r) { return Reply(s.CheckCell(Id(r), Body(s, r))); }},
-      {"POST", "/v1/plans", "/v1/plans", [](Service& s, const httplib::Request& r) { return Reply(s.CreatePlan(Body(s, r))); }},
+      {"POST", "/v1/plans", "/v1/plans",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreatePlan(Body(s, r))); }},
       {"GET", R"(/v1/plans/([^/:]+))", "/v1/plans/{plan}",
        [](Service& s, const httplib::Request& r) { return Reply(s.GetPlan(Id(r))); }},
       {"GET", "/v1/campaigns", "/v1/campaigns",
@@ -162,6 +166,19 @@ const std::vector<Route>& RouteTable() {
          reply.headers = {{"Content-Security-Policy", "default-src 'none'; style-src 'unsafe-inline'; img-src data:"},
                           {"X-Content-Type-Options", "nosniff"}};
          return reply;
+       }},
+      {"GET", R"(/v1/campaigns/([^/:]+)/iso9283)", "/v1/campaigns/{campaign}/iso9283",
+       [](Service& s, const httplib::Request& r) -> RouteReply {
+         const std::map<std::string, std::string> query = StrictQuery(r, {"format"}, "iso9283");
+         const auto format = query.find("format");
+         const std::string f = format == query.end() ? "json" : format->second;
+         if (f != "json" && f != "csv") {
+           throw ApiError(Status::kInvalidArgument, "unknown format \"" + f + "\"",
+                          {{"format", "must be json (the default) or csv"}});
+         }
+         const api::Iso9283ReportWire report = s.Iso9283Report(Id(r));
+         if (f == "csv") return {api::Iso9283Csv(report), "text/csv; charset=utf-8"};
+         return Reply(report);
        }},
       {"POST", R"(/v1/campaigns/([^/:]+):compensate)", "/v1/campaigns/{campaign}:compensate",
        [](Service& s, const httplib::Request& r) { return Reply(s.Compensate(Id(r), Body(s, r))); }},

@@ -37,6 +37,7 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
   static_cast<api::CampaignDefinition&>(c) = s;
   c.counts.calibration = storage_->CountMeasurements(s.id, "calibration");
   c.counts.validation = storage_->CountMeasurements(s.id, "validation");
+  c.counts.test = storage_->CountMeasurements(s.id, "test");
   c.calibrated = storage_->Get(kCalibrations, s.id).has_value();
   return c;
 }

@@ -246,6 +246,7 @@ Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, cons
 
 api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const PlanInputs& inputs,
                                  const std::string& plan_id, WorkControl& control, const LoadedCell* cell) {
+  if (req.test) return RunTestPlan(nominal, req, plan_id, cell);
   // In a cell: the joint limits narrowed to its ranges, and every configuration feasible in it. Candidates are
   // checked against the robot's own limits, so that the cell's ranges reject them by its rule (joint_range).
   const RobotModel model = cell && !inputs.candidates ? cell->cell.PlanningModel(nominal) : nominal;

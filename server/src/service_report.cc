@@ -90,6 +90,7 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   data.measurement_type = campaign.measurement_type;
   data.created_unix_ms = campaign.created_unix_ms;
   data.counts.validation = storage_->CountMeasurements(campaign_id, "validation");
+  data.counts.test = storage_->CountMeasurements(campaign_id, "test");
   data.generated_unix_ms = NowUnixMs();
   const api::RegisterRobotRequest& definition = campaign.robot_definition;
   data.robot = definition.from_preset.empty()
@@ -244,6 +245,14 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
     validation.e_xyz_before_mm = std::move(before_accuracy.e_xyz_values_mm);
     validation.e_xyz_after_mm = std::move(after_accuracy.e_xyz_values_mm);
     data.validation = std::move(validation);
+  }
+  // The ISO 9283 test, as GET .../iso9283 answers it.
+  if (data.counts.test > 0) {
+    try {
+      data.iso9283 = Iso9283Report(campaign_id);
+    } catch (const ApiError& e) {
+      data.iso9283_problem = std::string("The test shots give no ISO 9283 figures: ") + e.what();
+    }
   }
   return report::RenderReport(data);
 }

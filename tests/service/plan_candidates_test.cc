@@ -32,15 +32,6 @@ json Candidates(int count, std::uint64_t seed, double joint2_half_range_deg = 0.
   return list;
 }
 
-// The reason given for `field`, "" if it is not named.
-std::string ReasonOf(const Reply& r, const std::string& field) {
-  if (!r.body.is_object() || !r.body.contains("error")) return "";
-  for (const auto& d : r.body["error"]["details"]) {
-    if (d.value("field", "") == field) return d.value("reason", "");
-  }
-  return "";
-}
-
 json PlanFrom(const json& candidates, int n) {
   return {{"robot", "ur5e"},       {"num_configurations", n}, {"measurement_type", "position"},
           {"seed", 3},             {"num_validation", 20},    {"candidates", candidates},

@@ -117,6 +117,7 @@ class SpecChecker {
     keys->insert(row.name);
     if constexpr (requires { row.always_written; }) {
       if (role == Role::kReply && row.always_written) required->insert(row.name);
+      if (role == Role::kRequest && row.required_in_request) required->insert(row.name);
     } else {
       if (role == Role::kReply) required->insert(row.name);
     }

@@ -115,6 +115,15 @@ inline bool NamesField(const Reply& r, const std::string& field) {
 }
 
 /// A measurement batch body (POST .../measurements) of core measurements: joints in wire units, full poses.
+/// The reason an error reply gives for `field`, "" if it does not name it.
+inline std::string ReasonOf(const Reply& r, const std::string& field) {
+  if (!r.body.is_object() || !r.body.contains("error")) return "";
+  for (const auto& d : r.body["error"]["details"]) {
+    if (d.value("field", "") == field) return d.value("reason", "");
+  }
+  return "";
+}
+
 inline nlohmann::json Batch(const RobotModel& model, const std::vector<Measurement>& measurements,
                             const std::string& request_id, const std::string& role) {
   nlohmann::json list = nlohmann::json::array();

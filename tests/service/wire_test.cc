@@ -716,6 +716,13 @@ TEST(WireEnumTest, EveryEnumHasOneNameEachAndUnknownNamesAreNamed) {
   }
 }
 
+// The ISO 9283 poses' names, P1..P5.
+std::vector<std::string> Iso9283PoseNames() {
+  std::vector<std::string> names;
+  for (int k = 0; k < kIso9283Poses; ++k) names.push_back(Iso9283PoseName(k));
+  return names;
+}
+
 // The spec's enum lists are the enum tables' names: a value added to an enum without the spec, or the other way
 // round, fails here.
 TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
@@ -749,7 +756,11 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
                                                                   {"dialect", WireNames<programs::Dialect>()},
                                                                   {"on_failure", WireNames<programs::OnFailure>()},
                                                                   {"cause", WireNames<OutlierMeasurement::Cause>()},
-                                                                  {"malformed", WireNames<MalformedCandidates>()}};
+                                                                  {"malformed", WireNames<MalformedCandidates>()},
+                                                                  {"test_pose", Iso9283PoseNames()},
+                                                                  {"pose", Iso9283PoseNames()},
+                                                                  {"commands", WireNames<TestCommands>()},
+                                                                  {"frames", WireNames<TestFrames>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
@@ -761,7 +772,8 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/Calibration/properties/priors/properties/prior_determined/items.unit", ParameterUnits()},
       {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
        WireNames<programs::TargetKind>()},
-      {"/components/schemas/Plan.task_method", {kTaskByInverseKinematics, kTaskByRejectionSampling}}};
+      {"/components/schemas/Plan.task_method", {kTaskByInverseKinematics, kTaskByRejectionSampling}},
+      {"/components/schemas/Iso9283PlannedPose.name", Iso9283PoseNames()}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {{"ok"},        {"tracker"},   {"world (nominal base)"},
                                                     {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

@@ -81,11 +81,13 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
 struct MeasurementCounts {
   std::int64_t calibration = 0;
   std::int64_t validation = 0;
+  std::int64_t test = 0;
 };
 template <>
 struct WireFields<MeasurementCounts> {
-  static constexpr auto fields = std::make_tuple(Field{"calibration", &MeasurementCounts::calibration},
-                                                 Field{"validation", &MeasurementCounts::validation});
+  static constexpr auto fields =
+      std::make_tuple(Field{"calibration", &MeasurementCounts::calibration},
+                      Field{"validation", &MeasurementCounts::validation}, Field{"test", &MeasurementCounts::test});
 };
 ROBOCAL_WIRE_DECLARE(MeasurementCounts);
 
@@ -146,6 +148,9 @@ struct WireFields<CampaignList> {
 };
 ROBOCAL_WIRE_DECLARE(CampaignList);
 
+/// The most cycles an ISO 9283 test may have (the standard asks for 30).
+inline constexpr int kMaxTestCycles = 10000;
+
 /// One tracker shot on the wire: {"joints":[...], "pose":{...}} (joints deg / mm, pose in the tracker frame).
 /// Also the stored form of a measurement.
 struct MeasurementWire {
@@ -158,6 +163,9 @@ struct MeasurementWire {
   /// Set by the server on upload: a stale tracker reading (it repeats the shot before it although the robot
   /// moved); fits leave it out.
   bool stale = false;
+  /// A shot of role "test": the ISO 9283 pose ("P1".."P5") and the cycle (from 1) it belongs to; absent otherwise.
+  std::string test_pose{};
+  int cycle = 0;
 };
 template <>
 struct WireFields<MeasurementWire> {
@@ -167,7 +175,10 @@ struct WireFields<MeasurementWire> {
       std::make_tuple(Field{"joints", &S::joints}.Mandatory().Apart(), Field{"pose", &S::pose}.Mandatory().Apart(),
                       Field{"reflector", &S::reflector, Presence::kOmitEmpty},
                       Field{"payload", &S::payload, Presence::kOmitEmpty},
-                      Field{"stale", &S::stale, Presence::kServerOnly});
+                      Field{"stale", &S::stale, Presence::kServerOnly},
+                      // Required with role "test" and refused otherwise: the batch's parser reads them.
+                      Field{"test_pose", &S::test_pose, Presence::kOmitEmpty}.Apart(),
+                      Field{"cycle", &S::cycle, Presence::kOmitEmpty}.Apart());
 };
 ROBOCAL_WIRE_DECLARE(MeasurementWire);
 

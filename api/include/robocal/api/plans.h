@@ -11,6 +11,7 @@
 
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
+#include "robocal/api/iso9283.h"
 #include "robocal/api/tracker_files.h"
 #include "robocal/api/wire.h"
 #include "robocal/core/candidates.h"
@@ -140,6 +141,8 @@ struct PlanRequest {
   /// The poses the robot will work in (predicted_error's sample and the predicted accuracy's); unset: num_validation
   /// random configurations.
   std::optional<PlanTaskWire> task;
+  /// A standard test instead of a calibration plan (docs/iso9283.md): its poses and cycles are the configurations.
+  std::optional<PlanTestWire> test;
 };
 /// The objective a request plans with (its own, or the default for its kind of plan).
 ObservabilityIndex PlanObjective(const PlanRequest& request);
@@ -167,7 +170,8 @@ struct WireFields<PlanRequest> {
       Field{"num_validation", &S::num_validation}.Range(1, 10000), Field{"async", &S::async},
       Field{"options", &S::options},
       // A list of joint vectors or the object: the parser reads it.
-      Field{"candidates", &S::candidates, Presence::kOmitEmpty}.Apart(), Field{"task", &S::task, Presence::kOmitEmpty});
+      Field{"candidates", &S::candidates, Presence::kOmitEmpty}.Apart(), Field{"task", &S::task, Presence::kOmitEmpty},
+      Field{"test", &S::test, Presence::kOmitEmpty});
   /// Reflectors named once and with position measurements; "auto" with its goal and range.
   static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };
@@ -440,6 +444,8 @@ struct PlanResult {
   std::optional<PoseCountWire> pose_count;
   /// A task box: how its configurations were found ("inverse_kinematics" or "rejection_sampling").
   std::optional<std::string> task_method;
+  /// A test plan: the test (its configurations are the test's shots in order; the optimisation figures are null).
+  std::optional<Iso9283PlanWire> test;
 };
 template <>
 struct WireFields<PlanResult> {
@@ -457,7 +463,7 @@ struct WireFields<PlanResult> {
       Field{"candidate_lines", &S::candidate_lines, Presence::kOmitEmpty},
       Field{"candidates", &S::candidates, Presence::kOmitEmpty}, Field{"coverage", &S::coverage, Presence::kOmitEmpty},
       Field{"pose_count", &S::pose_count, Presence::kOmitEmpty},
-      Field{"task_method", &S::task_method, Presence::kOmitEmpty});
+      Field{"task_method", &S::task_method, Presence::kOmitEmpty}, Field{"test", &S::test, Presence::kOmitEmpty});
 };
 ROBOCAL_WIRE_DECLARE(PlanResult);
 

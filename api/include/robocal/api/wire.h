@@ -42,7 +42,8 @@ namespace robocal::api {
 
 /// The API's own enum-like fields (the core has no such enums).
 enum class Optimiser { kSolisWets, kRandom, kExchange };
-enum class MeasurementRole { kCalibration, kValidation };
+/// What a measurement is for: the fit, the held-out evaluation, or an ISO 9283 test (docs/iso9283.md).
+enum class MeasurementRole { kCalibration, kValidation, kTest };
 enum class OperationKind { kPlan, kFit };
 enum class OperationState { kRunning, kSucceeded, kFailed, kCancelled };
 /// What a fit estimates: every identifiable parameter, or the base and the tool frames only.
@@ -73,7 +74,8 @@ ROBOCAL_API_ENUM_TABLE(ObservabilityIndex, ObservabilityIndex::kConditionNumber,
                        ObservabilityIndex::kO2, ObservabilityIndex::kO3, ObservabilityIndex::kO4,
                        ObservabilityIndex::kO5, ObservabilityIndex::kLogDet, ObservabilityIndex::kPredictedError);
 ROBOCAL_API_ENUM_TABLE(Optimiser, Optimiser::kSolisWets, Optimiser::kRandom, Optimiser::kExchange);
-ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation);
+ROBOCAL_API_ENUM_TABLE(MeasurementRole, MeasurementRole::kCalibration, MeasurementRole::kValidation,
+                       MeasurementRole::kTest);
 ROBOCAL_API_ENUM_TABLE(OperationKind, OperationKind::kPlan, OperationKind::kFit);
 ROBOCAL_API_ENUM_TABLE(FitScope, FitScope::kAll, FitScope::kFrames);
 ROBOCAL_API_ENUM_TABLE(MalformedCandidates, MalformedCandidates::kThrow, MalformedCandidates::kReject);
@@ -434,6 +436,8 @@ struct Computed {
   void (*read)(const nlohmann::json* value, const std::string& path, S* shape);
   /// Whether `write` always writes the key (the spec then lists it as required in replies).
   bool always_written = false;
+  /// Whether a request must give the key (its parser refuses one without it; the spec lists it as required).
+  bool required_in_request = false;
 };
 
 /// Rows of the shape written as the object `name` (see above).

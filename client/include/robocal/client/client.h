@@ -197,6 +197,10 @@ class Client {
   api::ForwardResult CampaignForward(const std::string& campaign, const std::vector<std::vector<double>>& joints,
                                      const std::optional<api::PayloadWire>& payload = std::nullopt);
   api::Evaluation Evaluate(const std::string& campaign, const api::EvaluateRequest& request = {});
+  /// GET /v1/campaigns/{c}/iso9283: the ISO 9283 pose characteristics of the campaign's test shots
+  /// (docs/iso9283.md), as JSON or (Iso9283Csv) as the CSV table.
+  api::Iso9283ReportWire Iso9283(const std::string& campaign);
+  std::string Iso9283Csv(const std::string& campaign);
 
   // Operations.
   api::Operation GetOperation(const std::string& operation);

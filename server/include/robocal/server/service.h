@@ -119,6 +119,10 @@ class Service {
   /// stored calibration and the measurements it used) and the validation. h_mm: absent (30) or E_tot's h as the query
   /// gave it (a decimal number in :evaluate's range). FAILED_PRECONDITION when the campaign is not calibrated.
   std::string CampaignReport(const std::string& campaign, const std::optional<std::string>& h_mm = std::nullopt);
+  /// GET /v1/campaigns/{c}/iso9283 (service_iso9283.cc, docs/iso9283.md): the ISO 9283 pose characteristics of the
+  /// campaign's test shots. FAILED_PRECONDITION without test shots, with a pose and cycle shot twice, or shots of
+  /// poses the campaign's test plan does not have.
+  api::Iso9283ReportWire Iso9283Report(const std::string& campaign);
 
   // Operations.
   api::Operation GetOperation(const std::string& id) { return operations_.Get(id); }
@@ -178,6 +182,10 @@ class Service {
   PlanInputs ResolvePlanInputs(const api::PlanRequest& request, const ResolvedRobot& robot);
   api::PlanResult RunPlan(const RobotModel& model, const api::PlanRequest& request, const PlanInputs& inputs,
                           const std::string& plan_id, WorkControl& control, const LoadedCell* cell);
+  /// A plan with "test" (service_iso9283.cc): the test's poses on `model` (feasible in `cell`), with the joint
+  /// commands of the nominal robot or of the calibration of test.compensated_by.
+  api::PlanResult RunTestPlan(const RobotModel& model, const api::PlanRequest& request, const std::string& plan_id,
+                              const LoadedCell* cell);
   /// FAILED_PRECONDITION when a sample of the cell's joint ranges finds (almost) nothing feasible.
   void CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed);
   /// A campaign's nominal model and stored calibration (FAILED_PRECONDITION if not calibrated yet).

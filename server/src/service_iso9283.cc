@@ -1,0 +1,374 @@
+// The ISO 9283 pose test (docs/iso9283.md): a test plan's poses and joint commands, and the characteristics of a
+// campaign's test shots.
+#include <chrono>
+#include <functional>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "robocal/api/error.h"
+#include "robocal/api/iso9283.h"
+#include "robocal/core/compensation.h"
+#include "robocal/core/identification.h"
+#include "robocal/core/iso9283.h"
+#include "robocal/core/kinematics.h"
+#include "robocal/core/units.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr const char* kCubeField = "test.iso9283.cube";
+
+std::string Mm(const Eigen::Vector3d& p) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "(" << p.x() << ", " << p.y() << ", " << p.z() << ") mm";
+  return o.str();
+}
+
+// The optimisation figures a test plan has none of: null on the wire.
+api::Indices NoIndices(int num_configurations) {
+  return {.num_configurations = num_configurations,
+          .num_parameters = 0,
+          .condition_number = kNaN,
+          .o1 = kNaN,
+          .o2 = kNaN,
+          .o3 = kNaN,
+          .o4 = kNaN,
+          .o5 = kNaN,
+          .log_det = kNaN,
+          .predicted_error_mm = kNaN,
+          .singular_values = {},
+          .scaling = ""};
+}
+api::PredictedAccuracyWire NoPrediction() {
+  return {.num_validation = 0,
+          .rms_position_mm = kNaN,
+          .max_position_mm = kNaN,
+          .rms_orientation_deg = kNaN,
+          .rms_error_mm = kNaN};
+}
+
+// Joints for the test's poses on `calibration` (the nominal robot's NominalCalibration, or a calibrated one), each
+// from the previous pose's joints, on `branch` (empty: the branch P1 is solved on); `start` the nominal joints of
+// each pose for a calibrated robot (empty: none). `field` names the request member a failure is blamed on.
+std::vector<Eigen::VectorXd> SolvePoses(const Calibration& calibration, const RobotModel& nominal,
+                                        const std::array<Transform, kIso9283Poses>& poses, ArmConfiguration* branch,
+                                        const std::vector<Eigen::VectorXd>& start,
+                                        const std::function<std::string(const Eigen::VectorXd&)>& infeasible,
+                                        const std::string& field, const std::string& whose) {
+  std::vector<Eigen::VectorXd> joints;
+  Eigen::VectorXd previous;
+  for (int k = 0; k < kIso9283Poses; ++k) {
+    CompensationTarget target;
+    target.pose = poses[k];
+    target.frame = TargetFrame::kBase;
+    target.configuration = *branch;
+    if (!start.empty()) target.start = start[k];
+    const CompensationResult r = Compensate(calibration, nominal, target, {}, previous);
+    const std::string where = Iso9283PoseName(k) + " at " + Mm(poses[k].translation());
+    if (r.termination != Termination::kConvergence) {
+      const std::string reason =
+          where + " is out of the " + whose + " reach" +
+          (branch->empty() ? std::string() : " on " + branch->ToString()) + ": " + r.message;
+      if (start.empty()) throw ApiError(Status::kInvalidArgument, "the ISO 9283 cube: " + reason, {{field, reason}});
+      throw ApiError(Status::kFailedPrecondition, "the ISO 9283 test: " + reason, {{field, reason}});
+    }
+    if (infeasible) {
+      if (const std::string why = infeasible(r.joints); !why.empty()) {
+        const std::string reason = where + " is not feasible in the cell: " + why;
+        throw ApiError(start.empty() ? Status::kInvalidArgument : Status::kFailedPrecondition,
+                       "the ISO 9283 test: " + reason, {{field, reason}});
+      }
+    }
+    if (k == 0 && branch->empty() && r.configuration) *branch = *r.configuration;
+    joints.push_back(r.joints);
+    previous = r.joints;
+  }
+  return joints;
+}
+
+}  // namespace
+
+api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanRequest& req,
+                                     const std::string& plan_id, const LoadedCell* cell) {
+  const auto start_time = std::chrono::steady_clock::now();
+  const api::Iso9283TestWire& test = req.test->iso9283;
+  const Eigen::Vector3d rpy(test.orientation_rpy_deg[0], test.orientation_rpy_deg[1], test.orientation_rpy_deg[2]);
+  const Eigen::Matrix3d orientation = RotationFromRpy(rpy * kRadPerDeg);
+  Iso9283Cube cube;
+  ArmConfiguration branch;
+  std::string message;
+  if (test.cube_auto) {
+    // Without a cell the arm's whole reach counts, its own base and the floor included.
+    if (cell == nullptr) {
+      throw ApiError(Status::kInvalidArgument, "cube \"auto\" needs the plan's cell",
+                     {{kCubeField, "\"auto\" searches the cell's workspace (reach, line of sight, obstacles): give "
+                                   "\"cell\", or the cube's center_mm and size_mm"}});
+    }
+    Iso9283CubeSearchOptions options;
+    options.seed = req.seed;
+    if (cell != nullptr) {
+      options.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
+    }
+    Iso9283CubeSearch search;
+    try {
+      search = LargestIso9283Cube(model, orientation, options);
+    } catch (const std::invalid_argument& e) {
+      throw ApiError(Status::kInvalidArgument, std::string("the ISO 9283 cube: ") + e.what(), {{kCubeField, e.what()}});
+    }
+    if (!search.found) {
+      throw ApiError(Status::kFailedPrecondition, "no ISO 9283 cube: " + search.message, {{kCubeField, search.message}});
+    }
+    cube = search.cube;
+    branch = search.configuration;
+    message = "cube \"auto\": " + search.message;
+  } else {
+    cube = api::ToCore(*test.cube);
+    message = "the cube as given";
+  }
+  const std::array<Transform, kIso9283Poses> poses = Iso9283Poses(cube, orientation);
+  std::function<std::string(const Eigen::VectorXd&)> infeasible;
+  if (cell != nullptr) {
+    infeasible = [cell](const Eigen::VectorXd& q) {
+      const ConfigurationCheck check = CheckConfiguration(cell->model, cell->cell, q);
+      std::string reasons;
+      for (const std::string& reason : check.reasons) reasons += (reasons.empty() ? "" : "; ") + reason;
+      return reasons;
+    };
+  }
+  std::vector<Eigen::VectorXd> joints =
+      SolvePoses(NominalCalibration(model), model, poses, &branch, {}, infeasible, kCubeField, "robot's");
+  std::optional<std::string> compensated_by;
+  if (!test.compensated_by.empty()) {
+    const Calibrated loaded = LoadCalibrated(test.compensated_by);
+    if (loaded.campaign.robot != req.robot) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "campaign \"" + test.compensated_by + "\" calibrated robot " + loaded.campaign.robot + ", not " +
+                         req.robot,
+                     {{"test.iso9283.compensated_by", "a calibration of another robot"}});
+    }
+    joints = SolvePoses(loaded.calibration, loaded.model, poses, &branch, joints, infeasible, "test.iso9283.compensated_by",
+                        "calibrated robot's");
+    compensated_by = test.compensated_by;
+    message += "; joint commands compensated by the calibration of campaign \"" + test.compensated_by + "\"";
+  }
+
+  api::PlanResult result;
+  result.id = plan_id;
+  result.robot = req.robot;
+  result.request = req;
+  result.measurement_type = req.measurement_type;
+  result.objective = api::PlanObjective(req);
+  result.optimiser = req.optimiser;
+  for (int i = 0; i < model.num_joints(); ++i) result.joint_units.emplace_back(api::JointUnit(model, i));
+  api::Iso9283PlanWire plan{.cube = api::ToWire(cube),
+                            .cycles = test.cycles,
+                            .orientation_rpy_deg = test.orientation_rpy_deg,
+                            .compensated_by = compensated_by,
+                            .configuration = branch.ToString(),
+                            .poses = {},
+                            .tags = {},
+                            .message = message};
+  for (int k = 0; k < kIso9283Poses; ++k) {
+    const Eigen::Vector3d& p = poses[k].translation();
+    plan.poses.push_back({.name = Iso9283PoseName(k),
+                          .position_mm = {p.x(), p.y(), p.z()},
+                          .orientation_rpy_deg = test.orientation_rpy_deg,
+                          .joints = api::JointsToWire(model, joints[k])});
+  }
+  for (int cycle = 1; cycle <= test.cycles; ++cycle) {
+    for (int k = 0; k < kIso9283Poses; ++k) {
+      result.configurations.push_back(plan.poses[k].joints);
+      plan.tags.push_back({.test_pose = Iso9283PoseName(k), .cycle = cycle});
+    }
+  }
+  const int n = static_cast<int>(result.configurations.size());
+  result.indices = NoIndices(n);
+  result.baseline.indices = NoIndices(0);
+  result.baseline.predicted_accuracy = NoPrediction();
+  result.predicted_accuracy = NoPrediction();
+  result.summary.termination = Termination::kConvergence;
+  result.summary.method = "iso9283";
+  result.summary.objective = result.objective;
+  result.summary.initial = NoIndices(0);
+  result.summary.message = message;
+  std::ostringstream brief;
+  brief << "ISO 9283 pose test: " << test.cycles << " cycles of P1-P5 in a " << cube.size_mm << " mm cube at "
+        << Mm(cube.center_mm);
+  result.summary.brief = brief.str();
+  result.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  result.created_unix_ms = NowUnixMs();
+  if (cell != nullptr) {
+    result.cell = cell->wire.id;
+    for (int cycle = 1; cycle <= test.cycles; ++cycle) {
+      for (const Eigen::VectorXd& q : joints) {
+        result.configuration_checks.push_back(api::ToWire(CheckConfiguration(cell->model, cell->cell, q)));
+      }
+    }
+  }
+  result.test = std::move(plan);
+  return result;
+}
+
+namespace {
+
+// A test shot as stored.
+struct TestShot {
+  int pose = 0;
+  int cycle = 0;
+  std::int64_t sequence = 0;
+  Measurement measurement;
+};
+
+}  // namespace
+
+api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
+  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  if (!campaign.reflectors.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "ISO 9283 measures the tool point; the campaign has reflectors",
+                   {{"campaign", "a campaign with reflectors"}});
+  }
+  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  api::Iso9283ReportWire report;
+  report.campaign = campaign_id;
+  report.measurement_type = campaign.measurement_type;
+
+  // The shots, each pose and cycle once.
+  std::vector<TestShot> shots;
+  std::map<std::pair<int, int>, std::int64_t> seen;
+  int stale = 0;
+  ForEachMeasurement(storage_, campaign_id, "test", [&](const StoredMeasurement& s) {
+    const api::MeasurementWire w = ReadMeasurement(s);
+    TestShot shot{.pose = Iso9283PoseIndex(w.test_pose),
+                  .cycle = w.cycle,
+                  .sequence = s.sequence,
+                  .measurement = MeasurementToCore(model, w, campaign)};
+    if (shot.pose < 0 || shot.cycle < 1) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "test measurement " + std::to_string(s.sequence) + " has no ISO 9283 pose and cycle",
+                     {{"measurements", "test shots need test_pose and cycle"}});
+    }
+    if (w.stale) {
+      ++stale;
+      return;
+    }
+    const auto [it, fresh] = seen.emplace(std::make_pair(shot.pose, shot.cycle), s.sequence);
+    if (!fresh) {
+      throw ApiError(Status::kFailedPrecondition,
+                     w.test_pose + " cycle " + std::to_string(w.cycle) + " was measured twice (measurements " +
+                         std::to_string(it->second) + " and " + std::to_string(s.sequence) + ")",
+                     {{"measurements", "one shot per pose and cycle"}});
+    }
+    shots.push_back(std::move(shot));
+  });
+  if (shots.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "campaign \"" + campaign_id + "\" has no test measurements",
+                   {{"measurements", "upload shots of role test, each with its test_pose and cycle"}});
+  }
+  report.num_shots = static_cast<int>(shots.size());
+
+  // The frames' source: the campaign's calibration, if any.
+  std::optional<Calibrated> loaded;
+  if (storage_->Get(kCalibrations, campaign_id)) loaded = LoadCalibrated(campaign_id);
+
+  // The commands: the test plan's poses, else the robot's model at each shot's joints (base frame), with the tool
+  // the calibration registered when there is one (the point the tracker measures, as the fit found it).
+  std::optional<api::Iso9283PlanWire> test_plan;
+  if (campaign.plan) {
+    const auto doc = storage_->Get(kPlans, *campaign.plan);
+    if (doc) test_plan = ReadStored<api::StoredPlan>(*doc).plan.test;
+  }
+  std::vector<Transform> commanded;  // base frame
+  const Transform T_base_world_model = model.T_world_base().inverse();
+  const Transform tool_change = loaded ? model.T_flange_tool().inverse() * loaded->calibration.T_flange_tool
+                                       : Transform::Identity();
+  KinematicsWorkspace ws(model);
+  for (const TestShot& s : shots) {
+    if (test_plan) {
+      const api::Iso9283PlannedPoseWire& p = test_plan->poses[static_cast<std::size_t>(s.pose)];
+      Transform t = Transform::Identity();
+      t.linear() = RotationFromRpy(Eigen::Vector3d(p.orientation_rpy_deg[0], p.orientation_rpy_deg[1],
+                                                   p.orientation_rpy_deg[2]) *
+                                   kRadPerDeg);
+      t.translation() = Eigen::Vector3d(p.position_mm[0], p.position_mm[1], p.position_mm[2]);
+      commanded.push_back(t);
+    } else {
+      commanded.push_back(T_base_world_model *
+                          ForwardKinematics(model, s.measurement.joints, Eigen::VectorXd(), &ws, s.measurement.payload) *
+                          tool_change);
+    }
+  }
+  report.commands = test_plan ? api::TestCommands::kPlan : api::TestCommands::kRobotModel;
+  if (test_plan) report.plan = *campaign.plan;
+
+  Transform T_world_base = Transform::Identity();
+  if (loaded) {
+    T_world_base = loaded->calibration.T_world_base;
+    report.frames = api::TestFrames::kCalibration;
+  } else {
+    std::vector<Eigen::Vector3d> from, to;
+    for (std::size_t i = 0; i < shots.size(); ++i) {
+      from.push_back(commanded[i].translation());
+      to.push_back(shots[i].measurement.T_world_tool.translation());
+    }
+    try {
+      T_world_base = RegisterPoints(from, to);
+    } catch (const std::invalid_argument&) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "the tracker frame cannot be registered on these test shots (they need at least three poses not "
+                     "on a line); fit the campaign (\"scope\": \"frames\") on shots of role calibration first",
+                     {{"measurements", "too few test poses to register the tracker frame"}});
+    }
+    report.frames = api::TestFrames::kRegisteredOnTest;
+    report.notes.push_back(
+        "the campaign has no calibration: the tracker frame was registered on the test shots themselves, which "
+        "absorbs the rigid part of the robot's error; fit the campaign (\"scope\": \"frames\") on shots of role "
+        "calibration to tie the tracker to the base independently");
+  }
+  report.base = api::TransformToPose(T_world_base);
+
+  const bool orientation = campaign.measurement_type == MeasurementType::kPose;
+  const Transform T_base_world = T_world_base.inverse();
+  std::vector<Iso9283Shot> measured, calibrated;
+  std::optional<KinematicsWorkspace> calibrated_ws;
+  if (loaded) calibrated_ws.emplace(loaded->calibration.model);
+  for (std::size_t i = 0; i < shots.size(); ++i) {
+    const TestShot& s = shots[i];
+    const Transform attained = T_base_world * s.measurement.T_world_tool;
+    measured.push_back({.pose = s.pose, .cycle = s.cycle, .attained = attained, .commanded = commanded[i]});
+    if (loaded) {
+      const Transform predicted = ForwardKinematics(loaded->calibration.model, s.measurement.joints,
+                                                    loaded->calibration.errors, &*calibrated_ws, s.measurement.payload);
+      calibrated.push_back({.pose = s.pose, .cycle = s.cycle, .attained = attained,
+                            .commanded = T_base_world * predicted});
+    }
+  }
+  const Iso9283Result result = Iso9283Analyse(measured, orientation);
+  report.cycles = result.cycles;
+  report.measured = api::ToWire(result);
+  if (loaded) report.calibrated = api::ToWire(Iso9283Analyse(calibrated, orientation));
+
+  std::string once;
+  for (const Iso9283PoseFigures& f : result.poses) {
+    if (f.cycles < 2) once += (once.empty() ? "" : ", ") + Iso9283PoseName(f.pose);
+  }
+  if (!once.empty()) {
+    report.notes.push_back("repeatability (RP, RD) needs at least 2 cycles of a pose: not measurable at " + once +
+                           " (1 cycle), reported as null, not 0");
+  }
+  if (!orientation) report.notes.push_back("shots without orientation: no orientation characteristics");
+  if (stale > 0) report.notes.push_back(std::to_string(stale) + " stale test shots were left out");
+  return report;
+}
+
+}  // namespace robocal::server
