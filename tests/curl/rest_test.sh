@@ -686,6 +686,54 @@ expect "robocal-mock-tracker --realistic improves accuracy" "$(jq .improved "$wo
 expect "... and the fit excluded every outlier it injected" \
   "$(jq '.trials[0].planned | .outliers_injected > 0 and .outliers_found == .outliers_injected' "$work/mock_real.json")" true
 
+# ---- the ISO 9283 pose test (docs/iso9283.md) --------------------------------------------------------------------
+call POST /v1/plans '{"robot": "ur5e", "test": {"iso9283": {"cube": {"center_mm": [350, 250, 300], "size_mm": 300},
+                                                           "cycles": 3}}}' >"$work/iso_plan.json"
+expect "POST /v1/plans with an ISO 9283 test: P1-P5 three times, each configuration tagged" \
+  "$(status) $(jq -r '"\(.configurations | length) \(.test.tags[14].test_pose) \(.test.tags[14].cycle)"' "$work/iso_plan.json")" \
+  "200 15 P5 3"
+expect "... a cube out of reach -> 400 naming the cube" \
+  "$(call POST /v1/plans '{"robot": "ur5e", "test": {"iso9283": {"cube": {"center_mm": [5000, 0, 0], "size_mm": 300}}}}' |
+    jq -r '"\(.error.status) \(.error.details[0].field)"')" "INVALID_ARGUMENT test.iso9283.cube"
+expect "... one cycle -> 400 naming cycles" \
+  "$(call POST /v1/plans '{"robot": "ur5e", "test": {"iso9283": {"cube": "auto", "cycles": 1}}}' |
+    jq -r '.error.details[0].field')" "test.iso9283.cycles"
+# The largest cube in the cell, the tool (and the reflector on it) facing the tracker.
+expect "... cube auto: the largest the robot reaches in the cell" \
+  "$(call POST /v1/plans '{"robot": "ur5e", "cell": "cell-a", "test": {"iso9283": {"cube": "auto", "cycles": 2,
+      "orientation_rpy_deg": [0, 90, -17]}}}' | jq '.test.cube.size_mm > 100 and ([.configuration_checks[].feasible] | all)')" \
+  true
+iso_plan=$(jq -r .id "$work/iso_plan.json")
+iso_campaign=$(call POST /v1/campaigns "{\"robot\": \"ur5e\", \"plan\": \"$iso_plan\"}" | jq -r .id)
+"$mock" --robot ur5e --seed 5 --dump-measurements "$work/iso_shots.json" --configurations "$work/iso_plan.json"
+expect "the mock tracker's test shots, tagged" \
+  "$(jq -r '"\(.role) \(.measurements | length) \(.measurements[6].test_pose) \(.measurements[6].cycle)"' "$work/iso_shots.json")" \
+  "test 15 P2 2"
+expect "upload test shots" "$(call POST "/v1/campaigns/$iso_campaign/measurements" "@$work/iso_shots.json" | jq .count)" 15
+expect "... counted as test" "$(call GET "/v1/campaigns/$iso_campaign" | jq .counts.test)" 15
+expect "a test shot without its pose and cycle -> 400 naming them" \
+  "$(jq -c '{request_id: "untagged", role: "test", measurements: [.measurements[0] | del(.test_pose, .cycle)]}' \
+       "$work/iso_shots.json" | call POST "/v1/campaigns/$iso_campaign/measurements" @- |
+     jq -r '[.error.details[].field] | join(",")')" "measurements[0].test_pose,measurements[0].cycle"
+iso=$(call GET "/v1/campaigns/$iso_campaign/iso9283")
+expect "GET /v1/campaigns/{c}/iso9283: the plan's commands, frames registered on the test" \
+  "$(echo "$iso" | jq -r '"\(.commands) \(.frames) \(.cycles) \(.measured.poses | length) \(.measured.distances | length)"')" \
+  "plan registered_on_test 3 5 2"
+expect "... AP and RP per pose, P1-P2 distance repeatability" \
+  "$(echo "$iso" | jq '[.measured.poses[] | .ap_mm >= 0 and .rpl_mm > 0] + [.measured.distances[0].rd_mm >= 0] | all')" true
+expect "... as CSV" "$(call GET "/v1/campaigns/$iso_campaign/iso9283?format=csv" | head -1 | cut -d, -f1-4)" \
+  "set,pose,cycles,AP_mm"
+expect "... format=xml -> 400 naming format" \
+  "$(call GET "/v1/campaigns/$iso_campaign/iso9283?format=xml" | jq -r '.error.details[0].field')" format
+expect "... a campaign without test shots -> FAILED_PRECONDITION" \
+  "$(call GET "/v1/campaigns/$campaign/iso9283" | jq -r .error.status)" FAILED_PRECONDITION
+cli="$build_dir/client/robocal"
+expect "robocal iso9283 report --csv: a header and one row per pose and pair" \
+  "$("$cli" --server "$ROBOCAL_URL" iso9283 report "$iso_campaign" --csv | wc -l)" 8
+expect "robocal iso9283 plan" \
+  "$("$cli" --server "$ROBOCAL_URL" iso9283 plan ur5e --center 350,250,300 --size 300 --cycles 2 --json |
+    jq -r '"\(.test.cycles) \(.test.poses | length)"')" "2 5"
+
 # ---- Cartesian targets on a 6R arm: branches ----------------------------------------------------------------------
 "$mock" --server "$ROBOCAL_URL" --robot ur5e --type pose --seed 3 --shots 1 >/dev/null 2>"$work/mock6.log"
 arm=$(sed -n 's/^campaign //p' "$work/mock6.log")
