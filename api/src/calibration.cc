@@ -8,6 +8,7 @@
 
 #include "robocal/api/json_reader.h"
 #include "robocal/core/arm_kinematics.h"
+#include "robocal/core/drift.h"
 
 namespace robocal::api {
 
@@ -281,15 +282,7 @@ IdentificationOptions ToIdentificationOptions(const FitRequest& req, const Robot
   options.identifiability.noise = options.noise;
   for (const std::string& name : req.parameters) options.parameters.push_back(ParameterIndex(model, reflectors, name));
   if (req.scope == FitScope::kFrames) {
-    // The base site's six and the tool site's translations; its rotations where the measurements see them: a
-    // point sees none, a point and an axis the two that tilt the axis, a pose (or nests about the tool) all three.
-    const int tool = 6 * (model.num_error_sites() - 1);
-    for (int k = 0; k < 6; ++k) options.parameters.push_back(k);
-    for (int k = 0; k < 3; ++k) options.parameters.push_back(tool + k);
-    const int rotations = !reflectors.empty() || type == MeasurementType::kPose ? 3
-                          : type == MeasurementType::kPositionAxis              ? 2
-                                                                                : 0;
-    for (int k = 0; k < rotations; ++k) options.parameters.push_back(tool + 3 + k);
+    for (int k : FrameParameters(model, type, !reflectors.empty())) options.parameters.push_back(k);
   }
   std::sort(options.parameters.begin(), options.parameters.end());
   options.parameters.erase(std::unique(options.parameters.begin(), options.parameters.end()), options.parameters.end());

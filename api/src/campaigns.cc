@@ -90,6 +90,46 @@ void ReadTestTags(ObjectReader& m, const std::string& path, MeasurementRole role
 
 }  // namespace
 
+void ReadMeasurements(const nlohmann::json& list, const std::string& at, const RobotModel& model, MeasurementType type,
+                      const std::vector<CampaignReflectorWire>& reflectors, MeasurementRole role, Problems* problems,
+                      std::vector<MeasurementWire>* out) {
+  out->resize(list.size());
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = IndexPath(at, i);
+    ObjectReader m(list[i], path, problems);
+    MeasurementWire& w = (*out)[i];
+    if (const nlohmann::json* q = m.Get("joints")) {
+      ReadJointVector(*q, JoinPath(path, "joints"), model, problems, &w.joints);
+    } else if (m.ok()) {
+      problems->Add(JoinPath(path, "joints"), "required");
+    }
+    if (const nlohmann::json* p = m.Get("pose")) {
+      ParsePose(*p, JoinPath(path, "pose"), type != MeasurementType::kPosition, problems, &w.pose);
+    } else if (m.ok()) {
+      problems->Add(JoinPath(path, "pose"), "required");
+    }
+    if (m.String("reflector", !reflectors.empty(), &w.reflector, 64)) {
+      if (reflectors.empty()) {
+        problems->Add(JoinPath(path, "reflector"), "the campaign has no reflectors");
+      } else if (ReflectorIndex(reflectors, w.reflector) < 0) {
+        std::string known;
+        for (const CampaignReflectorWire& c : reflectors) known += (known.empty() ? "" : ", ") + c.id;
+        problems->Add(JoinPath(path, "reflector"),
+                      "unknown reflector \"" + w.reflector + "\" (the campaign has " + known + ")");
+      }
+    }
+    PayloadWire payload;
+    if (const nlohmann::json* v = m.Get("payload");
+        v && ReadRequestObject(*v, JoinPath(path, "payload"), problems, &payload)) {
+      w.payload = payload;
+    }
+    ReadTestTags(m, path, role, problems, &w);
+    m.RejectUnknown(WireFieldNames<MeasurementWire>());
+    // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
+    if (problems->size() > 100) break;
+  }
+}
+
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,
                                                      MeasurementType type, const Limits& limits,
                                                      const std::vector<CampaignReflectorWire>& reflectors) {
@@ -107,41 +147,7 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
   }
   r.Enum("role", false, &req.role);
   if (const nlohmann::json* a = r.Array("measurements", true, 1, limits.max_array_length)) {
-    req.measurements.resize(a->size());
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const std::string path = IndexPath("measurements", i);
-      ObjectReader m((*a)[i], path, &problems);
-      MeasurementWire& w = req.measurements[i];
-      if (const nlohmann::json* q = m.Get("joints")) {
-        ReadJointVector(*q, JoinPath(path, "joints"), model, &problems, &w.joints);
-      } else if (m.ok()) {
-        problems.Add(JoinPath(path, "joints"), "required");
-      }
-      if (const nlohmann::json* p = m.Get("pose")) {
-        ParsePose(*p, JoinPath(path, "pose"), type != MeasurementType::kPosition, &problems, &w.pose);
-      } else if (m.ok()) {
-        problems.Add(JoinPath(path, "pose"), "required");
-      }
-      if (m.String("reflector", !reflectors.empty(), &w.reflector, 64)) {
-        if (reflectors.empty()) {
-          problems.Add(JoinPath(path, "reflector"), "the campaign has no reflectors");
-        } else if (ReflectorIndex(reflectors, w.reflector) < 0) {
-          std::string known;
-          for (const CampaignReflectorWire& c : reflectors) known += (known.empty() ? "" : ", ") + c.id;
-          problems.Add(JoinPath(path, "reflector"),
-                       "unknown reflector \"" + w.reflector + "\" (the campaign has " + known + ")");
-        }
-      }
-      PayloadWire payload;
-      if (const nlohmann::json* v = m.Get("payload");
-          v && ReadRequestObject(*v, JoinPath(path, "payload"), &problems, &payload)) {
-        w.payload = payload;
-      }
-      ReadTestTags(m, path, req.role, &problems, &w);
-      m.RejectUnknown(WireFieldNames<MeasurementWire>());
-      // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
-      if (problems.size() > 100) break;
-    }
+    ReadMeasurements(*a, "measurements", model, type, reflectors, req.role, &problems, &req.measurements);
   }
   r.RejectUnknown(WireFieldNames<MeasurementBatchRequest>());
   problems.ThrowIfAny("invalid measurement batch");

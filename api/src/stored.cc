@@ -31,11 +31,19 @@ int StoredSchemaVersion(const nlohmann::json& document) {
   return version;
 }
 
-void to_json(nlohmann::json& j, const StoredRobot& robot) { j = Versioned(robot.definition); }
+void to_json(nlohmann::json& j, const StoredRobot& robot) {
+  j = Versioned(robot.definition);
+  if (!robot.history.empty()) j["history"] = robot.history;
+}
 
 void from_json(const nlohmann::json& j, StoredRobot& robot) {
   (void)StoredSchemaVersion(j);
-  from_json(j, robot.definition);
+  nlohmann::json definition = j;
+  if (definition.is_object() && definition.contains("history")) {
+    ReadWire(definition["history"], "history", &robot.history);
+    definition.erase("history");
+  }
+  from_json(definition, robot.definition);
 }
 
 void to_json(nlohmann::json& j, const StoredCampaign& c) {

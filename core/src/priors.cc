@@ -62,10 +62,9 @@ Eigen::VectorXd PriorStd(const RobotModel& model, const ParameterPriors& priors,
     } else if (site == sites - 1) {
       sigma = (length ? priors.tool_length_mm : priors.tool_angle_rad).value_or(sigma);
     } else {
-      // The site's error sits just before the joint's motion about (along) its z axis: rz (dz) is its offset.
-      const bool revolute = model.joint_type(site - 1) == JointType::kRevolute;
-      if (revolute && k % 6 == 5) sigma = priors.joint_offset_rad;
-      if (!revolute && k % 6 == 2) sigma = priors.joint_offset_mm;
+      if (model.IsJointOffsetParameter(k)) {
+        sigma = model.joint_type(site - 1) == JointType::kRevolute ? priors.joint_offset_rad : priors.joint_offset_mm;
+      }
     }
     out[k] = sigma;
   }

@@ -357,6 +357,12 @@ bool RobotModel::WithinLimits(const Eigen::VectorXd& q) const {
   return true;
 }
 
+bool RobotModel::IsJointOffsetParameter(int k) const {
+  const int site = k / 6;
+  if (k < 0 || k >= num_geometric_parameters() || site == 0 || site == num_error_sites() - 1) return false;
+  return joint_type(site - 1) == JointType::kRevolute ? k % 6 == 5 : k % 6 == 2;
+}
+
 int RobotModel::ParameterIndex(const std::string& name) const {
   for (int k = 0; k < num_error_parameters(); ++k) {
     if (parameter_names_[k] == name) return k;

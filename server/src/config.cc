@@ -329,17 +329,24 @@ bool IsLoopbackHost(const std::string& host) {
   return false;
 }
 
-std::vector<std::string> ReadTokensFile(const std::string& path) {
+std::vector<std::string> ReadTokensFile(const std::string& path, std::vector<std::string>* names) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("tokens file " + path + " cannot be read");
   std::vector<std::string> tokens;
   std::string line;
   while (std::getline(in, line)) {
     if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos) continue;
-    const auto last = line.find_last_not_of(" \t\r");
-    const std::string token = line.substr(first, last - first + 1);
+    std::istringstream fields(line);
+    std::vector<std::string> words;
+    for (std::string word; fields >> word;) words.push_back(word);
+    if (words.empty()) continue;
+    // "TOKEN", or "NAME TOKEN": the name the calibration history records for requests with it.
+    if (words.size() > 2) {
+      throw std::runtime_error("tokens file " + path + ": a line is TOKEN or NAME TOKEN, got " +
+                               std::to_string(words.size()) + " words");
+    }
+    const std::string token = words.back();
+    if (names != nullptr) names->push_back(words.size() == 2 ? words[0] : std::string());
     // Clients send tokens in a header, which the HTTP layer percent-decodes: a '%' could not be sent as it is.
     for (const char c : token) {
       if (c <= ' ' || c == '%' || static_cast<unsigned char>(c) >= 0x7F) {

@@ -31,6 +31,8 @@ using nlohmann::json;
 // Per-request state: a request is handled start to end on one worker thread.
 thread_local std::chrono::steady_clock::time_point request_start;
 thread_local std::string request_id;
+// The name of the token the request being handled presented (unset without tokens).
+thread_local std::optional<std::string> request_caller;
 
 }  // namespace
 
@@ -96,25 +98,35 @@ const std::string& OpenApiSpec() {
   return spec;
 }
 
-bool TokenMatches(const std::string& presented, const std::vector<std::string>& tokens) {
+// The index of the token `presented` is, or -1.
+int MatchingToken(const std::string& presented, const std::vector<std::string>& tokens) {
   // Every token is compared over its full length whatever matched, so timing reveals neither which token nor
   // how many leading characters were right.
-  unsigned matched = 0;
-  for (const std::string& token : tokens) {
+  int matched = -1;
+  for (std::size_t k = 0; k < tokens.size(); ++k) {
+    const std::string& token = tokens[k];
     unsigned diff = static_cast<unsigned>(presented.size() ^ token.size());
     for (std::size_t i = 0; i < token.size(); ++i) {
       const unsigned char p = i < presented.size() ? static_cast<unsigned char>(presented[i]) : 0;
       diff |= p ^ static_cast<unsigned char>(token[i]);
     }
-    matched |= static_cast<unsigned>(diff == 0);
+    if (diff == 0) matched = static_cast<int>(k);
   }
-  return matched != 0;
+  return matched;
 }
+
+bool TokenMatches(const std::string& presented, const std::vector<std::string>& tokens) {
+  return MatchingToken(presented, tokens) >= 0;
+}
+
+Caller RequestCaller() { return {request_caller}; }
 
 struct HttpServer::Impl {
   ServerConfig config;
   Service* service;
   std::vector<std::string> tokens;
+  /// The tokens' names (tokens[k]'s is token_names[k]; "token k+1" where there is none).
+  std::vector<std::string> token_names;
   edge::Counters connections;
   std::unique_ptr<httplib::Server> server;
   Metrics metrics;
@@ -273,11 +285,17 @@ void HttpServer::Impl::InstallAdmission() {
       return httplib::Server::HandlerResponse::Handled;
     };
     if (!CheckHead(req, res, config.max_body_bytes)) return handled();
+    request_caller.reset();
     if (tokens.empty() || req.path == "/healthz") return httplib::Server::HandlerResponse::Unhandled;
     const std::string* auth = RawHeader(req, "Authorization");
     const std::string prefix = "Bearer ";
-    if (auth != nullptr && auth->rfind(prefix, 0) == 0 && TokenMatches(auth->substr(prefix.size()), tokens)) {
-      return httplib::Server::HandlerResponse::Unhandled;
+    if (auth != nullptr && auth->rfind(prefix, 0) == 0) {
+      if (const int k = MatchingToken(auth->substr(prefix.size()), tokens); k >= 0) {
+        request_caller = k < static_cast<int>(token_names.size()) && !token_names[k].empty()
+                             ? token_names[k]
+                             : "token " + std::to_string(k + 1);
+        return httplib::Server::HandlerResponse::Unhandled;
+      }
     }
     res.set_header("WWW-Authenticate", "Bearer");
     WriteError(res, Status::kUnauthenticated,
@@ -443,11 +461,13 @@ void HttpServer::Impl::InstallLogger() {
   });
 }
 
-HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens)
+HttpServer::HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens,
+                       std::vector<std::string> token_names)
     : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
   impl_->service = service;
   impl_->tokens = std::move(tokens);
+  impl_->token_names = std::move(token_names);
   impl_->handler_slots = std::make_unique<std::counting_semaphore<>>(std::max(1, config.threads));
   impl_->CreateServer();
   impl_->ConfigureServer();

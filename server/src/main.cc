@@ -33,10 +33,10 @@ int main(int argc, char** argv) {
   const ServerConfig& config = loaded.config;
   SetupLogging(config.log_level, config.log_format);
 
-  std::vector<std::string> tokens;
+  std::vector<std::string> tokens, token_names;
   if (!config.tokens_file.empty()) {
     try {
-      tokens = ReadTokensFile(config.tokens_file);
+      tokens = ReadTokensFile(config.tokens_file, &token_names);
     } catch (const std::exception& e) {
       std::cerr << "robocal-server: " << e.what() << "\n";
       return 2;
@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<HttpServer> server;
   try {
-    server = std::make_unique<HttpServer>(config, service.get(), tokens);
+    server = std::make_unique<HttpServer>(config, service.get(), tokens, token_names);
   } catch (const std::exception& e) {
     std::cerr << "robocal-server: " << e.what() << "\n";
     return 2;

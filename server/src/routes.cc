@@ -96,7 +96,7 @@ const std::vector<Route>& RouteTable() {
          return Reply(s.ListRobots(Query(r, "page_size"), Query(r, "page_token")));
        }},
       {"POST", "/v1/robots", "/v1/robots",
-       [](Service& s, const httplib::Request& r) { return Reply(s.CreateRobot(Body(s, r))); }},
+       [](Service& s, const httplib::Request& r) { return Reply(s.CreateRobot(Body(s, r), RequestCaller())); }},
       {"GET", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
        [](Service& s, const httplib::Request& r) { return Reply(s.GetRobot(Id(r))); }},
       {"DELETE", R"(/v1/robots/([^/:]+))", "/v1/robots/{robot}",
@@ -106,6 +106,18 @@ const std::vector<Route>& RouteTable() {
        }},
       {"POST", R"(/v1/robots/([^/:]+):forward)", "/v1/robots/{robot}:forward",
        [](Service& s, const httplib::Request& r) { return Reply(s.RobotForward(Id(r), Body(s, r))); }},
+      {"POST", R"(/v1/robots/([^/:]+):check)", "/v1/robots/{robot}:check",
+       [](Service& s, const httplib::Request& r) { return Reply(s.CheckRobot(Id(r), Body(s, r), RequestCaller())); }},
+      {"POST", R"(/v1/robots/([^/:]+):calibrate)", "/v1/robots/{robot}:calibrate",
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.CalibrateRobot(Id(r), Body(s, r), RequestCaller()));
+       }},
+      {"POST", R"(/v1/robots/([^/:]+):rollback)", "/v1/robots/{robot}:rollback",
+       [](Service& s, const httplib::Request& r) {
+         return Reply(s.RollbackRobot(Id(r), Body(s, r), RequestCaller()));
+       }},
+      {"GET", R"(/v1/robots/([^/:]+)/calibrations)", "/v1/robots/{robot}/calibrations",
+       [](Service& s, const httplib::Request& r) { return Reply(s.RobotHistory(Id(r))); }},
       {"GET", "/v1/cells", "/v1/cells",
        [](Service& s, const httplib::Request& r) {
          return Reply(s.ListCells(Query(r, "page_size"), Query(r, "page_token")));

@@ -36,6 +36,10 @@ struct Route {
   RouteHandler handler;
 };
 
+/// Who makes the request being handled on this thread: its bearer token's name (set by the server's admission, unset
+/// without tokens).
+Caller RequestCaller();
+
 /// Every route; /healthz, /metrics and the spec have no handler here (the server answers them itself).
 const std::vector<Route>& RouteTable();
 

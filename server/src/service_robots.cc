@@ -18,12 +18,12 @@ namespace {
 using api::ApiError;
 using api::Status;
 
-bool IsPreset(const std::string& id) {
+}  // namespace
+
+bool IsPresetRobot(const std::string& id) {
   const auto names = PresetNames();
   return std::find(names.begin(), names.end(), id) != names.end();
 }
-
-}  // namespace
 
 Service::Service(Storage* storage, ServiceOptions options)
     : storage_(storage),
@@ -36,7 +36,7 @@ Service::Service(Storage* storage, ServiceOptions options)
 Service::~Service() = default;
 
 Service::ResolvedRobot Service::ResolveRobot(const std::string& id) {
-  if (IsPreset(id)) {
+  if (IsPresetRobot(id)) {
     api::RegisterRobotRequest definition;
     definition.id = id;
     definition.from_preset = id;
@@ -146,17 +146,29 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
   return definition;
 }
 
-api::Robot Service::CreateRobot(const nlohmann::json& body) {
+api::Robot Service::CreateRobot(const nlohmann::json& body, const Caller& caller) {
   const api::RegisterRobotRequest req =
       api::IsFromCalibration(body) ? DefinitionFromCalibration(api::ParseRobotFromCalibrationRequest(body))
       : api::IsUrdfImport(body)    ? urdf::ImportUrdf(api::ParseImportUrdfRequest(body, options_.limits))
                                    : api::ParseRegisterRobotRequest(body, options_.limits);
-  if (IsPreset(req.id)) {
+  if (IsPresetRobot(req.id)) {
     throw ApiError(Status::kAlreadyExists, "\"" + req.id + "\" is a preset", {{"id", "taken by a preset"}});
   }
   const RobotModel model = api::BuildModel(req);
+  // A robot registered from a calibration starts its history with it.
+  api::StoredRobot stored{.definition = req, .history = {}};
+  if (req.calibrated_from) {
+    api::StoredHistoryEntry first;
+    first.entry = 1;
+    first.kind = api::HistoryKind::kRegistered;
+    first.at_unix_ms = NowUnixMs();
+    first.by = caller.name;
+    first.campaign = req.calibrated_from->campaign;
+    first.definition = req;
+    stored.history.push_back(std::move(first));
+  }
   try {
-    storage_->Create(kRobots, req.id, nlohmann::json(api::StoredRobot{req}).dump());
+    storage_->Create(kRobots, req.id, nlohmann::json(stored).dump());
   } catch (const StorageError& e) {
     if (e.kind() == StorageError::Kind::kAlreadyExists) {
       throw ApiError(Status::kAlreadyExists, "robot \"" + req.id + "\" already exists", {{"id", "already exists"}});
@@ -168,13 +180,14 @@ api::Robot Service::CreateRobot(const nlohmann::json& body) {
 
 api::Robot Service::GetRobot(const std::string& id) {
   const ResolvedRobot robot = ResolveRobot(id);
-  const bool preset = IsPreset(id);
+  const bool preset = IsPresetRobot(id);
   if (preset) return api::RobotFromModel(id, robot.model, true, PresetDescription(id));
   return RobotResource(id, robot.model, robot.definition);
 }
 
 void Service::DeleteRobot(const std::string& id) {
-  if (IsPreset(id)) throw ApiError(Status::kFailedPrecondition, "presets cannot be deleted", {{"robot", "a preset"}});
+  if (IsPresetRobot(id))
+    throw ApiError(Status::kFailedPrecondition, "presets cannot be deleted", {{"robot", "a preset"}});
   CheckId(id, "robot");
   // Campaigns keep a copy of their robot's definition, so deleting a robot never breaks one.
   if (!storage_->Delete(kRobots, id)) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found");

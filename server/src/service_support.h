@@ -28,6 +28,9 @@ inline constexpr const char* kCalibrations = "calibrations";
 inline constexpr const char* kOperations = "operations";
 inline constexpr const char* kCells = "cells";
 
+/// Whether `id` names a preset robot.
+bool IsPresetRobot(const std::string& id);
+
 /// An id from a path that cannot name anything is the caller's mistake (400 naming `what`), not a missing
 /// resource (404).
 void CheckId(const std::string& id, const std::string& what);

@@ -196,6 +196,12 @@ struct WireFields<MeasurementBatchRequest> {
                       Field{"measurements", &S::measurements}.Mandatory().Size(1, 0).Apart());
 };
 ROBOCAL_WIRE_DECLARE(MeasurementBatchRequest);
+/// Reads the measurements of the list at `at` (each problem named by its path): joints within `model`'s limits,
+/// the pose (orientation required unless `type` is position), the reflector (required and one of `reflectors` when
+/// there are any, refused otherwise), the payload, and the test tags (required with role test, refused otherwise).
+void ReadMeasurements(const nlohmann::json& list, const std::string& at, const RobotModel& model, MeasurementType type,
+                      const std::vector<CampaignReflectorWire>& reflectors, MeasurementRole role, Problems* problems,
+                      std::vector<MeasurementWire>* out);
 /// Validates sizes, finiteness and joint limits against `model`; orientation is required unless `type` is
 /// position; `reflector` is required and one of `reflectors` when the campaign has any, refused otherwise.
 MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body, const RobotModel& model,

@@ -4,25 +4,26 @@
 //
 // Versions: 1 is every document written before the field "schema_version" existed (the same members as version
 // 2, without it; plans and fits recorded deadline_exceeded only when true); 2 adds "schema_version"; 3 adds
-// cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and "repeatability_mm" and the fit's
-// robust-fit members (outliers, parameters_with_outliers). A fit's state may hold "last_calibration_sequence"
-// (optional, so version 4 still: a server that does not know it ignores it, and a fit without it reads as before).
-// 5 adds to a fit's state what its wire result leaves out of the core's Calibration (the covariance, the
-// singular values, the residual count, the outliers' measurement indices, the implausible joint terms), so that
-// Restore returns the calibration whole; a fit of an older version restores without them.
-// A document of a version newer than kStoredSchemaVersion is refused by name rather than misread.
+// cells, and plans gain "cell" and "configuration_checks"; 4 adds the campaign's "tracker" model and "repeatability_mm"
+// and the fit's robust-fit members (outliers, parameters_with_outliers). A fit's state may hold
+// "last_calibration_sequence" (optional, so version 4 still: a server that does not know it ignores it, and a fit
+// without it reads as before). 5 adds to a fit's state what its wire result leaves out of the core's Calibration (the
+// covariance, the singular values, the residual count, the outliers' measurement indices, the implausible joint terms),
+// so that Restore returns the calibration whole; a fit of an older version restores without them. 6 adds a robot's
+// calibration history ("history" beside its definition). A document of a version newer than kStoredSchemaVersion is
+// refused by name rather than misread.
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
+#include "robocal/api/history.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/robots.h"
@@ -30,7 +31,7 @@
 
 namespace robocal::api {
 
-inline constexpr int kStoredSchemaVersion = 5;
+inline constexpr int kStoredSchemaVersion = 6;
 
 /// The schema version of a stored document (1 when it has none); WireError if newer than this server reads.
 int StoredSchemaVersion(const nlohmann::json& document);
@@ -38,6 +39,9 @@ int StoredSchemaVersion(const nlohmann::json& document);
 /// A registered robot: its definition.
 struct StoredRobot {
   RegisterRobotRequest definition;
+  /// Its calibration history (history.h), under the key "history" beside the definition's; empty for a robot not
+  /// registered from a calibration, and in documents of versions before 6.
+  std::vector<StoredHistoryEntry> history;
 };
 void to_json(nlohmann::json& j, const StoredRobot& robot);
 void from_json(const nlohmann::json& j, StoredRobot& robot);

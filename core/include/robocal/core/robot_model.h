@@ -258,6 +258,9 @@ class RobotModel {
   /// For a geometric parameter k (k < num_geometric_parameters()): true if it is a translation (mm), false for a
   /// rotation (rad). parameter_unit() covers every parameter.
   static bool IsTranslationParameter(int k) { return k % 6 < 3; }
+  /// Whether error parameter k is a joint's offset: its site's error sits just before the joint's motion about
+  /// (along) its z axis, so rz (dz for a prismatic joint) of a joint's site is its offset.
+  bool IsJointOffsetParameter(int k) const;
   ParameterUnit parameter_unit(int k) const;
   /// Whether any link has a mass (the compliance model needs them).
   bool has_masses() const;

@@ -79,9 +79,11 @@ std::string UsageText();
 /// that merely starts with "127." is not an address).
 bool IsLoopbackHost(const std::string& host);
 
-/// Tokens from a tokens file (one per line, '#' comments, blank lines ignored). Throws std::runtime_error if
-/// the file cannot be read, holds no token, or a token is not printable ASCII without spaces and '%' (header
-/// values are percent-decoded on arrival, so such a token could not be presented as written).
-std::vector<std::string> ReadTokensFile(const std::string& path);
+/// Tokens from a tokens file (one per line, "TOKEN" or "NAME TOKEN", '#' comments, blank lines ignored), and into
+/// `names` each token's name ("" for a line without one): the name a robot's calibration history records for the
+/// requests that present it. Throws std::runtime_error if the file cannot be read, holds no token, a line has
+/// more than two words, or a token is not printable ASCII without spaces and '%' (header values are
+/// percent-decoded on arrival, so such a token could not be presented as written).
+std::vector<std::string> ReadTokensFile(const std::string& path, std::vector<std::string>* names = nullptr);
 
 }  // namespace robocal::server

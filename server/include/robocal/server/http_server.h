@@ -33,8 +33,10 @@ bool TokenMatches(const std::string& presented, const std::vector<std::string>& 
 
 class HttpServer {
  public:
-  /// Throws std::runtime_error if TLS files cannot be loaded.
-  HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens);
+  /// Throws std::runtime_error if TLS files cannot be loaded. `token_names[k]` names tokens[k] in the history entries
+  /// a request with it makes (none or empty: "token k+1").
+  HttpServer(const ServerConfig& config, Service* service, std::vector<std::string> tokens,
+             std::vector<std::string> token_names = {});
   ~HttpServer();
   HttpServer(const HttpServer&) = delete;
   HttpServer& operator=(const HttpServer&) = delete;

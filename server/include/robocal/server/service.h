@@ -8,21 +8,22 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <variant>
 
-#include <nlohmann/json.hpp>
-
 #include "robocal/api/calibration.h"
 #include "robocal/api/campaigns.h"
 #include "robocal/api/cells.h"
-#include "robocal/api/tracker_files.h"
+#include "robocal/api/drift.h"
+#include "robocal/api/history.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/programs.h"
 #include "robocal/api/robots.h"
 #include "robocal/api/stored.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/core/robot_model.h"
 #include "robocal/server/memory_trimmer.h"
 #include "robocal/server/operation_runner.h"
@@ -50,6 +51,11 @@ struct ServiceOptions {
   std::function<void()> on_fit_progress;
 };
 
+/// Who makes a request: the name of its bearer token (unset on a server without tokens). History entries record it.
+struct Caller {
+  std::optional<std::string> name;
+};
+
 /// A plan computed while the request waits, or (async) the operation computing it.
 using PlanReply = std::variant<api::PlanResult, api::Operation>;
 /// A fit computed while the request waits, or (async) the operation computing it.
@@ -70,10 +76,17 @@ class Service {
   // Robots (service_robots.cc). page_size: "" (default 100) or 1..1000; page_token: "" or the next_page_token
   // of the previous page. Presets come first, then registered robots in id order.
   api::RobotList ListRobots(const std::string& page_size = "", const std::string& page_token = "");
-  api::Robot CreateRobot(const nlohmann::json& body);
+  /// A robot registered from a calibration starts its history (service_history.cc) with `caller`.
+  api::Robot CreateRobot(const nlohmann::json& body, const Caller& caller = {});
   api::Robot GetRobot(const std::string& id);
   void DeleteRobot(const std::string& id);
   api::ForwardResult RobotForward(const std::string& id, const nlohmann::json& body);
+  // A robot's calibration history and drift checks (service_history.cc, docs/drift.md). Each :check, :calibrate and
+  // :rollback is an entry of the history, by `caller`; nothing is ever removed.
+  api::DriftCheckWire CheckRobot(const std::string& id, const nlohmann::json& body, const Caller& caller = {});
+  api::RobotHistoryWire RobotHistory(const std::string& id);
+  api::RobotHistoryWire CalibrateRobot(const std::string& id, const nlohmann::json& body, const Caller& caller = {});
+  api::RobotHistoryWire RollbackRobot(const std::string& id, const nlohmann::json& body, const Caller& caller = {});
 
   // Cells (service_cells.cc): paged like robots. CheckCell takes {"joints": [[...]]} within the robot's limits.
   api::CellWire CreateCell(const nlohmann::json& body);
@@ -144,6 +157,10 @@ class Service {
   };
   ResolvedRobot ResolveRobot(const std::string& id);
   api::StoredCampaign LoadCampaign(const std::string& id);
+  // Reads a registered robot's document, lets `change` change it (its history completed for a robot stored before
+  // histories were kept), and writes it back if no other request wrote it meanwhile (else again from the read).
+  api::StoredRobot UpdateRobot(const std::string& id,
+                               const std::function<void(const Document&, api::StoredRobot*)>& change);
   // POST /v1/robots with "from_calibration": the definition of the campaign's calibrated robot.
   api::RegisterRobotRequest DefinitionFromCalibration(const api::RobotFromCalibrationRequest& request);
   // An import of a file that carries its joints (no plan): ImportMeasurements' second way.

@@ -1,0 +1,300 @@
+// A robot's calibration history and drift checks (docs/drift.md): the calibrations a robot has carried, checks of
+// the one it carries, new calibrations and rollbacks, all entries of the robot's stored document.
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "robocal/api/calibration.h"
+#include "robocal/api/drift.h"
+#include "robocal/api/history.h"
+#include "robocal/api/json_reader.h"
+#include "robocal/core/drift.h"
+#include "robocal/core/fit_diagnostics.h"
+#include "robocal/server/service.h"
+#include "service_support.h"
+
+namespace robocal::server {
+namespace {
+
+using api::ApiError;
+using api::Status;
+
+// The entries of a robot stored before histories were kept, and of one registered from a calibration whose history
+// is empty: its registration, the calibration it carries.
+void EnsureHistory(const Document& doc, api::StoredRobot* robot) {
+  if (!robot->history.empty() || !robot->definition.calibrated_from) return;
+  api::StoredHistoryEntry first;
+  first.entry = 1;
+  first.kind = api::HistoryKind::kRegistered;
+  first.at_unix_ms = doc.created_unix_ms;
+  first.campaign = robot->definition.calibrated_from->campaign;
+  first.note = "registered before its history was kept";
+  first.definition = robot->definition;
+  robot->history.push_back(std::move(first));
+}
+
+api::RobotHistoryWire HistoryView(const std::string& id, const api::StoredRobot& robot) {
+  api::RobotHistoryWire view;
+  view.robot = id;
+  view.current_entry = api::CurrentEntry(robot.history);
+  if (robot.definition.calibrated_from) view.current_campaign = robot.definition.calibrated_from->campaign;
+  for (const api::StoredHistoryEntry& e : robot.history) view.entries.push_back(e);
+  return view;
+}
+
+api::StoredHistoryEntry NewEntry(const api::StoredRobot& robot, api::HistoryKind kind, const Caller& caller) {
+  api::StoredHistoryEntry e;
+  e.entry = robot.history.empty() ? 1 : robot.history.back().entry + 1;
+  e.kind = kind;
+  e.at_unix_ms = NowUnixMs();
+  e.by = caller.name;
+  return e;
+}
+
+}  // namespace
+
+api::StoredRobot Service::UpdateRobot(const std::string& id,
+                                      const std::function<void(const Document&, api::StoredRobot*)>& change) {
+  CheckId(id, "robot");
+  // Optimistic: read, change, write if nobody wrote in between; a check and a rollback at once both land.
+  for (int attempt = 0;; ++attempt) {
+    const auto doc = storage_->Get(kRobots, id);
+    if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
+    api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
+    EnsureHistory(*doc, &robot);
+    change(*doc, &robot);
+    try {
+      storage_->Update(kRobots, id, nlohmann::json(robot).dump(), doc->version);
+      return robot;
+    } catch (const StorageError& e) {
+      if (e.kind() != StorageError::Kind::kVersionConflict || attempt >= 20) throw;
+    }
+  }
+}
+
+api::RobotHistoryWire Service::RobotHistory(const std::string& id) {
+  if (IsPresetRobot(id)) return {.robot = id, .current_entry = std::nullopt, .current_campaign = "", .entries = {}};
+  CheckId(id, "robot");
+  const auto doc = storage_->Get(kRobots, id);
+  if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
+  api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
+  EnsureHistory(*doc, &robot);
+  return HistoryView(id, robot);
+}
+
+api::RobotHistoryWire Service::CalibrateRobot(const std::string& id, const nlohmann::json& body, const Caller& caller) {
+  if (IsPresetRobot(id)) {
+    throw ApiError(Status::kFailedPrecondition, "presets carry no calibration: register the calibrated robot",
+                   {{"robot", "a preset"}});
+  }
+  api::Problems problems;
+  api::CalibrateRobotRequest req;
+  api::ReadRequestObject(body, "", &problems, &req);
+  problems.ThrowIfAny("invalid calibrate request");
+  const ResolvedRobot robot = ResolveRobot(id);
+  // The same physical robot: a campaign of this robot, or of the robot it was calibrated from.
+  const api::StoredCampaign campaign = [&] {
+    try {
+      return LoadCampaign(req.campaign);
+    } catch (const ApiError& e) {
+      if (e.status() != Status::kNotFound) throw;
+      throw ApiError(Status::kInvalidArgument, "campaign \"" + req.campaign + "\" does not exist",
+                     {{"from_calibration", "unknown campaign"}});
+    }
+  }();
+  const std::string origin = robot.definition.calibrated_from ? robot.definition.calibrated_from->robot : id;
+  if (campaign.robot != id && campaign.robot != origin) {
+    const std::string reason = "campaign \"" + req.campaign + "\" measured robot " + campaign.robot + ", not " + id +
+                               (origin != id ? " or " + origin + " (the robot it was calibrated from)" : "");
+    throw ApiError(Status::kFailedPrecondition, reason, {{"from_calibration", reason}});
+  }
+  api::RegisterRobotRequest definition = DefinitionFromCalibration({id, robot.definition.description, req.campaign});
+  const api::StoredRobot updated = UpdateRobot(id, [&](const Document&, api::StoredRobot* stored) {
+    api::StoredHistoryEntry e = NewEntry(*stored, api::HistoryKind::kCalibrated, caller);
+    e.campaign = req.campaign;
+    e.note = req.note;
+    e.definition = definition;
+    stored->definition = definition;
+    stored->history.push_back(std::move(e));
+  });
+  return HistoryView(id, updated);
+}
+
+api::RobotHistoryWire Service::RollbackRobot(const std::string& id, const nlohmann::json& body, const Caller& caller) {
+  if (IsPresetRobot(id)) throw ApiError(Status::kFailedPrecondition, "presets have no history", {{"robot", "a preset"}});
+  api::Problems problems;
+  api::RollbackRequest req;
+  api::ReadRequestObject(body, "", &problems, &req);
+  problems.ThrowIfAny("invalid rollback request");
+  const api::StoredRobot updated = UpdateRobot(id, [&](const Document&, api::StoredRobot* stored) {
+    const auto target = std::find_if(stored->history.begin(), stored->history.end(),
+                                     [&](const api::StoredHistoryEntry& e) { return e.entry == req.entry; });
+    if (target == stored->history.end()) {
+      throw ApiError(Status::kInvalidArgument, "robot \"" + id + "\" has no history entry " + std::to_string(req.entry),
+                     {{"entry", "no such entry (GET /v1/robots/" + id + "/calibrations lists them)"}});
+    }
+    if (!target->definition) {
+      throw ApiError(Status::kInvalidArgument, "entry " + std::to_string(req.entry) + " is a check: it put no calibration on the robot",
+                     {{"entry", "a check, not a calibration"}});
+    }
+    api::StoredHistoryEntry e = NewEntry(*stored, api::HistoryKind::kRollback, caller);
+    e.campaign = target->campaign;
+    e.rolled_back_to = req.entry;
+    e.note = req.note;
+    e.definition = target->definition;
+    stored->definition = *target->definition;
+    stored->history.push_back(std::move(e));
+  });
+  return HistoryView(id, updated);
+}
+
+api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::json& body, const Caller& caller) {
+  const ResolvedRobot robot = ResolveRobot(id);
+  if (!robot.definition.calibrated_from) {
+    throw ApiError(Status::kFailedPrecondition,
+                   "robot \"" + id + "\" carries no calibration: register it from a calibrated campaign (from_calibration)",
+                   {{"robot", "carries no calibration"}});
+  }
+  const std::string source = robot.definition.calibrated_from->campaign;
+  const Calibrated loaded = [&] {
+    try {
+      return LoadCalibrated(source);
+    } catch (const ApiError& e) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "the calibration robot \"" + id + "\" carries (campaign \"" + source + "\") is gone: " + e.what(),
+                     {{"robot", "its calibration's campaign or fit is gone"}});
+    }
+  }();
+  if (!loaded.campaign.reflectors.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "checks measure the tool point; the calibration used reflectors",
+                   {{"robot", "calibrated with reflectors"}});
+  }
+  api::Problems problems;
+  api::DriftCheckRequest req;
+  api::ReadRequestObject(body, "", &problems, &req);
+  const MeasurementType type = req.measurement_type.value_or(loaded.campaign.measurement_type);
+  if (MeasurementRows(type) > MeasurementRows(loaded.campaign.measurement_type)) {
+    problems.Add("measurement_type", std::string("the calibration measured ") +
+                                         api::WireName(loaded.campaign.measurement_type) +
+                                         ": a check compares no more than its calibration saw");
+  }
+  std::vector<api::MeasurementWire> wire;
+  if (body.is_object() && !body.contains("measurements")) problems.Add("measurements", "required");
+  if (const auto list = body.is_object() ? body.find("measurements") : body.end();
+      body.is_object() && list != body.end()) {
+    if (!list->is_array() || list->empty() || list->size() > options_.limits.max_array_length) {
+      problems.Add("measurements", "expected an array of 1.." + std::to_string(options_.limits.max_array_length) +
+                                       " measurements");
+    } else {
+      api::ReadMeasurements(*list, "measurements", robot.model, type, {}, api::MeasurementRole::kCalibration,
+                            &problems, &wire);
+    }
+  }
+  problems.ThrowIfAny("invalid check request");
+
+  // The noise the calibration's fit weighted with: the tracker's (the request's or the campaign's), the robot's
+  // repeatability, and the model error the fit estimated, per row.
+  DriftCheckOptions options;
+  options.measurement_type = type;
+  // A tracker or a noise given replaces the campaign's model; neither keeps it.
+  const std::optional<api::TrackerModelWire> tracker =
+      req.tracker ? req.tracker : req.noise ? std::nullopt : loaded.campaign.tracker;
+  options.noise = api::ToCore(req.noise.value_or(loaded.campaign.noise), tracker,
+                              req.repeatability_mm.value_or(loaded.campaign.repeatability_mm));
+  if (loaded.result.model_error.estimated) {
+    options.noise.model_error_mm = loaded.result.model_error.model_error_mm / std::sqrt(3.0);
+    options.noise.model_error_rad = loaded.result.model_error.model_error_deg * kRadPerDeg / std::sqrt(3.0);
+  }
+  options.register_frames = req.frames == api::CheckFrames::kRegister;
+  options.false_alarm_rate = req.false_alarm_rate;
+  options.seed = req.seed;
+
+  // The calibration's own scatter: its measurements (those the fit used) against it.
+  std::set<std::int64_t> excluded;
+  for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
+  std::vector<Measurement> calibration_shots;
+  std::int64_t index = 0;
+  ForEachMeasurement(storage_, source, "calibration", [&](const StoredMeasurement& s) {
+    const bool in_fit = SeenByFit(loaded.result, loaded.last_calibration_sequence, s.sequence, index++);
+    const api::MeasurementWire w = ReadMeasurement(s);
+    if (!in_fit || excluded.count(s.sequence) > 0 || w.stale) return;
+    calibration_shots.push_back(MeasurementToCore(loaded.model, w, loaded.campaign));
+  });
+  for (const MeasurementResidualNorms& r : ComputeMeasurementResiduals(
+           loaded.calibration.model, loaded.calibration.errors, calibration_shots, type, options.noise)) {
+    options.null_squared_residuals.push_back(r.weighted * r.weighted);
+  }
+  const double rows = static_cast<double>(MeasurementRows(type) * calibration_shots.size());
+  const double parameters = static_cast<double>(loaded.calibration.parameters.size());
+  if (options.null_squared_residuals.size() < 2 || rows <= parameters) {
+    throw ApiError(Status::kFailedPrecondition, "the calibration of campaign \"" + source + "\" has too few measurements left to compare with",
+                   {{"robot", "its calibration's measurements are too few"}});
+  }
+  options.null_correction = (rows + parameters) / (rows - parameters);
+
+  // The robot as it stands: its calibrated chain, at the calibration's registered base when the frames are kept.
+  RobotModel model = robot.model;
+  if (!options.register_frames) {
+    RobotModelSpec spec = model.spec();
+    spec.T_world_base = loaded.calibration.model.T_world_base();
+    model = RobotModel::Build(spec);
+  }
+  std::vector<Measurement> shots;
+  for (const api::MeasurementWire& w : wire) shots.push_back(MeasurementToCore(model, w, loaded.campaign));
+  const DriftCheck check = CheckDrift(model, shots, options);
+
+  api::DriftCheckWire out;
+  out.robot = id;
+  out.campaign = source;
+  out.verdict = check.drifted ? api::CheckVerdict::kDrifted : api::CheckVerdict::kHolds;
+  out.false_alarm_rate = options.false_alarm_rate;
+  out.statistic = check.statistic;
+  out.threshold = check.threshold;
+  out.p_value = check.p_value;
+  out.largest_drop = check.largest_drop;
+  out.drop_threshold = check.drop_threshold;
+  out.num_candidates = check.num_candidates;
+  for (const DriftSuspect& s : check.suspects) {
+    const ParameterUnit unit = model.parameter_unit(s.index);
+    const double scale = api::ParameterUnitScale(unit);
+    out.suspects.push_back({.parameter = s.name,
+                            .joint_offset = model.IsJointOffsetParameter(s.index),
+                            .unit = api::ParameterUnitName(unit),
+                            .change = s.change * scale,
+                            .std = s.std * scale,
+                            .chi2_drop = s.chi2_drop,
+                            .rms_position_mm = s.rms_position_mm});
+  }
+  out.measurement_type = type;
+  out.num_measurements = check.num_measurements;
+  out.dof = check.dof;
+  out.rms_position_mm = check.rms_position_mm;
+  out.expected_rms_position_mm = check.expected_rms_position_mm;
+  out.frames = req.frames;
+  out.base = api::TransformToPose(check.T_world_base);
+  out.tool = api::TransformToPose(check.T_flange_tool);
+  out.message = check.message;
+  if (loaded.result.created_unix_ms != robot.definition.calibrated_from->created_unix_ms) {
+    out.message += "; campaign \"" + source + "\" was fitted again after this calibration was put on the robot: its "
+                   "current fit's scatter is the reference";
+  }
+  if (!std::isfinite(check.statistic)) {
+    throw ApiError(Status::kFailedPrecondition, check.message, {{"measurements", check.message}});
+  }
+  const api::StoredRobot updated = UpdateRobot(id, [&](const Document&, api::StoredRobot* stored) {
+    api::StoredHistoryEntry e = NewEntry(*stored, api::HistoryKind::kCheck, caller);
+    e.campaign = source;
+    e.verdict = out.verdict;
+    e.statistic = out.statistic;
+    e.threshold = out.threshold;
+    for (const api::DriftSuspectWire& s : out.suspects) e.suspects.push_back(s.parameter);
+    stored->history.push_back(std::move(e));
+  });
+  out.history_entry = updated.history.back().entry;
+  return out;
+}
+
+}  // namespace robocal::server
