@@ -1,7 +1,9 @@
 // Drift checks (drift.h, docs/drift.md): the residual level against the calibration's own scatter, and the one
-// parameter that best explains the residuals.
+// parameter that best explains the residuals, both in the metric of the calibration's own residuals.
 #include "robocal/core/drift.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,8 +11,8 @@
 #include <stdexcept>
 
 #include "robocal/core/compensation.h"
-#include "robocal/core/fit_diagnostics.h"
-#include "robocal/core/identifiability.h"
+#include "robocal/core/error_model.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/random.h"
 #include "robocal/core/reflectors.h"
 
@@ -18,35 +20,30 @@ namespace robocal {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Directions closer than this (|cos| above it) in the residuals' space are one explanation to the check's poses.
+constexpr double kSameDirectionCos = 0.995;
 
-// The whitened squared residual sum of `shots` against (model, errors), and the position RMS (mm).
-void Residuals(const RobotModel& model, const Eigen::VectorXd& errors, const std::vector<Measurement>& shots,
-               const DriftCheckOptions& options, double* sum, double* rms_position_mm) {
-  const std::vector<MeasurementResidualNorms> r =
-      ComputeMeasurementResiduals(model, errors, shots, options.measurement_type, options.noise);
-  double s = 0.0, p = 0.0;
-  for (const MeasurementResidualNorms& m : r) {
-    s += m.weighted * m.weighted;
-    p += m.position_mm * m.position_mm;
-  }
-  *sum = s;
-  *rms_position_mm = r.empty() ? kNaN : std::sqrt(p / static_cast<double>(r.size()));
-}
-
-// A fit of `parameters` only, by plain weighted least squares with the noise as given (no model error estimated,
-// no outliers excluded: a check judges every shot it has).
-Calibration FitOnly(const RobotModel& model, const std::vector<Measurement>& shots, const DriftCheckOptions& options,
-                    std::vector<int> parameters) {
-  std::sort(parameters.begin(), parameters.end());
+// The frames-only fit (no model error estimated, no outliers excluded: a check judges every shot it has).
+Calibration Register(const RobotModel& model, const std::vector<Measurement>& shots, const DriftCheckOptions& options,
+                     const std::vector<int>& frames) {
   IdentificationOptions o;
   o.measurement_type = options.measurement_type;
   o.noise = options.noise;
   o.identifiability.noise = options.noise;
-  o.parameters = std::move(parameters);
-  o.register_base = options.register_frames;
+  o.parameters = frames;
+  std::sort(o.parameters.begin(), o.parameters.end());
+  o.register_base = true;
   o.estimate_model_error = false;
   o.reject_outliers = false;
   return Identify(model, shots, o);
+}
+
+// Rows (residual or Jacobian columns) of one measurement turned from the world frame into the base frame: the
+// position rows and the orientation rows are vectors; a position-axis measurement's axis rows are components in
+// the axis's own tangent plane, which no frame turns.
+void ToBase(MeasurementType type, const Eigen::Matrix3d& R_base_world, Eigen::Ref<Eigen::MatrixXd> rows) {
+  rows.topRows<3>() = R_base_world * rows.topRows<3>();
+  if (type == MeasurementType::kPose) rows.bottomRows<3>() = R_base_world * rows.bottomRows<3>();
 }
 
 }  // namespace
@@ -68,15 +65,13 @@ bool DriftCheckOptions::IsValid(std::string* error) const {
     *error = "false_alarm_rate must be in (0, 0.5)";
     return false;
   }
-  if (null_squared_residuals.size() < 2) {
-    *error = "null_squared_residuals: the calibration's residuals are needed (at least 2)";
+  if (reference.size() < static_cast<std::size_t>(2 * MeasurementRows(measurement_type))) {
+    *error = "reference: the calibration's shots are needed (at least twice the rows of a measurement)";
     return false;
   }
-  for (double v : null_squared_residuals) {
-    if (!(v >= 0.0) || !std::isfinite(v)) {
-      *error = "null_squared_residuals must be finite and >= 0";
-      return false;
-    }
+  if (!IsValidRigidTransform(reference_T_world_base, 1e-6)) {
+    *error = "reference_T_world_base is not a rigid transform";
+    return false;
   }
   if (!(null_correction >= 1.0) || !std::isfinite(null_correction) || null_draws < 100) {
     *error = "null_correction must be finite and >= 1, null_draws >= 100";
@@ -90,60 +85,144 @@ bool DriftCheckOptions::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+
+// Residual rows and Jacobian rows of shots against (model, errors), in the base frame, scaled by the row weights:
+// one block of `rows` per shot.
+struct ShotRows {
+  std::vector<Eigen::VectorXd> residual;
+  std::vector<Eigen::MatrixXd> jacobian;
+  double position_sum = 0.0;
+};
+ShotRows BaseRows(const RobotModel& model, const Eigen::VectorXd& errors, const std::vector<Measurement>& shots,
+                  MeasurementType type, const Eigen::VectorXd& w) {
+  const int rows = MeasurementRows(type);
+  const Eigen::Matrix3d R_base_world = model.T_world_base().linear().transpose();
+  KinematicsWorkspace ws(model);
+  ShotRows out;
+  Eigen::MatrixXd block(rows, 1 + model.num_error_parameters());
+  Eigen::VectorXd one(rows);
+  for (const Measurement& m : shots) {
+    IdentificationJacobian(model, m.joints, errors, type, &ws, block.rightCols(model.num_error_parameters()),
+                           m.payload);
+    MeasurementResidual(type, m.T_world_tool, ws.T_world_tool, one);
+    out.position_sum += one.head<3>().squaredNorm();
+    block.col(0) = one;
+    ToBase(type, R_base_world, block);
+    block = w.asDiagonal() * block;
+    out.residual.push_back(block.col(0));
+    out.jacobian.push_back(block.rightCols(model.num_error_parameters()));
+  }
+  return out;
+}
+
+// One set's statistics in the metric `whiten`: the residual level per degree of freedom, and each candidate's score
+// test beside the frames (drop, change, std, its unit direction).
+struct SetTests {
+  double level = 0.0;
+  Eigen::VectorXd drop, change, std;
+  Eigen::MatrixXd directions;
+};
+SetTests Tests(const Eigen::VectorXd& r_in, const Eigen::MatrixXd& J, const std::vector<int>& frames,
+               const std::vector<int>& candidates, int dof, bool directions) {
+  Eigen::VectorXd r = r_in;
+  Eigen::MatrixXd G(J.rows(), static_cast<int>(candidates.size()));
+  for (std::size_t k = 0; k < candidates.size(); ++k) G.col(static_cast<int>(k)) = J.col(candidates[k]);
+  // What the registration's parameters take up (one Gauss-Newton step of them in this metric) is not the check's.
+  if (!frames.empty()) {
+    Eigen::MatrixXd F(J.rows(), static_cast<int>(frames.size()));
+    for (std::size_t k = 0; k < frames.size(); ++k) F.col(static_cast<int>(k)) = J.col(frames[k]);
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(F);
+    const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qr.rank());
+    r -= Q * (Q.transpose() * r);
+    G -= Q * (Q.transpose() * G);
+  }
+  SetTests t;
+  t.level = r.squaredNorm() / dof;
+  const Eigen::VectorXd nn = G.colwise().squaredNorm().transpose();
+  const Eigen::VectorXd score = G.transpose() * r;
+  t.drop = Eigen::VectorXd::Zero(nn.size());
+  t.change = t.std = Eigen::VectorXd::Constant(nn.size(), kNaN);
+  for (Eigen::Index k = 0; k < nn.size(); ++k) {
+    if (!(nn[k] > 0.0)) continue;
+    t.drop[k] = score[k] * score[k] / nn[k];
+    t.change[k] = score[k] / nn[k];
+    t.std[k] = 1.0 / std::sqrt(nn[k]);
+  }
+  if (directions) t.directions = G * (nn.array() > 0.0).select(nn.cwiseSqrt().cwiseInverse(), 0.0).asDiagonal();
+  return t;
+}
+
+double Quantile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1)];
+}
+
+}  // namespace
+
 DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& shots, const DriftCheckOptions& options) {
   std::string error;
   if (!options.IsValid(&error)) throw std::invalid_argument("CheckDrift: " + error);
-  for (const Measurement& m : shots) {
-    if (m.joints.size() != model.num_joints()) throw std::invalid_argument("CheckDrift: a shot of the wrong joint count");
+  for (const std::vector<Measurement>* list : {&shots, &options.reference}) {
+    for (const Measurement& m : *list) {
+      if (m.joints.size() != model.num_joints() || !m.joints.allFinite()) {
+        throw std::invalid_argument("CheckDrift: a shot of the wrong joint count or a non-finite joint");
+      }
+    }
   }
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
   DriftCheck out;
   out.num_measurements = static_cast<int>(shots.size());
-  const int rows_per_shot = MeasurementRows(options.measurement_type);
-  const int rows = rows_per_shot * out.num_measurements;
-  const std::vector<int> frames =
-      options.register_frames ? FrameParameters(model, options.measurement_type) : std::vector<int>{};
-  out.dof = rows - static_cast<int>(frames.size());
-  // Three position rows, each of the sigma the rows are whitened with (tracker, repeatability, model error).
+  const std::vector<int> frames = options.register_frames ? FrameParameters(model, type) : std::vector<int>{};
+  const int n_rows = rows * out.num_measurements;
+  out.dof = n_rows - static_cast<int>(frames.size());
   out.expected_rms_position_mm = std::sqrt(3.0) / options.noise.RowWeights(MeasurementType::kPosition)[0];
-  if (out.dof < 2) {
+  if (out.dof < 3) {
     out.statistic = out.threshold = kNaN;
-    out.message = std::to_string(out.num_measurements) + " shots give " + std::to_string(rows) + " rows: too few for " +
-                  std::to_string(frames.size()) + " frame parameters and a check";
+    out.message = std::to_string(out.num_measurements) + " shots give " + std::to_string(n_rows) +
+                  " rows: too few for " + std::to_string(frames.size()) + " frame parameters and a check";
     return out;
   }
+  const Eigen::VectorXd w = options.noise.RowWeights(type);
 
-  // The registration (or the frames as kept) and its residuals.
-  double sum0 = 0.0;
+  // The reference: the calibration's own shots against the robot at the calibration's base. Their residuals'
+  // covariance is the metric (its inverse square root whitens every row below); scaled by the in-sample correction
+  // they stand for a new pose's.
+  RobotModelSpec reference_spec = model.spec();
+  reference_spec.T_world_base = options.reference_T_world_base;
+  const RobotModel reference_model = RobotModel::Build(reference_spec);
+  ShotRows reference =
+      BaseRows(reference_model, Eigen::VectorXd::Zero(model.num_error_parameters()), options.reference, type, w);
+  const std::size_t n_reference = reference.residual.size();
+  Eigen::MatrixXd c0 = Eigen::MatrixXd::Zero(rows, rows);
+  for (const Eigen::VectorXd& z : reference.residual) c0 += z * z.transpose() / static_cast<double>(n_reference);
+  c0.diagonal().array() += 1e-12 * c0.diagonal().maxCoeff();
+  const Eigen::MatrixXd whiten = Eigen::LLT<Eigen::MatrixXd>(c0).matrixL().solve(Eigen::MatrixXd::Identity(rows, rows));
+  const double inflate = std::sqrt(options.null_correction);
+  for (std::size_t i = 0; i < n_reference; ++i) {
+    reference.residual[i] = inflate * (whiten * reference.residual[i]);
+    reference.jacobian[i] = whiten * reference.jacobian[i];
+  }
+
+  // The check: the registration (or the frames as kept), the residuals and the Jacobian there.
   const Calibration registered =
-      options.register_frames ? FitOnly(model, shots, options, frames) : NominalCalibration(model);
+      options.register_frames ? Register(model, shots, options, frames) : NominalCalibration(model);
   out.T_world_base = registered.T_world_base;
   out.T_flange_tool = registered.T_flange_tool;
-  Residuals(registered.model, registered.errors, shots, options, &sum0, &out.rms_position_mm);
-  out.statistic = sum0 / out.dof;
-
-  // Test 1: the level against as many of the calibration's own measurements.
-  Rng rng(options.seed);
-  const std::vector<double>& null = options.null_squared_residuals;
-  std::vector<double> draws(static_cast<std::size_t>(options.null_draws));
-  const double null_rows = static_cast<double>(rows_per_shot * out.num_measurements);
-  int above = 0;
-  for (double& d : draws) {
-    double s = 0.0;
-    for (int i = 0; i < out.num_measurements; ++i) s += null[rng.Index(null.size())];
-    d = options.null_correction * s / null_rows;
-    if (d >= out.statistic) ++above;
+  const ShotRows check = BaseRows(registered.model, registered.errors, shots, type, w);
+  out.rms_position_mm = std::sqrt(check.position_sum / out.num_measurements);
+  Eigen::VectorXd r(n_rows);
+  Eigen::MatrixXd J(n_rows, model.num_error_parameters());
+  for (int i = 0; i < out.num_measurements; ++i) {
+    r.segment(rows * i, rows) = whiten * check.residual[static_cast<std::size_t>(i)];
+    J.middleRows(rows * i, rows) = whiten * check.jacobian[static_cast<std::size_t>(i)];
   }
-  std::sort(draws.begin(), draws.end());
-  const double level = 1.0 - options.false_alarm_rate / 2.0;
-  out.threshold = draws[std::min(draws.size() - 1, static_cast<std::size_t>(std::ceil(level * draws.size())) - 1)];
-  out.p_value = static_cast<double>(above) / static_cast<double>(draws.size());
-  const bool level_drifted = out.statistic > out.threshold;
 
-  // Test 2: each candidate beside the frames.
+  // The candidates: every geometric parameter the registration does not estimate, joint offsets first; those the
+  // frames take up whole, or the check's poses do not see, are none.
   std::vector<int> candidates = options.candidates;
   if (candidates.empty()) {
-    // Every geometric parameter the registration does not estimate, joint offsets first: each is tested alone
-    // beside the frames, where it is determined even when the full set drops it (a joint offset of parallel axes).
     std::vector<int> offsets, others;
     for (int k = 0; k < model.num_geometric_parameters(); ++k) {
       if (std::find(frames.begin(), frames.end(), k) != frames.end()) continue;
@@ -152,39 +231,91 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
     candidates = offsets;
     candidates.insert(candidates.end(), others.begin(), others.end());
   }
-  out.num_candidates = static_cast<int>(candidates.size());
-  std::vector<DriftSuspect> all;
-  if (!candidates.empty() && out.dof >= 3) {
-    out.drop_threshold =
-        ChiSquareQuantile(1, options.false_alarm_rate / 2.0 / static_cast<double>(candidates.size()));
-    for (int c : candidates) {
-      std::vector<int> parameters = frames;
-      parameters.push_back(c);
-      const Calibration fit = FitOnly(model, shots, options, parameters);
-      if (fit.summary.termination == Termination::kFailure) continue;
-      DriftSuspect s;
-      s.index = c;
-      s.name = ParameterName(model, {}, c);
-      for (const IdentifiedParameter& p : fit.parameters) {
-        if (p.index == c) {
-          s.change = p.value;
-          s.std = p.std;
-        }
-      }
-      double sum = 0.0;
-      Residuals(fit.model, fit.errors, shots, options, &sum, &s.rms_position_mm);
-      s.chi2_drop = std::max(0.0, sum0 - sum);
-      all.push_back(s);
+  for (int c : candidates) {
+    if (c < 0 || c >= model.num_error_parameters()) {
+      throw std::invalid_argument("CheckDrift: candidate " + std::to_string(c) + " is no parameter");
     }
-    std::sort(all.begin(), all.end(), [](const DriftSuspect& a, const DriftSuspect& b) { return a.chi2_drop > b.chi2_drop; });
-    if (!all.empty()) out.largest_drop = all.front().chi2_drop;
   }
-  const bool parameter_drifted = out.largest_drop > out.drop_threshold && out.num_candidates > 0;
-  out.drifted = level_drifted || parameter_drifted;
-  for (const DriftSuspect& s : all) {
-    if (s.chi2_drop > out.drop_threshold || (out.drifted && out.suspects.size() < 3 && !parameter_drifted)) {
-      out.suspects.push_back(s);
+  {
+    const SetTests seen = Tests(Eigen::VectorXd::Zero(n_rows), J, frames, candidates, out.dof, true);
+    std::vector<int> kept;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      const double before = J.col(candidates[k]).squaredNorm();
+      if (std::isfinite(seen.std[static_cast<Eigen::Index>(k)]) &&
+          1.0 / (seen.std[static_cast<Eigen::Index>(k)] * seen.std[static_cast<Eigen::Index>(k)]) > 1e-10 * before) {
+        kept.push_back(candidates[k]);
+      }
     }
+    candidates = std::move(kept);
+  }
+  const SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
+  out.statistic = tests.level;
+  out.num_candidates = static_cast<int>(candidates.size());
+  out.largest_drop = candidates.empty() ? 0.0 : tests.drop.maxCoeff();
+
+  // Both tests' null distributions by a paired bootstrap: sets of as many of the calibration's own shots, each with
+  // its residual and its Jacobian, so that the robot's unmodelled error comes with the directions it takes at its
+  // poses (a joint's gear error looks like an offset of that joint pose by pose), its tails and its share between
+  // the axes. The check's poses are taken to be spread like the calibration's.
+  Rng rng(options.seed);
+  std::vector<double> levels(static_cast<std::size_t>(options.null_draws)), drops(levels.size());
+  Eigen::VectorXd z(n_rows);
+  Eigen::MatrixXd Jz(n_rows, model.num_error_parameters());
+  int level_above = 0;
+  for (std::size_t d = 0; d < levels.size(); ++d) {
+    for (int i = 0; i < out.num_measurements; ++i) {
+      const std::size_t k = rng.Index(n_reference);
+      z.segment(rows * i, rows) = reference.residual[k];
+      Jz.middleRows(rows * i, rows) = reference.jacobian[k];
+    }
+    const SetTests null = Tests(z, Jz, frames, candidates, out.dof, false);
+    levels[d] = null.level;
+    if (levels[d] >= out.statistic) ++level_above;
+    drops[d] = candidates.empty() ? 0.0 : null.drop.maxCoeff();
+  }
+  const double level = 1.0 - options.false_alarm_rate / 2.0;
+  out.threshold = Quantile(levels, level);
+  out.p_value = static_cast<double>(level_above) / static_cast<double>(levels.size());
+  out.drop_threshold = candidates.empty() ? 0.0 : Quantile(drops, level);
+  const bool level_drifted = out.statistic > out.threshold;
+  const bool parameter_drifted = !candidates.empty() && out.largest_drop > out.drop_threshold;
+  out.drifted = level_drifted || parameter_drifted;
+
+  // The suspects, largest drop first; of parameters the poses cannot tell apart, one, a joint offset named first.
+  std::vector<std::size_t> order(candidates.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return tests.drop[static_cast<Eigen::Index>(a)] > tests.drop[static_cast<Eigen::Index>(b)];
+  });
+  std::vector<bool> used(candidates.size(), false);
+  for (std::size_t oi = 0; oi < order.size() && out.drifted; ++oi) {
+    const std::size_t a = order[oi];
+    if (used[a]) continue;
+    const double drop = tests.drop[static_cast<Eigen::Index>(a)];
+    if (!(drop > out.drop_threshold) && (parameter_drifted || out.suspects.size() >= 3)) break;
+    std::vector<std::size_t> group = {a};
+    for (std::size_t ob = oi + 1; ob < order.size(); ++ob) {
+      const std::size_t b = order[ob];
+      if (!used[b] && std::abs(tests.directions.col(static_cast<Eigen::Index>(a))
+                                   .dot(tests.directions.col(static_cast<Eigen::Index>(b)))) > kSameDirectionCos) {
+        group.push_back(b);
+      }
+    }
+    std::size_t lead = a;
+    for (std::size_t k : group) {
+      used[k] = true;
+      if (model.IsJointOffsetParameter(candidates[k]) && !model.IsJointOffsetParameter(candidates[lead])) lead = k;
+    }
+    DriftSuspect s;
+    s.index = candidates[lead];
+    s.name = ParameterName(model, {}, s.index);
+    s.change = tests.change[static_cast<Eigen::Index>(lead)];
+    s.std = tests.std[static_cast<Eigen::Index>(lead)];
+    s.chi2_drop = tests.drop[static_cast<Eigen::Index>(lead)];
+    for (std::size_t k : group) {
+      if (k != lead) s.equivalent.push_back(ParameterName(model, {}, candidates[k]));
+    }
+    out.suspects.push_back(std::move(s));
   }
   std::ostringstream m;
   m.precision(3);
@@ -194,7 +325,7 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
     m << ", largest single-parameter drop " << out.largest_drop << " (threshold " << out.drop_threshold << ", "
       << out.num_candidates << " candidates)";
   }
-  if (out.drifted && !out.suspects.empty()) m << "; best explained by " << out.suspects.front().name;
+  if (!out.suspects.empty()) m << "; best explained by " << out.suspects.front().name;
   out.message = m.str();
   return out;
 }

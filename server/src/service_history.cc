@@ -215,6 +215,7 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   // The calibration's own scatter: its measurements (those the fit used) against it.
   std::set<std::int64_t> excluded;
   for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
+  // (With the robot's joints: the calibration campaign's robot has the same joints.)
   std::vector<Measurement> calibration_shots;
   std::int64_t index = 0;
   ForEachMeasurement(storage_, source, "calibration", [&](const StoredMeasurement& s) {
@@ -223,13 +224,11 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
     if (!in_fit || excluded.count(s.sequence) > 0 || w.stale) return;
     calibration_shots.push_back(MeasurementToCore(loaded.model, w, loaded.campaign));
   });
-  for (const MeasurementResidualNorms& r : ComputeMeasurementResiduals(
-           loaded.calibration.model, loaded.calibration.errors, calibration_shots, type, options.noise)) {
-    options.null_squared_residuals.push_back(r.weighted * r.weighted);
-  }
+  options.reference_T_world_base = loaded.calibration.model.T_world_base();
   const double rows = static_cast<double>(MeasurementRows(type) * calibration_shots.size());
   const double parameters = static_cast<double>(loaded.calibration.parameters.size());
-  if (options.null_squared_residuals.size() < 2 || rows <= parameters) {
+  options.reference = std::move(calibration_shots);
+  if (options.reference.size() < static_cast<std::size_t>(2 * MeasurementRows(type)) || rows <= parameters) {
     throw ApiError(Status::kFailedPrecondition, "the calibration of campaign \"" + source + "\" has too few measurements left to compare with",
                    {{"robot", "its calibration's measurements are too few"}});
   }
@@ -266,7 +265,7 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
                             .change = s.change * scale,
                             .std = s.std * scale,
                             .chi2_drop = s.chi2_drop,
-                            .rms_position_mm = s.rms_position_mm});
+                            .equivalent = s.equivalent});
   }
   out.measurement_type = type;
   out.num_measurements = check.num_measurements;

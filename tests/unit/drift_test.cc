@@ -48,10 +48,8 @@ struct Calibrated {
     options.noise = cell.options().noise;
     options.noise.model_error_mm = cal.summary.model_error_mm / std::sqrt(3.0);
     options.noise.model_error_rad = cal.summary.model_error_rad / std::sqrt(3.0);
-    for (const MeasurementResidualNorms& r :
-         ComputeMeasurementResiduals(cal.model, cal.errors, shots, options.measurement_type, options.noise)) {
-      options.null_squared_residuals.push_back(r.weighted * r.weighted);
-    }
+    options.reference = shots;
+    options.reference_T_world_base = cal.model.T_world_base();
     const double rows = 6.0 * static_cast<double>(shots.size());
     const double p = static_cast<double>(cal.parameters.size());
     options.null_correction = (rows + p) / (rows - p);
@@ -100,7 +98,7 @@ TEST(DriftTest, TooFewShotsSayWhyAndBadOptionsThrow) {
   bad.false_alarm_rate = 0.7;
   EXPECT_THROW(CheckDrift(c.robot, shots, bad), std::invalid_argument);
   bad = c.options;
-  bad.null_squared_residuals = {1.0};
+  bad.reference.resize(3);
   EXPECT_THROW(CheckDrift(c.robot, shots, bad), std::invalid_argument);
 }
 

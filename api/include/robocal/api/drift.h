@@ -61,15 +61,16 @@ struct DriftSuspectWire {
   double change = 0.0;
   double std = 0.0;
   double chi2_drop = 0.0;
-  double rms_position_mm = 0.0;
+  /// The parameters the check's poses cannot tell from it (DriftSuspect::equivalent).
+  std::vector<std::string> equivalent;
 };
 template <>
 struct WireFields<DriftSuspectWire> {
   using S = DriftSuspectWire;
-  static constexpr auto fields = std::make_tuple(
-      Field{"parameter", &S::parameter}, Field{"joint_offset", &S::joint_offset}, Field{"unit", &S::unit},
-      Field{"change", &S::change}, Field{"std", &S::std}, Field{"chi2_drop", &S::chi2_drop},
-      Field{"rms_position_mm", &S::rms_position_mm});
+  static constexpr auto fields =
+      std::make_tuple(Field{"parameter", &S::parameter}, Field{"joint_offset", &S::joint_offset},
+                      Field{"unit", &S::unit}, Field{"change", &S::change}, Field{"std", &S::std},
+                      Field{"chi2_drop", &S::chi2_drop}, Field{"equivalent", &S::equivalent});
 };
 ROBOCAL_WIRE_DECLARE(DriftSuspectWire);
 

@@ -28,14 +28,17 @@ struct DriftCheckOptions {
   /// The stated false alarm rate: the probability that a robot which holds its calibration is called drifted.
   /// Split evenly between the two tests below. In (0, 0.5).
   double false_alarm_rate = 0.05;
-  /// The calibration's own scatter: the whitened squared residual of each of its measurements against it (rows of
-  /// measurement_type), and the factor from its in-sample residuals to a new pose's, (R + p) / (R - p) for R rows
-  /// and p parameters (an in-sample residual's variance is short of the noise's by p / R on average, a new pose's
-  /// exceeds it by as much: the calibration's own uncertainty).
-  std::vector<double> null_squared_residuals;
+  /// The calibration's own shots (tracker frame of its cell) and its registered tracker -> base transform: the
+  /// checked robot at that base reproduces the calibration there, so its residuals are the calibration's own scatter.
+  /// Their covariance (rows scaled by `noise`'s row weights, in the base frame) whitens every residual; scaled by
+  /// null_correction, (R + p) / (R - p) for the calibration's R rows and p parameters (an in-sample residual's
+  /// variance falls short of the noise's by p / R on average, a new pose's exceeds it by as much), they stand for a
+  /// new pose's.
+  std::vector<Measurement> reference;
+  Transform reference_T_world_base = Transform::Identity();
   double null_correction = 1.0;
-  /// Monte Carlo draws of the residual level's null distribution, seeded.
-  int null_draws = 20000;
+  /// Draws of the paired bootstrap that gives both tests' null distributions, seeded.
+  int null_draws = 2000;
   std::uint64_t seed = 1;
   /// Error parameters tested one at a time (indices into the model's); empty: every geometric parameter the
   /// registration does not estimate, joint offsets first (each alone beside the frames; one the frames already
@@ -45,35 +48,37 @@ struct DriftCheckOptions {
   bool IsValid(std::string* error) const;
 };
 
-/// A parameter that explains the check's residuals: its fitted change beside the frames (mm or rad), its std,
-/// and the drop of the whitened squared residual sum it brings (chi-square with 1 degree of freedom if it did not
-/// change).
+/// A parameter that explains the check's residuals: its change fitted beside the frames (mm or rad, linearised at
+/// the registration), its std, and the drop of the whitened squared residual sum it brings (chi-square with 1
+/// degree of freedom if it did not change). `equivalent`: the other parameters the check's poses cannot tell from
+/// it (their directions within 5.7 deg of its in the residuals' space), e.g. a joint 1 offset and a turn of the base.
 struct DriftSuspect {
   int index = -1;
   std::string name;
   double change = 0.0;
   double std = 0.0;
   double chi2_drop = 0.0;
-  /// The position RMS left with it (mm).
-  double rms_position_mm = 0.0;
+  std::vector<std::string> equivalent;
 };
 
 struct DriftCheck {
   bool drifted = false;
   /// Test 1, the residual level: the whitened squared residual sum per degree of freedom of the check (rows less
-  /// the registration's parameters), against the (1 - false_alarm_rate / 2) quantile of the same statistic for as
-  /// many of the calibration's own measurements (drawn with replacement, their deficit corrected).
+  /// the registration's parameters). Both tests are judged against their null distributions by a paired bootstrap:
+  /// sets of as many of the calibration's own shots, each with its residual and its Jacobian (so that the robot's
+  /// unmodelled error comes with the directions it takes at its poses); each threshold is the
+  /// (1 - false_alarm_rate / 2) quantile.
   double statistic = 0.0;
   double threshold = 0.0;
   /// The share of the null draws at or above the statistic.
   double p_value = 1.0;
-  /// Test 2, one parameter: the largest chi2_drop over the candidates, against the chi-square (1 degree of
-  /// freedom) quantile at false_alarm_rate / 2 over the number of candidates (Bonferroni).
+  /// Test 2, one parameter: the largest chi2_drop over the candidates (the score test of each beside the frames,
+  /// in the calibration's residual metric), against the same quantile of the largest drop in the bootstrap.
   double largest_drop = 0.0;
   double drop_threshold = 0.0;
   int num_candidates = 0;
-  /// The candidates whose drop exceeds drop_threshold, largest first; when only the level test fails, the three
-  /// largest drops.
+  /// The candidates whose drop exceeds drop_threshold, largest first (of parameters the poses cannot tell apart, a
+  /// joint offset first: the usual cause); when only the level test fails, the three largest drops.
   std::vector<DriftSuspect> suspects;
   /// The frames as registered (or kept): tracker -> base and flange -> tool; the residuals against them.
   Transform T_world_base = Transform::Identity();
