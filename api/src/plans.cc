@@ -91,6 +91,15 @@ void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Pro
   if (req.objective == ObservabilityIndex::kPredictedError && req.task && req.num_validation != 100) {
     problems->Add("num_validation", "the task is predicted_error's sample: leave out num_validation");
   }
+  // A check plan: a few well-spread poses of a calibrated robot.
+  if (req.purpose == PlanPurpose::kCheck) {
+    if (req.num_configurations_auto || req.num_configurations < kMinCheckPoses ||
+        req.num_configurations > kMaxCheckPoses) {
+      problems->Add("num_configurations", "a check plan has " + std::to_string(kMinCheckPoses) + " to " +
+                                              std::to_string(kMaxCheckPoses) + " poses");
+    }
+    if (req.test) problems->Add("purpose", "a test plan is no check plan");
+  }
   // A test plan's configurations are the test's poses: nothing chooses them.
   if (req.test) {
     if (req.candidates) problems->Add("candidates", "not with a test: the test's poses are its configurations");
@@ -100,8 +109,11 @@ void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Pro
   }
 }
 
+const char* EnumTable<PlanPurpose>::Name(PlanPurpose v) { return v == PlanPurpose::kCheck ? "check" : "calibration"; }
+
 ObservabilityIndex PlanObjective(const PlanRequest& req) {
   if (req.objective) return *req.objective;
+  if (req.purpose == PlanPurpose::kCheck && !req.task) return ObservabilityIndex::kLogDet;
   if (req.task) return ObservabilityIndex::kPredictedError;
   return req.candidates || req.num_configurations_auto ? ObservabilityIndex::kLogDet
                                                        : ObservabilityIndex::kConditionNumber;

@@ -40,6 +40,8 @@ int Show(Invocation& in, const api::Campaign& campaign) {
   return kExitOk;
 }
 
+}  // namespace
+
 // A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or
 // just its array of measurements.
 api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text) {
@@ -59,8 +61,6 @@ api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::s
   }
   return batch;
 }
-
-}  // namespace
 
 int CampaignCreate(Invocation& in) {
   api::CreateCampaignRequest request;

@@ -135,6 +135,10 @@ int CompensateProgram(Invocation& in);
 int Evaluate(Invocation& in);
 int Report(Invocation& in);
 int Iso9283Plan(Invocation& in);
+int Check(Invocation& in);
+int RobotHistory(Invocation& in);
+int RobotCalibrate(Invocation& in);
+int RobotRollback(Invocation& in);
 int Iso9283Report(Invocation& in);
 int Experiment(Invocation& in);
 

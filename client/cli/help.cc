@@ -135,6 +135,8 @@ accuracy against a random set of the same size.
                        account and a warning naming joints too narrow to determine the model's parameters
   --malformed refuse|reject  a candidate with the wrong joint count or beyond the limits: refuse the request
                        (default) or count it as rejected
+  --purpose check      8 to 15 well-spread poses (log_det) for a drift check of a calibrated robot
+                       (robocal check; docs/drift.md)
   --task FILE.csv      the poses the robot will work in (joints CSV): predicted_error's sample (and then the
                        default objective) and the predicted accuracy's
   --task-box X0,Y0,Z0:X1,Y1,Z1  or a box of the base frame (mm), with --task-rpy R,P,Y/... tool orientations
@@ -353,6 +355,32 @@ reaches in the cell. --compensated-by CAMPAIGN: the joint commands of that calib
 runs after calibration. Prints the poses and their joint commands; --out PLAN.json writes the plan, which
 robocal-mock-tracker --dump-measurements F --configurations PLAN.json measures as tagged test shots. Create the
 campaign with --plan PLAN so that the report compares with the planned poses.
+)"};
+
+const HelpText kCheck = {"does the robot still hold its calibration? a drift check on a few shots", R"(
+POST /v1/robots/{r}:check (docs/drift.md): the shots (CSV as upload reads it, or JSON) of a robot registered
+from a calibration, compared with what its calibration predicts: the residual level and the one parameter that
+best explains them, each against its threshold from the calibration's own shots. Prints the verdict (holds or
+drifted), the statistics and, when drifted, the suspects (a joint offset first) with their change. --frames
+register (default: the tracker or the probe moved; a joint 1 or 6 offset then looks like a moved base or tool)
+or keep (the tracker stayed); --rate P the stated false alarm rate (default 0.05); --type the shots' type
+(default the calibration's). Each check is an entry of the robot's history. A check plan
+(robocal plan ROBOT --purpose check) gives 8-15 well-spread poses.
+)"};
+
+const HelpText kRobotHistory = {"the calibrations a robot has carried, its checks and rollbacks", R"(
+GET /v1/robots/{r}/calibrations: every entry in order (registered, calibrated, check, rollback), when, from which
+campaign, by which token (its name from the server's tokens file), a check's verdict and suspects.
+)"};
+
+const HelpText kRobotCalibrate = {"put a campaign's calibration on a robot (a new history entry)", R"(
+POST /v1/robots/{r}:calibrate: the robot's definition becomes CAMPAIGN's calibrated robot (a campaign of this
+robot, or of the robot it was calibrated from). --note TEXT for the history. Prints the history.
+)"};
+
+const HelpText kRobotRollback = {"put a robot back on an earlier entry's calibration (a new history entry)", R"(
+POST /v1/robots/{r}:rollback: the robot's definition becomes exactly the one entry ENTRY put on it; nothing is
+removed from the history. --note TEXT for the history. Prints the history.
 )"};
 
 const HelpText kIso9283Report = {"the ISO 9283 pose characteristics (AP, RP, AD, RD) of a campaign's test shots", R"(

@@ -220,6 +220,7 @@ int Plan(Invocation& in) {
   }
   request.task = TaskOption(in, request.robot);
   request.optimiser = in.Enum("--optimiser", api::Optimiser::kSolisWets);
+  request.purpose = in.Enum("--purpose", request.purpose);
   request.seed = in.Seed("--seed", 1);
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));
   if (in.Has("--reflectors")) request.reflectors = ParseReflectorsFlag(in.Option("--reflectors"));

@@ -15,6 +15,9 @@ namespace robocal::cli {
 
 /// The whole file; a usage error if it cannot be read (the user's file, not the service).
 std::string ReadFile(const std::string& path);
+/// A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or just
+/// its array of measurements (UsageError naming the file when it is neither).
+api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text);
 bool EndsWith(const std::string& text, const std::string& suffix);
 /// `v` with `digits` decimals; "-" if not finite.
 std::string Fixed(double v, int digits);

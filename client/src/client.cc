@@ -351,6 +351,29 @@ api::CellCheckResult Client::CheckCell(const std::string& cell, const std::vecto
   return result;
 }
 
+api::DriftCheckWire Client::CheckRobot(const std::string& robot, const api::DriftCheckRequest& request) {
+  const json body = request;
+  return Parse<api::DriftCheckWire>(Call("POST", "/v1/robots/" + Segment(robot) + ":check", &body, false), "check");
+}
+
+api::RobotHistoryWire Client::RobotHistory(const std::string& robot) {
+  return Parse<api::RobotHistoryWire>(Call("GET", "/v1/robots/" + Segment(robot) + "/calibrations", nullptr, true),
+                                      "robot history");
+}
+
+api::RobotHistoryWire Client::CalibrateRobot(const std::string& robot, const std::string& campaign,
+                                             const std::string& note) {
+  const json body = api::CalibrateRobotRequest{campaign, note};
+  return Parse<api::RobotHistoryWire>(Call("POST", "/v1/robots/" + Segment(robot) + ":calibrate", &body, false),
+                                      "robot history");
+}
+
+api::RobotHistoryWire Client::RollbackRobot(const std::string& robot, std::int64_t entry, const std::string& note) {
+  const json body = api::RollbackRequest{entry, note};
+  return Parse<api::RobotHistoryWire>(Call("POST", "/v1/robots/" + Segment(robot) + ":rollback", &body, false),
+                                      "robot history");
+}
+
 api::ForwardResult Client::RobotForward(const std::string& robot, const std::vector<std::vector<double>>& joints,
                                         const std::optional<api::PayloadWire>& payload) {
   const json body = api::ForwardRequest{joints, payload};

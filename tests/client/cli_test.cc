@@ -448,7 +448,7 @@ TEST_F(CliTest, AnOptionACommandDoesNotTakeIsAUsageError) {
       << help.out;
   const InProcess unknown = RunInProcess({"robot", "frobnicate", "x"});
   EXPECT_EQ(unknown.exit_code, 2);
-  EXPECT_NE(unknown.err.find("robot commands: register, import, get, delete, forward"), std::string::npos) << unknown.err;
+  EXPECT_NE(unknown.err.find("robot commands: register, import, get, delete, history, calibrate, rollback, forward"), std::string::npos) << unknown.err;
 }
 
 // robot import: a public URDF (UR5) becomes a robot with its joint names, the chain's links said; without

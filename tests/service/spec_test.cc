@@ -275,6 +275,12 @@ TEST(SpecTest, EverySchemaWithAShapeIsItsTable) {
   spec.Check<CompensateProgramResult>(Schema("CompensateProgramResponse"), Role::kReply);
   spec.Check<MapGridWire>(Schema("MapGrid"), Role::kReply);
   spec.Check<JointMapWire>(Schema("JointMap"), Role::kReply);
+  spec.Check<Iso9283ReportWire>(Schema("Iso9283Report"), Role::kReply);
+  spec.Check<DriftCheckRequest>(Schema("DriftCheckRequest"), Role::kRequest);
+  spec.Check<DriftCheckWire>(Schema("DriftCheck"), Role::kReply);
+  spec.Check<RobotHistoryWire>(Schema("RobotHistory"), Role::kReply);
+  spec.Check<CalibrateRobotRequest>(Schema("CalibrateRobotRequest"), Role::kRequest);
+  spec.Check<RollbackRequest>(Schema("RollbackRequest"), Role::kRequest);
   std::string all;
   for (const std::string& f : spec.failures()) all += f + "\n";
   EXPECT_TRUE(spec.failures().empty()) << spec.failures().size() << " differences:\n" << all;

@@ -760,7 +760,9 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
                                                                   {"test_pose", Iso9283PoseNames()},
                                                                   {"pose", Iso9283PoseNames()},
                                                                   {"commands", WireNames<TestCommands>()},
-                                                                  {"frames", WireNames<TestFrames>()}};
+                                                                  {"frames", WireNames<TestFrames>()},
+                                                                  {"purpose", WireNames<PlanPurpose>()},
+                                                                  {"verdict", WireNames<CheckVerdict>()}};
   // Parameter units are named by their schema's path (below): "unit" is also the tracker file's.
   // Names another table owns elsewhere: by their schema's path.
   const std::map<std::string, std::vector<std::string>> at_path = {
@@ -773,7 +775,11 @@ TEST(WireEnumTest, TheSpecListsEachEnumsNames) {
       {"/components/schemas/CompensateProgramResponse/properties/targets/items.kind",
        WireNames<programs::TargetKind>()},
       {"/components/schemas/Plan.task_method", {kTaskByInverseKinematics, kTaskByRejectionSampling}},
-      {"/components/schemas/Iso9283PlannedPose.name", Iso9283PoseNames()}};
+      {"/components/schemas/Iso9283PlannedPose.name", Iso9283PoseNames()},
+      {"/components/schemas/DriftCheckRequest.frames", WireNames<CheckFrames>()},
+      {"/components/schemas/DriftCheck.frames", WireNames<CheckFrames>()},
+      {"/components/schemas/DriftSuspect.unit", ParameterUnits()},
+      {"/components/schemas/HistoryEntry.kind", WireNames<HistoryKind>()}};
   // Fixed values that are no enum of the API: the health status, the frames of forward replies, joint units.
   const std::set<std::vector<std::string>> fixed = {{"ok"},        {"tracker"},   {"world (nominal base)"},
                                                     {"deg", "mm"}, {"mm", "deg"}, {"3.0.3"}};

@@ -106,6 +106,18 @@ struct WireFields<PlanTaskWire> {
 };
 ROBOCAL_WIRE_DECLARE(PlanTaskWire);
 
+/// What a plan is for: a calibration (the default), or a drift check of a calibrated robot (POST /v1/robots/{r}:check):
+/// 8 to 15 well-spread poses (log_det unless an objective is given).
+enum class PlanPurpose { kCalibration, kCheck };
+template <>
+struct EnumTable<PlanPurpose> {
+  static constexpr std::array<PlanPurpose, 2> values = {PlanPurpose::kCalibration, PlanPurpose::kCheck};
+  static const char* Name(PlanPurpose value);
+};
+/// The poses a check plan may have.
+inline constexpr int kMinCheckPoses = 8;
+inline constexpr int kMaxCheckPoses = 15;
+
 struct PlanRequest {
   std::string robot;
   /// A cell of the robot: every configuration (and the random baseline's) is then feasible in it. Empty: none.
@@ -143,6 +155,7 @@ struct PlanRequest {
   std::optional<PlanTaskWire> task;
   /// A standard test instead of a calibration plan (docs/iso9283.md): its poses and cycles are the configurations.
   std::optional<PlanTestWire> test;
+  PlanPurpose purpose = PlanPurpose::kCalibration;
 };
 /// The objective a request plans with (its own, or the default for its kind of plan).
 ObservabilityIndex PlanObjective(const PlanRequest& request);
@@ -171,7 +184,7 @@ struct WireFields<PlanRequest> {
       Field{"options", &S::options},
       // A list of joint vectors or the object: the parser reads it.
       Field{"candidates", &S::candidates, Presence::kOmitEmpty}.Apart(), Field{"task", &S::task, Presence::kOmitEmpty},
-      Field{"test", &S::test, Presence::kOmitEmpty});
+      Field{"test", &S::test, Presence::kOmitEmpty}, Field{"purpose", &S::purpose});
   /// Reflectors named once and with position measurements; "auto" with its goal and range.
   static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };

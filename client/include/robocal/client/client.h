@@ -20,6 +20,7 @@
 #include "robocal/api/cells.h"
 #include "robocal/api/error.h"
 #include "robocal/api/health.h"
+#include "robocal/api/history.h"
 #include "robocal/api/operations.h"
 #include "robocal/api/plans.h"
 #include "robocal/api/programs.h"
@@ -113,6 +114,15 @@ class Client {
   /// Every preset and registered robot, following the server's pages (`page_size` per request, 1..1000).
   std::vector<api::Robot> ListRobots(int page_size = 100);
   api::Robot GetRobot(const std::string& robot);
+  /// POST /v1/robots/{r}:check: a drift check of the calibration the robot carries (docs/drift.md). Not retried: each
+  /// check is an entry of the robot's history.
+  api::DriftCheckWire CheckRobot(const std::string& robot, const api::DriftCheckRequest& request);
+  /// GET /v1/robots/{r}/calibrations, and the history after :calibrate (a campaign's calibration put on the robot)
+  /// and :rollback (back to an earlier entry's); neither of those two is retried.
+  api::RobotHistoryWire RobotHistory(const std::string& robot);
+  api::RobotHistoryWire CalibrateRobot(const std::string& robot, const std::string& campaign,
+                                       const std::string& note = "");
+  api::RobotHistoryWire RollbackRobot(const std::string& robot, std::int64_t entry, const std::string& note = "");
   api::Robot RegisterRobot(const api::RegisterRobotRequest& request);
   /// The body as read from a robot definition file (same fields as RegisterRobotRequest).
   api::Robot RegisterRobot(const nlohmann::json& body);
