@@ -309,6 +309,46 @@ expect "scope frames with parameters -> 400 naming scope" \
   scope
 expect "scope \"joints\" -> 400 naming scope" \
   "$(call POST "/v1/campaigns/$cell2:fit" '{"scope": "joints"}' | jq -r '.error.details[0].field')" scope
+# Drift checks of the calibrated robot (docs/drift.md): on 12 of the cell's validation shots it holds; with joint C's
+# reported angle 0.05 deg off (a re-mastered axis), drifted, with that offset named. Each check is an entry of the
+# robot's calibration history, which a rollback extends and never shortens.
+jq -c '{measurements: .measurements[:12]}' "$work/validation.json" >"$work/check.json"
+call POST /v1/robots/grinder5-cell2:check "@$work/check.json" >"$work/check_reply.json"
+expect "POST /v1/robots/{r}:check: holds, recorded as history entry 2" \
+  "$(status) $(jq -r '"\(.verdict) \(.history_entry) \(.statistic <= .threshold)"' "$work/check_reply.json")" "200 holds 2 true"
+jq -c '{measurements: [.measurements[:12][] | .joints[3] += 0.05]}' "$work/validation.json" >"$work/check_offset.json"
+call POST /v1/robots/grinder5-cell2:check "@$work/check_offset.json" >"$work/check_offset_reply.json"
+expect "... joint C re-mastered by 0.05 deg: drifted, its offset named with the change" \
+  "$(jq -r '.suspects[0] as $s | "\(.verdict) \($s.parameter) \($s.joint_offset) \((($s.change + 0.05) | fabs) < 4 * $s.std)"' \
+      "$work/check_offset_reply.json")" "drifted C.rz true true"
+expect "... a robot without a calibration -> 400 naming robot" \
+  "$(call POST /v1/robots/grinder5:check "@$work/check.json" | jq -r '"\(.error.status) \(.error.details[0].field)"')" \
+  "FAILED_PRECONDITION robot"
+expect "... a bad rate and frames -> 400 naming them" \
+  "$(jq -c '. + {false_alarm_rate: 2, frames: "moved"}' "$work/check.json" | call POST /v1/robots/grinder5-cell2:check @- |
+     jq -r '[.error.details[].field] | sort | join(",")')" "false_alarm_rate,frames"
+expect "POST /v1/robots/{r}:calibrate: the frames campaign's calibration put on the robot" \
+  "$(call POST /v1/robots/grinder5-cell2:calibrate "{\"from_calibration\": \"$cell2\", \"note\": \"new cell\"}" |
+     jq -r '"\(.current_entry) \(.current_campaign == "'"$cell2"'")"')" "4 true"
+expect "POST /v1/robots/{r}:rollback: back on entry 1's" \
+  "$(call POST /v1/robots/grinder5-cell2:rollback '{"entry": 1, "note": "back"}' |
+     jq -r '"\(.current_entry) \(.current_campaign == "'"$campaign"'") \(.entries[4].rolled_back_to)"')" "5 true 1"
+expect "... to a check -> 400 naming entry" \
+  "$(call POST /v1/robots/grinder5-cell2:rollback '{"entry": 2}' | jq -r '.error.details[0].field')" entry
+expect "GET /v1/robots/{r}/calibrations: every entry, in order" \
+  "$(call GET /v1/robots/grinder5-cell2/calibrations | jq -r '[.entries[].kind] | join(",")')" \
+  "registered,check,check,calibrated,rollback"
+cli="$build_dir/client/robocal"
+expect "robocal check" "$("$cli" --server "$ROBOCAL_URL" check grinder5-cell2 "$work/check.json" | head -1 | grep -o 'holds$')" \
+  holds
+expect "robocal robot history" \
+  "$("$cli" --server "$ROBOCAL_URL" robot history grinder5-cell2 --json | jq '.entries | length')" 6
+expect "plan --purpose check: 8-15 poses, log_det" \
+  "$(call POST /v1/plans '{"robot": "grinder5-cell2", "purpose": "check", "num_configurations": 12, "options": {"k_max": 10}}' |
+     jq -r '"\(.configurations | length) \(.objective)"')" "12 log_det"
+expect "... 20 poses -> 400 naming num_configurations" \
+  "$(call POST /v1/plans '{"robot": "grinder5-cell2", "purpose": "check", "num_configurations": 20}' |
+     jq -r '.error.details[0].field')" num_configurations
 # A DH table: the grinder's Z and C axes are one line, which the calibration moves apart, so there is none.
 call GET "/v1/campaigns/$campaign/calibration?format=dh" >/dev/null
 expect "GET /calibration?format=dh of the grinder -> 400 naming format, and the axes" \
