@@ -145,7 +145,9 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
       problems.Add("request_id", "must not contain control characters");
     }
   }
-  r.Enum("role", false, &req.role);
+  if (r.Enum("role", false, &req.role) && req.role == MeasurementRole::kTest && !reflectors.empty()) {
+    problems.Add("role", "ISO 9283 measures the tool point: a campaign with reflectors takes no test shots");
+  }
   if (const nlohmann::json* a = r.Array("measurements", true, 1, limits.max_array_length)) {
     ReadMeasurements(*a, "measurements", model, type, reflectors, req.role, &problems, &req.measurements);
   }

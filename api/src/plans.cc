@@ -99,6 +99,7 @@ void WireFields<PlanRequest>::CheckRequest(const S& req, const std::string&, Pro
                                               std::to_string(kMaxCheckPoses) + " poses");
     }
     if (req.test) problems->Add("purpose", "a test plan is no check plan");
+    if (!req.reflectors.empty()) problems->Add("reflectors", "a check measures the tool point");
   }
   // A test plan's configurations are the test's poses: nothing chooses them.
   if (req.test) {
@@ -217,6 +218,26 @@ PlanRequest ParsePlanRequest(const nlohmann::json& body, const Limits& limits) {
     }
   }
   if (problems.empty()) WireFields<PlanRequest>::CheckRequest(req, "", &problems);
+  if (req.test) {
+    // Nothing of a calibration plan's search applies: set to anything but its default, refused rather than ignored
+    // (a client that writes every member writes the defaults).
+    const PlanRequest defaults;
+    const std::pair<const char*, bool> set[] = {
+        {"num_configurations", !req.num_configurations_auto && req.num_configurations != defaults.num_configurations},
+        {"objective", req.objective.has_value()},
+        {"optimiser", req.optimiser != defaults.optimiser},
+        {"scaling", req.scaling != defaults.scaling},
+        {"options", nlohmann::json(req.options) != nlohmann::json(defaults.options)},
+        {"num_validation", req.num_validation != defaults.num_validation}};
+    for (const auto& [key, given] : set) {
+      if (given) problems.Add(key, "not with a test: the test's poses and cycles are the plan");
+    }
+    const int configurations = kIso9283Poses * req.test->iso9283.cycles;
+    if (configurations > limits.max_plan_configurations) {
+      problems.Add("test.iso9283.cycles", OverLimit(configurations, "configurations (5 per cycle)",
+                                                    "max_plan_configurations", limits.max_plan_configurations));
+    }
+  }
   const int largest = req.num_configurations_auto ? req.max_configurations : req.num_configurations;
   if (largest > limits.max_plan_configurations) {
     problems.Add(req.num_configurations_auto ? "max_configurations" : "num_configurations",

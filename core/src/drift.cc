@@ -208,6 +208,11 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
   // The check: the registration (or the frames as kept), the residuals and the Jacobian there.
   const Calibration registered =
       options.register_frames ? Register(model, shots, options, frames) : NominalCalibration(model);
+  if (options.register_frames && registered.summary.termination == Termination::kFailure) {
+    out.statistic = out.threshold = kNaN;
+    out.message = "the shots do not register the frames: " + registered.summary.message;
+    return out;
+  }
   out.T_world_base = registered.T_world_base;
   out.T_flange_tool = registered.T_flange_tool;
   const ShotRows check = BaseRows(registered.model, registered.errors, shots, type, w);
@@ -247,6 +252,19 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       }
     }
     candidates = std::move(kept);
+  }
+  // Shots of too few distinct poses leave frame parameters undetermined: no check then.
+  if (!frames.empty()) {
+    Eigen::MatrixXd F(n_rows, static_cast<int>(frames.size()));
+    for (std::size_t k = 0; k < frames.size(); ++k) F.col(static_cast<int>(k)) = J.col(frames[k]);
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(F);
+    qr.setThreshold(1e-9);
+    if (qr.rank() < static_cast<Eigen::Index>(frames.size())) {
+      out.statistic = out.threshold = kNaN;
+      out.message = "the shots do not determine the frames (" + std::to_string(frames.size() - qr.rank()) +
+                    " of their parameters left free): measure more distinct poses";
+      return out;
+    }
   }
   const SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
   out.statistic = tests.level;

@@ -4,14 +4,14 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
-
-#include <nlohmann/json.hpp>
 
 #include "server/storage/storage.h"
 
@@ -352,6 +352,10 @@ std::vector<std::string> ReadTokensFile(const std::string& path, std::vector<std
       if (c <= ' ' || c == '%' || static_cast<unsigned char>(c) >= 0x7F) {
         throw std::runtime_error("tokens file " + path + ": a token must be printable ASCII without spaces or '%'");
       }
+    }
+    // Two lines with one token would make whoever presents it both: the history could not say who did what.
+    if (std::find(tokens.begin(), tokens.end(), token) != tokens.end()) {
+      throw std::runtime_error("tokens file " + path + ": a token appears twice");
     }
     tokens.push_back(token);
   }

@@ -1,5 +1,8 @@
 // The service's campaigns and their measurements.
+#include <cmath>
+
 #include "robocal/api/tracker_files.h"
+#include "robocal/core/iso9283.h"
 #include "robocal/server/service.h"
 #include "service_support.h"
 
@@ -270,7 +273,40 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   const api::MeasurementBatchRequest req =
       api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits, campaign.reflectors);
+  if (req.role == api::MeasurementRole::kTest) CheckTestShots(campaign, req);
   return StoreBatch(campaign, model, req, std::nullopt);
+}
+
+void Service::CheckTestShots(const api::StoredCampaign& campaign, const api::MeasurementBatchRequest& req) {
+  if (!campaign.plan) return;
+  const auto doc = storage_->Get(kPlans, *campaign.plan);
+  if (!doc) return;
+  const std::optional<api::Iso9283PlanWire> test = ReadStored<api::StoredPlan>(*doc).plan.test;
+  if (!test) return;
+  // A shot of a test plan's campaign is one of its visits: a cycle it has, at the joints it commands for the pose
+  // (to 0.01 deg / mm: what a controller reports back of its command).
+  constexpr double kCommandTolerance = 0.01;
+  api::Problems problems;
+  for (std::size_t i = 0; i < req.measurements.size(); ++i) {
+    const api::MeasurementWire& m = req.measurements[i];
+    const std::string path = api::IndexPath("measurements", i);
+    if (m.cycle > test->cycles) {
+      problems.Add(api::JoinPath(path, "cycle"),
+                   "the test plan " + *campaign.plan + " has " + std::to_string(test->cycles) + " cycles");
+    }
+    const int pose = Iso9283PoseIndex(m.test_pose);
+    if (pose < 0 || static_cast<std::size_t>(pose) >= test->poses.size()) continue;
+    const std::vector<double>& command = test->poses[static_cast<std::size_t>(pose)].joints;
+    bool same = command.size() == m.joints.size();
+    for (std::size_t j = 0; same && j < command.size(); ++j)
+      same = std::abs(command[j] - m.joints[j]) <= kCommandTolerance;
+    if (!same) {
+      problems.Add(api::JoinPath(path, "joints"), "not the joint commands of " + m.test_pose + " in the test plan " +
+                                                      *campaign.plan + " (to 0.01 deg / mm)");
+    }
+    if (problems.size() > 100) break;
+  }
+  problems.ThrowIfAny("invalid test shots");
 }
 
 api::BatchResult Service::StoreBatch(const api::StoredCampaign& campaign, const RobotModel& model,

@@ -1,5 +1,6 @@
 // A robot's calibration history and drift checks (docs/drift.md): the calibrations a robot has carried, checks of
 // the one it carries, new calibrations and rollbacks, all entries of the robot's stored document.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -24,14 +25,20 @@ using api::Status;
 
 // The entries of a robot stored before histories were kept, and of one registered from a calibration whose history
 // is empty: its registration, the calibration it carries.
-void EnsureHistory(const Document& doc, api::StoredRobot* robot) {
-  if (!robot->history.empty() || !robot->definition.calibrated_from) return;
+// `always`: also for a robot not registered from a calibration, whose first calibration then has the definition it
+// had before to go back to.
+void EnsureHistory(const Document& doc, api::StoredRobot* robot, bool always = false) {
+  if (!robot->history.empty() || (!robot->definition.calibrated_from && !always)) return;
   api::StoredHistoryEntry first;
   first.entry = 1;
   first.kind = api::HistoryKind::kRegistered;
   first.at_unix_ms = doc.created_unix_ms;
-  first.campaign = robot->definition.calibrated_from->campaign;
-  first.note = "registered before its history was kept";
+  if (robot->definition.calibrated_from) {
+    first.campaign = robot->definition.calibrated_from->campaign;
+    first.note = "registered before its history was kept";
+  } else {
+    first.note = "registered without a calibration";
+  }
   first.definition = robot->definition;
   robot->history.push_back(std::move(first));
 }
@@ -64,7 +71,7 @@ api::StoredRobot Service::UpdateRobot(const std::string& id,
     const auto doc = storage_->Get(kRobots, id);
     if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
     api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
-    EnsureHistory(*doc, &robot);
+    EnsureHistory(*doc, &robot, true);
     change(*doc, &robot);
     try {
       storage_->Update(kRobots, id, nlohmann::json(robot).dump(), doc->version);
@@ -111,7 +118,35 @@ api::RobotHistoryWire Service::CalibrateRobot(const std::string& id, const nlohm
                                (origin != id ? " or " + origin + " (the robot it was calibrated from)" : "");
     throw ApiError(Status::kFailedPrecondition, reason, {{"from_calibration", reason}});
   }
-  api::RegisterRobotRequest definition = DefinitionFromCalibration({id, robot.definition.description, req.campaign});
+  // The same robot, not an earlier one under the same id (deleted and registered again): the campaign measured a
+  // definition this robot has carried, or the one its origin has now.
+  {
+    const nlohmann::json measured = campaign.robot_definition;
+    bool carried = measured == nlohmann::json(robot.definition);
+    if (campaign.robot == id) {
+      const auto doc = storage_->Get(kRobots, id);
+      const std::vector<api::StoredHistoryEntry> history =
+          doc ? ReadStored<api::StoredRobot>(*doc).history : std::vector<api::StoredHistoryEntry>{};
+      for (const api::StoredHistoryEntry& e : history) {
+        carried = carried || (e.definition && measured == nlohmann::json(*e.definition));
+      }
+    } else {
+      try {
+        carried = measured == nlohmann::json(ResolveRobot(origin).definition);
+      } catch (const ApiError&) {
+        carried = false;
+      }
+    }
+    if (!carried) {
+      const std::string reason = "campaign \"" + req.campaign + "\" measured another definition of robot " +
+                                 campaign.robot + " (one registered under that id before)";
+      throw ApiError(Status::kFailedPrecondition, reason, {{"from_calibration", reason}});
+    }
+  }
+  // The description says where the calibration came from, unless it was the user's own.
+  const bool described = robot.definition.description.find(" as calibrated in campaign ") == std::string::npos;
+  api::RegisterRobotRequest definition =
+      DefinitionFromCalibration({id, described ? robot.definition.description : "", req.campaign});
   const api::StoredRobot updated = UpdateRobot(id, [&](const Document&, api::StoredRobot* stored) {
     api::StoredHistoryEntry e = NewEntry(*stored, api::HistoryKind::kCalibrated, caller);
     e.campaign = req.campaign;
@@ -185,9 +220,10 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   if (body.is_object() && !body.contains("measurements")) problems.Add("measurements", "required");
   if (const auto list = body.is_object() ? body.find("measurements") : body.end();
       body.is_object() && list != body.end()) {
-    if (!list->is_array() || list->empty() || list->size() > options_.limits.max_array_length) {
-      problems.Add("measurements", "expected an array of 1.." + std::to_string(options_.limits.max_array_length) +
-                                       " measurements");
+    const std::size_t most = std::min(options_.limits.max_array_length, api::kMaxCheckShots);
+    if (!list->is_array() || list->empty() || list->size() > most) {
+      problems.Add("measurements", "expected an array of 1.." + std::to_string(most) +
+                                       " measurements (a check is a few poses: a check plan's 8-15)");
     } else {
       api::ReadMeasurements(*list, "measurements", robot.model, type, {}, api::MeasurementRole::kCalibration,
                             &problems, &wire);
@@ -241,8 +277,30 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
     spec.T_world_base = loaded.calibration.model.T_world_base();
     model = RobotModel::Build(spec);
   }
+  // One measurement per pose: the shots of one pose (equal joints and payload) share its unmodelled error, and are
+  // averaged into one (positions and orientations averaged).
   std::vector<Measurement> shots;
-  for (const api::MeasurementWire& w : wire) shots.push_back(MeasurementToCore(model, w, loaded.campaign));
+  std::vector<int> count;
+  for (const api::MeasurementWire& w : wire) {
+    const Measurement m = MeasurementToCore(model, w, loaded.campaign);
+    auto same = std::find_if(shots.begin(), shots.end(),
+                             [&](const Measurement& s) { return s.joints == m.joints && s.payload == m.payload; });
+    if (same == shots.end()) {
+      shots.push_back(m);
+      count.push_back(1);
+      continue;
+    }
+    const std::size_t k = static_cast<std::size_t>(same - shots.begin());
+    const double n = static_cast<double>(++count[k]);
+    same->T_world_tool.translation() += (m.T_world_tool.translation() - same->T_world_tool.translation()) / n;
+    // Small rotations apart: the mean's rotation vector, relative to the first shot's.
+    const Eigen::Matrix3d delta = same->T_world_tool.linear().transpose() * m.T_world_tool.linear();
+    const Eigen::Vector3d step = RotationVector(delta) / n;
+    if (step.norm() > 0.0) {
+      same->T_world_tool.linear() =
+          same->T_world_tool.linear() * Eigen::AngleAxisd(step.norm(), step.normalized()).toRotationMatrix();
+    }
+  }
   const DriftCheck check = CheckDrift(model, shots, options);
 
   api::DriftCheckWire out;
@@ -284,6 +342,12 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
     throw ApiError(Status::kFailedPrecondition, check.message, {{"measurements", check.message}});
   }
   const api::StoredRobot updated = UpdateRobot(id, [&](const Document&, api::StoredRobot* stored) {
+    // A calibration or rollback that came in while the check ran: the check was of the robot as it was.
+    if (nlohmann::json(stored->definition) != nlohmann::json(robot.definition)) {
+      throw ApiError(Status::kAborted,
+                     "robot \"" + id + "\" was given another calibration while it was checked: check it again",
+                     {{"robot", "its calibration changed during the check"}});
+    }
     api::StoredHistoryEntry e = NewEntry(*stored, api::HistoryKind::kCheck, caller);
     e.campaign = source;
     e.verdict = out.verdict;

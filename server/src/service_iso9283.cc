@@ -1,5 +1,6 @@
 // The ISO 9283 pose test (docs/iso9283.md): a test plan's poses and joint commands, and the characteristics of a
 // campaign's test shots.
+#include <Eigen/Eigenvalues>
 #include <chrono>
 #include <functional>
 #include <map>
@@ -136,6 +137,25 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
     cube = api::ToCore(*test.cube);
     message = "the cube as given";
   }
+  // The calibration that compensates the commands, before any pose is solved: a wrong campaign is named first.
+  std::optional<Calibrated> compensating;
+  if (!test.compensated_by.empty()) {
+    const std::string field = "test.iso9283.compensated_by";
+    try {
+      compensating = LoadCalibrated(test.compensated_by);
+    } catch (const ApiError& e) {
+      const bool unknown = e.status() == Status::kNotFound;
+      throw ApiError(unknown ? Status::kInvalidArgument : Status::kFailedPrecondition,
+                     "campaign \"" + test.compensated_by + "\"" + (unknown ? " does not exist" : " is not calibrated"),
+                     {{field, unknown ? "unknown campaign" : "not calibrated (POST :fit)"}});
+    }
+    if (compensating->campaign.robot != req.robot) {
+      throw ApiError(Status::kFailedPrecondition,
+                     "campaign \"" + test.compensated_by + "\" calibrated robot " + compensating->campaign.robot +
+                         ", not " + req.robot,
+                     {{field, "a calibration of another robot"}});
+    }
+  }
   const std::array<Transform, kIso9283Poses> poses = Iso9283Poses(cube, orientation);
   std::function<std::string(const Eigen::VectorXd&)> infeasible;
   if (cell != nullptr) {
@@ -149,16 +169,9 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
   std::vector<Eigen::VectorXd> joints =
       SolvePoses(NominalCalibration(model), model, poses, &branch, {}, infeasible, kCubeField, "robot's");
   std::optional<std::string> compensated_by;
-  if (!test.compensated_by.empty()) {
-    const Calibrated loaded = LoadCalibrated(test.compensated_by);
-    if (loaded.campaign.robot != req.robot) {
-      throw ApiError(Status::kFailedPrecondition,
-                     "campaign \"" + test.compensated_by + "\" calibrated robot " + loaded.campaign.robot + ", not " +
-                         req.robot,
-                     {{"test.iso9283.compensated_by", "a calibration of another robot"}});
-    }
-    joints = SolvePoses(loaded.calibration, loaded.model, poses, &branch, joints, infeasible, "test.iso9283.compensated_by",
-                        "calibrated robot's");
+  if (compensating) {
+    joints = SolvePoses(compensating->calibration, compensating->model, poses, &branch, joints, infeasible,
+                        "test.iso9283.compensated_by", "calibrated robot's");
     compensated_by = test.compensated_by;
     message += "; joint commands compensated by the calibration of campaign \"" + test.compensated_by + "\"";
   }
@@ -243,9 +256,10 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
   report.campaign = campaign_id;
   report.measurement_type = campaign.measurement_type;
 
-  // The shots, each pose and cycle once.
+  // The shots, each pose and cycle once: a visit measured again (a shot retaken) counts with its latest shot.
   std::vector<TestShot> shots;
-  std::map<std::pair<int, int>, std::int64_t> seen;
+  std::map<std::pair<int, int>, std::size_t> seen;
+  std::vector<std::string> retaken;
   int stale = 0;
   ForEachMeasurement(storage_, campaign_id, "test", [&](const StoredMeasurement& s) {
     const api::MeasurementWire w = ReadMeasurement(s);
@@ -262,12 +276,12 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
       ++stale;
       return;
     }
-    const auto [it, fresh] = seen.emplace(std::make_pair(shot.pose, shot.cycle), s.sequence);
+    const auto [it, fresh] = seen.emplace(std::make_pair(shot.pose, shot.cycle), shots.size());
     if (!fresh) {
-      throw ApiError(Status::kFailedPrecondition,
-                     w.test_pose + " cycle " + std::to_string(w.cycle) + " was measured twice (measurements " +
-                         std::to_string(it->second) + " and " + std::to_string(s.sequence) + ")",
-                     {{"measurements", "one shot per pose and cycle"}});
+      retaken.push_back(w.test_pose + " cycle " + std::to_string(w.cycle) + ": measurement " +
+                        std::to_string(s.sequence) + " (not " + std::to_string(shots[it->second].sequence) + ")");
+      shots[it->second] = std::move(shot);
+      return;
     }
     shots.push_back(std::move(shot));
   });
@@ -321,13 +335,23 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
       from.push_back(commanded[i].translation());
       to.push_back(shots[i].measurement.T_world_tool.translation());
     }
+    // The commands must span a plane: on a line (P1, P2 and P4 lie on one diagonal) the turn about it is free, and
+    // the measured points' noise would choose it.
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& p : from) mean += p / static_cast<double>(from.size());
+    Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& p : from) spread += (p - mean) * (p - mean).transpose();
+    const Eigen::Vector3d eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues();
     try {
+      if (!(eigen[1] > 1e-6 * eigen[2])) throw std::invalid_argument("commands on a line");
       T_world_base = RegisterPoints(from, to);
     } catch (const std::invalid_argument&) {
-      throw ApiError(Status::kFailedPrecondition,
-                     "the tracker frame cannot be registered on these test shots (they need at least three poses not "
-                     "on a line); fit the campaign (\"scope\": \"frames\") on shots of role calibration first",
-                     {{"measurements", "too few test poses to register the tracker frame"}});
+      throw ApiError(
+          Status::kFailedPrecondition,
+          "the tracker frame cannot be registered on these test shots: their commands lie on a line (P1, P2 and "
+          "P4 do: measure a third pose beside them) or at one point; or fit the campaign (\"scope\": "
+          "\"frames\") on shots of role calibration first",
+          {{"measurements", "too few test poses to register the tracker frame"}});
     }
     report.frames = api::TestFrames::kRegisteredOnTest;
     report.notes.push_back(
@@ -368,6 +392,11 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
   }
   if (!orientation) report.notes.push_back("shots without orientation: no orientation characteristics");
   if (stale > 0) report.notes.push_back(std::to_string(stale) + " stale test shots were left out");
+  if (!retaken.empty()) {
+    std::string list;
+    for (const std::string& r : retaken) list += (list.empty() ? "" : "; ") + r;
+    report.notes.push_back("visits measured more than once count with their latest shot: " + list);
+  }
   return report;
 }
 

@@ -436,6 +436,12 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
 PlanReply Service::CreatePlan(const nlohmann::json& body) {
   const api::PlanRequest req = api::ParsePlanRequest(body, options_.limits);
   const ResolvedRobot robot = ResolveRobot(req.robot);  // NOT_FOUND before any work or operation is created
+  if (req.purpose == api::PlanPurpose::kCheck && !robot.definition.calibrated_from) {
+    throw ApiError(
+        Status::kFailedPrecondition,
+        "robot \"" + req.robot + "\" carries no calibration to check: register it from a calibrated campaign",
+        {{"purpose", "a check plan is for a robot registered from a calibration"}});
+  }
   const RobotModel& model = robot.model;
   const PlanInputs inputs = ResolvePlanInputs(req, robot);
   std::shared_ptr<const LoadedCell> cell;

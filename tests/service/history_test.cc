@@ -167,6 +167,30 @@ TEST(HistoryErrorsTest, BadRequestsAreNamed) {
   EXPECT_EQ(r.status, 400);
   EXPECT_NE(ReasonOf(r, "from_calibration").find("puma560"), std::string::npos) << r.text;
   EXPECT_EQ(s.Get("/v1/robots/nope/calibrations").status, 404);
+  // Shots of too few distinct poses cannot register the frames: refused, not judged (and not recorded).
+  json same = Shots(&cell, 1, 8);
+  json repeated = json::array();
+  for (int k = 0; k < 12; ++k) repeated.push_back(same[0]);
+  r = s.Post("/v1/robots/r:check", {{"measurements", repeated}});
+  EXPECT_EQ(r.status, 400) << r.text;
+  EXPECT_NE(ReasonOf(r, "measurements"), "");
+  // More shots than a check takes; a note with control characters.
+  json many = json::array();
+  for (int k = 0; k < 201; ++k) many.push_back(same[0]);
+  EXPECT_NE(ReasonOf(s.Post("/v1/robots/r:check", {{"measurements", many}}), "measurements"), "");
+  EXPECT_NE(ReasonOf(s.Post("/v1/robots/r:rollback", {{"entry", 1}, {"note", "a\u001bb"}}), "note"), "");
+  // A campaign of an earlier robot registered under the same id: refused.
+  ASSERT_EQ(s.Post("/v1/campaigns", {{"id", "old-r"}, {"robot", "r"}}).status, 200);
+  ASSERT_EQ(s.Delete("/v1/robots/r").status, 200);
+  ASSERT_EQ(s.Post("/v1/robots", {{"id", "r"}, {"from_calibration", "cal"}}).status, 200);
+  ASSERT_EQ(s.Post("/v1/campaigns/old-r/measurements", {{"request_id", "o"}, {"measurements", Shots(&cell, 30, 9)}}).status,
+            200);
+  ASSERT_EQ(s.Post("/v1/campaigns/old-r:fit", {{"scope", "frames"}}).status, 200);
+  EXPECT_EQ(s.Post("/v1/robots/r:calibrate", {{"from_calibration", "old-r"}}).status, 200)
+      << "the same definition (registered from the same calibration) is the same robot";
+  // A check plan for a robot without a calibration.
+  EXPECT_NE(ReasonOf(s.Post("/v1/plans", {{"robot", "ur5e"}, {"purpose", "check"}, {"num_configurations", 12}}), "purpose"),
+            "");
   // A server without tokens records no one.
   EXPECT_TRUE(s.Get("/v1/robots/r/calibrations").body["entries"][0]["by"].is_null());
 }

@@ -1,16 +1,18 @@
 // The ISO 9283 pose test over HTTP in the virtual cell: a test plan's poses, 30 cycles measured on a robot with known
 // errors and repeatability before and after compensation, and the characteristics against what the cell's truth
 // gives; the bad inputs named.
+#include "robocal/core/iso9283.h"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "robocal/api/robots.h"
 #include "robocal/core/error_model.h"
-#include "robocal/core/iso9283.h"
+#include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/random.h"
 #include "robocal/core/transforms.h"
@@ -255,17 +257,67 @@ TEST_F(Iso9283Test, BadInputIsNamed) {
   EXPECT_EQ(r.status, 400);
   EXPECT_EQ(r.body["error"]["status"], "FAILED_PRECONDITION");
   EXPECT_NE(ReasonOf(r, "measurements"), "");
-  const json tagged = {{"joints", q}, {"pose", pose}, {"test_pose", "P1"}, {"cycle", 1}};
-  ASSERT_EQ(s_.Post("/v1/campaigns/c/measurements", {{"request_id", "d"}, {"role", "test"}, {"measurements", {tagged}}})
-                .status,
-            200);
-  ASSERT_EQ(s_.Post("/v1/campaigns/c/measurements", {{"request_id", "e"}, {"role", "test"}, {"measurements", {tagged}}})
+  // One pose cannot register the tracker; a visit measured again counts with its latest shot.
+  const auto shot = [&](const std::vector<double>& joints, const char* name) {
+    const json p = json(api::TransformToPose(ForwardKinematics(model_, api::JointsToCore(model_, joints))));
+    return json{{"joints", joints}, {"pose", p}, {"test_pose", name}, {"cycle", 1}};
+  };
+  ASSERT_EQ(s_.Post("/v1/campaigns/c/measurements",
+                    {{"request_id", "d"}, {"role", "test"}, {"measurements", {shot({10, -80, 70, -80, -90, 0}, "P1")}}})
                 .status,
             200);
   r = s_.Get("/v1/campaigns/c/iso9283");
   EXPECT_EQ(r.status, 400);
-  EXPECT_NE(r.body["error"]["message"].get<std::string>().find("P1 cycle 1 was measured twice"), std::string::npos)
-      << r.text;
+  EXPECT_NE(r.body["error"]["message"].get<std::string>().find("on a line"), std::string::npos) << r.text;
+  ASSERT_EQ(s_.Post("/v1/campaigns/c/measurements",
+                    {{"request_id", "e"},
+                     {"role", "test"},
+                     {"measurements",
+                      {shot({20, -80, 70, -80, -90, 0}, "P2"), shot({10, -70, 70, -80, -90, 0}, "P3"),
+                       shot({10, -80, 70, -80, -90, 0}, "P1")}}})
+                .status,
+            200);
+  r = s_.Get("/v1/campaigns/c/iso9283");
+  ASSERT_EQ(r.status, 200) << r.text;
+  EXPECT_EQ(r.body["num_shots"], 3);
+  bool noted = false;
+  for (const json& note : r.body["notes"])
+    noted = noted || note.get<std::string>().find("P1 cycle 1: measurement 4 (not 1)") != std::string::npos;
+  EXPECT_TRUE(noted) << r.body["notes"];
+  // A campaign of a test plan takes only its visits: its cycles, its commands.
+  const json plan = TestPlan();
+  ASSERT_EQ(s_.Post("/v1/campaigns", {{"id", "planned"}, {"robot", "ur5e"}, {"plan", plan["id"]}}).status, 200);
+  json wrong = shot(plan["test"]["poses"][0]["joints"].get<std::vector<double>>(), "P3");
+  json late = shot(plan["test"]["poses"][0]["joints"].get<std::vector<double>>(), "P1");
+  late["cycle"] = 31;
+  r = s_.Post("/v1/campaigns/planned/measurements",
+              {{"request_id", "w"}, {"role", "test"}, {"measurements", {wrong, late}}});
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(ReasonOf(r, "measurements[0].joints").find("not the joint commands of P3"), std::string::npos) << r.text;
+  EXPECT_NE(ReasonOf(r, "measurements[1].cycle").find("30 cycles"), std::string::npos) << r.text;
+  // A test plan beyond the plan size limit (1000 configurations: 201 cycles of 5).
+  r = s_.Post(
+      "/v1/plans",
+      {{"robot", "ur5e"},
+       {"test", {{"iso9283", {{"cube", {{"center_mm", {350, 250, 300}}, {"size_mm", 300}}}, {"cycles", 201}}}}}});
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(ReasonOf(r, "test.iso9283.cycles"), "") << r.text;
+  // Plan members a test plan has no use for are refused, not ignored.
+  r = s_.Post("/v1/plans", {{"robot", "ur5e"},
+                            {"num_configurations", 30},
+                            {"optimiser", "exchange"},
+                            {"test", {{"iso9283", {{"cube", {{"center_mm", {350, 250, 300}}, {"size_mm", 300}}}}}}}});
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(ReasonOf(r, "num_configurations"), "") << r.text;
+  EXPECT_NE(ReasonOf(r, "optimiser"), "") << r.text;
+  // compensated_by an unknown or uncalibrated campaign, named.
+  r = s_.Post(
+      "/v1/plans",
+      {{"robot", "ur5e"},
+       {"test",
+        {{"iso9283", {{"cube", {{"center_mm", {350, 250, 300}}, {"size_mm", 300}}}, {"compensated_by", "nope"}}}}}});
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(ReasonOf(r, "test.iso9283.compensated_by"), "") << r.text;
   EXPECT_EQ(s_.Get("/v1/campaigns/c/iso9283?format=xml").status, 400);
   EXPECT_EQ(s_.Get("/v1/campaigns/nope/iso9283").status, 404);
 }

@@ -23,6 +23,9 @@ struct EnumTable<CheckFrames> {
   static const char* Name(CheckFrames value);
 };
 
+/// The most shots a check takes: a check is a few poses (a check plan's 8-15), not a campaign.
+inline constexpr std::size_t kMaxCheckShots = 200;
+
 /// POST /v1/robots/{r}:check.
 struct DriftCheckRequest {
   /// Unset: the calibration campaign's.

@@ -86,6 +86,15 @@ struct WireFields<RobotHistoryWire> {
 };
 ROBOCAL_WIRE_DECLARE(RobotHistoryWire);
 
+/// A note of a history entry: text without control characters (it is shown in reports and terminals).
+inline bool IsNoteText(const std::string& text) {
+  for (const char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) return false;
+  }
+  return true;
+}
+inline constexpr const char* kNoteRule = "must not contain control characters";
+
 /// POST /v1/robots/{r}:calibrate: put a campaign's calibration on the robot (a new entry).
 struct CalibrateRobotRequest {
   std::string campaign;
@@ -96,7 +105,7 @@ struct WireFields<CalibrateRobotRequest> {
   using S = CalibrateRobotRequest;
   static constexpr auto fields =
       std::make_tuple(Field{"from_calibration", &S::campaign}.Mandatory().Size(0, 64).Rule(&IsValidId, kIdRule),
-                      Field{"note", &S::note, Presence::kOmitEmpty}.Size(0, 1024));
+                      Field{"note", &S::note, Presence::kOmitEmpty}.Size(0, 1024).Rule(&IsNoteText, kNoteRule));
 };
 ROBOCAL_WIRE_DECLARE(CalibrateRobotRequest);
 
@@ -108,8 +117,9 @@ struct RollbackRequest {
 template <>
 struct WireFields<RollbackRequest> {
   using S = RollbackRequest;
-  static constexpr auto fields = std::make_tuple(Field{"entry", &S::entry}.Mandatory().Range(1, 1e12),
-                                                 Field{"note", &S::note, Presence::kOmitEmpty}.Size(0, 1024));
+  static constexpr auto fields =
+      std::make_tuple(Field{"entry", &S::entry}.Mandatory().Range(1, 1e12),
+                      Field{"note", &S::note, Presence::kOmitEmpty}.Size(0, 1024).Rule(&IsNoteText, kNoteRule));
 };
 ROBOCAL_WIRE_DECLARE(RollbackRequest);
 

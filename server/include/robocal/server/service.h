@@ -168,6 +168,9 @@ class Service {
                                                 const api::ImportMeasurementsRequest& request);
   // Stores a parsed batch in one transaction with each measurement's stale flag (FlagStaleShots): `stale` as given
   // (an import's, in its file's order), or against the shot stored last and then in the batch's order.
+  // The test shots of a campaign made from an ISO 9283 test plan: each a visit the plan has (its cycle, its pose's
+  // joint commands); INVALID_ARGUMENT naming the shots that are not.
+  void CheckTestShots(const api::StoredCampaign& campaign, const api::MeasurementBatchRequest& req);
   api::BatchResult StoreBatch(const api::StoredCampaign& campaign, const RobotModel& model,
                               api::MeasurementBatchRequest request, std::optional<std::vector<char>> stale);
   // An import's measurements, one per point of its file in order: checked as an upload, flagged stale in the
