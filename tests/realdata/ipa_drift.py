@@ -21,13 +21,11 @@ Prints the rates and checks, exit 1 when a check fails:
 
 Usage: ipa_drift.py URL DATA_DIR  (a running robocal-server; tests/realdata/ipa_drift.sh starts one)
 """
-import json
-import math
 import os
 import random
 import sys
-import urllib.error
-import urllib.request
+
+from ipa_data import JOINTS, Api, data_rows, read, shot
 
 URL, DATA = sys.argv[1], sys.argv[2]
 # ROBOCAL_REALDATA_QUICK (the sanitizer tree): a few sets, the bars printed but not checked.
@@ -36,79 +34,17 @@ SETS = 4 if QUICK else 100
 # The offsets' sets (ROBOCAL_DRIFT_OFFSET_SETS: more for a closer figure; 40 keep the ctest short).
 OFFSET_SETS = 2 if QUICK else int(os.environ.get("ROBOCAL_DRIFT_OFFSET_SETS", "40"))
 SIZE, OFFSET_DEG, RATE = 12, 0.05, 0.05
-JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-          "wrist_3_joint"]
+api = Api(URL)
+call = api.call
 
 
-def call(method, path, body=None):
-    data = None if body is None else json.dumps(body).encode()
-    request = urllib.request.Request(URL + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(request, timeout=600) as reply:
-            return json.loads(reply.read())
-    except urllib.error.HTTPError as e:
-        sys.exit(f"{method} {path}: {e.code} {e.read().decode()[:2000]}")
-
-
-def read(name):
-    with open(f"{DATA}/ipa/{name}", encoding="utf-8") as f:
-        return f.read()
-
-
-def data_rows(text):
-    lines = text.split("\n")
-    header = next(i for i, line in enumerate(lines) if line.strip())
-    names = lines[header].strip().split(";")
-    return [(i + 1, dict(zip(names, lines[i].strip().split(";"))))
-            for i in range(header + 1, len(lines)) if lines[i].strip()]
-
-
-def number(text):
-    return float(text.replace(",", "."))
-
-
-def quaternion_xyz_intrinsic(a_deg, b_deg, c_deg):
-    """[w, x, y, z] of R = Rx(a) Ry(b) Rz(c)."""
-    def axis(k, angle):
-        q = [math.cos(math.radians(angle) / 2), 0.0, 0.0, 0.0]
-        q[1 + k] = math.sin(math.radians(angle) / 2)
-        return q
-
-    def mul(p, q):
-        return [p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
-                p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
-                p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
-                p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]]
-    return mul(mul(axis(0, a_deg), axis(1, b_deg)), axis(2, c_deg))
-
-
-def shot(row, joint=None, offset_deg=0.0):
-    joints = [math.degrees(number(row[j])) for j in JOINTS]
-    if joint is not None:
-        joints[joint] += offset_deg
-    return {"joints": joints,
-            "pose": {"position_mm": [number(row[f"measurement_{a}"]) for a in "xyz"],
-                     "quaternion": quaternion_xyz_intrinsic(*[number(row[f"measurement_r{a}"]) for a in "xyz"])}}
-
-
-TEXT_B, TEXT_D = read("series_b_joint_configurations.csv"), read("series_d_iso_cubes.csv")
-FILE = {"format": "csv", "unit": "mm", "decimal": ",",
-        "columns": {"x": "measurement_x", "y": "measurement_y", "z": "measurement_z"},
-        "joints": {"columns": JOINTS, "unit": "rad"},
-        "orientation": {"representation": "euler", "columns": ["measurement_rx", "measurement_ry", "measurement_rz"],
-                        "sequence": "XYZ", "convention": "intrinsic", "unit": "deg"}}
-with open(f"{DATA}/urdf/ur10_robot.urdf", encoding="utf-8") as f:
-    call("POST", "/v1/robots", {"id": "ur10", "urdf": f.read(), "base_link": "base_link", "tip_link": "tool0",
-                                "tool": {"position_mm": [0, 0, 109], "rpy_deg": [0, 0, -90]}})
+TEXT_B, TEXT_D = read(DATA, "series_b_joint_configurations.csv"), read(DATA, "series_d_iso_cubes.csv")
+api.register_ur10(DATA)
 rows_b = data_rows(TEXT_B)
 order = [line for line, _ in rows_b]
 random.Random(1).shuffle(order)
 calibration = set(order[:400])
-call("POST", "/v1/campaigns", {"id": "b400", "robot": "ur10"})
-call("POST", "/v1/campaigns/b400/measurements:import",
-     dict(FILE, text=TEXT_B, request_id="b400", role="calibration", rows=sorted(calibration)))
-fit = call("POST", "/v1/campaigns/b400:fit", {})
+fit = api.calibrate("b400", "ur10", TEXT_B, calibration)
 call("POST", "/v1/robots", {"id": "ur10-b", "from_calibration": "b400"})
 print(f"Series B, 400 poses: {fit['summary']['termination']}, model error {fit['model_error']['model_error_mm']:.3f} mm"
       f" / {fit['model_error']['model_error_deg']:.4f} deg")
@@ -118,10 +54,7 @@ rows_d_lines = data_rows(TEXT_D)
 order_d = [line for line, _ in rows_d_lines]
 random.Random(1).shuffle(order_d)
 calibration_d = set(order_d[:200])
-call("POST", "/v1/campaigns", {"id": "d200", "robot": "ur10"})
-call("POST", "/v1/campaigns/d200/measurements:import",
-     dict(FILE, text=TEXT_D, request_id="d200", role="calibration", rows=sorted(calibration_d)))
-call("POST", "/v1/campaigns/d200:fit", {})
+api.calibrate("d200", "ur10", TEXT_D, calibration_d)
 call("POST", "/v1/robots", {"id": "ur10-d", "from_calibration": "d200"})
 rows_d = [row for line, row in rows_d_lines]
 held_out_d = [row for line, row in rows_d_lines if line not in calibration_d]

@@ -18,99 +18,32 @@ Prints AP per cube pose and the mean over all, nominal and calibrated; checks, e
 
 Usage: ipa_iso9283.py URL DATA_DIR  (a running robocal-server; tests/realdata/ipa_iso9283.sh starts one)
 """
-import json
 import math
 import os
 import random
 import statistics
 import sys
-import urllib.error
-import urllib.request
+
+from ipa_data import FILE, JOINTS, Api, data_rows, number, read, shot
 
 URL, DATA = sys.argv[1], sys.argv[2]
 # ROBOCAL_REALDATA_QUICK (the sanitizer tree): a few cubes only, the bars printed but not checked.
 QUICK = bool(os.environ.get("ROBOCAL_REALDATA_QUICK"))
-JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-          "wrist_3_joint"]
+api = Api(URL)
+call = api.call
 
 
-def call(method, path, body=None):
-    data = None if body is None else json.dumps(body).encode()
-    request = urllib.request.Request(URL + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(request, timeout=600) as reply:
-            return json.loads(reply.read())
-    except urllib.error.HTTPError as e:
-        sys.exit(f"{method} {path}: {e.code} {e.read().decode()[:2000]}")
+def test_shot(row, pose, cycle=1):
+    return dict(shot(row), test_pose=pose, cycle=cycle)
 
 
-def read(name):
-    with open(f"{DATA}/ipa/{name}", encoding="utf-8") as f:
-        return f.read()
-
-
-def export(text):
-    """A measurements:import request's file members: ';' and decimal commas, joints in rad, the T-Mac's pose in mm
-    and intrinsic X-Y-Z Euler angles in degrees."""
-    return {"format": "csv", "text": text, "unit": "mm", "decimal": ",",
-            "columns": {"x": "measurement_x", "y": "measurement_y", "z": "measurement_z"},
-            "joints": {"columns": JOINTS, "unit": "rad"},
-            "orientation": {"representation": "euler",
-                            "columns": ["measurement_rx", "measurement_ry", "measurement_rz"],
-                            "sequence": "XYZ", "convention": "intrinsic", "unit": "deg"}}
-
-
-def data_rows(text):
-    """(1-based line, {column: text}) of every data row."""
-    lines = text.split("\n")
-    header = next(i for i, line in enumerate(lines) if line.strip())
-    names = lines[header].strip().split(";")
-    rows = []
-    for i in range(header + 1, len(lines)):
-        if lines[i].strip():
-            rows.append((i + 1, dict(zip(names, lines[i].strip().split(";")))))
-    return rows
-
-
-def number(text):
-    return float(text.replace(",", "."))
-
-
-def quaternion_xyz_intrinsic(a_deg, b_deg, c_deg):
-    """[w, x, y, z] of R = Rx(a) Ry(b) Rz(c): the product of the three axis quaternions."""
-    def axis(k, angle):
-        q = [math.cos(math.radians(angle) / 2), 0.0, 0.0, 0.0]
-        q[1 + k] = math.sin(math.radians(angle) / 2)
-        return q
-
-    def mul(p, q):
-        return [p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
-                p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
-                p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
-                p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]]
-    return mul(mul(axis(0, a_deg), axis(1, b_deg)), axis(2, c_deg))
-
-
-def shot(row, pose, cycle=1):
-    return {"joints": [math.degrees(number(row[j])) for j in JOINTS],
-            "pose": {"position_mm": [number(row[f"measurement_{a}"]) for a in "xyz"],
-                     "quaternion": quaternion_xyz_intrinsic(*[number(row[f"measurement_r{a}"]) for a in "xyz"])},
-            "test_pose": pose, "cycle": cycle}
-
-
-TEXT_B, TEXT_D = read("series_b_joint_configurations.csv"), read("series_d_iso_cubes.csv")
-with open(f"{DATA}/urdf/ur10_robot.urdf", encoding="utf-8") as f:
-    call("POST", "/v1/robots", {"id": "ur10", "urdf": f.read(), "base_link": "base_link", "tip_link": "tool0",
-                                "tool": {"position_mm": [0, 0, 109], "rpy_deg": [0, 0, -90]}})
+TEXT_B, TEXT_D = read(DATA, "series_b_joint_configurations.csv"), read(DATA, "series_d_iso_cubes.csv")
+api.register_ur10(DATA)
 
 # The calibration: 400 Series B poses (seed 1), geometric, registered as a robot.
 b_lines = [line for line, _ in data_rows(TEXT_B)]
 random.Random(1).shuffle(b_lines)
-call("POST", "/v1/campaigns", {"id": "b400", "robot": "ur10"})
-call("POST", "/v1/campaigns/b400/measurements:import",
-     dict(export(TEXT_B), request_id="b400", role="calibration", rows=sorted(b_lines[:400])))
-fit_b = call("POST", "/v1/campaigns/b400:fit", {})
+fit_b = api.calibrate("b400", "ur10", TEXT_B, b_lines[:400])
 call("POST", "/v1/robots", {"id": "ur10-b", "from_calibration": "b400"})
 print(f"Series B, 400 poses: {fit_b['summary']['termination']}, model error "
       f"{fit_b['model_error']['model_error_mm']:.3f} mm")
@@ -150,11 +83,11 @@ for k, cube in enumerate(cubes):
         c = f"d{k}-{robot}"
         call("POST", "/v1/campaigns", {"id": c, "robot": robot})
         call("POST", f"/v1/campaigns/{c}/measurements:import",
-             dict(export(TEXT_D), request_id=f"{c}-frames", role="calibration", rows=frames_rows))
+             dict(FILE, text=TEXT_D, request_id=f"{c}-frames", role="calibration", rows=frames_rows))
         call("POST", f"/v1/campaigns/{c}:fit", {"scope": "frames"})
         call("POST", f"/v1/campaigns/{c}/measurements",
              {"request_id": f"{c}-test", "role": "test",
-              "measurements": [shot(row, pose) for (_, row), pose in cube["test"]]})
+              "measurements": [test_shot(row, pose) for (_, row), pose in cube["test"]]})
         report = call("GET", f"/v1/campaigns/{c}/iso9283")
         for p in report["measured"]["poses"]:
             if p["rpl_mm"] is not None:

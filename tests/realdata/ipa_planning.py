@@ -17,13 +17,13 @@ Prints the figures and checks, exit 1 when a check fails:
 
 Usage: ipa_planning.py URL DATA_DIR  (a running robocal-server; tests/realdata/ipa_planning.sh starts one)
 """
-import json
 import os
 import random
 import statistics
 import sys
-import urllib.error
-import urllib.request
+
+import ipa_data
+from ipa_data import Api, data_rows, read
 
 URL, DATA = sys.argv[1], sys.argv[2]
 # ROBOCAL_REALDATA_QUICK (the sanitizer tree, where each fit is some times slower): every path once, with too few
@@ -33,42 +33,14 @@ SIZES = [12] if QUICK else [12, 15, 30, 40]
 DRAWS = 3 if QUICK else 30
 PLAN_SEEDS = 1 if QUICK else 5
 PRIOR_SIZES, PRIOR_DRAWS = ((20,), 2) if QUICK else ((20, 30, 100), 10)
-JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-          "wrist_3_joint"]
-
-
-def call(method, path, body=None):
-    data = None if body is None else json.dumps(body).encode()
-    request = urllib.request.Request(URL + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(request, timeout=600) as reply:
-            return json.loads(reply.read())
-    except urllib.error.HTTPError as e:
-        sys.exit(f"{method} {path}: {e.code} {e.read().decode()[:2000]}")
-
-
-with open(f"{DATA}/ipa/series_b_joint_configurations.csv", encoding="utf-8") as f:
-    TEXT = f.read()
-LINES = TEXT.split("\n")
-# Data rows by 1-based line (the first non-empty line is the header).
-header = next(i for i, line in enumerate(LINES) if line.strip())
-DATA_LINES = [i + 1 for i in range(header + 1, len(LINES)) if LINES[i].strip()]
-order = DATA_LINES[:]
+api = Api(URL)
+call = api.call
+TEXT = read(DATA, "series_b_joint_configurations.csv")
+order = [line for line, _ in data_rows(TEXT)]
 random.Random(1).shuffle(order)
 CANDIDATES, HELD_OUT = sorted(order[:700]), sorted(order[700:1400])
-
-# The export as the import reads it: ';' and decimal commas, joints in rad, the T-Mac's pose in mm and intrinsic
-# X-Y-Z Euler angles in degrees.
-FILE = {"format": "csv", "text": TEXT, "unit": "mm", "decimal": ",",
-        "columns": {"x": "measurement_x", "y": "measurement_y", "z": "measurement_z"},
-        "joints": {"columns": JOINTS, "unit": "rad"},
-        "orientation": {"representation": "euler", "columns": ["measurement_rx", "measurement_ry", "measurement_rz"],
-                        "sequence": "XYZ", "convention": "intrinsic", "unit": "deg"}}
-
-with open(f"{DATA}/urdf/ur10_robot.urdf", encoding="utf-8") as f:
-    call("POST", "/v1/robots", {"id": "ur10", "urdf": f.read(), "base_link": "base_link", "tip_link": "tool0",
-                                "tool": {"position_mm": [0, 0, 109], "rpy_deg": [0, 0, -90]}})
+FILE = dict(ipa_data.FILE, text=TEXT)
+api.register_ur10(DATA)
 
 serial = 0
 
