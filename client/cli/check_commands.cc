@@ -43,6 +43,15 @@ void PrintHistory(const api::RobotHistoryWire& h, std::ostream& out) {
   }
 }
 
+int ShowHistory(Invocation& in, const api::RobotHistoryWire& h) {
+  if (in.json) {
+    PrintJson(in.out, h);
+  } else {
+    PrintHistory(h, in.out);
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int Check(Invocation& in) {
@@ -95,33 +104,18 @@ int Check(Invocation& in) {
 
 int RobotHistory(Invocation& in) {
   const api::RobotHistoryWire h = in.Client().RobotHistory(in.args[0]);
-  if (in.json) {
-    PrintJson(in.out, h);
-  } else {
-    PrintHistory(h, in.out);
-  }
-  return kExitOk;
+  return ShowHistory(in, h);
 }
 
 int RobotCalibrate(Invocation& in) {
   const api::RobotHistoryWire h = in.Client().CalibrateRobot(in.args[0], in.args[1], in.Option("--note"));
-  if (in.json) {
-    PrintJson(in.out, h);
-  } else {
-    PrintHistory(h, in.out);
-  }
-  return kExitOk;
+  return ShowHistory(in, h);
 }
 
 int RobotRollback(Invocation& in) {
   const std::int64_t entry = tools::ParseIntegerFlag("ENTRY", in.args[1], 1, std::numeric_limits<long long>::max());
   const api::RobotHistoryWire h = in.Client().RollbackRobot(in.args[0], entry, in.Option("--note"));
-  if (in.json) {
-    PrintJson(in.out, h);
-  } else {
-    PrintHistory(h, in.out);
-  }
-  return kExitOk;
+  return ShowHistory(in, h);
 }
 
 }  // namespace robocal::cli

@@ -516,14 +516,8 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   const Clock::time_point start = Clock::now();
   const MeasurementType type = options.measurement_type;
   const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
-  Calibration cal{.model = nominal,
-                  .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
-                  .parameters = {},
-                  .covariance = {},
-                  .T_world_base = nominal.T_world_base(),
-                  .T_flange_tool = nominal.T_flange_tool(),
-                  .reflectors = options.reflectors,
-                  .summary = {}};
+  Calibration cal = NominalCalibration(nominal);
+  cal.reflectors = options.reflectors;
   IdentificationSummary& s = cal.summary;
   s.measurement_type = type;
   s.model = nominal.error_terms();

@@ -484,14 +484,7 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
               files,
               options,
               ArmSolver::For(nominal),
-              Calibration{.model = nominal,
-                          .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
-                          .parameters = {},
-                          .covariance = {},
-                          .T_world_base = nominal.T_world_base(),
-                          .T_flange_tool = nominal.T_flange_tool(),
-                          .reflectors = {},
-                          .summary = {}},
+              NominalCalibration(nominal),
               nominal.T_world_base().inverse(),
               calibration.T_world_base.inverse()};
 

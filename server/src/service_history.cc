@@ -303,37 +303,9 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   }
   const DriftCheck check = CheckDrift(model, shots, options);
 
-  api::DriftCheckWire out;
+  api::DriftCheckWire out = api::ToWire(check, model, options);
   out.robot = id;
   out.campaign = source;
-  out.verdict = check.drifted ? api::CheckVerdict::kDrifted : api::CheckVerdict::kHolds;
-  out.false_alarm_rate = options.false_alarm_rate;
-  out.statistic = check.statistic;
-  out.threshold = check.threshold;
-  out.p_value = check.p_value;
-  out.largest_drop = check.largest_drop;
-  out.drop_threshold = check.drop_threshold;
-  out.num_candidates = check.num_candidates;
-  for (const DriftSuspect& s : check.suspects) {
-    const ParameterUnit unit = model.parameter_unit(s.index);
-    const double scale = api::ParameterUnitScale(unit);
-    out.suspects.push_back({.parameter = s.name,
-                            .joint_offset = model.IsJointOffsetParameter(s.index),
-                            .unit = api::ParameterUnitName(unit),
-                            .change = s.change * scale,
-                            .std = s.std * scale,
-                            .chi2_drop = s.chi2_drop,
-                            .equivalent = s.equivalent});
-  }
-  out.measurement_type = type;
-  out.num_measurements = check.num_measurements;
-  out.dof = check.dof;
-  out.rms_position_mm = check.rms_position_mm;
-  out.expected_rms_position_mm = check.expected_rms_position_mm;
-  out.frames = req.frames;
-  out.base = api::TransformToPose(check.T_world_base);
-  out.tool = api::TransformToPose(check.T_flange_tool);
-  out.message = check.message;
   if (loaded.result.created_unix_ms != robot.definition.calibrated_from->created_unix_ms) {
     out.message += "; campaign \"" + source + "\" was fitted again after this calibration was put on the robot: its "
                    "current fit's scatter is the reference";

@@ -177,13 +177,7 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
   }
 
   api::PlanResult result;
-  result.id = plan_id;
-  result.robot = req.robot;
-  result.request = req;
-  result.measurement_type = req.measurement_type;
-  result.objective = api::PlanObjective(req);
-  result.optimiser = req.optimiser;
-  for (int i = 0; i < model.num_joints(); ++i) result.joint_units.emplace_back(api::JointUnit(model, i));
+  PlanHeader(model, req, plan_id, &result);
   api::Iso9283PlanWire plan{.cube = api::ToWire(cube),
                             .cycles = test.cycles,
                             .orientation_rpy_deg = test.orientation_rpy_deg,

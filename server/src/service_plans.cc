@@ -29,6 +29,17 @@ std::vector<std::vector<double>> ToWire(const RobotModel& model, const std::vect
 
 }  // namespace
 
+void PlanHeader(const RobotModel& model, const api::PlanRequest& req, const std::string& plan_id,
+                api::PlanResult* result) {
+  result->id = plan_id;
+  result->robot = req.robot;
+  result->request = req;
+  result->measurement_type = req.measurement_type;
+  result->objective = api::PlanObjective(req);
+  result->optimiser = req.optimiser;
+  for (int i = 0; i < model.num_joints(); ++i) result->joint_units.emplace_back(api::JointUnit(model, i));
+}
+
 // Refuses a cell that leaves (almost) nothing feasible before any search starts, naming the rule that rejects
 // most of a sample of configurations and its share.
 void Service::CheckCellLeavesRoom(const LoadedCell& cell, std::uint64_t seed) {
@@ -395,13 +406,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
     }
   }
 
-  result.id = plan_id;
-  result.robot = req.robot;
-  result.request = req;
-  result.measurement_type = req.measurement_type;
-  result.objective = api::PlanObjective(req);
-  result.optimiser = req.optimiser;
-  for (int i = 0; i < model.num_joints(); ++i) result.joint_units.emplace_back(api::JointUnit(model, i));
+  PlanHeader(model, req, plan_id, &result);
   result.configurations = ToWire(model, plan.configurations);
   result.indices = api::ToWire(plan.summary.final);
   result.baseline.configurations = ToWire(model, baseline.configurations);

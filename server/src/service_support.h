@@ -87,6 +87,10 @@ api::Robot RobotResource(const std::string& id, const RobotModel& model, const a
 std::vector<api::PoseResultWire> ForwardPoses(const RobotModel& model, const Eigen::VectorXd& errors,
                                         const api::ForwardRequest& req, const Payload& payload = Payload());
 
+/// A plan resource's members every plan has: its id, robot, request, type, objective, optimiser and joint units.
+void PlanHeader(const RobotModel& model, const api::PlanRequest& req, const std::string& plan_id,
+                api::PlanResult* result);
+
 /// Requests with at least this many elements (measurements, joint vectors, targets) count as large.
 inline constexpr std::size_t kLargeRequest = 1000;
 

@@ -307,14 +307,7 @@ class SampleRoundTripTest : public ::testing::TestWithParam<SampleCase> {};
 TEST_P(SampleRoundTripTest, ACalibrationWithoutErrorsGivesEveryFileBackByteForByte) {
   const SampleCase& c = GetParam();
   const RobotModel nominal = RobotModel::Build(c.robot());
-  const Calibration calibration{.model = nominal,
-                                .errors = Eigen::VectorXd::Zero(nominal.num_error_parameters()),
-                                .parameters = {},
-                                .covariance = {},
-                                .T_world_base = nominal.T_world_base(),
-                                .T_flange_tool = nominal.T_flange_tool(),
-                                .reflectors = {},
-                                .summary = {}};
+  const Calibration calibration = NominalCalibration(nominal);
   for (const std::vector<std::string>& names : c.programs) {
     const std::vector<ProgramFile> files = Program(c, names);
     const ProgramCompensationResult r = CompensateProgram(calibration, nominal, c.dialect, files, Frames(c));

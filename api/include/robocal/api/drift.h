@@ -127,5 +127,8 @@ struct WireFields<DriftCheckWire> {
       Field{"history_entry", &S::history_entry}, Field{"message", &S::message});
 };
 ROBOCAL_WIRE_DECLARE(DriftCheckWire);
+/// A check of `model` (the checked robot) with `options` in wire units; the robot, campaign and history entry are the
+/// service's to fill in.
+DriftCheckWire ToWire(const DriftCheck& check, const RobotModel& model, const DriftCheckOptions& options);
 
 }  // namespace robocal::api
