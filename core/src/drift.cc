@@ -241,18 +241,6 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       throw std::invalid_argument("CheckDrift: candidate " + std::to_string(c) + " is no parameter");
     }
   }
-  {
-    const SetTests seen = Tests(Eigen::VectorXd::Zero(n_rows), J, frames, candidates, out.dof, true);
-    std::vector<int> kept;
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-      const double before = J.col(candidates[k]).squaredNorm();
-      if (std::isfinite(seen.std[static_cast<Eigen::Index>(k)]) &&
-          1.0 / (seen.std[static_cast<Eigen::Index>(k)] * seen.std[static_cast<Eigen::Index>(k)]) > 1e-10 * before) {
-        kept.push_back(candidates[k]);
-      }
-    }
-    candidates = std::move(kept);
-  }
   // Shots of too few distinct poses leave frame parameters undetermined: no check then.
   if (!frames.empty()) {
     Eigen::MatrixXd F(n_rows, static_cast<int>(frames.size()));
@@ -266,7 +254,26 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       return out;
     }
   }
-  const SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
+  // One pass over every candidate (each column's test is its own), then those the frames take up whole, or the
+  // check's poses do not see, are none: dropped with their figures.
+  SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
+  {
+    std::vector<int> kept;
+    std::vector<Eigen::Index> columns;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      const Eigen::Index c = static_cast<Eigen::Index>(k);
+      if (std::isfinite(tests.std[c]) &&
+          1.0 / (tests.std[c] * tests.std[c]) > 1e-10 * J.col(candidates[k]).squaredNorm()) {
+        kept.push_back(candidates[k]);
+        columns.push_back(c);
+      }
+    }
+    candidates = std::move(kept);
+    tests.drop = tests.drop(columns).eval();
+    tests.change = tests.change(columns).eval();
+    tests.std = tests.std(columns).eval();
+    tests.directions = tests.directions(Eigen::all, columns).eval();
+  }
   out.statistic = tests.level;
   out.num_candidates = static_cast<int>(candidates.size());
   out.largest_drop = candidates.empty() ? 0.0 : tests.drop.maxCoeff();
