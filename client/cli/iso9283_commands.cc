@@ -11,15 +11,6 @@
 namespace robocal::cli {
 namespace {
 
-// "X,Y,Z" of `option` as three numbers.
-std::array<double, 3> Triple3(const std::string& option, const std::string& text) {
-  const std::vector<std::string> parts = tools::SplitList(option, text);
-  if (parts.size() != 3) throw UsageError(option + ": expected three numbers X,Y,Z, got '" + text + "'");
-  std::array<double, 3> v{};
-  for (std::size_t k = 0; k < 3; ++k) v[k] = tools::ParseDoubleFlag(option, parts[k], std::numeric_limits<double>::lowest());
-  return v;
-}
-
 void PrintTestPlan(const api::PlanResult& plan, std::ostream& out) {
   const api::Iso9283PlanWire& t = *plan.test;
   out << "plan " << plan.id << "  robot " << plan.robot << "  ISO 9283 pose test, " << t.cycles << " cycles of P1-P5 ("
@@ -81,11 +72,11 @@ int Iso9283Plan(Invocation& in) {
       throw UsageError("give the cube: --center X,Y,Z (base frame, mm) and --size MM, or --size auto with --cell");
     }
     // Any number: the service says which it takes (its error names the field and the range).
-    test.cube = api::Iso9283CubeWire{.center_mm = Triple3("--center", in.Option("--center")),
+    test.cube = api::Iso9283CubeWire{.center_mm = Triple("--center", in.Option("--center")),
                                      .size_mm = in.Number("--size", 0.0, std::numeric_limits<double>::lowest())};
   }
   test.cycles = static_cast<int>(in.Integer("--cycles", test.cycles, 0, 1000000));
-  if (in.Has("--rpy")) test.orientation_rpy_deg = Triple3("--rpy", in.Option("--rpy"));
+  if (in.Has("--rpy")) test.orientation_rpy_deg = Triple("--rpy", in.Option("--rpy"));
   test.compensated_by = in.Option("--compensated-by");
   const api::PlanResult plan = in.Client().CreatePlan(request);
   const std::string out_file = in.Option("--out");

@@ -153,17 +153,6 @@ api::PlanCandidatesWire CandidatesOption(Invocation& in, const std::string& robo
   return candidates;
 }
 
-// Three numbers "X,Y,Z" of `option`.
-std::array<double, 3> Triple(const std::string& option, const std::string& text) {
-  const std::vector<std::string> parts = tools::SplitList(option, text);
-  if (parts.size() != 3) throw UsageError(option + ": expected X,Y,Z, got '" + text + "'");
-  std::array<double, 3> v{};
-  for (std::size_t k = 0; k < 3; ++k) {
-    v[k] = tools::ParseDoubleFlag(option, parts[k], std::numeric_limits<double>::lowest());
-  }
-  return v;
-}
-
 // --task FILE.csv (joints CSV) or --task-box X0,Y0,Z0:X1,Y1,Z1 [--task-rpy R,P,Y/R,P,Y...] [--task-count N].
 std::optional<api::PlanTaskWire> TaskOption(Invocation& in, const std::string& robot_id) {
   if (in.Has("--task") && in.Has("--task-box")) throw UsageError("--task and --task-box exclude each other");

@@ -13,6 +13,16 @@
 
 namespace robocal::cli {
 
+std::array<double, 3> Triple(const std::string& option, const std::string& text) {
+  const std::vector<std::string> parts = tools::SplitList(option, text);
+  if (parts.size() != 3) throw UsageError(option + ": expected X,Y,Z, got '" + text + "'");
+  std::array<double, 3> v{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    v[k] = tools::ParseDoubleFlag(option, parts[k], std::numeric_limits<double>::lowest());
+  }
+  return v;
+}
+
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw UsageError("cannot read " + path);

@@ -2,6 +2,7 @@
 // kinematics output, waiting for an operation with a progress bar.
 #pragma once
 
+#include <array>
 #include <fstream>
 #include <ostream>
 #include <string>
@@ -15,6 +16,8 @@ namespace robocal::cli {
 
 /// The whole file; a usage error if it cannot be read (the user's file, not the service).
 std::string ReadFile(const std::string& path);
+/// Three numbers "X,Y,Z" of `option` (UsageError naming it otherwise).
+std::array<double, 3> Triple(const std::string& option, const std::string& text);
 /// A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or just
 /// its array of measurements (UsageError naming the file when it is neither).
 api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text);

@@ -248,18 +248,13 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   options.false_alarm_rate = req.false_alarm_rate;
   options.seed = req.seed;
 
-  // The calibration's own scatter: its measurements (those the fit used) against it.
-  std::set<std::int64_t> excluded;
-  for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
-  // (With the robot's joints: the calibration campaign's robot has the same joints.)
+  // The calibration's own scatter: the measurements its fit used, against it (with the robot's joints: the
+  // calibration campaign's robot has the same joints).
   std::vector<Measurement> calibration_shots;
-  std::int64_t index = 0;
-  ForEachMeasurement(storage_, source, "calibration", [&](const StoredMeasurement& s) {
-    const bool in_fit = SeenByFit(loaded.result, loaded.last_calibration_sequence, s.sequence, index++);
-    const api::MeasurementWire w = ReadMeasurement(s);
-    if (!in_fit || excluded.count(s.sequence) > 0 || w.stale) return;
-    calibration_shots.push_back(MeasurementToCore(loaded.model, w, loaded.campaign));
-  });
+  ForEachUsedMeasurement(storage_, source, loaded.result, loaded.last_calibration_sequence,
+                         [&](const api::MeasurementWire& w) {
+                           calibration_shots.push_back(MeasurementToCore(loaded.model, w, loaded.campaign));
+                         });
   options.reference_T_world_base = loaded.calibration.model.T_world_base();
   const double rows = static_cast<double>(MeasurementRows(type) * calibration_shots.size());
   const double parameters = static_cast<double>(loaded.calibration.parameters.size());

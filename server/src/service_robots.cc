@@ -111,22 +111,16 @@ api::RegisterRobotRequest Service::DefinitionFromCalibration(const api::RobotFro
                                                      .robot = loaded.campaign.robot,
                                                      .created_unix_ms = loaded.result.created_unix_ms,
                                                      .joint_ranges = {}};
-  // Where the calibration holds: the joint ranges of the measurements the fit used (those it saw: up to the last
-  // sequence it recorded, or for a fit stored before it recorded one the first used + excluded ones; less the
-  // outliers it excluded).
-  std::set<std::int64_t> excluded;
-  for (const api::OutlierWire& o : loaded.result.outliers) excluded.insert(o.sequence);
-  std::int64_t index = 0;
+  // Where the calibration holds: the joint ranges of the measurements the fit used.
   std::vector<api::JointRangeWire>& ranges = definition.calibrated_from->joint_ranges;
-  ForEachMeasurement(storage_, req.campaign, "calibration", [&](const StoredMeasurement& s) {
-    const bool in_fit = SeenByFit(loaded.result, loaded.last_calibration_sequence, s.sequence, index++);
-    if (!in_fit || excluded.count(s.sequence) > 0) return;
-    const std::vector<double> joints = ReadMeasurement(s).joints;
-    if (ranges.empty()) ranges.assign(joints.size(), {HUGE_VAL, -HUGE_VAL});
-    for (std::size_t i = 0; i < joints.size() && i < ranges.size(); ++i) {
-      ranges[i] = {std::min(ranges[i].min, joints[i]), std::max(ranges[i].max, joints[i])};
-    }
-  });
+  ForEachUsedMeasurement(storage_, req.campaign, loaded.result, loaded.last_calibration_sequence,
+                         [&](const api::MeasurementWire& w) {
+                           const std::vector<double>& joints = w.joints;
+                           if (ranges.empty()) ranges.assign(joints.size(), {HUGE_VAL, -HUGE_VAL});
+                           for (std::size_t i = 0; i < joints.size() && i < ranges.size(); ++i) {
+                             ranges[i] = {std::min(ranges[i].min, joints[i]), std::max(ranges[i].max, joints[i])};
+                           }
+                         });
   // Joint terms beyond a robot joint's (a DEGRADED fit's) are refused by joint, in the wire's units.
   for (const api::JointWire& joint : definition.joints) {
     if (const std::string problem = api::ImplausibleJointTerms(joint); !problem.empty()) {

@@ -1,6 +1,8 @@
 // What the service's parts share.
 #include "service_support.h"
 
+#include <set>
+
 #include "robocal/core/kinematics.h"
 #include "robocal/server/service.h"
 #include "server/storage/storage_common.h"
@@ -91,6 +93,18 @@ bool SeenByFit(const api::CalibrationResult& result, const std::optional<std::in
                std::int64_t sequence, std::int64_t index) {
   if (last_calibration_sequence) return sequence <= *last_calibration_sequence;
   return index < result.summary.num_measurements + static_cast<std::int64_t>(result.outliers.size());
+}
+
+void ForEachUsedMeasurement(Storage* storage, const std::string& campaign_id, const api::CalibrationResult& result,
+                            const std::optional<std::int64_t>& last_calibration_sequence,
+                            const std::function<void(const api::MeasurementWire&)>& visit) {
+  std::set<std::int64_t> excluded;
+  for (const api::OutlierWire& o : result.outliers) excluded.insert(o.sequence);
+  std::int64_t index = 0;
+  ForEachMeasurement(storage, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    const bool in_fit = SeenByFit(result, last_calibration_sequence, s.sequence, index++);
+    if (in_fit && excluded.count(s.sequence) == 0) visit(ReadMeasurement(s));
+  });
 }
 
 std::int64_t NowUnixMs() {

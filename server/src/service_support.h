@@ -75,6 +75,12 @@ void ForEachMeasurement(Storage* storage, const std::string& campaign_id, const 
 bool SeenByFit(const api::CalibrationResult& result, const std::optional<std::int64_t>& last_calibration_sequence,
                std::int64_t sequence, std::int64_t index);
 
+/// Calls `visit` for each calibration measurement of the campaign that the stored fit `result` used: those it saw
+/// (SeenByFit), less the outliers it excluded (its stale shots among them), in sequence order.
+void ForEachUsedMeasurement(Storage* storage, const std::string& campaign_id, const api::CalibrationResult& result,
+                            const std::optional<std::int64_t>& last_calibration_sequence,
+                            const std::function<void(const api::MeasurementWire&)>& visit);
+
 /// A stored measurement as the core takes it; `reflectors`: the campaign's, by which the measurement's reflector
 /// id becomes an index.
 Measurement MeasurementToCore(const RobotModel& model, const api::MeasurementWire& w,
