@@ -65,16 +65,13 @@ api::StoredHistoryEntry NewEntry(const api::StoredRobot& robot, api::HistoryKind
 
 api::StoredRobot Service::UpdateRobot(const std::string& id,
                                       const std::function<void(const Document&, api::StoredRobot*)>& change) {
-  CheckId(id, "robot");
   // Optimistic: read, change, write if nobody wrote in between; a check and a rollback at once both land.
   for (int attempt = 0;; ++attempt) {
-    const auto doc = storage_->Get(kRobots, id);
-    if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
-    api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
-    EnsureHistory(*doc, &robot, true);
-    change(*doc, &robot);
+    auto [doc, robot] = LoadRobotDocument(id);
+    EnsureHistory(doc, &robot, true);
+    change(doc, &robot);
     try {
-      storage_->Update(kRobots, id, nlohmann::json(robot).dump(), doc->version);
+      storage_->Update(kRobots, id, nlohmann::json(robot).dump(), doc.version);
       return robot;
     } catch (const StorageError& e) {
       if (e.kind() != StorageError::Kind::kVersionConflict || attempt >= 20) throw;
@@ -84,11 +81,8 @@ api::StoredRobot Service::UpdateRobot(const std::string& id,
 
 api::RobotHistoryWire Service::RobotHistory(const std::string& id) {
   if (IsPresetRobot(id)) return {.robot = id, .current_entry = std::nullopt, .current_campaign = "", .entries = {}};
-  CheckId(id, "robot");
-  const auto doc = storage_->Get(kRobots, id);
-  if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
-  api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
-  EnsureHistory(*doc, &robot);
+  auto [doc, robot] = LoadRobotDocument(id);
+  EnsureHistory(doc, &robot);
   return HistoryView(id, robot);
 }
 
@@ -101,7 +95,8 @@ api::RobotHistoryWire Service::CalibrateRobot(const std::string& id, const nlohm
   api::CalibrateRobotRequest req;
   api::ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid calibrate request");
-  const ResolvedRobot robot = ResolveRobot(id);
+  // One read of the robot: its definition and the definitions its history holds.
+  const api::StoredRobot robot = LoadRobotDocument(id).second;
   // The same physical robot: a campaign of this robot, or of the robot it was calibrated from.
   const api::StoredCampaign campaign = [&] {
     try {
@@ -124,10 +119,7 @@ api::RobotHistoryWire Service::CalibrateRobot(const std::string& id, const nlohm
     const nlohmann::json measured = campaign.robot_definition;
     bool carried = measured == nlohmann::json(robot.definition);
     if (campaign.robot == id) {
-      const auto doc = storage_->Get(kRobots, id);
-      const std::vector<api::StoredHistoryEntry> history =
-          doc ? ReadStored<api::StoredRobot>(*doc).history : std::vector<api::StoredHistoryEntry>{};
-      for (const api::StoredHistoryEntry& e : history) {
+      for (const api::StoredHistoryEntry& e : robot.history) {
         carried = carried || (e.definition && measured == nlohmann::json(*e.definition));
       }
     } else {

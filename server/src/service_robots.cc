@@ -42,11 +42,16 @@ Service::ResolvedRobot Service::ResolveRobot(const std::string& id) {
     definition.from_preset = id;
     return {Preset(id), definition};
   }
-  CheckId(id, "robot");
-  const auto doc = storage_->Get(kRobots, id);
-  if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
-  api::RegisterRobotRequest definition = ReadStored<api::StoredRobot>(*doc).definition;
+  api::RegisterRobotRequest definition = LoadRobotDocument(id).second.definition;
   return {api::BuildModel(definition), std::move(definition)};
+}
+
+std::pair<Document, api::StoredRobot> Service::LoadRobotDocument(const std::string& id) {
+  CheckId(id, "robot");
+  auto doc = storage_->Get(kRobots, id);
+  if (!doc) throw ApiError(Status::kNotFound, "robot \"" + id + "\" not found", {{"robot", "unknown robot"}});
+  api::StoredRobot robot = ReadStored<api::StoredRobot>(*doc);
+  return {std::move(*doc), std::move(robot)};
 }
 
 api::RobotList Service::ListRobots(const std::string& page_size, const std::string& page_token) {

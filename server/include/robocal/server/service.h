@@ -156,6 +156,8 @@ class Service {
     api::RegisterRobotRequest definition;
   };
   ResolvedRobot ResolveRobot(const std::string& id);
+  /// A registered robot's stored document, read (NOT_FOUND naming robot when there is none).
+  std::pair<Document, api::StoredRobot> LoadRobotDocument(const std::string& id);
   api::StoredCampaign LoadCampaign(const std::string& id);
   // Reads a registered robot's document, lets `change` change it (its history completed for a robot stored before
   // histories were kept), and writes it back if no other request wrote it meanwhile (else again from the read).
