@@ -44,6 +44,22 @@ int Show(Invocation& in, const api::Campaign& campaign) {
 
 // A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or
 // just its array of measurements.
+api::MeasurementBatchRequest ReadMeasurementFile(Invocation& in, const std::string& path,
+                                                 const std::function<std::string()>& robot) {
+  const std::string text = ReadFile(path);
+  if (!EndsWith(path, ".csv")) return ReadJsonBatch(path, text);
+  // A CSV's joint columns are the robot's.
+  const api::Robot r = in.Client().GetRobot(robot());
+  std::istringstream csv(text);
+  api::MeasurementBatchRequest batch;
+  try {
+    batch.measurements = client::ReadMeasurementsCsv(csv, static_cast<int>(r.joints.size()));
+  } catch (const std::runtime_error& e) {
+    throw UsageError(path + ": " + e.what());
+  }
+  return batch;
+}
+
 api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text) {
   api::MeasurementBatchRequest batch;
   try {
@@ -195,20 +211,8 @@ int Upload(Invocation& in) {
         "--calibration-rows", "--seed"}) {
     if (in.Has(option)) throw UsageError(std::string(option) + " is for --format sa|csv (a tracker export)");
   }
-  const std::string text = ReadFile(path);
-  api::MeasurementBatchRequest batch;
-  if (EndsWith(path, ".csv")) {
-    const api::Campaign campaign = in.Client().GetCampaign(campaign_id);
-    const api::Robot robot = in.Client().GetRobot(campaign.robot);
-    std::istringstream csv(text);
-    try {
-      batch.measurements = client::ReadMeasurementsCsv(csv, static_cast<int>(robot.joints.size()));
-    } catch (const std::runtime_error& e) {
-      throw UsageError(path + ": " + e.what());
-    }
-  } else {
-    batch = ReadJsonBatch(path, text);
-  }
+  api::MeasurementBatchRequest batch =
+      ReadMeasurementFile(in, path, [&] { return in.Client().GetCampaign(campaign_id).robot; });
   batch.role = in.Enum("--role", batch.role);
   batch.request_id = in.Option("--request-id", batch.request_id);
   if (in.Has("--payload")) {

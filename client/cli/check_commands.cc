@@ -57,19 +57,8 @@ int ShowHistory(Invocation& in, const api::RobotHistoryWire& h) {
 int Check(Invocation& in) {
   const std::string& robot_id = in.args[0];
   const std::string& path = in.args[1];
-  const std::string text = ReadFile(path);
   api::DriftCheckRequest request;
-  if (EndsWith(path, ".csv")) {
-    const api::Robot robot = in.Client().GetRobot(robot_id);
-    std::istringstream csv(text);
-    try {
-      request.measurements = client::ReadMeasurementsCsv(csv, static_cast<int>(robot.joints.size()));
-    } catch (const std::runtime_error& e) {
-      throw UsageError(path + ": " + e.what());
-    }
-  } else {
-    request.measurements = ReadJsonBatch(path, text).measurements;
-  }
+  request.measurements = ReadMeasurementFile(in, path, [&] { return robot_id; }).measurements;
   if (in.Has("--type")) request.measurement_type = in.Enum("--type", MeasurementType::kPose);
   request.frames = in.Enum("--frames", request.frames);
   // Any number: the service says which it takes (its error names the field and the range).

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <fstream>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -21,6 +22,10 @@ std::array<double, 3> Triple(const std::string& option, const std::string& text)
 /// A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or just
 /// its array of measurements (UsageError naming the file when it is neither).
 api::MeasurementBatchRequest ReadJsonBatch(const std::string& path, const std::string& text);
+/// The measurements of a file as upload and check read it: a CSV (joints of the robot `robot` names, asked for only
+/// then) or JSON (ReadJsonBatch). UsageError naming the file when it is neither.
+api::MeasurementBatchRequest ReadMeasurementFile(Invocation& in, const std::string& path,
+                                                 const std::function<std::string()>& robot);
 bool EndsWith(const std::string& text, const std::string& suffix);
 /// `v` with `digits` decimals; "-" if not finite.
 std::string Fixed(double v, int digits);
