@@ -1,8 +1,11 @@
 // Drift checks' and calibration histories' wire shapes (drift.h, history.h).
 #include "robocal/api/drift.h"
 
+#include <algorithm>
+
 #include "robocal/api/calibration.h"
 #include "robocal/api/history.h"
+#include "robocal/api/json_reader.h"
 
 namespace robocal::api {
 
@@ -27,6 +30,32 @@ std::optional<std::int64_t> CurrentEntry(const std::vector<StoredHistoryEntry>& 
     if (it->kind != HistoryKind::kCheck) return it->entry;
   }
   return std::nullopt;
+}
+
+DriftCheckRequest ParseDriftCheckRequest(const nlohmann::json& body, const RobotModel& model,
+                                         MeasurementType calibrated, const Limits& limits) {
+  Problems problems;
+  DriftCheckRequest req;
+  ReadRequestObject(body, "", &problems, &req);
+  const MeasurementType type = req.measurement_type.value_or(calibrated);
+  if (MeasurementRows(type) > MeasurementRows(calibrated)) {
+    problems.Add("measurement_type", std::string("the calibration measured ") + WireName(calibrated) +
+                                         ": a check compares no more than its calibration saw");
+  }
+  if (body.is_object() && !body.contains("measurements")) problems.Add("measurements", "required");
+  if (const auto list = body.is_object() ? body.find("measurements") : body.end();
+      body.is_object() && list != body.end()) {
+    const std::size_t most = std::min(limits.max_array_length, kMaxCheckShots);
+    if (!list->is_array() || list->empty() || list->size() > most) {
+      problems.Add("measurements", "expected an array of 1.." + std::to_string(most) +
+                                       " measurements (a check is a few poses: a check plan's 8-15)");
+    } else {
+      ReadMeasurements(*list, "measurements", model, type, {}, MeasurementRole::kCalibration, &problems,
+                       &req.measurements);
+    }
+  }
+  problems.ThrowIfAny("invalid check request");
+  return req;
 }
 
 DriftCheckWire ToWire(const DriftCheck& check, const RobotModel& model, const DriftCheckOptions& options) {

@@ -199,29 +199,10 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
     throw ApiError(Status::kFailedPrecondition, "checks measure the tool point; the calibration used reflectors",
                    {{"robot", "calibrated with reflectors"}});
   }
-  api::Problems problems;
-  api::DriftCheckRequest req;
-  api::ReadRequestObject(body, "", &problems, &req);
+  const api::DriftCheckRequest req =
+      api::ParseDriftCheckRequest(body, robot.model, loaded.campaign.measurement_type, options_.limits);
   const MeasurementType type = req.measurement_type.value_or(loaded.campaign.measurement_type);
-  if (MeasurementRows(type) > MeasurementRows(loaded.campaign.measurement_type)) {
-    problems.Add("measurement_type", std::string("the calibration measured ") +
-                                         api::WireName(loaded.campaign.measurement_type) +
-                                         ": a check compares no more than its calibration saw");
-  }
-  std::vector<api::MeasurementWire> wire;
-  if (body.is_object() && !body.contains("measurements")) problems.Add("measurements", "required");
-  if (const auto list = body.is_object() ? body.find("measurements") : body.end();
-      body.is_object() && list != body.end()) {
-    const std::size_t most = std::min(options_.limits.max_array_length, api::kMaxCheckShots);
-    if (!list->is_array() || list->empty() || list->size() > most) {
-      problems.Add("measurements", "expected an array of 1.." + std::to_string(most) +
-                                       " measurements (a check is a few poses: a check plan's 8-15)");
-    } else {
-      api::ReadMeasurements(*list, "measurements", robot.model, type, {}, api::MeasurementRole::kCalibration,
-                            &problems, &wire);
-    }
-  }
-  problems.ThrowIfAny("invalid check request");
+  const std::vector<api::MeasurementWire>& wire = req.measurements;
 
   // The noise the calibration's fit weighted with: the tracker's (the request's or the campaign's), the robot's
   // repeatability, and the model error the fit estimated, per row.

@@ -54,6 +54,11 @@ struct WireFields<DriftCheckRequest> {
       Field{"seed", &S::seed});
 };
 ROBOCAL_WIRE_DECLARE(DriftCheckRequest);
+/// Validates a check's body for the checked robot `model` whose calibration measured `calibrated`: the table's
+/// members, a measurement type no richer than the calibration's, and 1..kMaxCheckShots measurements as uploads
+/// give them (ReadMeasurements). INVALID_ARGUMENT naming every problem.
+DriftCheckRequest ParseDriftCheckRequest(const nlohmann::json& body, const RobotModel& model,
+                                         MeasurementType calibrated, const Limits& limits);
 
 /// A parameter that explains a check's residuals (DriftSuspect in wire units: change and std in the parameter's
 /// unit, deg or mm).
