@@ -163,11 +163,8 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
                        std::to_string(data.size()) + " data rows; leave some for validation");
     }
     Rng rng(seed);
-    for (std::size_t k = 0; k < static_cast<std::size_t>(wanted); ++k) {
-      std::swap(data[k], data[k + rng.Index(data.size() - k)]);
-    }
     std::vector<char> calibration(lines.size(), 0);
-    for (std::size_t k = 0; k < static_cast<std::size_t>(wanted); ++k) calibration[data[k]] = 1;
+    for (std::size_t i : DrawDistinct(data, static_cast<std::size_t>(wanted), &rng)) calibration[i] = 1;
     std::vector<char> is_data(lines.size(), 0);
     for (std::size_t i : data) is_data[i] = 1;
     for (const api::MeasurementRole role : {api::MeasurementRole::kCalibration, api::MeasurementRole::kValidation}) {

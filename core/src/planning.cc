@@ -169,16 +169,6 @@ PlanWork MaxPlanWork(int num_configurations, const ExchangeOptions& options) {
   return work;
 }
 
-namespace planning_detail {
-
-std::vector<int> DrawDistinct(std::vector<int> from, int count, Rng* rng) {
-  for (int i = 0; i < count; ++i) std::swap(from[i], from[i + rng->Index(from.size() - i)]);
-  from.resize(count);
-  return from;
-}
-
-}  // namespace planning_detail
-
 std::vector<Eigen::VectorXd> RandomConfigurations(const RobotModel& model, int count, Rng* rng) {
   std::vector<Eigen::VectorXd> out;
   out.reserve(count);

@@ -84,9 +84,6 @@ UsableCandidates CheckCandidates(const RobotModel& model, const CandidatePool& p
 bool CheckCandidatesForPlan(const RobotModel& model, const CandidatePool& pool, const FeasibilityPredicate& feasible,
                             int num_configurations, Clock::time_point start_time, UsableCandidates* usable, Plan* plan);
 
-// `count` distinct values of `from`, drawn by a partial Fisher-Yates shuffle (the exchange optimiser's random start).
-std::vector<int> DrawDistinct(std::vector<int> from, int count, Rng* rng);
-
 // The weighted, reduced blocks (rows x L) of a candidate pool in one allocation: they are the exchange optimiser's
 // memory, and a single large block goes back to the system when the plan ends. Contributions B'B are formed when
 // needed (rows x L^2 flops, against the L^3 eigenproblem of every evaluation) instead of being stored (L^2

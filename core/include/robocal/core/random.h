@@ -1,9 +1,11 @@
 // Seeded random numbers with results that are the same on every platform.
 #pragma once
 
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <random>
+#include <utility>
+#include <vector>
 
 namespace robocal {
 
@@ -56,5 +58,15 @@ class Rng {
   bool has_spare_ = false;
   double spare_ = 0.0;
 };
+
+/// `count` (at most from.size()) distinct elements of `from`, drawn by a partial Fisher-Yates shuffle: the k-th is
+/// swapped with a uniform pick among the elements from k on. The exchange optimiser's random start and the rows a
+/// file's calibration measurements are drawn from (`robocal upload --calibration-rows N --seed S`).
+template <class T>
+std::vector<T> DrawDistinct(std::vector<T> from, std::size_t count, Rng* rng) {
+  for (std::size_t i = 0; i < count; ++i) std::swap(from[i], from[i + rng->Index(from.size() - i)]);
+  from.resize(count);
+  return from;
+}
 
 }  // namespace robocal
