@@ -276,6 +276,7 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
   const Transform& tool = ForwardKinematics(model, q, eps, ws, prepared);
   const RowWriter writer = MakeWriter(type, tool);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  const KinematicsWorkspace::SiteErrors* errors = eps.size() != 0 ? &ws->site_errors : nullptr;  // FK's
   for (int s = 0; s < model.num_error_sites(); ++s) {
     // Site s: Trans(d) Rx(rx) Ry(ry) Rz(rz) after frame A. Each parameter is a screw motion about/along an
     // axis of the frame it acts in, so its column is that unit twist carried to the world frame.
@@ -287,8 +288,8 @@ void IdentificationJacobian(const RobotModel& model, const Eigen::VectorXd& q, c
     Eigen::Matrix3d r1 = r0, r2 = r0;
     if (delta != nullptr) {
       point += r0 * Eigen::Vector3d(delta[0], delta[1], delta[2]);
-      r1 = r0 * RotX(delta[3]);
-      r2 = r1 * RotY(delta[4]);
+      r1 = r0 * errors->rx[static_cast<size_t>(s)];
+      r2 = r1 * errors->ry[static_cast<size_t>(s)];
     }
     writer.Write(r0.col(0), point, zero, jacobian, 6 * s + 3);
     writer.Write(r1.col(1), point, zero, jacobian, 6 * s + 4);

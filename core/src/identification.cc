@@ -347,21 +347,32 @@ std::string RegisterBase(const RobotModel& nominal, const std::vector<Measuremen
   return "";
 }
 
-// Rank test on the scaled Jacobian at the start: degenerate configurations fail here, with the parameters they
-// cannot determine named, instead of producing a meaningless fit. Beyond kDenseParameterLimit the normal
-// equations' Cholesky factor decides first; the pivoted QR (seconds at hundreds of columns) only names what is
-// undetermined. `jacobian` keeps the start's Jacobian (its storage goes on to the solver).
+// Rank test on the scaled Jacobian at the start (the solver's: the nominal model, or the solution a refit starts
+// from, whose Jacobian is as good a witness of the configurations' rank): degenerate configurations fail here,
+// with the parameters they cannot determine named, instead of producing a meaningless fit. The normal equations'
+// Cholesky factor decides first; the pivoted QR (seconds at hundreds of columns) only names what is undetermined.
+// Writes the cost at the nominal model (initial_cost).
 std::string RankTest(Problem* problem, const std::vector<int>& parameters, const IdentificationOptions& options,
-                     const std::function<std::string(int)>& name, IdentificationSummary* s, Eigen::MatrixXd* jacobian) {
-  Eigen::VectorXd r;
-  Eigen::MatrixXd& j = *jacobian;
-  problem->Evaluate(Eigen::VectorXd::Zero(s->num_parameters), &r, &j);
-  s->initial_cost = 0.5 * r.squaredNorm();
-  if (!std::isfinite(s->initial_cost) || !AllFinite(j)) return "non-finite residuals at the start";
+                     const std::function<std::string(int)>& name, const FitStart& start, IdentificationSummary* s) {
+  const Eigen::MatrixXd& j = start.jacobian;
+  if (start.x.isZero(0.0)) {
+    s->initial_cost = 0.5 * start.residual.squaredNorm();
+  } else {
+    Eigen::VectorXd r;
+    problem->Evaluate(Eigen::VectorXd::Zero(s->num_parameters), &r, nullptr);
+    s->initial_cost = 0.5 * r.squaredNorm();
+  }
+  if (!std::isfinite(s->initial_cost) || !std::isfinite(start.residual.squaredNorm()) || !AllFinite(j)) {
+    return "non-finite residuals at the start";
+  }
   const bool many = s->num_parameters > kDenseParameterLimit;
   const double tolerance = many ? std::max(options.identifiability.rank_tolerance, kNormalRankTolerance)
                                 : options.identifiability.rank_tolerance;
-  if (many && FullRankByNormal(j, tolerance)) return "";
+  // A well-conditioned normal matrix proves full rank at the cost of J'J and a Cholesky; only the rest needs the
+  // pivoted QR (which names the undetermined parameters). With few parameters the QR's own test is the rule, so the
+  // normal matrix must pass with a margin: its Cholesky's reciprocal condition estimate (of the 1-norm, within a
+  // factor n of the 2-norm's) above (10 tolerance)^2, and never below the normal equations' own limit.
+  if (FullRankByNormal(j, many ? tolerance : std::max(10.0 * tolerance, kNormalRankTolerance))) return "";
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j * UnitColumnFactorsOf(j).asDiagonal());
   const int rank = PivotRank(qr.matrixQR().diagonal().cwiseAbs(), tolerance);
   if (rank >= s->num_parameters) return "";
@@ -402,10 +413,10 @@ void JudgePriors(const Problem& problem, const Eigen::MatrixXd& inverse, const s
 // counts less than one). Writes the parameters, errors, frames and residual statistics into `cal`.
 std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                   const IdentificationOptions& options, const std::vector<int>& parameters,
-                  const std::function<std::string(int)>& name, const Eigen::VectorXd* x0,
-                  Eigen::MatrixXd start_jacobian, Problem* problem, RobotModel* model, LmResult* lm, Calibration* cal) {
+                  const std::function<std::string(int)>& name, FitStart start, Problem* problem, RobotModel* model,
+                  LmResult* lm, Calibration* cal) {
   IdentificationSummary& s = cal->summary;
-  *lm = LevenbergMarquardt(problem, options, x0, std::move(start_jacobian));
+  *lm = LevenbergMarquardt(problem, options, std::move(start));
   s.iterations = lm->iterations;
   if (lm->termination == Termination::kFailure || !lm->x.allFinite()) return "optimisation failed: " + lm->reason;
   const Eigen::VectorXd errors = problem->FullErrors(lm->x);
@@ -551,13 +562,13 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
   Problem problem(model, measurements, groups, options, selection.parameters);
   s.before = ComputeResidualStatistics(model, Eigen::VectorXd(), measurements, type, options.noise, nominal_in_tool);
-  Eigen::MatrixXd start_jacobian;
-  if (!(failure = RankTest(&problem, selection.parameters, options, name, &s, &start_jacobian)).empty()) {
+  FitStart fit_start = EvaluateStart(&problem, x0);
+  if (!(failure = RankTest(&problem, selection.parameters, options, name, fit_start, &s)).empty()) {
     return ended(failure);
   }
   LmResult lm;
-  failure = Solve(nominal, measurements, options, selection.parameters, name, x0, std::move(start_jacobian), &problem,
-                  &model, &lm, &cal);
+  failure = Solve(nominal, measurements, options, selection.parameters, name, std::move(fit_start), &problem, &model,
+                  &lm, &cal);
   if (!failure.empty()) return ended(failure);
   Judge(nominal, selection, lm, &cal);
   return ended("");

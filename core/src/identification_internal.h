@@ -155,6 +155,16 @@ class Problem {
   std::vector<Eigen::MatrixXd> group_jacobian_;
 };
 
+// A fit's start, evaluated once: the rank test judges its Jacobian and the solver starts from it.
+struct FitStart {
+  Eigen::VectorXd x;
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian;
+};
+// From `x0` (the reduced parameters of a fit of nearly the same problem: the model error's cycles, the robust
+// rounds) when it has the problem's size and is finite, else from zero.
+FitStart EvaluateStart(Problem* problem, const Eigen::VectorXd* x0);
+
 struct LmResult {
   Eigen::VectorXd x;
   Eigen::VectorXd residual;
@@ -173,11 +183,9 @@ struct LmResult {
 // one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
-// From `start` (the reduced parameters of a fit of nearly the same problem: the model error's cycles, the robust
-// rounds), or from zero. `jacobian` is storage for the result's Jacobian (a fit's rank test hands its own on: at
-// hundreds of parameters a Jacobian is megabytes, and fresh memory costs more to touch than to fill).
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start = nullptr,
-                            Eigen::MatrixXd jacobian = {});
+// From `start` (EvaluateStart), whose storage it keeps for its own Jacobian: at hundreds of parameters a Jacobian
+// is megabytes, and fresh memory costs more to touch than to fill.
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, FitStart start);
 
 // Beyond this many parameters (joint maps: some hundreds, each touching a few poses) the normal matrix J'J is summed
 // over each row's non-zero entries, and the covariance comes from the scaled normal matrix's eigenvalues and

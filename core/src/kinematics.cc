@@ -15,6 +15,23 @@ Transform JointMotion(JointType type, double q) {
   return type == JointType::kRevolute ? Rotation(RotZ(q)) : Translation(0, 0, q);
 }
 
+// t * JointMotion(type, q), for a revolute joint without the general product's terms that multiply a zero of RotZ:
+// each column of t's rotation is the one of t * Rotation(RotZ(q)), with RotZ(q)'s entries as RotZ writes them (the
+// axis-angle formula: cos, sin, and (1 - cos) + cos on the axis), summed in the product's order. The chain takes
+// this step at every joint of every pose of every evaluation of a fit.
+void ApplyJointMotion(JointType type, double q, Transform* t) {
+  if (type != JointType::kRevolute) {
+    *t = *t * JointMotion(type, q);
+    return;
+  }
+  const double c = std::cos(q), s = std::sin(q), on_axis = (1.0 - c) + c;
+  auto rotation = t->linear();
+  const Eigen::Vector3d x = rotation.col(0), y = rotation.col(1);
+  rotation.col(0) = x * c + y * s;
+  rotation.col(1) = x * -s + y * c;
+  rotation.col(2) *= on_axis;
+}
+
 void CheckSizes(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& eps) {
   if (q.size() != model.num_joints()) {
     throw std::invalid_argument("ForwardKinematics: q has " + std::to_string(q.size()) + " values, robot '" +
@@ -39,6 +56,25 @@ Transform ErrorTransform(const double* delta) {
   return t;
 }
 
+const KinematicsWorkspace::SiteErrors& SiteErrorsFor(const RobotModel& model, const Eigen::VectorXd& eps,
+                                                     KinematicsWorkspace* ws) {
+  KinematicsWorkspace::SiteErrors& e = ws->site_errors;
+  const int sites = model.num_error_sites();
+  const auto values = eps.head(6 * sites);
+  if (e.values.size() == values.size() && (e.values.array() == values.array()).all()) return e;
+  e.values = values;
+  e.transform.resize(static_cast<size_t>(sites));
+  e.rx.resize(static_cast<size_t>(sites));
+  e.ry.resize(static_cast<size_t>(sites));
+  for (int s = 0; s < sites; ++s) {
+    const double* delta = eps.data() + 6 * s;
+    e.transform[static_cast<size_t>(s)] = ErrorTransform(delta);
+    e.rx[static_cast<size_t>(s)] = RotX(delta[3]);
+    e.ry[static_cast<size_t>(s)] = RotY(delta[4]);
+  }
+  return e;
+}
+
 namespace {
 
 // The chain at the joints in ws->q_effective (ForwardKinematics, once the deflection is added).
@@ -46,8 +82,9 @@ const Transform& ChainAtEffectiveJoints(const RobotModel& model, const Eigen::Ve
   const bool with_errors = eps.size() != 0;
   const Eigen::VectorXd& q = ws->q_effective;
   const int n = model.num_joints();
+  const std::vector<Transform>* errors = with_errors ? &SiteErrorsFor(model, eps, ws).transform : nullptr;
   auto apply_error = [&](int site, Transform* t) {
-    if (with_errors) *t = *t * ErrorTransform(eps.data() + 6 * site);
+    if (with_errors) *t = *t * (*errors)[static_cast<size_t>(site)];
   };
   Transform t = model.T_world_base();
   ws->T_world_site[0] = t;
@@ -57,7 +94,7 @@ const Transform& ChainAtEffectiveJoints(const RobotModel& model, const Eigen::Ve
     ws->T_world_site[i + 1] = t;
     apply_error(i + 1, &t);
     ws->T_world_joint[i] = t;
-    t = t * JointMotion(model.joint_type(i), q[i]);
+    ApplyJointMotion(model.joint_type(i), q[i], &t);
   }
   t = t * model.T_lastjoint_flange() * model.T_flange_tool();
   ws->T_world_site[n + 1] = t;

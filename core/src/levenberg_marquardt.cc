@@ -25,13 +25,20 @@ namespace robocal::identification_detail {
 // one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
 // and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
 // they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
-LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, const Eigen::VectorXd* start,
-                            Eigen::MatrixXd jacobian) {
-  LmResult out;
-  out.jacobian.swap(jacobian);
+FitStart EvaluateStart(Problem* problem, const Eigen::VectorXd* x0) {
+  FitStart start;
   const int n = problem->num_parameters();
-  out.x = start != nullptr && start->size() == n && start->allFinite() ? *start : Eigen::VectorXd::Zero(n);
-  problem->Evaluate(out.x, &out.residual, &out.jacobian);
+  start.x = x0 != nullptr && x0->size() == n && x0->allFinite() ? *x0 : Eigen::VectorXd::Zero(n);
+  problem->Evaluate(start.x, &start.residual, &start.jacobian);
+  return start;
+}
+
+LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, FitStart start) {
+  LmResult out;
+  out.x.swap(start.x);
+  out.residual.swap(start.residual);
+  out.jacobian.swap(start.jacobian);
+  const int n = problem->num_parameters();
   double cost = 0.5 * out.residual.squaredNorm();
   double lambda = 1e-4;
   double nu = 2.0;
@@ -120,7 +127,13 @@ LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, co
 // The fit and LinearizeFit share it, so a report's recomputed figures are the fit's.
 Eigen::MatrixXd NormalMatrix(const Eigen::MatrixXd& jacobian) {
   const Eigen::Index n = jacobian.cols();
-  if (n <= kDenseParameterLimit) return jacobian.transpose() * jacobian;
+  if (n <= kDenseParameterLimit) {
+    // The lower triangle (a symmetric rank update, half the general product's work), mirrored.
+    Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(n, n);
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(jacobian.transpose());
+    normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
+    return normal;
+  }
   // Written here rather than with Eigen's sparse product: the Jacobian is dense storage with mostly zero map
   // columns, and converting it costs as much as this sum. The rows go in blocks of kBlockRows (a pose's rows
   // share their non-zero columns): one pass down the columns finds each block's non-zero columns, and each block
@@ -203,7 +216,9 @@ bool ScaledCovariance(const Eigen::MatrixXd& jacobian, double sigma_hat, double 
     return ScaledCovarianceOfNormal(NormalMatrix(jacobian), sigma_hat, rank_tolerance, singular_values, covariance);
   }
   const Eigen::MatrixXd scaled = jacobian * d.asDiagonal();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinV);
+  // The SVD of J's R factor (unpivoted, blocked Householder QR): the columns are scaled to unit length already,
+  // and the blocked QR of a tall Jacobian costs a third of the column-pivoting one.
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::HouseholderQRPreconditioner> svd(scaled, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();
   if (PivotRank(sv, rank_tolerance) < jacobian.cols()) return false;
   const Eigen::MatrixXd v_scaled = svd.matrixV() * sv.cwiseInverse().asDiagonal();

@@ -124,9 +124,57 @@ struct Leverages {
   double redundancy_position = 0.0, redundancy_orientation = 0.0;
 };
 
+// LeveragesAt for a few parameters (at most kDenseParameterLimit): every pose's rows whitened, W_g = L L' on the
+// position rows (the 3 x 3 inverse covariance) and the orientation's scalar weight, stacked into one matrix A, so
+// that the information is A'A and the leverages are the row sums of (A N^-1) o A, each one product of the whole
+// (instead of a small product, an allocation and a copy per pose).
+bool DenseLeveragesAt(double sp2, double so2, const PoseResiduals& poses, double t, int angle_rows,
+                      const std::vector<std::vector<int>>& columns, const std::vector<Eigen::MatrixXd>& compact,
+                      const Eigen::MatrixXd& penalty_normal, int p, Leverages* out) {
+  const size_t num_groups = compact.size();
+  const Eigen::Index rows = 3 + angle_rows;
+  Eigen::MatrixXd whitened = Eigen::MatrixXd::Zero(rows * static_cast<Eigen::Index>(num_groups), p);
+  for (size_t g = 0; g < num_groups; ++g) {
+    const Eigen::Matrix3d inverse_p = (poses.covariance[g] + sp2 * Eigen::Matrix3d::Identity()).inverse();
+    const Eigen::Matrix3d l_transposed = Eigen::LLT<Eigen::Matrix3d>(inverse_p).matrixU();
+    const double orientation_weight = 1.0 / std::sqrt(t * t / poses.shots[g] + so2);
+    const Eigen::MatrixXd& j = compact[g];
+    const Eigen::Index first = rows * static_cast<Eigen::Index>(g);
+    for (size_t a = 0; a < columns[g].size(); ++a) {
+      const auto column = j.col(static_cast<Eigen::Index>(a));
+      auto target = whitened.col(columns[g][a]).segment(first, rows);
+      target.head<3>() = l_transposed * column.head<3>();
+      if (angle_rows > 0) target.tail(angle_rows) = orientation_weight * column.tail(angle_rows);
+    }
+  }
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
+  information.selfadjointView<Eigen::Lower>().rankUpdate(whitened.transpose());
+  if (penalty_normal.size() > 0) information.triangularView<Eigen::Lower>() += penalty_normal;
+  const Eigen::LLT<Eigen::MatrixXd> llt(information);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(p, p));
+  const Eigen::VectorXd hat = (whitened * inverse).cwiseProduct(whitened).rowwise().sum();
+  out->position.assign(num_groups, 0.0);
+  out->orientation.assign(num_groups, 0.0);
+  out->redundancy_position = out->redundancy_orientation = 0.0;
+  for (size_t g = 0; g < num_groups; ++g) {
+    const Eigen::Index first = rows * static_cast<Eigen::Index>(g);
+    out->position[g] = hat.segment<3>(first).sum();
+    out->redundancy_position += 3.0 - out->position[g];
+    if (angle_rows > 0) {
+      out->orientation[g] = hat.segment(first + 3, angle_rows).sum();
+      out->redundancy_orientation += angle_rows - out->orientation[g];
+    }
+  }
+  return true;
+}
+
 bool LeveragesAt(double sp2, double so2, const PoseResiduals& poses, double t, int angle_rows,
                  const std::vector<std::vector<int>>& columns, const std::vector<Eigen::MatrixXd>& compact,
                  const Eigen::MatrixXd& penalty_normal, int p, Leverages* out) {
+  if (p <= kDenseParameterLimit) {
+    return DenseLeveragesAt(sp2, so2, poses, t, angle_rows, columns, compact, penalty_normal, p, out);
+  }
   const size_t num_groups = compact.size();
   std::vector<Eigen::Matrix3d> inverse_p(num_groups);
   std::vector<double> inverse_o(num_groups);
@@ -282,10 +330,15 @@ std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vect
       out[i] = a.norm();
       continue;
     }
-    // On the pose's non-zero columns only (a map's coefficients are mostly zero at a pose).
+    // On the pose's non-zero columns only (a map's coefficients are mostly zero at a pose); products of a few rows
+    // coefficient by coefficient (the general product's packing costs more than its arithmetic here).
     const std::vector<int> columns = NonzeroColumns(jacobian[g]);
-    const Eigen::MatrixXd b = w * ColumnsOf(jacobian[g], columns);
-    const Eigen::MatrixXd h = b * inverse(columns, columns) * b.transpose();
+    const bool every_column = columns.size() == static_cast<size_t>(inverse.cols());
+    const Eigen::MatrixXd b =
+        every_column ? w.lazyProduct(jacobian[g]) : w.lazyProduct(ColumnsOf(jacobian[g], columns));
+    const Eigen::MatrixXd solved =
+        every_column ? b.lazyProduct(inverse) : b.lazyProduct(Eigen::MatrixXd(inverse(columns, columns)));
+    const Eigen::MatrixXd h = solved.lazyProduct(b.transpose());
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (h + h.transpose()));
     const Eigen::VectorXd u = eig.eigenvectors().transpose() * a;
     double z2 = 0.0;

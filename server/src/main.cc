@@ -6,25 +6,18 @@
 #include <thread>
 
 #ifdef __GLIBC__
-#include <malloc.h>
 #endif
 
 #include "robocal/server/config.h"
 #include "robocal/server/http_server.h"
 #include "robocal/server/logging.h"
+#include "robocal/server/memory_trimmer.h"
 #include "robocal/server/service.h"
 #include "server/storage/storage.h"
 
 int main(int argc, char** argv) {
   using namespace robocal::server;
-#ifdef __GLIBC__
-  // Before any thread starts: two malloc arenas instead of glibc's 8 per core. The service trims freed memory
-  // after large requests (malloc_trim), but glibc never trims the top of a thread arena below its dynamic
-  // threshold (up to 64 MB each): with 8 arenas, 8 concurrent fits of 10,000 measurements left 355 MB resident,
-  // with 2 arenas 19 MB, at the same speed on 2 cores (per-thread caches serve most small allocations without
-  // the arena lock).
-  mallopt(M_ARENA_MAX, 2);
-#endif
+  ConfigureMemoryAllocator();  // before any thread starts
   const ConfigResult loaded = LoadConfig(std::vector<std::string>(argv + 1, argv + argc), RobocalEnvironment());
   if (!loaded.run) {
     (loaded.exit_code == 0 ? std::cout : std::cerr) << loaded.message;

@@ -13,6 +13,14 @@ void ReleaseFreedMemory() {
 #endif
 }
 
+void ConfigureMemoryAllocator() {
+#ifdef __GLIBC__
+  mallopt(M_ARENA_MAX, 2);
+  mallopt(M_MMAP_THRESHOLD, 4 << 20);
+  mallopt(M_TRIM_THRESHOLD, 32 << 20);
+#endif
+}
+
 MemoryTrimmer::MemoryTrimmer(std::chrono::milliseconds delay, std::function<void()> trim)
     : delay_(delay), trim_(std::move(trim)), thread_([this] { Run(); }) {}
 

@@ -88,6 +88,12 @@ std::string BeyondCalibratedRanges(const api::RegisterRobotRequest& definition, 
 // max_fit_jacobian_entries: its size bounds the fit's memory and the time of each iteration.
 void CheckFitSize(const RobotModel& model, const IdentificationOptions& options, std::int64_t measurements,
                   bool parameters_requested, const api::Limits& limits) {
+  // Within the limit with every error parameter: no need to know how many are identifiable (a probe of the model).
+  if (!parameters_requested &&
+      MeasurementRows(options.measurement_type) * measurements * model.num_error_parameters() <=
+          limits.max_fit_jacobian_entries) {
+    return;
+  }
   const std::int64_t parameters =
       parameters_requested ? static_cast<std::int64_t>(options.parameters.size())
                            : static_cast<std::int64_t>(

@@ -26,7 +26,21 @@ struct KinematicsWorkspace {
   Transform T_world_tool = Transform::Identity();
   /// The joints the last ForwardKinematics call moved the chain to: q plus the joint terms' deflection.
   Eigen::VectorXd q_effective;
+  /// The error sites' transforms (ErrorTransform) and the rotations Rx(rx), Ry(ry) of each site, for the site
+  /// errors in `values`: they depend on the error vector alone, and a fit evaluates one error vector at every pose,
+  /// so they are computed once per error vector instead of once per pose (SiteErrorsFor).
+  struct SiteErrors {
+    Eigen::VectorXd values;
+    std::vector<Transform> transform;
+    std::vector<Eigen::Matrix3d> rx, ry;
+  };
+  SiteErrors site_errors;
 };
+
+/// ws->site_errors for the site errors of eps (its first 6 x num_error_sites values; eps not empty), recomputed
+/// only when they differ from the last ones.
+const KinematicsWorkspace::SiteErrors& SiteErrorsFor(const RobotModel& model, const Eigen::VectorXd& eps,
+                                                     KinematicsWorkspace* ws);
 
 /// The small error transform of one site: Trans(dx, dy, dz) * Rx(rx) * Ry(ry) * Rz(rz).
 /// `delta` points at 6 values: dx, dy, dz (mm), rx, ry, rz (rad).
