@@ -39,25 +39,25 @@ std::string Trim(const std::string& s) {
   return s.substr(first, last - first + 1);
 }
 
-double UnitScale(const std::string& unit) {
-  if (unit == "m") return 1000.0;
-  if (unit == "in") return 25.4;
+double UnitScale(TrackerFileUnit unit) {
+  if (unit == TrackerFileUnit::kM) return 1000.0;
+  if (unit == TrackerFileUnit::kIn) return 25.4;
   return 1.0;
 }
 
-// The unit a header word names ("Millimeters", "mm", "metres", "inch", ...), or empty.
-std::string UnitOfWord(const std::string& word) {
+// The unit a header word names ("Millimeters", "mm", "metres", "inch", ...), or none.
+std::optional<TrackerFileUnit> UnitOfWord(const std::string& word) {
   const std::string w = Lower(Trim(word));
   for (const char* mm : {"mm", "millimeter", "millimeters", "millimetre", "millimetres"}) {
-    if (w == mm) return "mm";
+    if (w == mm) return TrackerFileUnit::kMm;
   }
   for (const char* m : {"m", "meter", "meters", "metre", "metres"}) {
-    if (w == m) return "m";
+    if (w == m) return TrackerFileUnit::kM;
   }
   for (const char* in : {"in", "inch", "inches"}) {
-    if (w == in) return "in";
+    if (w == in) return TrackerFileUnit::kIn;
   }
-  return "";
+  return std::nullopt;
 }
 
 std::string LineReason(int line, const std::string& why) { return "line " + std::to_string(line) + ": " + why; }
@@ -212,7 +212,7 @@ bool CheckPosition(const Eigen::Vector3d& p, int line, Problems* problems) {
 
 void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
             std::vector<TrackerPoint>* points, Problems* problems) {
-  std::string declared;
+  std::optional<TrackerFileUnit> declared;
   int declared_line = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
@@ -234,12 +234,12 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
         word += header[k];
       }
       if (word.empty() && first != std::string::npos) word = header.substr(first);
-      const std::string unit = UnitOfWord(word);
-      if (unit.empty()) {
+      const std::optional<TrackerFileUnit> unit = UnitOfWord(word);
+      if (!unit) {
         problems->Add("text", LineReason(line, "unknown unit " + Shown(Trim(word)) + " (mm, m or in)"));
-      } else if (!declared.empty() && unit != declared) {
-        problems->Add("text", LineReason(line, "declares " + unit + ", line " + std::to_string(declared_line) +
-                                                   " declared " + declared));
+      } else if (declared && *unit != *declared) {
+        problems->Add("text", LineReason(line, std::string("declares ") + WireName(*unit) + ", line " +
+                                                   std::to_string(declared_line) + " declared " + WireName(*declared)));
       } else {
         declared = unit;
         declared_line = line;
@@ -278,19 +278,19 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
     if (ok) points->push_back(std::move(p));
   }
   // The unit: the request's or the file's, and never two different ones.
-  std::string unit = req.unit;
-  if (!declared.empty() && !unit.empty() && declared != unit) {
-    problems->Add("unit", "the request says " + unit + ", the file declares " + declared + " (line " +
-                              std::to_string(declared_line) + ")");
-  } else if (unit.empty()) {
+  std::optional<TrackerFileUnit> unit = req.unit;
+  if (declared && unit && *declared != *unit) {
+    problems->Add("unit", std::string("the request says ") + WireName(*unit) + ", the file declares " +
+                              WireName(*declared) + " (line " + std::to_string(declared_line) + ")");
+  } else if (!unit) {
     unit = declared;
   }
-  if (unit.empty()) {
+  if (!unit) {
     problems->Add("unit", "the file declares no unit (a '// Units: mm' line) and the request gives none");
     points->clear();  // positions in no known unit are no points
     return;
   }
-  const double scale = UnitScale(unit);
+  const double scale = UnitScale(*unit);
   std::vector<TrackerPoint> kept;
   for (TrackerPoint& p : *points) {
     p.position_mm *= scale;
@@ -322,9 +322,10 @@ bool ReadCsvHeader(const ImportMeasurementsRequest& req, const std::vector<std::
   header->text = std::string(lines[header_index]);
   const std::string& header_text = header->text;
   const int header_line = header->line;
-  const char delimiter = req.delimiter.empty() ? CsvDelimiter(header_text) : req.delimiter[0];
+  // Each delimiter's wire name is the character itself.
+  const char delimiter = req.delimiter ? WireName(*req.delimiter)[0] : CsvDelimiter(header_text);
   header->delimiter = delimiter;
-  header->decimal = req.decimal == "," ? ',' : '.';
+  header->decimal = req.decimal == TrackerFileDecimal::kComma ? ',' : '.';
   if (delimiter != 0 && std::count(header_text.begin(), header_text.end(), delimiter) >= kMaxCsvFields) {
     problems->Add("text", LineReason(header_line, "more than " + std::to_string(kMaxCsvFields) + " columns"));
     return false;
@@ -369,7 +370,8 @@ CsvLayout WantedCsvColumns(const ImportMeasurementsRequest& req) {
     wanted.push_back({field, name});
     return wanted.size() - 1;
   };
-  layout.target = req.match == "name" && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
+  layout.target =
+      req.match == TrackerFileMatch::kName && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
   layout.axes[0] = want("columns.x", req.columns.x);
   layout.axes[1] = want("columns.y", req.columns.y);
   layout.axes[2] = want("columns.z", req.columns.z);
@@ -416,9 +418,9 @@ class CsvPointReader {
       : req_(req),
         layout_(layout),
         decimal_(header.decimal),
-        scale_(UnitScale(req.unit)),
-        joint_scale_(req.joints.unit == "rad" ? kDegPerRad : 1.0),
-        angle_scale_(req.orientation.unit == "deg" ? kRadPerDeg : 1.0),
+        scale_(req.unit ? UnitScale(*req.unit) : 1.0),
+        joint_scale_(req.joints.unit == AngleUnit::kRad ? kDegPerRad : 1.0),
+        angle_scale_(req.orientation.unit == AngleUnit::kDeg ? kRadPerDeg : 1.0),
         problems_(problems) {}
 
   // The point of a row split into `fields` (each wanted column present), appended to *points when usable; its
@@ -485,7 +487,7 @@ class CsvPointReader {
     bool ok = true;
     Eigen::Quaterniond q;
     if (req_.orientation.representation == "quaternion") {
-      const bool w_first = req_.orientation.order == "wxyz";
+      const bool w_first = req_.orientation.order == QuaternionOrder::kWxyz;
       q = w_first ? Eigen::Quaterniond(angles[0], angles[1], angles[2], angles[3])
                   : Eigen::Quaterniond(angles[3], angles[0], angles[1], angles[2]);
       const double norm = q.norm();
@@ -497,9 +499,9 @@ class CsvPointReader {
       }
       q.normalize();
     } else {
-      q = Eigen::Quaterniond(EulerToRotation(req_.orientation.sequence, req_.orientation.convention == "intrinsic",
-                                             angles[0] * angle_scale_, angles[1] * angle_scale_,
-                                             angles[2] * angle_scale_));
+      q = Eigen::Quaterniond(
+          EulerToRotation(req_.orientation.sequence, req_.orientation.convention == EulerConvention::kIntrinsic,
+                          angles[0] * angle_scale_, angles[1] * angle_scale_, angles[2] * angle_scale_));
     }
     if (q.w() < 0.0) q.coeffs() *= -1.0;
     p->has_orientation = true;
@@ -516,7 +518,7 @@ class CsvPointReader {
 
 void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
              std::vector<TrackerPoint>* points, Problems* problems) {
-  if (req.unit.empty()) problems->Add("unit", "required for format csv (mm, m or in)");
+  if (!req.unit) problems->Add("unit", "required for format csv (mm, m or in)");
   CsvHeader header;
   if (!ReadCsvHeader(req, lines, &header, problems)) return;
   CsvLayout layout = WantedCsvColumns(req);
@@ -555,51 +557,57 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
 
 }  // namespace
 
-const std::vector<std::string>& TrackerFileFormats() {
-  static const std::vector<std::string> names = {"sa", "csv"};
-  return names;
+const char* EnumTable<TrackerFileFormat>::Name(TrackerFileFormat v) {
+  return v == TrackerFileFormat::kCsv ? "csv" : "sa";
 }
-const std::vector<std::string>& TrackerFileUnits() {
-  static const std::vector<std::string> names = {"mm", "m", "in"};
-  return names;
+const char* EnumTable<TrackerFileUnit>::Name(TrackerFileUnit v) {
+  switch (v) {
+    case TrackerFileUnit::kM:
+      return "m";
+    case TrackerFileUnit::kIn:
+      return "in";
+    case TrackerFileUnit::kMm:
+      break;
+  }
+  return "mm";
 }
-const std::vector<std::string>& TrackerFileMatches() {
-  static const std::vector<std::string> names = {"name", "order"};
-  return names;
+const char* EnumTable<TrackerFileMatch>::Name(TrackerFileMatch v) {
+  return v == TrackerFileMatch::kOrder ? "order" : "name";
 }
-const std::vector<std::string>& TrackerFileDelimiters() {
-  static const std::vector<std::string> names = {",", ";", "\t"};
-  return names;
+const char* EnumTable<TrackerFileDelimiter>::Name(TrackerFileDelimiter v) {
+  switch (v) {
+    case TrackerFileDelimiter::kSemicolon:
+      return ";";
+    case TrackerFileDelimiter::kTab:
+      return "\t";
+    case TrackerFileDelimiter::kComma:
+      break;
+  }
+  return ",";
 }
-const std::vector<std::string>& TrackerFileDecimals() {
-  static const std::vector<std::string> names = {".", ","};
-  return names;
+const char* EnumTable<TrackerFileDecimal>::Name(TrackerFileDecimal v) {
+  return v == TrackerFileDecimal::kComma ? "," : ".";
 }
-const std::vector<std::string>& AngleUnits() {
-  static const std::vector<std::string> names = {"deg", "rad"};
-  return names;
+const char* EnumTable<AngleUnit>::Name(AngleUnit v) { return v == AngleUnit::kRad ? "rad" : "deg"; }
+const char* EnumTable<QuaternionOrder>::Name(QuaternionOrder v) {
+  return v == QuaternionOrder::kXyzw ? "xyzw" : "wxyz";
+}
+const char* EnumTable<EulerConvention>::Name(EulerConvention v) {
+  return v == EulerConvention::kExtrinsic ? "extrinsic" : "intrinsic";
 }
 const std::vector<std::string>& OrientationRepresentations() {
   static const std::vector<std::string> names = {"quaternion", "euler"};
-  return names;
-}
-const std::vector<std::string>& QuaternionOrders() {
-  static const std::vector<std::string> names = {"wxyz", "xyzw"};
-  return names;
-}
-const std::vector<std::string>& EulerConventions() {
-  static const std::vector<std::string> names = {"intrinsic", "extrinsic"};
   return names;
 }
 
 namespace {
 
 // The csv column names of `columns` (the request's r): each a non-empty name, `reflector` possibly empty.
-void ReadCsvColumnNames(ObjectReader& r, const std::string& format, CsvColumns* columns) {
+void ReadCsvColumnNames(ObjectReader& r, TrackerFileFormat format, CsvColumns* columns) {
   const nlohmann::json* c = r.Get("columns");
   if (c == nullptr) return;
   Problems& problems = *r.problems();
-  if (format != "csv") problems.Add("columns", "only with format \"csv\"");
+  if (format != TrackerFileFormat::kCsv) problems.Add("columns", "only with format \"csv\"");
   ObjectReader cr(*c, "columns", &problems);
   for (auto [key, out] : {std::pair<const char*, std::string*>{"target", &columns->target},
                           {"x", &columns->x},
@@ -633,14 +641,14 @@ void ReadNamedColumns(ObjectReader& reader, std::size_t min, std::size_t max, st
 }
 
 // `joints` (the request's r): the joint columns and their unit; no plan to match then.
-void ReadJointColumns(ObjectReader& r, const std::string& format, JointColumns* joints) {
+void ReadJointColumns(ObjectReader& r, TrackerFileFormat format, JointColumns* joints) {
   const nlohmann::json* j = r.Get("joints");
   if (j == nullptr) return;
   Problems& problems = *r.problems();
-  if (format != "csv") problems.Add("joints", "only with format \"csv\"");
+  if (format != TrackerFileFormat::kCsv) problems.Add("joints", "only with format \"csv\"");
   ObjectReader jr(*j, "joints", &problems);
   ReadNamedColumns(jr, 1, static_cast<std::size_t>(kMaxJoints), &joints->columns);
-  jr.Enum("unit", true, AngleUnits(), &joints->unit);
+  jr.Enum("unit", true, &joints->unit);
   jr.RejectUnknown(WireFieldNames<JointColumns>());
   // Each row carries its joints: there is no plan to match.
   for (const char* key : {"plan", "match", "shots_per_configuration"}) {
@@ -661,7 +669,7 @@ void ReadOrientationColumns(ObjectReader& r, OrientationColumns* oc) {
   const std::size_t count = quaternion ? 4 : 3;
   ReadNamedColumns(orr, count, count, &oc->columns);
   if (quaternion) {
-    orr.Enum("order", true, QuaternionOrders(), &oc->order);
+    orr.Enum("order", true, &oc->order);
     orr.RejectUnknown(WireFieldNamesOf(*oc));
     return;
   }
@@ -672,9 +680,16 @@ void ReadOrientationColumns(ObjectReader& r, OrientationColumns* oc) {
       problems.Add("orientation.sequence", e.what());
     }
   }
-  orr.Enum("convention", true, EulerConventions(), &oc->convention);
-  orr.Enum("unit", true, AngleUnits(), &oc->unit);
+  orr.Enum("convention", true, &oc->convention);
+  orr.Enum("unit", true, &oc->unit);
   orr.RejectUnknown(WireFieldNamesOf(*oc));
+}
+
+// An optional member of the request: set when `key` is present and one of E's names.
+template <typename E>
+void ReadOptionalEnum(ObjectReader& r, const std::string& key, std::optional<E>* out) {
+  E value{};
+  if (r.Enum(key, false, &value)) *out = value;
 }
 
 // `rows` (the request's r): ascending 1-based line numbers of the text, each once.
@@ -709,24 +724,24 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
                  "test shots carry their ISO 9283 pose and cycle, which a tracker export does not: upload them "
                  "as measurements (POST /v1/campaigns/{c}/measurements)");
   }
-  r.Enum("format", true, TrackerFileFormats(), &req.format);
+  r.Enum("format", true, &req.format);
   if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
     problems.Add("text", "the file is empty");
   }
-  r.Enum("unit", false, TrackerFileUnits(), &req.unit);
+  ReadOptionalEnum(r, "unit", &req.unit);
   r.String("plan", false, &req.plan, 64);
-  r.Enum("match", false, TrackerFileMatches(), &req.match);
+  r.Enum("match", false, &req.match);
   r.Int("shots_per_configuration", false, &req.shots_per_configuration, 1, 1000);
-  if (r.Has("shots_per_configuration") && req.match != "order") {
+  if (r.Has("shots_per_configuration") && req.match != TrackerFileMatch::kOrder) {
     problems.Add("shots_per_configuration", "only with match \"order\"");
   }
   ReadCsvColumnNames(r, req.format, &req.columns);
-  r.Enum("delimiter", false, TrackerFileDelimiters(), &req.delimiter);
-  r.Enum("decimal", false, TrackerFileDecimals(), &req.decimal);
-  if (req.decimal == "," && req.delimiter == ",") {
+  ReadOptionalEnum(r, "delimiter", &req.delimiter);
+  r.Enum("decimal", false, &req.decimal);
+  if (req.decimal == TrackerFileDecimal::kComma && req.delimiter == TrackerFileDelimiter::kComma) {
     problems.Add("decimal", "a decimal comma needs another delimiter (\";\" or a tab)");
   }
-  if ((r.Has("delimiter") || r.Has("decimal")) && req.format != "csv") {
+  if ((r.Has("delimiter") || r.Has("decimal")) && req.format != TrackerFileFormat::kCsv) {
     problems.Add(r.Has("delimiter") ? "delimiter" : "decimal", "only with format \"csv\"");
   }
   ReadJointColumns(r, req.format, &req.joints);
@@ -744,7 +759,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems) {
   std::vector<TrackerPoint> points;
   const std::vector<std::string_view> lines = Lines(request.text);
-  if (request.format == "sa") {
+  if (request.format == TrackerFileFormat::kSa) {
     ReadSa(request, lines, &points, problems);
   } else {
     ReadCsv(request, lines, &points, problems);
@@ -855,7 +870,7 @@ MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& r
   batch.role = request.role;
   const std::size_t m = configurations.size();
   std::vector<int> configuration(points.size(), -1);
-  if (request.match == "order") {
+  if (request.match == TrackerFileMatch::kOrder) {
     std::size_t shots = static_cast<std::size_t>(request.shots_per_configuration);
     if (shots == 0 && m > 0 && points.size() % m == 0) shots = points.size() / m;
     if (shots == 0 || points.size() != m * shots) {
