@@ -39,25 +39,25 @@ std::string Trim(const std::string& s) {
   return s.substr(first, last - first + 1);
 }
 
-double UnitScale(const std::string& unit) {
-  if (unit == "m") return 1000.0;
-  if (unit == "in") return 25.4;
+double UnitScale(TrackerFileUnit unit) {
+  if (unit == TrackerFileUnit::kM) return 1000.0;
+  if (unit == TrackerFileUnit::kIn) return 25.4;
   return 1.0;
 }
 
-// The unit a header word names ("Millimeters", "mm", "metres", "inch", ...), or empty.
-std::string UnitOfWord(const std::string& word) {
+// The unit a header word names ("Millimeters", "mm", "metres", "inch", ...), or none.
+std::optional<TrackerFileUnit> UnitOfWord(const std::string& word) {
   const std::string w = Lower(Trim(word));
   for (const char* mm : {"mm", "millimeter", "millimeters", "millimetre", "millimetres"}) {
-    if (w == mm) return "mm";
+    if (w == mm) return TrackerFileUnit::kMm;
   }
   for (const char* m : {"m", "meter", "meters", "metre", "metres"}) {
-    if (w == m) return "m";
+    if (w == m) return TrackerFileUnit::kM;
   }
   for (const char* in : {"in", "inch", "inches"}) {
-    if (w == in) return "in";
+    if (w == in) return TrackerFileUnit::kIn;
   }
-  return "";
+  return std::nullopt;
 }
 
 std::string LineReason(int line, const std::string& why) { return "line " + std::to_string(line) + ": " + why; }
@@ -212,7 +212,7 @@ bool CheckPosition(const Eigen::Vector3d& p, int line, Problems* problems) {
 
 void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
             std::vector<TrackerPoint>* points, Problems* problems) {
-  std::string declared;
+  std::optional<TrackerFileUnit> declared;
   int declared_line = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
@@ -234,12 +234,12 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
         word += header[k];
       }
       if (word.empty() && first != std::string::npos) word = header.substr(first);
-      const std::string unit = UnitOfWord(word);
-      if (unit.empty()) {
+      const std::optional<TrackerFileUnit> unit = UnitOfWord(word);
+      if (!unit) {
         problems->Add("text", LineReason(line, "unknown unit " + Shown(Trim(word)) + " (mm, m or in)"));
-      } else if (!declared.empty() && unit != declared) {
-        problems->Add("text", LineReason(line, "declares " + unit + ", line " + std::to_string(declared_line) +
-                                                   " declared " + declared));
+      } else if (declared && *unit != *declared) {
+        problems->Add("text", LineReason(line, std::string("declares ") + WireName(*unit) + ", line " +
+                                                   std::to_string(declared_line) + " declared " + WireName(*declared)));
       } else {
         declared = unit;
         declared_line = line;
@@ -278,19 +278,19 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
     if (ok) points->push_back(std::move(p));
   }
   // The unit: the request's or the file's, and never two different ones.
-  std::string unit = req.unit;
-  if (!declared.empty() && !unit.empty() && declared != unit) {
-    problems->Add("unit", "the request says " + unit + ", the file declares " + declared + " (line " +
-                              std::to_string(declared_line) + ")");
-  } else if (unit.empty()) {
+  std::optional<TrackerFileUnit> unit = req.unit;
+  if (declared && unit && *declared != *unit) {
+    problems->Add("unit", std::string("the request says ") + WireName(*unit) + ", the file declares " +
+                              WireName(*declared) + " (line " + std::to_string(declared_line) + ")");
+  } else if (!unit) {
     unit = declared;
   }
-  if (unit.empty()) {
+  if (!unit) {
     problems->Add("unit", "the file declares no unit (a '// Units: mm' line) and the request gives none");
     points->clear();  // positions in no known unit are no points
     return;
   }
-  const double scale = UnitScale(unit);
+  const double scale = UnitScale(*unit);
   std::vector<TrackerPoint> kept;
   for (TrackerPoint& p : *points) {
     p.position_mm *= scale;
@@ -299,93 +299,234 @@ void ReadSa(const ImportMeasurementsRequest& req, const std::vector<std::string_
   *points = std::move(kept);
 }
 
-void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
-             std::vector<TrackerPoint>* points, Problems* problems) {
-  if (req.unit.empty()) problems->Add("unit", "required for format csv (mm, m or in)");
+// A CSV export's header row: its index among the lines, its 1-based line, its text, the delimiter and decimal
+// separator of the file, and the column names.
+struct CsvHeader {
+  std::size_t index = 0;
+  int line = 0;
+  std::string text;
+  char delimiter = 0;
+  char decimal = '.';
+  std::vector<std::string> names;
+};
+
+// The header: the first line that is not blank, split at the request's delimiter or the most frequent one. False
+// when there is none (no line: "no points" follows) or it is not usable (a problem says why).
+bool ReadCsvHeader(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines, CsvHeader* header,
+                   Problems* problems) {
   std::size_t header_index = 0;
   while (header_index < lines.size() && Trim(std::string(lines[header_index])).empty()) ++header_index;
-  if (header_index == lines.size()) return;  // "no points" follows
-  const int header_line = static_cast<int>(header_index) + 1;
-  const std::string header_text(lines[header_index]);
-  const char delimiter = req.delimiter.empty() ? CsvDelimiter(header_text) : req.delimiter[0];
-  const char decimal = req.decimal == "," ? ',' : '.';
-  std::vector<std::string> header;
+  if (header_index == lines.size()) return false;  // "no points" follows
+  header->index = header_index;
+  header->line = static_cast<int>(header_index) + 1;
+  header->text = std::string(lines[header_index]);
+  const std::string& header_text = header->text;
+  const int header_line = header->line;
+  // Each delimiter's wire name is the character itself.
+  const char delimiter = req.delimiter ? WireName(*req.delimiter)[0] : CsvDelimiter(header_text);
+  header->delimiter = delimiter;
+  header->decimal = req.decimal == TrackerFileDecimal::kComma ? ',' : '.';
   if (delimiter != 0 && std::count(header_text.begin(), header_text.end(), delimiter) >= kMaxCsvFields) {
     problems->Add("text", LineReason(header_line, "more than " + std::to_string(kMaxCsvFields) + " columns"));
-    return;
+    return false;
   }
-  if (delimiter == 0 || !SplitCsvRow(header_text, delimiter, &header)) {
+  if (delimiter == 0 || !SplitCsvRow(header_text, delimiter, &header->names)) {
     problems->Add("text", LineReason(header_line, "the header has no ',', ';' or tab between column names"));
-    return;
+    return false;
   }
-  if (header.size() < 3) {
-    problems->Add(
-        "text", LineReason(header_line, "the header has " + std::to_string(header.size()) + " column(s) at delimiter " +
-                                            Shown(std::string(1, delimiter)) + ": is the delimiter right?"));
-    return;
+  if (header->names.size() < 3) {
+    problems->Add("text", LineReason(header_line, "the header has " + std::to_string(header->names.size()) +
+                                                      " column(s) at delimiter " + Shown(std::string(1, delimiter)) +
+                                                      ": is the delimiter right?"));
+    return false;
   }
-  // The columns the import needs: target (matching by name), x, y, z, the nest, the joints, the orientation.
-  struct Wanted {
-    std::string field;
-    std::string name;
-    int index = -1;
-  };
+  return true;
+}
+
+// A column the import needs: the request's field that names it, its name, and its index in the header.
+struct CsvWanted {
+  std::string field;
+  std::string name;
+  int index = -1;
+};
+
+// The columns the import needs: target (matching by name), x, y, z, the nest, the joints, the orientation; each
+// role's entries in `wanted` (SIZE_MAX: not read).
+struct CsvLayout {
+  std::vector<CsvWanted> wanted;
+  std::size_t target = SIZE_MAX;
+  std::size_t axes[3] = {SIZE_MAX, SIZE_MAX, SIZE_MAX};
+  std::size_t reflector = SIZE_MAX;
+  std::vector<std::size_t> joint_columns, orientation_columns;
+  // The largest header index of a wanted column.
+  std::size_t max_index = 0;
+};
+
+CsvLayout WantedCsvColumns(const ImportMeasurementsRequest& req) {
   const bool with_joints = !req.joints.columns.empty();
-  std::vector<Wanted> wanted;
+  CsvLayout layout;
+  std::vector<CsvWanted>& wanted = layout.wanted;
   const auto want = [&](const std::string& field, const std::string& name) {
     wanted.push_back({field, name});
     return wanted.size() - 1;
   };
-  const std::size_t target =
-      req.match == "name" && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
-  const std::size_t axes[3] = {want("columns.x", req.columns.x), want("columns.y", req.columns.y),
-                               want("columns.z", req.columns.z)};
-  const std::size_t reflector =
-      req.columns.reflector.empty() ? SIZE_MAX : want("columns.reflector", req.columns.reflector);
-  std::vector<std::size_t> joint_columns, orientation_columns;
+  layout.target =
+      req.match == TrackerFileMatch::kName && !with_joints ? want("columns.target", req.columns.target) : SIZE_MAX;
+  layout.axes[0] = want("columns.x", req.columns.x);
+  layout.axes[1] = want("columns.y", req.columns.y);
+  layout.axes[2] = want("columns.z", req.columns.z);
+  layout.reflector = req.columns.reflector.empty() ? SIZE_MAX : want("columns.reflector", req.columns.reflector);
   for (std::size_t k = 0; k < req.joints.columns.size(); ++k) {
-    joint_columns.push_back(want("joints.columns[" + std::to_string(k) + "]", req.joints.columns[k]));
+    layout.joint_columns.push_back(want("joints.columns[" + std::to_string(k) + "]", req.joints.columns[k]));
   }
   for (std::size_t k = 0; k < req.orientation.columns.size(); ++k) {
-    orientation_columns.push_back(want("orientation.columns[" + std::to_string(k) + "]", req.orientation.columns[k]));
+    layout.orientation_columns.push_back(
+        want("orientation.columns[" + std::to_string(k) + "]", req.orientation.columns[k]));
   }
+  return layout;
+}
+
+// Each wanted column's index in the header (names matched without regard to case or surrounding white space); false
+// when one is missing (a problem for each).
+bool FindCsvColumns(const CsvHeader& header, CsvLayout* layout, Problems* problems) {
   bool columns_ok = true;
-  for (Wanted& w : wanted) {
-    for (std::size_t c = 0; c < header.size(); ++c) {
-      if (Lower(Trim(header[c])) == Lower(Trim(w.name))) {
+  for (CsvWanted& w : layout->wanted) {
+    for (std::size_t c = 0; c < header.names.size(); ++c) {
+      if (Lower(Trim(header.names[c])) == Lower(Trim(w.name))) {
         w.index = static_cast<int>(c);
         break;
       }
     }
     if (w.index < 0) {
-      problems->Add(w.field, "no column " + Shown(w.name) + " in the header (line " + std::to_string(header_line) +
-                                 ": " + Shown(header_text) + ")");
+      problems->Add(w.field, "no column " + Shown(w.name) + " in the header (line " + std::to_string(header.line) +
+                                 ": " + Shown(header.text) + ")");
       columns_ok = false;
     }
   }
-  if (!columns_ok) return;
-  const double scale = UnitScale(req.unit);
-  const double joint_scale = req.joints.unit == "rad" ? kDegPerRad : 1.0;
-  const double angle_scale = req.orientation.unit == "deg" ? kRadPerDeg : 1.0;
-  std::size_t max_index = 0;
-  for (const Wanted& w : wanted) max_index = std::max(max_index, static_cast<std::size_t>(w.index));
-  std::vector<std::string> fields;
+  if (!columns_ok) return false;
+  for (const CsvWanted& w : layout->wanted) {
+    layout->max_index = std::max(layout->max_index, static_cast<std::size_t>(w.index));
+  }
+  return true;
+}
+
+// The points of a CSV export's data rows, in the request's units and layout.
+class CsvPointReader {
+ public:
+  CsvPointReader(const ImportMeasurementsRequest& req, const CsvHeader& header, const CsvLayout& layout,
+                 Problems* problems)
+      : req_(req),
+        layout_(layout),
+        decimal_(header.decimal),
+        scale_(req.unit ? UnitScale(*req.unit) : 1.0),
+        joint_scale_(req.joints.unit == AngleUnit::kRad ? kDegPerRad : 1.0),
+        angle_scale_(req.orientation.unit == AngleUnit::kDeg ? kRadPerDeg : 1.0),
+        problems_(problems) {}
+
+  // The point of a row split into `fields` (each wanted column present), appended to *points when usable; its
+  // problems recorded.
+  void Add(const std::vector<std::string>& fields, int line, std::vector<TrackerPoint>* points) const {
+    const std::vector<CsvWanted>& wanted = layout_.wanted;
+    TrackerPoint p;
+    p.line = line;
+    bool ok = true;
+    if (layout_.target != SIZE_MAX) p.target = fields[wanted[layout_.target].index];
+    if (layout_.reflector != SIZE_MAX) p.reflector = fields[wanted[layout_.reflector].index];
+    if (p.target.size() > kMaxTargetLength || p.reflector.size() > kMaxTargetLength) {
+      problems_->Add("text", LineReason(line, "target or reflector longer than " + std::to_string(kMaxTargetLength)));
+      ok = false;
+    }
+    for (int k = 0; k < 3; ++k) {
+      double v = 0.0;
+      if (Read(fields, wanted[layout_.axes[k]], line, &v)) {
+        p.position_mm[k] = v * scale_;
+      } else {
+        ok = false;
+      }
+    }
+    for (std::size_t k : layout_.joint_columns) {
+      double v = 0.0;
+      if (Read(fields, wanted[k], line, &v)) {
+        p.joints_deg.push_back(v * joint_scale_);
+      } else {
+        ok = false;
+      }
+    }
+    std::vector<double> angles;
+    for (std::size_t k : layout_.orientation_columns) {
+      double v = 0.0;
+      if (Read(fields, wanted[k], line, &v)) {
+        angles.push_back(v);
+      } else {
+        ok = false;
+      }
+    }
+    if (ok && !angles.empty()) ok = SetOrientation(angles, line, &p);
+    if (ok && CheckPosition(p.position_mm, line, problems_)) points->push_back(std::move(p));
+  }
+
+ private:
   // A field's number, or a problem naming the line and the column.
-  const auto read = [&](const std::vector<std::string>& row, const Wanted& w, int line, double* out) {
+  bool Read(const std::vector<std::string>& row, const CsvWanted& w, int line, double* out) const {
     const std::string& field = row[static_cast<std::size_t>(w.index)];
-    const std::optional<double> v = Number(field, decimal);
+    const std::optional<double> v = Number(field, decimal_);
     if (!v) {
       std::string why = "column " + Shown(w.name) + ": " + Shown(field) + " is not a finite number";
-      if (decimal == '.' && field.find(',') != std::string::npos && Number(field, ',').has_value()) {
+      if (decimal_ == '.' && field.find(',') != std::string::npos && Number(field, ',').has_value()) {
         why += " (decimal commas: give decimal \",\")";
       }
-      problems->Add("text", LineReason(line, why));
+      problems_->Add("text", LineReason(line, why));
       return false;
     }
     *out = *v;
     return true;
-  };
-  for (std::size_t i = header_index + 1; i < lines.size(); ++i) {
+  }
+
+  // The measured orientation from the orientation columns' values; false when a quaternion is not of unit norm.
+  bool SetOrientation(const std::vector<double>& angles, int line, TrackerPoint* p) const {
+    bool ok = true;
+    Eigen::Quaterniond q;
+    if (req_.orientation.representation == "quaternion") {
+      const bool w_first = req_.orientation.order == QuaternionOrder::kWxyz;
+      q = w_first ? Eigen::Quaterniond(angles[0], angles[1], angles[2], angles[3])
+                  : Eigen::Quaterniond(angles[3], angles[0], angles[1], angles[2]);
+      const double norm = q.norm();
+      if (!(std::abs(norm - 1.0) < 1e-3)) {
+        std::ostringstream why;
+        why << "the quaternion's norm is " << norm << ", not 1: are the columns and their order right?";
+        problems_->Add("text", LineReason(line, why.str()));
+        ok = false;
+      }
+      q.normalize();
+    } else {
+      q = Eigen::Quaterniond(
+          EulerToRotation(req_.orientation.sequence, req_.orientation.convention == EulerConvention::kIntrinsic,
+                          angles[0] * angle_scale_, angles[1] * angle_scale_, angles[2] * angle_scale_));
+    }
+    if (q.w() < 0.0) q.coeffs() *= -1.0;
+    p->has_orientation = true;
+    p->quaternion = {q.w(), q.x(), q.y(), q.z()};
+    return ok;
+  }
+
+  const ImportMeasurementsRequest& req_;
+  const CsvLayout& layout_;
+  const char decimal_;
+  const double scale_, joint_scale_, angle_scale_;
+  Problems* problems_;
+};
+
+void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string_view>& lines,
+             std::vector<TrackerPoint>* points, Problems* problems) {
+  if (!req.unit) problems->Add("unit", "required for format csv (mm, m or in)");
+  CsvHeader header;
+  if (!ReadCsvHeader(req, lines, &header, problems)) return;
+  CsvLayout layout = WantedCsvColumns(req);
+  if (!FindCsvColumns(header, &layout, problems)) return;
+  const CsvPointReader reader(req, header, layout, problems);
+  const char delimiter = header.delimiter;
+  std::vector<std::string> fields;
+  for (std::size_t i = header.index + 1; i < lines.size(); ++i) {
     const int line = static_cast<int>(i) + 1;
     const std::string row(lines[i]);
     if (Trim(row).empty()) continue;
@@ -401,8 +542,8 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
       problems->Add("text", LineReason(line, "a quote is not closed"));
       continue;
     }
-    if (max_index >= fields.size()) {
-      for (const Wanted& w : wanted) {
+    if (layout.max_index >= fields.size()) {
+      for (const CsvWanted& w : layout.wanted) {
         if (static_cast<std::size_t>(w.index) < fields.size()) continue;
         problems->Add("text", LineReason(line, "no value in column " + Shown(w.name) + " (" +
                                                    std::to_string(fields.size()) + " fields)"));
@@ -410,105 +551,166 @@ void ReadCsv(const ImportMeasurementsRequest& req, const std::vector<std::string
       }
       continue;
     }
-    TrackerPoint p;
-    p.line = line;
-    bool ok = true;
-    if (target != SIZE_MAX) p.target = fields[wanted[target].index];
-    if (reflector != SIZE_MAX) p.reflector = fields[wanted[reflector].index];
-    if (p.target.size() > kMaxTargetLength || p.reflector.size() > kMaxTargetLength) {
-      problems->Add("text", LineReason(line, "target or reflector longer than " + std::to_string(kMaxTargetLength)));
-      ok = false;
-    }
-    for (int k = 0; k < 3; ++k) {
-      double v = 0.0;
-      if (read(fields, wanted[axes[k]], line, &v)) {
-        p.position_mm[k] = v * scale;
-      } else {
-        ok = false;
-      }
-    }
-    for (std::size_t k : joint_columns) {
-      double v = 0.0;
-      if (read(fields, wanted[k], line, &v)) {
-        p.joints_deg.push_back(v * joint_scale);
-      } else {
-        ok = false;
-      }
-    }
-    std::vector<double> angles;
-    for (std::size_t k : orientation_columns) {
-      double v = 0.0;
-      if (read(fields, wanted[k], line, &v)) {
-        angles.push_back(v);
-      } else {
-        ok = false;
-      }
-    }
-    if (ok && !angles.empty()) {
-      Eigen::Quaterniond q;
-      if (req.orientation.representation == "quaternion") {
-        const bool w_first = req.orientation.order == "wxyz";
-        q = w_first ? Eigen::Quaterniond(angles[0], angles[1], angles[2], angles[3])
-                    : Eigen::Quaterniond(angles[3], angles[0], angles[1], angles[2]);
-        const double norm = q.norm();
-        if (!(std::abs(norm - 1.0) < 1e-3)) {
-          std::ostringstream why;
-          why << "the quaternion's norm is " << norm << ", not 1: are the columns and their order right?";
-          problems->Add("text", LineReason(line, why.str()));
-          ok = false;
-        }
-        q.normalize();
-      } else {
-        q = Eigen::Quaterniond(EulerToRotation(req.orientation.sequence, req.orientation.convention == "intrinsic",
-                                               angles[0] * angle_scale, angles[1] * angle_scale,
-                                               angles[2] * angle_scale));
-      }
-      if (q.w() < 0.0) q.coeffs() *= -1.0;
-      p.has_orientation = true;
-      p.quaternion = {q.w(), q.x(), q.y(), q.z()};
-    }
-    if (ok && CheckPosition(p.position_mm, line, problems)) points->push_back(std::move(p));
+    reader.Add(fields, line, points);
   }
 }
 
 }  // namespace
 
-const std::vector<std::string>& TrackerFileFormats() {
-  static const std::vector<std::string> names = {"sa", "csv"};
-  return names;
+const char* EnumTable<TrackerFileFormat>::Name(TrackerFileFormat v) {
+  return v == TrackerFileFormat::kCsv ? "csv" : "sa";
 }
-const std::vector<std::string>& TrackerFileUnits() {
-  static const std::vector<std::string> names = {"mm", "m", "in"};
-  return names;
+const char* EnumTable<TrackerFileUnit>::Name(TrackerFileUnit v) {
+  switch (v) {
+    case TrackerFileUnit::kM:
+      return "m";
+    case TrackerFileUnit::kIn:
+      return "in";
+    case TrackerFileUnit::kMm:
+      break;
+  }
+  return "mm";
 }
-const std::vector<std::string>& TrackerFileMatches() {
-  static const std::vector<std::string> names = {"name", "order"};
-  return names;
+const char* EnumTable<TrackerFileMatch>::Name(TrackerFileMatch v) {
+  return v == TrackerFileMatch::kOrder ? "order" : "name";
 }
-const std::vector<std::string>& TrackerFileDelimiters() {
-  static const std::vector<std::string> names = {",", ";", "\t"};
-  return names;
+const char* EnumTable<TrackerFileDelimiter>::Name(TrackerFileDelimiter v) {
+  switch (v) {
+    case TrackerFileDelimiter::kSemicolon:
+      return ";";
+    case TrackerFileDelimiter::kTab:
+      return "\t";
+    case TrackerFileDelimiter::kComma:
+      break;
+  }
+  return ",";
 }
-const std::vector<std::string>& TrackerFileDecimals() {
-  static const std::vector<std::string> names = {".", ","};
-  return names;
+const char* EnumTable<TrackerFileDecimal>::Name(TrackerFileDecimal v) {
+  return v == TrackerFileDecimal::kComma ? "," : ".";
 }
-const std::vector<std::string>& AngleUnits() {
-  static const std::vector<std::string> names = {"deg", "rad"};
-  return names;
+const char* EnumTable<AngleUnit>::Name(AngleUnit v) { return v == AngleUnit::kRad ? "rad" : "deg"; }
+const char* EnumTable<QuaternionOrder>::Name(QuaternionOrder v) {
+  return v == QuaternionOrder::kXyzw ? "xyzw" : "wxyz";
+}
+const char* EnumTable<EulerConvention>::Name(EulerConvention v) {
+  return v == EulerConvention::kExtrinsic ? "extrinsic" : "intrinsic";
 }
 const std::vector<std::string>& OrientationRepresentations() {
   static const std::vector<std::string> names = {"quaternion", "euler"};
   return names;
 }
-const std::vector<std::string>& QuaternionOrders() {
-  static const std::vector<std::string> names = {"wxyz", "xyzw"};
-  return names;
+
+namespace {
+
+// The csv column names of `columns` (the request's r): each a non-empty name, `reflector` possibly empty.
+void ReadCsvColumnNames(ObjectReader& r, TrackerFileFormat format, CsvColumns* columns) {
+  const nlohmann::json* c = r.Get("columns");
+  if (c == nullptr) return;
+  Problems& problems = *r.problems();
+  if (format != TrackerFileFormat::kCsv) problems.Add("columns", "only with format \"csv\"");
+  ObjectReader cr(*c, "columns", &problems);
+  for (auto [key, out] : {std::pair<const char*, std::string*>{"target", &columns->target},
+                          {"x", &columns->x},
+                          {"y", &columns->y},
+                          {"z", &columns->z},
+                          {"reflector", &columns->reflector}}) {
+    if (cr.String(key, false, out, 128) && Trim(*out).empty() && std::string(key) != "reflector") {
+      problems.Add(JoinPath("columns", key), "must name a column");
+    }
+  }
+  cr.RejectUnknown(WireFieldNames<CsvColumns>());
 }
-const std::vector<std::string>& EulerConventions() {
-  static const std::vector<std::string> names = {"intrinsic", "extrinsic"};
-  return names;
+
+// The `columns` array of `reader` (joints or orientation): between min and max names, each non-empty, at most 128
+// characters, each named once.
+void ReadNamedColumns(ObjectReader& reader, std::size_t min, std::size_t max, std::vector<std::string>* out) {
+  Problems& problems = *reader.problems();
+  const nlohmann::json* a = reader.Array("columns", true, min, max);
+  if (a == nullptr) return;
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const std::string at = JoinPath(reader.path(), "columns") + "[" + std::to_string(k) + "]";
+    const nlohmann::json& v = (*a)[k];
+    if (!v.is_string() || Trim(v.get<std::string>()).empty() || v.get<std::string>().size() > 128) {
+      problems.Add(at, "must name a column (a non-empty string of at most 128 characters)");
+    } else if (std::find(out->begin(), out->end(), v.get<std::string>()) != out->end()) {
+      problems.Add(at, "\"" + v.get<std::string>() + "\" is named twice");
+    } else {
+      out->push_back(v.get<std::string>());
+    }
+  }
 }
+
+// `joints` (the request's r): the joint columns and their unit; no plan to match then.
+void ReadJointColumns(ObjectReader& r, TrackerFileFormat format, JointColumns* joints) {
+  const nlohmann::json* j = r.Get("joints");
+  if (j == nullptr) return;
+  Problems& problems = *r.problems();
+  if (format != TrackerFileFormat::kCsv) problems.Add("joints", "only with format \"csv\"");
+  ObjectReader jr(*j, "joints", &problems);
+  ReadNamedColumns(jr, 1, static_cast<std::size_t>(kMaxJoints), &joints->columns);
+  jr.Enum("unit", true, &joints->unit);
+  jr.RejectUnknown(WireFieldNames<JointColumns>());
+  // Each row carries its joints: there is no plan to match.
+  for (const char* key : {"plan", "match", "shots_per_configuration"}) {
+    if (r.Has(key)) problems.Add(key, "not with joints: each row is a measurement at its own joints");
+  }
+}
+
+// `orientation` (the request's r): a quaternion's four columns and order, or Euler angles' three columns, sequence,
+// convention and unit.
+void ReadOrientationColumns(ObjectReader& r, OrientationColumns* oc) {
+  const nlohmann::json* o = r.Get("orientation");
+  if (o == nullptr) return;
+  Problems& problems = *r.problems();
+  if (!r.Has("joints")) problems.Add("orientation", "only with joints (a file matched to a plan gives points)");
+  ObjectReader orr(*o, "orientation", &problems);
+  if (!orr.Enum("representation", true, OrientationRepresentations(), &oc->representation)) return;
+  const bool quaternion = oc->representation == "quaternion";
+  const std::size_t count = quaternion ? 4 : 3;
+  ReadNamedColumns(orr, count, count, &oc->columns);
+  if (quaternion) {
+    orr.Enum("order", true, &oc->order);
+    orr.RejectUnknown(WireFieldNamesOf(*oc));
+    return;
+  }
+  if (orr.String("sequence", true, &oc->sequence, 8)) {
+    try {
+      (void)EulerToRotation(oc->sequence, true, 0.0, 0.0, 0.0);
+    } catch (const std::invalid_argument& e) {
+      problems.Add("orientation.sequence", e.what());
+    }
+  }
+  orr.Enum("convention", true, &oc->convention);
+  orr.Enum("unit", true, &oc->unit);
+  orr.RejectUnknown(WireFieldNamesOf(*oc));
+}
+
+// An optional member of the request: set when `key` is present and one of E's names.
+template <typename E>
+void ReadOptionalEnum(ObjectReader& r, const std::string& key, std::optional<E>* out) {
+  E value{};
+  if (r.Enum(key, false, &value)) *out = value;
+}
+
+// `rows` (the request's r): ascending 1-based line numbers of the text, each once.
+void ReadRowNumbers(ObjectReader& r, std::vector<int>* rows) {
+  const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes);
+  if (a == nullptr) return;
+  Problems& problems = *r.problems();
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const nlohmann::json& v = (*a)[k];
+    if (!v.is_number_integer() || v.get<std::int64_t>() < 1 ||
+        v.get<std::int64_t>() > static_cast<std::int64_t>(kMaxTrackerFileBytes)) {
+      problems.Add(IndexPath("rows", k), "expected a line number of the text, 1 or more");
+    } else if (!rows->empty() && v.get<std::int64_t>() <= rows->back()) {
+      problems.Add(IndexPath("rows", k), "lines must be ascending, each once");
+    } else {
+      rows->push_back(static_cast<int>(v.get<std::int64_t>()));
+    }
+  }
+}
+
+}  // namespace
 
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body) {
   Problems problems;
@@ -522,109 +724,33 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
                  "test shots carry their ISO 9283 pose and cycle, which a tracker export does not: upload them "
                  "as measurements (POST /v1/campaigns/{c}/measurements)");
   }
-  r.Enum("format", true, TrackerFileFormats(), &req.format);
+  r.Enum("format", true, &req.format);
   if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
     problems.Add("text", "the file is empty");
   }
-  r.Enum("unit", false, TrackerFileUnits(), &req.unit);
+  ReadOptionalEnum(r, "unit", &req.unit);
   r.String("plan", false, &req.plan, 64);
-  r.Enum("match", false, TrackerFileMatches(), &req.match);
+  r.Enum("match", false, &req.match);
   r.Int("shots_per_configuration", false, &req.shots_per_configuration, 1, 1000);
-  if (r.Has("shots_per_configuration") && req.match != "order") {
+  if (r.Has("shots_per_configuration") && req.match != TrackerFileMatch::kOrder) {
     problems.Add("shots_per_configuration", "only with match \"order\"");
   }
-  if (const nlohmann::json* c = r.Get("columns")) {
-    if (req.format != "csv") problems.Add("columns", "only with format \"csv\"");
-    ObjectReader cr(*c, "columns", &problems);
-    for (auto [key, out] : {std::pair<const char*, std::string*>{"target", &req.columns.target},
-                            {"x", &req.columns.x},
-                            {"y", &req.columns.y},
-                            {"z", &req.columns.z},
-                            {"reflector", &req.columns.reflector}}) {
-      if (cr.String(key, false, out, 128) && Trim(*out).empty() && std::string(key) != "reflector") {
-        problems.Add(JoinPath("columns", key), "must name a column");
-      }
-    }
-    cr.RejectUnknown(WireFieldNames<CsvColumns>());
-  }
-  r.Enum("delimiter", false, TrackerFileDelimiters(), &req.delimiter);
-  r.Enum("decimal", false, TrackerFileDecimals(), &req.decimal);
-  if (req.decimal == "," && req.delimiter == ",") {
+  ReadCsvColumnNames(r, req.format, &req.columns);
+  ReadOptionalEnum(r, "delimiter", &req.delimiter);
+  r.Enum("decimal", false, &req.decimal);
+  if (req.decimal == TrackerFileDecimal::kComma && req.delimiter == TrackerFileDelimiter::kComma) {
     problems.Add("decimal", "a decimal comma needs another delimiter (\";\" or a tab)");
   }
-  if ((r.Has("delimiter") || r.Has("decimal")) && req.format != "csv") {
+  if ((r.Has("delimiter") || r.Has("decimal")) && req.format != TrackerFileFormat::kCsv) {
     problems.Add(r.Has("delimiter") ? "delimiter" : "decimal", "only with format \"csv\"");
   }
-  // Column names: non-empty, at most 128 characters, each named once.
-  const auto names = [&](ObjectReader& reader, const std::string& path, std::size_t min, std::size_t max,
-                         std::vector<std::string>* out) {
-    const nlohmann::json* a = reader.Array("columns", true, min, max);
-    if (a == nullptr) return;
-    for (std::size_t k = 0; k < a->size(); ++k) {
-      const std::string at = JoinPath(path, "columns") + "[" + std::to_string(k) + "]";
-      const nlohmann::json& v = (*a)[k];
-      if (!v.is_string() || Trim(v.get<std::string>()).empty() || v.get<std::string>().size() > 128) {
-        problems.Add(at, "must name a column (a non-empty string of at most 128 characters)");
-      } else if (std::find(out->begin(), out->end(), v.get<std::string>()) != out->end()) {
-        problems.Add(at, "\"" + v.get<std::string>() + "\" is named twice");
-      } else {
-        out->push_back(v.get<std::string>());
-      }
-    }
-  };
-  if (const nlohmann::json* j = r.Get("joints")) {
-    if (req.format != "csv") problems.Add("joints", "only with format \"csv\"");
-    ObjectReader jr(*j, "joints", &problems);
-    names(jr, "joints", 1, static_cast<std::size_t>(kMaxJoints), &req.joints.columns);
-    jr.Enum("unit", true, AngleUnits(), &req.joints.unit);
-    jr.RejectUnknown(WireFieldNames<JointColumns>());
-    // Each row carries its joints: there is no plan to match.
-    for (const char* key : {"plan", "match", "shots_per_configuration"}) {
-      if (r.Has(key)) problems.Add(key, "not with joints: each row is a measurement at its own joints");
-    }
-  }
-  if (const nlohmann::json* o = r.Get("orientation")) {
-    if (!r.Has("joints")) problems.Add("orientation", "only with joints (a file matched to a plan gives points)");
-    ObjectReader orr(*o, "orientation", &problems);
-    OrientationColumns& oc = req.orientation;
-    if (orr.Enum("representation", true, OrientationRepresentations(), &oc.representation)) {
-      const bool quaternion = oc.representation == "quaternion";
-      const std::size_t count = quaternion ? 4 : 3;
-      names(orr, "orientation", count, count, &oc.columns);
-      if (quaternion) {
-        orr.Enum("order", true, QuaternionOrders(), &oc.order);
-        orr.RejectUnknown(WireFieldNamesOf(oc));
-      } else {
-        if (orr.String("sequence", true, &oc.sequence, 8)) {
-          try {
-            (void)EulerToRotation(oc.sequence, true, 0.0, 0.0, 0.0);
-          } catch (const std::invalid_argument& e) {
-            problems.Add("orientation.sequence", e.what());
-          }
-        }
-        orr.Enum("convention", true, EulerConventions(), &oc.convention);
-        orr.Enum("unit", true, AngleUnits(), &oc.unit);
-        orr.RejectUnknown(WireFieldNamesOf(oc));
-      }
-    }
-  }
+  ReadJointColumns(r, req.format, &req.joints);
+  ReadOrientationColumns(r, &req.orientation);
   PayloadWire payload;
   if (const nlohmann::json* v = r.Get("payload"); v && ReadRequestObject(*v, "payload", &problems, &payload)) {
     req.payload = payload;
   }
-  if (const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes)) {
-    for (std::size_t k = 0; k < a->size(); ++k) {
-      const nlohmann::json& v = (*a)[k];
-      if (!v.is_number_integer() || v.get<std::int64_t>() < 1 ||
-          v.get<std::int64_t>() > static_cast<std::int64_t>(kMaxTrackerFileBytes)) {
-        problems.Add(IndexPath("rows", k), "expected a line number of the text, 1 or more");
-      } else if (!req.rows.empty() && v.get<std::int64_t>() <= req.rows.back()) {
-        problems.Add(IndexPath("rows", k), "lines must be ascending, each once");
-      } else {
-        req.rows.push_back(static_cast<int>(v.get<std::int64_t>()));
-      }
-    }
-  }
+  ReadRowNumbers(r, &req.rows);
   r.RejectUnknown(WireFieldNames<ImportMeasurementsRequest>());
   problems.ThrowIfAny("invalid measurement import");
   return req;
@@ -633,7 +759,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems) {
   std::vector<TrackerPoint> points;
   const std::vector<std::string_view> lines = Lines(request.text);
-  if (request.format == "sa") {
+  if (request.format == TrackerFileFormat::kSa) {
     ReadSa(request, lines, &points, problems);
   } else {
     ReadCsv(request, lines, &points, problems);
@@ -744,7 +870,7 @@ MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& r
   batch.role = request.role;
   const std::size_t m = configurations.size();
   std::vector<int> configuration(points.size(), -1);
-  if (request.match == "order") {
+  if (request.match == TrackerFileMatch::kOrder) {
     std::size_t shots = static_cast<std::size_t>(request.shots_per_configuration);
     if (shots == 0 && m > 0 && points.size() % m == 0) shots = points.size() / m;
     if (shots == 0 || points.size() != m * shots) {

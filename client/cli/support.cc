@@ -200,7 +200,7 @@ std::vector<std::string> ListOption(Invocation& in, const char* option) {
 api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::string& format, const std::string& path) {
   if (format != "sa" && format != "csv") throw UsageError("--format takes sa or csv, got '" + format + "'");
   api::ImportMeasurementsRequest request;
-  request.format = format;
+  request.format = Invocation::ParseEnum<api::TrackerFileFormat>("--format", format);
   request.text = ReadFile(path);
   if (request.text.empty()) throw UsageError(path + " is empty or not a file");
   // The text goes as JSON, which is UTF-8: a Latin-1 export (µ, ° in its header) is converted first.
@@ -215,8 +215,8 @@ api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::str
   request.role = in.Enum("--role", request.role);
   request.request_id = in.Option("--request-id");
   request.plan = in.Option("--plan");
-  request.unit = in.Option("--unit");
-  request.match = in.Option("--match", request.match);
+  if (in.Has("--unit")) request.unit = Invocation::ParseEnum<api::TrackerFileUnit>("--unit", in.Option("--unit"));
+  request.match = in.Enum("--match", request.match);
   request.shots_per_configuration = static_cast<int>(in.Integer("--shots", 0, 1, 1000));
   if (in.Has("--columns")) {
     if (format != "csv") throw UsageError("--columns is for --format csv");
@@ -238,12 +238,12 @@ api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::str
       *out = item.substr(eq + 1);
     }
   }
-  // A file that carries the joints (and the measured orientation): no plan; the service checks the values and
+  // A file that carries the joints (and the measured orientation): no plan; the service checks the columns and
   // names the field.
   if (in.Has("--joints")) {
     request.joints.columns = ListOption(in, "--joints");
-    request.joints.unit = in.Option("--joint-unit");
-    if (request.joints.unit.empty()) throw UsageError("--joints needs --joint-unit deg|rad");
+    if (in.Option("--joint-unit").empty()) throw UsageError("--joints needs --joint-unit deg|rad");
+    request.joints.unit = in.Enum("--joint-unit", request.joints.unit);
   } else if (in.Has("--joint-unit")) {
     throw UsageError("--joint-unit is for --joints");
   }
@@ -257,21 +257,22 @@ api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::str
     o.representation = quaternion ? "quaternion" : "euler";
     o.columns = ListOption(in, "--orientation-columns");
     if (quaternion) {
-      o.order = in.Option("--quaternion-order");
+      o.order = in.Enum("--quaternion-order", o.order);
     } else {
       o.sequence = in.Option("--euler");
-      o.convention = in.Option("--euler-convention");
-      o.unit = in.Option("--angle-unit");
-      if (o.convention.empty() || o.unit.empty()) {
+      if (in.Option("--euler-convention").empty() || in.Option("--angle-unit").empty()) {
         throw UsageError("--euler needs --euler-convention intrinsic|extrinsic and --angle-unit deg|rad");
       }
+      o.convention = in.Enum("--euler-convention", o.convention);
+      o.unit = in.Enum("--angle-unit", o.unit);
     }
   }
   if (in.Has("--delimiter")) {
-    request.delimiter = in.Option("--delimiter");
-    if (request.delimiter == "tab") request.delimiter = "\t";
+    const std::string delimiter = in.Option("--delimiter");
+    request.delimiter =
+        Invocation::ParseEnum<api::TrackerFileDelimiter>("--delimiter", delimiter == "tab" ? "\t" : delimiter);
   }
-  request.decimal = in.Option("--decimal", request.decimal);
+  request.decimal = in.Enum("--decimal", request.decimal);
   if (in.Has("--payload")) request.payload = ParsePayloadFlag(in.Option("--payload"));
 
   return request;

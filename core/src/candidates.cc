@@ -446,6 +446,49 @@ bool PoseCountOptions::IsValid(std::string* error) const {
   return true;
 }
 
+namespace {
+
+// The first N by the exchange optimiser, from a seeded random start as PlanExchange draws it (of `count`
+// candidates); its summary in *summary.
+ExchangeOutcome FirstPoseCountSet(const PoolBlocks& pool, int count, int n, const ExchangeOptions& x,
+                                  const ObservabilityEvaluator& evaluator, PlanSummary* summary) {
+  Rng rng(x.seed);
+  std::vector<int> all(count);
+  std::iota(all.begin(), all.end(), 0);
+  summary->method = "exchange";
+  summary->objective = x.objective;
+  ExchangeOutcome first = RunExchange(pool, DrawDistinct(std::move(all), n, &rng), x, evaluator, summary);
+  summary->final = first.indices;
+  summary->termination = first.converged ? Termination::kConvergence : Termination::kNoConvergence;
+  summary->message = first.cancelled ? "cancelled" : first.converged ? "converged" : "stopped by its limits";
+  summary->cancelled = first.cancelled;
+  return first;
+}
+
+// The smallest N that reaches the accuracy goal (out->chosen), or the curve's ends without one, said in *m.
+void ChoosePoseCount(const PoseCountOptions& options, double model_error_mm, PoseCountCurve* out,
+                     std::ostringstream* m) {
+  if (options.accuracy_goal_mm > 0.0) {
+    for (size_t i = 0; i < out->points.size() && out->chosen < 0; ++i) {
+      if (out->points[i].predicted_error_mm <= options.accuracy_goal_mm) out->chosen = static_cast<int>(i);
+    }
+    if (out->chosen >= 0) {
+      *m << "N = " << out->points[out->chosen].num_configurations << " reaches the goal of " << options.accuracy_goal_mm
+         << " mm (predicted " << out->points[out->chosen].predicted_error_mm << " mm)";
+    } else if (!out->points.empty()) {
+      *m << "no N up to " << out->points.back().num_configurations << " reaches the goal of "
+         << options.accuracy_goal_mm << " mm: the prediction is " << out->points.back().predicted_error_mm
+         << " mm there (model error " << model_error_mm << " mm)";
+    }
+  } else if (!out->points.empty()) {
+    *m << "predicted error " << out->points.front().predicted_error_mm
+       << " mm at N = " << out->points.front().num_configurations << ", " << out->points.back().predicted_error_mm
+       << " mm at N = " << out->points.back().num_configurations;
+  }
+}
+
+}  // namespace
+
 PoseCountCurve PlanPoseCount(const RobotModel& model, const ObservabilityOptions& observability,
                              const PoseCountOptions& options) {
   std::string error;
@@ -478,18 +521,7 @@ PoseCountCurve PlanPoseCount(const RobotModel& model, const ObservabilityOptions
   }
   const std::vector<Eigen::VectorXd>& candidates = *x.candidates.configurations;
   const PoolBlocks pool = CandidateBlocks(candidates, usable.indices, &evaluator);
-  // The first N by the exchange optimiser, from a seeded random start as PlanExchange draws it.
-  Rng rng(x.seed);
-  std::vector<int> all(count);
-  std::iota(all.begin(), all.end(), 0);
-  out.exchange.method = "exchange";
-  out.exchange.objective = x.objective;
-  ExchangeOutcome first =
-      RunExchange(pool, DrawDistinct(std::move(all), ns.front(), &rng), x, evaluator, &out.exchange);
-  out.exchange.final = first.indices;
-  out.exchange.termination = first.converged ? Termination::kConvergence : Termination::kNoConvergence;
-  out.exchange.message = first.cancelled ? "cancelled" : first.converged ? "converged" : "stopped by its limits";
-  out.exchange.cancelled = first.cancelled;
+  ExchangeOutcome first = FirstPoseCountSet(pool, count, ns.front(), x, evaluator, &out.exchange);
   std::vector<int> members = std::move(first.members);
   std::vector<char> in_set(count, 0);
   for (int j : members) in_set[j] = 1;
@@ -517,23 +549,7 @@ PoseCountCurve PlanPoseCount(const RobotModel& model, const ObservabilityOptions
   }
   std::ostringstream m;
   m << std::setprecision(3);
-  if (options.accuracy_goal_mm > 0.0) {
-    for (size_t i = 0; i < out.points.size() && out.chosen < 0; ++i) {
-      if (out.points[i].predicted_error_mm <= options.accuracy_goal_mm) out.chosen = static_cast<int>(i);
-    }
-    if (out.chosen >= 0) {
-      m << "N = " << out.points[out.chosen].num_configurations << " reaches the goal of " << options.accuracy_goal_mm
-        << " mm (predicted " << out.points[out.chosen].predicted_error_mm << " mm)";
-    } else if (!out.points.empty()) {
-      m << "no N up to " << out.points.back().num_configurations << " reaches the goal of " << options.accuracy_goal_mm
-        << " mm: the prediction is " << out.points.back().predicted_error_mm << " mm there (model error "
-        << observability.model_error_mm << " mm)";
-    }
-  } else if (!out.points.empty()) {
-    m << "predicted error " << out.points.front().predicted_error_mm
-      << " mm at N = " << out.points.front().num_configurations << ", " << out.points.back().predicted_error_mm
-      << " mm at N = " << out.points.back().num_configurations;
-  }
+  ChoosePoseCount(options, observability.model_error_mm, &out, &m);
   if (first.cancelled) {
     out.termination = Termination::kNoConvergence;
     m << (m.tellp() > 0 ? "; " : "") << "cancelled";

@@ -53,6 +53,57 @@ bool BoundsApart(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eig
   return false;
 }
 
+// A configuration's failed rules (CellKernel::Check), each with its sentences joined in the order they were found.
+struct CellRuleSentences {
+  std::vector<std::string> sentences = std::vector<std::string>(kNumRules);
+  unsigned failed = 0;
+
+  void Add(CellRule rule, const std::string& sentence) {
+    std::string& s = sentences[static_cast<int>(rule)];
+    s += (s.empty() ? "" : "; ") + sentence;
+    failed |= Bit(rule);
+  }
+};
+
+// The clearances of one kind of pair (capsule-obstacle or capsule-capsule) in one configuration: the smallest of
+// every pair goes to the check, and the worst violation of the kind is explained.
+class ClearanceTally {
+ public:
+  ClearanceTally(CellRule rule, double clearance_mm, ConfigurationCheck* check)
+      : rule_(rule), clearance_mm_(clearance_mm), check_(check) {}
+
+  void Consider(double gap, const std::string& a, const std::string& b) {
+    if (gap < check_->min_clearance_mm) {
+      check_->min_clearance_mm = gap;
+      check_->clearance_pair = a + " / " + b;
+    }
+    if (gap < clearance_mm_) {
+      ++violations_;
+      if (gap < worst_) {
+        worst_ = gap;
+        worst_pair_ = rule_ == CellRule::kObstacle ? a + " and obstacle '" + b + "'" : a + " and " + b;
+      }
+    }
+  }
+
+  void Explain(const char* what, CellRuleSentences* sentences) const {
+    if (violations_ == 0) return;
+    std::string s = worst_ < 0.0 ? worst_pair_ + " overlap by " + Fixed(-worst_) + " mm"
+                                 : worst_pair_ + " are " + Fixed(worst_) + " mm apart";
+    s += ", under the " + Fixed(clearance_mm_) + " mm clearance";
+    if (violations_ > 1) s += " (" + std::to_string(violations_) + " " + what + " too close)";
+    sentences->Add(rule_, s);
+  }
+
+ private:
+  const CellRule rule_;
+  const double clearance_mm_;
+  ConfigurationCheck* const check_;
+  double worst_ = std::numeric_limits<double>::infinity();
+  std::string worst_pair_;
+  int violations_ = 0;
+};
+
 }  // namespace
 
 // Everything that reads the cell's precomputed data; a friend of Cell.
@@ -247,6 +298,10 @@ struct CellKernel {
   }
 
   static ConfigurationCheck Check(const RobotModel& model, const Cell& cell, const Eigen::VectorXd& q);
+  static void CheckClearances(const Cell& cell, const Scene& scene, ConfigurationCheck* check,
+                              CellRuleSentences* sentences);
+  static void CheckReflectors(const Cell& cell, const Scene& scene, ConfigurationCheck* check,
+                              CellRuleSentences* sentences);
   static void Precompute(const RobotModel& model, Cell* cell);
 };
 
@@ -254,66 +309,48 @@ ConfigurationCheck CellKernel::Check(const RobotModel& model, const Cell& cell, 
   CheckModel(model, cell, q);
   const CellSpec& spec = cell.spec_;
   ConfigurationCheck check;
-  unsigned failed = 0;
-  std::vector<std::string> sentences(kNumRules);
-  auto add = [&](CellRule rule, const std::string& sentence) {
-    std::string& s = sentences[static_cast<int>(rule)];
-    s += (s.empty() ? "" : "; ") + sentence;
-    failed |= Bit(rule);
-  };
-
+  CellRuleSentences sentences;
   for (int i = 0; i < cell.num_joints_; ++i) {
     if (InRange(cell, q, i)) continue;
-    add(CellRule::kJointRange, model.joint_name(i) + " is at " + JointValue(model, i, q[i]) +
-                                   ", outside the cell's range " +
-                                   JointRange(model, i, spec.joint_min[i], spec.joint_max[i]));
+    sentences.Add(CellRule::kJointRange, model.joint_name(i) + " is at " + JointValue(model, i, q[i]) +
+                                             ", outside the cell's range " +
+                                             JointRange(model, i, spec.joint_min[i], spec.joint_max[i]));
   }
   Scene scene;
   ComputeScene(model, cell, q, &scene);
+  CheckClearances(cell, scene, &check, &sentences);
+  CheckReflectors(cell, scene, &check, &sentences);
+  for (const CellRule rule : kRules) {
+    if (!(sentences.failed & Bit(rule))) continue;
+    check.failed_rules.push_back(rule);
+    check.reasons.push_back(sentences.sentences[static_cast<int>(rule)]);
+  }
+  check.feasible = sentences.failed == 0;
+  return check;
+}
 
-  // Clearances: every checked pair, the smallest reported, the worst violation of each kind explained.
-  auto consider = [&](double gap, const std::string& a, const std::string& b, CellRule rule, double* worst,
-                      std::string* worst_pair, int* violations) {
-    if (gap < check.min_clearance_mm) {
-      check.min_clearance_mm = gap;
-      check.clearance_pair = a + " / " + b;
-    }
-    if (gap < spec.clearance_mm) {
-      ++*violations;
-      if (gap < *worst) {
-        *worst = gap;
-        *worst_pair = rule == CellRule::kObstacle ? a + " and obstacle '" + b + "'" : a + " and " + b;
-      }
-    }
-  };
-  auto explain = [&](CellRule rule, double worst, const std::string& pair, int violations, const char* what) {
-    if (violations == 0) return;
-    std::string s =
-        worst < 0.0 ? pair + " overlap by " + Fixed(-worst) + " mm" : pair + " are " + Fixed(worst) + " mm apart";
-    s += ", under the " + Fixed(spec.clearance_mm) + " mm clearance";
-    if (violations > 1) s += " (" + std::to_string(violations) + " " + what + " too close)";
-    add(rule, s);
-  };
-  double worst_obstacle = std::numeric_limits<double>::infinity();
-  std::string obstacle_pair;
-  int obstacle_violations = 0;
+// Clearances: every checked pair, the smallest reported, the worst violation of each kind explained.
+void CellKernel::CheckClearances(const Cell& cell, const Scene& scene, ConfigurationCheck* check,
+                                 CellRuleSentences* sentences) {
+  const CellSpec& spec = cell.spec_;
+  ClearanceTally obstacles(CellRule::kObstacle, spec.clearance_mm, check);
   for (const int k : cell.obstacle_capsules_) {
     for (const BoxObstacle& box : spec.obstacles) {
-      consider(ObstacleGap(cell, scene, k, box), cell.capsule_names_[k], box.id, CellRule::kObstacle, &worst_obstacle,
-               &obstacle_pair, &obstacle_violations);
+      obstacles.Consider(ObstacleGap(cell, scene, k, box), cell.capsule_names_[k], box.id);
     }
   }
-  explain(CellRule::kObstacle, worst_obstacle, obstacle_pair, obstacle_violations, "capsule-obstacle pairs");
-  double worst_self = std::numeric_limits<double>::infinity();
-  std::string self_pair;
-  int self_violations = 0;
+  obstacles.Explain("capsule-obstacle pairs", sentences);
+  ClearanceTally self(CellRule::kSelfCollision, spec.clearance_mm, check);
   for (const auto& [i, j] : cell.capsule_pairs_) {
-    consider(CapsuleGap(cell, scene, i, j), cell.capsule_names_[i], cell.capsule_names_[j], CellRule::kSelfCollision,
-             &worst_self, &self_pair, &self_violations);
+    self.Consider(CapsuleGap(cell, scene, i, j), cell.capsule_names_[i], cell.capsule_names_[j]);
   }
-  explain(CellRule::kSelfCollision, worst_self, self_pair, self_violations, "capsule pairs");
+  self.Explain("capsule pairs", sentences);
+}
 
-  // Reflectors.
+// Reflectors: each one's figures, and why the ones the tracker cannot measure fail (when none can be).
+void CellKernel::CheckReflectors(const Cell& cell, const Scene& scene, ConfigurationCheck* check,
+                                 CellRuleSentences* sentences) {
+  const CellSpec& spec = cell.spec_;
   const int num_reflectors = static_cast<int>(spec.reflectors.size());
   Sight sights[kMaxReflectors];
   const unsigned sight_failed = SightRules(cell, scene, sights);
@@ -325,31 +362,27 @@ ConfigurationCheck CellKernel::Check(const RobotModel& model, const Cell& cell, 
     r.incidence_rad = IncidenceAngle(scene.normal[t], scene.reflector[t], spec.tracker.position_mm);
     r.distance_mm = sights[t].distance_mm;
     r.blocked_by = BlockerName(cell, sights[t].blocker);
-    check.reflectors.push_back(r);
+    check->reflectors.push_back(r);
     if (sight_failed == 0) continue;
     if (!sights[t].in_window) {
       std::string window =
           "[" + Fixed(spec.tracker.min_distance_mm) + ", " +
           (std::isinf(spec.tracker.max_distance_mm) ? std::string("inf") : Fixed(spec.tracker.max_distance_mm)) +
           "] mm";
-      add(CellRule::kDistance, r.distance_mm > kAtTrackerMm ? reflector.id + " is " + Fixed(r.distance_mm) +
-                                                         " mm from the tracker, outside its window " + window
-                                                   : reflector.id + " is at the tracker itself");
+      sentences->Add(CellRule::kDistance, r.distance_mm > kAtTrackerMm
+                                              ? reflector.id + " is " + Fixed(r.distance_mm) +
+                                                    " mm from the tracker, outside its window " + window
+                                              : reflector.id + " is at the tracker itself");
     }
     if (!sights[t].facing) {
-      add(CellRule::kIncidence, reflector.id + " faces " + Fixed(r.incidence_rad * kDegPerRad) +
-                                    " deg away from the tracker, beyond its acceptance of " +
-                                    Fixed(reflector.acceptance_half_angle_rad * kDegPerRad) + " deg");
+      sentences->Add(CellRule::kIncidence, reflector.id + " faces " + Fixed(r.incidence_rad * kDegPerRad) +
+                                               " deg away from the tracker, beyond its acceptance of " +
+                                               Fixed(reflector.acceptance_half_angle_rad * kDegPerRad) + " deg");
     }
-    if (sights[t].blocker >= 0) add(CellRule::kBeam, "the beam to " + reflector.id + " is blocked by " + r.blocked_by);
+    if (sights[t].blocker >= 0) {
+      sentences->Add(CellRule::kBeam, "the beam to " + reflector.id + " is blocked by " + r.blocked_by);
+    }
   }
-  for (const CellRule rule : kRules) {
-    if (!(failed & Bit(rule))) continue;
-    check.failed_rules.push_back(rule);
-    check.reasons.push_back(sentences[static_cast<int>(rule)]);
-  }
-  check.feasible = failed == 0;
-  return check;
 }
 
 void CellKernel::Precompute(const RobotModel& model, Cell* cell) {
@@ -454,63 +487,69 @@ std::vector<double> DefaultLinkRadii(const RobotModel& model) {
   return std::vector<double>(n, std::clamp(length / 25.0, 10.0, 50.0));
 }
 
-Cell Cell::Build(const RobotModel& model, CellSpec spec) {
-  const int n = model.num_joints();
-  std::vector<FieldError> errors;
-  auto error = [&](const std::string& field, const std::string& reason) { errors.push_back({field, reason}); };
-  const char* const kFinite = "must contain only finite numbers";
+namespace {
 
-  TrackerSpec& tracker = spec.tracker;
-  if (!tracker.position_mm.allFinite()) error("tracker.position_mm", kFinite);
-  const bool min_ok = std::isfinite(tracker.min_distance_mm) && tracker.min_distance_mm >= 0.0;
-  if (!min_ok) error("tracker.min_distance_mm", "must be a finite number >= 0");
-  if (std::isnan(tracker.max_distance_mm) || (std::isinf(tracker.max_distance_mm) && tracker.max_distance_mm < 0.0)) {
-    error("tracker.max_distance_mm", "must be a number (or +infinity: no limit)");
-  } else if (min_ok && !(tracker.max_distance_mm > tracker.min_distance_mm)) {
-    error("tracker.max_distance_mm", "must be greater than min_distance_mm (" + Fixed(tracker.min_distance_mm) +
-                                         " mm), got " + Fixed(tracker.max_distance_mm) + " mm");
-  }
+// The checks of Cell::Build, each collecting the errors of its fields.
+class CellSpecCheck {
+ public:
+  explicit CellSpecCheck(const RobotModel& model) : model_(model) {}
 
-  if (spec.reflectors.size() > static_cast<size_t>(kMaxReflectors)) {
-    error("reflectors",
-          "at most " + std::to_string(kMaxReflectors) + " reflectors, got " + std::to_string(spec.reflectors.size()));
-  }
-  std::set<std::string> ids;
-  for (size_t t = 0; t < spec.reflectors.size(); ++t) {
-    const ReflectorSpec& r = spec.reflectors[t];
-    const std::string prefix = "reflectors[" + std::to_string(t) + "]";
-    if (r.id.empty()) {
-      error(prefix + ".id", "must not be empty");
-    } else if (!ids.insert(r.id).second) {
-      error(prefix + ".id", "duplicate reflector id '" + r.id + "'");
-    }
-    if (!r.position_mm.allFinite()) error(prefix + ".position_mm", kFinite);
-    if (!r.normal.allFinite()) {
-      error(prefix + ".normal", kFinite);
-    } else if (std::abs(r.normal.norm() - 1.0) > 1e-6) {
-      error(prefix + ".normal", "must be a unit vector, its norm is " + Fixed(r.normal.norm(), 6));
-    }
-    if (!(r.acceptance_half_angle_rad > 0.0 && r.acceptance_half_angle_rad <= M_PI)) {
-      error(prefix + ".acceptance_half_angle_deg",
-            "must be in (0, 180] degrees, got " + Fixed(r.acceptance_half_angle_rad * kDegPerRad));
+  void Tracker(const TrackerSpec& tracker) {
+    if (!tracker.position_mm.allFinite()) Error("tracker.position_mm", kFinite);
+    const bool min_ok = std::isfinite(tracker.min_distance_mm) && tracker.min_distance_mm >= 0.0;
+    if (!min_ok) Error("tracker.min_distance_mm", "must be a finite number >= 0");
+    if (std::isnan(tracker.max_distance_mm) || (std::isinf(tracker.max_distance_mm) && tracker.max_distance_mm < 0.0)) {
+      Error("tracker.max_distance_mm", "must be a number (or +infinity: no limit)");
+    } else if (min_ok && !(tracker.max_distance_mm > tracker.min_distance_mm)) {
+      Error("tracker.max_distance_mm", "must be greater than min_distance_mm (" + Fixed(tracker.min_distance_mm) +
+                                           " mm), got " + Fixed(tracker.max_distance_mm) + " mm");
     }
   }
 
-  ids.clear();
-  for (size_t o = 0; o < spec.obstacles.size(); ++o) {
-    const BoxObstacle& box = spec.obstacles[o];
-    const std::string prefix = "obstacles[" + std::to_string(o) + "]";
-    if (box.id.empty()) {
-      error(prefix + ".id", "must not be empty");
-    } else if (!ids.insert(box.id).second) {
-      error(prefix + ".id", "duplicate obstacle id '" + box.id + "'");
+  void Reflectors(const std::vector<ReflectorSpec>& reflectors) {
+    if (reflectors.size() > static_cast<size_t>(kMaxReflectors)) {
+      Error("reflectors",
+            "at most " + std::to_string(kMaxReflectors) + " reflectors, got " + std::to_string(reflectors.size()));
     }
-    if (!box.min_mm.allFinite() || !box.max_mm.allFinite()) {
-      error(prefix + ".box", kFinite);
-    } else {
+    std::set<std::string> ids;
+    for (size_t t = 0; t < reflectors.size(); ++t) {
+      const ReflectorSpec& r = reflectors[t];
+      const std::string prefix = "reflectors[" + std::to_string(t) + "]";
+      if (r.id.empty()) {
+        Error(prefix + ".id", "must not be empty");
+      } else if (!ids.insert(r.id).second) {
+        Error(prefix + ".id", "duplicate reflector id '" + r.id + "'");
+      }
+      if (!r.position_mm.allFinite()) Error(prefix + ".position_mm", kFinite);
+      if (!r.normal.allFinite()) {
+        Error(prefix + ".normal", kFinite);
+      } else if (std::abs(r.normal.norm() - 1.0) > 1e-6) {
+        Error(prefix + ".normal", "must be a unit vector, its norm is " + Fixed(r.normal.norm(), 6));
+      }
+      if (!(r.acceptance_half_angle_rad > 0.0 && r.acceptance_half_angle_rad <= M_PI)) {
+        Error(prefix + ".acceptance_half_angle_deg",
+              "must be in (0, 180] degrees, got " + Fixed(r.acceptance_half_angle_rad * kDegPerRad));
+      }
+    }
+  }
+
+  void Obstacles(const std::vector<BoxObstacle>& obstacles) {
+    std::set<std::string> ids;
+    for (size_t o = 0; o < obstacles.size(); ++o) {
+      const BoxObstacle& box = obstacles[o];
+      const std::string prefix = "obstacles[" + std::to_string(o) + "]";
+      if (box.id.empty()) {
+        Error(prefix + ".id", "must not be empty");
+      } else if (!ids.insert(box.id).second) {
+        Error(prefix + ".id", "duplicate obstacle id '" + box.id + "'");
+      }
+      if (!box.min_mm.allFinite() || !box.max_mm.allFinite()) {
+        Error(prefix + ".box", kFinite);
+        continue;
+      }
       for (int k = 0; k < 3; ++k) {
         if (box.min_mm[k] > box.max_mm[k]) {
-          error(prefix + ".box", std::string("min_mm must not exceed max_mm (") + "xyz"[k] + ": " +
+          Error(prefix + ".box", std::string("min_mm must not exceed max_mm (") + "xyz"[k] + ": " +
                                      Fixed(box.min_mm[k]) + " > " + Fixed(box.max_mm[k]) + ")");
           break;
         }
@@ -518,84 +557,127 @@ Cell Cell::Build(const RobotModel& model, CellSpec spec) {
     }
   }
 
-  if (!spec.link_radii_mm.empty() && static_cast<int>(spec.link_radii_mm.size()) != n) {
-    error("link_radii_mm",
-          "needs one radius per link (" + std::to_string(n) + "), got " + std::to_string(spec.link_radii_mm.size()));
-  }
-  for (size_t k = 0; k < spec.link_radii_mm.size(); ++k) {
-    if (!(std::isfinite(spec.link_radii_mm[k]) && spec.link_radii_mm[k] >= 0.0)) {
-      error("link_radii_mm[" + std::to_string(k) + "]", "must be a finite number >= 0");
+  // The links' and the tool's radii, and the clearance.
+  void Links(const CellSpec& spec) {
+    const int n = model_.num_joints();
+    if (!spec.link_radii_mm.empty() && static_cast<int>(spec.link_radii_mm.size()) != n) {
+      Error("link_radii_mm",
+            "needs one radius per link (" + std::to_string(n) + "), got " + std::to_string(spec.link_radii_mm.size()));
+    }
+    for (size_t k = 0; k < spec.link_radii_mm.size(); ++k) {
+      if (!(std::isfinite(spec.link_radii_mm[k]) && spec.link_radii_mm[k] >= 0.0)) {
+        Error("link_radii_mm[" + std::to_string(k) + "]", "must be a finite number >= 0");
+      }
+    }
+    if (!std::isfinite(spec.tool_radius_mm)) Error("tool_radius_mm", "must be a finite number");
+    if (!(std::isfinite(spec.clearance_mm) && spec.clearance_mm >= 0.0)) {
+      Error("clearance_mm", "must be a finite number >= 0");
     }
   }
-  if (!std::isfinite(spec.tool_radius_mm)) error("tool_radius_mm", "must be a finite number");
-  if (!(std::isfinite(spec.clearance_mm) && spec.clearance_mm >= 0.0)) {
-    error("clearance_mm", "must be a finite number >= 0");
-  }
 
-  const bool no_ranges = spec.joint_min.size() == 0 && spec.joint_max.size() == 0;
-  if (!no_ranges && (spec.joint_min.size() != n || spec.joint_max.size() != n)) {
-    error("joint_ranges", "needs one range per joint (" + std::to_string(n) + "), got " +
-                              std::to_string(std::max(spec.joint_min.size(), spec.joint_max.size())));
-  } else if (!no_ranges) {
+  // The joint ranges given (one per joint, within the robot's limits), clamped to the limits where they exceed
+  // them by round-off.
+  void JointRanges(CellSpec* spec) {
+    const int n = model_.num_joints();
+    if (spec->joint_min.size() != n || spec->joint_max.size() != n) {
+      Error("joint_ranges", "needs one range per joint (" + std::to_string(n) + "), got " +
+                                std::to_string(std::max(spec->joint_min.size(), spec->joint_max.size())));
+      return;
+    }
     for (int i = 0; i < n; ++i) {
       const std::string field = "joint_ranges[" + std::to_string(i) + "]";
-      double& lo = spec.joint_min[i];
-      double& hi = spec.joint_max[i];
-      const double lower = model.lower_limits()[i], upper = model.upper_limits()[i];
+      double& lo = spec->joint_min[i];
+      double& hi = spec->joint_max[i];
+      const double lower = model_.lower_limits()[i], upper = model_.upper_limits()[i];
       if (!std::isfinite(lo) || !std::isfinite(hi)) {
-        error(field, "min and max must be finite numbers");
+        Error(field, "min and max must be finite numbers");
       } else if (!(lo < hi)) {
-        error(field, "min must be less than max, got " + JointRange(model, i, lo, hi));
+        Error(field, "min must be less than max, got " + JointRange(model_, i, lo, hi));
       } else if (lo < lower - 1e-9 * std::max(1.0, std::abs(lower)) ||
                  hi > upper + 1e-9 * std::max(1.0, std::abs(upper))) {
-        error(field, JointRange(model, i, lo, hi) + " must lie within the robot's limits " +
-                         JointRange(model, i, lower, upper));
+        Error(field, JointRange(model_, i, lo, hi) + " must lie within the robot's limits " +
+                         JointRange(model_, i, lower, upper));
       } else {
         lo = std::max(lo, lower);
         hi = std::min(hi, upper);
       }
     }
   }
-  if (tracker.position_mm.allFinite()) {
+
+  void TrackerOutsideObstacles(const CellSpec& spec) {
+    if (!spec.tracker.position_mm.allFinite()) return;
     for (const BoxObstacle& box : spec.obstacles) {
       if (box.min_mm.allFinite() && box.max_mm.allFinite() &&
-          PointBoxDistance(tracker.position_mm, box.min_mm, box.max_mm) == 0.0) {
-        error("tracker.position_mm", "lies in obstacle '" + box.id + "': every beam would be blocked");
+          PointBoxDistance(spec.tracker.position_mm, box.min_mm, box.max_mm) == 0.0) {
+        Error("tracker.position_mm", "lies in obstacle '" + box.id + "': every beam would be blocked");
       }
     }
-  }
-  if (!errors.empty()) throw InvalidModelError(std::move(errors));
-
-  // Defaults.
-  if (spec.reflectors.empty()) {
-    ReflectorSpec tool;
-    tool.id = "tool";
-    tool.position_mm = model.T_flange_tool().translation();
-    tool.normal = model.T_flange_tool().linear().col(2).normalized();
-    spec.reflectors.push_back(tool);
-  }
-  if (spec.link_radii_mm.empty()) spec.link_radii_mm = DefaultLinkRadii(model);
-  if (spec.tool_radius_mm <= 0.0) spec.tool_radius_mm = spec.link_radii_mm.back();
-  if (no_ranges) {
-    spec.joint_min = model.lower_limits();
-    spec.joint_max = model.upper_limits();
   }
 
   // A reflector inside another one's tool capsule could never be seen: refuse it now rather than report it
   // blocked in every configuration.
-  for (size_t t = 0; t < spec.reflectors.size(); ++t) {
-    for (size_t u = 0; u < spec.reflectors.size(); ++u) {
-      if (u == t) continue;
-      const double d =
-          PointSegmentDistance(spec.reflectors[t].position_mm, Eigen::Vector3d::Zero(), spec.reflectors[u].position_mm);
-      if (d < spec.tool_radius_mm) {
-        error("reflectors[" + std::to_string(t) + "].position_mm",
-              "lies " + Fixed(d) + " mm from the axis of reflector '" + spec.reflectors[u].id +
-                  "'s tool capsule (tool_radius_mm " + Fixed(spec.tool_radius_mm) + "): it could never be seen");
+  void ReflectorsOutsideToolCapsules(const CellSpec& spec) {
+    for (size_t t = 0; t < spec.reflectors.size(); ++t) {
+      for (size_t u = 0; u < spec.reflectors.size(); ++u) {
+        if (u == t) continue;
+        const double d = PointSegmentDistance(spec.reflectors[t].position_mm, Eigen::Vector3d::Zero(),
+                                              spec.reflectors[u].position_mm);
+        if (d < spec.tool_radius_mm) {
+          Error("reflectors[" + std::to_string(t) + "].position_mm",
+                "lies " + Fixed(d) + " mm from the axis of reflector '" + spec.reflectors[u].id +
+                    "'s tool capsule (tool_radius_mm " + Fixed(spec.tool_radius_mm) + "): it could never be seen");
+        }
       }
     }
   }
-  if (!errors.empty()) throw InvalidModelError(std::move(errors));
+
+  void ThrowIfAny() {
+    if (!errors_.empty()) throw InvalidModelError(std::move(errors_));
+  }
+
+ private:
+  static constexpr const char* kFinite = "must contain only finite numbers";
+
+  void Error(const std::string& field, const std::string& reason) { errors_.push_back({field, reason}); }
+
+  const RobotModel& model_;
+  std::vector<FieldError> errors_;
+};
+
+// Defaults: the tool's own reflector, link radii from the robot's size, the tool radius of the last link, the
+// robot's limits as the joint ranges.
+void AddCellDefaults(const RobotModel& model, bool no_ranges, CellSpec* spec) {
+  if (spec->reflectors.empty()) {
+    ReflectorSpec tool;
+    tool.id = "tool";
+    tool.position_mm = model.T_flange_tool().translation();
+    tool.normal = model.T_flange_tool().linear().col(2).normalized();
+    spec->reflectors.push_back(tool);
+  }
+  if (spec->link_radii_mm.empty()) spec->link_radii_mm = DefaultLinkRadii(model);
+  if (spec->tool_radius_mm <= 0.0) spec->tool_radius_mm = spec->link_radii_mm.back();
+  if (no_ranges) {
+    spec->joint_min = model.lower_limits();
+    spec->joint_max = model.upper_limits();
+  }
+}
+
+}  // namespace
+
+Cell Cell::Build(const RobotModel& model, CellSpec spec) {
+  CellSpecCheck check(model);
+  check.Tracker(spec.tracker);
+  check.Reflectors(spec.reflectors);
+  check.Obstacles(spec.obstacles);
+  check.Links(spec);
+  const bool no_ranges = spec.joint_min.size() == 0 && spec.joint_max.size() == 0;
+  if (!no_ranges) check.JointRanges(&spec);
+  check.TrackerOutsideObstacles(spec);
+  check.ThrowIfAny();
+
+  AddCellDefaults(model, no_ranges, &spec);
+  check.ReflectorsOutsideToolCapsules(spec);
+  check.ThrowIfAny();
 
   Cell cell;
   cell.spec_ = std::move(spec);

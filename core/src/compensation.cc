@@ -518,6 +518,35 @@ CompensationResult NoSolution(int iterations, std::string message) {
   return none;
 }
 
+// A converged result with the demanded flags (SolveOnBranches): its joints at the turns nearest the reference (a
+// revolute joint's other turns reach the same pose), its flags differing from the wanted ones, its squared distance.
+struct BranchFound {
+  CompensationResult result;
+  Eigen::VectorXd joints;
+  int mismatch = 0;
+  double distance2 = 0.0;
+};
+
+// A nominal closed-form solution as a start of SolveOnBranches, with what orders the starts.
+struct BranchStart {
+  Eigen::VectorXd q;
+  ArmConfiguration configuration;
+  int other_branch = 0;
+  int mismatch = 0;
+  int outside = 0;
+  int inexact = 0;
+  double distance = 0.0;
+};
+
+// The branch wanted: the demanded flags, the rest from the hint (else front, up, noflip).
+ArmConfiguration WantedBranch(const ArmSolver& arm, const Eigen::VectorXd* hint, const ArmConfiguration& demanded) {
+  ArmConfiguration wanted = hint != nullptr ? arm.ConfigurationOf(*hint) : ArmConfiguration{1, 1, 1};
+  if (demanded.shoulder != 0) wanted.shoulder = demanded.shoulder;
+  if (demanded.elbow != 0) wanted.elbow = demanded.elbow;
+  if (demanded.wrist != 0) wanted.wrist = demanded.wrist;
+  return wanted;
+}
+
 // A pose target on a robot with named branches. With a hint (start or previous joints) the answer is, of the
 // converged results with the demanded flags, the one on the wanted branch (else the one missing the fewest and
 // least important wanted flags: shoulder before elbow before wrist) nearest the hint, each joint at its turn
@@ -534,51 +563,86 @@ CompensationResult NoSolution(int iterations, std::string message) {
 // Without a hint, the first nominal solution in that order to converge with the demanded flags is the answer.
 // A converged result is never given up for one that did not converge: the wanted branch is a preference, only
 // the demanded flags are a condition.
-CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
-                                   const Eigen::VectorXd& previous) {
-  const RobotModel& model = ctx.calibration.model;
-  const ArmSolver& arm = *ctx.arm;
-  const ArmConfiguration demanded = t.configuration;
-  const Eigen::VectorXd* hint = t.start.size() != 0 ? &t.start : previous.size() != 0 ? &previous : nullptr;
-  const Eigen::VectorXd& reference = hint != nullptr ? *hint : ctx.default_joints;
-  // The branch wanted: the demanded flags, the rest from the hint (else front, up, noflip).
-  ArmConfiguration wanted = hint != nullptr ? arm.ConfigurationOf(*hint) : ArmConfiguration{1, 1, 1};
-  if (demanded.shoulder != 0) wanted.shoulder = demanded.shoulder;
-  if (demanded.elbow != 0) wanted.elbow = demanded.elbow;
-  if (demanded.wrist != 0) wanted.wrist = demanded.wrist;
+class BranchSearch {
+ public:
+  BranchSearch(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
+               const Eigen::VectorXd& previous)
+      : ctx_(ctx),
+        T_world_target_(T_world_target),
+        t_(t),
+        demanded_(t.configuration),
+        hint_(t.start.size() != 0    ? &t.start
+              : previous.size() != 0 ? &previous
+                                     : nullptr),
+        reference_(hint_ != nullptr ? *hint_ : ctx.default_joints),
+        wanted_(WantedBranch(*ctx.arm, hint_, demanded_)),
+        radius_(ctx.options.start_radius_rad) {}
+
+  CompensationResult Run() {
+    if (hint_ != nullptr) {
+      Consider(SolveFrom(ctx_, T_world_target_, *hint_, ctx_.options.start_damping));
+      if (Settled()) return Finish();
+    }
+    int on_branch = 0;
+    const std::vector<BranchStart> candidates = Starts(&on_branch);
+    const std::string asked = demanded_.ToString();
+    if (candidates.empty() && found_.empty()) {
+      return NoSolution(iterations_, asked.empty()
+                                         ? "no solution on any branch: the target is beyond the arm's reach"
+                                         : "no solution with " + asked + ": the target is beyond the arm's reach");
+    }
+    for (const BranchStart& c : candidates) {
+      // Without a hint the first result to converge is the answer (the order is the preference). With one, every
+      // start is tried until the wanted branch is reached (near a boundary the stretched starts either side of it
+      // often converge on the other side), then the rest of that branch's, for the nearest of its solutions (away
+      // from boundaries the solver stays on a start's branch). If that is beyond the start radius, the other
+      // branches' starts near the hint are tried too: one may end within it. Twice the radius, since near a
+      // singularity the calibrated solution can lie degrees from the nominal one.
+      const bool off_branch = c.other_branch > 0 || c.mismatch > 0;
+      if (!found_.empty() && (hint_ == nullptr || (off_branch && Settled()))) break;
+      if (off_branch && WantedReached() && c.distance > 4.0 * radius_ * radius_) continue;
+      Consider(SolveFrom(ctx_, T_world_target_, c.q));
+    }
+    if (!found_.empty()) return Finish();
+    if (!any_) {
+      return NoSolution(iterations_,
+                        on_branch == 0
+                            ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"
+                            : "no solution with " + asked + ": the solver left that branch from each of its " +
+                                  std::to_string(on_branch) + " nominal solutions");
+    }
+    best_.iterations = iterations_;
+    best_.message = (asked.empty() ? std::string("no branch reaches the target: ")
+                                   : "the calibrated robot does not reach the target with " + asked + ": ") +
+                    best_.message;
+    return std::move(best_);
+  }
+
+ private:
   // Flags differing from the wanted ones, the shoulder weighing most.
-  auto mismatch = [&](const ArmConfiguration& c) {
-    return 4 * (c.shoulder != wanted.shoulder) + 2 * (c.elbow != wanted.elbow) + (c.wrist != wanted.wrist);
-  };
+  int Mismatch(const ArmConfiguration& c) const {
+    return 4 * (c.shoulder != wanted_.shoulder) + 2 * (c.elbow != wanted_.elbow) + (c.wrist != wanted_.wrist);
+  }
+
   // Hint joints within the start radius of a converged solution are taught joints, and the robot must not swing
   // from them: only the solutions within that radius beyond the nearest one are answers then. A start a few degrees
   // across a boundary otherwise gets its own branch's solution, which can be far (across the wrist's boundary
   // joints 4 and 6 turn by 180 deg). Squared distances throughout, as the candidates'.
-  const double radius = ctx.options.start_radius_rad;
-  int iterations = 0;
-  // Every converged result with the demanded flags: its joints at the turns nearest the reference (a revolute
-  // joint's other turns reach the same pose), its flags differing from the wanted ones, its squared distance.
-  struct Found {
-    CompensationResult result;
-    Eigen::VectorXd joints;
-    int mismatch = 0;
-    double distance2 = 0.0;
-  };
-  std::vector<Found> found;
-  // The answer among them: without a hint the first (the order of the starts is the preference); with one, of
-  // those not swinging the robot (see above) the wanted branch first, else the fewest and least important other
-  // flags, then the nearest.
-  auto nearest2 = [&]() {
+  double Nearest2() const {
     double d2 = HUGE_VAL;
-    for (const Found& f : found) d2 = std::min(d2, f.distance2);
+    for (const BranchFound& f : found_) d2 = std::min(d2, f.distance2);
     return d2;
-  };
-  auto taught = [&]() { return hint != nullptr && nearest2() <= radius * radius; };
-  auto choose = [&]() -> Found& {
-    if (hint == nullptr) return found.front();
-    const double limit = taught() ? std::pow(std::sqrt(nearest2()) + radius, 2) : HUGE_VAL;
-    Found* best_found = nullptr;
-    for (Found& f : found) {
+  }
+  bool Taught() const { return hint_ != nullptr && Nearest2() <= radius_ * radius_; }
+
+  // The answer among the results found: without a hint the first (the order of the starts is the preference);
+  // with one, of those not swinging the robot (see above) the wanted branch first, else the fewest and least
+  // important other flags, then the nearest.
+  BranchFound& Choose() {
+    if (hint_ == nullptr) return found_.front();
+    const double limit = Taught() ? std::pow(std::sqrt(Nearest2()) + radius_, 2) : HUGE_VAL;
+    BranchFound* best_found = nullptr;
+    for (BranchFound& f : found_) {
       if (f.distance2 > limit) continue;
       if (best_found == nullptr ||
           std::tie(f.mismatch, f.distance2) < std::tie(best_found->mismatch, best_found->distance2)) {
@@ -586,132 +650,120 @@ CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_
       }
     }
     return *best_found;
-  };
+  }
+
   // On the wanted branch within the start radius (with a hint), or any (without): no other start can change the
   // answer's branch.
-  auto settled = [&]() {
-    for (const Found& f : found) {
-      if (hint == nullptr || (f.mismatch == 0 && f.distance2 <= radius * radius)) return true;
+  bool Settled() const {
+    for (const BranchFound& f : found_) {
+      if (hint_ == nullptr || (f.mismatch == 0 && f.distance2 <= radius_ * radius_)) return true;
     }
     return false;
-  };
-  auto wanted_reached = [&]() {
-    return std::any_of(found.begin(), found.end(), [](const Found& f) { return f.mismatch == 0; });
-  };
-  // The best result with the demanded flags that did not converge: what is said when none does.
-  CompensationResult best;
-  bool any = false;
-  auto consider = [&](CompensationResult r) {
-    iterations += r.iterations;
-    if (!r.configuration || !demanded.Admits(*r.configuration)) return;
+  }
+  bool WantedReached() const {
+    return std::any_of(found_.begin(), found_.end(), [](const BranchFound& f) { return f.mismatch == 0; });
+  }
+
+  // A run's result: found when it converged with the demanded flags; else the best of those that did not (best_,
+  // what is said when none converges).
+  void Consider(CompensationResult r) {
+    iterations_ += r.iterations;
+    if (!r.configuration || !demanded_.Admits(*r.configuration)) return;
     if (!r.converged) {
-      if (!any || Better(r, best, ctx.options.orientation_weight_mm_per_rad)) best = std::move(r);
-      any = true;
+      if (!any_ || Better(r, best_, ctx_.options.orientation_weight_mm_per_rad)) best_ = std::move(r);
+      any_ = true;
       return;
     }
     Eigen::VectorXd q = r.joints;
-    PlaceInLimits(model, reference, &q);
-    const int flags = mismatch(*r.configuration);
-    const double distance2 = (q - reference).squaredNorm();
-    found.push_back(Found{std::move(r), std::move(q), flags, distance2});
-  };
+    PlaceInLimits(ctx_.calibration.model, reference_, &q);
+    const int flags = Mismatch(*r.configuration);
+    const double distance2 = (q - reference_).squaredNorm();
+    found_.push_back(
+        BranchFound{.result = std::move(r), .joints = std::move(q), .mismatch = flags, .distance2 = distance2});
+  }
+
   // The answer with its joints at their nearest turns, its errors evaluated there (the same pose to round-off, so
   // no iteration in practice), and every run's iterations.
-  auto finish = [&]() {
-    const bool near = taught();
-    Found& chosen = choose();
+  CompensationResult Finish() {
+    const bool near = Taught();
+    BranchFound& chosen = Choose();
     CompensationResult r = chosen.result;
     if (chosen.joints != r.joints) {
-      CompensationResult placed = SolveFrom(ctx, T_world_target, chosen.joints);
-      iterations += placed.iterations;
+      CompensationResult placed = SolveFrom(ctx_, T_world_target_, chosen.joints);
+      iterations_ += placed.iterations;
       if (placed.converged && placed.configuration == r.configuration) r = std::move(placed);
     }
-    r.iterations = iterations;
+    r.iterations = iterations_;
     // Not silent: the robot would move far from the joints it was taught. (In a sequence the previous target's
     // joints are no taught joints, and a jump from them is reported as joint_jump_deg.)
-    if (t.start.size() != 0 && !near) {
-      const Eigen::VectorXd change = (r.joints - t.start).cwiseAbs();
-      int joint = 0;
-      change.maxCoeff(&joint);
-      const double distance = (r.joints - t.start).norm();
-      r.message = "no solution within " + Number(radius * kDegPerRad) + " deg of start_joints: this one (" +
-                  r.configuration->ToString() + (*r.configuration == wanted ? ", theirs" : "") + ") is " +
-                  Number(distance * kDegPerRad) + " deg from them, joint " + std::to_string(joint + 1) + " by " +
-                  Number(change[joint] * kDegPerRad) + " deg";
-      // The fallback order put another branch first: say where the nearest solution found is.
-      const Found& closest = *std::min_element(found.begin(), found.end(), [](const Found& a, const Found& b) {
-        return a.distance2 < b.distance2;
-      });
-      if (std::sqrt(closest.distance2) < distance - 1e-6) {
-        r.message += "; the nearest found (" + closest.result.configuration->ToString() + ") is " +
-                     Number(std::sqrt(closest.distance2) * kDegPerRad) + " deg from them";
-      }
-    }
+    if (t_.start.size() != 0 && !near) SayFarFromStart(&r);
     return r;
-  };
-  if (hint != nullptr) {
-    consider(SolveFrom(ctx, T_world_target, *hint, ctx.options.start_damping));
-    if (settled()) return finish();
   }
-  struct Candidate {
-    Eigen::VectorXd q;
-    ArmConfiguration configuration;
-    int other_branch = 0;
-    int mismatch = 0;
-    int outside = 0;
-    int inexact = 0;
-    double distance = 0.0;
-  };
-  std::vector<Candidate> candidates;
-  int on_branch = 0;
-  for (ArmSolution& s : arm.Solve(ctx.calibration.T_world_base.inverse() * T_world_target, reference)) {
-    Candidate c{std::move(s.joints), s.configuration};
-    // Solutions of other branches stay as starts of last resort: within the errors' size of a boundary the
-    // nominal chain's branch and the calibrated robot's differ, and the solver may cross to the asked one.
-    c.other_branch = demanded.Admits(c.configuration) ? 0 : 1;
-    on_branch += 1 - c.other_branch;
-    c.mismatch = mismatch(c.configuration);
-    c.outside = PlaceInLimits(model, reference, &c.q);
-    // A pose just beyond the nominal reach gives a stretched start, tried after the exact solutions.
-    c.inexact = s.position_error_mm > 1e-6 ? 1 : 0;
-    c.distance = (c.q - reference).squaredNorm();
-    candidates.push_back(std::move(c));
+
+  // The message of an answer beyond the start radius of start_joints: how far, and where the nearest found is.
+  void SayFarFromStart(CompensationResult* r) const {
+    const Eigen::VectorXd change = (r->joints - t_.start).cwiseAbs();
+    int joint = 0;
+    change.maxCoeff(&joint);
+    const double distance = (r->joints - t_.start).norm();
+    r->message = "no solution within " + Number(radius_ * kDegPerRad) + " deg of start_joints: this one (" +
+                 r->configuration->ToString() + (*r->configuration == wanted_ ? ", theirs" : "") + ") is " +
+                 Number(distance * kDegPerRad) + " deg from them, joint " + std::to_string(joint + 1) + " by " +
+                 Number(change[joint] * kDegPerRad) + " deg";
+    // The fallback order put another branch first: say where the nearest solution found is.
+    const BranchFound& closest =
+        *std::min_element(found_.begin(), found_.end(),
+                          [](const BranchFound& a, const BranchFound& b) { return a.distance2 < b.distance2; });
+    if (std::sqrt(closest.distance2) < distance - 1e-6) {
+      r->message += "; the nearest found (" + closest.result.configuration->ToString() + ") is " +
+                    Number(std::sqrt(closest.distance2) * kDegPerRad) + " deg from them";
+    }
   }
-  // The demanded flags, then the wanted branch (whatever it takes to reach it), within the limits, exact, and
-  // the nearest to the reference.
-  std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tie(a.other_branch, a.mismatch, a.outside, a.inexact, a.distance) <
-           std::tie(b.other_branch, b.mismatch, b.outside, b.inexact, b.distance);
-  });
-  const std::string asked = demanded.ToString();
-  if (candidates.empty() && found.empty()) {
-    return NoSolution(iterations, asked.empty() ? "no solution on any branch: the target is beyond the arm's reach"
-                                                : "no solution with " + asked + ": the target is beyond the arm's reach");
+
+  // The nominal closed-form solutions as starts: the demanded flags, then the wanted branch (whatever it takes to
+  // reach it), within the limits, exact, and the nearest to the reference. *on_branch: how many have the demanded
+  // flags.
+  std::vector<BranchStart> Starts(int* on_branch) const {
+    std::vector<BranchStart> candidates;
+    for (ArmSolution& s : ctx_.arm->Solve(ctx_.calibration.T_world_base.inverse() * T_world_target_, reference_)) {
+      BranchStart c{std::move(s.joints), s.configuration};
+      // Solutions of other branches stay as starts of last resort: within the errors' size of a boundary the
+      // nominal chain's branch and the calibrated robot's differ, and the solver may cross to the asked one.
+      c.other_branch = demanded_.Admits(c.configuration) ? 0 : 1;
+      *on_branch += 1 - c.other_branch;
+      c.mismatch = Mismatch(c.configuration);
+      c.outside = PlaceInLimits(ctx_.calibration.model, reference_, &c.q);
+      // A pose just beyond the nominal reach gives a stretched start, tried after the exact solutions.
+      c.inexact = s.position_error_mm > 1e-6 ? 1 : 0;
+      c.distance = (c.q - reference_).squaredNorm();
+      candidates.push_back(std::move(c));
+    }
+    std::stable_sort(candidates.begin(), candidates.end(), [](const BranchStart& a, const BranchStart& b) {
+      return std::tie(a.other_branch, a.mismatch, a.outside, a.inexact, a.distance) <
+             std::tie(b.other_branch, b.mismatch, b.outside, b.inexact, b.distance);
+    });
+    return candidates;
   }
-  for (const Candidate& c : candidates) {
-    // Without a hint the first result to converge is the answer (the order is the preference). With one, every
-    // start is tried until the wanted branch is reached (near a boundary the stretched starts either side of it
-    // often converge on the other side), then the rest of that branch's, for the nearest of its solutions (away
-    // from boundaries the solver stays on a start's branch). If that is beyond the start radius, the other branches'
-    // starts near the hint are tried too: one may end within it. Twice the radius, since near a singularity the
-    // calibrated solution can lie degrees from the nominal one.
-    const bool off_branch = c.other_branch > 0 || c.mismatch > 0;
-    if (!found.empty() && (hint == nullptr || (off_branch && settled()))) break;
-    if (off_branch && wanted_reached() && c.distance > 4.0 * radius * radius) continue;
-    consider(SolveFrom(ctx, T_world_target, c.q));
-  }
-  if (!found.empty()) return finish();
-  if (!any) {
-    return NoSolution(iterations, on_branch == 0
-                                      ? "no solution with " + asked + ": the target is beyond the arm's reach on that branch"
-                                      : "no solution with " + asked + ": the solver left that branch from each of its " +
-                                            std::to_string(on_branch) + " nominal solutions");
-  }
-  best.iterations = iterations;
-  best.message = (asked.empty() ? std::string("no branch reaches the target: ")
-                                 : "the calibrated robot does not reach the target with " + asked + ": ") +
-                 best.message;
-  return best;
+
+  const Context& ctx_;
+  const Transform& T_world_target_;
+  const CompensationTarget& t_;
+  const ArmConfiguration demanded_;
+  const Eigen::VectorXd* const hint_;
+  const Eigen::VectorXd& reference_;
+  const ArmConfiguration wanted_;
+  const double radius_;
+  int iterations_ = 0;
+  std::vector<BranchFound> found_;
+  // The best result with the demanded flags that did not converge: what is said when none does.
+  CompensationResult best_;
+  bool any_ = false;
+};
+
+// A pose target on a robot with named branches (BranchSearch says how).
+CompensationResult SolveOnBranches(const Context& ctx, const Transform& T_world_target, const CompensationTarget& t,
+                                   const Eigen::VectorXd& previous) {
+  return BranchSearch(ctx, T_world_target, t, previous).Run();
 }
 
 // Starts of a robot without named branches and without a start: DefaultJoints, then every combination of the

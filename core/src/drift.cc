@@ -158,11 +158,8 @@ double Quantile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1)];
 }
 
-}  // namespace
-
-DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& shots, const DriftCheckOptions& options) {
-  std::string error;
-  if (!options.IsValid(&error)) throw std::invalid_argument("CheckDrift: " + error);
+// A shot of the wrong joint count or a non-finite joint, in the check or the reference: std::invalid_argument.
+void CheckDriftShots(const RobotModel& model, const std::vector<Measurement>& shots, const DriftCheckOptions& options) {
   for (const std::vector<Measurement>* list : {&shots, &options.reference}) {
     for (const Measurement& m : *list) {
       if (m.joints.size() != model.num_joints() || !m.joints.allFinite()) {
@@ -170,25 +167,21 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       }
     }
   }
+}
+
+// The reference's rows, whitened (and inflated), and the whitening.
+struct DriftReference {
+  ShotRows rows;
+  Eigen::MatrixXd whiten;
+};
+
+// The reference: the calibration's own shots against the robot at the calibration's base. Their residuals'
+// covariance is the metric (its inverse square root whitens every row below); scaled by the in-sample correction
+// they stand for a new pose's.
+DriftReference WhitenedDriftReference(const RobotModel& model, const DriftCheckOptions& options,
+                                      const Eigen::VectorXd& w) {
   const MeasurementType type = options.measurement_type;
   const int rows = MeasurementRows(type);
-  DriftCheck out;
-  out.num_measurements = static_cast<int>(shots.size());
-  const std::vector<int> frames = options.register_frames ? FrameParameters(model, type) : std::vector<int>{};
-  const int n_rows = rows * out.num_measurements;
-  out.dof = n_rows - static_cast<int>(frames.size());
-  out.expected_rms_position_mm = std::sqrt(3.0) / options.noise.RowWeights(MeasurementType::kPosition)[0];
-  if (out.dof < 3) {
-    out.statistic = out.threshold = kNaN;
-    out.message = std::to_string(out.num_measurements) + " shots give " + std::to_string(n_rows) +
-                  " rows: too few for " + std::to_string(frames.size()) + " frame parameters and a check";
-    return out;
-  }
-  const Eigen::VectorXd w = options.noise.RowWeights(type);
-
-  // The reference: the calibration's own shots against the robot at the calibration's base. Their residuals'
-  // covariance is the metric (its inverse square root whitens every row below); scaled by the in-sample correction
-  // they stand for a new pose's.
   RobotModelSpec reference_spec = model.spec();
   reference_spec.T_world_base = options.reference_T_world_base;
   const RobotModel reference_model = RobotModel::Build(reference_spec);
@@ -204,28 +197,29 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
     reference.residual[i] = inflate * (whiten * reference.residual[i]);
     reference.jacobian[i] = whiten * reference.jacobian[i];
   }
+  return {std::move(reference), whiten};
+}
 
-  // The check: the registration (or the frames as kept), the residuals and the Jacobian there.
-  const Calibration registered =
-      options.register_frames ? Register(model, shots, options, frames) : NominalCalibration(model);
-  if (options.register_frames && registered.summary.termination == Termination::kFailure) {
-    out.statistic = out.threshold = kNaN;
-    out.message = "the shots do not register the frames: " + registered.summary.message;
-    return out;
+// The check's residuals and Jacobian, whitened and stacked shot by shot.
+struct DriftStack {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+};
+DriftStack StackWhitened(const ShotRows& check, const Eigen::MatrixXd& whiten, int num_parameters) {
+  const int rows = static_cast<int>(whiten.rows());
+  const int shots = static_cast<int>(check.residual.size());
+  DriftStack out{Eigen::VectorXd(rows * shots), Eigen::MatrixXd(rows * shots, num_parameters)};
+  for (int i = 0; i < shots; ++i) {
+    out.r.segment(rows * i, rows) = whiten * check.residual[static_cast<std::size_t>(i)];
+    out.J.middleRows(rows * i, rows) = whiten * check.jacobian[static_cast<std::size_t>(i)];
   }
-  out.T_world_base = registered.T_world_base;
-  out.T_flange_tool = registered.T_flange_tool;
-  const ShotRows check = BaseRows(registered.model, registered.errors, shots, type, w);
-  out.rms_position_mm = std::sqrt(check.position_sum / out.num_measurements);
-  Eigen::VectorXd r(n_rows);
-  Eigen::MatrixXd J(n_rows, model.num_error_parameters());
-  for (int i = 0; i < out.num_measurements; ++i) {
-    r.segment(rows * i, rows) = whiten * check.residual[static_cast<std::size_t>(i)];
-    J.middleRows(rows * i, rows) = whiten * check.jacobian[static_cast<std::size_t>(i)];
-  }
+  return out;
+}
 
-  // The candidates: every geometric parameter the registration does not estimate, joint offsets first; those the
-  // frames take up whole, or the check's poses do not see, are none.
+// The candidates: every geometric parameter the registration does not estimate, joint offsets first (unless the
+// options name them); std::invalid_argument for one that is no parameter.
+std::vector<int> DriftCandidates(const RobotModel& model, const DriftCheckOptions& options,
+                                 const std::vector<int>& frames) {
   std::vector<int> candidates = options.candidates;
   if (candidates.empty()) {
     std::vector<int> offsets, others;
@@ -241,83 +235,95 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       throw std::invalid_argument("CheckDrift: candidate " + std::to_string(c) + " is no parameter");
     }
   }
-  // Shots of too few distinct poses leave frame parameters undetermined: no check then.
-  if (!frames.empty()) {
-    Eigen::MatrixXd F(n_rows, static_cast<int>(frames.size()));
-    for (std::size_t k = 0; k < frames.size(); ++k) F.col(static_cast<int>(k)) = J.col(frames[k]);
-    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(F);
-    qr.setThreshold(1e-9);
-    if (qr.rank() < static_cast<Eigen::Index>(frames.size())) {
-      out.statistic = out.threshold = kNaN;
-      out.message = "the shots do not determine the frames (" + std::to_string(frames.size() - qr.rank()) +
-                    " of their parameters left free): measure more distinct poses";
-      return out;
-    }
-  }
-  // One pass over every candidate (each column's test is its own), then those the frames take up whole, or the
-  // check's poses do not see, are none: dropped with their figures.
-  SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
-  {
-    std::vector<int> kept;
-    std::vector<Eigen::Index> columns;
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-      const Eigen::Index c = static_cast<Eigen::Index>(k);
-      if (std::isfinite(tests.std[c]) &&
-          1.0 / (tests.std[c] * tests.std[c]) > 1e-10 * J.col(candidates[k]).squaredNorm()) {
-        kept.push_back(candidates[k]);
-        columns.push_back(c);
-      }
-    }
-    candidates = std::move(kept);
-    tests.drop = tests.drop(columns).eval();
-    tests.change = tests.change(columns).eval();
-    tests.std = tests.std(columns).eval();
-    tests.directions = tests.directions(Eigen::all, columns).eval();
-  }
-  out.statistic = tests.level;
-  out.num_candidates = static_cast<int>(candidates.size());
-  out.largest_drop = candidates.empty() ? 0.0 : tests.drop.maxCoeff();
+  return candidates;
+}
 
-  // Both tests' null distributions by a paired bootstrap: sets of as many of the calibration's own shots, each with
-  // its residual and its Jacobian, so that the robot's unmodelled error comes with the directions it takes at its
-  // poses (a joint's gear error looks like an offset of that joint pose by pose), its tails and its share between
-  // the axes. The check's poses are taken to be spread like the calibration's.
-  Rng rng(options.seed);
-  std::vector<double> levels(static_cast<std::size_t>(options.null_draws)), drops(levels.size());
-  Eigen::VectorXd z(n_rows);
-  Eigen::MatrixXd Jz(n_rows, model.num_error_parameters());
+// Shots of too few distinct poses leave frame parameters undetermined: what is said then ("" when determined).
+std::string UndeterminedFrames(const Eigen::MatrixXd& J, const std::vector<int>& frames) {
+  if (frames.empty()) return "";
+  Eigen::MatrixXd F(J.rows(), static_cast<int>(frames.size()));
+  for (std::size_t k = 0; k < frames.size(); ++k) F.col(static_cast<int>(k)) = J.col(frames[k]);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(F);
+  qr.setThreshold(1e-9);
+  if (qr.rank() >= static_cast<Eigen::Index>(frames.size())) return "";
+  return "the shots do not determine the frames (" + std::to_string(frames.size() - qr.rank()) +
+         " of their parameters left free): measure more distinct poses";
+}
+
+// Of the candidates tested, those the frames take up whole, or the check's poses do not see, are none: dropped with
+// their figures.
+void DropUnseenCandidates(const Eigen::MatrixXd& J, std::vector<int>* candidates, SetTests* tests) {
+  std::vector<int> kept;
+  std::vector<Eigen::Index> columns;
+  for (std::size_t k = 0; k < candidates->size(); ++k) {
+    const Eigen::Index c = static_cast<Eigen::Index>(k);
+    if (std::isfinite(tests->std[c]) &&
+        1.0 / (tests->std[c] * tests->std[c]) > 1e-10 * J.col((*candidates)[k]).squaredNorm()) {
+      kept.push_back((*candidates)[k]);
+      columns.push_back(c);
+    }
+  }
+  *candidates = std::move(kept);
+  tests->drop = tests->drop(columns).eval();
+  tests->change = tests->change(columns).eval();
+  tests->std = tests->std(columns).eval();
+  tests->directions = tests->directions(Eigen::all, columns).eval();
+}
+
+// The null distributions' draws: each drawn set's residual level and largest drop, and how many levels reach the
+// check's statistic.
+struct DriftNullDraws {
+  std::vector<double> levels, drops;
   int level_above = 0;
-  for (std::size_t d = 0; d < levels.size(); ++d) {
-    for (int i = 0; i < out.num_measurements; ++i) {
+};
+
+// Both tests' null distributions by a paired bootstrap: sets of as many of the calibration's own shots, each with
+// its residual and its Jacobian, so that the robot's unmodelled error comes with the directions it takes at its
+// poses (a joint's gear error looks like an offset of that joint pose by pose), its tails and its share between
+// the axes. The check's poses are taken to be spread like the calibration's. `check` gives the set's size, its
+// degrees of freedom and its statistic.
+DriftNullDraws DrawDriftNull(const ShotRows& reference, const std::vector<int>& frames,
+                             const std::vector<int>& candidates, const DriftCheck& check,
+                             const DriftCheckOptions& options) {
+  const int rows = MeasurementRows(options.measurement_type);
+  const int n_rows = rows * check.num_measurements;
+  const std::size_t n_reference = reference.residual.size();
+  Rng rng(options.seed);
+  DriftNullDraws out;
+  out.levels.resize(static_cast<std::size_t>(options.null_draws));
+  out.drops.resize(out.levels.size());
+  Eigen::VectorXd z(n_rows);
+  Eigen::MatrixXd Jz(n_rows, reference.jacobian.front().cols());
+  for (std::size_t d = 0; d < out.levels.size(); ++d) {
+    for (int i = 0; i < check.num_measurements; ++i) {
       const std::size_t k = rng.Index(n_reference);
       z.segment(rows * i, rows) = reference.residual[k];
       Jz.middleRows(rows * i, rows) = reference.jacobian[k];
     }
-    const SetTests null = Tests(z, Jz, frames, candidates, out.dof, false);
-    levels[d] = null.level;
-    if (levels[d] >= out.statistic) ++level_above;
-    drops[d] = candidates.empty() ? 0.0 : null.drop.maxCoeff();
+    const SetTests null = Tests(z, Jz, frames, candidates, check.dof, false);
+    out.levels[d] = null.level;
+    if (out.levels[d] >= check.statistic) ++out.level_above;
+    out.drops[d] = candidates.empty() ? 0.0 : null.drop.maxCoeff();
   }
-  const double level = 1.0 - options.false_alarm_rate / 2.0;
-  out.threshold = Quantile(levels, level);
-  out.p_value = static_cast<double>(level_above) / static_cast<double>(levels.size());
-  out.drop_threshold = candidates.empty() ? 0.0 : Quantile(drops, level);
-  const bool level_drifted = out.statistic > out.threshold;
-  const bool parameter_drifted = !candidates.empty() && out.largest_drop > out.drop_threshold;
-  out.drifted = level_drifted || parameter_drifted;
+  return out;
+}
 
-  // The suspects, largest drop first; of parameters the poses cannot tell apart, one, a joint offset named first.
+// The suspects of a check that drifted, largest drop first; of parameters the poses cannot tell apart, one, a joint
+// offset named first. Beyond the drop threshold when a parameter drifted, else the three largest.
+std::vector<DriftSuspect> DriftSuspects(const RobotModel& model, const std::vector<int>& candidates,
+                                        const SetTests& tests, double drop_threshold, bool parameter_drifted) {
+  std::vector<DriftSuspect> suspects;
   std::vector<std::size_t> order(candidates.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return tests.drop[static_cast<Eigen::Index>(a)] > tests.drop[static_cast<Eigen::Index>(b)];
   });
   std::vector<bool> used(candidates.size(), false);
-  for (std::size_t oi = 0; oi < order.size() && out.drifted; ++oi) {
+  for (std::size_t oi = 0; oi < order.size(); ++oi) {
     const std::size_t a = order[oi];
     if (used[a]) continue;
     const double drop = tests.drop[static_cast<Eigen::Index>(a)];
-    if (!(drop > out.drop_threshold) && (parameter_drifted || out.suspects.size() >= 3)) break;
+    if (!(drop > drop_threshold) && (parameter_drifted || suspects.size() >= 3)) break;
     std::vector<std::size_t> group = {a};
     for (std::size_t ob = oi + 1; ob < order.size(); ++ob) {
       const std::size_t b = order[ob];
@@ -340,8 +346,12 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
     for (std::size_t k : group) {
       if (k != lead) s.equivalent.push_back(ParameterName(model, {}, candidates[k]));
     }
-    out.suspects.push_back(std::move(s));
+    suspects.push_back(std::move(s));
   }
+  return suspects;
+}
+
+std::string DriftMessage(const DriftCheck& out) {
   std::ostringstream m;
   m.precision(3);
   m << (out.drifted ? "drifted" : "holds") << ": residual level " << out.statistic << " (threshold " << out.threshold
@@ -351,7 +361,74 @@ DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& s
       << out.num_candidates << " candidates)";
   }
   if (!out.suspects.empty()) m << "; best explained by " << out.suspects.front().name;
-  out.message = m.str();
+  return m.str();
+}
+
+}  // namespace
+
+DriftCheck CheckDrift(const RobotModel& model, const std::vector<Measurement>& shots,
+                      const DriftCheckOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("CheckDrift: " + error);
+  CheckDriftShots(model, shots, options);
+  const MeasurementType type = options.measurement_type;
+  const int rows = MeasurementRows(type);
+  DriftCheck out;
+  out.num_measurements = static_cast<int>(shots.size());
+  const std::vector<int> frames = options.register_frames ? FrameParameters(model, type) : std::vector<int>{};
+  const int n_rows = rows * out.num_measurements;
+  out.dof = n_rows - static_cast<int>(frames.size());
+  out.expected_rms_position_mm = std::sqrt(3.0) / options.noise.RowWeights(MeasurementType::kPosition)[0];
+  if (out.dof < 3) {
+    out.statistic = out.threshold = kNaN;
+    out.message = std::to_string(out.num_measurements) + " shots give " + std::to_string(n_rows) +
+                  " rows: too few for " + std::to_string(frames.size()) + " frame parameters and a check";
+    return out;
+  }
+  const Eigen::VectorXd w = options.noise.RowWeights(type);
+  const DriftReference reference = WhitenedDriftReference(model, options, w);
+
+  // The check: the registration (or the frames as kept), the residuals and the Jacobian there.
+  const Calibration registered =
+      options.register_frames ? Register(model, shots, options, frames) : NominalCalibration(model);
+  if (options.register_frames && registered.summary.termination == Termination::kFailure) {
+    out.statistic = out.threshold = kNaN;
+    out.message = "the shots do not register the frames: " + registered.summary.message;
+    return out;
+  }
+  out.T_world_base = registered.T_world_base;
+  out.T_flange_tool = registered.T_flange_tool;
+  const ShotRows check = BaseRows(registered.model, registered.errors, shots, type, w);
+  out.rms_position_mm = std::sqrt(check.position_sum / out.num_measurements);
+  const DriftStack stack = StackWhitened(check, reference.whiten, model.num_error_parameters());
+  const Eigen::VectorXd& r = stack.r;
+  const Eigen::MatrixXd& J = stack.J;
+
+  std::vector<int> candidates = DriftCandidates(model, options, frames);
+  const std::string undetermined = UndeterminedFrames(J, frames);
+  if (!undetermined.empty()) {
+    out.statistic = out.threshold = kNaN;
+    out.message = undetermined;
+    return out;
+  }
+  // One pass over every candidate (each column's test is its own), then those the frames take up whole, or the
+  // check's poses do not see, are none: dropped with their figures.
+  SetTests tests = Tests(r, J, frames, candidates, out.dof, true);
+  DropUnseenCandidates(J, &candidates, &tests);
+  out.statistic = tests.level;
+  out.num_candidates = static_cast<int>(candidates.size());
+  out.largest_drop = candidates.empty() ? 0.0 : tests.drop.maxCoeff();
+
+  const DriftNullDraws null = DrawDriftNull(reference.rows, frames, candidates, out, options);
+  const double level = 1.0 - options.false_alarm_rate / 2.0;
+  out.threshold = Quantile(null.levels, level);
+  out.p_value = static_cast<double>(null.level_above) / static_cast<double>(null.levels.size());
+  out.drop_threshold = candidates.empty() ? 0.0 : Quantile(null.drops, level);
+  const bool level_drifted = out.statistic > out.threshold;
+  const bool parameter_drifted = !candidates.empty() && out.largest_drop > out.drop_threshold;
+  out.drifted = level_drifted || parameter_drifted;
+  if (out.drifted) out.suspects = DriftSuspects(model, candidates, tests, out.drop_threshold, parameter_drifted);
+  out.message = DriftMessage(out);
   return out;
 }
 

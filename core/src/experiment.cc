@@ -124,13 +124,15 @@ bool ExperimentOptions::IsValid(std::string* error) const {
   return true;
 }
 
-ExperimentResult RunExperiment(const ExperimentOptions& options) {
-  std::string error;
-  if (!options.IsValid(&error)) throw std::invalid_argument("ExperimentOptions: " + error);
-  const auto start = std::chrono::steady_clock::now();
-  const RobotModel nominal = Preset(options.robot);
-  const int m = options.num_configurations;
+namespace {
 
+// The fit's and the planners' options, the same in every trial.
+struct ExperimentFits {
+  ObservabilityOptions observability;
+  IdentificationOptions identification;
+};
+
+ExperimentFits ExperimentFitOptions(const RobotModel& nominal, const ExperimentOptions& options) {
   // The identifiable set depends on the robot and the measurement type only: found once.
   // With reflector nests (a realistic position cell) every probe, plan and fit sees each of them.
   IdentifiabilityOptions identifiability;
@@ -142,29 +144,209 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
   MeasurementNoise weights = options.cell.noise;
   if (!(weights.position_mm > 0.0)) weights.position_mm = MeasurementNoise{}.position_mm;
   if (!(weights.orientation_rad > 0.0)) weights.orientation_rad = MeasurementNoise{}.orientation_rad;
-  ObservabilityOptions observability;
+  ExperimentFits fits;
+  ObservabilityOptions& observability = fits.observability;
   observability.measurement_type = options.measurement_type;
   observability.noise = weights;
   observability.parameters = identifiable.identifiable;
   observability.reflectors = options.cell.reflectors;
-  IdentificationOptions identification;
+  IdentificationOptions& identification = fits.identification;
   identification.reflectors = options.cell.reflectors;
   identification.measurement_type = options.measurement_type;
   identification.noise = weights;
   identification.parameters = identifiable.identifiable;
+  return fits;
+}
+
+// What the trials share: the options, the robot as planned and fitted, the cell's feasibility, the methods and the
+// models (each model's joint error terms, or automatic: chosen by cross-validation).
+struct ExperimentSetup {
+  const ExperimentOptions& options;
+  const RobotModel& nominal;
+  const RobotModel& planning;
+  const ExperimentFits& fits;
+  const FeasibilityPredicate& feasible;
+  int num_methods = 0;
+  int num_models = 0;
+  std::vector<JointErrorTerms> model_terms;
+  std::vector<char> model_auto;
+};
+
+// Per (method, model) slot k * num_models + j, pooled over the trials; and the robot uncalibrated.
+struct ExperimentPools {
+  std::vector<Pool> pools;
+  std::vector<Transform> before_reached, before_target;
+};
+
+// Each method's plan for one trial.
+std::vector<Plan> PlanExperimentTrial(const ExperimentSetup& setup, int trial) {
+  const ExperimentOptions& options = setup.options;
+  const int m = options.num_configurations;
+  const ObservabilityOptions& observability = setup.fits.observability;
+  // The paper's baseline is one random set; Solis & Wets starts from that same set, so the two differ only by
+  // the search. Each objective's planner gets the same seed.
+  RandomSelectionOptions random_options;
+  random_options.seed = DeriveSeed(options.seed, trial, kRandomPlan);
+  random_options.feasible = setup.feasible;
+  const Plan random = PlanRandom(setup.planning, m, observability, random_options);
+  std::vector<Plan> plans;
+  for (int k = 0; k < setup.num_methods; ++k) {
+    const Method& method = kMethods[k];
+    switch (method.planner) {
+      case Planner::kRandom:
+        plans.push_back(random);
+        break;
+      case Planner::kRandomIgnoringCell: {
+        RandomSelectionOptions ignoring = random_options;
+        ignoring.feasible = nullptr;
+        plans.push_back(PlanRandom(setup.planning, m, observability, ignoring));
+        break;
+      }
+      case Planner::kSolisWets: {
+        SolisWetsOptions solis_wets_options = SolisWetsOptions::Paper();
+        solis_wets_options.seed = DeriveSeed(options.seed, trial, kSolisWets);
+        solis_wets_options.objective = method.objective;
+        solis_wets_options.feasible = setup.feasible;
+        // A failed random plan has no set to start from: Solis & Wets then draws its own.
+        plans.push_back(PlanSolisWets(setup.planning, m, observability, solis_wets_options, random.configurations));
+        break;
+      }
+      case Planner::kExchange: {
+        ExchangeOptions exchange_options;
+        exchange_options.seed = DeriveSeed(options.seed, trial, kExchange);
+        exchange_options.objective = method.objective;
+        exchange_options.feasible = setup.feasible;
+        plans.push_back(PlanExchange(setup.planning, m, observability, exchange_options));
+        break;
+      }
+    }
+  }
+  return plans;
+}
+
+// Each plan measured in the trial's cell and fitted with each model: the calibrations in *storage (reserved for
+// all), calibrations[k * num_models + j] pointing at those that did not fail.
+void CalibrateExperimentTrial(const ExperimentSetup& setup, const std::vector<Plan>& plans, VirtualCell* cell,
+                              std::vector<Calibration>* storage, std::vector<const Calibration*>* calibrations,
+                              ExperimentPools* out) {
+  const int m = setup.options.num_configurations;
+  const int num_models = setup.num_models;
+  for (int k = 0; k < setup.num_methods; ++k) {
+    const Plan& plan = plans[k];
+    if (plan.summary.termination == Termination::kFailure) {
+      for (int j = 0; j < num_models; ++j) {
+        out->pools[k * num_models + j].planned_poses += m;
+        ++out->pools[k * num_models + j].failed_trials;
+      }
+      continue;
+    }
+    std::vector<int> lost;
+    const std::vector<Measurement> measurements = cell->MeasureAll(plan.configurations, 0, &lost);
+    for (int j = 0; j < num_models; ++j) {
+      Pool& pool = out->pools[k * num_models + j];
+      pool.planned_poses += m;
+      pool.condition_numbers.push_back(plan.summary.final.condition_number);
+      pool.unmeasured_poses += static_cast<int>(lost.size());
+      const bool geometric = !setup.model_auto[j] && setup.model_terms[j] == JointErrorTerms{};
+      // The geometric fit estimates the planned set; a richer model chooses its own (its joint terms are tested
+      // against these measurements).
+      IdentificationOptions o = setup.fits.identification;
+      if (!geometric) o.parameters.clear();
+      storage->push_back(setup.model_auto[j] ? IdentifyWithModelChoice(setup.nominal, measurements, o)
+                         : geometric         ? Identify(setup.nominal, measurements, o)
+                                     : Identify(setup.nominal.WithErrorTerms(setup.model_terms[j]), measurements, o));
+      if (storage->back().summary.termination == Termination::kFailure) {
+        ++pool.failed_trials;
+      } else {
+        (*calibrations)[k * num_models + j] = &storage->back();
+      }
+    }
+  }
+}
+
+// Validation: where the program wants the tool is where the nominal model puts it relative to the robot's
+// base, and the base is where it truly stands in the cell (the workpiece does not move with the model).
+// Targets are given to compensation in the tracker frame: the calibrated base frame is a convention
+// wherever base errors are indistinguishable from joint offsets (e.g. grinder5's X slide zero against base
+// x), but the world poses the calibrated model predicts are not.
+void ValidateExperimentTrial(const ExperimentSetup& setup, int trial, VirtualCell* cell,
+                             const std::vector<const Calibration*>& calibrations, ExperimentPools* out) {
+  const ExperimentOptions& options = setup.options;
+  const RobotModel& nominal = setup.nominal;
+  const Transform T_world_true_base = cell->true_model().T_world_base() * ErrorTransform(cell->true_errors().data());
+  Rng validation_rng(DeriveSeed(options.seed, trial, kValidation));
+  for (int v = 0; v < options.num_validation; ++v) {
+    const Eigen::VectorXd q = RandomConfiguration(setup.planning, &validation_rng);
+    const Transform target = T_world_true_base * nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
+    out->before_reached.push_back(cell->Land(q));
+    out->before_target.push_back(target);
+    for (int k = 0; k < setup.num_methods * setup.num_models; ++k) {
+      if (calibrations[k] == nullptr) continue;
+      const CompensationResult r = CompensatePose(*calibrations[k], target, TargetFrame::kTracker, q);
+      // Not converged (a target beyond a singularity's fold, or a joint at its limit): the robot is still sent
+      // to the best joints found, as a controller would, and the error counts.
+      if (!r.converged) ++out->pools[k].unconverged_targets;
+      out->pools[k].reached.push_back(cell->Land(r.joints));
+      out->pools[k].target.push_back(target);
+    }
+  }
+}
+
+// One trial: a new cell with new hidden errors, each method's plan measured and fitted, and validated.
+void RunExperimentTrial(const ExperimentSetup& setup, int trial, ExperimentPools* out) {
+  VirtualCellOptions cell_options = setup.options.cell;
+  cell_options.seed = DeriveSeed(setup.options.seed, trial, kCell);
+  VirtualCell cell(setup.nominal, cell_options);
+  const std::vector<Plan> plans = PlanExperimentTrial(setup, trial);
+  std::vector<const Calibration*> calibrations(static_cast<size_t>(setup.num_methods * setup.num_models), nullptr);
+  std::vector<Calibration> storage;
+  storage.reserve(static_cast<size_t>(setup.num_methods * setup.num_models));
+  CalibrateExperimentTrial(setup, plans, &cell, &storage, &calibrations, out);
+  ValidateExperimentTrial(setup, trial, &cell, calibrations, out);
+}
+
+// The pools as the result's methods, in slot order.
+std::vector<MethodResult> PooledMethods(const ExperimentSetup& setup, const ExperimentPools& pools) {
+  const int num_models = setup.num_models;
+  std::vector<MethodResult> methods;
+  for (int k = 0; k < setup.num_methods * num_models; ++k) {
+    const Pool& pool = pools.pools[k];
+    MethodResult method;
+    method.method = kMethods[k / num_models].name;
+    method.model = setup.options.models[k % num_models];
+    method.planned_poses = pool.planned_poses;
+    method.unmeasured_poses = pool.unmeasured_poses;
+    method.median_condition_number = Median(pool.condition_numbers);
+    method.failed_trials = pool.failed_trials;
+    method.unconverged_targets = pool.unconverged_targets;
+    if (!pool.reached.empty()) method.after = ComputeAccuracy(pool.reached, pool.target, setup.options.h_mm);
+    methods.push_back(std::move(method));
+  }
+  return methods;
+}
+
+}  // namespace
+
+ExperimentResult RunExperiment(const ExperimentOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("ExperimentOptions: " + error);
+  const auto start = std::chrono::steady_clock::now();
+  const RobotModel nominal = Preset(options.robot);
+  ExperimentFits fits = ExperimentFitOptions(nominal, options);
 
   // In a measurement cell the planners sample its joint ranges and keep only feasible configurations.
   std::optional<Cell> measurement_cell;
   if (options.cell.measurement_cell) measurement_cell = Cell::Build(nominal, *options.cell.measurement_cell);
   // With a tracker model the planners whiten each configuration's rows as the fit will: from where the cell's
   // tracker stands (nominal world frame).
-  if (measurement_cell) observability.tracker_position_mm = nominal.T_world_base() * measurement_cell->spec().tracker.position_mm;
+  if (measurement_cell) {
+    fits.observability.tracker_position_mm = nominal.T_world_base() * measurement_cell->spec().tracker.position_mm;
+  }
   const RobotModel planning = measurement_cell ? measurement_cell->PlanningModel(nominal) : nominal;
   FeasibilityPredicate feasible;
   if (measurement_cell) {
     feasible = [&](const Eigen::VectorXd& q) { return IsFeasible(nominal, *measurement_cell, q); };
   }
-  const int num_methods = measurement_cell ? kAllMethods : kPaperMethods;
   const int num_models = static_cast<int>(options.models.size());
   std::vector<JointErrorTerms> model_terms(num_models);
   std::vector<char> model_auto(num_models, 0);
@@ -174,131 +356,28 @@ ExperimentResult RunExperiment(const ExperimentOptions& options) {
     ParseModelName(options.models[j], &model_terms[j], &automatic, &error);  // checked by IsValid
     model_auto[j] = automatic ? 1 : 0;
   }
+  const ExperimentSetup setup{.options = options,
+                              .nominal = nominal,
+                              .planning = planning,
+                              .fits = fits,
+                              .feasible = feasible,
+                              .num_methods = measurement_cell ? kAllMethods : kPaperMethods,
+                              .num_models = num_models,
+                              .model_terms = std::move(model_terms),
+                              .model_auto = std::move(model_auto)};
 
-  std::vector<Pool> pools(static_cast<size_t>(kAllMethods * num_models));
-  std::vector<Transform> before_reached, before_target;
-
+  ExperimentPools pools;
+  pools.pools.resize(static_cast<size_t>(kAllMethods * num_models));
   for (int trial = 0; trial < options.trials; ++trial) {
-    VirtualCellOptions cell_options = options.cell;
-    cell_options.seed = DeriveSeed(options.seed, trial, kCell);
-    VirtualCell cell(nominal, cell_options);
-
-    // The paper's baseline is one random set; Solis & Wets starts from that same set, so the two differ only by
-    // the search. Each objective's planner gets the same seed.
-    RandomSelectionOptions random_options;
-    random_options.seed = DeriveSeed(options.seed, trial, kRandomPlan);
-    random_options.feasible = feasible;
-    const Plan random = PlanRandom(planning, m, observability, random_options);
-    std::vector<Plan> plans;
-    for (int k = 0; k < num_methods; ++k) {
-      const Method& method = kMethods[k];
-      switch (method.planner) {
-        case Planner::kRandom:
-          plans.push_back(random);
-          break;
-        case Planner::kRandomIgnoringCell: {
-          RandomSelectionOptions ignoring = random_options;
-          ignoring.feasible = nullptr;
-          plans.push_back(PlanRandom(planning, m, observability, ignoring));
-          break;
-        }
-        case Planner::kSolisWets: {
-          SolisWetsOptions solis_wets_options = SolisWetsOptions::Paper();
-          solis_wets_options.seed = DeriveSeed(options.seed, trial, kSolisWets);
-          solis_wets_options.objective = method.objective;
-          solis_wets_options.feasible = feasible;
-          // A failed random plan has no set to start from: Solis & Wets then draws its own.
-          plans.push_back(PlanSolisWets(planning, m, observability, solis_wets_options, random.configurations));
-          break;
-        }
-        case Planner::kExchange: {
-          ExchangeOptions exchange_options;
-          exchange_options.seed = DeriveSeed(options.seed, trial, kExchange);
-          exchange_options.objective = method.objective;
-          exchange_options.feasible = feasible;
-          plans.push_back(PlanExchange(planning, m, observability, exchange_options));
-          break;
-        }
-      }
-    }
-
-    // Calibration (method k, model j) is slot k * num_models + j.
-    std::vector<const Calibration*> calibrations(static_cast<size_t>(num_methods * num_models), nullptr);
-    std::vector<Calibration> storage;
-    storage.reserve(static_cast<size_t>(num_methods * num_models));
-    for (int k = 0; k < num_methods; ++k) {
-      const Plan& plan = plans[k];
-      if (plan.summary.termination == Termination::kFailure) {
-        for (int j = 0; j < num_models; ++j) {
-          pools[k * num_models + j].planned_poses += m;
-          ++pools[k * num_models + j].failed_trials;
-        }
-        continue;
-      }
-      std::vector<int> lost;
-      const std::vector<Measurement> measurements = cell.MeasureAll(plan.configurations, 0, &lost);
-      for (int j = 0; j < num_models; ++j) {
-        Pool& pool = pools[k * num_models + j];
-        pool.planned_poses += m;
-        pool.condition_numbers.push_back(plan.summary.final.condition_number);
-        pool.unmeasured_poses += static_cast<int>(lost.size());
-        const bool geometric = !model_auto[j] && model_terms[j] == JointErrorTerms{};
-        // The geometric fit estimates the planned set; a richer model chooses its own (its joint terms are tested
-        // against these measurements).
-        IdentificationOptions o = identification;
-        if (!geometric) o.parameters.clear();
-        storage.push_back(model_auto[j] ? IdentifyWithModelChoice(nominal, measurements, o)
-                          : geometric   ? Identify(nominal, measurements, o)
-                                        : Identify(nominal.WithErrorTerms(model_terms[j]), measurements, o));
-        if (storage.back().summary.termination == Termination::kFailure) {
-          ++pool.failed_trials;
-        } else {
-          calibrations[k * num_models + j] = &storage.back();
-        }
-      }
-    }
-
-    // Validation: where the program wants the tool is where the nominal model puts it relative to the robot's
-    // base, and the base is where it truly stands in the cell (the workpiece does not move with the model).
-    // Targets are given to compensation in the tracker frame: the calibrated base frame is a convention
-    // wherever base errors are indistinguishable from joint offsets (e.g. grinder5's X slide zero against base
-    // x), but the world poses the calibrated model predicts are not.
-    const Transform T_world_true_base = cell.true_model().T_world_base() * ErrorTransform(cell.true_errors().data());
-    Rng validation_rng(DeriveSeed(options.seed, trial, kValidation));
-    for (int v = 0; v < options.num_validation; ++v) {
-      const Eigen::VectorXd q = RandomConfiguration(planning, &validation_rng);
-      const Transform target = T_world_true_base * nominal.T_world_base().inverse() * ForwardKinematics(nominal, q);
-      before_reached.push_back(cell.Land(q));
-      before_target.push_back(target);
-      for (int k = 0; k < num_methods * num_models; ++k) {
-        if (calibrations[k] == nullptr) continue;
-        const CompensationResult r = CompensatePose(*calibrations[k], target, TargetFrame::kTracker, q);
-        // Not converged (a target beyond a singularity's fold, or a joint at its limit): the robot is still sent
-        // to the best joints found, as a controller would, and the error counts.
-        if (!r.converged) ++pools[k].unconverged_targets;
-        pools[k].reached.push_back(cell.Land(r.joints));
-        pools[k].target.push_back(target);
-      }
-    }
+    RunExperimentTrial(setup, trial, &pools);
     if (options.progress) options.progress(trial + 1, options.trials);
   }
 
   ExperimentResult result;
   result.options = options;
   result.options.progress = nullptr;
-  result.before = ComputeAccuracy(before_reached, before_target, options.h_mm);
-  for (int k = 0; k < num_methods * num_models; ++k) {
-    MethodResult method;
-    method.method = kMethods[k / num_models].name;
-    method.model = options.models[k % num_models];
-    method.planned_poses = pools[k].planned_poses;
-    method.unmeasured_poses = pools[k].unmeasured_poses;
-    method.median_condition_number = Median(pools[k].condition_numbers);
-    method.failed_trials = pools[k].failed_trials;
-    method.unconverged_targets = pools[k].unconverged_targets;
-    if (!pools[k].reached.empty()) method.after = ComputeAccuracy(pools[k].reached, pools[k].target, options.h_mm);
-    result.methods.push_back(std::move(method));
-  }
+  result.before = ComputeAccuracy(pools.before_reached, pools.before_target, options.h_mm);
+  result.methods = PooledMethods(setup, pools);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

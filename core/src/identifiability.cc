@@ -74,34 +74,16 @@ bool IdentifiabilityOptions::IsValid(std::string* error) const {
   return true;
 }
 
-IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, MeasurementType type,
-                                                  const IdentifiabilityOptions& options) {
-  IdentifiabilitySummary summary;
-  summary.measurement_type = type;
+namespace {
+
+// The Jacobian over random configurations (seeded, uniform within limits), `rows` per configuration, each row
+// weighted by the tracker noise; with reflectors 3 rows per reflector and their offsets' columns after the model's.
+Eigen::MatrixXd WeightedProbeJacobian(const RobotModel& model, MeasurementType type,
+                                      const IdentifiabilityOptions& options, int rows) {
   const std::vector<Reflector>& reflectors = options.reflectors;
   const int num_reflectors = static_cast<int>(reflectors.size());
-  summary.num_parameters = model.num_error_parameters() + 3 * num_reflectors;
-  summary.num_configurations = options.num_configurations;
-  summary.scaling = DescribeScaling(options.noise);
-  std::string error;
-  if (!options.IsValid(&error)) {
-    summary.message = "invalid options: " + error;
-    return summary;
-  }
-  if (num_reflectors > 0 && type != MeasurementType::kPosition) {
-    summary.message = "invalid options: reflectors need position measurements";
-    return summary;
-  }
-  // With reflectors a configuration gives 3 rows per reflector.
-  const int rows = num_reflectors > 0 ? 3 * num_reflectors : MeasurementRows(type);
   const int n_model = model.num_error_parameters();
-  const int n = summary.num_parameters;
-  if (rows * options.num_configurations < n) {
-    summary.message = "too few configurations: " + std::to_string(rows * options.num_configurations) + " rows for " +
-                      std::to_string(n) + " parameters";
-    return summary;
-  }
-
+  const int n = n_model + 3 * num_reflectors;
   Eigen::MatrixXd weighted(rows * options.num_configurations, n);
   const Eigen::VectorXd w = options.noise.RowWeights(type);
   KinematicsWorkspace ws(model);
@@ -125,28 +107,43 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
     }
     for (int r = 0; r < rows; ++r) weighted.row(m * rows + r) = w[num_reflectors > 0 ? 0 : r] * block.row(r);
   }
-  if (!weighted.allFinite()) {
-    summary.message = "non-finite weighted Jacobian: the noise figures are out of range";
-    return summary;
-  }
-  // A column with no effect stays zero; the QR then pivots it last.
-  const Eigen::VectorXd d = UnitColumnFactorsOf(weighted);
-  const Eigen::MatrixXd scaled = weighted * d.asDiagonal();
+  return weighted;
+}
 
-  // The gauge of free reflector nests. Whatever moves all points rigidly with the flange (the tool site, the
-  // last joint's turn about its axis, ...) is also explained by the free nests' offsets, so the pivoted QR
-  // alone would keep an arbitrary mix of the two. The nests' offset columns go first: a free nest's position
-  // is what its shots measure, while the tool point is not measured at all, so what the offsets can explain
-  // stays in them and the tool site keeps its nominal place on the flange (no campaign without the
-  // tool-to-nest geometry can know better). The model's columns follow in pivoted order, projected off the
-  // nests' span: the same |R_kk| as one QR with the nests' columns pivoted first.
+// The probe Jacobian: weighted rows, its unit-column factors (UnitColumnFactors) and the columns scaled by them.
+struct ProbeColumns {
+  Eigen::MatrixXd weighted;
+  Eigen::VectorXd d;
+  Eigen::MatrixXd scaled;
+};
+
+// The columns in pivot order, their |R_kk|, and the rank kept.
+struct PivotedColumns {
+  std::vector<int> perm;
+  Eigen::VectorXd diag;
+  int rank = 0;
+};
+
+// The gauge of free reflector nests. Whatever moves all points rigidly with the flange (the tool site, the
+// last joint's turn about its axis, ...) is also explained by the free nests' offsets, so the pivoted QR
+// alone would keep an arbitrary mix of the two. The nests' offset columns go first: a free nest's position
+// is what its shots measure, while the tool point is not measured at all, so what the offsets can explain
+// stays in them and the tool site keeps its nominal place on the flange (no campaign without the
+// tool-to-nest geometry can know better). The model's columns follow in pivoted order, projected off the
+// nests' span: the same |R_kk| as one QR with the nests' columns pivoted first.
+PivotedColumns PivotIdentifiabilityColumns(const Eigen::MatrixXd& scaled, int n_model,
+                                           const IdentifiabilityOptions& options) {
+  const std::vector<Reflector>& reflectors = options.reflectors;
+  const int n = static_cast<int>(scaled.cols());
   std::vector<int> first, rest;
   for (int j = 0; j < n; ++j) {
     const bool free_offset = j >= n_model && !reflectors[(j - n_model) / 3].fixed;
     (free_offset ? first : rest).push_back(j);
   }
-  std::vector<int> perm;  // columns in pivot order
-  Eigen::VectorXd diag(n);
+  PivotedColumns out;
+  std::vector<int>& perm = out.perm;  // columns in pivot order
+  Eigen::VectorXd& diag = out.diag;
+  diag.resize(n);
   Eigen::MatrixXd rest_cols(scaled.rows(), rest.size());
   for (size_t k = 0; k < rest.size(); ++k) rest_cols.col(k) = scaled.col(rest[k]);
   int first_rank = 0;
@@ -176,32 +173,86 @@ IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, Measu
     perm.push_back(first[k]);
     diag[first_rank + rest_diag.size() + (k - first_rank)] = 0.0;
   }
-  int rank = first_rank;
+  int& rank = out.rank;
+  rank = first_rank;
   while (rank - first_rank < rest_diag.size() && rest_diag[rank - first_rank] > options.rank_tolerance) ++rank;
-  summary.smallest_kept_pivot = rank > 0 ? diag.head(rank).minCoeff() : 0.0;
-  summary.largest_dropped_pivot = rank < n ? diag.tail(n - rank).maxCoeff() : 0.0;
+  return out;
+}
 
-  for (int k = 0; k < rank; ++k) summary.identifiable.push_back(perm[k]);
-  std::sort(summary.identifiable.begin(), summary.identifiable.end());
-  for (int k : summary.identifiable) summary.identifiable_names.push_back(ParameterName(model, reflectors, k));
-
-  Eigen::MatrixXd kept_scaled(scaled.rows(), rank);
-  for (int k = 0; k < rank; ++k) kept_scaled.col(k) = scaled.col(summary.identifiable[k]);
+// Each dropped parameter explained by fitting its column onto the kept ones, and the kept columns' condition
+// number.
+void ExplainIdentifiability(const RobotModel& model, const std::vector<Reflector>& reflectors,
+                            const ProbeColumns& probe, std::vector<int> dropped_indices,
+                            IdentifiabilitySummary* summary) {
+  const int n_model = model.num_error_parameters();
+  const int rank = static_cast<int>(summary->identifiable.size());
+  Eigen::MatrixXd kept_scaled(probe.scaled.rows(), rank);
+  for (int k = 0; k < rank; ++k) kept_scaled.col(k) = probe.scaled.col(summary->identifiable[k]);
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> kept_qr(kept_scaled);
-  std::vector<int> dropped_indices(perm.begin() + rank, perm.end());
   std::sort(dropped_indices.begin(), dropped_indices.end());
   for (int j : dropped_indices) {
     const bool held = j >= n_model && reflectors[(j - n_model) / 3].fixed;
     int alias = -1;
     const std::string reason = held ? "held at its given position (fixed reflector)"
-                                    : ExplainDropped(weighted, d, summary.identifiable, kept_scaled, kept_qr, j, model,
-                                                     reflectors, type, &alias);
-    summary.dropped.push_back({j, ParameterName(model, reflectors, j), reason, alias});
+                                    : ExplainDropped(probe.weighted, probe.d, summary->identifiable, kept_scaled,
+                                                     kept_qr, j, model, reflectors, summary->measurement_type, &alias);
+    summary->dropped.push_back({j, ParameterName(model, reflectors, j), reason, alias});
   }
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(kept_scaled);
   const Eigen::VectorXd& sv = svd.singularValues();
-  summary.condition_number = rank > 0 ? sv[0] / sv[rank - 1] : 0.0;
+  summary->condition_number = rank > 0 ? sv[0] / sv[rank - 1] : 0.0;
+}
+
+}  // namespace
+
+IdentifiabilitySummary FindIdentifiableParameters(const RobotModel& model, MeasurementType type,
+                                                  const IdentifiabilityOptions& options) {
+  IdentifiabilitySummary summary;
+  summary.measurement_type = type;
+  const std::vector<Reflector>& reflectors = options.reflectors;
+  const int num_reflectors = static_cast<int>(reflectors.size());
+  summary.num_parameters = model.num_error_parameters() + 3 * num_reflectors;
+  summary.num_configurations = options.num_configurations;
+  summary.scaling = DescribeScaling(options.noise);
+  std::string error;
+  if (!options.IsValid(&error)) {
+    summary.message = "invalid options: " + error;
+    return summary;
+  }
+  if (num_reflectors > 0 && type != MeasurementType::kPosition) {
+    summary.message = "invalid options: reflectors need position measurements";
+    return summary;
+  }
+  // With reflectors a configuration gives 3 rows per reflector.
+  const int rows = num_reflectors > 0 ? 3 * num_reflectors : MeasurementRows(type);
+  const int n_model = model.num_error_parameters();
+  const int n = summary.num_parameters;
+  if (rows * options.num_configurations < n) {
+    summary.message = "too few configurations: " + std::to_string(rows * options.num_configurations) + " rows for " +
+                      std::to_string(n) + " parameters";
+    return summary;
+  }
+
+  ProbeColumns probe;
+  probe.weighted = WeightedProbeJacobian(model, type, options, rows);
+  if (!probe.weighted.allFinite()) {
+    summary.message = "non-finite weighted Jacobian: the noise figures are out of range";
+    return summary;
+  }
+  // A column with no effect stays zero; the QR then pivots it last.
+  probe.d = UnitColumnFactorsOf(probe.weighted);
+  probe.scaled = probe.weighted * probe.d.asDiagonal();
+  const PivotedColumns pivots = PivotIdentifiabilityColumns(probe.scaled, n_model, options);
+  const int rank = pivots.rank;
+  summary.smallest_kept_pivot = rank > 0 ? pivots.diag.head(rank).minCoeff() : 0.0;
+  summary.largest_dropped_pivot = rank < n ? pivots.diag.tail(n - rank).maxCoeff() : 0.0;
+
+  for (int k = 0; k < rank; ++k) summary.identifiable.push_back(pivots.perm[k]);
+  std::sort(summary.identifiable.begin(), summary.identifiable.end());
+  for (int k : summary.identifiable) summary.identifiable_names.push_back(ParameterName(model, reflectors, k));
+  ExplainIdentifiability(model, reflectors, probe, std::vector<int>(pivots.perm.begin() + rank, pivots.perm.end()),
+                         &summary);
 
   std::ostringstream msg;
   msg << rank << " of " << n << " parameters identifiable from " << ToString(type) << " measurements";

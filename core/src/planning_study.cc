@@ -239,11 +239,11 @@ double PlanningStudyRow::GainShare(int b) const {
   return std::log(start_condition_number / condition_number.at(b)) / best;
 }
 
-PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
-  std::string error;
-  if (!options.IsValid(&error)) throw std::invalid_argument("PlanningStudyOptions: " + error);
-  const auto start_time = std::chrono::steady_clock::now();
+namespace {
 
+// One case per robot and measurement type: its identifiable parameters (std::invalid_argument when the
+// configurations give too few rows for them) and its validation configurations.
+std::vector<Case> PlanningStudyCases(const PlanningStudyOptions& options) {
   std::vector<Case> cases;
   for (const std::string& robot : options.robots) {
     for (MeasurementType type : options.measurement_types) {
@@ -269,7 +269,12 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
       cases.push_back(std::move(c));
     }
   }
+  return cases;
+}
 
+// Every (case, seed) run, run i being case i / seeds with seed i % seeds, on options.threads threads; the first
+// failure rethrown once all have stopped.
+std::vector<SeedResult> RunPlanningStudySeeds(const std::vector<Case>& cases, const PlanningStudyOptions& options) {
   // Every (case, seed) run is independent and seeded by itself, so the workers' order does not matter.
   const int runs = static_cast<int>(cases.size()) * options.seeds;
   std::vector<SeedResult> results(runs);
@@ -297,46 +302,65 @@ PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
   work();
   for (std::thread& w : workers) w.join();
   if (failure) std::rethrow_exception(failure);
+  return results;
+}
+
+// A case's row: the medians over its seeds' results (options.seeds of them from `first`).
+PlanningStudyRow PlanningStudyRowOf(const Case& c, const std::string& robot,
+                                    std::vector<SeedResult>::const_iterator first,
+                                    const PlanningStudyOptions& options) {
+  auto median = [&](auto field) {
+    std::vector<double> values;
+    for (auto it = first; it != first + options.seeds; ++it) values.push_back(field(*it));
+    return Median(values);
+  };
+  PlanningStudyRow row;
+  row.robot = robot;
+  row.measurement_type = c.type;
+  row.num_parameters = static_cast<int>(c.observability.parameters.size());
+  row.start_condition_number = median([](const SeedResult& r) { return r.start_cond; });
+  row.start_rms_position_mm = median([](const SeedResult& r) { return r.start_rms; });
+  for (size_t b = 0; b < options.budgets.size(); ++b) {
+    row.condition_number.push_back(median([b](const SeedResult& r) { return r.cond[b]; }));
+    row.rms_position_mm.push_back(median([b](const SeedResult& r) { return r.rms[b]; }));
+  }
+  if (options.exchange) {
+    row.exchange_condition_number = median([](const SeedResult& r) { return r.exchange_cond; });
+    row.exchange_rms_position_mm = median([](const SeedResult& r) { return r.exchange_rms; });
+  }
+  if (!options.objectives.empty()) {
+    row.start_predicted_rms_error_mm = median([](const SeedResult& r) { return r.start.predicted; });
+    row.start_simulated_rms_error_mm = median([](const SeedResult& r) { return r.start.simulated; });
+  }
+  const size_t nobj = options.objectives.size();
+  for (size_t k = 0; k < nobj * (options.exchange ? 2 : 1); ++k) {
+    ObjectivePlanResult plan;
+    plan.objective = options.objectives[k % nobj];
+    plan.method = k < nobj ? "solis_wets" : "exchange";
+    plan.condition_number = median([k](const SeedResult& r) { return r.objectives[k].cond; });
+    plan.predicted_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].predicted; });
+    plan.simulated_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].simulated; });
+    row.objectives.push_back(std::move(plan));
+  }
+  return row;
+}
+
+}  // namespace
+
+PlanningStudyResult RunPlanningStudy(const PlanningStudyOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("PlanningStudyOptions: " + error);
+  const auto start_time = std::chrono::steady_clock::now();
+  const std::vector<Case> cases = PlanningStudyCases(options);
+  const std::vector<SeedResult> results = RunPlanningStudySeeds(cases, options);
 
   PlanningStudyResult result;
   result.options = options;
   result.options.progress = nullptr;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     const auto first = results.begin() + static_cast<std::ptrdiff_t>(ci) * options.seeds;
-    auto median = [&](auto field) {
-      std::vector<double> values;
-      for (auto it = first; it != first + options.seeds; ++it) values.push_back(field(*it));
-      return Median(values);
-    };
-    PlanningStudyRow row;
-    row.robot = options.robots[ci / options.measurement_types.size()];
-    row.measurement_type = cases[ci].type;
-    row.num_parameters = static_cast<int>(cases[ci].observability.parameters.size());
-    row.start_condition_number = median([](const SeedResult& r) { return r.start_cond; });
-    row.start_rms_position_mm = median([](const SeedResult& r) { return r.start_rms; });
-    for (size_t b = 0; b < options.budgets.size(); ++b) {
-      row.condition_number.push_back(median([b](const SeedResult& r) { return r.cond[b]; }));
-      row.rms_position_mm.push_back(median([b](const SeedResult& r) { return r.rms[b]; }));
-    }
-    if (options.exchange) {
-      row.exchange_condition_number = median([](const SeedResult& r) { return r.exchange_cond; });
-      row.exchange_rms_position_mm = median([](const SeedResult& r) { return r.exchange_rms; });
-    }
-    if (!options.objectives.empty()) {
-      row.start_predicted_rms_error_mm = median([](const SeedResult& r) { return r.start.predicted; });
-      row.start_simulated_rms_error_mm = median([](const SeedResult& r) { return r.start.simulated; });
-    }
-    const size_t nobj = options.objectives.size();
-    for (size_t k = 0; k < nobj * (options.exchange ? 2 : 1); ++k) {
-      ObjectivePlanResult plan;
-      plan.objective = options.objectives[k % nobj];
-      plan.method = k < nobj ? "solis_wets" : "exchange";
-      plan.condition_number = median([k](const SeedResult& r) { return r.objectives[k].cond; });
-      plan.predicted_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].predicted; });
-      plan.simulated_rms_error_mm = median([k](const SeedResult& r) { return r.objectives[k].simulated; });
-      row.objectives.push_back(std::move(plan));
-    }
-    result.rows.push_back(std::move(row));
+    result.rows.push_back(
+        PlanningStudyRowOf(cases[ci], options.robots[ci / options.measurement_types.size()], first, options));
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   return result;

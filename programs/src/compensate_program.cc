@@ -427,6 +427,466 @@ std::string TargetLabel(const ProgramFile& file, const CompensatedTarget& t) {
   return file.name + ":" + std::to_string(t.line) + (t.name ? " " + *t.name : std::string(" (inline)"));
 }
 
+// The request's checks before anything is read: std::invalid_argument saying what is wrong.
+void CheckProgramRequest(const Calibration& calibration, const RobotModel& nominal, const DialectSyntax& syntax,
+                         const ProgramCompensationOptions& options) {
+  std::string error;
+  if (!options.IsValid(&error)) throw std::invalid_argument("ProgramCompensationOptions: " + error);
+  if (nominal.num_joints() != calibration.model.num_joints()) {
+    throw std::invalid_argument("CompensateProgram: the nominal model has another number of joints");
+  }
+  if (syntax.read == nullptr)
+    throw std::invalid_argument(std::string("CompensateProgram: ") + syntax.name + " has no reader");
+  if (options.max_path_deviation_mm && syntax.inline_target == nullptr) {
+    throw std::invalid_argument(std::string("max_path_deviation_mm: a ") + syntax.name +
+                                " program cannot take inserted targets");
+  }
+}
+
+// Every target's frames and written pose first: a frame the request does not give refuses the program before
+// anything is solved.
+std::vector<Work> PrepareTargets(const Context& ctx, const ParsedProgram& program,
+                                 const std::vector<SourceText>& sources) {
+  const std::size_t n = program.targets.size();
+  const int joints = ctx.nominal.num_joints();
+  std::vector<Work> work(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProgramTarget& t = program.targets[i];
+    if (t.values.size() != t.spans.size()) throw std::logic_error("reader: values and spans differ in number");
+    if (t.kind == TargetKind::kJoint) {
+      if (static_cast<int>(t.values.size()) != joints) {
+        sources[static_cast<std::size_t>(t.file)].Fail(t.spans.empty() ? 0 : t.spans.front().offset,
+                                                       "the joint target has " + std::to_string(t.values.size()) +
+                                                           " robot axes, the robot " + std::to_string(joints));
+      }
+      work[i].controller = JointsToCore(ctx, t.values);
+      work[i].written = NominalToolPose(ctx, work[i].controller);
+    } else {
+      work[i].frames = FramesOf(ctx, t, sources);
+      work[i].written = WrittenToolPose(ctx, t, work[i].frames, sources);
+    }
+  }
+  return work;
+}
+
+// The controller's joints in program order: motions first (each target at its first motion, from the previous
+// motion's target), then the targets no motion uses, each from the target before it in the files.
+void PlaceControllerJoints(const Context& ctx, const ParsedProgram& program, std::vector<Work>* work) {
+  const std::size_t n = program.targets.size();
+  std::vector<int> order;
+  std::vector<char> placed(n, 0);
+  for (const MotionStatement& m : program.motions) {
+    if (m.target >= 0 && static_cast<std::size_t>(m.target) < n && !placed[static_cast<std::size_t>(m.target)]) {
+      placed[static_cast<std::size_t>(m.target)] = 1;
+      order.push_back(m.target);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!placed[i]) order.push_back(static_cast<int>(i));
+  }
+  Eigen::VectorXd previous;
+  for (int i : order) {
+    const ProgramTarget& t = program.targets[static_cast<std::size_t>(i)];
+    Work& w = (*work)[static_cast<std::size_t>(i)];
+    if (t.kind == TargetKind::kCartesian) {
+      w.controller = ControllerJoints(ctx, t, w.written, previous, &w.controller_problem);
+    }
+    if (w.controller.size() != 0) previous = w.controller;
+  }
+}
+
+// Solve every target from the controller's joints (independent of each other now: in parallel), with the
+// predicted error bound at its solution.
+void SolveTargets(const Context& ctx, const ParsedProgram& program, std::vector<Work>* work) {
+  const ProgramCompensationOptions& options = ctx.options;
+  std::vector<CompensationTarget> targets;
+  std::vector<std::size_t> index;
+  for (std::size_t i = 0; i < program.targets.size(); ++i) {
+    const ProgramTarget& t = program.targets[i];
+    const Work& w = (*work)[i];
+    if (w.controller.size() == 0) continue;
+    CompensationTarget target;
+    if (t.kind == TargetKind::kJoint) {
+      target.joints = w.controller;
+    } else {
+      target.pose = w.written;
+      target.frame = TargetFrame::kBase;
+      target.start = w.controller;
+      if (t.configuration_applies && ctx.arm) target.configuration = t.configuration;
+    }
+    target.payload = options.payload;
+    targets.push_back(std::move(target));
+    index.push_back(i);
+  }
+  const std::vector<CompensationResult> solved =
+      CompensateAll(ctx.calibration, ctx.nominal, targets, options.solver, options.threads);
+  std::vector<Eigen::VectorXd> solved_joints;
+  solved_joints.reserve(solved.size());
+  for (const CompensationResult& r : solved) solved_joints.push_back(r.joints);
+  const std::vector<double> bounds = PredictPositionErrorBounds(ctx.calibration, solved_joints, {options.payload},
+                                                                options.prediction, options.threads);
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    Work& w = (*work)[index[k]];
+    w.result = solved[k];
+    w.solved = true;
+    w.predicted_error_mm = bounds[k];
+  }
+}
+
+// A solved target's correction: the nominal pose at its compensated joints against the pose as written, in the
+// target's own tool and frame; w->values its new numbers (dialect units).
+void MeasureCorrection(const Context& ctx, const ProgramTarget& t, Work* w, CompensatedTarget* c) {
+  const Transform reached = NominalToolPose(ctx, w->result.joints);
+  if (t.kind == TargetKind::kJoint) {
+    c->correction_mm = (reached.translation() - w->written.translation()).norm();
+    c->correction_rad = Eigen::AngleAxisd(w->written.linear().transpose() * reached.linear()).angle();
+    w->values = JointsFromCore(ctx, w->result.joints);
+  } else {
+    // The nominal pose at the compensated joints, in the target's own tool and frame.
+    const Transform in_frame = w->frames.T_base_frame.inverse() * reached * w->frames.T_tool0_tool;
+    const Transform as_written = w->frames.T_base_frame.inverse() * w->written * w->frames.T_tool0_tool;
+    c->correction_mm = (in_frame.translation() - as_written.translation()).norm();
+    c->correction_rad = Eigen::AngleAxisd(as_written.linear().transpose() * in_frame.linear()).angle();
+    w->values = ValuesFromPose(ctx.syntax, in_frame, t.values);
+  }
+}
+
+// A target's outcome: its termination, whether the controller's branch and turns are kept, its correction.
+CompensatedTarget JudgeTarget(const Context& ctx, const ProgramTarget& t, Work* w) {
+  const int joints = ctx.nominal.num_joints();
+  CompensatedTarget c;
+  c.file = t.file, c.line = t.line, c.column = t.column, c.name = t.name, c.kind = t.kind;
+  if (!w->solved) {
+    c.termination = Termination::kFailure;
+    c.message = w->controller_problem;
+    c.configuration_kept = false;
+    return c;
+  }
+  const CompensationResult& r = w->result;
+  c.termination = r.termination;
+  c.message = r.message;
+  c.joints = r.joints;
+  c.joint_change_rad = LargestRevoluteChange(ctx.nominal, r.joints, w->controller);
+  c.predicted_error_mm = w->predicted_error_mm;
+  // The branch the controller uses for the target as written, kept? And its turns.
+  if (r.joints.size() == joints && ctx.arm) {
+    const ArmConfiguration wanted = t.kind == TargetKind::kCartesian && t.configuration_applies
+                                        ? t.configuration
+                                        : ctx.arm->ConfigurationOf(w->controller);
+    c.configuration_kept = r.configuration && wanted.Admits(*r.configuration);
+  }
+  if (r.joints.size() == joints && t.kind == TargetKind::kCartesian && t.configuration_applies &&
+      !TurnsMet(t.turns, r.joints)) {
+    c.configuration_kept = false;
+  }
+  if (!c.configuration_kept && c.message.empty()) {
+    c.message = "the calibrated solution nearest the target's joints has other configuration flags or turns (" +
+                (r.configuration ? r.configuration->ToString() : std::string("unknown")) + ") than the target";
+  }
+  if (r.joints.size() == joints) MeasureCorrection(ctx, t, w, &c);
+  return c;
+}
+
+// What the passes after the solve build: the reply (its summary as they go), each file's edits, and the targets
+// as read (index i) and inserted, each with where it sorts (file, offset).
+struct ProgramOutcome {
+  ProgramCompensationResult result;
+  std::vector<std::vector<Edit>> edits;
+  std::vector<CompensatedTarget> compensated;
+  std::vector<std::pair<int, std::size_t>> sort_keys;
+  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> inserted_targets;
+};
+
+// A kept target's numbers written over their own bytes where they change, and the summary's maxima.
+void RewriteTargetNumbers(const Context& ctx, const ProgramTarget& t, const Work& w, CompensatedTarget* c,
+                          ProgramOutcome* out) {
+  ProgramCompensationSummary& summary = out->result.summary;
+  for (std::size_t k = 0; k < t.spans.size(); ++k) {
+    const NumberSpan& span = t.spans[k];
+    const std::string_view original =
+        std::string_view(ctx.files[static_cast<std::size_t>(span.file)].text).substr(span.offset, span.length);
+    std::string text = FormatLike(original, w.values[k], UnitOf(ctx, t, k));
+    if (text != original) {
+      out->edits[static_cast<std::size_t>(span.file)].push_back({span.offset, span.length, std::move(text)});
+      c->rewritten = true;
+    }
+  }
+  if (c->rewritten) ++summary.rewritten;
+  summary.max_correction_mm = std::max(summary.max_correction_mm, c->correction_mm);
+  if (std::isfinite(c->predicted_error_mm) && !(c->predicted_error_mm <= summary.max_predicted_error_mm)) {
+    summary.max_predicted_error_mm = c->predicted_error_mm;
+  }
+}
+
+// Judge each target and prepare its numbers.
+void JudgeTargets(const Context& ctx, const ParsedProgram& program, std::vector<Work>* work, ProgramOutcome* out) {
+  const std::size_t n = program.targets.size();
+  ProgramCompensationSummary& summary = out->result.summary;
+  out->edits.resize(ctx.files.size());
+  out->compensated.resize(n);
+  out->sort_keys.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProgramTarget& t = program.targets[i];
+    ++summary.targets;
+    ++(t.kind == TargetKind::kJoint ? summary.joint_targets : summary.cartesian_targets);
+    CompensatedTarget c = JudgeTarget(ctx, t, &(*work)[i]);
+    const bool ok = c.termination == Termination::kConvergence && c.configuration_kept;
+    if (ok) {
+      RewriteTargetNumbers(ctx, t, (*work)[i], &c, out);
+    } else {
+      ++summary.failed;
+      if (!c.configuration_kept) ++summary.configuration_changes;
+    }
+    out->sort_keys[i] = {t.file, t.spans.empty() ? 0 : t.spans.front().offset};
+    out->compensated[i] = std::move(c);
+  }
+}
+
+// A circular move: the targets it runs from (the previous motion's), through (via) and to, the controller's joints
+// at its ends, and its arcs as programmed (intended) and as the controller runs the written targets.
+struct CircleMove {
+  std::size_t a = 0, v = 0, b = 0;
+  Eigen::VectorXd q_a, q_b;
+  Arc intended, written;
+};
+
+// Straight and circular moves: the path between the compensated ends, checked and split where it deviates.
+class PathPass {
+ public:
+  PathPass(const Context& ctx, const ParsedProgram& program, const std::vector<Work>& work, ProgramOutcome* out)
+      : ctx_(ctx), program_(program), work_(work), out_(*out), summary_(out->result.summary), checker_(ctx) {}
+
+  void Run() {
+    const std::vector<MotionStatement>& motions = program_.motions;
+    for (std::size_t m = 1; m < motions.size(); ++m) {
+      const MotionStatement& here = motions[m];
+      const MotionStatement& before = motions[m - 1];
+      if (here.motion == Motion::kCircular && m + 1 < motions.size() && motions[m + 1].motion == Motion::kCircular &&
+          motions[m + 1].begin == here.begin && motions[m + 1].file == here.file && here.file >= 0 &&
+          static_cast<std::size_t>(here.file) < ctx_.files.size()) {
+        // A circular move: its via point (here) and its end (the next entry), from the previous motion's target.
+        const MotionStatement& end = motions[m + 1];
+        ++m;
+        CheckCircle(before, here, end);
+        continue;
+      }
+      if (here.motion != Motion::kLinear || here.file < 0 || static_cast<std::size_t>(here.file) >= ctx_.files.size())
+        continue;
+      CheckLine(before, here);
+    }
+  }
+
+ private:
+  // The joints a target's motion ends at (compensated, or as written when kept).
+  Eigen::VectorXd EndsAt(std::size_t i) const {
+    const CompensatedTarget& c = out_.compensated[i];
+    const bool moved = c.termination == Termination::kConvergence && c.configuration_kept;
+    return moved ? c.joints : work_[i].controller;
+  }
+
+  // An inserted target's entry in the reply, sorted just before the statement it precedes.
+  void RecordInserted(const MotionStatement& statement, const Inserted& point) {
+    CompensatedTarget c;
+    c.file = statement.file, c.line = statement.line, c.kind = TargetKind::kCartesian, c.inserted = true;
+    c.joints = point.joints;
+    c.predicted_error_mm =
+        PredictPositionError(ctx_.calibration, point.joints, ctx_.options.payload, ctx_.options.prediction).bound_mm;
+    c.termination = point.result.termination;
+    c.rewritten = true;
+    c.joint_change_rad = kNaN;
+    out_.inserted_targets.push_back({{statement.file, statement.begin == 0 ? 0 : statement.begin - 1}, std::move(c)});
+    ++summary_.inserted;
+  }
+
+  // The numbers of a target like `like` (its tool and frame from work_[target]) at a compensated point, as the
+  // dialect writes an inline target; empty when it cannot.
+  std::string InlineLiteral(std::size_t target, const Inserted& point) const {
+    const ProgramTarget& like = program_.targets[target];
+    const Frames& frames = work_[target].frames;
+    const Transform in_frame = frames.T_base_frame.inverse() * point.written * frames.T_tool0_tool;
+    return ctx_.syntax.inline_target(like, ctx_.files, ValuesFromPose(ctx_.syntax, in_frame, like.values));
+  }
+
+  void CheckCircle(const MotionStatement& before, const MotionStatement& here, const MotionStatement& end) {
+    const std::size_t n = program_.targets.size();
+    const std::size_t a = static_cast<std::size_t>(before.target), v = static_cast<std::size_t>(here.target),
+                      b = static_cast<std::size_t>(end.target);
+    if (a >= n || v >= n || b >= n || work_[a].controller.size() == 0 || work_[v].controller.size() == 0 ||
+        work_[b].controller.size() == 0 || program_.targets[v].kind != TargetKind::kCartesian ||
+        program_.targets[b].kind != TargetKind::kCartesian) {
+      return;
+    }
+    const Eigen::VectorXd q_a = EndsAt(a), q_v = EndsAt(v), q_b = EndsAt(b);
+    const std::optional<Arc> intended = ArcThrough(work_[a].written, work_[v].written, work_[b].written);
+    const std::optional<Arc> written =
+        ArcThrough(NominalToolPose(ctx_, q_a), NominalToolPose(ctx_, q_v), NominalToolPose(ctx_, q_b));
+    if (!intended || !written) return;
+    ++summary_.segments_checked;
+    const double deviation = checker_.CircleDeviation(*intended, *written, q_a, q_b);
+    if (!(deviation > *ctx_.options.max_path_deviation_mm)) return;
+    const CircleMove move{.a = a, .v = v, .b = b, .q_a = q_a, .q_b = q_b, .intended = *intended, .written = *written};
+    const std::vector<Inserted> points = CompensateArcPoints(move);
+    if (points.size() != 3) {
+      ++summary_.segments_over_deviation;
+      return;
+    }
+    CheckArcHalves(move, points);
+    const std::string via_first = InlineLiteral(v, points[0]), end_first = InlineLiteral(b, points[1]);
+    const std::string via_second = InlineLiteral(v, points[2]);
+    if (via_first.empty() || end_first.empty() || via_second.empty()) return;
+    const std::string_view text(ctx_.files[static_cast<std::size_t>(here.file)].text);
+    // The new statement: a copy of this one with both references replaced.
+    std::vector<Edit>& file_edits = out_.edits[static_cast<std::size_t>(here.file)];
+    file_edits.push_back(InsertedStatement(
+        text, here,
+        {{here.reference_begin, here.reference_end, via_first}, {end.reference_begin, end.reference_end, end_first}}));
+    // This move's via point: the three-quarter point, in place of the reference (and of an inline via's own
+    // numbers, which lie inside it).
+    std::erase_if(file_edits, [&](const Edit& e) {
+      return e.length > 0 && e.offset >= here.reference_begin && e.offset < here.reference_end;
+    });
+    file_edits.push_back({here.reference_begin, here.reference_end - here.reference_begin, via_second});
+    for (const Inserted& point : points) RecordInserted(here, point);
+  }
+
+  // Split once, in two circles on the programmed arc: a new move through its quarter point to its midpoint, then
+  // this move with its via point replaced by the three-quarter point. Each new point compensated; fewer than three
+  // when one does not converge.
+  std::vector<Inserted> CompensateArcPoints(const CircleMove& move) const {
+    const Eigen::VectorXd& q_a = move.q_a;
+    const Eigen::VectorXd& q_b = move.q_b;
+    std::vector<Inserted> points;
+    for (double fraction : {0.25, 0.5, 0.75}) {
+      CompensationTarget target;
+      target.pose = ArcAt(move.intended, fraction);
+      target.frame = TargetFrame::kBase;
+      target.start = checker_.ControllerAt(ArcAt(move.written, fraction), q_b, q_a + fraction * (q_b - q_a));
+      if (target.start.size() == 0) target.start = q_a + fraction * (q_b - q_a);
+      target.payload = ctx_.options.payload;
+      Inserted point;
+      point.result = Compensate(ctx_.calibration, ctx_.nominal, target, ctx_.options.solver);
+      if (!point.result.converged) break;
+      point.joints = point.result.joints;
+      point.written = NominalToolPose(ctx_, point.joints);
+      points.push_back(std::move(point));
+    }
+    return points;
+  }
+
+  // Each half checked as the whole was; beyond the limit still, it is said (one split only).
+  void CheckArcHalves(const CircleMove& move, const std::vector<Inserted>& points) {
+    const Arc& intended = move.intended;
+    const std::optional<Arc> halves[2][2] = {
+        {ArcThrough(work_[move.a].written, ArcAt(intended, 0.25), ArcAt(intended, 0.5)),
+         ArcThrough(NominalToolPose(ctx_, move.q_a), points[0].written, points[1].written)},
+        {ArcThrough(ArcAt(intended, 0.5), ArcAt(intended, 0.75), work_[move.b].written),
+         ArcThrough(points[1].written, points[2].written, NominalToolPose(ctx_, move.q_b))}};
+    const Eigen::VectorXd* ends[2][2] = {{&move.q_a, &points[1].joints}, {&points[1].joints, &move.q_b}};
+    for (int h = 0; h < 2; ++h) {
+      if (!halves[h][0] || !halves[h][1]) continue;
+      const double d = checker_.CircleDeviation(*halves[h][0], *halves[h][1], *ends[h][0], *ends[h][1]);
+      if (d > *ctx_.options.max_path_deviation_mm) ++summary_.segments_over_deviation;
+    }
+  }
+
+  void CheckLine(const MotionStatement& before, const MotionStatement& here) {
+    const std::size_t n = program_.targets.size();
+    const std::size_t a = static_cast<std::size_t>(before.target), b = static_cast<std::size_t>(here.target);
+    if (a >= n || b >= n || work_[a].controller.size() == 0 || work_[b].controller.size() == 0) return;
+    const CompensatedTarget& ca = out_.compensated[a];
+    const CompensatedTarget& cb = out_.compensated[b];
+    Segment s;
+    s.intended_a = work_[a].written, s.intended_b = work_[b].written;
+    const bool a_moved = ca.termination == Termination::kConvergence && ca.configuration_kept;
+    const bool b_moved = cb.termination == Termination::kConvergence && cb.configuration_kept;
+    s.q_a = a_moved ? ca.joints : work_[a].controller;
+    s.q_b = b_moved ? cb.joints : work_[b].controller;
+    s.written_a = NominalToolPose(ctx_, s.q_a);
+    s.written_b = NominalToolPose(ctx_, s.q_b);
+    ++summary_.segments_checked;
+    std::vector<Inserted> inserted;
+    bool over = false;
+    checker_.Split(s, 0, &inserted, &over, &worst_mm_);
+    if (over) ++summary_.segments_over_deviation;
+    if (inserted.empty() || program_.targets[b].kind != TargetKind::kCartesian) return;
+    const std::string_view text(ctx_.files[static_cast<std::size_t>(here.file)].text);
+    std::vector<Edit> block;
+    for (const Inserted& piece : inserted) {
+      const std::string literal = InlineLiteral(b, piece);
+      if (literal.empty()) continue;
+      block.push_back(InsertedStatement(text, here, {{here.reference_begin, here.reference_end, literal}}));
+      RecordInserted(here, piece);
+    }
+    // In path order: edits at one offset keep their order (the writer's sort is stable).
+    for (Edit& e : block) out_.edits[static_cast<std::size_t>(here.file)].push_back(std::move(e));
+  }
+
+  const Context& ctx_;
+  const ParsedProgram& program_;
+  const std::vector<Work>& work_;
+  ProgramOutcome& out_;
+  ProgramCompensationSummary& summary_;
+  const PathChecker checker_;
+  double worst_mm_ = 0.0;
+};
+
+// The reply's targets: those read and those inserted, in the order of where they sort (file, offset).
+void ListTargets(ProgramOutcome* out) {
+  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> listed;
+  for (std::size_t i = 0; i < out->compensated.size(); ++i) {
+    listed.push_back({out->sort_keys[i], std::move(out->compensated[i])});
+  }
+  for (auto& entry : out->inserted_targets) listed.push_back(std::move(entry));
+  std::stable_sort(listed.begin(), listed.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (auto& entry : listed) out->result.targets.push_back(std::move(entry.second));
+}
+
+// on_failure refuse with targets that failed: FAILURE naming the first five, nothing written.
+void Refuse(const std::vector<ProgramFile>& files, ProgramCompensationResult* result) {
+  ProgramCompensationSummary& summary = result->summary;
+  summary.termination = Termination::kFailure;
+  std::string which;
+  int shown = 0;
+  for (const CompensatedTarget& c : result->targets) {
+    if (c.inserted || (c.termination == Termination::kConvergence && c.configuration_kept)) continue;
+    if (shown++ < 5) which += (which.empty() ? "" : "; ") + TargetLabel(files[static_cast<std::size_t>(c.file)], c);
+  }
+  summary.message = std::to_string(summary.failed) + " target(s) cannot be compensated as written (" + which +
+                    (summary.failed > 5 ? "; ..." : "") + "); on_failure refuse: nothing written";
+}
+
+// A file with its edits applied in order of their offsets (an insertion before a replacement at the same offset),
+// in one pass, so that a large program is copied once.
+std::string ApplyEdits(const std::string& in, std::vector<Edit>* list) {
+  std::stable_sort(list->begin(), list->end(), [](const Edit& a, const Edit& b) {
+    return a.offset != b.offset ? a.offset < b.offset : a.length < b.length;
+  });
+  std::string out;
+  out.reserve(in.size() + in.size() / 8);
+  std::size_t at = 0;
+  for (const Edit& e : *list) {
+    out.append(in, at, e.offset - at);
+    out += e.text;
+    at = e.offset + e.length;
+  }
+  out.append(in, at, std::string::npos);
+  return out;
+}
+
+// DEGRADED when anything was left as it was: a target, a segment beyond the deviation, or a program in which the
+// reader found no target at all (a client must not take that for a program compensated).
+void Conclude(const DialectSyntax& syntax, ProgramCompensationSummary* summary) {
+  std::vector<std::string> said;
+  if (summary->targets == 0) said.push_back("the files hold no target " + std::string(syntax.name) + " reads");
+  if (summary->failed > 0) said.push_back(std::to_string(summary->failed) + " target(s) kept as written");
+  if (summary->segments_over_deviation > 0) {
+    said.push_back(std::to_string(summary->segments_over_deviation) + " segment(s) still beyond max_path_deviation_mm");
+  }
+  summary->termination = said.empty() ? Termination::kConvergence : Termination::kDegraded;
+  summary->message.clear();
+  for (const std::string& s : said) summary->message += (summary->message.empty() ? "" : "; ") + s;
+}
+
 }  // namespace
 
 const char* ToString(OnFailure on_failure) { return on_failure == OnFailure::kKeep ? "keep" : "refuse"; }
@@ -467,17 +927,7 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
 ProgramCompensationResult CompensateProgram(const Calibration& calibration, const RobotModel& nominal,
                                             const DialectSyntax& syntax, const std::vector<ProgramFile>& files,
                                             const ProgramCompensationOptions& options) {
-  std::string error;
-  if (!options.IsValid(&error)) throw std::invalid_argument("ProgramCompensationOptions: " + error);
-  if (nominal.num_joints() != calibration.model.num_joints()) {
-    throw std::invalid_argument("CompensateProgram: the nominal model has another number of joints");
-  }
-  if (syntax.read == nullptr)
-    throw std::invalid_argument(std::string("CompensateProgram: ") + syntax.name + " has no reader");
-  if (options.max_path_deviation_mm && syntax.inline_target == nullptr) {
-    throw std::invalid_argument(std::string("max_path_deviation_mm: a ") + syntax.name +
-                                " program cannot take inserted targets");
-  }
+  CheckProgramRequest(calibration, nominal, syntax, options);
   Context ctx{calibration,
               nominal,
               syntax,
@@ -492,363 +942,27 @@ ProgramCompensationResult CompensateProgram(const Calibration& calibration, cons
   sources.reserve(files.size());
   for (std::size_t f = 0; f < files.size(); ++f) sources.emplace_back(files[f], static_cast<int>(f));
   const ParsedProgram program = syntax.read(files);
-  const std::size_t n = program.targets.size();
-  const int joints = nominal.num_joints();
 
-  // Every target's frames and written pose first: a frame the request does not give refuses the program before
-  // anything is solved.
-  std::vector<Work> work(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const ProgramTarget& t = program.targets[i];
-    if (t.values.size() != t.spans.size()) throw std::logic_error("reader: values and spans differ in number");
-    if (t.kind == TargetKind::kJoint) {
-      if (static_cast<int>(t.values.size()) != joints) {
-        sources[static_cast<std::size_t>(t.file)].Fail(t.spans.empty() ? 0 : t.spans.front().offset,
-                                                       "the joint target has " + std::to_string(t.values.size()) +
-                                                           " robot axes, the robot " + std::to_string(joints));
-      }
-      work[i].controller = JointsToCore(ctx, t.values);
-      work[i].written = NominalToolPose(ctx, work[i].controller);
-    } else {
-      work[i].frames = FramesOf(ctx, t, sources);
-      work[i].written = WrittenToolPose(ctx, t, work[i].frames, sources);
-    }
-  }
+  std::vector<Work> work = PrepareTargets(ctx, program, sources);
+  PlaceControllerJoints(ctx, program, &work);
+  SolveTargets(ctx, program, &work);
+  ProgramOutcome out;
+  out.result.dialect = syntax.dialect;
+  JudgeTargets(ctx, program, &work, &out);
+  if (options.max_path_deviation_mm) PathPass(ctx, program, work, &out).Run();
+  ListTargets(&out);
+  ProgramCompensationResult& result = out.result;
 
-  // The controller's joints in program order: motions first (each target at its first motion, from the previous
-  // motion's target), then the targets no motion uses, each from the target before it in the files.
-  std::vector<int> order;
-  std::vector<char> placed(n, 0);
-  for (const MotionStatement& m : program.motions) {
-    if (m.target >= 0 && static_cast<std::size_t>(m.target) < n && !placed[static_cast<std::size_t>(m.target)]) {
-      placed[static_cast<std::size_t>(m.target)] = 1;
-      order.push_back(m.target);
-    }
+  if (options.on_failure == OnFailure::kRefuse && result.summary.failed > 0) {
+    Refuse(files, &result);
+    return std::move(out.result);
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!placed[i]) order.push_back(static_cast<int>(i));
-  }
-  Eigen::VectorXd previous;
-  for (int i : order) {
-    const ProgramTarget& t = program.targets[static_cast<std::size_t>(i)];
-    Work& w = work[static_cast<std::size_t>(i)];
-    if (t.kind == TargetKind::kCartesian) {
-      w.controller = ControllerJoints(ctx, t, w.written, previous, &w.controller_problem);
-    }
-    if (w.controller.size() != 0) previous = w.controller;
-  }
-
-  // Solve every target from the controller's joints (independent of each other now: in parallel).
-  std::vector<CompensationTarget> targets;
-  std::vector<std::size_t> index;
-  for (std::size_t i = 0; i < n; ++i) {
-    const ProgramTarget& t = program.targets[i];
-    if (work[i].controller.size() == 0) continue;
-    CompensationTarget target;
-    if (t.kind == TargetKind::kJoint) {
-      target.joints = work[i].controller;
-    } else {
-      target.pose = work[i].written;
-      target.frame = TargetFrame::kBase;
-      target.start = work[i].controller;
-      if (t.configuration_applies && ctx.arm) target.configuration = t.configuration;
-    }
-    target.payload = options.payload;
-    targets.push_back(std::move(target));
-    index.push_back(i);
-  }
-  const std::vector<CompensationResult> solved =
-      CompensateAll(calibration, nominal, targets, options.solver, options.threads);
-  std::vector<Eigen::VectorXd> solved_joints;
-  solved_joints.reserve(solved.size());
-  for (const CompensationResult& r : solved) solved_joints.push_back(r.joints);
-  const std::vector<double> bounds =
-      PredictPositionErrorBounds(calibration, solved_joints, {options.payload}, options.prediction, options.threads);
-  for (std::size_t k = 0; k < index.size(); ++k) {
-    work[index[k]].result = solved[k];
-    work[index[k]].solved = true;
-    work[index[k]].predicted_error_mm = bounds[k];
-  }
-
-  // Judge each target and prepare its numbers.
-  ProgramCompensationResult result;
-  result.dialect = syntax.dialect;
-  ProgramCompensationSummary& summary = result.summary;
-  std::vector<std::vector<Edit>> edits(files.size());
-  // The targets as read (index i) and the inserted ones, each with where it sorts (file, offset).
-  std::vector<CompensatedTarget> compensated(n);
-  std::vector<std::pair<int, std::size_t>> sort_keys(n);
-  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> inserted_targets;
-  for (std::size_t i = 0; i < n; ++i) {
-    const ProgramTarget& t = program.targets[i];
-    Work& w = work[i];
-    CompensatedTarget c;
-    c.file = t.file, c.line = t.line, c.column = t.column, c.name = t.name, c.kind = t.kind;
-    ++summary.targets;
-    ++(t.kind == TargetKind::kJoint ? summary.joint_targets : summary.cartesian_targets);
-    if (!w.solved) {
-      c.termination = Termination::kFailure;
-      c.message = w.controller_problem;
-      c.configuration_kept = false;
-    } else {
-      const CompensationResult& r = w.result;
-      c.termination = r.termination;
-      c.message = r.message;
-      c.joints = r.joints;
-      c.joint_change_rad = LargestRevoluteChange(nominal, r.joints, w.controller);
-      c.predicted_error_mm = w.predicted_error_mm;
-      // The branch the controller uses for the target as written, kept? And its turns.
-      if (r.joints.size() == joints && ctx.arm) {
-        const ArmConfiguration wanted = t.kind == TargetKind::kCartesian && t.configuration_applies
-                                            ? t.configuration
-                                            : ctx.arm->ConfigurationOf(w.controller);
-        c.configuration_kept = r.configuration && wanted.Admits(*r.configuration);
-      }
-      if (r.joints.size() == joints && t.kind == TargetKind::kCartesian && t.configuration_applies &&
-          !TurnsMet(t.turns, r.joints)) {
-        c.configuration_kept = false;
-      }
-      if (!c.configuration_kept && c.message.empty()) {
-        c.message = "the calibrated solution nearest the target's joints has other configuration flags or turns (" +
-                    (r.configuration ? r.configuration->ToString() : std::string("unknown")) + ") than the target";
-      }
-      if (r.joints.size() == joints) {
-        const Transform reached = NominalToolPose(ctx, r.joints);
-        if (t.kind == TargetKind::kJoint) {
-          c.correction_mm = (reached.translation() - w.written.translation()).norm();
-          c.correction_rad = Eigen::AngleAxisd(w.written.linear().transpose() * reached.linear()).angle();
-          w.values = JointsFromCore(ctx, r.joints);
-        } else {
-          // The nominal pose at the compensated joints, in the target's own tool and frame.
-          const Transform in_frame = w.frames.T_base_frame.inverse() * reached * w.frames.T_tool0_tool;
-          const Transform as_written = w.frames.T_base_frame.inverse() * w.written * w.frames.T_tool0_tool;
-          c.correction_mm = (in_frame.translation() - as_written.translation()).norm();
-          c.correction_rad = Eigen::AngleAxisd(as_written.linear().transpose() * in_frame.linear()).angle();
-          w.values = ValuesFromPose(syntax, in_frame, t.values);
-        }
-      }
-    }
-    const bool ok = c.termination == Termination::kConvergence && c.configuration_kept;
-    if (ok) {
-      for (std::size_t k = 0; k < t.spans.size(); ++k) {
-        const NumberSpan& span = t.spans[k];
-        const std::string_view original =
-            std::string_view(files[static_cast<std::size_t>(span.file)].text).substr(span.offset, span.length);
-        std::string text = FormatLike(original, w.values[k], UnitOf(ctx, t, k));
-        if (text != original) {
-          edits[static_cast<std::size_t>(span.file)].push_back({span.offset, span.length, std::move(text)});
-          c.rewritten = true;
-        }
-      }
-      if (c.rewritten) ++summary.rewritten;
-      summary.max_correction_mm = std::max(summary.max_correction_mm, c.correction_mm);
-      if (std::isfinite(c.predicted_error_mm) && !(c.predicted_error_mm <= summary.max_predicted_error_mm)) {
-        summary.max_predicted_error_mm = c.predicted_error_mm;
-      }
-    } else {
-      ++summary.failed;
-      if (!c.configuration_kept) ++summary.configuration_changes;
-    }
-    sort_keys[i] = {t.file, t.spans.empty() ? 0 : t.spans.front().offset};
-    compensated[i] = std::move(c);
-  }
-
-  // Straight moves: the path between the compensated ends, split where it deviates.
-  if (options.max_path_deviation_mm) {
-    const PathChecker checker(ctx);
-    double worst = 0.0;
-    // The joints a target's motion ends at (compensated, or as written when kept) and the nominal pose there.
-    auto ends_at = [&](std::size_t i) {
-      const CompensatedTarget& c = compensated[i];
-      const bool moved = c.termination == Termination::kConvergence && c.configuration_kept;
-      return moved ? c.joints : work[i].controller;
-    };
-    // An inserted target's entry in the reply, sorted just before the statement it precedes.
-    auto record_inserted = [&](const MotionStatement& statement, const Inserted& point) {
-      CompensatedTarget c;
-      c.file = statement.file, c.line = statement.line, c.kind = TargetKind::kCartesian, c.inserted = true;
-      c.joints = point.joints;
-      c.predicted_error_mm =
-          PredictPositionError(calibration, point.joints, options.payload, options.prediction).bound_mm;
-      c.termination = point.result.termination;
-      c.rewritten = true;
-      c.joint_change_rad = kNaN;
-      inserted_targets.push_back({{statement.file, statement.begin == 0 ? 0 : statement.begin - 1}, std::move(c)});
-      ++summary.inserted;
-    };
-    for (std::size_t m = 1; m < program.motions.size(); ++m) {
-      const MotionStatement& here = program.motions[m];
-      const MotionStatement& before = program.motions[m - 1];
-      if (here.motion == Motion::kCircular && m + 1 < program.motions.size() &&
-          program.motions[m + 1].motion == Motion::kCircular && program.motions[m + 1].begin == here.begin &&
-          program.motions[m + 1].file == here.file && here.file >= 0 &&
-          static_cast<std::size_t>(here.file) < files.size()) {
-        // A circular move: its via point (here) and its end (the next entry), from the previous motion's target.
-        const MotionStatement& end = program.motions[m + 1];
-        ++m;
-        const std::size_t a = static_cast<std::size_t>(before.target), v = static_cast<std::size_t>(here.target),
-                          b = static_cast<std::size_t>(end.target);
-        if (a >= n || v >= n || b >= n || work[a].controller.size() == 0 || work[v].controller.size() == 0 ||
-            work[b].controller.size() == 0 || program.targets[v].kind != TargetKind::kCartesian ||
-            program.targets[b].kind != TargetKind::kCartesian) {
-          continue;
-        }
-        const Eigen::VectorXd q_a = ends_at(a), q_v = ends_at(v), q_b = ends_at(b);
-        const std::optional<Arc> intended = ArcThrough(work[a].written, work[v].written, work[b].written);
-        const std::optional<Arc> written =
-            ArcThrough(NominalToolPose(ctx, q_a), NominalToolPose(ctx, q_v), NominalToolPose(ctx, q_b));
-        if (!intended || !written) continue;
-        ++summary.segments_checked;
-        const double deviation = checker.CircleDeviation(*intended, *written, q_a, q_b);
-        if (!(deviation > *options.max_path_deviation_mm)) continue;
-        // Split once, in two circles on the programmed arc: a new move through its quarter point to its midpoint,
-        // then this move with its via point replaced by the three-quarter point. Each new point compensated.
-        std::vector<Inserted> points;
-        for (double fraction : {0.25, 0.5, 0.75}) {
-          CompensationTarget target;
-          target.pose = ArcAt(*intended, fraction);
-          target.frame = TargetFrame::kBase;
-          target.start = checker.ControllerAt(ArcAt(*written, fraction), q_b, q_a + fraction * (q_b - q_a));
-          if (target.start.size() == 0) target.start = q_a + fraction * (q_b - q_a);
-          target.payload = options.payload;
-          Inserted point;
-          point.result = Compensate(calibration, nominal, target, options.solver);
-          if (!point.result.converged) break;
-          point.joints = point.result.joints;
-          point.written = NominalToolPose(ctx, point.joints);
-          points.push_back(std::move(point));
-        }
-        if (points.size() != 3) {
-          ++summary.segments_over_deviation;
-          continue;
-        }
-        // Each half checked as the whole was; beyond the limit still, it is said (one split only).
-        const std::optional<Arc> halves[2][2] = {
-            {ArcThrough(work[a].written, ArcAt(*intended, 0.25), ArcAt(*intended, 0.5)),
-             ArcThrough(NominalToolPose(ctx, q_a), points[0].written, points[1].written)},
-            {ArcThrough(ArcAt(*intended, 0.5), ArcAt(*intended, 0.75), work[b].written),
-             ArcThrough(points[1].written, points[2].written, NominalToolPose(ctx, q_b))}};
-        const Eigen::VectorXd* ends[2][2] = {{&q_a, &points[1].joints}, {&points[1].joints, &q_b}};
-        for (int h = 0; h < 2; ++h) {
-          if (!halves[h][0] || !halves[h][1]) continue;
-          const double d = checker.CircleDeviation(*halves[h][0], *halves[h][1], *ends[h][0], *ends[h][1]);
-          if (d > *options.max_path_deviation_mm) ++summary.segments_over_deviation;
-        }
-        const ProgramFile& file = files[static_cast<std::size_t>(here.file)];
-        const std::string_view text(file.text);
-        auto literal = [&](std::size_t target, const Inserted& point) {
-          const Frames& frames = work[target].frames;
-          const Transform in_frame = frames.T_base_frame.inverse() * point.written * frames.T_tool0_tool;
-          return syntax.inline_target(program.targets[target], files,
-                                      ValuesFromPose(syntax, in_frame, program.targets[target].values));
-        };
-        const std::string via_first = literal(v, points[0]), end_first = literal(b, points[1]);
-        const std::string via_second = literal(v, points[2]);
-        if (via_first.empty() || end_first.empty() || via_second.empty()) continue;
-        // The new statement: a copy of this one with both references replaced.
-        std::vector<Edit>& file_edits = edits[static_cast<std::size_t>(here.file)];
-        file_edits.push_back(InsertedStatement(text, here,
-                                               {{here.reference_begin, here.reference_end, via_first},
-                                                {end.reference_begin, end.reference_end, end_first}}));
-        // This move's via point: the three-quarter point, in place of the reference (and of an inline via's own
-        // numbers, which lie inside it).
-        std::erase_if(file_edits, [&](const Edit& e) {
-          return e.length > 0 && e.offset >= here.reference_begin && e.offset < here.reference_end;
-        });
-        file_edits.push_back({here.reference_begin, here.reference_end - here.reference_begin, via_second});
-        for (const Inserted& point : points) record_inserted(here, point);
-        continue;
-      }
-      if (here.motion != Motion::kLinear || here.file < 0 || static_cast<std::size_t>(here.file) >= files.size())
-        continue;
-      const std::size_t a = static_cast<std::size_t>(before.target), b = static_cast<std::size_t>(here.target);
-      if (a >= n || b >= n || work[a].controller.size() == 0 || work[b].controller.size() == 0) continue;
-      const CompensatedTarget& ca = compensated[a];
-      const CompensatedTarget& cb = compensated[b];
-      Segment s;
-      s.intended_a = work[a].written, s.intended_b = work[b].written;
-      const bool a_moved = ca.termination == Termination::kConvergence && ca.configuration_kept;
-      const bool b_moved = cb.termination == Termination::kConvergence && cb.configuration_kept;
-      s.q_a = a_moved ? ca.joints : work[a].controller;
-      s.q_b = b_moved ? cb.joints : work[b].controller;
-      s.written_a = NominalToolPose(ctx, s.q_a);
-      s.written_b = NominalToolPose(ctx, s.q_b);
-      ++summary.segments_checked;
-      std::vector<Inserted> inserted;
-      bool over = false;
-      checker.Split(s, 0, &inserted, &over, &worst);
-      if (over) ++summary.segments_over_deviation;
-      const ProgramTarget& like = program.targets[b];
-      if (inserted.empty() || like.kind != TargetKind::kCartesian) continue;
-      const ProgramFile& file = files[static_cast<std::size_t>(here.file)];
-      const std::string_view text(file.text);
-      const Frames& frames = work[b].frames;
-      std::vector<Edit> block;
-      for (const Inserted& piece : inserted) {
-        const Transform in_frame = frames.T_base_frame.inverse() * piece.written * frames.T_tool0_tool;
-        const std::vector<double> values = ValuesFromPose(syntax, in_frame, like.values);
-        const std::string literal = syntax.inline_target(like, files, values);
-        if (literal.empty()) continue;
-        block.push_back(InsertedStatement(text, here, {{here.reference_begin, here.reference_end, literal}}));
-        record_inserted(here, piece);
-      }
-      // In path order: edits at one offset keep their order (the writer's sort is stable).
-      for (Edit& e : block) edits[static_cast<std::size_t>(here.file)].push_back(std::move(e));
-    }
-  }
-
-  std::vector<std::pair<std::pair<int, std::size_t>, CompensatedTarget>> listed;
-  for (std::size_t i = 0; i < n; ++i) listed.push_back({sort_keys[i], std::move(compensated[i])});
-  for (auto& entry : inserted_targets) listed.push_back(std::move(entry));
-  std::stable_sort(listed.begin(), listed.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  for (auto& entry : listed) result.targets.push_back(std::move(entry.second));
-
-  const bool refuse = options.on_failure == OnFailure::kRefuse && summary.failed > 0;
-  if (refuse) {
-    summary.termination = Termination::kFailure;
-    std::string which;
-    int shown = 0;
-    for (const CompensatedTarget& c : result.targets) {
-      if (c.inserted || (c.termination == Termination::kConvergence && c.configuration_kept)) continue;
-      if (shown++ < 5) which += (which.empty() ? "" : "; ") + TargetLabel(files[static_cast<std::size_t>(c.file)], c);
-    }
-    summary.message = std::to_string(summary.failed) + " target(s) cannot be compensated as written (" + which +
-                      (summary.failed > 5 ? "; ..." : "") + "); on_failure refuse: nothing written";
-    return result;
-  }
-
-  // Write: every file in one pass, its edits in order of their offsets (an insertion before a replacement at the
-  // same offset), so that a large program is copied once.
   result.files.reserve(files.size());
   for (std::size_t f = 0; f < files.size(); ++f) {
-    std::vector<Edit>& list = edits[f];
-    std::stable_sort(list.begin(), list.end(), [](const Edit& a, const Edit& b) {
-      return a.offset != b.offset ? a.offset < b.offset : a.length < b.length;
-    });
-    const std::string& in = files[f].text;
-    std::string out;
-    out.reserve(in.size() + in.size() / 8);
-    std::size_t at = 0;
-    for (const Edit& e : list) {
-      out.append(in, at, e.offset - at);
-      out += e.text;
-      at = e.offset + e.length;
-    }
-    out.append(in, at, std::string::npos);
-    result.files.push_back({files[f].name, std::move(out)});
+    result.files.push_back({files[f].name, ApplyEdits(files[f].text, &out.edits[f])});
   }
-  // DEGRADED when anything was left as it was: a target, a segment beyond the deviation, or a program in which the
-  // reader found no target at all (a client must not take that for a program compensated).
-  std::vector<std::string> said;
-  if (summary.targets == 0) said.push_back("the files hold no target " + std::string(syntax.name) + " reads");
-  if (summary.failed > 0) said.push_back(std::to_string(summary.failed) + " target(s) kept as written");
-  if (summary.segments_over_deviation > 0) {
-    said.push_back(std::to_string(summary.segments_over_deviation) + " segment(s) still beyond max_path_deviation_mm");
-  }
-  summary.termination = said.empty() ? Termination::kConvergence : Termination::kDegraded;
-  summary.message.clear();
-  for (const std::string& s : said) summary.message += (summary.message.empty() ? "" : "; ") + s;
-  return result;
+  Conclude(syntax, &result.summary);
+  return std::move(out.result);
 }
 
 }  // namespace robocal::programs

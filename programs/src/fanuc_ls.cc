@@ -123,6 +123,26 @@ struct PendingMotion {
   MotionStatement statement;
 };
 
+/// GP1's components of a block while it is read (X Y Z W P R by index 0..5, joints J1..J9, frame numbers, CONFIG),
+/// and the group being read.
+struct BlockComponents {
+  std::array<std::optional<ScannedNumber>, 6> cartesian;
+  std::array<std::optional<ScannedNumber>, kMaxBlockJoints> joints;
+  std::optional<std::string> uf, ut;
+  std::optional<std::size_t> first_cartesian, first_joint;
+  bool seen_config = false;
+  int group = 0;
+  bool gp1_seen = false;
+};
+
+/// A numeric component's key as read: lower case, where it starts, and the unit written after its number.
+struct ComponentKey {
+  std::string key;
+  std::size_t begin = 0;
+  std::string unit;
+  std::size_t unit_begin = 0;
+};
+
 /// Reads one .ls file: its /POS blocks, then its /MN motions.
 class LsFileReader {
  public:
@@ -183,15 +203,7 @@ class LsFileReader {
     ProgramTarget& target = block.target;
     target.file = source_.file_index();
     target.name = ref.name;
-    // GP1's components: X Y Z W P R by index 0..5, joints J1..J9, frame numbers, CONFIG.
-    std::array<std::optional<ScannedNumber>, 6> cartesian;
-    std::array<std::optional<ScannedNumber>, kMaxBlockJoints> joints;
-    std::optional<std::string> uf, ut;
-    std::optional<std::size_t> first_cartesian, first_joint;
-    bool seen_config = false;
-    int group = 0;
-    bool gp1_seen = false;
-
+    BlockComponents c;
     while (true) {
       p = SkipWhitespace(text, p);
       while (p < text.size() && text[p] == ',') p = SkipWhitespace(text, p + 1);
@@ -208,128 +220,144 @@ class LsFileReader {
         const std::optional<int> number = ScanIndex(text, p + 2, &after);
         const std::size_t colon = number ? SkipBlanks(text, after) : text.size();
         if (!number || colon >= text.size() || text[colon] != ':') source_.Fail(p, "expected a group GPn:");
-        group = *number;
-        if (group == 1) {
-          if (gp1_seen) source_.Fail(p, ref.name + " has GP1 twice");
-          gp1_seen = true;
+        c.group = *number;
+        if (c.group == 1) {
+          if (c.gp1_seen) source_.Fail(p, ref.name + " has GP1 twice");
+          c.gp1_seen = true;
         }
         p = colon + 1;
         continue;
       }
-      if (group == 0) source_.Fail(p, "expected a group GPn: in " + ref.name);
-
-      // One component: KEY (':' | '=') VALUE [unit].
-      const std::size_t key_begin = p;
-      while (p < text.size() && IsWordChar(text[p])) ++p;
-      if (p == key_begin) source_.Fail(p, "expected a component of " + ref.name);
-      const std::string key = LowerCase(text.substr(key_begin, p - key_begin));
-      p = SkipBlanks(text, p);
-      if (p >= text.size() || (text[p] != ':' && text[p] != '=')) {
-        source_.Fail(p, "expected ':' or '=' after " + std::string(text.substr(key_begin, p - key_begin)));
-      }
-      p = SkipBlanks(text, p + 1);
-      const bool mine = group == 1;
-
-      if (key == "uf" || key == "ut") {
-        std::size_t after = 0;
-        if (!ScanIndex(text, p, &after)) source_.Fail(p, "expected a frame number after " + key);
-        if (mine) {
-          std::optional<std::string>& frame = key == "uf" ? uf : ut;
-          if (frame) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
-          frame = std::string(text.substr(p, after - p));
-        }
-        p = after;
-        continue;
-      }
-      if (key == "config") {
-        if (p >= text.size() || text[p] != '\'') source_.Fail(p, "expected the configuration in quotes");
-        std::size_t close = p + 1;
-        while (close < text.size() && text[close] != '\'' && text[close] != '\n' && text[close] != '\r') ++close;
-        if (close >= text.size() || text[close] != '\'') source_.Fail(p, "the configuration has no closing quote");
-        if (mine) {
-          if (seen_config) source_.Fail(key_begin, ref.name + " gives CONFIG twice");
-          seen_config = true;
-          ReadConfig(text, p + 1, close, &target);
-        }
-        p = close + 1;
-        continue;
-      }
-
-      // A number with its unit.
-      const std::optional<ScannedNumber> number = ScanNumber(text, p);
-      if (!number) source_.Fail(p, "expected a number for " + std::string(text.substr(key_begin, key.size())));
-      p = SkipBlanks(text, number->offset + number->length);
-      std::size_t unit_end = p;
-      while (unit_end < text.size() && IsLetter(text[unit_end])) ++unit_end;
-      const std::string unit = LowerCase(text.substr(p, unit_end - p));
-      p = unit_end;
-      if (!mine) continue;
-
-      static constexpr std::string_view kCartesianKeys = "xyzwpr";
-      if (key.size() == 1 && kCartesianKeys.find(key[0]) != std::string_view::npos) {
-        const std::size_t index = kCartesianKeys.find(key[0]);
-        const char* expected = index < 3 ? "mm" : "deg";
-        if (!unit.empty() && unit != expected) {
-          source_.Fail(p - unit.size(), std::string("expected ") + expected + " for " + key);
-        }
-        if (first_joint) source_.Fail(key_begin, ref.name + " mixes joint and Cartesian components");
-        if (cartesian[index]) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
-        if (!first_cartesian) first_cartesian = key_begin;
-        cartesian[index] = number;
-      } else if ((key[0] == 'j' || key[0] == 'e') && key.size() >= 2 &&
-                 key.find_first_not_of("0123456789", 1) == std::string::npos && key.size() <= 3) {
-        if (!unit.empty() && unit != "deg" && unit != "mm") source_.Fail(p - unit.size(), "expected deg or mm");
-        if (key[0] == 'e') continue;  // an extended axis of GP1: kept as written
-        const int joint = std::stoi(key.substr(1));
-        if (joint < 1 || joint > kMaxBlockJoints) source_.Fail(key_begin, "no joint " + key + " in a GP1 block");
-        if (first_cartesian) source_.Fail(key_begin, ref.name + " mixes joint and Cartesian components");
-        if (joints[joint - 1]) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
-        if (!first_joint) first_joint = key_begin;
-        joints[joint - 1] = number;
-      } else {
-        source_.Fail(key_begin,
-                     "unknown component " + std::string(text.substr(key_begin, key.size())) + " of " + ref.name);
-      }
+      if (c.group == 0) source_.Fail(p, "expected a group GPn: in " + ref.name);
+      p = ReadComponent(text, ref, p, &c, &target);
     }
 
-    if (!gp1_seen) return p;  // another group's position only: nothing of the robot's
-    if (first_cartesian) {
-      static constexpr const char* kNames[6] = {"X", "Y", "Z", "W", "P", "R"};
-      for (int i = 0; i < 6; ++i) {
-        if (!cartesian[i]) source_.Fail(ref.begin, ref.name + " has no " + kNames[i]);
-        target.values.push_back(cartesian[i]->value);
-        target.spans.push_back({source_.file_index(), cartesian[i]->offset, cartesian[i]->length});
-      }
-      target.kind = TargetKind::kCartesian;
-      // The controller reaches a Cartesian position with the configuration stored in it, whatever the motion.
-      target.configuration_applies = true;
-      target.base = (uf && *uf != "0") ? *uf : "";
-    } else if (first_joint) {
-      int count = 0;
-      while (count < kMaxBlockJoints && joints[count]) ++count;
-      for (int i = count; i < kMaxBlockJoints; ++i) {
-        if (joints[i])
-          source_.Fail(ref.begin,
-                       ref.name + " has J" + std::to_string(i + 1) + " without J" + std::to_string(count + 1));
-      }
-      for (int i = 0; i < count; ++i) {
-        target.values.push_back(joints[i]->value);
-        target.spans.push_back({source_.file_index(), joints[i]->offset, joints[i]->length});
-      }
-      target.kind = TargetKind::kJoint;
-      // A joint position does not depend on the user frame; its turn numbers and letters mean nothing.
-      target.configuration = ArmConfiguration{};
-      target.turns.clear();
-      target.configuration_applies = false;
-    } else {
-      source_.Fail(ref.begin, ref.name + " has neither joints nor X, Y, Z, W, P, R in GP1");
-    }
-    target.tool = ut.value_or("");
+    if (!c.gp1_seen) return p;  // another group's position only: nothing of the robot's
+    SetBlockValues(ref, c, &target);
+    target.tool = c.ut.value_or("");
     target.line = source_.LineOf(target.spans.front().offset);
     target.column = source_.ColumnOf(target.spans.front().offset);
     names_.emplace(ref.name, static_cast<int>(blocks_.size()));
     blocks_.push_back(std::move(block));
     return p;
+  }
+
+  /// One component: KEY (':' | '=') VALUE [unit], kept when of GP1; returns the offset after it.
+  std::size_t ReadComponent(std::string_view text, const PositionRef& ref, std::size_t p, BlockComponents* c,
+                            ProgramTarget* target) {
+    const std::size_t key_begin = p;
+    while (p < text.size() && IsWordChar(text[p])) ++p;
+    if (p == key_begin) source_.Fail(p, "expected a component of " + ref.name);
+    const std::string key = LowerCase(text.substr(key_begin, p - key_begin));
+    p = SkipBlanks(text, p);
+    if (p >= text.size() || (text[p] != ':' && text[p] != '=')) {
+      source_.Fail(p, "expected ':' or '=' after " + std::string(text.substr(key_begin, p - key_begin)));
+    }
+    p = SkipBlanks(text, p + 1);
+    const bool mine = c->group == 1;
+
+    if (key == "uf" || key == "ut") {
+      std::size_t after = 0;
+      if (!ScanIndex(text, p, &after)) source_.Fail(p, "expected a frame number after " + key);
+      if (mine) {
+        std::optional<std::string>& frame = key == "uf" ? c->uf : c->ut;
+        if (frame) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
+        frame = std::string(text.substr(p, after - p));
+      }
+      return after;
+    }
+    if (key == "config") {
+      if (p >= text.size() || text[p] != '\'') source_.Fail(p, "expected the configuration in quotes");
+      std::size_t close = p + 1;
+      while (close < text.size() && text[close] != '\'' && text[close] != '\n' && text[close] != '\r') ++close;
+      if (close >= text.size() || text[close] != '\'') source_.Fail(p, "the configuration has no closing quote");
+      if (mine) {
+        if (c->seen_config) source_.Fail(key_begin, ref.name + " gives CONFIG twice");
+        c->seen_config = true;
+        ReadConfig(text, p + 1, close, target);
+      }
+      return close + 1;
+    }
+
+    // A number with its unit.
+    const std::optional<ScannedNumber> number = ScanNumber(text, p);
+    if (!number) source_.Fail(p, "expected a number for " + std::string(text.substr(key_begin, key.size())));
+    p = SkipBlanks(text, number->offset + number->length);
+    std::size_t unit_end = p;
+    while (unit_end < text.size() && IsLetter(text[unit_end])) ++unit_end;
+    const std::string unit = LowerCase(text.substr(p, unit_end - p));
+    p = unit_end;
+    if (mine) {
+      StoreNumber(text, ref, {.key = key, .begin = key_begin, .unit = unit, .unit_begin = p - unit.size()}, *number, c);
+    }
+    return p;
+  }
+
+  /// A number of GP1: a Cartesian component or a joint (an extended axis is kept as written).
+  void StoreNumber(std::string_view text, const PositionRef& ref, const ComponentKey& k, const ScannedNumber& number,
+                   BlockComponents* c) {
+    const std::string& key = k.key;
+    const std::size_t key_begin = k.begin;
+    static constexpr std::string_view kCartesianKeys = "xyzwpr";
+    if (key.size() == 1 && kCartesianKeys.find(key[0]) != std::string_view::npos) {
+      const std::size_t index = kCartesianKeys.find(key[0]);
+      const char* expected = index < 3 ? "mm" : "deg";
+      if (!k.unit.empty() && k.unit != expected) {
+        source_.Fail(k.unit_begin, std::string("expected ") + expected + " for " + key);
+      }
+      if (c->first_joint) source_.Fail(key_begin, ref.name + " mixes joint and Cartesian components");
+      if (c->cartesian[index]) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
+      if (!c->first_cartesian) c->first_cartesian = key_begin;
+      c->cartesian[index] = number;
+    } else if ((key[0] == 'j' || key[0] == 'e') && key.size() >= 2 &&
+               key.find_first_not_of("0123456789", 1) == std::string::npos && key.size() <= 3) {
+      if (!k.unit.empty() && k.unit != "deg" && k.unit != "mm") source_.Fail(k.unit_begin, "expected deg or mm");
+      if (key[0] == 'e') return;  // an extended axis of GP1: kept as written
+      const int joint = std::stoi(key.substr(1));
+      if (joint < 1 || joint > kMaxBlockJoints) source_.Fail(key_begin, "no joint " + key + " in a GP1 block");
+      if (c->first_cartesian) source_.Fail(key_begin, ref.name + " mixes joint and Cartesian components");
+      if (c->joints[joint - 1]) source_.Fail(key_begin, ref.name + " gives " + key + " twice");
+      if (!c->first_joint) c->first_joint = key_begin;
+      c->joints[joint - 1] = number;
+    } else {
+      source_.Fail(key_begin,
+                   "unknown component " + std::string(text.substr(key_begin, key.size())) + " of " + ref.name);
+    }
+  }
+
+  /// The target's values and kind from GP1's components: X, Y, Z, W, P, R, or joints J1..Jn without a gap.
+  void SetBlockValues(const PositionRef& ref, const BlockComponents& c, ProgramTarget* target) {
+    if (c.first_cartesian) {
+      static constexpr const char* kNames[6] = {"X", "Y", "Z", "W", "P", "R"};
+      for (int i = 0; i < 6; ++i) {
+        if (!c.cartesian[i]) source_.Fail(ref.begin, ref.name + " has no " + kNames[i]);
+        target->values.push_back(c.cartesian[i]->value);
+        target->spans.push_back({source_.file_index(), c.cartesian[i]->offset, c.cartesian[i]->length});
+      }
+      target->kind = TargetKind::kCartesian;
+      // The controller reaches a Cartesian position with the configuration stored in it, whatever the motion.
+      target->configuration_applies = true;
+      target->base = (c.uf && *c.uf != "0") ? *c.uf : "";
+    } else if (c.first_joint) {
+      int count = 0;
+      while (count < kMaxBlockJoints && c.joints[count]) ++count;
+      for (int i = count; i < kMaxBlockJoints; ++i) {
+        if (c.joints[i])
+          source_.Fail(ref.begin,
+                       ref.name + " has J" + std::to_string(i + 1) + " without J" + std::to_string(count + 1));
+      }
+      for (int i = 0; i < count; ++i) {
+        target->values.push_back(c.joints[i]->value);
+        target->spans.push_back({source_.file_index(), c.joints[i]->offset, c.joints[i]->length});
+      }
+      target->kind = TargetKind::kJoint;
+      // A joint position does not depend on the user frame; its turn numbers and letters mean nothing.
+      target->configuration = ArmConfiguration{};
+      target->turns.clear();
+      target->configuration_applies = false;
+    } else {
+      source_.Fail(ref.begin, ref.name + " has neither joints nor X, Y, Z, W, P, R in GP1");
+    }
   }
 
   /// The configuration string's text [begin, end) (between the quotes): letters F|N, U|D, T|B, then up to three

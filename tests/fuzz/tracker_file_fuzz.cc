@@ -13,19 +13,27 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::uint8_t options = data[0];
   api::ImportMeasurementsRequest request;
   request.request_id = "fuzz";
-  request.format = (options & 1) ? "csv" : "sa";
-  static const char* const kUnits[4] = {"", "mm", "m", "in"};
+  request.format = (options & 1) ? api::TrackerFileFormat::kCsv : api::TrackerFileFormat::kSa;
+  static const std::optional<api::TrackerFileUnit> kUnits[4] = {std::nullopt, api::TrackerFileUnit::kMm,
+                                                                api::TrackerFileUnit::kM, api::TrackerFileUnit::kIn};
   request.unit = kUnits[(options >> 1) & 3];
-  request.match = (options & 8) ? "order" : "name";
+  request.match = (options & 8) ? api::TrackerFileMatch::kOrder : api::TrackerFileMatch::kName;
   if (options & 16) request.columns = {"Name", "X [mm]", "Y [mm]", "Z [mm]", "nest"};
   const bool with_joints = (options & 1) && (options & 32);
   if (with_joints) {
-    request.joints = {{"j1", "j2"}, (options & 8) ? "rad" : "deg"};
-    request.orientation = (options & 64)
-                              ? api::OrientationColumns{"quaternion", {"qw", "qx", "qy", "qz"}, "wxyz", "", "", ""}
-                              : api::OrientationColumns{"euler", {"a", "b", "c"}, "", "ZYX", "extrinsic", "deg"};
+    request.joints = {{"j1", "j2"}, (options & 8) ? api::AngleUnit::kRad : api::AngleUnit::kDeg};
+    request.orientation =
+        (options & 64)
+            ? api::OrientationColumns{"quaternion", {"qw", "qx", "qy", "qz"},         api::QuaternionOrder::kWxyz,
+                                      "",           api::EulerConvention::kIntrinsic, api::AngleUnit::kDeg}
+            : api::OrientationColumns{"euler",
+                                      {"a", "b", "c"},
+                                      api::QuaternionOrder::kWxyz,
+                                      "ZYX",
+                                      api::EulerConvention::kExtrinsic,
+                                      api::AngleUnit::kDeg};
   }
-  if ((options & 1) && (options & 128)) request.decimal = ",";
+  if ((options & 1) && (options & 128)) request.decimal = api::TrackerFileDecimal::kComma;
   request.text = fuzz::Text(data + 1, size - 1);
   const std::vector<std::vector<double>> configurations = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {8, 9}, {10, 11},
                                                            {12, 13}};

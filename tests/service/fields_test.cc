@@ -331,19 +331,19 @@ TEST(FieldTableTest, OperationsWriteTheRequestAndResultOfTheirKind) {
 TEST(FieldTableTest, ImportsWriteTheKeysOfTheirFormat) {
   ImportMeasurementsRequest sa;
   sa.request_id = "r";
-  sa.format = "sa";
+  sa.format = TrackerFileFormat::kSa;
   sa.text = "x";
   EXPECT_EQ(json(sa), json::parse(R"({"request_id": "r", "role": "calibration", "format": "sa", "text": "x",
                                       "match": "name"})"));
   ImportMeasurementsRequest csv = sa;
-  csv.format = "csv";
+  csv.format = TrackerFileFormat::kCsv;
   csv.joints.columns = {"q1", "q2"};
-  csv.joints.unit = "deg";
+  csv.joints.unit = AngleUnit::kDeg;
   csv.orientation.representation = "euler";
   csv.orientation.columns = {"a", "b", "c"};
   csv.orientation.sequence = "ZYX";
-  csv.orientation.convention = "intrinsic";
-  csv.orientation.unit = "deg";
+  csv.orientation.convention = EulerConvention::kIntrinsic;
+  csv.orientation.unit = AngleUnit::kDeg;
   const json j = csv;
   EXPECT_FALSE(j.contains("match"));  // a file with joints is not matched to a plan
   EXPECT_EQ(j["decimal"], ".");

@@ -12,9 +12,13 @@ using nlohmann::json;
 ImportMeasurementsRequest Request(const std::string& format, const std::string& text, const std::string& unit = "") {
   ImportMeasurementsRequest r;
   r.request_id = "t";
-  r.format = format;
+  EXPECT_TRUE(FromWireName(format, &r.format)) << format;
   r.text = text;
-  r.unit = unit;
+  if (!unit.empty()) {
+    TrackerFileUnit u{};
+    EXPECT_TRUE(FromWireName(unit, &u)) << unit;
+    r.unit = u;
+  }
   return r;
 }
 
@@ -235,7 +239,7 @@ TEST(TrackerFilesTest, PointsTakeTheJointsOfTheirConfiguration) {
   EXPECT_EQ(by_name.measurements[3].pose.position_mm, (std::array<double, 3>{3, 0, 1}));
   EXPECT_FALSE(by_name.measurements[3].pose.has_orientation);
 
-  r.match = "order";
+  r.match = TrackerFileMatch::kOrder;
   const MeasurementBatchRequest by_order =
       MatchToConfigurations(r, Points({"a", "b", "c", "d", "e", "f"}), configurations, &problems);
   ASSERT_TRUE(problems.empty());
@@ -256,7 +260,7 @@ TEST(TrackerFilesTest, MatchingProblemsNameTheLine) {
   EXPECT_EQ(reasons[0], "line 3: target 'P3' is configuration 3; the plan has 2");
   EXPECT_EQ(reasons[1], "line 4: target 'Q' has no configuration number (its trailing digits, 1...2)");
 
-  r.match = "order";
+  r.match = TrackerFileMatch::kOrder;
   Problems order;
   const auto batch = MatchToConfigurations(r, Points({"a", "b", "c"}), configurations, &order);
   EXPECT_TRUE(batch.measurements.empty());
@@ -295,7 +299,7 @@ TEST(TrackerFilesTest, RequestFieldsAreChecked) {
   // The request survives its own JSON form.
   ImportMeasurementsRequest r = Request("csv", "target,x,y,z\n", "m");
   r.plan = "p1";
-  r.match = "order";
+  r.match = TrackerFileMatch::kOrder;
   r.shots_per_configuration = 3;
   r.columns.reflector = "Nest";
   const ImportMeasurementsRequest back = ParseImportMeasurementsRequest(json(r));
@@ -338,9 +342,10 @@ const char* const kEuropeanExport =
 
 ImportMeasurementsRequest EuropeanRequest() {
   ImportMeasurementsRequest r = Request("csv", kEuropeanExport, "mm");
-  r.decimal = ",";
-  r.joints = {{"j1", "j2"}, "rad"};
-  r.orientation = {"euler", {"rx", "ry", "rz"}, "", "XYZ", "intrinsic", "deg"};
+  r.decimal = TrackerFileDecimal::kComma;
+  r.joints = {{"j1", "j2"}, AngleUnit::kRad};
+  r.orientation = {"euler", {"rx", "ry", "rz"},          QuaternionOrder::kWxyz,
+                   "XYZ",   EulerConvention::kIntrinsic, AngleUnit::kDeg};
   return r;
 }
 
@@ -377,8 +382,9 @@ TEST(TrackerFilesTest, AnExportWithJointsAndEulerAnglesInEuropeanCsv) {
                                                   "a,b,x,y,z,qx,qy,qz,qw\n"
                                                   "10,20,1,2,3,0,0,0.7071067811865476,0.7071067811865476\n",
                                                   "m");
-  quaternions.joints = {{"a", "b"}, "deg"};
-  quaternions.orientation = {"quaternion", {"qx", "qy", "qz", "qw"}, "xyzw", "", "", ""};
+  quaternions.joints = {{"a", "b"}, AngleUnit::kDeg};
+  quaternions.orientation = {"quaternion", {"qx", "qy", "qz", "qw"},    QuaternionOrder::kXyzw,
+                             "",           EulerConvention::kIntrinsic, AngleUnit::kDeg};
   const auto q_points = ReadTrackerPoints(quaternions, &problems);
   ASSERT_TRUE(problems.empty());
   EXPECT_EQ(q_points[0].joints_deg, (std::vector<double>{10, 20}));
@@ -390,7 +396,7 @@ TEST(TrackerFilesTest, AnExportWithJointsAndEulerAnglesInEuropeanCsv) {
 TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
   // A decimal-comma file read with decimal points: the first bad field says what to give.
   ImportMeasurementsRequest points_request = EuropeanRequest();
-  points_request.decimal = ".";
+  points_request.decimal = TrackerFileDecimal::kPoint;
   Problems problems;
   EXPECT_EQ(ReadTrackerPoints(points_request, &problems).size(), 1u);  // line 4 has no decimal commas
   ASSERT_FALSE(problems.empty());
@@ -415,8 +421,9 @@ TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
 
   // A quaternion that is not one.
   ImportMeasurementsRequest q = Request("csv", "a,x,y,z,qw,qx,qy,qz\n1,0,0,0,1,1,0,0\n", "mm");
-  q.joints = {{"a"}, "deg"};
-  q.orientation = {"quaternion", {"qw", "qx", "qy", "qz"}, "wxyz", "", "", ""};
+  q.joints = {{"a"}, AngleUnit::kDeg};
+  q.orientation = {"quaternion", {"qw", "qx", "qy", "qz"},    QuaternionOrder::kWxyz,
+                   "",           EulerConvention::kIntrinsic, AngleUnit::kDeg};
   Problems norm;
   ReadTrackerPoints(q, &norm);
   ASSERT_EQ(Reasons(norm, "text").size(), 1u);
@@ -425,7 +432,7 @@ TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
 
   // A delimiter that splits nothing.
   ImportMeasurementsRequest tab = EuropeanRequest();
-  tab.delimiter = "\t";
+  tab.delimiter = TrackerFileDelimiter::kTab;
   Problems header;
   ReadTrackerPoints(tab, &header);
   ASSERT_EQ(Reasons(header, "text").size(), 1u);

@@ -262,52 +262,107 @@ void BodyMass(const ::urdf::Link& link, const Transform& T_body_link, double* ma
 
 using namespace internal;
 
-api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
-  const ParsedModel parsed(Parse(request.urdf));
-  const ::urdf::ModelInterfaceSharedPtr& model = parsed.get();
-  const auto link_names = [&] {
-    std::vector<::urdf::LinkSharedPtr> links;
-    model->getLinks(links);
-    std::vector<std::string> names;
-    for (const auto& l : links) names.push_back(l->name);
-    std::sort(names.begin(), names.end());
-    std::string out;
-    for (size_t i = 0; i < names.size() && i < 20; ++i) out += (i ? ", " : "") + names[i];
-    return out + (names.size() > 20 ? ", ..." : "");
-  };
-  const ::urdf::LinkConstSharedPtr base = model->getLink(request.base_link);
-  if (!base) Refuse("base_link", "no link \"" + request.base_link + "\" in the URDF (links: " + link_names() + ")");
-  const ::urdf::LinkConstSharedPtr tip = model->getLink(request.tip_link);
-  if (!tip) Refuse("tip_link", "no link \"" + request.tip_link + "\" in the URDF (links: " + link_names() + ")");
+namespace {
 
-  // liburdfdom keeps one parent joint per link and does not look for cycles: a link that is the child of two
-  // joints would silently lose one, and a cycle would make the walk below endless.
-  {
-    std::map<std::string, std::string> parent_of;  // child link -> joint
-    for (const auto& [name, joint] : model->joints_) {
-      const auto [at, fresh] = parent_of.emplace(joint->child_link_name, name);
-      if (!fresh) {
-        Refuse("urdf", "link \"" + joint->child_link_name + "\" is the child of two joints (\"" + at->second +
-                           "\" and \"" + name + "\"): a URDF is a tree");
-      }
+// The model's link names for a message: sorted, the first 20.
+std::string UrdfLinkNames(const ::urdf::ModelInterface& model) {
+  std::vector<::urdf::LinkSharedPtr> links;
+  model.getLinks(links);
+  std::vector<std::string> names;
+  for (const auto& l : links) names.push_back(l->name);
+  std::sort(names.begin(), names.end());
+  std::string out;
+  for (size_t i = 0; i < names.size() && i < 20; ++i) out += (i ? ", " : "") + names[i];
+  return out + (names.size() > 20 ? ", ..." : "");
+}
+
+// liburdfdom keeps one parent joint per link and does not look for cycles: a link that is the child of two
+// joints would silently lose one, and a cycle would make the walk below endless.
+void RefuseLinksWithTwoParents(const ::urdf::ModelInterface& model) {
+  std::map<std::string, std::string> parent_of;  // child link -> joint
+  for (const auto& [name, joint] : model.joints_) {
+    const auto [at, fresh] = parent_of.emplace(joint->child_link_name, name);
+    if (!fresh) {
+      Refuse("urdf", "link \"" + joint->child_link_name + "\" is the child of two joints (\"" + at->second +
+                         "\" and \"" + name + "\"): a URDF is a tree");
     }
   }
-  const std::vector<::urdf::JointConstSharedPtr> chain = Chain(*model, request.base_link, request.tip_link);
+}
 
-  api::RegisterRobotRequest out;
-  out.id = request.id.empty() ? IdFromName(model->getName()) : request.id;
-  if (!api::IsValidId(out.id)) {
-    Refuse("id", "the URDF's robot name \"" + model->getName() + "\" gives no valid id; give one (" +
-                     std::string(api::kIdRule) + ")");
+// A joint robocal can move on its own: revolute, continuous or prismatic, no mimic; its unit axis.
+Eigen::Vector3d MovingJointAxis(const ::urdf::Joint& joint) {
+  if (joint.type == ::urdf::Joint::FLOATING || joint.type == ::urdf::Joint::PLANAR) {
+    Refuse("urdf", JointPath(joint) + " is " + (joint.type == ::urdf::Joint::FLOATING ? "floating" : "planar") +
+                       ": an arm's chain has revolute, continuous, prismatic and fixed joints only");
   }
-  out.description = request.description.empty() ? "imported from the URDF robot \"" + model->getName() + "\" (" +
-                                                      request.base_link + " -> " + request.tip_link + ")"
-                                                : request.description;
-  out.convention = GeometryConvention::kTransform;
-  out.base = request.base;
-  out.tool = request.tool;
-  out.urdf = api::UrdfSource{{request.base_link, request.tip_link}, request.urdf};
+  if (joint.type != ::urdf::Joint::REVOLUTE && joint.type != ::urdf::Joint::CONTINUOUS &&
+      joint.type != ::urdf::Joint::PRISMATIC) {
+    Refuse("urdf", JointPath(joint) + " has an unknown type");
+  }
+  if (joint.mimic) {
+    Refuse("urdf", JointPath(joint) + " mimics \"" + joint.mimic->joint_name +
+                       "\": a calibrated chain needs joints that move on their own");
+  }
+  Eigen::Vector3d axis(joint.axis.x, joint.axis.y, joint.axis.z);
+  // Scaled by its largest component first, so that neither huge nor tiny components under- or overflow.
+  const double largest = axis.cwiseAbs().maxCoeff();
+  if (!std::isfinite(largest)) Refuse("urdf", JointPath(joint) + ": <axis> must be finite");
+  if (!(largest > 0.0)) Refuse("urdf", JointPath(joint) + ": <axis> is zero");
+  return (axis / largest).normalized();
+}
 
+// A revolute or prismatic joint's limits in wire units (a continuous joint's: two turns either way).
+void SetUrdfJointLimits(const ::urdf::Joint& joint, api::JointWire* j) {
+  if (joint.type == ::urdf::Joint::CONTINUOUS) {
+    j->min = -360.0;
+    j->max = 360.0;
+    return;
+  }
+  if (!joint.limits) Refuse("urdf", JointPath(joint) + " has no <limit>");
+  const double scale = j->type == JointType::kPrismatic ? kMmPerM : kDegPerRad;
+  j->min = joint.limits->lower * scale;
+  j->max = joint.limits->upper * scale;
+  const double bound = j->type == JointType::kPrismatic ? kMaxOffsetMm : 8.0 * 180.0;  // mm; four turns
+  if (!(std::abs(j->min) <= bound) || !(std::abs(j->max) <= bound)) {
+    Refuse("urdf",
+           JointPath(joint) + ": <limit> lower and upper must lie within " +
+               (j->type == JointType::kPrismatic ? std::string("1000 m") : std::string("four turns (25.13 rad)")));
+  }
+  if (!(j->min < j->max)) {
+    Refuse("urdf", JointPath(joint) + ": <limit> lower must be below upper (lower " +
+                       std::to_string(joint.limits->lower) + ", upper " + std::to_string(joint.limits->upper) + ")");
+  }
+}
+
+// A moving joint as robocal's: `fixed` before its motion, the body it moves (aligned by `align`), its limits.
+api::JointWire UrdfMovingJoint(const ::urdf::ModelInterface& model, const ::urdf::Joint& joint, const Transform& fixed,
+                               const Eigen::Matrix3d& align) {
+  api::JointWire j;
+  j.name = joint.name;
+  // The body this joint moves, in robocal's joint frame after the motion: the URDF child link's frame is that
+  // frame turned back by the axis alignment (child = after-motion * align', as `pending` says).
+  if (const ::urdf::LinkConstSharedPtr child = model.getLink(joint.child_link_name)) {
+    double mass = 0.0;
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+    BodyMass(*child, Rotation(align.transpose()), &mass, &moment);
+    if (mass > 0.0) {
+      const Eigen::Vector3d com = moment / mass;
+      j.mass_kg = mass;
+      j.com_mm = {com.x(), com.y(), com.z()};
+    }
+  }
+  j.type = joint.type == ::urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
+  const Eigen::Vector3d rpy = RpyFromRotation(fixed.linear()) * kDegPerRad;
+  j.xyz_mm = {fixed.translation().x(), fixed.translation().y(), fixed.translation().z()};
+  j.rpy_deg = {rpy.x(), rpy.y(), rpy.z()};
+  SetUrdfJointLimits(joint, &j);
+  return j;
+}
+
+// The chain's moving joints appended to *joints; returns what follows the last one (its axis alignment inverted,
+// then fixed joints): the flange.
+Transform AppendUrdfChain(const ::urdf::ModelInterface& model, const std::vector<::urdf::JointConstSharedPtr>& chain,
+                          std::vector<api::JointWire>* joints) {
   // What lies between the previous moving joint's frame (after its motion) and the next joint's origin: fixed
   // joints and the previous joint's axis alignment, inverted.
   Transform pending = Transform::Identity();
@@ -320,80 +375,17 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
       pending = pending * origin;
       continue;
     }
-    if (joint->type == ::urdf::Joint::FLOATING || joint->type == ::urdf::Joint::PLANAR) {
-      Refuse("urdf", JointPath(*joint) + " is " +
-                         (joint->type == ::urdf::Joint::FLOATING ? "floating" : "planar") +
-                         ": an arm's chain has revolute, continuous, prismatic and fixed joints only");
-    }
-    if (joint->type != ::urdf::Joint::REVOLUTE && joint->type != ::urdf::Joint::CONTINUOUS &&
-        joint->type != ::urdf::Joint::PRISMATIC) {
-      Refuse("urdf", JointPath(*joint) + " has an unknown type");
-    }
-    if (joint->mimic) {
-      Refuse("urdf", JointPath(*joint) + " mimics \"" + joint->mimic->joint_name +
-                         "\": a calibrated chain needs joints that move on their own");
-    }
-    Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
-    // Scaled by its largest component first, so that neither huge nor tiny components under- or overflow.
-    const double largest = axis.cwiseAbs().maxCoeff();
-    if (!std::isfinite(largest)) Refuse("urdf", JointPath(*joint) + ": <axis> must be finite");
-    if (!(largest > 0.0)) Refuse("urdf", JointPath(*joint) + ": <axis> is zero");
-    axis = (axis / largest).normalized();
+    const Eigen::Vector3d axis = MovingJointAxis(*joint);
     const Eigen::Matrix3d align = AxisAlignment(axis);
     const Transform fixed = pending * origin * Rotation(align);
     pending = Rotation(align.transpose());
+    joints->push_back(UrdfMovingJoint(model, *joint, fixed, align));
+  }
+  return pending;
+}
 
-    api::JointWire j;
-    j.name = joint->name;
-    // The body this joint moves, in robocal's joint frame after the motion: the URDF child link's frame is that
-    // frame turned back by the axis alignment (child = after-motion * align', as `pending` says).
-    if (const ::urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name)) {
-      double mass = 0.0;
-      Eigen::Vector3d moment = Eigen::Vector3d::Zero();
-      BodyMass(*child, Rotation(align.transpose()), &mass, &moment);
-      if (mass > 0.0) {
-        const Eigen::Vector3d com = moment / mass;
-        j.mass_kg = mass;
-        j.com_mm = {com.x(), com.y(), com.z()};
-      }
-    }
-    j.type = joint->type == ::urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
-    const Eigen::Vector3d rpy = RpyFromRotation(fixed.linear()) * kDegPerRad;
-    j.xyz_mm = {fixed.translation().x(), fixed.translation().y(), fixed.translation().z()};
-    j.rpy_deg = {rpy.x(), rpy.y(), rpy.z()};
-    if (joint->type == ::urdf::Joint::CONTINUOUS) {
-      j.min = -360.0;
-      j.max = 360.0;
-    } else {
-      if (!joint->limits) Refuse("urdf", JointPath(*joint) + " has no <limit>");
-      const double scale = j.type == JointType::kPrismatic ? kMmPerM : kDegPerRad;
-      j.min = joint->limits->lower * scale;
-      j.max = joint->limits->upper * scale;
-      const double bound = j.type == JointType::kPrismatic ? kMaxOffsetMm : 8.0 * 180.0;  // mm; four turns
-      if (!(std::abs(j.min) <= bound) || !(std::abs(j.max) <= bound)) {
-        Refuse("urdf", JointPath(*joint) + ": <limit> lower and upper must lie within " +
-                           (j.type == JointType::kPrismatic ? std::string("1000 m")
-                                                            : std::string("four turns (25.13 rad)")));
-      }
-      if (!(j.min < j.max)) {
-        Refuse("urdf", JointPath(*joint) + ": <limit> lower must be below upper (lower " +
-                           std::to_string(joint->limits->lower) + ", upper " + std::to_string(joint->limits->upper) +
-                           ")");
-      }
-    }
-    out.joints.push_back(j);
-  }
-  if (out.joints.empty()) {
-    Refuse("tip_link", "no revolute, continuous or prismatic joint between \"" + request.base_link + "\" and \"" +
-                           request.tip_link + "\"");
-  }
-  if (out.joints.size() > static_cast<size_t>(kMaxJoints)) {
-    Refuse("tip_link", std::to_string(out.joints.size()) + " moving joints between \"" + request.base_link +
-                           "\" and \"" + request.tip_link + "\"; robocal takes at most " + std::to_string(kMaxJoints));
-  }
-  out.flange = api::TransformToPose(pending);
-
-  // The core's checks (names robocal reserves or cannot use, limits) name joints[i]; say which URDF joint that is.
+// The core's checks (names robocal reserves or cannot use, limits) name joints[i]; say which URDF joint that is.
+void CheckImportedRobot(const api::RegisterRobotRequest& out) {
   try {
     (void)RobotModel::Build(api::ToSpec(out));
   } catch (const InvalidModelError& e) {
@@ -412,6 +404,49 @@ api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
     }
     throw api::ApiError(api::Status::kInvalidArgument, "invalid URDF robot: " + message, details);
   }
+}
+
+}  // namespace
+
+api::RegisterRobotRequest ImportUrdf(const api::ImportUrdfRequest& request) {
+  const ParsedModel parsed(Parse(request.urdf));
+  const ::urdf::ModelInterfaceSharedPtr& model = parsed.get();
+  const ::urdf::LinkConstSharedPtr base = model->getLink(request.base_link);
+  if (!base) {
+    Refuse("base_link", "no link \"" + request.base_link + "\" in the URDF (links: " + UrdfLinkNames(*model) + ")");
+  }
+  const ::urdf::LinkConstSharedPtr tip = model->getLink(request.tip_link);
+  if (!tip) {
+    Refuse("tip_link", "no link \"" + request.tip_link + "\" in the URDF (links: " + UrdfLinkNames(*model) + ")");
+  }
+  RefuseLinksWithTwoParents(*model);
+  const std::vector<::urdf::JointConstSharedPtr> chain = Chain(*model, request.base_link, request.tip_link);
+
+  api::RegisterRobotRequest out;
+  out.id = request.id.empty() ? IdFromName(model->getName()) : request.id;
+  if (!api::IsValidId(out.id)) {
+    Refuse("id", "the URDF's robot name \"" + model->getName() + "\" gives no valid id; give one (" +
+                     std::string(api::kIdRule) + ")");
+  }
+  out.description = request.description.empty() ? "imported from the URDF robot \"" + model->getName() + "\" (" +
+                                                      request.base_link + " -> " + request.tip_link + ")"
+                                                : request.description;
+  out.convention = GeometryConvention::kTransform;
+  out.base = request.base;
+  out.tool = request.tool;
+  out.urdf = api::UrdfSource{{request.base_link, request.tip_link}, request.urdf};
+
+  const Transform flange = AppendUrdfChain(*model, chain, &out.joints);
+  if (out.joints.empty()) {
+    Refuse("tip_link", "no revolute, continuous or prismatic joint between \"" + request.base_link + "\" and \"" +
+                           request.tip_link + "\"");
+  }
+  if (out.joints.size() > static_cast<size_t>(kMaxJoints)) {
+    Refuse("tip_link", std::to_string(out.joints.size()) + " moving joints between \"" + request.base_link +
+                           "\" and \"" + request.tip_link + "\"; robocal takes at most " + std::to_string(kMaxJoints));
+  }
+  out.flange = api::TransformToPose(flange);
+  CheckImportedRobot(out);
   return out;
 }
 

@@ -3,13 +3,13 @@
 // configurations by target name or by order (docs/formats.md).
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <nlohmann/json.hpp>
 
 #include "robocal/api/campaigns.h"
 #include "robocal/api/error.h"
@@ -23,18 +23,67 @@ inline constexpr std::size_t kMaxTrackerFileBytes = 4u << 20;
 /// tens of metres.
 inline constexpr double kMaxTrackerDistanceMm = 1e6;
 
-/// The wire names of an import's format ("sa", "csv"), unit ("mm", "m", "in") and match ("name", "order").
-const std::vector<std::string>& TrackerFileFormats();
-const std::vector<std::string>& TrackerFileUnits();
-const std::vector<std::string>& TrackerFileMatches();
-/// The wire names of a csv import's delimiter and decimal separator, a joint or angle unit ("deg", "rad"), an
-/// orientation's representation, a quaternion's order and an Euler convention.
-const std::vector<std::string>& TrackerFileDelimiters();
-const std::vector<std::string>& TrackerFileDecimals();
-const std::vector<std::string>& AngleUnits();
+/// An import's file format: "sa", a point export in the Spatial Analyzer style, or "csv".
+enum class TrackerFileFormat { kSa, kCsv };
+/// A tracker file's length unit: "mm", "m" or "in".
+enum class TrackerFileUnit { kMm, kM, kIn };
+/// How points find their configurations: "name" (a target name's trailing number) or "order".
+enum class TrackerFileMatch { kName, kOrder };
+/// A csv import's field delimiter: ",", ";" or "\t".
+enum class TrackerFileDelimiter { kComma, kSemicolon, kTab };
+/// A csv import's decimal separator: "." or ",".
+enum class TrackerFileDecimal { kPoint, kComma };
+/// A joint or Euler angle unit: "deg" or "rad".
+enum class AngleUnit { kDeg, kRad };
+/// What a quaternion's four columns hold, in order: "wxyz" or "xyzw".
+enum class QuaternionOrder { kWxyz, kXyzw };
+/// Euler angles about the turning frame's axes ("intrinsic") or about the fixed tracker axes ("extrinsic").
+enum class EulerConvention { kIntrinsic, kExtrinsic };
+template <>
+struct EnumTable<TrackerFileFormat> {
+  static constexpr std::array<TrackerFileFormat, 2> values = {TrackerFileFormat::kSa, TrackerFileFormat::kCsv};
+  static const char* Name(TrackerFileFormat value);
+};
+template <>
+struct EnumTable<TrackerFileUnit> {
+  static constexpr std::array<TrackerFileUnit, 3> values = {TrackerFileUnit::kMm, TrackerFileUnit::kM,
+                                                            TrackerFileUnit::kIn};
+  static const char* Name(TrackerFileUnit value);
+};
+template <>
+struct EnumTable<TrackerFileMatch> {
+  static constexpr std::array<TrackerFileMatch, 2> values = {TrackerFileMatch::kName, TrackerFileMatch::kOrder};
+  static const char* Name(TrackerFileMatch value);
+};
+template <>
+struct EnumTable<TrackerFileDelimiter> {
+  static constexpr std::array<TrackerFileDelimiter, 3> values = {
+      TrackerFileDelimiter::kComma, TrackerFileDelimiter::kSemicolon, TrackerFileDelimiter::kTab};
+  static const char* Name(TrackerFileDelimiter value);
+};
+template <>
+struct EnumTable<TrackerFileDecimal> {
+  static constexpr std::array<TrackerFileDecimal, 2> values = {TrackerFileDecimal::kPoint, TrackerFileDecimal::kComma};
+  static const char* Name(TrackerFileDecimal value);
+};
+template <>
+struct EnumTable<AngleUnit> {
+  static constexpr std::array<AngleUnit, 2> values = {AngleUnit::kDeg, AngleUnit::kRad};
+  static const char* Name(AngleUnit value);
+};
+template <>
+struct EnumTable<QuaternionOrder> {
+  static constexpr std::array<QuaternionOrder, 2> values = {QuaternionOrder::kWxyz, QuaternionOrder::kXyzw};
+  static const char* Name(QuaternionOrder value);
+};
+template <>
+struct EnumTable<EulerConvention> {
+  static constexpr std::array<EulerConvention, 2> values = {EulerConvention::kIntrinsic, EulerConvention::kExtrinsic};
+  static const char* Name(EulerConvention value);
+};
+/// The wire names of an orientation's representation ("quaternion", "euler"). A string, not an enum: empty says
+/// that the file's orientation is not read.
 const std::vector<std::string>& OrientationRepresentations();
-const std::vector<std::string>& QuaternionOrders();
-const std::vector<std::string>& EulerConventions();
 
 /// The header names of a CSV export's columns (matched without regard to case or surrounding white space).
 struct CsvColumns {
@@ -61,7 +110,7 @@ ROBOCAL_WIRE_DECLARE(CsvColumns);
 /// robot's joint order, and their unit ("deg" or "rad").
 struct JointColumns {
   std::vector<std::string> columns;
-  std::string unit;
+  AngleUnit unit = AngleUnit::kDeg;
   /// No joint columns: the export carries none.
   bool empty() const { return columns.empty(); }
 };
@@ -80,10 +129,10 @@ struct OrientationColumns {
   /// "quaternion" or "euler"; empty: the file's orientation is not read.
   std::string representation;
   std::vector<std::string> columns;
-  std::string order;
+  QuaternionOrder order = QuaternionOrder::kWxyz;
   std::string sequence;
-  std::string convention;
-  std::string unit;
+  EulerConvention convention = EulerConvention::kIntrinsic;
+  AngleUnit unit = AngleUnit::kDeg;
   /// No orientation read.
   bool empty() const { return representation.empty(); }
 };
@@ -106,17 +155,17 @@ struct ImportMeasurementsRequest {
   MeasurementRole role = MeasurementRole::kCalibration;
   /// "sa": `//` header lines and `collection group target x y z` rows (comma or white space); "csv": a header
   /// row and `columns`.
-  std::string format;
+  TrackerFileFormat format = TrackerFileFormat::kSa;
   /// The file's text.
   std::string text;
   /// "mm", "m" or "in". csv: required. sa: the file's own declaration (a `// Units: ...` line) when absent; a
   /// request unit that contradicts the file is refused.
-  std::string unit;
+  std::optional<TrackerFileUnit> unit;
   /// The plan whose configurations the points were shot at; empty: the campaign's plan.
   std::string plan;
   /// "name" (default): a point's configuration is the trailing number of its target name, 1-based ("P007" is
   /// configuration 7). "order": the points in file order, `shots_per_configuration` per configuration.
-  std::string match = "name";
+  TrackerFileMatch match = TrackerFileMatch::kName;
   /// match "order": shots per configuration; 0: the number of points over the plan's configurations.
   int shots_per_configuration = 0;
   CsvColumns columns;
@@ -126,10 +175,10 @@ struct ImportMeasurementsRequest {
   JointColumns joints;
   /// csv with joints: the measured orientation (pose and position_axis campaigns need it).
   OrientationColumns orientation;
-  /// csv: the field delimiter ",", ";" or "\t"; empty: the most frequent of them in the header.
-  std::string delimiter;
+  /// csv: the field delimiter ",", ";" or "\t"; unset: the most frequent of them in the header.
+  std::optional<TrackerFileDelimiter> delimiter;
   /// csv: the decimal separator, "." (default) or "," (European exports; the delimiter then cannot be ",").
-  std::string decimal = ".";
+  TrackerFileDecimal decimal = TrackerFileDecimal::kPoint;
   /// The payload the robot carried for every point of the file; unset: the campaign's.
   std::optional<PayloadWire> payload;
   /// The data rows to store, by 1-based line of `text`, ascending; empty: every row. The other rows are read and
@@ -142,7 +191,7 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
 template <>
 struct WireFields<ImportMeasurementsRequest> {
   using S = ImportMeasurementsRequest;
-  static constexpr bool (*kCsv)(const S&) = +[](const S& r) { return r.format == "csv"; };
+  static constexpr bool (*kCsv)(const S&) = +[](const S& r) { return r.format == TrackerFileFormat::kCsv; };
   static constexpr auto fields = std::make_tuple(
       // The parser reads these with the ranges given here (ParseImportMeasurementsRequest).
       Field{"request_id", &S::request_id}.Mandatory().Size(0, 128), Field{"role", &S::role},
