@@ -486,7 +486,7 @@ class CsvPointReader {
   bool SetOrientation(const std::vector<double>& angles, int line, TrackerPoint* p) const {
     bool ok = true;
     Eigen::Quaterniond q;
-    if (req_.orientation.representation == "quaternion") {
+    if (req_.orientation.representation == OrientationRepresentation::kQuaternion) {
       const bool w_first = req_.orientation.order == QuaternionOrder::kWxyz;
       q = w_first ? Eigen::Quaterniond(angles[0], angles[1], angles[2], angles[3])
                   : Eigen::Quaterniond(angles[3], angles[0], angles[1], angles[2]);
@@ -595,9 +595,8 @@ const char* EnumTable<QuaternionOrder>::Name(QuaternionOrder v) {
 const char* EnumTable<EulerConvention>::Name(EulerConvention v) {
   return v == EulerConvention::kExtrinsic ? "extrinsic" : "intrinsic";
 }
-const std::vector<std::string>& OrientationRepresentations() {
-  static const std::vector<std::string> names = {"quaternion", "euler"};
-  return names;
+const char* EnumTable<OrientationRepresentation>::Name(OrientationRepresentation v) {
+  return v == OrientationRepresentation::kQuaternion ? "quaternion" : "euler";
 }
 
 namespace {
@@ -664,8 +663,10 @@ void ReadOrientationColumns(ObjectReader& r, OrientationColumns* oc) {
   Problems& problems = *r.problems();
   if (!r.Has("joints")) problems.Add("orientation", "only with joints (a file matched to a plan gives points)");
   ObjectReader orr(*o, "orientation", &problems);
-  if (!orr.Enum("representation", true, OrientationRepresentations(), &oc->representation)) return;
-  const bool quaternion = oc->representation == "quaternion";
+  OrientationRepresentation representation{};
+  if (!orr.Enum("representation", true, &representation)) return;
+  oc->representation = representation;
+  const bool quaternion = representation == OrientationRepresentation::kQuaternion;
   const std::size_t count = quaternion ? 4 : 3;
   ReadNamedColumns(orr, count, count, &oc->columns);
   if (quaternion) {

@@ -254,7 +254,8 @@ api::ImportMeasurementsRequest TrackerFileRequest(Invocation& in, const std::str
   }
   if (quaternion || euler) {
     api::OrientationColumns& o = request.orientation;
-    o.representation = quaternion ? "quaternion" : "euler";
+    o.representation =
+        quaternion ? api::OrientationRepresentation::kQuaternion : api::OrientationRepresentation::kEuler;
     o.columns = ListOption(in, "--orientation-columns");
     if (quaternion) {
       o.order = in.Enum("--quaternion-order", o.order);

@@ -243,7 +243,7 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
                                                        const api::StoredCampaign& campaign,
                                                        const api::ImportMeasurementsRequest& req) {
   // An export with joints needs no plan; a 6-DoF campaign needs the measured orientation.
-  if (campaign.measurement_type != MeasurementType::kPosition && req.orientation.representation.empty()) {
+  if (campaign.measurement_type != MeasurementType::kPosition && req.orientation.empty()) {
     throw ApiError(
         Status::kInvalidArgument,
         "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +

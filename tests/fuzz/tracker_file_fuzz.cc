@@ -24,14 +24,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     request.joints = {{"j1", "j2"}, (options & 8) ? api::AngleUnit::kRad : api::AngleUnit::kDeg};
     request.orientation =
         (options & 64)
-            ? api::OrientationColumns{"quaternion", {"qw", "qx", "qy", "qz"},         api::QuaternionOrder::kWxyz,
-                                      "",           api::EulerConvention::kIntrinsic, api::AngleUnit::kDeg}
-            : api::OrientationColumns{"euler",
-                                      {"a", "b", "c"},
-                                      api::QuaternionOrder::kWxyz,
-                                      "ZYX",
-                                      api::EulerConvention::kExtrinsic,
-                                      api::AngleUnit::kDeg};
+            ? api::OrientationColumns{.representation = api::OrientationRepresentation::kQuaternion,
+                                      .columns = {"qw", "qx", "qy", "qz"},
+                                      .order = api::QuaternionOrder::kWxyz}
+            : api::OrientationColumns{.representation = api::OrientationRepresentation::kEuler,
+                                      .columns = {"a", "b", "c"},
+                                      .sequence = "ZYX",
+                                      .convention = api::EulerConvention::kExtrinsic,
+                                      .unit = api::AngleUnit::kDeg};
   }
   if ((options & 1) && (options & 128)) request.decimal = api::TrackerFileDecimal::kComma;
   request.text = fuzz::Text(data + 1, size - 1);

@@ -339,7 +339,7 @@ TEST(FieldTableTest, ImportsWriteTheKeysOfTheirFormat) {
   csv.format = TrackerFileFormat::kCsv;
   csv.joints.columns = {"q1", "q2"};
   csv.joints.unit = AngleUnit::kDeg;
-  csv.orientation.representation = "euler";
+  csv.orientation.representation = OrientationRepresentation::kEuler;
   csv.orientation.columns = {"a", "b", "c"};
   csv.orientation.sequence = "ZYX";
   csv.orientation.convention = EulerConvention::kIntrinsic;

@@ -344,8 +344,11 @@ ImportMeasurementsRequest EuropeanRequest() {
   ImportMeasurementsRequest r = Request("csv", kEuropeanExport, "mm");
   r.decimal = TrackerFileDecimal::kComma;
   r.joints = {{"j1", "j2"}, AngleUnit::kRad};
-  r.orientation = {"euler", {"rx", "ry", "rz"},          QuaternionOrder::kWxyz,
-                   "XYZ",   EulerConvention::kIntrinsic, AngleUnit::kDeg};
+  r.orientation = {.representation = OrientationRepresentation::kEuler,
+                   .columns = {"rx", "ry", "rz"},
+                   .sequence = "XYZ",
+                   .convention = EulerConvention::kIntrinsic,
+                   .unit = AngleUnit::kDeg};
   return r;
 }
 
@@ -383,8 +386,9 @@ TEST(TrackerFilesTest, AnExportWithJointsAndEulerAnglesInEuropeanCsv) {
                                                   "10,20,1,2,3,0,0,0.7071067811865476,0.7071067811865476\n",
                                                   "m");
   quaternions.joints = {{"a", "b"}, AngleUnit::kDeg};
-  quaternions.orientation = {"quaternion", {"qx", "qy", "qz", "qw"},    QuaternionOrder::kXyzw,
-                             "",           EulerConvention::kIntrinsic, AngleUnit::kDeg};
+  quaternions.orientation = {.representation = OrientationRepresentation::kQuaternion,
+                             .columns = {"qx", "qy", "qz", "qw"},
+                             .order = QuaternionOrder::kXyzw};
   const auto q_points = ReadTrackerPoints(quaternions, &problems);
   ASSERT_TRUE(problems.empty());
   EXPECT_EQ(q_points[0].joints_deg, (std::vector<double>{10, 20}));
@@ -422,8 +426,9 @@ TEST(TrackerFilesTest, BadValuesOfAnExportWithJointsAreNamedByLineAndColumn) {
   // A quaternion that is not one.
   ImportMeasurementsRequest q = Request("csv", "a,x,y,z,qw,qx,qy,qz\n1,0,0,0,1,1,0,0\n", "mm");
   q.joints = {{"a"}, AngleUnit::kDeg};
-  q.orientation = {"quaternion", {"qw", "qx", "qy", "qz"},    QuaternionOrder::kWxyz,
-                   "",           EulerConvention::kIntrinsic, AngleUnit::kDeg};
+  q.orientation = {.representation = OrientationRepresentation::kQuaternion,
+                   .columns = {"qw", "qx", "qy", "qz"},
+                   .order = QuaternionOrder::kWxyz};
   Problems norm;
   ReadTrackerPoints(q, &norm);
   ASSERT_EQ(Reasons(norm, "text").size(), 1u);

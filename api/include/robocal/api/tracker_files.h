@@ -39,6 +39,8 @@ enum class AngleUnit { kDeg, kRad };
 enum class QuaternionOrder { kWxyz, kXyzw };
 /// Euler angles about the turning frame's axes ("intrinsic") or about the fixed tracker axes ("extrinsic").
 enum class EulerConvention { kIntrinsic, kExtrinsic };
+/// How a 6-DoF export writes the measured orientation: four quaternion columns or three Euler angles.
+enum class OrientationRepresentation { kQuaternion, kEuler };
 template <>
 struct EnumTable<TrackerFileFormat> {
   static constexpr std::array<TrackerFileFormat, 2> values = {TrackerFileFormat::kSa, TrackerFileFormat::kCsv};
@@ -81,9 +83,12 @@ struct EnumTable<EulerConvention> {
   static constexpr std::array<EulerConvention, 2> values = {EulerConvention::kIntrinsic, EulerConvention::kExtrinsic};
   static const char* Name(EulerConvention value);
 };
-/// The wire names of an orientation's representation ("quaternion", "euler"). A string, not an enum: empty says
-/// that the file's orientation is not read.
-const std::vector<std::string>& OrientationRepresentations();
+template <>
+struct EnumTable<OrientationRepresentation> {
+  static constexpr std::array<OrientationRepresentation, 2> values = {OrientationRepresentation::kQuaternion,
+                                                                      OrientationRepresentation::kEuler};
+  static const char* Name(OrientationRepresentation value);
+};
 
 /// The header names of a CSV export's columns (matched without regard to case or surrounding white space).
 struct CsvColumns {
@@ -126,21 +131,25 @@ ROBOCAL_WIRE_DECLARE(JointColumns);
 /// first, second and third rotation of `sequence`, e.g. "XYZ" or "ZYX"; `convention` "intrinsic" (about the
 /// turning frame's axes) or "extrinsic" (about the fixed tracker axes); `unit` "deg" or "rad").
 struct OrientationColumns {
-  /// "quaternion" or "euler"; empty: the file's orientation is not read.
-  std::string representation;
+  /// Unset: the file's orientation is not read.
+  std::optional<OrientationRepresentation> representation;
   std::vector<std::string> columns;
   QuaternionOrder order = QuaternionOrder::kWxyz;
   std::string sequence;
   EulerConvention convention = EulerConvention::kIntrinsic;
   AngleUnit unit = AngleUnit::kDeg;
   /// No orientation read.
-  bool empty() const { return representation.empty(); }
+  bool empty() const { return !representation.has_value(); }
 };
 template <>
 struct WireFields<OrientationColumns> {
   using S = OrientationColumns;
-  static constexpr bool (*kQuaternion)(const S&) = +[](const S& o) { return o.representation == "quaternion"; };
-  static constexpr bool (*kEuler)(const S&) = +[](const S& o) { return o.representation == "euler"; };
+  static constexpr bool (*kQuaternion)(const S&) = +[](const S& o) {
+    return o.representation == OrientationRepresentation::kQuaternion;
+  };
+  static constexpr bool (*kEuler)(const S&) = +[](const S& o) {
+    return o.representation == OrientationRepresentation::kEuler;
+  };
   static constexpr auto fields =
       std::make_tuple(Field{"representation", &S::representation}, Field{"columns", &S::columns}.Size(3, 4),
                       Field{"order", &S::order}.When(kQuaternion), Field{"sequence", &S::sequence}.When(kEuler),
