@@ -441,11 +441,10 @@ void ResidualRow(std::ostringstream& out, const char* label, const char* key, co
       << NumCell(r.rms_weighted, 3, k + ".rms_weighted") << "</tr>\n";
 }
 
-void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
-  const FitSection& f = d.fit;
-  const api::CalibrationResult& c = f.calibration;
+// The fit's summary table: termination, counts, the model error beside the tracker's, the model and when.
+void FitSummaryHtml(const api::CalibrationResult& c, std::ostringstream& out) {
   const api::FitSummary& s = c.summary;
-  out << "<section id=\"fit\">\n<h2>3. Fit</h2>\n<table id=\"fit-summary\">\n";
+  out << "<table id=\"fit-summary\">\n";
   out << "<tr><th>termination</th>" << TextCell(api::WireName(s.termination)) << "</tr>\n";
   out << "<tr><th>message</th>" << TextCell(s.message) << "</tr>\n";
   out << "<tr><th>measurements used</th>" << IntCell(s.num_measurements, "summary.num_measurements") << "</tr>\n";
@@ -476,68 +475,74 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
       << TextCell(api::ToCore(c.model).Describe() + (c.model_choice ? " (chosen by cross-validation, below)" : ""))
       << "</tr>\n";
   out << "<tr><th>fitted</th>" << TextCell(UtcTime(c.created_unix_ms)) << "</tr>\n</table>\n";
+}
 
-  if (c.model_choice) {
-    // Every candidate's held-out error over the folds: the comparison the model was chosen by.
-    out << "<h3>Model choice: " << c.model_choice->folds << "-fold cross-validation</h3>\n<table id=\"model-choice\">\n"
-        << "<thead><tr><th>model</th><th>parameters</th><th>held-out E_xyz mean (mm)</th><th>standard error (mm)</th>"
-           "<th>held-out RMS (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
-    for (const api::ModelCandidateWire& m : c.model_choice->candidates) {
-      out << "<tr" << Attr("data-model", m.description) << ">" << TextCell(m.description)
-          << IntCell(m.num_parameters, "num_parameters");
-      if (m.failed_folds > 0) {
-        out << "<td colspan=\"3\">" << EscapeHtml(std::to_string(m.failed_folds) + " fold(s) not eligible: " + m.note)
+// Every candidate's held-out error over the folds: the comparison the model was chosen by.
+void FitModelChoiceHtml(const api::ModelChoiceWire& choice, std::ostringstream& out) {
+  out << "<h3>Model choice: " << choice.folds << "-fold cross-validation</h3>\n<table id=\"model-choice\">\n"
+      << "<thead><tr><th>model</th><th>parameters</th><th>held-out E_xyz mean (mm)</th><th>standard error (mm)</th>"
+         "<th>held-out RMS (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
+  for (const api::ModelCandidateWire& m : choice.candidates) {
+    out << "<tr" << Attr("data-model", m.description) << ">" << TextCell(m.description)
+        << IntCell(m.num_parameters, "num_parameters");
+    if (m.failed_folds > 0) {
+      out << "<td colspan=\"3\">" << EscapeHtml(std::to_string(m.failed_folds) + " fold(s) not eligible: " + m.note)
+          << "</td>";
+    } else {
+      out << NumCell(m.cv_mean_mm, 4, "cv_mean_mm") << NumCell(m.cv_standard_error_mm, 4, "cv_standard_error_mm")
+          << NumCell(m.cv_rms_mm, 4, "cv_rms_mm");
+    }
+    out << TextCell(m.chosen ? "chosen" : "") << "</tr>\n";
+  }
+  out << "</tbody></table>\n<p>The chosen model is the simplest whose mean is within one standard error of the "
+         "best's (docs/identification.md, \"Beyond geometry\").</p>\n";
+}
+
+// A MAP fit: what the priors held, and for "auto" the scale's comparison.
+void FitPriorsHtml(const api::PriorsResultWire& pr, std::ostringstream& out) {
+  out << "<h3>Parameter priors</h3>\n<p id=\"priors\">Priors on " << pr.num_priors
+      << " parameters; effective number of parameters " << Fixed(pr.effective_parameters, 1)
+      << " (docs/identification.md, \"Parameter priors\").</p>\n";
+  if (!pr.candidates.empty()) {
+    out << "<table id=\"prior-choice\">\n<thead><tr><th>scale of the priors</th><th>held-out E_xyz mean (mm)</th>"
+           "<th>standard error (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
+    for (const api::PriorScaleWire& s : pr.candidates) {
+      out << "<tr>" << TextCell(std::isfinite(s.scale) ? "x " + Fixed(s.scale, 2) : "no priors");
+      if (s.failed_folds > 0) {
+        out << "<td colspan=\"2\">" << EscapeHtml(std::to_string(s.failed_folds) + " fold(s) failed: " + s.note)
             << "</td>";
       } else {
-        out << NumCell(m.cv_mean_mm, 4, "cv_mean_mm") << NumCell(m.cv_standard_error_mm, 4, "cv_standard_error_mm")
-            << NumCell(m.cv_rms_mm, 4, "cv_rms_mm");
+        out << NumCell(s.cv_mean_mm, 4) << NumCell(s.cv_standard_error_mm, 4);
       }
-      out << TextCell(m.chosen ? "chosen" : "") << "</tr>\n";
+      out << TextCell(s.chosen ? "chosen" : "") << "</tr>\n";
     }
-    out << "</tbody></table>\n<p>The chosen model is the simplest whose mean is within one standard error of the "
-           "best's (docs/identification.md, \"Beyond geometry\").</p>\n";
+    out << "</tbody></table>\n";
   }
-  if (c.priors) {
-    // A MAP fit: what the priors held, and for "auto" the scale's comparison.
-    const api::PriorsResultWire& pr = *c.priors;
-    out << "<h3>Parameter priors</h3>\n<p id=\"priors\">Priors on " << pr.num_priors
-        << " parameters; effective number of parameters " << Fixed(pr.effective_parameters, 1)
-        << " (docs/identification.md, \"Parameter priors\").</p>\n";
-    if (!pr.candidates.empty()) {
-      out << "<table id=\"prior-choice\">\n<thead><tr><th>scale of the priors</th><th>held-out E_xyz mean (mm)</th>"
-             "<th>standard error (mm)</th><th>chosen</th></tr></thead>\n<tbody>\n";
-      for (const api::PriorScaleWire& s : pr.candidates) {
-        out << "<tr>" << TextCell(std::isfinite(s.scale) ? "x " + Fixed(s.scale, 2) : "no priors");
-        if (s.failed_folds > 0) {
-          out << "<td colspan=\"2\">" << EscapeHtml(std::to_string(s.failed_folds) + " fold(s) failed: " + s.note)
-              << "</td>";
-        } else {
-          out << NumCell(s.cv_mean_mm, 4) << NumCell(s.cv_standard_error_mm, 4);
-        }
-        out << TextCell(s.chosen ? "chosen" : "") << "</tr>\n";
-      }
-      out << "</tbody></table>\n";
+  if (pr.prior_determined.empty()) {
+    out << None("The data, not the priors, determined every parameter.");
+  } else {
+    out << "<table id=\"prior-determined\">\n<thead><tr><th>determined by its prior</th><th>prior std</th>"
+           "<th>unit</th><th>data's share of its information</th></tr></thead>\n<tbody>\n";
+    for (const api::PriorDeterminedWire& pd : pr.prior_determined) {
+      out << "<tr>" << TextCell(pd.parameter) << NumCell(pd.prior_std, 4) << TextCell(pd.unit)
+          << NumCell(pd.data_share, 3) << "</tr>\n";
     }
-    if (pr.prior_determined.empty()) {
-      out << None("The data, not the priors, determined every parameter.");
-    } else {
-      out << "<table id=\"prior-determined\">\n<thead><tr><th>determined by its prior</th><th>prior std</th>"
-             "<th>unit</th><th>data's share of its information</th></tr></thead>\n<tbody>\n";
-      for (const api::PriorDeterminedWire& pd : pr.prior_determined) {
-        out << "<tr>" << TextCell(pd.parameter) << NumCell(pd.prior_std, 4) << TextCell(pd.unit)
-            << NumCell(pd.data_share, 3) << "</tr>\n";
-      }
-      out << "</tbody></table>\n";
-    }
+    out << "</tbody></table>\n";
   }
+}
 
+// The residuals of the calibration measurements before and after the fit.
+void FitResidualsTableHtml(const api::CalibrationResult& c, std::ostringstream& out) {
   out << "<h3>Residuals of the calibration measurements</h3>\n<table id=\"fit-residuals\">\n<thead><tr><th></th>"
          "<th>measurements</th><th>RMS position (mm)</th><th>max position (mm)</th><th>RMS orientation (deg)</th>"
          "<th>max orientation (deg)</th><th>RMS weighted (sigmas)</th></tr></thead>\n<tbody>\n";
   ResidualRow(out, "before (nominal, registered base)", "residuals_before", c.residuals_before);
   ResidualRow(out, "after calibration", "residuals_after", c.residuals_after);
   out << "</tbody></table>\n";
+}
 
+// The identified parameters, then the ones the fit did not estimate and why.
+void FitParametersHtml(const api::CalibrationResult& c, std::ostringstream& out) {
   out << "<h3>Identified parameters</h3>\n";
   if (c.parameters.empty()) {
     out << None("The fit estimated no parameters.");
@@ -564,7 +569,10 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     }
     out << "</tbody></table>\n";
   }
+}
 
+// The covariance's most correlated pairs and the Jacobian's singular values, as the fit stored them.
+void FitLinearizationHtml(const FitSection& f, std::ostringstream& out) {
   out << "<h3>Most correlated parameter pairs</h3>\n";
   if (!f.linearization_problem.empty()) {
     out << None("Not available: " + f.linearization_problem);
@@ -598,43 +606,57 @@ void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
     }
     out << "</tbody></table>\n";
   }
+}
 
+// The robust fit's settings and the measurements it excluded.
+void FitRobustHtml(const api::CalibrationResult& c, std::ostringstream& out) {
   out << "<h3>Robust fit</h3>\n";
   if (!c.robust.enabled) {
     out << None("The robust fit was off (reject_outliers: false): every measurement was used.");
-  } else {
-    out << "<table id=\"robust\">\n<tr><th>threshold (sigmas)</th>"
-        << NumCell(c.robust.threshold, 3, "robust.threshold") << "</tr>\n<tr><th>robust scale</th>"
-        << NumCell(c.robust.scale, 3, "robust.scale") << "</tr>\n<tr><th>fits</th>"
-        << IntCell(c.robust.rounds, "robust.rounds") << "</tr>\n</table>\n";
-    if (c.outliers.empty()) {
-      out << None("No outliers: no measurement was excluded.");
-    } else {
-      // The largest normalised residuals first (ties: the earlier measurement), at most kMaxOutlierRows.
-      std::vector<const api::OutlierWire*> listed;
-      for (const api::OutlierWire& o : c.outliers) listed.push_back(&o);
-      std::stable_sort(listed.begin(), listed.end(), [](const api::OutlierWire* a, const api::OutlierWire* b) {
-        return a->normalized_residual > b->normalized_residual;
-      });
-      if (listed.size() > kMaxOutlierRows) {
-        out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of " << listed.size()
-            << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
-            << " more are not (GET .../calibration has them all).</p>\n";
-        listed.resize(kMaxOutlierRows);
-      }
-      out << "<table id=\"outliers\">\n<thead><tr><th>sequence</th><th>reflector</th><th>normalised residual "
-             "(sigmas)</th><th>cause</th></tr></thead>\n<tbody>\n";
-      for (const api::OutlierWire* o : listed) {
-        out << "<tr>" << IntCell(o->sequence, "sequence") << TextCell(o->reflector.empty() ? "-" : o->reflector)
-            << NumCell(o->normalized_residual, 2, "normalized_residual")
-            << TextCell(o->cause == OutlierMeasurement::Cause::kStale
-                            ? "stale tracker reading (repeats the shot before it)"
-                            : "residual beyond the threshold")
-            << "</tr>\n";
-      }
-      out << "</tbody></table>\n";
-    }
+    return;
   }
+  out << "<table id=\"robust\">\n<tr><th>threshold (sigmas)</th>" << NumCell(c.robust.threshold, 3, "robust.threshold")
+      << "</tr>\n<tr><th>robust scale</th>" << NumCell(c.robust.scale, 3, "robust.scale") << "</tr>\n<tr><th>fits</th>"
+      << IntCell(c.robust.rounds, "robust.rounds") << "</tr>\n</table>\n";
+  if (c.outliers.empty()) {
+    out << None("No outliers: no measurement was excluded.");
+    return;
+  }
+  // The largest normalised residuals first (ties: the earlier measurement), at most kMaxOutlierRows.
+  std::vector<const api::OutlierWire*> listed;
+  for (const api::OutlierWire& o : c.outliers) listed.push_back(&o);
+  std::stable_sort(listed.begin(), listed.end(), [](const api::OutlierWire* a, const api::OutlierWire* b) {
+    return a->normalized_residual > b->normalized_residual;
+  });
+  if (listed.size() > kMaxOutlierRows) {
+    out << "<p class=\"note\" id=\"outliers-not-listed\">The " << kMaxOutlierRows << " largest of " << listed.size()
+        << " excluded measurements are listed; " << listed.size() - kMaxOutlierRows
+        << " more are not (GET .../calibration has them all).</p>\n";
+    listed.resize(kMaxOutlierRows);
+  }
+  out << "<table id=\"outliers\">\n<thead><tr><th>sequence</th><th>reflector</th><th>normalised residual "
+         "(sigmas)</th><th>cause</th></tr></thead>\n<tbody>\n";
+  for (const api::OutlierWire* o : listed) {
+    out << "<tr>" << IntCell(o->sequence, "sequence") << TextCell(o->reflector.empty() ? "-" : o->reflector)
+        << NumCell(o->normalized_residual, 2, "normalized_residual")
+        << TextCell(o->cause == OutlierMeasurement::Cause::kStale ? "stale tracker reading (repeats the shot before it)"
+                                                                  : "residual beyond the threshold")
+        << "</tr>\n";
+  }
+  out << "</tbody></table>\n";
+}
+
+void FitSectionHtml(const ReportData& d, std::ostringstream& out) {
+  const FitSection& f = d.fit;
+  const api::CalibrationResult& c = f.calibration;
+  out << "<section id=\"fit\">\n<h2>3. Fit</h2>\n";
+  FitSummaryHtml(c, out);
+  if (c.model_choice) FitModelChoiceHtml(*c.model_choice, out);
+  if (c.priors) FitPriorsHtml(*c.priors, out);
+  FitResidualsTableHtml(c, out);
+  FitParametersHtml(c, out);
+  FitLinearizationHtml(f, out);
+  FitRobustHtml(c, out);
   out << "</section>\n";
 }
 

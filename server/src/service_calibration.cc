@@ -114,6 +114,71 @@ void CheckFitSize(const RobotModel& model, const IdentificationOptions& options,
   throw ApiError(Status::kFailedPrecondition, "the fit is too large: " + reason, details);
 }
 
+// An offset named for a nest without shots cannot be estimated: FAILED_PRECONDITION naming the request's field.
+void CheckFitReflectorsMeasured(const RobotModel& model, const std::vector<Reflector>& reflectors,
+                                const std::vector<std::string>& parameters,
+                                const std::vector<Measurement>& measurements) {
+  if (reflectors.empty()) return;
+  std::vector<char> measured(reflectors.size(), 0);
+  for (const Measurement& m : measurements) {
+    if (m.reflector >= 0) measured[static_cast<std::size_t>(m.reflector)] = 1;
+  }
+  const int n = model.num_error_parameters();
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const int index = ParameterIndex(model, reflectors, parameters[i]);
+    if (index >= n && !measured[static_cast<std::size_t>((index - n) / 3)]) {
+      const std::string reason =
+          "reflector \"" + reflectors[static_cast<std::size_t>((index - n) / 3)].id + "\" has no measurements";
+      throw ApiError(Status::kFailedPrecondition, "cannot fit " + parameters[i] + ": " + reason,
+                     {{"parameters[" + std::to_string(i) + "]", reason}});
+    }
+  }
+}
+
+// The fit the request asks for: the model chosen by cross-validation ("model": "auto"), the priors' scale chosen
+// by it ("priors": "auto"), or the one fit of the request's model.
+Calibration IdentifyAsRequested(const RobotModel& model, const std::vector<Measurement>& measurements,
+                                const IdentificationOptions& options, const api::FitRequest& req) {
+  ModelChoiceOptions choice;
+  choice.folds = req.cross_validation.folds;
+  choice.seed = req.cross_validation.seed;
+  if (req.cross_validation.joint_maps) choice.map_knot_spacings_rad = kMapKnotSpacingsRad;
+  PriorChoiceOptions prior_choice;
+  prior_choice.folds = req.cross_validation.folds;
+  prior_choice.seed = req.cross_validation.seed;
+  return req.model_auto    ? IdentifyWithModelChoice(model, measurements, options, choice)
+         : req.priors_auto ? IdentifyWithPriorChoice(model, measurements, options, prior_choice)
+                           : Identify(model, measurements, options);
+}
+
+// The fit as returned: the calibration's wire form over the measurements' `sequences`, what it says of poses
+// beyond the robot's calibrated joint ranges, the campaign's names, and when.
+api::CalibrationResult FitResultOf(const Calibration& calibration, const std::vector<std::int64_t>& sequences,
+                                   const api::StoredCampaign& campaign, const RobotModel& model,
+                                   const std::vector<Measurement>& measurements) {
+  api::CalibrationResult result = api::ToWire(calibration, sequences);
+  if (const std::string beyond = BeyondCalibratedRanges(campaign.robot_definition, model, measurements);
+      !beyond.empty()) {
+    result.summary.message += "; " + beyond;
+    result.summary.brief += "; " + beyond;
+  }
+  result.campaign = campaign.id;
+  result.robot = campaign.robot;
+  result.measurement_type = campaign.measurement_type;
+  result.created_unix_ms = NowUnixMs();
+  return result;
+}
+
+// Stores a fit as its campaign's calibration (result.campaign), with the last measurement it saw.
+void PutFitCalibration(Storage* storage, const Calibration& calibration, const api::CalibrationResult& result,
+                       const std::vector<std::int64_t>& sequences) {
+  api::StoredCalibration stored = api::ToStored(calibration, result);
+  // What the fit saw, so that what recomputes from the stored measurements (the report) leaves out the
+  // ones uploaded after it.
+  if (!sequences.empty()) stored.last_calibration_sequence = sequences.back();
+  storage->Put(kCalibrations, result.campaign, nlohmann::json(stored).dump());
+}
+
 }  // namespace
 
 FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body) {
@@ -149,23 +214,7 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
   // Joint maps are placed over the measurements' range of each joint; the fit's size counts their coefficients.
   const RobotModel model = req.model.joint_maps ? api::FitModel(req, nominal, *measurements) : parsed_model;
   if (req.model.joint_maps) CheckFitSize(model, options, count, false, options_.limits);
-  // An offset named for a nest without shots cannot be estimated: say so by the request's field.
-  if (!reflectors.empty()) {
-    std::vector<char> measured(reflectors.size(), 0);
-    for (const Measurement& m : *measurements) {
-      if (m.reflector >= 0) measured[static_cast<std::size_t>(m.reflector)] = 1;
-    }
-    const int n = model.num_error_parameters();
-    for (std::size_t i = 0; i < req.parameters.size(); ++i) {
-      const int index = ParameterIndex(model, reflectors, req.parameters[i]);
-      if (index >= n && !measured[static_cast<std::size_t>((index - n) / 3)]) {
-        const std::string reason =
-            "reflector \"" + reflectors[static_cast<std::size_t>((index - n) / 3)].id + "\" has no measurements";
-        throw ApiError(Status::kFailedPrecondition, "cannot fit " + req.parameters[i] + ": " + reason,
-                       {{"parameters[" + std::to_string(i) + "]", reason}});
-      }
-    }
-  }
+  CheckFitReflectorsMeasured(model, reflectors, req.parameters, *measurements);
 
   // Identifies and returns the fit; stores it as the calibration only if `control` never stopped it: a fit cut
   // short by the deadline or a cancel is not the campaign's calibration, so it is returned, not stored.
@@ -175,38 +224,14 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
       if (options_.on_fit_progress) options_.on_fit_progress();
       return control(fraction);
     };
-    ModelChoiceOptions choice;
-    choice.folds = req.cross_validation.folds;
-    choice.seed = req.cross_validation.seed;
-    if (req.cross_validation.joint_maps) choice.map_knot_spacings_rad = kMapKnotSpacingsRad;
-    PriorChoiceOptions prior_choice;
-    prior_choice.folds = req.cross_validation.folds;
-    prior_choice.seed = req.cross_validation.seed;
-    const Calibration calibration = req.model_auto    ? IdentifyWithModelChoice(model, *measurements, o, choice)
-                                    : req.priors_auto ? IdentifyWithPriorChoice(model, *measurements, o, prior_choice)
-                                                      : Identify(model, *measurements, o);
+    const Calibration calibration = IdentifyAsRequested(model, *measurements, o, req);
     if (calibration.summary.termination == Termination::kFailure) {
       throw ApiError(Status::kFailedPrecondition, "identification failed: " + calibration.summary.message,
                      {{"measurements", calibration.summary.message}});
     }
-    api::CalibrationResult result = api::ToWire(calibration, *sequences);
-    if (const std::string beyond = BeyondCalibratedRanges(campaign.robot_definition, model, *measurements);
-        !beyond.empty()) {
-      result.summary.message += "; " + beyond;
-      result.summary.brief += "; " + beyond;
-    }
-    result.campaign = campaign.id;
-    result.robot = campaign.robot;
-    result.measurement_type = campaign.measurement_type;
-    result.created_unix_ms = NowUnixMs();
+    api::CalibrationResult result = FitResultOf(calibration, *sequences, campaign, model, *measurements);
     result.stored = control.stop() == Stop::kNone && control.StillOwned();
-    if (result.stored) {
-      api::StoredCalibration stored = api::ToStored(calibration, result);
-      // What the fit saw, so that what recomputes from the stored measurements (the report) leaves out the
-      // ones uploaded after it.
-      if (!sequences->empty()) stored.last_calibration_sequence = sequences->back();
-      storage_->Put(kCalibrations, campaign.id, nlohmann::json(stored).dump());
-    }
+    if (result.stored) PutFitCalibration(storage_, calibration, result, *sequences);
     return result;
   };
 

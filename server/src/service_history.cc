@@ -178,6 +178,70 @@ api::RobotHistoryWire Service::RollbackRobot(const std::string& id, const nlohma
   return HistoryView(id, updated);
 }
 
+namespace {
+
+// The noise the calibration's fit weighted with: the tracker's (the request's or the campaign's), the robot's
+// repeatability, and the model error the fit estimated, per row; and the request's own settings of the check.
+DriftCheckOptions DriftCheckOptionsFor(const api::DriftCheckRequest& req, MeasurementType type,
+                                       const api::StoredCampaign& campaign, const api::CalibrationResult& fit) {
+  DriftCheckOptions options;
+  options.measurement_type = type;
+  // A tracker or a noise given replaces the campaign's model; neither keeps it.
+  const std::optional<api::TrackerModelWire> tracker = req.tracker ? req.tracker
+                                                       : req.noise ? std::nullopt
+                                                                   : campaign.tracker;
+  options.noise = api::ToCore(req.noise.value_or(campaign.noise), tracker,
+                              req.repeatability_mm.value_or(campaign.repeatability_mm));
+  if (fit.model_error.estimated) {
+    options.noise.model_error_mm = fit.model_error.model_error_mm / std::sqrt(3.0);
+    options.noise.model_error_rad = fit.model_error.model_error_deg * kRadPerDeg / std::sqrt(3.0);
+  }
+  options.register_frames = req.frames == api::CheckFrames::kRegister;
+  options.false_alarm_rate = req.false_alarm_rate;
+  options.seed = req.seed;
+  return options;
+}
+
+// One measurement per pose: the shots of one pose (equal joints and payload) share its unmodelled error, and are
+// averaged into one (positions and orientations averaged).
+std::vector<Measurement> AveragedCheckShots(const RobotModel& model, const std::vector<api::MeasurementWire>& wire,
+                                            const api::StoredCampaign& campaign) {
+  std::vector<Measurement> shots;
+  std::vector<int> count;
+  for (const api::MeasurementWire& w : wire) {
+    const Measurement m = MeasurementToCore(model, w, campaign);
+    auto same = std::find_if(shots.begin(), shots.end(),
+                             [&](const Measurement& s) { return s.joints == m.joints && s.payload == m.payload; });
+    if (same == shots.end()) {
+      shots.push_back(m);
+      count.push_back(1);
+      continue;
+    }
+    const std::size_t k = static_cast<std::size_t>(same - shots.begin());
+    const double n = static_cast<double>(++count[k]);
+    same->T_world_tool.translation() += (m.T_world_tool.translation() - same->T_world_tool.translation()) / n;
+    // Small rotations apart: the mean's rotation vector, relative to the first shot's.
+    const Eigen::Matrix3d delta = same->T_world_tool.linear().transpose() * m.T_world_tool.linear();
+    const Eigen::Vector3d step = RotationVector(delta) / n;
+    if (step.norm() > 0.0) {
+      same->T_world_tool.linear() =
+          same->T_world_tool.linear() * Eigen::AngleAxisd(step.norm(), step.normalized()).toRotationMatrix();
+    }
+  }
+  return shots;
+}
+
+// The robot as it stands: its calibrated chain, at the calibration's registered base when the frames are kept.
+RobotModel CheckedRobotModel(const RobotModel& robot, const DriftCheckOptions& options,
+                             const Calibration& calibration) {
+  if (options.register_frames) return robot;
+  RobotModelSpec spec = robot.spec();
+  spec.T_world_base = calibration.model.T_world_base();
+  return RobotModel::Build(spec);
+}
+
+}  // namespace
+
 api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::json& body, const Caller& caller) {
   const ResolvedRobot robot = ResolveRobot(id);
   if (!robot.definition.calibrated_from) {
@@ -202,24 +266,7 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   const api::DriftCheckRequest req =
       api::ParseDriftCheckRequest(body, robot.model, loaded.campaign.measurement_type, options_.limits);
   const MeasurementType type = req.measurement_type.value_or(loaded.campaign.measurement_type);
-  const std::vector<api::MeasurementWire>& wire = req.measurements;
-
-  // The noise the calibration's fit weighted with: the tracker's (the request's or the campaign's), the robot's
-  // repeatability, and the model error the fit estimated, per row.
-  DriftCheckOptions options;
-  options.measurement_type = type;
-  // A tracker or a noise given replaces the campaign's model; neither keeps it.
-  const std::optional<api::TrackerModelWire> tracker =
-      req.tracker ? req.tracker : req.noise ? std::nullopt : loaded.campaign.tracker;
-  options.noise = api::ToCore(req.noise.value_or(loaded.campaign.noise), tracker,
-                              req.repeatability_mm.value_or(loaded.campaign.repeatability_mm));
-  if (loaded.result.model_error.estimated) {
-    options.noise.model_error_mm = loaded.result.model_error.model_error_mm / std::sqrt(3.0);
-    options.noise.model_error_rad = loaded.result.model_error.model_error_deg * kRadPerDeg / std::sqrt(3.0);
-  }
-  options.register_frames = req.frames == api::CheckFrames::kRegister;
-  options.false_alarm_rate = req.false_alarm_rate;
-  options.seed = req.seed;
+  DriftCheckOptions options = DriftCheckOptionsFor(req, type, loaded.campaign, loaded.result);
 
   // The calibration's own scatter: the measurements its fit used, against it (with the robot's joints: the
   // calibration campaign's robot has the same joints).
@@ -238,38 +285,8 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
   }
   options.null_correction = (rows + parameters) / (rows - parameters);
 
-  // The robot as it stands: its calibrated chain, at the calibration's registered base when the frames are kept.
-  RobotModel model = robot.model;
-  if (!options.register_frames) {
-    RobotModelSpec spec = model.spec();
-    spec.T_world_base = loaded.calibration.model.T_world_base();
-    model = RobotModel::Build(spec);
-  }
-  // One measurement per pose: the shots of one pose (equal joints and payload) share its unmodelled error, and are
-  // averaged into one (positions and orientations averaged).
-  std::vector<Measurement> shots;
-  std::vector<int> count;
-  for (const api::MeasurementWire& w : wire) {
-    const Measurement m = MeasurementToCore(model, w, loaded.campaign);
-    auto same = std::find_if(shots.begin(), shots.end(),
-                             [&](const Measurement& s) { return s.joints == m.joints && s.payload == m.payload; });
-    if (same == shots.end()) {
-      shots.push_back(m);
-      count.push_back(1);
-      continue;
-    }
-    const std::size_t k = static_cast<std::size_t>(same - shots.begin());
-    const double n = static_cast<double>(++count[k]);
-    same->T_world_tool.translation() += (m.T_world_tool.translation() - same->T_world_tool.translation()) / n;
-    // Small rotations apart: the mean's rotation vector, relative to the first shot's.
-    const Eigen::Matrix3d delta = same->T_world_tool.linear().transpose() * m.T_world_tool.linear();
-    const Eigen::Vector3d step = RotationVector(delta) / n;
-    if (step.norm() > 0.0) {
-      same->T_world_tool.linear() =
-          same->T_world_tool.linear() * Eigen::AngleAxisd(step.norm(), step.normalized()).toRotationMatrix();
-    }
-  }
-  const DriftCheck check = CheckDrift(model, shots, options);
+  const RobotModel model = CheckedRobotModel(robot.model, options, loaded.calibration);
+  const DriftCheck check = CheckDrift(model, AveragedCheckShots(model, req.measurements, loaded.campaign), options);
 
   api::DriftCheckWire out = api::ToWire(check, model, options);
   out.robot = id;

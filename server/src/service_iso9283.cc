@@ -98,6 +98,92 @@ std::vector<Eigen::VectorXd> SolvePoses(const Calibration& calibration, const Ro
   return joints;
 }
 
+// The test's cube with the arm configuration to solve its poses on (empty: the one P1 is solved on), and what the
+// plan says of it.
+struct TestPlanCube {
+  Iso9283Cube cube;
+  ArmConfiguration branch;
+  std::string message;
+};
+
+// The cube as the request gives it, or (cube "auto") the largest one the cell's workspace holds: searched among
+// the configurations `feasible` accepts (empty without a cell, which "auto" refuses).
+TestPlanCube ChooseTestPlanCube(const RobotModel& model, const api::PlanRequest& req,
+                                const Eigen::Matrix3d& orientation,
+                                const std::function<bool(const Eigen::VectorXd&)>& feasible) {
+  const api::Iso9283TestWire& test = req.test->iso9283;
+  TestPlanCube chosen;
+  if (!test.cube_auto) {
+    chosen.cube = api::ToCore(*test.cube);
+    chosen.message = "the cube as given";
+    return chosen;
+  }
+  // Without a cell the arm's whole reach counts, its own base and the floor included.
+  if (!feasible) {
+    throw ApiError(Status::kInvalidArgument, "cube \"auto\" needs the plan's cell",
+                   {{kCubeField,
+                     "\"auto\" searches the cell's workspace (reach, line of sight, obstacles): give "
+                     "\"cell\", or the cube's center_mm and size_mm"}});
+  }
+  Iso9283CubeSearchOptions options;
+  options.seed = req.seed;
+  options.feasible = feasible;
+  Iso9283CubeSearch search;
+  try {
+    search = LargestIso9283Cube(model, orientation, options);
+  } catch (const std::invalid_argument& e) {
+    throw ApiError(Status::kInvalidArgument, std::string("the ISO 9283 cube: ") + e.what(), {{kCubeField, e.what()}});
+  }
+  if (!search.found) {
+    throw ApiError(Status::kFailedPrecondition, "no ISO 9283 cube: " + search.message, {{kCubeField, search.message}});
+  }
+  chosen.cube = search.cube;
+  chosen.branch = search.configuration;
+  chosen.message = "cube \"auto\": " + search.message;
+  return chosen;
+}
+
+// The plan's poses with their joint commands (`joints`, one per pose), and its visits: `test.cycles` cycles of
+// P1-P5, each visit a configuration of `result` and a tag of `plan`.
+void AddTestPlanVisits(const RobotModel& model, const api::Iso9283TestWire& test,
+                       const std::array<Transform, kIso9283Poses>& poses, const std::vector<Eigen::VectorXd>& joints,
+                       api::Iso9283PlanWire* plan, api::PlanResult* result) {
+  for (int k = 0; k < kIso9283Poses; ++k) {
+    const Eigen::Vector3d& p = poses[k].translation();
+    plan->poses.push_back({.name = Iso9283PoseName(k),
+                           .position_mm = {p.x(), p.y(), p.z()},
+                           .orientation_rpy_deg = test.orientation_rpy_deg,
+                           .joints = api::JointsToWire(model, joints[k])});
+  }
+  for (int cycle = 1; cycle <= test.cycles; ++cycle) {
+    for (int k = 0; k < kIso9283Poses; ++k) {
+      result->configurations.push_back(plan->poses[k].joints);
+      plan->tags.push_back({.test_pose = Iso9283PoseName(k), .cycle = cycle});
+    }
+  }
+}
+
+// A test plan's figures: none of an optimisation's (null on the wire), and a summary that says what the test is and
+// how long its solving took since `start_time`.
+void SummariseTestPlan(const api::Iso9283TestWire& test, const Iso9283Cube& cube, const std::string& message,
+                       std::chrono::steady_clock::time_point start_time, api::PlanResult* result) {
+  const int n = static_cast<int>(result->configurations.size());
+  result->indices = NoIndices(n);
+  result->baseline.indices = NoIndices(0);
+  result->baseline.predicted_accuracy = NoPrediction();
+  result->predicted_accuracy = NoPrediction();
+  result->summary.termination = Termination::kConvergence;
+  result->summary.method = "iso9283";
+  result->summary.objective = result->objective;
+  result->summary.initial = NoIndices(0);
+  result->summary.message = message;
+  std::ostringstream brief;
+  brief << "ISO 9283 pose test: " << test.cycles << " cycles of P1-P5 in a " << cube.size_mm << " mm cube at "
+        << Mm(cube.center_mm);
+  result->summary.brief = brief.str();
+  result->summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+}
+
 }  // namespace
 
 api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanRequest& req,
@@ -106,37 +192,11 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
   const api::Iso9283TestWire& test = req.test->iso9283;
   const Eigen::Vector3d rpy(test.orientation_rpy_deg[0], test.orientation_rpy_deg[1], test.orientation_rpy_deg[2]);
   const Eigen::Matrix3d orientation = RotationFromRpy(rpy * kRadPerDeg);
-  Iso9283Cube cube;
-  ArmConfiguration branch;
-  std::string message;
-  if (test.cube_auto) {
-    // Without a cell the arm's whole reach counts, its own base and the floor included.
-    if (cell == nullptr) {
-      throw ApiError(Status::kInvalidArgument, "cube \"auto\" needs the plan's cell",
-                     {{kCubeField, "\"auto\" searches the cell's workspace (reach, line of sight, obstacles): give "
-                                   "\"cell\", or the cube's center_mm and size_mm"}});
-    }
-    Iso9283CubeSearchOptions options;
-    options.seed = req.seed;
-    if (cell != nullptr) {
-      options.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
-    }
-    Iso9283CubeSearch search;
-    try {
-      search = LargestIso9283Cube(model, orientation, options);
-    } catch (const std::invalid_argument& e) {
-      throw ApiError(Status::kInvalidArgument, std::string("the ISO 9283 cube: ") + e.what(), {{kCubeField, e.what()}});
-    }
-    if (!search.found) {
-      throw ApiError(Status::kFailedPrecondition, "no ISO 9283 cube: " + search.message, {{kCubeField, search.message}});
-    }
-    cube = search.cube;
-    branch = search.configuration;
-    message = "cube \"auto\": " + search.message;
-  } else {
-    cube = api::ToCore(*test.cube);
-    message = "the cube as given";
+  std::function<bool(const Eigen::VectorXd&)> feasible;
+  if (cell != nullptr) {
+    feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
   }
+  TestPlanCube chosen = ChooseTestPlanCube(model, req, orientation, feasible);
   // The calibration that compensates the commands, before any pose is solved: a wrong campaign is named first.
   std::optional<Calibrated> compensating;
   if (!test.compensated_by.empty()) {
@@ -156,7 +216,7 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
                      {{field, "a calibration of another robot"}});
     }
   }
-  const std::array<Transform, kIso9283Poses> poses = Iso9283Poses(cube, orientation);
+  const std::array<Transform, kIso9283Poses> poses = Iso9283Poses(chosen.cube, orientation);
   std::function<std::string(const Eigen::VectorXd&)> infeasible;
   if (cell != nullptr) {
     infeasible = [cell](const Eigen::VectorXd& q) {
@@ -166,6 +226,7 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
       return reasons;
     };
   }
+  ArmConfiguration& branch = chosen.branch;
   std::vector<Eigen::VectorXd> joints =
       SolvePoses(NominalCalibration(model), model, poses, &branch, {}, infeasible, kCubeField, "robot's");
   std::optional<std::string> compensated_by;
@@ -173,47 +234,21 @@ api::PlanResult Service::RunTestPlan(const RobotModel& model, const api::PlanReq
     joints = SolvePoses(compensating->calibration, compensating->model, poses, &branch, joints, infeasible,
                         "test.iso9283.compensated_by", "calibrated robot's");
     compensated_by = test.compensated_by;
-    message += "; joint commands compensated by the calibration of campaign \"" + test.compensated_by + "\"";
+    chosen.message += "; joint commands compensated by the calibration of campaign \"" + test.compensated_by + "\"";
   }
 
   api::PlanResult result;
   PlanHeader(model, req, plan_id, &result);
-  api::Iso9283PlanWire plan{.cube = api::ToWire(cube),
+  api::Iso9283PlanWire plan{.cube = api::ToWire(chosen.cube),
                             .cycles = test.cycles,
                             .orientation_rpy_deg = test.orientation_rpy_deg,
                             .compensated_by = compensated_by,
                             .configuration = branch.ToString(),
                             .poses = {},
                             .tags = {},
-                            .message = message};
-  for (int k = 0; k < kIso9283Poses; ++k) {
-    const Eigen::Vector3d& p = poses[k].translation();
-    plan.poses.push_back({.name = Iso9283PoseName(k),
-                          .position_mm = {p.x(), p.y(), p.z()},
-                          .orientation_rpy_deg = test.orientation_rpy_deg,
-                          .joints = api::JointsToWire(model, joints[k])});
-  }
-  for (int cycle = 1; cycle <= test.cycles; ++cycle) {
-    for (int k = 0; k < kIso9283Poses; ++k) {
-      result.configurations.push_back(plan.poses[k].joints);
-      plan.tags.push_back({.test_pose = Iso9283PoseName(k), .cycle = cycle});
-    }
-  }
-  const int n = static_cast<int>(result.configurations.size());
-  result.indices = NoIndices(n);
-  result.baseline.indices = NoIndices(0);
-  result.baseline.predicted_accuracy = NoPrediction();
-  result.predicted_accuracy = NoPrediction();
-  result.summary.termination = Termination::kConvergence;
-  result.summary.method = "iso9283";
-  result.summary.objective = result.objective;
-  result.summary.initial = NoIndices(0);
-  result.summary.message = message;
-  std::ostringstream brief;
-  brief << "ISO 9283 pose test: " << test.cycles << " cycles of P1-P5 in a " << cube.size_mm << " mm cube at "
-        << Mm(cube.center_mm);
-  result.summary.brief = brief.str();
-  result.summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+                            .message = chosen.message};
+  AddTestPlanVisits(model, test, poses, joints, &plan, &result);
+  SummariseTestPlan(test, chosen.cube, chosen.message, start_time, &result);
   result.created_unix_ms = NowUnixMs();
   if (cell != nullptr) {
     result.cell = cell->wire.id;
@@ -237,25 +272,23 @@ struct TestShot {
   Measurement measurement;
 };
 
-}  // namespace
-
-api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
-  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
-  if (!campaign.reflectors.empty()) {
-    throw ApiError(Status::kFailedPrecondition, "ISO 9283 measures the tool point; the campaign has reflectors",
-                   {{"campaign", "a campaign with reflectors"}});
-  }
-  const RobotModel model = api::BuildModel(campaign.robot_definition);
-  api::Iso9283ReportWire report;
-  report.campaign = campaign_id;
-  report.measurement_type = campaign.measurement_type;
-
-  // The shots, each pose and cycle once: a visit measured again (a shot retaken) counts with its latest shot.
+// A campaign's test shots, each visit (pose and cycle) once, and what was left out.
+struct TestShotsRead {
   std::vector<TestShot> shots;
-  std::map<std::pair<int, int>, std::size_t> seen;
+  /// The visits measured again: each with the shot that counts and the one it replaced.
   std::vector<std::string> retaken;
+  /// The stale shots left out.
   int stale = 0;
-  ForEachMeasurement(storage_, campaign_id, "test", [&](const StoredMeasurement& s) {
+};
+
+// The shots, each pose and cycle once: a visit measured again (a shot retaken) counts with its latest shot.
+// FAILED_PRECONDITION for a shot without its pose and cycle, or when there are none.
+TestShotsRead ReadTestShots(Storage* storage, const std::string& campaign_id, const api::StoredCampaign& campaign,
+                            const RobotModel& model) {
+  TestShotsRead read;
+  std::vector<TestShot>& shots = read.shots;
+  std::map<std::pair<int, int>, std::size_t> seen;
+  ForEachMeasurement(storage, campaign_id, "test", [&](const StoredMeasurement& s) {
     const api::MeasurementWire w = ReadMeasurement(s);
     TestShot shot{.pose = Iso9283PoseIndex(w.test_pose),
                   .cycle = w.cycle,
@@ -267,13 +300,13 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
                      {{"measurements", "test shots need test_pose and cycle"}});
     }
     if (w.stale) {
-      ++stale;
+      ++read.stale;
       return;
     }
     const auto [it, fresh] = seen.emplace(std::make_pair(shot.pose, shot.cycle), shots.size());
     if (!fresh) {
-      retaken.push_back(w.test_pose + " cycle " + std::to_string(w.cycle) + ": measurement " +
-                        std::to_string(s.sequence) + " (not " + std::to_string(shots[it->second].sequence) + ")");
+      read.retaken.push_back(w.test_pose + " cycle " + std::to_string(w.cycle) + ": measurement " +
+                             std::to_string(s.sequence) + " (not " + std::to_string(shots[it->second].sequence) + ")");
       shots[it->second] = std::move(shot);
       return;
     }
@@ -283,23 +316,18 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
     throw ApiError(Status::kFailedPrecondition, "campaign \"" + campaign_id + "\" has no test measurements",
                    {{"measurements", "upload shots of role test, each with its test_pose and cycle"}});
   }
-  report.num_shots = static_cast<int>(shots.size());
+  return read;
+}
 
-  // The frames' source: the campaign's calibration, if any.
-  std::optional<Calibrated> loaded;
-  if (storage_->Get(kCalibrations, campaign_id)) loaded = LoadCalibrated(campaign_id);
-
-  // The commands: the test plan's poses, else the robot's model at each shot's joints (base frame), with the tool
-  // the calibration registered when there is one (the point the tracker measures, as the fit found it).
-  std::optional<api::Iso9283PlanWire> test_plan;
-  if (campaign.plan) {
-    const auto doc = storage_->Get(kPlans, *campaign.plan);
-    if (doc) test_plan = ReadStored<api::StoredPlan>(*doc).plan.test;
-  }
+// The commands, base frame: the test plan's poses, else the robot's model at each shot's joints, with the tool
+// `calibration` registered when there is one (null: none; the point the tracker measures, as the fit found it).
+std::vector<Transform> TestShotCommands(const RobotModel& model, const std::vector<TestShot>& shots,
+                                        const std::optional<api::Iso9283PlanWire>& test_plan,
+                                        const Calibration* calibration) {
   std::vector<Transform> commanded;  // base frame
   const Transform T_base_world_model = model.T_world_base().inverse();
-  const Transform tool_change = loaded ? model.T_flange_tool().inverse() * loaded->calibration.T_flange_tool
-                                       : Transform::Identity();
+  const Transform tool_change =
+      calibration ? model.T_flange_tool().inverse() * calibration->T_flange_tool : Transform::Identity();
   KinematicsWorkspace ws(model);
   for (const TestShot& s : shots) {
     if (test_plan) {
@@ -316,6 +344,85 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
                           tool_change);
     }
   }
+  return commanded;
+}
+
+// The tracker frame registered on the test shots themselves (T_world_base): their measured points onto their
+// commands. FAILED_PRECONDITION when the commands do not span a plane.
+Transform RegisterTrackerOnTestShots(const std::vector<TestShot>& shots, const std::vector<Transform>& commanded) {
+  std::vector<Eigen::Vector3d> from, to;
+  for (std::size_t i = 0; i < shots.size(); ++i) {
+    from.push_back(commanded[i].translation());
+    to.push_back(shots[i].measurement.T_world_tool.translation());
+  }
+  // The commands must span a plane: on a line (P1, P2 and P4 lie on one diagonal) the turn about it is free, and
+  // the measured points' noise would choose it.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : from) mean += p / static_cast<double>(from.size());
+  Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : from) spread += (p - mean) * (p - mean).transpose();
+  const Eigen::Vector3d eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues();
+  try {
+    if (!(eigen[1] > 1e-6 * eigen[2])) throw std::invalid_argument("commands on a line");
+    return RegisterPoints(from, to);
+  } catch (const std::invalid_argument&) {
+    throw ApiError(
+        Status::kFailedPrecondition,
+        "the tracker frame cannot be registered on these test shots: their commands lie on a line (P1, P2 and "
+        "P4 do: measure a third pose beside them) or at one point; or fit the campaign (\"scope\": "
+        "\"frames\") on shots of role calibration first",
+        {{"measurements", "too few test poses to register the tracker frame"}});
+  }
+}
+
+// The report's notes on what the figures leave out: poses with one cycle, orientation, stale and retaken shots.
+void AddIso9283Notes(const Iso9283Result& result, bool orientation, const TestShotsRead& read,
+                     api::Iso9283ReportWire* report) {
+  std::string once;
+  for (const Iso9283PoseFigures& f : result.poses) {
+    if (f.cycles < 2) once += (once.empty() ? "" : ", ") + Iso9283PoseName(f.pose);
+  }
+  if (!once.empty()) {
+    report->notes.push_back("repeatability (RP, RD) needs at least 2 cycles of a pose: not measurable at " + once +
+                            " (1 cycle), reported as null, not 0");
+  }
+  if (!orientation) report->notes.push_back("shots without orientation: no orientation characteristics");
+  if (read.stale > 0) report->notes.push_back(std::to_string(read.stale) + " stale test shots were left out");
+  if (!read.retaken.empty()) {
+    std::string list;
+    for (const std::string& r : read.retaken) list += (list.empty() ? "" : "; ") + r;
+    report->notes.push_back("visits measured more than once count with their latest shot: " + list);
+  }
+}
+
+}  // namespace
+
+api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
+  const api::StoredCampaign campaign = LoadCampaign(campaign_id);
+  if (!campaign.reflectors.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "ISO 9283 measures the tool point; the campaign has reflectors",
+                   {{"campaign", "a campaign with reflectors"}});
+  }
+  const RobotModel model = api::BuildModel(campaign.robot_definition);
+  api::Iso9283ReportWire report;
+  report.campaign = campaign_id;
+  report.measurement_type = campaign.measurement_type;
+  const TestShotsRead read = ReadTestShots(storage_, campaign_id, campaign, model);
+  const std::vector<TestShot>& shots = read.shots;
+  report.num_shots = static_cast<int>(shots.size());
+
+  // The frames' source: the campaign's calibration, if any.
+  std::optional<Calibrated> loaded;
+  if (storage_->Get(kCalibrations, campaign_id)) loaded = LoadCalibrated(campaign_id);
+
+  // The test plan the campaign was made from, if any: its poses are the commands.
+  std::optional<api::Iso9283PlanWire> test_plan;
+  if (campaign.plan) {
+    const auto doc = storage_->Get(kPlans, *campaign.plan);
+    if (doc) test_plan = ReadStored<api::StoredPlan>(*doc).plan.test;
+  }
+  const std::vector<Transform> commanded =
+      TestShotCommands(model, shots, test_plan, loaded ? &loaded->calibration : nullptr);
   report.commands = test_plan ? api::TestCommands::kPlan : api::TestCommands::kRobotModel;
   if (test_plan) report.plan = *campaign.plan;
 
@@ -324,29 +431,7 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
     T_world_base = loaded->calibration.T_world_base;
     report.frames = api::TestFrames::kCalibration;
   } else {
-    std::vector<Eigen::Vector3d> from, to;
-    for (std::size_t i = 0; i < shots.size(); ++i) {
-      from.push_back(commanded[i].translation());
-      to.push_back(shots[i].measurement.T_world_tool.translation());
-    }
-    // The commands must span a plane: on a line (P1, P2 and P4 lie on one diagonal) the turn about it is free, and
-    // the measured points' noise would choose it.
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const Eigen::Vector3d& p : from) mean += p / static_cast<double>(from.size());
-    Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
-    for (const Eigen::Vector3d& p : from) spread += (p - mean) * (p - mean).transpose();
-    const Eigen::Vector3d eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues();
-    try {
-      if (!(eigen[1] > 1e-6 * eigen[2])) throw std::invalid_argument("commands on a line");
-      T_world_base = RegisterPoints(from, to);
-    } catch (const std::invalid_argument&) {
-      throw ApiError(
-          Status::kFailedPrecondition,
-          "the tracker frame cannot be registered on these test shots: their commands lie on a line (P1, P2 and "
-          "P4 do: measure a third pose beside them) or at one point; or fit the campaign (\"scope\": "
-          "\"frames\") on shots of role calibration first",
-          {{"measurements", "too few test poses to register the tracker frame"}});
-    }
+    T_world_base = RegisterTrackerOnTestShots(shots, commanded);
     report.frames = api::TestFrames::kRegisteredOnTest;
     report.notes.push_back(
         "the campaign has no calibration: the tracker frame was registered on the test shots themselves, which "
@@ -375,22 +460,7 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
   report.cycles = result.cycles;
   report.measured = api::ToWire(result);
   if (loaded) report.calibrated = api::ToWire(Iso9283Analyse(calibrated, orientation));
-
-  std::string once;
-  for (const Iso9283PoseFigures& f : result.poses) {
-    if (f.cycles < 2) once += (once.empty() ? "" : ", ") + Iso9283PoseName(f.pose);
-  }
-  if (!once.empty()) {
-    report.notes.push_back("repeatability (RP, RD) needs at least 2 cycles of a pose: not measurable at " + once +
-                           " (1 cycle), reported as null, not 0");
-  }
-  if (!orientation) report.notes.push_back("shots without orientation: no orientation characteristics");
-  if (stale > 0) report.notes.push_back(std::to_string(stale) + " stale test shots were left out");
-  if (!retaken.empty()) {
-    std::string list;
-    for (const std::string& r : retaken) list += (list.empty() ? "" : "; ") + r;
-    report.notes.push_back("visits measured more than once count with their latest shot: " + list);
-  }
+  AddIso9283Notes(result, orientation, read, &report);
   return report;
 }
 

@@ -255,6 +255,195 @@ Service::PlanInputs Service::ResolvePlanInputs(const api::PlanRequest& req, cons
   return inputs;
 }
 
+namespace {
+
+// The census (CheckCellLeavesRoom) found at least 1 in 100 feasible: 500 draws per configuration leave a wide margin.
+constexpr int kPlanDrawsPerConfiguration = 500;
+
+// The error parameters a plan of `model` can identify; FAILED_PRECONDITION when there are none.
+IdentifiabilitySummary IdentifyPlanParameters(const RobotModel& model, const api::PlanRequest& req) {
+  IdentifiabilityOptions id_options;
+  id_options.noise = api::ToCore(req.noise, req.tracker);
+  id_options.reflectors = api::ToCore(req.reflectors);
+  id_options.seed = req.seed;
+  IdentifiabilitySummary ident = FindIdentifiableParameters(model, req.measurement_type, id_options);
+  if (ident.termination == Termination::kFailure || ident.identifiable.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "no identifiable parameters: " + ident.message);
+  }
+  return ident;
+}
+
+// The configurations of the request's task box (its orientations, its count); FAILED_PRECONDITION when the robot
+// reaches none.
+TaskSample SampleTaskBox(const RobotModel& model, const api::PlanRequest& req) {
+  const api::TaskBoxWire& box = *req.task->box;
+  TaskBox core_box;
+  core_box.min_mm = Eigen::Vector3d(box.min_mm[0], box.min_mm[1], box.min_mm[2]);
+  core_box.max_mm = Eigen::Vector3d(box.max_mm[0], box.max_mm[1], box.max_mm[2]);
+  for (const auto& rpy : box.orientations_rpy_deg) {
+    api::PoseWire pose;
+    Problems ignored;
+    api::ParsePose({{"position_mm", {0, 0, 0}}, {"rpy_deg", {rpy[0], rpy[1], rpy[2]}}}, "", true, &ignored, &pose);
+    core_box.orientations.push_back(api::PoseToTransform(pose).linear());
+  }
+  TaskSample sample = SampleTaskConfigurations(model, core_box, box.count, req.seed + 4000037);
+  if (sample.configurations.empty()) {
+    throw ApiError(Status::kFailedPrecondition, "task box out of reach: " + sample.message,
+                   {{"task.box", "no configuration of the robot reaches it: " + sample.message}});
+  }
+  return sample;
+}
+
+// The given candidates the planner can use, as its check finds them (within the limits, feasible).
+std::vector<Eigen::VectorXd> UsablePlanCandidates(const RobotModel& model, const PlanSetup& setup) {
+  std::vector<Eigen::VectorXd> usable;
+  for (const Eigen::VectorXd& q : *setup.pool.configurations) {
+    if (q.size() == model.num_joints() && q.allFinite() && model.WithinLimits(q) &&
+        (!setup.feasible || setup.feasible(q))) {
+      usable.push_back(q);
+    }
+  }
+  return usable;
+}
+
+// The requested optimiser's plan of n configurations; FAILED_PRECONDITION when it finds none from the candidates
+// or within the cell (`cell_id`, null without one).
+Plan OptimisePlan(const RobotModel& model, const api::PlanRequest& req, int n, const ObservabilityOptions& obs,
+                  const PlanSetup& setup, const std::string* cell_id) {
+  Plan plan;
+  try {
+    plan = RunOptimiser(model, req, n, obs, setup);
+  } catch (const std::invalid_argument& e) {
+    // What the request could not have caught before the planner saw the candidates or the task.
+    throw ApiError(Status::kInvalidArgument, std::string("invalid plan request: ") + e.what(),
+                   {{req.candidates ? "candidates" : "task", e.what()}});
+  }
+  if (plan.summary.termination == Termination::kFailure) {
+    if (setup.pool.given()) {
+      throw ApiError(Status::kFailedPrecondition, "no plan from the candidates: " + plan.summary.message,
+                     {{"num_configurations", plan.summary.message}});
+    }
+    if (cell_id) {
+      throw ApiError(Status::kFailedPrecondition, "no plan within cell \"" + *cell_id + "\": " + plan.summary.message,
+                     {{"cell", plan.summary.message}});
+    }
+  }
+  return plan;
+}
+
+// The paper's baseline: one random set of the same size (seeded from the plan's seed), in the same cell, from
+// the same candidates.
+Plan RandomBaselinePlan(const RobotModel& model, const api::PlanRequest& req, int n, const ObservabilityOptions& obs,
+                        const PlanSetup& setup) {
+  RandomSelectionOptions baseline_options;
+  baseline_options.seed = req.seed + 1000003;
+  baseline_options.objective = api::PlanObjective(req);
+  baseline_options.feasible = setup.feasible;
+  baseline_options.candidates = setup.pool;
+  baseline_options.task = setup.task;
+  baseline_options.max_draws_per_configuration = kPlanDrawsPerConfiguration;
+  return PlanRandom(model, n, obs, baseline_options);
+}
+
+// The predicted accuracy's validation configurations: the task, or random (in a cell feasible in it). `drawn`:
+// false when a cell left too few feasible draws.
+std::vector<Eigen::VectorXd> PlanValidationSample(const RobotModel& model, const api::PlanRequest& req,
+                                                  const PlanSetup& setup, bool* drawn) {
+  Rng rng(req.seed + 2000003);
+  std::vector<Eigen::VectorXd> validation;
+  *drawn = true;
+  if (setup.task) {
+    validation = *setup.task;
+  } else if (setup.feasible) {
+    FeasibleDraws draws;
+    draws.max_draws = static_cast<std::int64_t>(kPlanDrawsPerConfiguration) * std::max(1, req.num_validation);
+    *drawn = DrawFeasibleConfigurations(model, req.num_validation, setup.feasible, &rng, &draws, &validation);
+  } else {
+    validation = RandomConfigurations(model, req.num_validation, &rng);
+  }
+  return validation;
+}
+
+// A set's predicted accuracy as a plan reports it: on the planning model with its observability options, over
+// the validation configurations.
+struct PlanPredictor {
+  const RobotModel& model;
+  const ObservabilityOptions& obs;
+  const std::vector<Eigen::VectorXd>& validation;
+  PredictedAccuracy operator()(const std::vector<Eigen::VectorXd>& configurations) const {
+    return PredictAccuracy(model, obs, configurations, validation);
+  }
+};
+
+// "auto": the plan reaches the goal by the prediction the count was chosen by. The optimiser's own set of N is kept
+// when it does (on real data a better prediction need not be a better set); when it does not (random selection's
+// may miss it), the set the pose count judged at N is the plan. Without a goal reached, the better of the two.
+void PreferPoseCountSet(const PlanPredictor& predict, const api::PoseCountWire& pose_count,
+                        const PoseCountPoint& counted, bool from_candidates, Plan* plan) {
+  const double planned = predict(plan->configurations).rms_error_mm;
+  const double judged = predict(counted.configurations).rms_error_mm;
+  const double goal_rms = pose_count.accuracy_goal_mm / kMeanOverRms3d;
+  const bool misses = pose_count.chosen ? !(planned <= goal_rms) : !(planned <= judged);
+  if (misses && judged < planned) {
+    plan->configurations = counted.configurations;
+    plan->candidate_indices = from_candidates ? counted.candidate_indices : std::vector<int>{};
+    plan->summary.final = ComputeIndicesBySvd(predict.model, plan->configurations, predict.obs);
+    plan->summary.message += "; the pose count's set of " + std::to_string(counted.num_configurations) +
+                             " poses predicts less error on the task than the optimiser's, and is the plan";
+  }
+}
+
+// The plan's and the baseline's sets with their indices and predicted accuracy, and the parameters they serve.
+void WritePlanSets(const PlanPredictor& predict, const IdentifiabilitySummary& ident, const Plan& plan,
+                   const Plan& baseline, api::PlanResult* result) {
+  const RobotModel& model = predict.model;
+  result->configurations = ToWire(model, plan.configurations);
+  result->indices = api::ToWire(plan.summary.final);
+  result->baseline.configurations = ToWire(model, baseline.configurations);
+  result->baseline.indices = api::ToWire(baseline.summary.final);
+  result->baseline.predicted_accuracy = api::ToWire(predict(baseline.configurations));
+  result->identifiable_parameters = ident.identifiable_names;
+  result->dropped_parameters = api::ToWire(ident.dropped);
+  result->predicted_accuracy = api::ToWire(predict(plan.configurations));
+  result->summary = api::ToWire(plan.summary);
+}
+
+// A plan from candidates: the ones it took (with their file lines), the planner's census of them, and the coverage
+// of the usable ones.
+void WritePlanCandidates(const PlanPredictor& predict, const Plan& plan, const std::vector<int>& candidate_lines,
+                         const std::vector<Eigen::VectorXd>& usable, api::PlanResult* result) {
+  result->candidate_indices = plan.candidate_indices;
+  for (int k : plan.candidate_indices) {
+    if (static_cast<std::size_t>(k) < candidate_lines.size()) {
+      result->candidate_lines.push_back(candidate_lines[static_cast<std::size_t>(k)]);
+    }
+  }
+  result->candidates = api::ToWire(plan.summary.candidates);
+  if (usable.empty()) return;
+  result->coverage = api::ToWire(predict.model, AnalyseCoverage(predict.model, predict.obs, usable));
+}
+
+// The observability options of a plan: the request's, over the identifiable parameters, with the robot's model
+// error, and in a cell (null: none) its tracker's position.
+ObservabilityOptions PlanObservability(const RobotModel& model, const api::PlanRequest& req,
+                                       const IdentifiabilitySummary& ident, double model_error_mm,
+                                       double model_error_deg, const Cell* cell) {
+  ObservabilityOptions obs = api::ToObservabilityOptions(req);
+  obs.parameters = ident.identifiable;
+  obs.model_error_mm = model_error_mm;
+  // The model error is also each pose's error the fit will see beside the tracker's (the fit weights its rows by
+  // both: FittedNoise), and it spreads into the parameters as that noise does: the rows are weighted as the fit
+  // will weight them, per position axis and orientation row (RMS over sqrt(3)).
+  obs.noise.model_error_mm = model_error_mm / std::sqrt(3.0);
+  obs.noise.model_error_rad = model_error_deg * kRadPerDeg / std::sqrt(3.0);
+  // The cell's tracker (base frame) in the planning model's world frame: the rows of each configuration are
+  // whitened by the tracker model at its distance and direction from there.
+  if (cell) obs.tracker_position_mm = model.T_world_base() * cell->spec().tracker.position_mm;
+  return obs;
+}
+
+}  // namespace
+
 api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanRequest& req, const PlanInputs& inputs,
                                  const std::string& plan_id, WorkControl& control, const LoadedCell* cell) {
   if (req.test) return RunTestPlan(nominal, req, plan_id, cell);
@@ -263,25 +452,9 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   const RobotModel model = cell && !inputs.candidates ? cell->cell.PlanningModel(nominal) : nominal;
   PlanSetup setup;
   if (cell) setup.feasible = [cell](const Eigen::VectorXd& q) { return IsFeasible(cell->model, cell->cell, q); };
-  IdentifiabilityOptions id_options;
-  id_options.noise = api::ToCore(req.noise, req.tracker);
-  id_options.reflectors = api::ToCore(req.reflectors);
-  id_options.seed = req.seed;
-  const IdentifiabilitySummary ident = FindIdentifiableParameters(model, req.measurement_type, id_options);
-  if (ident.termination == Termination::kFailure || ident.identifiable.empty()) {
-    throw ApiError(Status::kFailedPrecondition, "no identifiable parameters: " + ident.message);
-  }
-  ObservabilityOptions obs = api::ToObservabilityOptions(req);
-  obs.parameters = ident.identifiable;
-  obs.model_error_mm = inputs.model_error_mm;
-  // The model error is also each pose's error the fit will see beside the tracker's (the fit weights its rows by
-  // both: FittedNoise), and it spreads into the parameters as that noise does: the rows are weighted as the fit
-  // will weight them, per position axis and orientation row (RMS over sqrt(3)).
-  obs.noise.model_error_mm = inputs.model_error_mm / std::sqrt(3.0);
-  obs.noise.model_error_rad = inputs.model_error_deg * kRadPerDeg / std::sqrt(3.0);
-  // The cell's tracker (base frame) in the planning model's world frame: the rows of each configuration are
-  // whitened by the tracker model at its distance and direction from there.
-  if (cell) obs.tracker_position_mm = model.T_world_base() * cell->cell.spec().tracker.position_mm;
+  const IdentifiabilitySummary ident = IdentifyPlanParameters(model, req);
+  const ObservabilityOptions obs =
+      PlanObservability(model, req, ident, inputs.model_error_mm, inputs.model_error_deg, cell ? &cell->cell : nullptr);
   // ParsePlanRequest refused plans whose work exceeds max_plan_evaluations; the limit is also the optimiser's
   // budget, so that no plan can count past it.
   setup.evaluation_limit = static_cast<int>(std::min<std::int64_t>(options_.limits.max_plan_evaluations, INT32_MAX));
@@ -299,21 +472,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   api::PlanResult result;
   setup.task = inputs.task;
   if (req.task && req.task->box) {
-    const api::TaskBoxWire& box = *req.task->box;
-    TaskBox core_box;
-    core_box.min_mm = Eigen::Vector3d(box.min_mm[0], box.min_mm[1], box.min_mm[2]);
-    core_box.max_mm = Eigen::Vector3d(box.max_mm[0], box.max_mm[1], box.max_mm[2]);
-    for (const auto& rpy : box.orientations_rpy_deg) {
-      api::PoseWire pose;
-      Problems ignored;
-      api::ParsePose({{"position_mm", {0, 0, 0}}, {"rpy_deg", {rpy[0], rpy[1], rpy[2]}}}, "", true, &ignored, &pose);
-      core_box.orientations.push_back(api::PoseToTransform(pose).linear());
-    }
-    const TaskSample sample = SampleTaskConfigurations(model, core_box, box.count, req.seed + 4000037);
-    if (sample.configurations.empty()) {
-      throw ApiError(Status::kFailedPrecondition, "task box out of reach: " + sample.message,
-                     {{"task.box", "no configuration of the robot reaches it: " + sample.message}});
-    }
+    const TaskSample sample = SampleTaskBox(model, req);
     result.task_method = sample.method;
     setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(sample.configurations);
   }
@@ -323,62 +482,16 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
   // joint space would extrapolate far beyond them).
   std::vector<Eigen::VectorXd> usable;
   if (setup.pool.given()) {
-    for (const Eigen::VectorXd& q : *inputs.candidates) {
-      if (q.size() == model.num_joints() && q.allFinite() && model.WithinLimits(q) &&
-          (!setup.feasible || setup.feasible(q))) {
-        usable.push_back(q);
-      }
-    }
+    usable = UsablePlanCandidates(model, setup);
     if (!setup.task && !usable.empty()) setup.task = std::make_shared<const std::vector<Eigen::VectorXd>>(usable);
   }
   int n = req.num_configurations;
   PoseCountPoint counted;
   if (req.num_configurations_auto) result.pose_count = ChooseCount(model, req, obs, setup, &n, &counted);
-  Plan plan;
-  try {
-    plan = RunOptimiser(model, req, n, obs, setup);
-  } catch (const std::invalid_argument& e) {
-    // What the request could not have caught before the planner saw the candidates or the task.
-    throw ApiError(Status::kInvalidArgument, std::string("invalid plan request: ") + e.what(),
-                   {{req.candidates ? "candidates" : "task", e.what()}});
-  }
-  if (plan.summary.termination == Termination::kFailure) {
-    if (setup.pool.given()) {
-      throw ApiError(Status::kFailedPrecondition, "no plan from the candidates: " + plan.summary.message,
-                     {{"num_configurations", plan.summary.message}});
-    }
-    if (cell) {
-      throw ApiError(Status::kFailedPrecondition,
-                     "no plan within cell \"" + cell->wire.id + "\": " + plan.summary.message,
-                     {{"cell", plan.summary.message}});
-    }
-  }
-
-  // The paper's baseline: one random set of the same size (seeded from the plan's seed), in the same cell, from
-  // the same candidates.
-  RandomSelectionOptions baseline_options;
-  baseline_options.seed = req.seed + 1000003;
-  baseline_options.objective = api::PlanObjective(req);
-  baseline_options.feasible = setup.feasible;
-  baseline_options.candidates = setup.pool;
-  baseline_options.task = setup.task;
-  // The census found at least 1 in 100 feasible: 500 draws per configuration leave a wide margin.
-  constexpr int kDrawsPerConfiguration = 500;
-  baseline_options.max_draws_per_configuration = kDrawsPerConfiguration;
-  const Plan baseline = PlanRandom(model, n, obs, baseline_options);
-  // The predicted accuracy's validation configurations: the task, or random (in a cell feasible in it).
-  Rng rng(req.seed + 2000003);
-  std::vector<Eigen::VectorXd> validation;
+  Plan plan = OptimisePlan(model, req, n, obs, setup, cell ? &cell->wire.id : nullptr);
+  const Plan baseline = RandomBaselinePlan(model, req, n, obs, setup);
   bool validation_drawn = true;
-  if (setup.task) {
-    validation = *setup.task;
-  } else if (setup.feasible) {
-    FeasibleDraws draws;
-    draws.max_draws = static_cast<std::int64_t>(kDrawsPerConfiguration) * std::max(1, req.num_validation);
-    validation_drawn = DrawFeasibleConfigurations(model, req.num_validation, setup.feasible, &rng, &draws, &validation);
-  } else {
-    validation = RandomConfigurations(model, req.num_validation, &rng);
-  }
+  const std::vector<Eigen::VectorXd> validation = PlanValidationSample(model, req, setup, &validation_drawn);
   // A plan is never returned without its baseline or its validation sample.
   if (cell && (baseline.summary.termination == Termination::kFailure || !validation_drawn)) {
     const std::string what = !validation_drawn ? "the validation sample" : "the random baseline";
@@ -388,35 +501,14 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
                    {{"cell", "too little feasible for " + what}});
   }
 
-  // "auto": the plan reaches the goal by the prediction the count was chosen by. The optimiser's own set of N is kept
-  // when it does (on real data a better prediction need not be a better set); when it does not (random selection's
-  // may miss it), the set the pose count judged at N is the plan. Without a goal reached, the better of the two.
+  const PlanPredictor predict{model, obs, validation};
   if (req.num_configurations_auto && !counted.configurations.empty() &&
       plan.summary.termination != Termination::kFailure) {
-    const double planned = PredictAccuracy(model, obs, plan.configurations, validation).rms_error_mm;
-    const double judged = PredictAccuracy(model, obs, counted.configurations, validation).rms_error_mm;
-    const double goal_rms = *req.accuracy_goal_mm / kMeanOverRms3d;
-    const bool misses = result.pose_count->chosen ? !(planned <= goal_rms) : !(planned <= judged);
-    if (misses && judged < planned) {
-      plan.configurations = counted.configurations;
-      plan.candidate_indices = setup.pool.given() ? counted.candidate_indices : std::vector<int>{};
-      plan.summary.final = ComputeIndicesBySvd(model, plan.configurations, obs);
-      plan.summary.message += "; the pose count's set of " + std::to_string(n) +
-                              " poses predicts less error on the task than the optimiser's, and is the plan";
-    }
+    PreferPoseCountSet(predict, *result.pose_count, counted, setup.pool.given(), &plan);
   }
 
   PlanHeader(model, req, plan_id, &result);
-  result.configurations = ToWire(model, plan.configurations);
-  result.indices = api::ToWire(plan.summary.final);
-  result.baseline.configurations = ToWire(model, baseline.configurations);
-  result.baseline.indices = api::ToWire(baseline.summary.final);
-  result.baseline.predicted_accuracy =
-      api::ToWire(PredictAccuracy(model, obs, baseline.configurations, validation));
-  result.identifiable_parameters = ident.identifiable_names;
-  result.dropped_parameters = api::ToWire(ident.dropped);
-  result.predicted_accuracy = api::ToWire(PredictAccuracy(model, obs, plan.configurations, validation));
-  result.summary = api::ToWire(plan.summary);
+  WritePlanSets(predict, ident, plan, baseline, &result);
   if (control.stop() != Stop::kNone) result.summary.message += "; stopped early with the best set so far";
   result.created_unix_ms = NowUnixMs();
   if (cell) {
@@ -425,16 +517,7 @@ api::PlanResult Service::RunPlan(const RobotModel& nominal, const api::PlanReque
       result.configuration_checks.push_back(api::ToWire(CheckConfiguration(cell->model, cell->cell, q)));
     }
   }
-  if (setup.pool.given()) {
-    result.candidate_indices = plan.candidate_indices;
-    for (int k : plan.candidate_indices) {
-      if (static_cast<std::size_t>(k) < inputs.candidate_lines.size()) {
-        result.candidate_lines.push_back(inputs.candidate_lines[static_cast<std::size_t>(k)]);
-      }
-    }
-    result.candidates = api::ToWire(plan.summary.candidates);
-    if (!usable.empty()) result.coverage = api::ToWire(model, AnalyseCoverage(model, obs, usable));
-  }
+  if (setup.pool.given()) WritePlanCandidates(predict, plan, inputs.candidate_lines, usable, &result);
   return result;
 }
 

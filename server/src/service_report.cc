@@ -75,6 +75,173 @@ report::CellFigure DrawCell(const RobotModel& model, const api::PlanResult& plan
   return f;
 }
 
+// The plan the campaign was made from, and its cell's drawing; or why there is none.
+void AddReportPlan(Storage* storage, const RobotModel& model, const api::StoredCampaign& campaign,
+                   report::ReportData* data) {
+  if (!campaign.plan) {
+    data->plan_missing = "The campaign was not made from a plan (it names none).";
+    return;
+  }
+  const auto doc = storage->Get(kPlans, *campaign.plan);
+  if (!doc) {
+    data->plan_missing = "The campaign names plan \"" + *campaign.plan + "\", which is no longer stored.";
+    return;
+  }
+  report::PlanSection section;
+  section.plan = ReadStored<api::StoredPlan>(*doc).plan;
+  const api::PlanResult& plan = section.plan;
+  if (!plan.cell) {
+    section.no_figure_reason =
+        "The plan was made without a cell: there is no tracker to draw the configurations "
+        "around (plan in a cell to see them here).";
+  } else if (const auto cell_doc = storage->Get(kCells, *plan.cell); !cell_doc) {
+    section.no_figure_reason = "The plan's cell \"" + *plan.cell + "\" is no longer stored: nothing to draw.";
+  } else {
+    section.figure = DrawCell(model, plan, ReadStored<api::StoredCell>(*cell_doc).cell);
+  }
+  data->plan = std::move(section);
+}
+
+// The calibration measurements a stored fit saw, in sequence order, with their sequences and wire joints.
+struct ReportFitMeasurements {
+  std::vector<Measurement> measurements;
+  std::vector<std::int64_t> sequences;
+  std::vector<std::vector<double>> joints;  // wire joints, to group the shots of one configuration exactly
+  /// The calibration measurements stored after the fit (not in it).
+  std::int64_t after_fit = 0;
+};
+
+// The fit as stored, and the calibration measurements it saw (its outliers included): those up to the last
+// sequence it recorded; for a fit stored before it recorded one, the first (used + excluded) ones, which are
+// the same measurements (they are append-only in sequence order). Later ones are counted, not used.
+ReportFitMeasurements ReadReportFitMeasurements(Storage* storage, const std::string& campaign_id,
+                                                const api::StoredCampaign& campaign, const RobotModel& model,
+                                                const api::CalibrationResult& result,
+                                                const std::optional<std::int64_t>& last_calibration_sequence) {
+  ReportFitMeasurements seen;
+  ForEachMeasurement(storage, campaign_id, "calibration", [&](const StoredMeasurement& s) {
+    if (!SeenByFit(result, last_calibration_sequence, s.sequence,
+                   static_cast<std::int64_t>(seen.measurements.size()))) {
+      seen.after_fit += 1;
+      return;
+    }
+    api::MeasurementWire w = ReadMeasurement(s);
+    seen.measurements.push_back(MeasurementToCore(model, w, campaign));
+    seen.sequences.push_back(s.sequence);
+    seen.joints.push_back(std::move(w.joints));
+  });
+  return seen;
+}
+
+// The covariance's correlations and the singular values, as the fit computed them and stored them with it.
+void AddReportLinearization(const Calibration& calibration, const api::CalibrationResult& result,
+                            report::FitSection* fit) {
+  if (result.parameters.empty()) {
+    fit->linearization_problem = "the fit estimated no parameters";
+  } else if (calibration.covariance.size() == 0) {
+    fit->linearization_problem = "the fit was stored before calibrations kept their covariance; fit again to see it";
+  } else {
+    const Eigen::VectorXd& sv = calibration.summary.singular_values;
+    fit->singular_values.assign(sv.data(), sv.data() + sv.size());
+    fit->condition_number = calibration.summary.condition_number;
+    std::vector<std::string> names;
+    for (const IdentifiedParameter& p : calibration.parameters) names.push_back(p.name);
+    fit->correlations = report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
+  }
+}
+
+// Each fitted map over its knots, with the 2-sigma band of its value from the coefficients' covariance.
+std::vector<report::MapCurve> ReportMapCurves(const Calibration& calibration) {
+  std::vector<report::MapCurve> curves;
+  const JointMapTerms& map_terms = calibration.model.error_terms().maps;
+  if (calibration.covariance.size() == 0 || !map_terms.resolved()) return curves;
+  std::map<int, int> reduced;  // error parameter -> its row in the covariance
+  for (std::size_t k = 0; k < calibration.parameters.size(); ++k) {
+    reduced[calibration.parameters[k].index] = static_cast<int>(k);
+  }
+  constexpr int kSamples = 241;
+  for (std::size_t m = 0; m < map_terms.joints.size(); ++m) {
+    const int joint = map_terms.joints[m];
+    const int first = calibration.model.map_parameter(joint);
+    const int intervals = map_terms.intervals[m];
+    const double from = map_terms.first_knot_rad[m], spacing = map_terms.knot_spacing_rad;
+    report::MapCurve curve;
+    curve.joint = calibration.model.joint_name(joint);
+    for (int i = 0; i < kSamples; ++i) {
+      const double q = from + spacing * intervals * i / (kSamples - 1.0);
+      double b[4];
+      const int j = MapBasis(from, spacing, intervals, q, b);
+      double value = 0.0, variance = 0.0;
+      for (int r = 0; r < 4; ++r) {
+        value += b[r] * calibration.errors[first + j + r];
+        const auto row = reduced.find(first + j + r);
+        if (row == reduced.end()) continue;
+        for (int t = 0; t < 4; ++t) {
+          const auto col = reduced.find(first + j + t);
+          if (col != reduced.end()) variance += b[r] * b[t] * calibration.covariance(row->second, col->second);
+        }
+      }
+      curve.angle_deg.push_back(q * kDegPerRad);
+      curve.value_deg.push_back(value * kDegPerRad);
+      curve.band_deg.push_back(2.0 * std::sqrt(std::max(variance, 0.0)) * kDegPerRad);
+    }
+    curves.push_back(std::move(curve));
+  }
+  return curves;
+}
+
+// Every calibration measurement's residual before (nominal model, registered base, given reflectors) and after,
+// as the fit's own before/after statistics compute them; then the RMS per joint configuration.
+std::vector<report::PoseResidual> ReportPoseResiduals(const api::StoredCampaign& campaign, const RobotModel& model,
+                                                      const Calibration& calibration,
+                                                      const api::CalibrationResult& result,
+                                                      const ReportFitMeasurements& seen) {
+  const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
+  const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
+  std::set<std::int64_t> outlier_sequences;
+  for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
+  const std::vector<Measurement>& measurements = seen.measurements;
+  const std::vector<MeasurementResidualNorms> before =
+      ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.measurement_type, noise,
+                                  ReflectorsInTool(model, given, Eigen::VectorXd()));
+  const std::vector<MeasurementResidualNorms> after =
+      ComputeMeasurementResiduals(calibration.model, calibration.errors, measurements, campaign.measurement_type, noise,
+                                  ReflectorsInTool(model, calibration.reflectors, Eigen::VectorXd()));
+  std::vector<report::PoseResidual> poses;
+  std::map<std::vector<double>, std::size_t> pose_of;
+  struct Sums {
+    double before_p = 0, after_p = 0, before_o = 0, after_o = 0;
+  };
+  std::vector<Sums> sums;
+  for (std::size_t i = 0; i < measurements.size(); ++i) {
+    const auto [it, added] = pose_of.emplace(seen.joints[i], poses.size());
+    if (added) {
+      report::PoseResidual p;
+      p.first_sequence = seen.sequences[i];
+      poses.push_back(p);
+      sums.emplace_back();
+    }
+    report::PoseResidual& p = poses[it->second];
+    Sums& s = sums[it->second];
+    p.last_sequence = seen.sequences[i];
+    p.shots += 1;
+    p.outliers += outlier_sequences.count(seen.sequences[i]) ? 1 : 0;
+    s.before_p += before[i].position_mm * before[i].position_mm;
+    s.after_p += after[i].position_mm * after[i].position_mm;
+    s.before_o += before[i].orientation_rad * before[i].orientation_rad;
+    s.after_o += after[i].orientation_rad * after[i].orientation_rad;
+  }
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    report::PoseResidual& p = poses[k];
+    const double n = p.shots;
+    p.before_position_mm = std::sqrt(sums[k].before_p / n);
+    p.after_position_mm = std::sqrt(sums[k].after_p / n);
+    p.before_orientation_deg = std::sqrt(sums[k].before_o / n) * kDegPerRad;
+    p.after_orientation_deg = std::sqrt(sums[k].after_o / n) * kDegPerRad;
+  }
+  return poses;
+}
+
 }  // namespace
 
 std::string Service::CampaignReport(const std::string& campaign_id, const std::optional<std::string>& h_mm_text) {
@@ -96,146 +263,18 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   data.robot = definition.from_preset.empty()
                    ? RobotResource(campaign.robot, model, definition)
                    : api::RobotFromModel(campaign.robot, model, true, PresetDescription(definition.from_preset));
+  AddReportPlan(storage_, model, campaign, &data);
 
-  // The plan, and its cell's drawing.
-  if (!campaign.plan) {
-    data.plan_missing = "The campaign was not made from a plan (it names none).";
-  } else if (const auto doc = storage_->Get(kPlans, *campaign.plan); !doc) {
-    data.plan_missing = "The campaign names plan \"" + *campaign.plan + "\", which is no longer stored.";
-  } else {
-    report::PlanSection section;
-    section.plan = ReadStored<api::StoredPlan>(*doc).plan;
-    const api::PlanResult& plan = section.plan;
-    if (!plan.cell) {
-      section.no_figure_reason =
-          "The plan was made without a cell: there is no tracker to draw the configurations "
-          "around (plan in a cell to see them here).";
-    } else if (const auto cell_doc = storage_->Get(kCells, *plan.cell); !cell_doc) {
-      section.no_figure_reason = "The plan's cell \"" + *plan.cell + "\" is no longer stored: nothing to draw.";
-    } else {
-      section.figure = DrawCell(model, plan, ReadStored<api::StoredCell>(*cell_doc).cell);
-    }
-    data.plan = std::move(section);
-  }
-
-  // The fit as stored, and the calibration measurements it saw (its outliers included): those up to the last
-  // sequence it recorded; for a fit stored before it recorded one, the first (used + excluded) ones, which are
-  // the same measurements (they are append-only in sequence order). Later ones are counted, not used.
   report::FitSection& fit = data.fit;
   fit.calibration = loaded.result;
-  const api::CalibrationResult& result = loaded.result;
-  const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
-  const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
-  std::vector<Measurement> measurements;
-  std::vector<std::int64_t> sequences;
-  std::vector<std::vector<double>> joints;  // wire joints, to group the shots of one configuration exactly
-  ForEachMeasurement(storage_, campaign_id, "calibration", [&](const StoredMeasurement& s) {
-    if (!SeenByFit(result, loaded.last_calibration_sequence, s.sequence,
-                   static_cast<std::int64_t>(measurements.size()))) {
-      data.calibration_after_fit += 1;
-      return;
-    }
-    api::MeasurementWire w = ReadMeasurement(s);
-    measurements.push_back(MeasurementToCore(model, w, campaign));
-    sequences.push_back(s.sequence);
-    joints.push_back(std::move(w.joints));
-  });
+  const ReportFitMeasurements seen = ReadReportFitMeasurements(storage_, campaign_id, campaign, model, loaded.result,
+                                                               loaded.last_calibration_sequence);
+  data.calibration_after_fit = seen.after_fit;
   // Counted as read, so that the header's numbers agree with each other while uploads go on.
-  data.counts.calibration = static_cast<std::int64_t>(measurements.size()) + data.calibration_after_fit;
-  std::set<std::int64_t> outlier_sequences;
-  for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
-
-  // The covariance's correlations and the singular values, as the fit computed them and stored them with it.
-  const Calibration& calibration = loaded.calibration;
-  if (result.parameters.empty()) {
-    fit.linearization_problem = "the fit estimated no parameters";
-  } else if (calibration.covariance.size() == 0) {
-    fit.linearization_problem = "the fit was stored before calibrations kept their covariance; fit again to see it";
-  } else {
-    const Eigen::VectorXd& sv = calibration.summary.singular_values;
-    fit.singular_values.assign(sv.data(), sv.data() + sv.size());
-    fit.condition_number = calibration.summary.condition_number;
-    std::vector<std::string> names;
-    for (const IdentifiedParameter& p : calibration.parameters) names.push_back(p.name);
-    fit.correlations = report::TopCorrelations(names, CorrelationOf(calibration.covariance), report::kTopCorrelations);
-  }
-
-  // Each fitted map over its knots, with the 2-sigma band of its value from the coefficients' covariance.
-  const JointMapTerms& map_terms = calibration.model.error_terms().maps;
-  if (calibration.covariance.size() > 0 && map_terms.resolved()) {
-    std::map<int, int> reduced;  // error parameter -> its row in the covariance
-    for (std::size_t k = 0; k < calibration.parameters.size(); ++k) {
-      reduced[calibration.parameters[k].index] = static_cast<int>(k);
-    }
-    constexpr int kSamples = 241;
-    for (std::size_t m = 0; m < map_terms.joints.size(); ++m) {
-      const int joint = map_terms.joints[m];
-      const int first = calibration.model.map_parameter(joint);
-      const int intervals = map_terms.intervals[m];
-      const double from = map_terms.first_knot_rad[m], spacing = map_terms.knot_spacing_rad;
-      report::MapCurve curve;
-      curve.joint = calibration.model.joint_name(joint);
-      for (int i = 0; i < kSamples; ++i) {
-        const double q = from + spacing * intervals * i / (kSamples - 1.0);
-        double b[4];
-        const int j = MapBasis(from, spacing, intervals, q, b);
-        double value = 0.0, variance = 0.0;
-        for (int r = 0; r < 4; ++r) {
-          value += b[r] * calibration.errors[first + j + r];
-          const auto row = reduced.find(first + j + r);
-          if (row == reduced.end()) continue;
-          for (int t = 0; t < 4; ++t) {
-            const auto col = reduced.find(first + j + t);
-            if (col != reduced.end()) variance += b[r] * b[t] * calibration.covariance(row->second, col->second);
-          }
-        }
-        curve.angle_deg.push_back(q * kDegPerRad);
-        curve.value_deg.push_back(value * kDegPerRad);
-        curve.band_deg.push_back(2.0 * std::sqrt(std::max(variance, 0.0)) * kDegPerRad);
-      }
-      fit.maps.push_back(std::move(curve));
-    }
-  }
-
-  // Every calibration measurement's residual before (nominal model, registered base, given reflectors) and after,
-  // as the fit's own before/after statistics compute them; then the RMS per joint configuration.
-  const std::vector<MeasurementResidualNorms> before =
-      ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.measurement_type, noise,
-                                  ReflectorsInTool(model, given, Eigen::VectorXd()));
-  const std::vector<MeasurementResidualNorms> after =
-      ComputeMeasurementResiduals(calibration.model, calibration.errors, measurements, campaign.measurement_type, noise,
-                                  ReflectorsInTool(model, calibration.reflectors, Eigen::VectorXd()));
-  std::map<std::vector<double>, std::size_t> pose_of;
-  struct Sums {
-    double before_p = 0, after_p = 0, before_o = 0, after_o = 0;
-  };
-  std::vector<Sums> sums;
-  for (std::size_t i = 0; i < measurements.size(); ++i) {
-    const auto [it, added] = pose_of.emplace(joints[i], fit.poses.size());
-    if (added) {
-      report::PoseResidual p;
-      p.first_sequence = sequences[i];
-      fit.poses.push_back(p);
-      sums.emplace_back();
-    }
-    report::PoseResidual& p = fit.poses[it->second];
-    Sums& s = sums[it->second];
-    p.last_sequence = sequences[i];
-    p.shots += 1;
-    p.outliers += outlier_sequences.count(sequences[i]) ? 1 : 0;
-    s.before_p += before[i].position_mm * before[i].position_mm;
-    s.after_p += after[i].position_mm * after[i].position_mm;
-    s.before_o += before[i].orientation_rad * before[i].orientation_rad;
-    s.after_o += after[i].orientation_rad * after[i].orientation_rad;
-  }
-  for (std::size_t k = 0; k < fit.poses.size(); ++k) {
-    report::PoseResidual& p = fit.poses[k];
-    const double n = p.shots;
-    p.before_position_mm = std::sqrt(sums[k].before_p / n);
-    p.after_position_mm = std::sqrt(sums[k].after_p / n);
-    p.before_orientation_deg = std::sqrt(sums[k].before_o / n) * kDegPerRad;
-    p.after_orientation_deg = std::sqrt(sums[k].after_o / n) * kDegPerRad;
-  }
+  data.counts.calibration = static_cast<std::int64_t>(seen.measurements.size()) + data.calibration_after_fit;
+  AddReportLinearization(loaded.calibration, loaded.result, &fit);
+  fit.maps = ReportMapCurves(loaded.calibration);
+  fit.poses = ReportPoseResiduals(campaign, model, loaded.calibration, loaded.result, seen);
 
   // The validation, as :evaluate answers it.
   if (data.counts.validation > 0) {
