@@ -163,6 +163,57 @@ void DropUnobservedJointTerms(const RobotModel& nominal, const std::vector<Measu
   }
 }
 
+namespace {
+
+// The parameters a request named (IdentificationOptions::parameters, in the fit's index space of n_fit): every other
+// one dropped as "not requested".
+ParameterSelection RequestedParameterSelection(const RobotModel& nominal, const IdentificationOptions& options,
+                                               int n_fit) {
+  ParameterSelection out;
+  out.parameters = options.parameters;
+  for (int k = 0, next = 0; k < n_fit; ++k) {
+    if (next < static_cast<int>(out.parameters.size()) && out.parameters[next] == k)
+      ++next;
+    else
+      out.dropped.push_back({k, ParameterName(nominal, options.reflectors, k), "not requested"});
+  }
+  return out;
+}
+
+// What a selection with reflector nests says of itself (empty: nothing). Held nests (none free) on one line leave
+// the tool's turn about that line unobserved; free nests take over the tool point's parameters. `probe` is the
+// model the identifiability probe saw (n_probe parameters of the model's n_all), `any_nest` whether a nest has shots.
+std::string ReflectorNestsNote(const RobotModel& probe, const IdentificationOptions& options,
+                               const ParameterSelection& selection, int n_probe, int n_all, bool free_nests,
+                               bool any_nest) {
+  if (!free_nests && any_nest) {
+    // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved:
+    // fewer of the model's parameters than pose measurements would identify.
+    IdentifiabilityOptions pose_options = options.identifiability;
+    const IdentifiabilitySummary pose = FindIdentifiableParameters(probe, MeasurementType::kPose, pose_options);
+    const auto model_kept =
+        std::count_if(selection.parameters.begin(), selection.parameters.end(), [&](int j) { return j < n_probe; });
+    if (pose.termination != Termination::kFailure && model_kept < static_cast<long>(pose.identifiable.size())) {
+      return "the reflector nests do not observe the tool's full orientation (" + std::to_string(model_kept) +
+             " parameters against " + std::to_string(pose.identifiable.size()) +
+             " from pose measurements): nests on one line leave the turn about it open, and a tool point off "
+             "that line is not calibrated (three nests not on one line observe it)";
+    }
+  }
+  if (!free_nests) return "";
+  // The parameters the nests' offsets took over (FindIdentifiableParameters' gauge): they stay nominal.
+  std::string held;
+  for (const DroppedParameter& d : selection.dropped) {
+    if (d.index < n_all && d.reason.find("reflector.") != std::string::npos)
+      held += (held.empty() ? "" : ", ") + d.name;
+  }
+  return "free reflector nests locate themselves, not the tool point: " +
+         (held.empty() ? std::string("nothing") : held) +
+         " stay nominal (hold the nests at measured positions to calibrate the tool point)";
+}
+
+}  // namespace
+
 ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                                     const IdentificationOptions& options) {
   ParameterSelection out;
@@ -177,16 +228,7 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   // The fit's index space: the model's parameters, then 3 offset errors per reflector.
   const int n_fit = n_all + 3 * num_reflectors;
   const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
-  if (!options.parameters.empty()) {
-    out.parameters = options.parameters;
-    for (int k = 0, next = 0; k < n_fit; ++k) {
-      if (next < static_cast<int>(out.parameters.size()) && out.parameters[next] == k)
-        ++next;
-      else
-        out.dropped.push_back({k, name(k), "not requested"});
-    }
-    return out;
-  }
+  if (!options.parameters.empty()) return RequestedParameterSelection(nominal, options, n_fit);
   // A nest without shots has nothing to say: the identifiability probe leaves it out (its rows would be
   // information the data do not hold) and its offset is dropped by name.
   std::vector<char> measured(num_reflectors, 0);
@@ -242,31 +284,8 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   DropUnobservedJointTerms(nominal, measurements, options, &out.parameters, &out.dropped);
   std::sort(out.dropped.begin(), out.dropped.end(),
             [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
-  if (!free_nests && !original.empty()) {
-    // Held nests on one line (two nests, or three in a row) leave the tool's turn about that line unobserved:
-    // fewer of the model's parameters than pose measurements would identify.
-    IdentifiabilityOptions pose_options = options.identifiability;
-    const IdentifiabilitySummary pose = FindIdentifiableParameters(probe, MeasurementType::kPose, pose_options);
-    const auto model_kept =
-        std::count_if(out.parameters.begin(), out.parameters.end(), [&](int j) { return j < n_probe; });
-    if (pose.termination != Termination::kFailure && model_kept < static_cast<long>(pose.identifiable.size())) {
-      out.note = "the reflector nests do not observe the tool's full orientation (" + std::to_string(model_kept) +
-                 " parameters against " + std::to_string(pose.identifiable.size()) +
-                 " from pose measurements): nests on one line leave the turn about it open, and a tool point off "
-                 "that line is not calibrated (three nests not on one line observe it)";
-    }
-  }
-  if (free_nests) {
-    // The parameters the nests' offsets took over (FindIdentifiableParameters' gauge): they stay nominal.
-    std::string held;
-    for (const DroppedParameter& d : out.dropped) {
-      if (d.index < n_all && d.reason.find("reflector.") != std::string::npos)
-        held += (held.empty() ? "" : ", ") + d.name;
-    }
-    out.note = "free reflector nests locate themselves, not the tool point: " +
-               (held.empty() ? std::string("nothing") : held) +
-               " stay nominal (hold the nests at measured positions to calibrate the tool point)";
-  }
+  const std::string note = ReflectorNestsNote(probe, options, out, n_probe, n_all, free_nests, !original.empty());
+  if (!note.empty()) out.note = note;
   return out;
 }
 

@@ -122,6 +122,9 @@ class Problem {
   // Per chosen parameter: the squared norm of its column of the weighted Jacobian at zero (the maps' penalty
   // scale).
   Eigen::VectorXd ColumnInformation();
+  // The joint maps' penalty rows over the chosen parameters (the constructor's comment says which); appended to
+  // `rows`.
+  void AddMapRows(std::vector<Eigen::RowVectorXd>* rows);
 
   // Rows of the repeatability model (see the constructor): per group, sqrt(n) times the mean residual of its n
   // shots whitened by `mean`, then the n - 1 Helmert contrasts whitened by `contrast` (no parameter moves them).

@@ -93,45 +93,8 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
   // are not all chosen is left out: those are held at zero). The information is the measurements' mean per
   // coefficient under this problem's weights (its Jacobian at zero), so that the smoothness keeps its meaning as
   // the weights change (the model error's estimate).
-  const JointMapTerms& maps = model.error_terms().maps;
   std::vector<Eigen::RowVectorXd> rows;
-  if (!maps.empty()) {
-    const Eigen::VectorXd column_information = ColumnInformation();
-    constexpr double kMapConstantWeight = 1e3;
-    std::map<int, int> reduced;
-    for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
-    for (size_t m = 0; m < maps.joints.size(); ++m) {
-      const int first = model.map_parameter(maps.joints[m]);
-      const int count = maps.intervals[m] + 3;
-      double information = 0.0;
-      int counted = 0;
-      for (int k = 0; k < count; ++k) {
-        const auto at = reduced.find(first + k);
-        if (at == reduced.end()) continue;
-        information += column_information[at->second];
-        ++counted;
-      }
-      information = counted > 0 ? information / counted : 0.0;
-      const double scale = information > 0.0 ? std::sqrt(information) : 1.0;
-      Eigen::RowVectorXd constant = Eigen::RowVectorXd::Zero(num_parameters());
-      for (int k = 0; k < count; ++k) {
-        const auto at = reduced.find(first + k);
-        if (at != reduced.end()) constant[at->second] = kMapConstantWeight * scale / count;
-      }
-      if (!constant.isZero(0.0)) rows.push_back(std::move(constant));
-      const double w = std::sqrt(maps.smoothness * information);
-      if (w == 0.0) continue;
-      for (int k = 0; k + 2 < count; ++k) {
-        const auto a = reduced.find(first + k), b = reduced.find(first + k + 1), c = reduced.find(first + k + 2);
-        if (a == reduced.end() || b == reduced.end() || c == reduced.end()) continue;
-        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
-        row[a->second] = w;
-        row[b->second] = -2.0 * w;
-        row[c->second] = w;
-        rows.push_back(std::move(row));
-      }
-    }
-  }
+  AddMapRows(&rows);
   // The priors' rows (IdentificationOptions::priors): the prior's "measurement" of x_k is zero with standard
   // deviation sigma_k, a row of 1 / sigma_k in the whitened units of the measurements' rows (sigmas), so that the
   // cost is the negative log posterior and everything that reads the penalty (the covariance, the effective
@@ -152,6 +115,46 @@ Problem::Problem(const RobotModel& model, const std::vector<Measurement>& measur
     penalty_.setZero(static_cast<Eigen::Index>(rows.size()), num_parameters());
     for (size_t r = 0; r < rows.size(); ++r) penalty_.row(static_cast<Eigen::Index>(r)) = rows[r];
     penalty_normal_ = NormalMatrix(penalty_);
+  }
+}
+
+void Problem::AddMapRows(std::vector<Eigen::RowVectorXd>* rows) {
+  const JointMapTerms& maps = model_.error_terms().maps;
+  if (maps.empty()) return;
+  const Eigen::VectorXd column_information = ColumnInformation();
+  constexpr double kMapConstantWeight = 1e3;
+  std::map<int, int> reduced;
+  for (int k = 0; k < num_parameters(); ++k) reduced[parameters_[k]] = k;
+  for (size_t m = 0; m < maps.joints.size(); ++m) {
+    const int first = model_.map_parameter(maps.joints[m]);
+    const int count = maps.intervals[m] + 3;
+    double information = 0.0;
+    int counted = 0;
+    for (int k = 0; k < count; ++k) {
+      const auto at = reduced.find(first + k);
+      if (at == reduced.end()) continue;
+      information += column_information[at->second];
+      ++counted;
+    }
+    information = counted > 0 ? information / counted : 0.0;
+    const double scale = information > 0.0 ? std::sqrt(information) : 1.0;
+    Eigen::RowVectorXd constant = Eigen::RowVectorXd::Zero(num_parameters());
+    for (int k = 0; k < count; ++k) {
+      const auto at = reduced.find(first + k);
+      if (at != reduced.end()) constant[at->second] = kMapConstantWeight * scale / count;
+    }
+    if (!constant.isZero(0.0)) rows->push_back(std::move(constant));
+    const double w = std::sqrt(maps.smoothness * information);
+    if (w == 0.0) continue;
+    for (int k = 0; k + 2 < count; ++k) {
+      const auto a = reduced.find(first + k), b = reduced.find(first + k + 1), c = reduced.find(first + k + 2);
+      if (a == reduced.end() || b == reduced.end() || c == reduced.end()) continue;
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(num_parameters());
+      row[a->second] = w;
+      row[b->second] = -2.0 * w;
+      row[c->second] = w;
+      rows->push_back(std::move(row));
+    }
   }
 }
 
