@@ -60,6 +60,7 @@ bench: build
 	$(BUILD_DIR)/tests/bench/robocal_identification_bench
 	$(BUILD_DIR)/tests/bench/robocal_compensation_bench
 	$(BUILD_DIR)/tests/bench/robocal_program_bench
+	$(BUILD_DIR)/tests/bench/robocal_ipa_fit_bench
 
 # Formats the C++ lines changed since the last commit (staged or not) with the project's .clang-format; older
 # code is left as it is, so that a change's diff holds only the change. C++ only: clang-format would rewrite

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""A reference timing for docs/identification.md "Speed": a plain Levenberg-Marquardt fit of the IPA UR10's
-Series B (tests/data/ipa, real laser-tracker poses) with numpy/scipy, to compare robocal's own fit speed against.
+"""A reference timing for docs/identification.md, "Measured cost": a plain Levenberg-Marquardt fit of the IPA
+UR10's Series B (tests/data/ipa, real laser-tracker poses) with numpy/scipy, to compare robocal's own fit speed against.
 It is the textbook fit only: no robust rounds, no model error estimate, no studentised residuals, no covariance.
 
 Usage: python3 tests/bench/ipa_scipy_fit.py [--repeats 5] [--seed 1]
