@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "robocal/api/json_reader.h"
+#include "robocal/core/random.h"
 
 namespace robocal::api {
 namespace {
@@ -767,6 +768,29 @@ std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& req
   }
   if (points.empty() && problems->empty()) problems->Add("text", "no points");
   return points;
+}
+
+std::vector<int> DataRowLines(const std::string& text) {
+  std::vector<int> data;
+  bool header = false;
+  const std::vector<std::string_view> lines = Lines(text);
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (Trim(std::string(lines[i])).empty()) continue;
+    if (header) data.push_back(static_cast<int>(i) + 1);
+    header = true;
+  }
+  return data;
+}
+
+DataRowSplit SplitDataRows(const std::vector<int>& data_lines, std::size_t calibration_rows, std::uint64_t seed) {
+  Rng rng(seed);
+  std::vector<int> drawn = DrawDistinct(data_lines, std::min(calibration_rows, data_lines.size()), &rng);
+  std::sort(drawn.begin(), drawn.end());
+  DataRowSplit split;
+  for (int line : data_lines) {
+    (std::binary_search(drawn.begin(), drawn.end(), line) ? split.calibration : split.validation).push_back(line);
+  }
+  return split;
 }
 
 int ConfigurationOfTarget(const std::string& target) {

@@ -9,7 +9,6 @@
 #include "command.h"
 #include "robocal/api/text.h"
 #include "robocal/client/csv.h"
-#include "robocal/core/random.h"
 #include "support.h"
 
 namespace robocal::cli {
@@ -42,8 +41,6 @@ int Show(Invocation& in, const api::Campaign& campaign) {
 
 }  // namespace
 
-// A batch from a JSON file: the body of POST /v1/campaigns/{c}/measurements (request_id and role optional), or
-// just its array of measurements.
 api::MeasurementBatchRequest ReadMeasurementFile(Invocation& in, const std::string& path,
                                                  const std::function<std::string()>& robot) {
   const std::string text = ReadFile(path);
@@ -143,37 +140,16 @@ int ImportTrackerFile(Invocation& in, const std::string& format) {
     if (in.Has("--role")) throw UsageError("--calibration-rows sets the roles itself: leave out --role");
     const long long wanted = in.Integer("--calibration-rows", 0, 1, 1000000);
     const auto seed = static_cast<std::uint64_t>(in.Integer("--seed", 1, 0, std::numeric_limits<long long>::max()));
-    std::vector<std::string> lines;
-    std::vector<std::size_t> data;  // indices of the data lines (after the first non-empty one, the header)
-    {
-      std::size_t start = 0;
-      bool header = false;
-      while (start <= request.text.size()) {
-        std::size_t end = request.text.find('\n', start);
-        if (end == std::string::npos) end = request.text.size();
-        lines.push_back(request.text.substr(start, end - start));
-        const bool blank = lines.back().find_first_not_of(" \t\r") == std::string::npos;
-        if (!blank && header) data.push_back(lines.size() - 1);
-        if (!blank) header = true;
-        start = end + 1;
-      }
-    }
+    const std::vector<int> data = api::DataRowLines(request.text);
     if (static_cast<std::size_t>(wanted) >= data.size()) {
       throw UsageError("--calibration-rows " + std::to_string(wanted) + ": " + in.args[1] + " has " +
                        std::to_string(data.size()) + " data rows; leave some for validation");
     }
-    Rng rng(seed);
-    std::vector<char> calibration(lines.size(), 0);
-    for (std::size_t i : DrawDistinct(data, static_cast<std::size_t>(wanted), &rng)) calibration[i] = 1;
-    std::vector<char> is_data(lines.size(), 0);
-    for (std::size_t i : data) is_data[i] = 1;
+    const api::DataRowSplit split = api::SplitDataRows(data, static_cast<std::size_t>(wanted), seed);
     for (const api::MeasurementRole role : {api::MeasurementRole::kCalibration, api::MeasurementRole::kValidation}) {
       api::ImportMeasurementsRequest part = request;
       part.role = role;
-      const bool want_calibration = role == api::MeasurementRole::kCalibration;
-      for (std::size_t i = 0; i < lines.size(); ++i) {
-        if (is_data[i] && (calibration[i] != 0) == want_calibration) part.rows.push_back(static_cast<int>(i) + 1);
-      }
+      part.rows = role == api::MeasurementRole::kCalibration ? split.calibration : split.validation;
       if (!request.request_id.empty()) part.request_id += "-" + std::string(api::WireName(role));
       imports.push_back(std::move(part));
     }

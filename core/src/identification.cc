@@ -284,8 +284,7 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
   DropUnobservedJointTerms(nominal, measurements, options, &out.parameters, &out.dropped);
   std::sort(out.dropped.begin(), out.dropped.end(),
             [](const DroppedParameter& a, const DroppedParameter& b) { return a.index < b.index; });
-  const std::string note = ReflectorNestsNote(probe, options, out, n_probe, n_all, free_nests, !original.empty());
-  if (!note.empty()) out.note = note;
+  out.note = ReflectorNestsNote(probe, options, out, n_probe, n_all, free_nests, !original.empty());
   return out;
 }
 

@@ -19,12 +19,6 @@
 
 namespace robocal::identification_detail {
 
-// Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the
-// Summary promises the Ceres-style tests of IdentificationOptions (relative cost change, max |J'r|, step
-// relative to |x|), which MINPACK's ftol/xtol/gtol define differently (gtol there is a cosine), (b) shots of
-// one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
-// and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
-// they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
 FitStart EvaluateStart(Problem* problem, const Eigen::VectorXd* x0) {
   FitStart start;
   const int n = problem->num_parameters();
@@ -33,6 +27,12 @@ FitStart EvaluateStart(Problem* problem, const Eigen::VectorXd* x0) {
   return start;
 }
 
+// Levenberg-Marquardt, written here rather than taken from Eigen's unsupported module because (a) the
+// Summary promises the Ceres-style tests of IdentificationOptions (relative cost change, max |J'r|, step
+// relative to |x|), which MINPACK's ftol/xtol/gtol define differently (gtol there is a cosine), (b) shots of
+// one pose share one Jacobian evaluation (Problem), and (c) the loop is 40 lines with Nielsen's damping update
+// and Marquardt's diag(J'J) scaling, so it is scale invariant in mm and rad. Normal equations are safe here:
+// they are formed from column-scaled J, whose condition number is checked before the loop (rank test).
 LmResult LevenbergMarquardt(Problem* problem, const IdentificationOptions& o, FitStart start) {
   LmResult out;
   out.x.swap(start.x);

@@ -126,8 +126,8 @@ struct Leverages {
 
 // LeveragesAt for a few parameters (at most kDenseParameterLimit): every pose's rows whitened, W_g = L L' on the
 // position rows (the 3 x 3 inverse covariance) and the orientation's scalar weight, stacked into one matrix A, so
-// that the information is A'A and the leverages are the row sums of (A N^-1) o A, each one product of the whole
-// (instead of a small product, an allocation and a copy per pose).
+// that the information is A'A (NormalMatrix) and the leverages are the row sums of (A N^-1) o A, each one product of
+// the whole (instead of a small product, an allocation and a copy per pose).
 bool DenseLeveragesAt(double sp2, double so2, const PoseResiduals& poses, double t, int angle_rows,
                       const std::vector<std::vector<int>>& columns, const std::vector<Eigen::MatrixXd>& compact,
                       const Eigen::MatrixXd& penalty_normal, int p, Leverages* out) {
@@ -147,9 +147,8 @@ bool DenseLeveragesAt(double sp2, double so2, const PoseResiduals& poses, double
       if (angle_rows > 0) target.tail(angle_rows) = orientation_weight * column.tail(angle_rows);
     }
   }
-  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
-  information.selfadjointView<Eigen::Lower>().rankUpdate(whitened.transpose());
-  if (penalty_normal.size() > 0) information.triangularView<Eigen::Lower>() += penalty_normal;
+  Eigen::MatrixXd information = NormalMatrix(whitened);
+  if (penalty_normal.size() > 0) information += penalty_normal;
   const Eigen::LLT<Eigen::MatrixXd> llt(information);
   if (llt.info() != Eigen::Success) return false;
   const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(p, p));

@@ -378,14 +378,13 @@ class PathChecker {
   // The targets to insert between the ends (in path order); *over: the segment still deviates after the deepest
   // split. Each piece's midpoint is checked: the controller's joints there (nominal IK of the written ends'
   // interpolation, on the branch of the end) moved on the calibrated robot, against the programmed path.
-  void Split(const Segment& s, int depth, std::vector<Inserted>* out, bool* over, double* worst_mm) const {
+  void Split(const Segment& s, int depth, std::vector<Inserted>* out, bool* over) const {
     const Transform written_mid = Interpolate(s.written_a, s.written_b, 0.5);
     const Eigen::VectorXd near = 0.5 * (s.q_a + s.q_b);
     Eigen::VectorXd q_mid = ControllerAt(written_mid, s.q_b, near);
     if (q_mid.size() == 0) return;  // the controller has no solution there either: nothing to compare
     const Transform intended_mid = Interpolate(s.intended_a, s.intended_b, 0.5);
     const double deviation = (CalibratedToolPose(ctx_, q_mid).translation() - intended_mid.translation()).norm();
-    *worst_mm = std::max(*worst_mm, deviation);
     if (deviation <= *ctx_.options.max_path_deviation_mm) return;
     if (depth >= ctx_.options.max_split_depth) {
       *over = true;
@@ -406,9 +405,9 @@ class PathChecker {
     mid.written = NominalToolPose(ctx_, mid.joints);
     Segment first{s.intended_a, intended_mid, s.written_a, mid.written, s.q_a, mid.joints};
     Segment second{intended_mid, s.intended_b, mid.written, s.written_b, mid.joints, s.q_b};
-    Split(first, depth + 1, out, over, worst_mm);
+    Split(first, depth + 1, out, over);
     out->push_back(mid);
-    Split(second, depth + 1, out, over, worst_mm);
+    Split(second, depth + 1, out, over);
   }
 
   // The controller's joints for a pose on the branch of `branch`, nearest `near`; empty when it has none.
@@ -806,7 +805,7 @@ class PathPass {
     ++summary_.segments_checked;
     std::vector<Inserted> inserted;
     bool over = false;
-    checker_.Split(s, 0, &inserted, &over, &worst_mm_);
+    checker_.Split(s, 0, &inserted, &over);
     if (over) ++summary_.segments_over_deviation;
     if (inserted.empty() || program_.targets[b].kind != TargetKind::kCartesian) return;
     const std::string_view text(ctx_.files[static_cast<std::size_t>(here.file)].text);
@@ -827,7 +826,6 @@ class PathPass {
   ProgramOutcome& out_;
   ProgramCompensationSummary& summary_;
   const PathChecker checker_;
-  double worst_mm_ = 0.0;
 };
 
 // The reply's targets: those read and those inserted, in the order of where they sort (file, offset).

@@ -7,9 +7,6 @@
 #include <optional>
 #include <thread>
 
-#ifdef __GLIBC__
-#endif
-
 #include "robocal/server/config.h"
 #include "robocal/server/http_server.h"
 #include "robocal/server/logging.h"

@@ -10,9 +10,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "robocal/api/campaigns.h"
-#include "robocal/core/random.h"
+#include "robocal/api/tracker_files.h"
 #include "robocal/server/memory_trimmer.h"
 #include "robocal/server/service.h"
 #include "server/storage/storage.h"
@@ -34,23 +34,6 @@ std::string ReadText(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-// The 1-based lines of the file's data rows (after the header, the first non-empty line).
-std::vector<int> DataLines(const std::string& text) {
-  std::vector<int> lines;
-  bool header = false;
-  int line = 0;
-  for (std::size_t start = 0; start <= text.size();) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    ++line;
-    const bool blank = text.find_first_not_of(" \t\r", start) >= end;
-    if (!blank && header) lines.push_back(line);
-    if (!blank) header = true;
-    start = end + 1;
-  }
-  return lines;
 }
 
 // One service over a temporary SQLite database holding the UR10 and a campaign per calibration size.
@@ -68,24 +51,16 @@ class IpaCell {
     if (made_.count(id) != 0) return id;
     service_->CreateCampaign(
         {{"id", id}, {"robot", "ur10"}, {"measurement_type", "pose"}, {"tracker", api::TrackerModelWire{}}});
-    const std::vector<int> data = DataLines(series_b_);
-    Rng rng(1);
-    std::vector<char> calibration(static_cast<std::size_t>(data.back()) + 1, 0);
-    for (int line : DrawDistinct(data, static_cast<std::size_t>(calibration_rows), &rng)) {
-      calibration[static_cast<std::size_t>(line)] = 1;
-    }
+    const api::DataRowSplit split =
+        api::SplitDataRows(api::DataRowLines(series_b_), static_cast<std::size_t>(calibration_rows), 1);
     for (const bool want_calibration : {true, false}) {
-      std::vector<int> rows;
-      for (int line : data) {
-        if ((calibration[static_cast<std::size_t>(line)] != 0) == want_calibration) rows.push_back(line);
-      }
       nlohmann::json body = import_;
       body["role"] = want_calibration ? "calibration" : "validation";
-      body["rows"] = rows;
+      body["rows"] = want_calibration ? split.calibration : split.validation;
       body["request_id"] = id + (want_calibration ? "-calibration" : "-validation");
       service_->ImportMeasurements(id, body);
     }
-    made_[id] = true;
+    made_.insert(id);
     return id;
   }
 
@@ -137,7 +112,7 @@ class IpaCell {
   std::unique_ptr<Service> service_;
   std::string series_b_;
   nlohmann::json import_;
-  std::map<std::string, bool> made_;
+  std::set<std::string> made_;
 };
 
 void RunFit(benchmark::State& state, const nlohmann::json& body) {

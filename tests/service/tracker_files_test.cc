@@ -1,8 +1,10 @@
 // Tracker export files: Spatial Analyzer style point exports and CSV read into points in mm, every bad line
 // named by its number, and the points matched to a plan's configurations.
+#include "robocal/api/tracker_files.h"
+
 #include <gtest/gtest.h>
 
-#include "robocal/api/tracker_files.h"
+#include <algorithm>
 
 namespace robocal::api {
 namespace {
@@ -480,6 +482,24 @@ TEST(TrackerFilesTest, RequestFieldsOfAnExportWithJointsAreChecked) {
   // The request survives its own JSON form.
   const ImportMeasurementsRequest r = EuropeanRequest();
   EXPECT_EQ(json(ParseImportMeasurementsRequest(json(r))), json(r));
+}
+
+// The data rows an import's `rows` counts: lines ended by LF, CRLF or a lone CR, blank ones and the header (the
+// first line that is not blank) left out; a split of them is a partition, the same for the same seed.
+TEST(TrackerFilesTest, DataRowLinesAndTheirSplit) {
+  const std::vector<int> data = DataRowLines("\n x;y;z \r\n\r\n1;2;3\n4;5;6\r7;8;9\r\n \t\n10;11;12");
+  EXPECT_EQ(data, (std::vector<int>{4, 5, 6, 8}));
+  const DataRowSplit split = SplitDataRows(data, 3, 7);
+  ASSERT_EQ(split.calibration.size(), 3u);
+  ASSERT_EQ(split.validation.size(), 1u);
+  std::vector<int> all = split.calibration;
+  all.insert(all.end(), split.validation.begin(), split.validation.end());
+  std::sort(all.begin(), all.end());
+  EXPECT_EQ(all, data);
+  EXPECT_TRUE(std::is_sorted(split.calibration.begin(), split.calibration.end()));
+  const DataRowSplit again = SplitDataRows(data, 3, 7);
+  EXPECT_EQ(again.calibration, split.calibration);
+  EXPECT_EQ(SplitDataRows(data, 10, 7).calibration, data);  // at most all
 }
 
 }  // namespace

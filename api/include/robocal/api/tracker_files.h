@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -237,15 +238,23 @@ struct TrackerPoint {
 /// {"text", "no points"}) likewise.
 std::vector<TrackerPoint> ReadTrackerPoints(const ImportMeasurementsRequest& request, Problems* problems);
 
+/// The 1-based lines of a file's data rows, as an import's `rows` counts them: its lines (each ended as the import
+/// ends them: LF, CRLF or a lone CR) after the first one that is not blank (the header), those not blank.
+std::vector<int> DataRowLines(const std::string& text);
+
+/// Data rows (DataRowLines) split at random, as `robocal upload --calibration-rows N --seed S` splits a file:
+/// `calibration_rows` of them (at most all) drawn from Rng(seed) (DrawDistinct), the others for validation; each
+/// list ascending.
+struct DataRowSplit {
+  std::vector<int> calibration, validation;
+};
+DataRowSplit SplitDataRows(const std::vector<int>& data_lines, std::size_t calibration_rows, std::uint64_t seed);
+
 /// The 0-based configuration a target name points at: its trailing number, 1-based ("P007" -> 6); -1 without
 /// trailing digits (or a number beyond any plan); -2 for a name with more than one number ("P001_2", "P7.8":
 /// the last one may be a shot or a decimal).
 int ConfigurationOfTarget(const std::string& target);
 
-/// The measurement batch of the points: each with the joints of its configuration among `configurations` (wire
-/// units, the plan's), matched by `request.match`, and its nest, one of the campaign's `reflectors` (a point
-/// without one, or naming another, is a bad line; a reflector column for a campaign without nests is refused).
-/// Problems are recorded as ReadTrackerPoints does.
 /// The measurement batch of the points of an export with joint columns: each at its own joints (and nest, as
 /// MatchToConfigurations checks them), with its orientation when read.
 MeasurementBatchRequest PointsWithJoints(const ImportMeasurementsRequest& request,
@@ -257,6 +266,10 @@ MeasurementBatchRequest PointsWithJoints(const ImportMeasurementsRequest& reques
 /// fixed ones). Throws std::invalid_argument for a sequence that is not one.
 Eigen::Matrix3d EulerToRotation(const std::string& sequence, bool intrinsic, double a, double b, double c);
 
+/// The measurement batch of the points: each with the joints of its configuration among `configurations` (wire
+/// units, the plan's), matched by `request.match`, and its nest, one of the campaign's `reflectors` (a point
+/// without one, or naming another, is a bad line; a reflector column for a campaign without nests is refused).
+/// Problems are recorded as ReadTrackerPoints does.
 MeasurementBatchRequest MatchToConfigurations(const ImportMeasurementsRequest& request,
                                               const std::vector<TrackerPoint>& points,
                                               const std::vector<std::vector<double>>& configurations,
