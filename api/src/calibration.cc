@@ -320,12 +320,12 @@ ParameterPriors ToCore(const PriorsWire& w, const RobotModel& model, const std::
 }
 
 Residuals ToWire(const ResidualStatistics& s) {
-  return {s.num_measurements,
-          s.rms_position_mm,
-          s.max_position_mm,
-          s.rms_orientation_rad * kDegPerRad,
-          s.max_orientation_rad * kDegPerRad,
-          s.rms_weighted};
+  return {.num_measurements = s.num_measurements,
+          .rms_position_mm = s.rms_position_mm,
+          .max_position_mm = s.max_position_mm,
+          .rms_orientation_deg = s.rms_orientation_rad * kDegPerRad,
+          .max_orientation_deg = s.max_orientation_rad * kDegPerRad,
+          .rms_weighted = s.rms_weighted};
 }
 
 ResidualStatistics ToCore(const Residuals& r) {
@@ -346,7 +346,7 @@ std::vector<ParameterEstimate> ToWire(const std::vector<IdentifiedParameter>& pa
   for (const IdentifiedParameter& p : parameters) {
     const ParameterUnit unit = p.index >= num_model_parameters ? ParameterUnit::kMm : model.parameter_unit(p.index);
     const double scale = ParameterUnitScale(unit);
-    out.push_back({p.name, ParameterUnitName(unit), p.value * scale, p.std * scale});
+    out.push_back({.name = p.name, .unit = ParameterUnitName(unit), .value = p.value * scale, .std = p.std * scale});
   }
   return out;
 }
@@ -383,9 +383,15 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
     choice.folds = c.summary.model_folds;
     for (std::size_t k = 0; k < c.summary.model_candidates.size(); ++k) {
       const ModelCandidate& m = c.summary.model_candidates[k];
-      choice.candidates.push_back({ToWire(m.terms), m.terms.Describe(), m.num_parameters, m.cv_mean_mm, m.cv_rms_mm,
-                                   m.cv_standard_error_mm, m.failed_folds, m.note,
-                                   static_cast<int>(k) == c.summary.model_chosen});
+      choice.candidates.push_back({.model = ToWire(m.terms),
+                                   .description = m.terms.Describe(),
+                                   .num_parameters = m.num_parameters,
+                                   .cv_mean_mm = m.cv_mean_mm,
+                                   .cv_rms_mm = m.cv_rms_mm,
+                                   .cv_standard_error_mm = m.cv_standard_error_mm,
+                                   .failed_folds = m.failed_folds,
+                                   .note = m.note,
+                                   .chosen = static_cast<int>(k) == c.summary.model_chosen});
     }
     w.model_choice = std::move(choice);
   }
@@ -431,8 +437,7 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
                           .cause = o.cause});
   }
   w.parameters_with_outliers = ToWire(s.parameters_with_outliers, c.model, n_model);
-  w.model_error = {s.model_error_estimated, s.model_error_mm, s.model_error_rad * kDegPerRad, s.tracker_rms_mm,
-                   s.tracker_rms_rad * kDegPerRad};
+  CoreToWire(s, &w);
   w.measurement_type = s.measurement_type;
   w.dropped = ToWire(s.dropped);
   w.base = TransformToPose(c.T_world_base);
@@ -440,19 +445,7 @@ CalibrationResult ToWire(const Calibration& c, const std::vector<std::int64_t>& 
   w.registered_base = TransformToPose(c.model.T_world_base());
   w.residuals_before = ToWire(s.before);
   w.residuals_after = ToWire(s.after);
-  w.condition_number = s.condition_number;
-  w.scaling = s.scaling;
-  w.summary.termination = s.termination;
-  w.summary.message = s.message;
-  w.summary.measurement_type = s.measurement_type;
-  w.summary.num_measurements = s.num_measurements;
-  w.summary.num_poses = s.num_poses;
-  w.summary.num_parameters = s.num_parameters;
-  w.summary.iterations = s.iterations;
-  w.summary.initial_cost = s.initial_cost;
-  w.summary.final_cost = s.final_cost;
-  w.summary.sigma_hat = s.sigma_hat;
-  w.summary.seconds = s.seconds;
+  CoreToWire(s, &w.summary);
   w.summary.brief = s.BriefReport();
   return w;
 }
@@ -635,15 +628,18 @@ EvaluateRequest ParseEvaluateRequest(const nlohmann::json& body) {
 
 namespace {
 Statistics Scaled(const ErrorStatistics& s, double scale) {
-  return {s.count, s.mean * scale, s.std * scale, s.max * scale, s.rp * scale};
+  return {.count = s.count, .mean = s.mean * scale, .std = s.std * scale, .max = s.max * scale, .rp = s.rp * scale};
 }
 ErrorStatistics Unscaled(const Statistics& s, double scale) {
-  return ErrorStatistics{s.count, s.mean * scale, s.std * scale, s.max * scale, s.rp * scale};
+  return {.count = s.count, .mean = s.mean * scale, .std = s.std * scale, .max = s.max * scale, .rp = s.rp * scale};
 }
 }  // namespace
 
 Accuracy ToWire(const AccuracyReport& r) {
-  return {r.h_mm, Scaled(r.e_xyz_mm, 1.0), Scaled(r.e_cos_rad, kDegPerRad), Scaled(r.e_tot_mm, 1.0)};
+  return {.h_mm = r.h_mm,
+          .e_xyz_mm = Scaled(r.e_xyz_mm, 1.0),
+          .e_cos_deg = Scaled(r.e_cos_rad, kDegPerRad),
+          .e_tot_mm = Scaled(r.e_tot_mm, 1.0)};
 }
 
 AccuracyReport ToCore(const Accuracy& a) {
@@ -657,7 +653,7 @@ AccuracyReport ToCore(const Accuracy& a) {
 
 Improvement ImprovementOf(const AccuracyReport& before, const AccuracyReport& after) {
   const AccuracyImprovement i = ComputeImprovement(before, after);
-  return {i.e_xyz_mean, i.e_xyz_rp, i.e_tot_mean, i.e_tot_rp};
+  return {.e_xyz_mean = i.e_xyz_mean, .e_xyz_rp = i.e_xyz_rp, .e_tot_mean = i.e_tot_mean, .e_tot_rp = i.e_tot_rp};
 }
 
 // The shapes' to_json / from_json, instantiated here once (ROBOCAL_WIRE_DECLARE).

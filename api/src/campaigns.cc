@@ -15,7 +15,9 @@ namespace robocal::api {
 std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflectors) {
   std::vector<Reflector> out;
   for (const CampaignReflectorWire& r : reflectors) {
-    out.push_back({r.id, Eigen::Vector3d(r.position_mm[0], r.position_mm[1], r.position_mm[2]), r.fixed});
+    out.push_back({.id = r.id,
+                   .position_mm = Eigen::Vector3d(r.position_mm[0], r.position_mm[1], r.position_mm[2]),
+                   .fixed = r.fixed});
   }
   return out;
 }
@@ -23,7 +25,8 @@ std::vector<Reflector> ToCore(const std::vector<CampaignReflectorWire>& reflecto
 std::vector<CampaignReflectorWire> ToWire(const std::vector<Reflector>& reflectors) {
   std::vector<CampaignReflectorWire> out;
   for (const Reflector& r : reflectors) {
-    out.push_back({r.id, {r.position_mm.x(), r.position_mm.y(), r.position_mm.z()}, r.fixed});
+    out.push_back(
+        {.id = r.id, .position_mm = {r.position_mm.x(), r.position_mm.y(), r.position_mm.z()}, .fixed = r.fixed});
   }
   return out;
 }
@@ -66,6 +69,12 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   ReadRequestObject(body, "", &problems, &req);
   problems.ThrowIfAny("invalid campaign");
   return req;
+}
+
+MeasurementNoise NoiseOf(const CreateCampaignRequest& campaign) {
+  MeasurementNoise out = ToCore(campaign.noise, campaign.tracker);
+  WireToCore(campaign, &out);
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------- measurements

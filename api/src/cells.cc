@@ -61,9 +61,14 @@ Cell ToCell(const CellWire& w, const RobotModel& model) {
   spec.tracker.min_distance_mm = w.tracker.min_distance_mm;
   if (w.tracker.max_distance_mm) spec.tracker.max_distance_mm = *w.tracker.max_distance_mm;
   for (const ReflectorWire& r : w.reflectors) {
-    spec.reflectors.push_back({r.id, Vec(r.position_mm), Vec(r.normal), r.acceptance_half_angle_deg * kRadPerDeg});
+    spec.reflectors.push_back({.id = r.id,
+                               .position_mm = Vec(r.position_mm),
+                               .normal = Vec(r.normal),
+                               .acceptance_half_angle_rad = r.acceptance_half_angle_deg * kRadPerDeg});
   }
-  for (const ObstacleWire& o : w.obstacles) spec.obstacles.push_back({o.id, Vec(o.box.min_mm), Vec(o.box.max_mm)});
+  for (const ObstacleWire& o : w.obstacles) {
+    spec.obstacles.push_back({.id = o.id, .min_mm = Vec(o.box.min_mm), .max_mm = Vec(o.box.max_mm)});
+  }
   spec.link_radii_mm = w.link_radii_mm;
   spec.tool_radius_mm = w.tool_radius_mm.value_or(0.0);
   spec.clearance_mm = w.clearance_mm;
@@ -94,7 +99,10 @@ namespace {
 std::vector<ReflectorWire> ReflectorsOf(const CellSpec& spec) {
   std::vector<ReflectorWire> out;
   for (const ReflectorSpec& r : spec.reflectors) {
-    out.push_back({r.id, Arr(r.position_mm), Arr(r.normal), r.acceptance_half_angle_rad * kDegPerRad});
+    out.push_back({.id = r.id,
+                   .position_mm = Arr(r.position_mm),
+                   .normal = Arr(r.normal),
+                   .acceptance_half_angle_deg = r.acceptance_half_angle_rad * kDegPerRad});
   }
   return out;
 }

@@ -88,21 +88,12 @@ RobotModelSpec ToSpec(const RegisterRobotRequest& req) {
     for (std::size_t i = 0; i < req.joints.size(); ++i) {
       const JointWire& jw = req.joints[i];
       JointSpec js;
+      WireToCore(jw, &js);
       js.name = jw.name.empty() ? "joint" + std::to_string(i + 1) : jw.name;
-      js.type = jw.type;
-      js.a_mm = jw.a_mm;
-      js.alpha_rad = jw.alpha_deg * kRadPerDeg;
-      js.d_mm = jw.d_mm;
-      js.theta_rad = jw.theta_deg * kRadPerDeg;
-      js.xyz_mm = Eigen::Vector3d(jw.xyz_mm[0], jw.xyz_mm[1], jw.xyz_mm[2]);
-      js.rpy_rad = Eigen::Vector3d(jw.rpy_deg[0], jw.rpy_deg[1], jw.rpy_deg[2]) * kRadPerDeg;
+      // The limits are in the joint's unit: the table's row cannot say which.
       const double scale = js.type == JointType::kRevolute ? kRadPerDeg : 1.0;
       js.min = jw.min * scale;
       js.max = jw.max * scale;
-      js.mass_kg = jw.mass_kg;
-      js.com_mm = Eigen::Vector3d(jw.com_mm[0], jw.com_mm[1], jw.com_mm[2]);
-      js.compliance_rad_per_nm = jw.compliance_deg_per_nm * kRadPerDeg;
-      js.harmonics_rad = Eigen::Vector4d(jw.harmonics_deg.data()) * kRadPerDeg;
       if (jw.error_map) {
         js.error_map.first_knot_rad = jw.error_map->first_knot_deg * kRadPerDeg;
         js.error_map.knot_spacing_rad = jw.error_map->knot_spacing_deg * kRadPerDeg;
@@ -161,21 +152,11 @@ RobotModel BuildModel(const RegisterRobotRequest& req) {
 JointWire JointToWire(const JointSpec& js, GeometryConvention convention) {
   const double scale = js.type == JointType::kRevolute ? kDegPerRad : 1.0;
   JointWire jw;
+  CoreToWire(js, &jw);
   jw.name = js.name;
-  jw.type = js.type;
-  jw.a_mm = js.a_mm;
-  jw.alpha_deg = js.alpha_rad * kDegPerRad;
-  jw.d_mm = js.d_mm;
-  jw.theta_deg = js.theta_rad * kDegPerRad;
-  jw.xyz_mm = {js.xyz_mm.x(), js.xyz_mm.y(), js.xyz_mm.z()};
-  jw.rpy_deg = {js.rpy_rad.x() * kDegPerRad, js.rpy_rad.y() * kDegPerRad, js.rpy_rad.z() * kDegPerRad};
   jw.convention = convention;
   jw.min = js.min * scale;
   jw.max = js.max * scale;
-  jw.mass_kg = js.mass_kg;
-  jw.com_mm = {js.com_mm.x(), js.com_mm.y(), js.com_mm.z()};
-  jw.compliance_deg_per_nm = js.compliance_rad_per_nm * kDegPerRad;
-  for (int k = 0; k < 4; ++k) jw.harmonics_deg[static_cast<size_t>(k)] = js.harmonics_rad[k] * kDegPerRad;
   if (!js.error_map.empty()) {
     JointMapWire map{.first_knot_deg = js.error_map.first_knot_rad * kDegPerRad,
                      .knot_spacing_deg = js.error_map.knot_spacing_rad * kDegPerRad,

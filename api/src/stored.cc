@@ -53,18 +53,10 @@ void to_json(nlohmann::json& j, const StoredCampaign& c) {
 
 void from_json(const nlohmann::json& j, StoredCampaign& c) {
   (void)StoredSchemaVersion(j);
-  // What versions before 4 did not write (and what version 4 wrote only when set), and a plan or repeatability
-  // left out or null, as the reader before the field table took them: each member's empty value.
+  // What versions before 4 did not write, and what version 4 wrote only when set: the campaign's Later() rows
+  // (campaigns.h), absent or null read as each member's default.
   nlohmann::json doc = j;
-  if (doc.is_object()) {
-    for (const auto& [key, empty] : {std::pair<const char*, nlohmann::json>{"plan", nullptr},
-                                     {"tracker", nullptr},
-                                     {"repeatability_mm", 0.0},
-                                     {"reflectors", nlohmann::json::array()},
-                                     {"payload", nullptr}}) {
-      if (!doc.contains(key) || doc[key].is_null()) doc[key] = empty;
-    }
-  }
+  FillLaterKeys<StoredCampaign>(&doc);
   ReadFields(doc, &c);
 }
 
@@ -152,23 +144,14 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
                                 const std::vector<Reflector>& reflectors) {
   const CalibrationResult& r = stored.result;
   IdentificationSummary s;
-  s.termination = r.summary.termination;
-  s.message = r.summary.message;
+  WireToCore(r.summary, &s);
+  WireToCore(r, &s);
   s.measurement_type = r.measurement_type;
-  s.num_measurements = r.summary.num_measurements;
-  s.num_poses = r.summary.num_poses;
   s.num_residuals = stored.num_residuals;
-  s.num_parameters = r.summary.num_parameters;
-  s.iterations = r.summary.iterations;
-  s.initial_cost = r.summary.initial_cost;
-  s.final_cost = r.summary.final_cost;
-  s.sigma_hat = r.summary.sigma_hat;
   s.before = ToCore(r.residuals_before);
   s.after = ToCore(r.residuals_after);
-  s.condition_number = r.condition_number;
   s.singular_values = Eigen::Map<const Eigen::VectorXd>(stored.singular_values.data(),
                                                         static_cast<Eigen::Index>(stored.singular_values.size()));
-  s.scaling = r.scaling;
   s.T_world_base = PoseToTransform(stored.T_world_base);
   s.T_flange_tool = PoseToTransform(stored.T_flange_tool);
   for (const DroppedParameterWire& d : r.dropped) {
@@ -193,11 +176,6 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
   s.robust_scale = r.robust.scale;
   s.rejection_rounds = r.robust.rounds;
   s.parameters_with_outliers = ToCore(r.parameters_with_outliers, model, reflectors, "result.parameters_with_outliers");
-  s.model_error_estimated = r.model_error.estimated;
-  s.model_error_mm = r.model_error.model_error_mm;
-  s.model_error_rad = r.model_error.model_error_deg / kDegPerRad;
-  s.tracker_rms_mm = r.model_error.tracker_rms_mm;
-  s.tracker_rms_rad = r.model_error.tracker_rms_deg / kDegPerRad;
   s.model = ToCore(r.model);
   s.implausible_joint_terms = stored.implausible_joint_terms;
   if (r.model_choice) {
@@ -213,7 +191,6 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
                                     .note = c.note});
     }
   }
-  s.seconds = r.summary.seconds;
   return s;
 }
 

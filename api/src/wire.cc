@@ -225,7 +225,9 @@ void SkipDerived(const nlohmann::json*, const std::string&, PoseWire*) {}
 
 }  // namespace detail
 
-Payload ToCore(const PayloadWire& p) { return {p.mass_kg, Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])}; }
+Payload ToCore(const PayloadWire& p) {
+  return {.mass_kg = p.mass_kg, .com_mm = Eigen::Vector3d(p.com_mm[0], p.com_mm[1], p.com_mm[2])};
+}
 
 Transform PoseToTransform(const PoseWire& p) {
   Transform t = Transform::Identity();
@@ -251,7 +253,7 @@ PoseWire TransformToPose(const Transform& pose) {
 
 std::vector<DroppedParameterWire> ToWire(const std::vector<DroppedParameter>& dropped) {
   std::vector<DroppedParameterWire> out;
-  for (const DroppedParameter& d : dropped) out.push_back({d.name, d.reason});
+  for (const DroppedParameter& d : dropped) out.push_back({.name = d.name, .reason = d.reason});
   return out;
 }
 
@@ -299,11 +301,9 @@ TrackerUncertainty ToCore(const TrackerModelWire& t) {
   return out;
 }
 
-MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker,
-                        double repeatability_mm) {
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker) {
   MeasurementNoise out = ToCore(noise);
   if (tracker) out.tracker = ToCore(*tracker);
-  out.repeatability_mm = repeatability_mm;
   return out;
 }
 

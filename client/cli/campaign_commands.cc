@@ -18,8 +18,8 @@ int Show(Invocation& in, const api::Campaign& campaign) {
   if (in.json) {
     PrintJson(in.out, campaign);
   } else {
-    in.out << campaign.id << "  robot " << campaign.robot << "  " << api::WireName(campaign.measurement_type)
-           << "  calibration " << campaign.counts.calibration << "  validation " << campaign.counts.validation
+    in.out << campaign.id << "  robot " << campaign.robot << "  " << api::WireName(campaign.type()) << "  calibration "
+           << campaign.counts.calibration << "  validation " << campaign.counts.validation
            << (campaign.calibrated ? "  calibrated" : "  not calibrated") << "\n";
     if (const auto& t = campaign.tracker) {
       in.out << "tracker radial " << t->radial_um[0] << " um + " << t->radial_um[1] << " um/m, transverse "
@@ -79,7 +79,7 @@ int CampaignCreate(Invocation& in) {
   api::CreateCampaignRequest request;
   request.robot = in.args[0];
   request.measurement_type = Invocation::ParseEnum<MeasurementType>("TYPE", in.args[1]);
-  request.plan = in.Option("--plan");
+  if (in.Has("--plan")) request.plan = in.Option("--plan");
   request.id = in.Option("--id");
   request.description = in.Option("--description");
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));
@@ -112,7 +112,7 @@ int CampaignList(Invocation& in) {
   };
   row("campaign", "robot", "type", "calibration", "validation", "calibrated");
   for (const api::Campaign& c : list.campaigns) {
-    row(c.id, c.robot, api::WireName(c.measurement_type), std::to_string(c.counts.calibration),
+    row(c.id, c.robot, api::WireName(c.type()), std::to_string(c.counts.calibration),
         std::to_string(c.counts.validation), c.calibrated ? "yes" : "no");
   }
   return kExitOk;

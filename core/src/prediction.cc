@@ -210,7 +210,7 @@ PositionErrorPrediction PredictPositionError(const Calibration& calibration, con
   out.parameter_covariance_mm2 = 0.5 * (out.parameter_covariance_mm2 + out.parameter_covariance_mm2.transpose());
 
   const IdentificationSummary& s = calibration.summary;
-  const double model_error_mm = s.model_error_estimated ? s.model_error_mm / std::sqrt(3.0) : 0.0;
+  const double model_error_mm = s.model_error.estimated ? s.model_error.model_error_mm / std::sqrt(3.0) : 0.0;
   const double repeatability_mm = options.repeatability_mm / kRepeatabilityPerSigma;
   out.unmodelled_variance_mm2 = model_error_mm * model_error_mm + repeatability_mm * repeatability_mm;
   out.covariance_mm2 = out.parameter_covariance_mm2 + out.unmodelled_variance_mm2 * Eigen::Matrix3d::Identity();

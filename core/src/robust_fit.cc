@@ -577,17 +577,17 @@ class RobustFit {
   void ReportModelError(IdentificationSummary* s) const {
     if (!options_.estimate_model_error || s->termination == Termination::kFailure || s->cancelled) return;
     const int angle_rows = MeasurementRows(options_.measurement_type) - 3;
-    s->model_error_estimated = true;
-    s->model_error_mm = std::sqrt(3.0) * current_.noise.model_error_mm;
-    s->model_error_rad = std::sqrt(static_cast<double>(angle_rows)) * current_.noise.model_error_rad;
-    s->tracker_rms_mm = std::sqrt(model_error_.tracker_variance_mm2);
-    s->tracker_rms_rad = std::sqrt(model_error_.tracker_variance_rad2);
+    s->model_error.estimated = true;
+    s->model_error.model_error_mm = std::sqrt(3.0) * current_.noise.model_error_mm;
+    s->model_error.model_error_rad = std::sqrt(static_cast<double>(angle_rows)) * current_.noise.model_error_rad;
+    s->model_error.tracker_rms_mm = std::sqrt(model_error_.tracker_variance_mm2);
+    s->model_error.tracker_rms_rad = std::sqrt(model_error_.tracker_variance_rad2);
     std::ostringstream note;
-    note << std::setprecision(2) << "; robot error the geometric model does not explain: " << s->model_error_mm
-         << " mm";
-    if (angle_rows > 0) note << ", " << s->model_error_rad * kDegPerRad << " deg";
-    note << " RMS (tracker: " << s->tracker_rms_mm << " mm";
-    if (angle_rows > 0) note << ", " << s->tracker_rms_rad * kDegPerRad << " deg";
+    note << std::setprecision(2)
+         << "; robot error the geometric model does not explain: " << s->model_error.model_error_mm << " mm";
+    if (angle_rows > 0) note << ", " << s->model_error.model_error_rad * kDegPerRad << " deg";
+    note << " RMS (tracker: " << s->model_error.tracker_rms_mm << " mm";
+    if (angle_rows > 0) note << ", " << s->model_error.tracker_rms_rad * kDegPerRad << " deg";
     note << ")";
     s->message += note.str();
   }

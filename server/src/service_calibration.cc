@@ -164,7 +164,7 @@ api::CalibrationResult FitResultOf(const Calibration& calibration, const std::ve
   }
   result.campaign = campaign.id;
   result.robot = campaign.robot;
-  result.measurement_type = campaign.measurement_type;
+  result.measurement_type = campaign.type();
   result.created_unix_ms = NowUnixMs();
   return result;
 }
@@ -198,9 +198,8 @@ FitReply Service::Fit(const std::string& campaign_id, const nlohmann::json& body
     throw ApiError(Status::kFailedPrecondition, "the campaign has no calibration measurements",
                    {{"measurements", "upload measurements with role calibration first"}});
   }
-  IdentificationOptions options = api::ToIdentificationOptions(
-      req, parsed_model, campaign.measurement_type,
-      api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm), reflectors);
+  IdentificationOptions options =
+      api::ToIdentificationOptions(req, parsed_model, campaign.type(), api::NoiseOf(campaign), reflectors);
   CheckFitSize(largest, options, count, !req.parameters.empty(), options_.limits);
   auto measurements = std::make_shared<std::vector<Measurement>>();
   auto sequences = std::make_shared<std::vector<std::int64_t>>();
@@ -472,7 +471,7 @@ api::Evaluation Service::EvaluateLoaded(const Calibrated& loaded, double h_mm, A
   e.nominal = api::ToWire(before);
   e.calibrated = api::ToWire(after);
   e.improvement_percent = api::ImprovementOf(before, after);
-  if (loaded.campaign.measurement_type == MeasurementType::kPosition) {
+  if (loaded.campaign.type() == MeasurementType::kPosition) {
     e.note = "position measurements carry no orientation: E_cos and E_tot compare against identity";
   }
   if (before_out != nullptr) *before_out = std::move(before);

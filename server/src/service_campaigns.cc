@@ -46,38 +46,35 @@ api::Campaign Service::CampaignResource(const api::StoredCampaign& s) {
 }
 
 api::Campaign Service::CreateCampaign(const nlohmann::json& body) {
-  const api::CreateCampaignRequest req = api::ParseCreateCampaignRequest(body);
   api::StoredCampaign campaign;
+  // The request is the campaign's base: what the client set, then the defaults filled in.
+  static_cast<api::CreateCampaignRequest&>(campaign) = api::ParseCreateCampaignRequest(body);
+  const api::CreateCampaignRequest& req = campaign;
+  const std::optional<MeasurementType> requested_type = req.measurement_type;
   campaign.robot_definition = ResolveRobot(req.robot).definition;
   // Reflector nests are for a position tracker: with them the type defaults to position.
   campaign.measurement_type =
-      req.measurement_type.value_or(req.reflectors.empty() ? MeasurementType::kPose : MeasurementType::kPosition);
-  if (!req.plan.empty()) {
-    const api::PlanResult plan = GetPlan(req.plan);
+      requested_type.value_or(req.reflectors.empty() ? MeasurementType::kPose : MeasurementType::kPosition);
+  if (campaign.plan && campaign.plan->empty()) campaign.plan.reset();
+  if (campaign.plan) {
+    const std::string& plan_id = *campaign.plan;
+    const api::PlanResult plan = GetPlan(plan_id);
     if (plan.robot != req.robot) {
-      throw ApiError(Status::kFailedPrecondition, "plan \"" + req.plan + "\" is for robot " + plan.robot,
+      throw ApiError(Status::kFailedPrecondition, "plan \"" + plan_id + "\" is for robot " + plan.robot,
                      {{"plan", "planned for another robot"}});
     }
-    if (!req.measurement_type) campaign.measurement_type = plan.measurement_type;
-    if (!req.reflectors.empty() && !req.measurement_type && plan.measurement_type != MeasurementType::kPosition) {
+    if (!requested_type) campaign.measurement_type = plan.measurement_type;
+    if (!req.reflectors.empty() && !requested_type && plan.measurement_type != MeasurementType::kPosition) {
       throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
-                     {{"reflectors", "need position measurements; plan \"" + req.plan + "\" measures " +
+                     {{"reflectors", "need position measurements; plan \"" + plan_id + "\" measures " +
                                          api::WireName(plan.measurement_type)}});
     }
-    campaign.plan = req.plan;
   }
-  campaign.id = req.id.empty() ? NewId("c") : req.id;
-  campaign.description = req.description;
-  campaign.robot = req.robot;
-  campaign.noise = req.noise;
-  campaign.tracker = req.tracker;
-  campaign.repeatability_mm = req.repeatability_mm;
-  campaign.reflectors = req.reflectors;
-  campaign.payload = req.payload;
-  if (!campaign.reflectors.empty() && campaign.measurement_type != MeasurementType::kPosition) {
+  if (campaign.id.empty()) campaign.id = NewId("c");
+  if (!campaign.reflectors.empty() && campaign.type() != MeasurementType::kPosition) {
     throw ApiError(Status::kInvalidArgument, "invalid campaign: reflectors need position measurements",
                    {{"reflectors", std::string("need position measurements; measurement_type is ") +
-                                       api::WireName(campaign.measurement_type)}});
+                                       api::WireName(campaign.type())}});
   }
   campaign.created_unix_ms = NowUnixMs();
   try {
@@ -140,8 +137,7 @@ std::vector<char> StaleFlags(const api::StoredCampaign& campaign, const RobotMod
   std::vector<Measurement> shots;
   shots.reserve(measurements.size());
   for (const api::MeasurementWire& m : measurements) shots.push_back(MeasurementToCore(model, m, campaign));
-  return FlagStaleShots(model, shots, campaign.measurement_type, campaign.repeatability_mm, {},
-                        before ? &*before : nullptr);
+  return FlagStaleShots(model, shots, campaign.type(), campaign.repeatability_mm, {}, before ? &*before : nullptr);
 }
 
 // The points of a tracker file; every bad line (and too many points for one batch) thrown as one error.
@@ -163,9 +159,9 @@ api::BatchResult Service::ImportMeasurements(const std::string& campaign_id, con
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
   if (!req.joints.columns.empty()) return ImportMeasurementsWithJoints(campaign_id, campaign, req);
   // A point export carries positions: the campaign must measure positions, with its nests named per point.
-  if (campaign.measurement_type != MeasurementType::kPosition) {
+  if (campaign.type() != MeasurementType::kPosition) {
     throw ApiError(Status::kFailedPrecondition,
-                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
+                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.type()) +
                        "; a tracker point export carries positions only",
                    {{"format", "points only: import into a position campaign"}});
   }
@@ -212,7 +208,7 @@ api::BatchResult Service::StoreImported(const api::StoredCampaign& campaign, con
                                         api::MeasurementBatchRequest batch) {
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   // The campaign's checks, on every row (those not stored too: they are the same file).
-  batch = api::ParseMeasurementBatchRequest(nlohmann::json(batch), model, campaign.measurement_type, options_.limits,
+  batch = api::ParseMeasurementBatchRequest(nlohmann::json(batch), model, campaign.type(), options_.limits,
                                             campaign.reflectors);
   // Stale readings in the file's own order; its first row against the shot stored last when every row is stored
   // (a file split by rows is compared within itself).
@@ -243,12 +239,11 @@ api::BatchResult Service::ImportMeasurementsWithJoints(const std::string& campai
                                                        const api::StoredCampaign& campaign,
                                                        const api::ImportMeasurementsRequest& req) {
   // An export with joints needs no plan; a 6-DoF campaign needs the measured orientation.
-  if (campaign.measurement_type != MeasurementType::kPosition && req.orientation.empty()) {
-    throw ApiError(
-        Status::kInvalidArgument,
-        "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.measurement_type) +
-            ": the file's orientation columns are needed",
-        {{"orientation", std::string("required for a ") + api::WireName(campaign.measurement_type) + " campaign"}});
+  if (campaign.type() != MeasurementType::kPosition && req.orientation.empty()) {
+    throw ApiError(Status::kInvalidArgument,
+                   "campaign \"" + campaign_id + "\" measures " + api::WireName(campaign.type()) +
+                       ": the file's orientation columns are needed",
+                   {{"orientation", std::string("required for a ") + api::WireName(campaign.type()) + " campaign"}});
   }
   RequireNestColumn(campaign_id, campaign, req);
   const std::size_t joints = RobotJoints(campaign);
@@ -272,7 +267,7 @@ api::BatchResult Service::AppendMeasurements(const std::string& campaign_id, con
   const api::StoredCampaign campaign = LoadCampaign(campaign_id);
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   const api::MeasurementBatchRequest req =
-      api::ParseMeasurementBatchRequest(body, model, campaign.measurement_type, options_.limits, campaign.reflectors);
+      api::ParseMeasurementBatchRequest(body, model, campaign.type(), options_.limits, campaign.reflectors);
   if (req.role == api::MeasurementRole::kTest) CheckTestShots(campaign, req);
   return StoreBatch(campaign, model, req, std::nullopt);
 }

@@ -190,8 +190,8 @@ DriftCheckOptions DriftCheckOptionsFor(const api::DriftCheckRequest& req, Measur
   const std::optional<api::TrackerModelWire> tracker = req.tracker ? req.tracker
                                                        : req.noise ? std::nullopt
                                                                    : campaign.tracker;
-  options.noise = api::ToCore(req.noise.value_or(campaign.noise), tracker,
-                              req.repeatability_mm.value_or(campaign.repeatability_mm));
+  options.noise = api::ToCore(req.noise.value_or(campaign.noise), tracker);
+  options.noise.repeatability_mm = req.repeatability_mm.value_or(campaign.repeatability_mm);
   if (fit.model_error.estimated) {
     options.noise.model_error_mm = fit.model_error.model_error_mm / std::sqrt(3.0);
     options.noise.model_error_rad = fit.model_error.model_error_deg * kRadPerDeg / std::sqrt(3.0);
@@ -264,8 +264,8 @@ api::DriftCheckWire Service::CheckRobot(const std::string& id, const nlohmann::j
                    {{"robot", "calibrated with reflectors"}});
   }
   const api::DriftCheckRequest req =
-      api::ParseDriftCheckRequest(body, robot.model, loaded.campaign.measurement_type, options_.limits);
-  const MeasurementType type = req.measurement_type.value_or(loaded.campaign.measurement_type);
+      api::ParseDriftCheckRequest(body, robot.model, loaded.campaign.type(), options_.limits);
+  const MeasurementType type = req.measurement_type.value_or(loaded.campaign.type());
   DriftCheckOptions options = DriftCheckOptionsFor(req, type, loaded.campaign, loaded.result);
 
   // The calibration's own scatter: the measurements its fit used, against it (with the robot's joints: the

@@ -406,7 +406,7 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
   const RobotModel model = api::BuildModel(campaign.robot_definition);
   api::Iso9283ReportWire report;
   report.campaign = campaign_id;
-  report.measurement_type = campaign.measurement_type;
+  report.measurement_type = campaign.type();
   const TestShotsRead read = ReadTestShots(storage_, campaign_id, campaign, model);
   const std::vector<TestShot>& shots = read.shots;
   report.num_shots = static_cast<int>(shots.size());
@@ -440,7 +440,7 @@ api::Iso9283ReportWire Service::Iso9283Report(const std::string& campaign_id) {
   }
   report.base = api::TransformToPose(T_world_base);
 
-  const bool orientation = campaign.measurement_type == MeasurementType::kPose;
+  const bool orientation = campaign.type() == MeasurementType::kPose;
   const Transform T_base_world = T_world_base.inverse();
   std::vector<Iso9283Shot> measured, calibrated;
   std::optional<KinematicsWorkspace> calibrated_ws;

@@ -197,15 +197,15 @@ std::vector<report::PoseResidual> ReportPoseResiduals(const api::StoredCampaign&
                                                       const api::CalibrationResult& result,
                                                       const ReportFitMeasurements& seen) {
   const std::vector<Reflector> given = api::ToCore(campaign.reflectors);
-  const MeasurementNoise noise = api::ToCore(campaign.noise, campaign.tracker, campaign.repeatability_mm);
+  const MeasurementNoise noise = api::NoiseOf(campaign);
   std::set<std::int64_t> outlier_sequences;
   for (const api::OutlierWire& o : result.outliers) outlier_sequences.insert(o.sequence);
   const std::vector<Measurement>& measurements = seen.measurements;
   const std::vector<MeasurementResidualNorms> before =
-      ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.measurement_type, noise,
+      ComputeMeasurementResiduals(calibration.model, Eigen::VectorXd(), measurements, campaign.type(), noise,
                                   ReflectorsInTool(model, given, Eigen::VectorXd()));
   const std::vector<MeasurementResidualNorms> after =
-      ComputeMeasurementResiduals(calibration.model, calibration.errors, measurements, campaign.measurement_type, noise,
+      ComputeMeasurementResiduals(calibration.model, calibration.errors, measurements, campaign.type(), noise,
                                   ReflectorsInTool(model, calibration.reflectors, Eigen::VectorXd()));
   std::vector<report::PoseResidual> poses;
   std::map<std::vector<double>, std::size_t> pose_of;
@@ -254,7 +254,7 @@ std::string Service::CampaignReport(const std::string& campaign_id, const std::o
   report::ReportData data;
   data.campaign = campaign.id;
   data.description = campaign.description;
-  data.measurement_type = campaign.measurement_type;
+  data.measurement_type = campaign.type();
   data.created_unix_ms = campaign.created_unix_ms;
   data.counts.validation = storage_->CountMeasurements(campaign_id, "validation");
   data.counts.test = storage_->CountMeasurements(campaign_id, "test");

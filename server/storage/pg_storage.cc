@@ -150,17 +150,13 @@ class PgStorage final : public Storage {
             "WHERE campaign_id = $1::text AND request_id = $2::text",
             {campaign_id, request_id});
         if (r.rows() > 0) {
-          if (r.Text(0, 1) != content_hash || r.Text(0, 2) != role) {
-            throw BatchConflict(campaign_id, request_id);
-          }
-          return BatchResult{.campaign = campaign_id,
-                             .batch_id = r.Text(0, 0),
-                             .request_id = request_id,
-                             .replayed = true,
-                             .first_sequence = r.Int(0, 3),
-                             .count = r.Int(0, 4),
-                             .campaign_total = total,
-                             .stale = {}};
+          return ReplayBatch(campaign_id, request_id, content_hash, role,
+                             {.batch_id = r.Text(0, 0),
+                              .content_hash = r.Text(0, 1),
+                              .role = r.Text(0, 2),
+                              .first_sequence = r.Int(0, 3),
+                              .count = r.Int(0, 4)},
+                             total);
         }
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
@@ -182,14 +178,13 @@ class PgStorage final : public Storage {
             {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
       }
       tx.Commit();
-      return BatchResult{.campaign = campaign_id,
-                         .batch_id = batch_id,
-                         .request_id = request_id,
-                         .replayed = false,
-                         .first_sequence = first_sequence,
-                         .count = count,
-                         .campaign_total = total + count,
-                         .stale = {}};
+      return AppendedBatch(campaign_id, request_id,
+                           {.batch_id = batch_id,
+                            .content_hash = content_hash,
+                            .role = role,
+                            .first_sequence = first_sequence,
+                            .count = count},
+                           total);
     });
   }
 

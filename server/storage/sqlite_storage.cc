@@ -226,18 +226,14 @@ class SqliteStorage final : public Storage {
           "WHERE campaign_id = ?1 AND request_id = ?2");
       stmt.Bind(1, campaign_id).Bind(2, request_id);
       if (stmt.Step()) {
-        if (stmt.Text(1) != content_hash || stmt.Text(2) != role) {
-          throw BatchConflict(campaign_id, request_id);
-        }
         // Nothing written: the transaction rolls back (a no-op) when tx goes out of scope.
-        return BatchResult{.campaign = campaign_id,
-                           .batch_id = stmt.Text(0),
-                           .request_id = request_id,
-                           .replayed = true,
-                           .first_sequence = stmt.Int(3),
-                           .count = stmt.Int(4),
-                           .campaign_total = total,
-                           .stale = {}};
+        return ReplayBatch(campaign_id, request_id, content_hash, role,
+                           {.batch_id = stmt.Text(0),
+                            .content_hash = stmt.Text(1),
+                            .role = stmt.Text(2),
+                            .first_sequence = stmt.Int(3),
+                            .count = stmt.Int(4)},
+                           total);
       }
     }
 
@@ -269,14 +265,13 @@ class SqliteStorage final : public Storage {
           .Run();
     }
     tx.Commit();
-    return BatchResult{.campaign = campaign_id,
-                       .batch_id = batch_id,
-                       .request_id = request_id,
-                       .replayed = false,
-                       .first_sequence = first_sequence,
-                       .count = count,
-                       .campaign_total = total + count,
-                       .stale = {}};
+    return AppendedBatch(campaign_id, request_id,
+                         {.batch_id = batch_id,
+                          .content_hash = content_hash,
+                          .role = role,
+                          .first_sequence = first_sequence,
+                          .count = count},
+                         total);
   }
 
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,

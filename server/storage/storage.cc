@@ -94,9 +94,32 @@ std::string Scrub(std::string text, std::vector<std::string> secrets) {
 
 std::string RedactUrl(const std::string& db) { return Scrub(db, PasswordsIn(db)); }
 
-StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id) {
-  return StorageError(StorageError::Kind::kAlreadyExists,
-                      "request_id " + request_id + " of campaign " + campaign_id + " was used before for a different batch");
+BatchResult ReplayBatch(const std::string& campaign_id, const std::string& request_id, const std::string& content_hash,
+                        const std::string& role, const StoredBatch& earlier, std::int64_t total) {
+  if (earlier.content_hash != content_hash || earlier.role != role) {
+    throw StorageError(StorageError::Kind::kAlreadyExists, "request_id " + request_id + " of campaign " + campaign_id +
+                                                               " was used before for a different batch");
+  }
+  return BatchResult{.campaign = campaign_id,
+                     .batch_id = earlier.batch_id,
+                     .request_id = request_id,
+                     .replayed = true,
+                     .first_sequence = earlier.first_sequence,
+                     .count = earlier.count,
+                     .campaign_total = total,
+                     .stale = {}};
+}
+
+BatchResult AppendedBatch(const std::string& campaign_id, const std::string& request_id, const StoredBatch& batch,
+                          std::int64_t total_before) {
+  return BatchResult{.campaign = campaign_id,
+                     .batch_id = batch.batch_id,
+                     .request_id = request_id,
+                     .replayed = false,
+                     .first_sequence = batch.first_sequence,
+                     .count = batch.count,
+                     .campaign_total = total_before + batch.count,
+                     .stale = {}};
 }
 
 void CheckVersion(const std::string& collection, const std::string& id, std::int64_t version,

@@ -13,8 +13,22 @@ namespace robocal::server {
 /// to be unique, not reproducible, so the generator is seeded from the system; primary keys stand behind the odds.
 std::string NewRandomId(const std::string& prefix);
 
-/// The error of a request_id used before for a batch of other content or role (kAlreadyExists).
-StorageError BatchConflict(const std::string& campaign_id, const std::string& request_id);
+/// A batch as a store holds it: what Storage::AppendMeasurements' rules compare and return.
+struct StoredBatch {
+  std::string batch_id;
+  std::string content_hash;
+  std::string role;
+  std::int64_t first_sequence = 0;
+  std::int64_t count = 0;
+};
+/// Storage::AppendMeasurements' rule for a request id used before: `earlier` is its batch, the campaign holds
+/// `total` measurements. The same content and role is that batch replayed (nothing written); anything else is
+/// kAlreadyExists, naming the request id.
+BatchResult ReplayBatch(const std::string& campaign_id, const std::string& request_id, const std::string& content_hash,
+                        const std::string& role, const StoredBatch& earlier, std::int64_t total);
+/// The result of `batch` appended under `request_id` to a campaign that held `total_before` measurements.
+BatchResult AppendedBatch(const std::string& campaign_id, const std::string& request_id, const StoredBatch& batch,
+                          std::int64_t total_before);
 /// Storage::Update's rule: throws kVersionConflict if `expected_version` > 0 and is not the stored `version`.
 void CheckVersion(const std::string& collection, const std::string& id, std::int64_t version,
                   std::int64_t expected_version);

@@ -11,7 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::Check(request->id.empty() || api::IsValidId(request->id), "a given campaign id is a valid id");
     // The fit builds its noise from these: whatever is accepted must be a noise the core takes.
     std::string error;
-    fuzz::Check(api::ToCore(request->noise, request->tracker, request->repeatability_mm).IsValid(&error),
+    fuzz::Check(api::NoiseOf(*request).IsValid(&error),
                 "an accepted tracker model and repeatability are a valid core noise");
     fuzz::CheckRoundTrip(*request, parse);
   }

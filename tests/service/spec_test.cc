@@ -110,8 +110,8 @@ class SpecChecker {
     Member<M>(Target(at), role, row.request);
   }
   template <typename T, typename Row_>
-  void Row(const std::string& pointer, const json& schema, Role role, const Row_& row, std::set<std::string>* keys,
-           std::set<std::string>* required) {
+  requires(!FieldRow<Row_>) void Row(const std::string& pointer, const json& schema, Role role, const Row_& row,
+                                     std::set<std::string>* keys, std::set<std::string>* required) {
     // Computed and Nested rows: a key whose form the shape's own functions give; it must be there, and a reply
     // always has a Nested key and a Computed one its write always writes.
     keys->insert(row.name);

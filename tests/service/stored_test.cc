@@ -240,11 +240,11 @@ TEST_F(RestoreTest, ACalibrationComesBackWhole) {
   EXPECT_EQ(a.robust_scale, b.robust_scale);
   EXPECT_EQ(a.rejection_rounds, b.rejection_rounds);
   ExpectSameParameters(a.parameters_with_outliers, b.parameters_with_outliers);
-  EXPECT_EQ(a.model_error_estimated, b.model_error_estimated);
-  EXPECT_EQ(a.model_error_mm, b.model_error_mm);
-  EXPECT_NEAR(a.model_error_rad, b.model_error_rad, 1e-15);
-  EXPECT_EQ(a.tracker_rms_mm, b.tracker_rms_mm);
-  EXPECT_NEAR(a.tracker_rms_rad, b.tracker_rms_rad, 1e-15);
+  EXPECT_EQ(a.model_error.estimated, b.model_error.estimated);
+  EXPECT_EQ(a.model_error.model_error_mm, b.model_error.model_error_mm);
+  EXPECT_NEAR(a.model_error.model_error_rad, b.model_error.model_error_rad, 1e-15);
+  EXPECT_EQ(a.model_error.tracker_rms_mm, b.model_error.tracker_rms_mm);
+  EXPECT_NEAR(a.model_error.tracker_rms_rad, b.model_error.tracker_rms_rad, 1e-15);
   EXPECT_EQ(a.model.Describe(), b.model.Describe());
   EXPECT_EQ(a.seconds, b.seconds);
   EXPECT_EQ(a.BriefReport(), b.BriefReport());

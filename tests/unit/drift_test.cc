@@ -46,8 +46,8 @@ struct Calibrated {
     robot = RobotModel::Build(spec);
     options.measurement_type = MeasurementType::kPose;
     options.noise = cell.options().noise;
-    options.noise.model_error_mm = cal.summary.model_error_mm / std::sqrt(3.0);
-    options.noise.model_error_rad = cal.summary.model_error_rad / std::sqrt(3.0);
+    options.noise.model_error_mm = cal.summary.model_error.model_error_mm / std::sqrt(3.0);
+    options.noise.model_error_rad = cal.summary.model_error.model_error_rad / std::sqrt(3.0);
     options.reference = shots;
     options.reference_T_world_base = cal.model.T_world_base();
     const double rows = 6.0 * static_cast<double>(shots.size());

@@ -1,17 +1,20 @@
-// A fit's diagnostics recomputed after the fact (fit_diagnostics.h): the linearisation at a finished calibration
-// equals the fit's own covariance and condition number (plain, robust with an outlier, tracker model with
-// repeatability, free reflector nests), per-measurement residuals against a known offset, correlations by hand.
+// A fit's diagnostics recomputed after the fact (fit_diagnostics.h, fit_linearization.h): the linearisation at a
+// finished calibration equals the fit's own covariance and condition number (plain, robust with an outlier,
+// tracker model with repeatability, free reflector nests), per-measurement residuals against a known offset,
+// correlations by hand.
+#include "robocal/core/fit_diagnostics.h"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "robocal/core/fit_diagnostics.h"
-#include "test_util.h"
+#include "fit_linearization.h"
 #include "robocal/core/kinematics.h"
 #include "robocal/core/presets.h"
 #include "robocal/core/virtual_cell.h"
+#include "test_util.h"
 
 namespace robocal {
 namespace {

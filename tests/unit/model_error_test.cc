@@ -111,7 +111,7 @@ TEST(ModelErrorTest, TheEstimateMatchesTheHeldOutScatterAndIsSaid) {
     const Calibration cal = Identify(model, cell.MeasureAll(test::RandomConfigurations(model, 100, 300 + seed)), o);
     const IdentificationSummary& s = cal.summary;
     ASSERT_EQ(s.termination, Termination::kConvergence) << s.FullReport();
-    EXPECT_TRUE(s.model_error_estimated);
+    EXPECT_TRUE(s.model_error.estimated);
     const std::vector<Measurement> held_out = cell.MeasureAll(test::RandomConfigurations(model, 400, 900 + seed));
     KinematicsWorkspace ws(cal.model);
     double sum = 0.0;
@@ -121,10 +121,10 @@ TEST(ModelErrorTest, TheEstimateMatchesTheHeldOutScatterAndIsSaid) {
     }
     const double held_out_rms = std::sqrt(sum / static_cast<double>(held_out.size()));
     RecordProperty("held_out_rms_mm_" + std::to_string(seed), std::to_string(held_out_rms));
-    RecordProperty("model_error_mm_" + std::to_string(seed), std::to_string(s.model_error_mm));
-    EXPECT_GT(held_out_rms, 5.0 * s.tracker_rms_mm) << "the model error dominates";
-    EXPECT_NEAR(s.model_error_mm, held_out_rms, 0.2 * held_out_rms);
-    EXPECT_GT(s.model_error_rad, 0.0);
+    RecordProperty("model_error_mm_" + std::to_string(seed), std::to_string(s.model_error.model_error_mm));
+    EXPECT_GT(held_out_rms, 5.0 * s.model_error.tracker_rms_mm) << "the model error dominates";
+    EXPECT_NEAR(s.model_error.model_error_mm, held_out_rms, 0.2 * held_out_rms);
+    EXPECT_GT(s.model_error.model_error_rad, 0.0);
     EXPECT_THAT(s.message, ::testing::HasSubstr("robot error the geometric model does not explain: "));
     EXPECT_LE(s.outliers.size(), 1u) << s.FullReport();
 
@@ -132,7 +132,7 @@ TEST(ModelErrorTest, TheEstimateMatchesTheHeldOutScatterAndIsSaid) {
     VirtualCell geometric(model, cell_options);
     const Calibration clean = Identify(model, geometric.MeasureAll(test::RandomConfigurations(model, 100, 300 + seed)), o);
     ASSERT_EQ(clean.summary.termination, Termination::kConvergence) << clean.summary.FullReport();
-    EXPECT_LT(clean.summary.model_error_mm, clean.summary.tracker_rms_mm);
+    EXPECT_LT(clean.summary.model_error.model_error_mm, clean.summary.model_error.tracker_rms_mm);
   }
 }
 
@@ -155,8 +155,8 @@ TEST(ModelErrorTest, DegradedOnlyWithoutTheEstimate) {
   const Calibration assumed = Identify(model, data, o);
   EXPECT_EQ(assumed.summary.termination, Termination::kDegraded) << assumed.summary.FullReport();
   EXPECT_THAT(assumed.summary.message, ::testing::HasSubstr("times what the noise model says"));
-  EXPECT_FALSE(assumed.summary.model_error_estimated);
-  EXPECT_EQ(assumed.summary.model_error_mm, 0.0);
+  EXPECT_FALSE(assumed.summary.model_error.estimated);
+  EXPECT_EQ(assumed.summary.model_error.model_error_mm, 0.0);
 }
 
 // Clean campaigns of the realistic cell (tracker model, repeatability, 3 shots per pose; pose and position

@@ -171,8 +171,8 @@ TEST(PredictPositionErrorTest, AddsTheModelErrorAndTheRepeatabilityIsotropically
   const RobotModel nominal = Preset("ur5e");
   VirtualCell cell(nominal, CellWithoutModelError(6));
   Calibration c = FitWithKnownNoise(nominal, &cell, test::RandomConfigurations(nominal, 40, 60));
-  c.summary.model_error_estimated = true;
-  c.summary.model_error_mm = 0.3;  // RMS of the 3-D error: 0.3 / sqrt(3) per axis
+  c.summary.model_error.estimated = true;
+  c.summary.model_error.model_error_mm = 0.3;  // RMS of the 3-D error: 0.3 / sqrt(3) per axis
   const Eigen::VectorXd q = test::RandomConfigurations(nominal, 1, 61)[0];
   const PositionErrorPrediction p = PredictPositionError(c, q, {}, {.probability = 0.95, .repeatability_mm = 0.1});
   const double sigma_r = 0.1 / kRepeatabilityPerSigma;

@@ -321,12 +321,17 @@ struct FitSummary {
 template <>
 struct WireFields<FitSummary> {
   using S = FitSummary;
+  using C = IdentificationSummary;
   static constexpr auto fields = std::make_tuple(
-      Field{"termination", &S::termination}, Field{"message", &S::message},
-      Field{"measurement_type", &S::measurement_type}, Field{"num_measurements", &S::num_measurements},
-      Field{"num_poses", &S::num_poses}, Field{"num_parameters", &S::num_parameters},
-      Field{"iterations", &S::iterations}, Field{"initial_cost", &S::initial_cost}, Field{"final_cost", &S::final_cost},
-      Field{"sigma_hat", &S::sigma_hat}, Field{"seconds", &S::seconds}, Field{"brief", &S::brief},
+      Field{"termination", &S::termination}.Core(&C::termination), Field{"message", &S::message}.Core(&C::message),
+      Field{"measurement_type", &S::measurement_type}.Core(&C::measurement_type),
+      Field{"num_measurements", &S::num_measurements}.Core(&C::num_measurements),
+      Field{"num_poses", &S::num_poses}.Core(&C::num_poses),
+      Field{"num_parameters", &S::num_parameters}.Core(&C::num_parameters),
+      Field{"iterations", &S::iterations}.Core(&C::iterations),
+      Field{"initial_cost", &S::initial_cost}.Core(&C::initial_cost),
+      Field{"final_cost", &S::final_cost}.Core(&C::final_cost), Field{"sigma_hat", &S::sigma_hat}.Core(&C::sigma_hat),
+      Field{"seconds", &S::seconds}.Core(&C::seconds), Field{"brief", &S::brief},
       Field{"deadline_exceeded", &S::deadline_exceeded});
 };
 ROBOCAL_WIRE_DECLARE(FitSummary);
@@ -390,10 +395,13 @@ struct ModelErrorWire {
 template <>
 struct WireFields<ModelErrorWire> {
   using S = ModelErrorWire;
+  using C = ModelErrorEstimate;
   static constexpr auto fields =
-      std::make_tuple(Field{"estimated", &S::estimated}, Field{"model_error_mm", &S::model_error_mm},
-                      Field{"model_error_deg", &S::model_error_deg}, Field{"tracker_rms_mm", &S::tracker_rms_mm},
-                      Field{"tracker_rms_deg", &S::tracker_rms_deg});
+      std::make_tuple(Field{"estimated", &S::estimated}.Core(&C::estimated),
+                      Field{"model_error_mm", &S::model_error_mm}.Core(&C::model_error_mm),
+                      Field{"model_error_deg", &S::model_error_deg}.Core(&C::model_error_rad, CoreUnit::kDegForRad),
+                      Field{"tracker_rms_mm", &S::tracker_rms_mm}.Core(&C::tracker_rms_mm),
+                      Field{"tracker_rms_deg", &S::tracker_rms_deg}.Core(&C::tracker_rms_rad, CoreUnit::kDegForRad));
 };
 ROBOCAL_WIRE_DECLARE(ModelErrorWire);
 
@@ -534,11 +542,13 @@ struct WireFields<CalibrationResult> {
       Field{"created_unix_ms", &S::created_unix_ms}, Field{"stored", &S::stored}, Field{"parameters", &S::parameters},
       Field{"dropped", &S::dropped}, Field{"base", &S::base}, Field{"tool", &S::tool},
       Field{"registered_base", &S::registered_base}, Field{"residuals_before", &S::residuals_before},
-      Field{"residuals_after", &S::residuals_after}, Field{"condition_number", &S::condition_number},
-      Field{"scaling", &S::scaling}, Field{"robust", &S::robust, Presence::kOptionalOnRead},
+      Field{"residuals_after", &S::residuals_after},
+      Field{"condition_number", &S::condition_number}.Core(&IdentificationSummary::condition_number),
+      Field{"scaling", &S::scaling}.Core(&IdentificationSummary::scaling),
+      Field{"robust", &S::robust, Presence::kOptionalOnRead},
       Field{"outliers", &S::outliers, Presence::kOptionalOnRead},
       Field{"parameters_with_outliers", &S::parameters_with_outliers, Presence::kOptionalOnRead},
-      Field{"model_error", &S::model_error, Presence::kOptionalOnRead},
+      Field{"model_error", &S::model_error, Presence::kOptionalOnRead}.Core(&IdentificationSummary::model_error),
       Field{"model", &S::model, Presence::kOptionalOnRead},
       Field{"model_choice", &S::model_choice, Presence::kOmitEmpty},
       Field{"reflectors", &S::reflectors, Presence::kOptionalOnRead}, Field{"priors", &S::priors, Presence::kOmitEmpty},

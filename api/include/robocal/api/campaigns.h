@@ -41,14 +41,16 @@ void CheckReflectorIds(const std::vector<CampaignReflectorWire>& reflectors, Pro
 /// The index of each measurement's reflector id among `reflectors` (-1 for none).
 int ReflectorIndex(const std::vector<CampaignReflectorWire>& reflectors, const std::string& id);
 
-/// POST /v1/campaigns.
+/// POST /v1/campaigns, and the base of the campaign resource (CampaignDefinition): every field a client sets.
 struct CreateCampaignRequest {
   std::string id;  // optional: generated when empty
   std::string description;
   std::string robot;
-  /// Unset: the plan's measurement type when a plan is given, else pose.
+  /// Unset: the plan's measurement type when a plan is given, else position with reflectors, else pose. A
+  /// campaign resource always has it (CampaignDefinition::type).
   std::optional<MeasurementType> measurement_type;
-  std::string plan;  // optional plan id (its robot and measurement type must match)
+  /// The linked plan (its robot and measurement type must match); unset or empty: none.
+  std::optional<std::string> plan;
   NoiseWire noise;
   /// The tracker's uncertainty model; given, the fit whitens residuals by it and `noise` is unused.
   std::optional<TrackerModelWire> tracker;
@@ -62,6 +64,9 @@ struct CreateCampaignRequest {
   /// compensated), for measurements that do not state their own; unset: none.
   std::optional<PayloadWire> payload;
 };
+/// The request sends what it sets; the resource (ResourceRows) writes and requires every field. Campaigns
+/// stored before a field existed lack the Later() ones (read as no plan, tracker, repeatability, reflectors or
+/// payload).
 template <>
 struct WireFields<CreateCampaignRequest> {
   using S = CreateCampaignRequest;
@@ -69,13 +74,19 @@ struct WireFields<CreateCampaignRequest> {
   static constexpr auto fields = std::make_tuple(
       Field{"id", &S::id, kOmit}.Rule(&IsValidId, kIdRule), Field{"description", &S::description, kOmit}.Size(0, 1024),
       Field{"robot", &S::robot}.Mandatory().Size(0, 64), Field{"measurement_type", &S::measurement_type, kOmit},
-      Field{"plan", &S::plan, kOmit}.Size(0, 64), Field{"noise", &S::noise, kOmit},
-      Field{"tracker", &S::tracker, kOmit}, Field{"repeatability_mm", &S::repeatability_mm, kOmit}.Range(0.0, 10.0),
-      Field{"reflectors", &S::reflectors, kOmit}.Size(0, kMaxFitReflectors), Field{"payload", &S::payload, kOmit});
+      Field{"plan", &S::plan, kOmit}.Size(0, 64).Later(), Field{"noise", &S::noise, kOmit},
+      Field{"tracker", &S::tracker, kOmit}.Later(),
+      Field{"repeatability_mm", &S::repeatability_mm, kOmit}.Range(0.0, 10.0).Later().Core(
+          &MeasurementNoise::repeatability_mm),
+      Field{"reflectors", &S::reflectors, kOmit}.Size(0, kMaxFitReflectors).Later(),
+      Field{"payload", &S::payload, kOmit}.Later());
   static void CheckRequest(const S& request, const std::string& path, Problems* problems);
 };
 ROBOCAL_WIRE_DECLARE(CreateCampaignRequest);
 CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body);
+/// The core's noise model of a campaign: its tracker model or isotropic noise, and what its rows link to the
+/// core's MeasurementNoise (the robot's repeatability, ISO 9283 RP, shared by the shots of one configuration).
+MeasurementNoise NoiseOf(const CreateCampaignRequest& campaign);
 
 /// Stored measurements per role.
 struct MeasurementCounts {
@@ -91,33 +102,20 @@ struct WireFields<MeasurementCounts> {
 };
 ROBOCAL_WIRE_DECLARE(MeasurementCounts);
 
-/// What a campaign is, as POST /v1/campaigns fixed it (every default filled in): the members the campaign resource
-/// and its stored form (stored.h) share.
-struct CampaignDefinition {
-  std::string id;
-  std::string description;
-  std::string robot;
-  MeasurementType measurement_type = MeasurementType::kPose;
-  /// The linked plan (null on the wire when none).
-  std::optional<std::string> plan;
-  NoiseWire noise;
-  /// Null on the wire when the campaign weights by `noise`.
-  std::optional<TrackerModelWire> tracker;
-  double repeatability_mm = 0.0;
-  std::vector<CampaignReflectorWire> reflectors;
-  /// The campaign's default payload (null on the wire when none).
-  std::optional<PayloadWire> payload;
+/// What a campaign is, as POST /v1/campaigns fixed it: the request with every default filled in (an id, the
+/// measurement type; a plan, tracker and payload null on the wire when none), and when it was created. The
+/// members the campaign resource and its stored form (stored.h) share.
+struct CampaignDefinition : CreateCampaignRequest {
   std::int64_t created_unix_ms = 0;
+
+  /// The measurement type, which a campaign always has (the server sets it on creation).
+  MeasurementType type() const { return measurement_type.value(); }
 };
 template <>
 struct WireFields<CampaignDefinition> {
-  using S = CampaignDefinition;
-  static constexpr auto fields = std::make_tuple(
-      Field{"id", &S::id}, Field{"description", &S::description}, Field{"robot", &S::robot},
-      Field{"measurement_type", &S::measurement_type}, Field{"plan", &S::plan}, Field{"noise", &S::noise},
-      Field{"tracker", &S::tracker}, Field{"repeatability_mm", &S::repeatability_mm},
-      Field{"reflectors", &S::reflectors}, Field{"payload", &S::payload},
-      Field{"created_unix_ms", &S::created_unix_ms});
+  static constexpr auto fields =
+      std::tuple_cat(ResourceRows(WireFields<CreateCampaignRequest>::fields),
+                     std::make_tuple(Field{"created_unix_ms", &CampaignDefinition::created_unix_ms}));
 };
 ROBOCAL_WIRE_DECLARE(CampaignDefinition);
 

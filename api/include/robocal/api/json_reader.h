@@ -248,9 +248,7 @@ constexpr bool RowReadOrLeft(const Field<S, M>& row) {
   return Readable<M>() || row.request.apart || row.presence == Presence::kServerOnly;
 }
 template <typename Row>
-constexpr bool RowReadOrLeft(const Row&) {
-  return true;
-}
+requires(!FieldRow<Row>) constexpr bool RowReadOrLeft(const Row&) { return true; }
 
 template <typename T, typename S, typename M>
 void ReadReadableRow(ObjectReader& r, T* shape, const Field<S, M>& row) {
@@ -271,7 +269,8 @@ void ReadRequestRow(ObjectReader& r, T* shape, const Field<S, M>& row) {
   }
 }
 template <typename T, typename Row>
-void ReadRequestRow(ObjectReader&, T*, const Row&) {}  // Computed and Nested rows: the parser's own
+requires(!FieldRow<Row>) void ReadRequestRow(ObjectReader&, T*, const Row&) {
+}  // Computed and Nested rows: the parser's own
 
 }  // namespace detail
 

@@ -80,32 +80,43 @@ struct JointGeometryFields {
   static constexpr bool (*kDh)(const S&) = +[](const S& j) { return j.convention != GeometryConvention::kTransform; };
   static constexpr bool (*kRevolute)(const S&) = +[](const S& j) { return j.type == JointType::kRevolute; };
   static constexpr bool (*kPrismatic)(const S&) = +[](const S& j) { return j.type == JointType::kPrismatic; };
-  static constexpr auto fields =
-      std::make_tuple(Field{"type", &S::type}.Mandatory(), Field{"xyz_mm", &S::xyz_mm}.When(kTransform),
-                      Field{"rpy_deg", &S::rpy_deg}.When(kTransform),
-                      Field{"a_mm", &S::a_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm),
-                      Field{"alpha_deg", &S::alpha_deg}.When(kDh).Range(-360.0, 360.0),
-                      Field{"d_mm", &S::d_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm),
-                      Field{"theta_deg", &S::theta_deg}.When(kDh).Range(-360.0, 360.0),
-                      Field{"min_deg", &S::min}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
-                      Field{"max_deg", &S::max}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
-                      Field{"min_mm", &S::min}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
-                      Field{"max_mm", &S::max}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm));
+  using C = JointSpec;
+  static constexpr CoreUnit kDeg = CoreUnit::kDegForRad;
+  static constexpr auto fields = std::make_tuple(
+      Field{"type", &S::type}.Mandatory().Core(&C::type), Field{"xyz_mm", &S::xyz_mm}.When(kTransform).Core(&C::xyz_mm),
+      Field{"rpy_deg", &S::rpy_deg}.When(kTransform).Core(&C::rpy_rad, kDeg),
+      Field{"a_mm", &S::a_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm).Core(&C::a_mm),
+      Field{"alpha_deg", &S::alpha_deg}.When(kDh).Range(-360.0, 360.0).Core(&C::alpha_rad, kDeg),
+      Field{"d_mm", &S::d_mm}.When(kDh).Range(-kMaxLengthMm, kMaxLengthMm).Core(&C::d_mm),
+      Field{"theta_deg", &S::theta_deg}.When(kDh).Range(-360.0, 360.0).Core(&C::theta_rad, kDeg),
+      Field{"min_deg", &S::min}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
+      Field{"max_deg", &S::max}.When(kRevolute).Mandatory().Range(-kMaxAngleDeg, kMaxAngleDeg),
+      Field{"min_mm", &S::min}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm),
+      Field{"max_mm", &S::max}.When(kPrismatic).Mandatory().Range(-kMaxLengthMm, kMaxLengthMm));
 };
 /// A joint of a definition: the name may be left out (the core names the joint), the mass properties and joint
-/// terms are given when there are any (com_mm with a mass).
+/// terms are given when there are any (com_mm with a mass). The robot resource's joint (RobotJoint) states every
+/// one of them (ResourceRows).
 template <>
 struct WireFields<JointWire> {
   using S = JointWire;
-  static constexpr auto fields = std::tuple_cat(
-      std::make_tuple(Field{"name", &S::name, Presence::kOmitEmpty}.Size(0, 64)), JointGeometryFields::fields,
-      std::make_tuple(
-          Field{"mass_kg", &S::mass_kg, Presence::kOmitEmpty}.Range(0.0, kMaxMassKg),
-          Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}.When(+[](const S& j) { return j.mass_kg > 0.0; }),
-          Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, Presence::kOmitEmpty}.Range(-kMaxComplianceDegPerNm,
-                                                                                                kMaxComplianceDegPerNm),
-          Field{"harmonics_deg", &S::harmonics_deg, Presence::kOmitEmpty}.Range(-kMaxHarmonicDeg, kMaxHarmonicDeg),
-          Field{"error_map", &S::error_map, Presence::kOmitEmpty}));
+  using C = JointSpec;
+  static constexpr Presence kOmit = Presence::kOmitEmpty;
+  static constexpr CoreUnit kDeg = CoreUnit::kDegForRad;
+  static constexpr auto fields =
+      std::tuple_cat(std::make_tuple(Field{"name", &S::name, kOmit}.Size(0, 64)), JointGeometryFields::fields,
+                     std::make_tuple(Field{"mass_kg", &S::mass_kg, kOmit}.Range(0.0, kMaxMassKg).Core(&C::mass_kg),
+                                     Field{"com_mm", &S::com_mm, Presence::kOptionalOnRead}
+                                         .When(+[](const S& j) { return j.mass_kg > 0.0; })
+                                         .EveryFormInResource()
+                                         .Core(&C::com_mm),
+                                     Field{"compliance_deg_per_nm", &S::compliance_deg_per_nm, kOmit}
+                                         .Range(-kMaxComplianceDegPerNm, kMaxComplianceDegPerNm)
+                                         .Core(&C::compliance_rad_per_nm, kDeg),
+                                     Field{"harmonics_deg", &S::harmonics_deg, kOmit}
+                                         .Range(-kMaxHarmonicDeg, kMaxHarmonicDeg)
+                                         .Core(&C::harmonics_rad, kDeg),
+                                     Field{"error_map", &S::error_map, kOmit}.InResource(kOmit)));
 };
 ROBOCAL_WIRE_DECLARE(JointWire);
 
@@ -300,13 +311,8 @@ struct RobotJoint : JointWire {
 /// The resource states every joint's name and mass properties (0: unknown), a definition only those it has.
 template <>
 struct WireFields<RobotJoint> {
-  using S = RobotJoint;
-  static constexpr auto fields = std::tuple_cat(
-      std::make_tuple(Field{"name", &JointWire::name}), JointGeometryFields::fields,
-      std::make_tuple(Field{"mass_kg", &JointWire::mass_kg}, Field{"com_mm", &JointWire::com_mm},
-                      Field{"compliance_deg_per_nm", &JointWire::compliance_deg_per_nm},
-                      Field{"harmonics_deg", &JointWire::harmonics_deg},
-                      Field{"error_map", &JointWire::error_map, Presence::kOmitEmpty}, Field{"unit", &S::unit}));
+  static constexpr auto fields =
+      std::tuple_cat(ResourceRows(WireFields<JointWire>::fields), std::make_tuple(Field{"unit", &RobotJoint::unit}));
 };
 ROBOCAL_WIRE_DECLARE(RobotJoint);
 

@@ -315,6 +315,8 @@ namespace robocal::api {
 //     or an object, a flag by name, a member written in another form): two functions of the whole shape;
 //   - Nested{key, std::make_tuple(rows...)}: members of the shape written as one object under `key` (a stored
 //     calibration's "state"), always written and required when read.
+// A Field row may end in .Core(&CoreType::member[, unit]): the core member it is (CoreToWire, WireToCore). A
+// resource that extends a request (CampaignDefinition, RobotJoint) takes the request's rows by ResourceRows.
 // A table may also give `static void Check(const S&)`, run after a read: a rule across fields ("robot" or
 // "campaign"), throwing WireError.
 
@@ -365,6 +367,21 @@ struct RequestRule {
 template <typename M>
 struct RequestReader;
 
+/// The class a member pointer type points into.
+template <typename P>
+struct MemberClass;
+template <typename C, typename M>
+struct MemberClass<M C::*> {
+  using type = C;
+};
+
+/// How a row's wire value relates to its core member's (Field::Core): the same value, or degrees for the core's
+/// radians (wire = core * kDegPerRad, core = wire * kRadPerDeg, each element of an array).
+enum class CoreUnit { kSame, kDegForRad };
+
+template <typename S, typename M, typename C, typename CM>
+struct LinkedField;
+
 /// A member `member` of S under the key `name`.
 template <typename S, typename M>
 struct Field {
@@ -378,6 +395,13 @@ struct Field {
   /// A rule of the value a request sends beyond its range, and the reason given when it fails (an id's form).
   bool (*valid)(const M&) = nullptr;
   const char* invalid_reason = nullptr;
+  /// How the resource that extends this shape (a request's) writes and reads the row (ResourceRows): by default
+  /// always written and required when read, and written in the forms `when` names.
+  Presence in_resource = Presence::kRequired;
+  bool every_form_in_resource = false;
+  /// A key that stored documents written before it existed lack (FillLaterKeys): read there as the member's
+  /// default, while replies must have it.
+  bool later = false;
 
   /// The same row for one form of the shape only: written when `condition` holds of the shape, read when it
   /// holds of the members read so far (otherwise the member keeps its default and the key is not read).
@@ -419,6 +443,46 @@ struct Field {
     f.invalid_reason = reason;
     return f;
   }
+  /// How the resource that extends this shape has the row (ResourceRows), when not always written.
+  constexpr Field InResource(Presence in) const {
+    Field f = *this;
+    f.in_resource = in;
+    return f;
+  }
+  /// Older stored documents may lack the key (see `later`).
+  constexpr Field Later() const {
+    Field f = *this;
+    f.later = true;
+    return f;
+  }
+  /// The resource writes the row in every form, where the shape itself has it in the forms `When` names (a
+  /// joint's centre of mass: a definition gives it with a mass, the robot resource states it always).
+  constexpr Field EveryFormInResource() const {
+    Field f = *this;
+    f.every_form_in_resource = true;
+    return f;
+  }
+  /// The row carries the core member `core` of C (CoreToWire, WireToCore): the one place that says which core
+  /// value the key is, and in which unit. Last in a row's chain (it returns the linked row).
+  template <typename C, typename CM>
+  constexpr LinkedField<S, M, C, CM> Core(CM C::*core, CoreUnit unit = CoreUnit::kSame) const {
+    return {*this, core, unit};
+  }
+};
+
+/// A row linked to a core member (Field::Core): a Field everywhere a row is read, written or checked.
+template <typename S, typename M, typename C, typename CM>
+struct LinkedField : Field<S, M> {
+  CM C::*core;
+  CoreUnit unit = CoreUnit::kSame;
+};
+
+/// A Field row, linked or not: the overloads for the other rows (Computed, Nested) exclude it, so that a linked
+/// row is never taken for one of them.
+template <typename Row>
+concept FieldRow = requires(const Row& row) {
+  row.member;
+  row.presence;
 };
 // Spelt out: clang before 17 does not deduce an aggregate's template arguments from its members.
 template <typename S, typename M>
@@ -550,6 +614,117 @@ void ReadRow(const WireReader& r, T* shape, const Nested<Rows>& group) {
 }
 
 }  // namespace detail
+
+template <typename C, typename W>
+void CoreToWire(const C& core, W* wire);
+template <typename W, typename C>
+void WireToCore(const W& wire, C* core);
+
+namespace detail {
+
+template <typename M>
+constexpr bool IsDoubleArray() {
+  if constexpr (IsArray<M>::value) {
+    return std::is_same_v<typename M::value_type, double>;
+  }
+  return false;
+}
+
+template <typename CM, typename M>
+void LinkToWire(const CM& core, CoreUnit unit, M* wire) {
+  const double factor = unit == CoreUnit::kDegForRad ? kDegPerRad : 1.0;
+  if constexpr (std::is_same_v<M, double>) {
+    *wire = unit == CoreUnit::kDegForRad ? core * factor : core;
+  } else if constexpr (IsDoubleArray<M>()) {
+    for (std::size_t k = 0; k < wire->size(); ++k) {
+      (*wire)[k] = unit == CoreUnit::kDegForRad ? core[static_cast<Eigen::Index>(k)] * factor
+                                                : core[static_cast<Eigen::Index>(k)];
+    }
+  } else if constexpr (kHasWireFields<M> && !std::is_same_v<M, CM>) {
+    CoreToWire(core, wire);
+  } else {
+    *wire = core;
+  }
+}
+
+template <typename CM, typename M>
+void LinkToCore(const M& wire, CoreUnit unit, CM* core) {
+  if constexpr (std::is_same_v<M, double>) {
+    *core = unit == CoreUnit::kDegForRad ? wire * kRadPerDeg : wire;
+  } else if constexpr (IsDoubleArray<M>()) {
+    for (std::size_t k = 0; k < wire.size(); ++k) {
+      (*core)[static_cast<Eigen::Index>(k)] = unit == CoreUnit::kDegForRad ? wire[k] * kRadPerDeg : wire[k];
+    }
+  } else if constexpr (kHasWireFields<M> && !std::is_same_v<M, CM>) {
+    WireToCore(wire, core);
+  } else {
+    *core = wire;
+  }
+}
+
+}  // namespace detail
+
+/// Sets every member of `*wire` whose row of W's table is linked to a member of C (Field::Core) from `core`, in
+/// the row's unit; a member that is itself a shape with a table, by its own links. Other members are untouched:
+/// what is not one core member as it is (a joint's limits in its unit, ids of stored rows) stays the
+/// conversion's own work. Rows are taken whatever their `When`: every linked member is converted.
+template <typename C, typename W>
+void CoreToWire(const C& core, W* wire) {
+  const auto one = [&](const auto& row) {
+    if constexpr (requires { row.core; }) {
+      using Row = std::remove_cvref_t<decltype(row)>;
+      if constexpr (std::is_base_of_v<typename MemberClass<decltype(Row::core)>::type, C>) {
+        detail::LinkToWire(core.*(row.core), row.unit, &(wire->*(row.member)));
+      }
+    }
+  };
+  std::apply([&](const auto&... row) { (one(row), ...); }, WireFields<W>::fields);
+}
+
+/// The converse of CoreToWire: every member of `*core` that a row of W's table is linked to, from `wire`.
+template <typename W, typename C>
+void WireToCore(const W& wire, C* core) {
+  const auto one = [&](const auto& row) {
+    if constexpr (requires { row.core; }) {
+      using Row = std::remove_cvref_t<decltype(row)>;
+      if constexpr (std::is_base_of_v<typename MemberClass<decltype(Row::core)>::type, C>) {
+        detail::LinkToCore(wire.*(row.member), row.unit, &(core->*(row.core)));
+      }
+    }
+  };
+  std::apply([&](const auto&... row) { (one(row), ...); }, WireFields<W>::fields);
+}
+
+/// The rows of a shape (a request's) as the resource that extends it has them: each Field row with its
+/// `in_resource` presence (by default always written and required when read) and, with EveryFormInResource,
+/// without its `When`; other rows as they are. A resource's table is `std::tuple_cat(ResourceRows(base rows),
+/// its own rows)`, so that a field the request and its resource share has one row.
+template <typename Rows>
+constexpr auto ResourceRows(const Rows& rows) {
+  const auto one = [](auto row) {
+    if constexpr (requires { row.in_resource; }) {
+      row.presence = row.in_resource;
+      if (row.every_form_in_resource) row.when = nullptr;
+    }
+    return row;
+  };
+  return std::apply([&](const auto&... row) { return std::make_tuple(one(row)...); }, rows);
+}
+
+/// Fills in, in a stored document of T, each key of a Later() row that is absent or null with the member's default
+/// (what the document meant before the key existed), so that T's strict reading takes it.
+template <typename T>
+void FillLaterKeys(nlohmann::json* doc) {
+  if (!doc->is_object()) return;
+  static const T defaults{};
+  const auto one = [&](const auto& row) {
+    if constexpr (FieldRow<std::remove_cvref_t<decltype(row)>>) {
+      if (!row.later || (doc->contains(row.name) && !(*doc)[row.name].is_null())) return;
+      (*doc)[row.name] = detail::FieldValue(defaults.*(row.member));
+    }
+  };
+  std::apply([&](const auto&... row) { (one(row), ...); }, WireFields<T>::fields);
+}
 
 /// Writes every field of `value` (by its table) into the object `j`.
 template <typename T>
@@ -837,9 +1012,7 @@ struct RequestReader<TrackerModelWire> {
   static bool Read(const nlohmann::json& value, const std::string& path, Problems* problems, TrackerModelWire* out);
 };
 TrackerUncertainty ToCore(const TrackerModelWire& tracker);
-/// The core's noise: the tracker model when given, else the isotropic noise; and the robot's repeatability
-/// (ISO 9283 RP, mm), shared by the shots of one joint configuration.
-MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker,
-                        double repeatability_mm = 0.0);
+/// The core's noise: the tracker model when given, else the isotropic noise.
+MeasurementNoise ToCore(const NoiseWire& noise, const std::optional<TrackerModelWire>& tracker);
 
 }  // namespace robocal::api

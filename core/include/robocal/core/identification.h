@@ -174,6 +174,18 @@ struct PriorScaleCandidate {
   std::string note;
 };
 
+/// The model error a fit estimated (IdentificationOptions::estimate_model_error): whether it was estimated, and
+/// its RMS as a 3-D position error (mm, sqrt(3) times the 1-sigma per axis) and as an angle (rad: sqrt(3), or
+/// sqrt(2) for axis rows, times the 1-sigma per row; 0 for position measurements). Beside them the tracker's own
+/// RMS over the same measurements, from the noise model.
+struct ModelErrorEstimate {
+  bool estimated = false;
+  double model_error_mm = 0.0;
+  double model_error_rad = 0.0;
+  double tracker_rms_mm = 0.0;
+  double tracker_rms_rad = 0.0;
+};
+
 struct IdentificationSummary {
   Termination termination = Termination::kFailure;
   std::string message = "not run";
@@ -218,15 +230,8 @@ struct IdentificationSummary {
   double robust_scale = 0.0;
   int rejection_rounds = 0;
   std::vector<IdentifiedParameter> parameters_with_outliers;
-  /// The model error (IdentificationOptions::estimate_model_error): whether it was estimated, and its RMS as
-  /// a 3-D position error (mm, sqrt(3) times the 1-sigma per axis) and as an angle (rad: sqrt(3), or sqrt(2)
-  /// for axis rows, times the 1-sigma per row; 0 for position measurements). Beside them the tracker's own RMS
-  /// over the same measurements, from the noise model.
-  bool model_error_estimated = false;
-  double model_error_mm = 0.0;
-  double model_error_rad = 0.0;
-  double tracker_rms_mm = 0.0;
-  double tracker_rms_rad = 0.0;
+  /// The model error (IdentificationOptions::estimate_model_error).
+  ModelErrorEstimate model_error;
   /// The model the fit used (the nominal model's RobotModelSpec::error_terms) and, when it was chosen by
   /// cross-validation (IdentifyWithModelChoice), every candidate's held-out error, the folds and the chosen
   /// candidate's index; empty candidates otherwise.
