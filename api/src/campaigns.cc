@@ -71,6 +71,10 @@ CreateCampaignRequest ParseCreateCampaignRequest(const nlohmann::json& body) {
   return req;
 }
 
+void WireFields<CampaignDefinition>::Check(const CampaignDefinition& campaign) {
+  if (!campaign.measurement_type) throw WireError("measurement_type", "expected a string");
+}
+
 MeasurementNoise NoiseOf(const CreateCampaignRequest& campaign) {
   MeasurementNoise out = ToCore(campaign.noise, campaign.tracker);
   WireToCore(campaign, &out);

@@ -79,7 +79,7 @@ int CampaignCreate(Invocation& in) {
   api::CreateCampaignRequest request;
   request.robot = in.args[0];
   request.measurement_type = Invocation::ParseEnum<MeasurementType>("TYPE", in.args[1]);
-  if (in.Has("--plan")) request.plan = in.Option("--plan");
+  if (!in.Option("--plan").empty()) request.plan = in.Option("--plan");
   request.id = in.Option("--id");
   request.description = in.Option("--description");
   if (in.Has("--tracker")) request.tracker = ParseTrackerFlag(in.Option("--tracker"));

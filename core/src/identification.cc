@@ -428,11 +428,12 @@ void JudgePriors(const Problem& problem, const Eigen::MatrixXd& inverse, const s
 // maps' penalty rows or the priors' rows it is the covariance of the penalised (MAP) estimate, the posterior
 // (J'WJ + P)^-1 times sigma_hat^2 (the penalty as a prior), and sigma_hat takes
 // the measurements' rows over their redundancy: the rows less the effective parameters (a penalised coefficient
-// counts less than one). Writes the parameters, errors, frames and residual statistics into `cal`.
+// counts less than one). Writes the parameters, errors, frames and residual statistics into `cal`, and with
+// `at_solution` the linearisation at the solution (SolutionLinearisation).
 std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                   const IdentificationOptions& options, const std::vector<int>& parameters,
                   const std::function<std::string(int)>& name, FitStart start, Problem* problem, RobotModel* model,
-                  LmResult* lm, Calibration* cal) {
+                  LmResult* lm, Calibration* cal, SolutionLinearisation* at_solution) {
   IdentificationSummary& s = cal->summary;
   *lm = LevenbergMarquardt(problem, options, std::move(start));
   s.iterations = lm->iterations;
@@ -445,6 +446,10 @@ std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& mea
   if (!(by_normal ? ScaledCovarianceOfNormal(lm->normal, 1.0, tolerance, &sv, &cal->covariance)
                   : ScaledCovariance(lm->jacobian, 1.0, tolerance, &sv, &cal->covariance))) {
     return "degenerate configurations: rank-deficient Jacobian at the solution";
+  }
+  if (at_solution != nullptr) {
+    if (!by_normal) at_solution->inverse_information = cal->covariance;
+    if (problem->TakeJacobianAt(lm->x, &at_solution->prediction, &at_solution->group_jacobian)) at_solution->x = lm->x;
   }
   s.effective_parameters = EffectiveParameters(cal->covariance, problem->penalty_normal());
   const double dof = s.num_residuals - s.effective_parameters;
@@ -541,7 +546,8 @@ void Judge(const RobotModel& nominal, const ParameterSelection& selection, const
 
 Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                          const IdentificationOptions& options, const ParameterSelection& selection,
-                         const Eigen::VectorXd* x0) {
+                         const Eigen::VectorXd* x0, SolutionLinearisation* at_solution) {
+  if (at_solution != nullptr) *at_solution = SolutionLinearisation();
   const Clock::time_point start = Clock::now();
   const MeasurementType type = options.measurement_type;
   const auto name = [&](int index) { return ParameterName(nominal, options.reflectors, index); };
@@ -559,6 +565,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
     if (!failure.empty()) {
       s.termination = Termination::kFailure;
       s.message = failure;
+      if (at_solution != nullptr) *at_solution = SolutionLinearisation();
     }
     s.seconds = Seconds(start);
     return cal;
@@ -586,7 +593,7 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   }
   LmResult lm;
   failure = Solve(nominal, measurements, options, selection.parameters, name, std::move(fit_start), &problem, &model,
-                  &lm, &cal);
+                  &lm, &cal, at_solution);
   if (!failure.empty()) return ended(failure);
   Judge(nominal, selection, lm, &cal);
   return ended("");

@@ -112,6 +112,11 @@ class Problem {
   void Predict(const Eigen::VectorXd& x, std::vector<Transform>* prediction,
                std::vector<Eigen::MatrixXd>* group_jacobian);
 
+  // What Predict gave with the Jacobian at the last Evaluate that asked for one, if that was at `x` bit for bit:
+  // moved into the outputs (true); false otherwise (a rejected step's prediction does not count).
+  bool TakeJacobianAt(const Eigen::VectorXd& x, std::vector<Transform>* prediction,
+                      std::vector<Eigen::MatrixXd>* group_jacobian);
+
  private:
   using Group = ShotGroups::Group;
   struct GroupWhitening {
@@ -156,6 +161,25 @@ class Problem {
   std::vector<Transform> pose_model_;
   std::vector<Transform> prediction_;
   std::vector<Eigen::MatrixXd> group_jacobian_;
+  // Where group_jacobian_ was evaluated by Evaluate (empty: not by it), and the prediction there.
+  Eigen::VectorXd jacobian_x_;
+  std::vector<Transform> jacobian_prediction_;
+};
+
+// A fit's linearisation at its solution `x`, as its own problem evaluated it there (IdentifyOnce's
+// `at_solution`): each group's prediction and unweighted Jacobian (Problem::Predict) and the inverse information
+// (J'J + P)^-1 before sigma_hat^2 scales it (empty where the fit formed it from the normal matrix). The robust fit's
+// model-error estimate and studentised residuals take them instead of evaluating the same point again.
+struct SolutionLinearisation {
+  Eigen::VectorXd x;
+  std::vector<Transform> prediction;
+  std::vector<Eigen::MatrixXd> group_jacobian;
+  Eigen::MatrixXd inverse_information;
+
+  // Whether it is the linearisation at `at` (bit for bit) with the Jacobians.
+  bool At(const Eigen::VectorXd& at) const {
+    return !group_jacobian.empty() && x.size() == at.size() && (x.array() == at.array()).all();
+  }
 };
 
 // A fit's start, evaluated once: the rank test judges its Jacobian and the solver starts from it.
@@ -238,9 +262,10 @@ ParameterSelection SelectParameters(const RobotModel& nominal, const std::vector
 
 // One weighted fit; its Levenberg-Marquardt starts from `start` (reduced parameters, the selection's order) when
 // given: a refit of nearly the same problem converges in a few iterations from the last solution.
+// With `at_solution`, also its linearisation at the solution (cleared when the fit fails).
 Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measurement>& measurements,
                          const IdentificationOptions& options, const ParameterSelection& selection,
-                         const Eigen::VectorXd* start = nullptr);
+                         const Eigen::VectorXd* start = nullptr, SolutionLinearisation* at_solution = nullptr);
 
 // A fit parameter is a translation (mm) by its name's axis: the model's and the reflectors' offsets (past the
 // model's parameters, where RobotModel::IsTranslationParameter's index rule does not reach) end in .dx/.dy/.dz.

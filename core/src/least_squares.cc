@@ -160,6 +160,10 @@ void Problem::AddMapRows(std::vector<Eigen::RowVectorXd>* rows) {
 
 void Problem::Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
   Predict(x, &prediction_, jacobian != nullptr ? &group_jacobian_ : nullptr);
+  if (jacobian != nullptr) {
+    jacobian_x_ = x;
+    jacobian_prediction_ = prediction_;
+  }
   residual->resize(num_rows());
   if (jacobian != nullptr) jacobian->resize(num_rows(), num_parameters());
   if (penalty_.rows() > 0) {
@@ -237,6 +241,17 @@ void Problem::Predict(const Eigen::VectorXd& x, std::vector<Transform>* predicti
   }
 }
 
+bool Problem::TakeJacobianAt(const Eigen::VectorXd& x, std::vector<Transform>* prediction,
+                             std::vector<Eigen::MatrixXd>* group_jacobian) {
+  if (jacobian_x_.size() != x.size() || group_jacobian_.empty() || !(jacobian_x_.array() == x.array()).all()) {
+    return false;
+  }
+  prediction->swap(jacobian_prediction_);
+  group_jacobian->swap(group_jacobian_);
+  jacobian_x_.resize(0);
+  return true;
+}
+
 void Problem::EvaluateByGroup(const std::vector<Transform>& prediction,
                               const std::vector<Eigen::MatrixXd>& group_jacobian, Eigen::VectorXd* residual,
                               Eigen::MatrixXd* jacobian) const {
@@ -271,6 +286,7 @@ Eigen::VectorXd Problem::ColumnInformation() {
   // The squared norms of the weighted Jacobian's columns at zero, as Evaluate weights them, from the groups'
   // Jacobians (without building the whole weighted Jacobian).
   Predict(Eigen::VectorXd::Zero(num_parameters()), &prediction_, &group_jacobian_);
+  jacobian_x_.resize(0);  // not Evaluate's
   Eigen::VectorXd out = Eigen::VectorXd::Zero(num_parameters());
   if (!group_whitening_.empty()) {
     for (size_t g = 0; g < groups_.size(); ++g) {

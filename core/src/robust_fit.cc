@@ -34,7 +34,7 @@ double Median(std::vector<double> values) {
 
 // The model error's components (1-sigma per row; EstimateModelError) and the tracker's mean variance per
 // measurement beside them (3-D position, mm^2; angle, rad^2).
-struct ModelErrorEstimate {
+struct ModelErrorComponents {
   double position_mm = 0.0;
   double orientation_rad = 0.0;
   double tracker_variance_mm2 = 0.0;
@@ -76,7 +76,7 @@ struct PoseResiduals {
 
 PoseResiduals MeanResiduals(const std::vector<Measurement>& measurements, const ShotGroups& groups,
                             const std::vector<Transform>& prediction, const IdentificationOptions& options,
-                            ModelErrorEstimate* out) {
+                            ModelErrorComponents* out) {
   const MeasurementType type = options.measurement_type;
   const int rows = MeasurementRows(type);
   const MeasurementNoise& noise = options.noise;
@@ -247,17 +247,23 @@ double SolveComponent(int dim, double redundancy, bool robust, const std::functi
 // before gross errors are excluded, must not take them for model error. The leverages depend on the
 // components; they are recomputed until the components settle, from the last estimate `start` (a fit's refits
 // change it little: the cycles then settle in one or two).
-ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<Measurement>& measurements,
-                                      const IdentificationOptions& options, const std::vector<int>& parameters,
-                                      bool robust, const ModelErrorEstimate& start) {
+ModelErrorComponents EstimateModelError(const Calibration& cal, const std::vector<Measurement>& measurements,
+                                        const IdentificationOptions& options, const std::vector<int>& parameters,
+                                        bool robust, const ModelErrorComponents& start,
+                                        const SolutionLinearisation& at_solution) {
   const int angle_rows = MeasurementRows(options.measurement_type) - 3;
   const ShotGroups groups(measurements);
   Problem problem(cal.model, measurements, groups, options, parameters);
-  std::vector<Transform> prediction;
-  std::vector<Eigen::MatrixXd> jacobian;
-  problem.Predict(ReducedParameters(cal), &prediction, &jacobian);
+  // The fit's own predictions and Jacobians at its solution (the same problem, the same point), or evaluated here.
+  const Eigen::VectorXd x = ReducedParameters(cal);
+  const bool fitted = at_solution.At(x);
+  std::vector<Transform> own_prediction;
+  std::vector<Eigen::MatrixXd> own_jacobian;
+  if (!fitted) problem.Predict(x, &own_prediction, &own_jacobian);
+  const std::vector<Transform>& prediction = fitted ? at_solution.prediction : own_prediction;
+  const std::vector<Eigen::MatrixXd>& jacobian = fitted ? at_solution.group_jacobian : own_jacobian;
   const double t = options.noise.OrientationSigmaRad();
-  ModelErrorEstimate out;
+  ModelErrorComponents out;
   const PoseResiduals poses = MeanResiduals(measurements, groups, prediction, options, &out);
   // Each pose's Jacobian touches few of a map's coefficients: its non-zero columns, and its part of them.
   const size_t num_groups = groups.groups.size();
@@ -304,17 +310,28 @@ ModelErrorEstimate EstimateModelError(const Calibration& cal, const std::vector<
 // error). z = sqrt(a' (I -+ H)^-1 a); a leverage near 1 is floored.
 std::vector<double> StudentizedResiduals(const Calibration& cal, const std::vector<Measurement>& measurements,
                                          const std::vector<char>& excluded, const IdentificationOptions& options,
-                                         const std::vector<int>& parameters) {
-  std::vector<Measurement> kept;
-  for (size_t i = 0; i < measurements.size(); ++i)
-    if (!excluded[i]) kept.push_back(measurements[i]);
-  Eigen::MatrixXd inverse;
-  const bool have_leverage = InverseInformation(cal, kept, options, parameters, &inverse);
+                                         const std::vector<int>& parameters, const SolutionLinearisation& at_solution) {
+  // `at_solution`, when it is at the calibration's point, is its fit's over the measurements not excluded: its
+  // inverse information is the one needed here, and with nothing excluded its predictions and Jacobians too.
+  const Eigen::VectorXd x = ReducedParameters(cal);
+  const bool fitted = at_solution.At(x);
+  Eigen::MatrixXd own_inverse;
+  bool have_leverage = fitted && at_solution.inverse_information.size() > 0;
+  if (!have_leverage) {
+    std::vector<Measurement> kept;
+    for (size_t i = 0; i < measurements.size(); ++i)
+      if (!excluded[i]) kept.push_back(measurements[i]);
+    have_leverage = InverseInformation(cal, kept, options, parameters, &own_inverse);
+  }
+  const Eigen::MatrixXd& inverse = own_inverse.size() > 0 ? own_inverse : at_solution.inverse_information;
   const ShotGroups groups(measurements);
   Problem problem(cal.model, measurements, groups, options, parameters);
-  std::vector<Transform> prediction;
-  std::vector<Eigen::MatrixXd> jacobian;
-  problem.Predict(ReducedParameters(cal), &prediction, &jacobian);
+  const bool all_fitted = fitted && std::none_of(excluded.begin(), excluded.end(), [](char e) { return e != 0; });
+  std::vector<Transform> own_prediction;
+  std::vector<Eigen::MatrixXd> own_jacobian;
+  if (!all_fitted) problem.Predict(x, &own_prediction, &own_jacobian);
+  const std::vector<Transform>& prediction = all_fitted ? at_solution.prediction : own_prediction;
+  const std::vector<Eigen::MatrixXd>& jacobian = all_fitted ? at_solution.group_jacobian : own_jacobian;
   const MeasurementType type = options.measurement_type;
   const int rows = MeasurementRows(type);
   Eigen::MatrixXd w(rows, rows);
@@ -556,19 +573,21 @@ class RobustFit {
   // The model-error cycle: one fit over `data` with the model error estimated beside it (estimate_model_error):
   // fit, estimate the components from its residuals (`robust`: by their median), refit with them, until they
   // settle. Each fit after the first starts from the last solution (from `from`'s, when given).
-  Calibration Fit(const std::vector<Measurement>& data, bool robust, const Calibration* from) {
+  // The answer's linearisation at its solution goes to `at_solution`.
+  Calibration Fit(const std::vector<Measurement>& data, bool robust, const Calibration* from,
+                  SolutionLinearisation* at_solution) {
     const Eigen::VectorXd first_start = from != nullptr ? StartOf(*from) : Eigen::VectorXd();
-    Calibration cal = IdentifyOnce(nominal_, data, current_, selection_, &first_start);
+    Calibration cal = IdentifyOnce(nominal_, data, current_, selection_, &first_start, at_solution);
     if (!options_.estimate_model_error) return cal;
     for (int cycle = 0; cycle < kMaxModelErrorCycles; ++cycle) {
       if (cal.summary.termination == Termination::kFailure || cal.summary.cancelled) return cal;
-      model_error_ = EstimateModelError(cal, data, current_, selection_.parameters, robust, model_error_);
+      model_error_ = EstimateModelError(cal, data, current_, selection_.parameters, robust, model_error_, *at_solution);
       // Settled: the fit's own weights stay the answer's (the estimate moved them by less than the tolerance).
       if (Settled()) break;
       current_.noise.model_error_mm = model_error_.position_mm;
       current_.noise.model_error_rad = model_error_.orientation_rad;
       const Eigen::VectorXd start = StartOf(cal);
-      cal = IdentifyOnce(nominal_, data, current_, selection_, &start);
+      cal = IdentifyOnce(nominal_, data, current_, selection_, &start, at_solution);
     }
     return cal;
   }
@@ -594,9 +613,11 @@ class RobustFit {
 
   // The outlier rounds: iterative rejection on studentised residuals from the first fit `all`, refitting without
   // the flagged measurements until the flagged set repeats.
-  Calibration RejectOutliers(const std::vector<Measurement>& measurements, const Calibration& all) {
+  Calibration RejectOutliers(const std::vector<Measurement>& measurements, const Calibration& all,
+                             SolutionLinearisation all_at_solution) {
     const size_t n = measurements.size();
     Rejection state{.excluded = std::vector<char>(n, 0), .current = all};
+    state.at_solution = std::move(all_at_solution);
     std::vector<char> previous(n, 0);
     // The first fit's model error is the robust (median) one; the answer's is the mean one over the measurements
     // kept, so the set is only settled after a fit with it.
@@ -619,8 +640,9 @@ class RobustFit {
       for (size_t i = 0; i < n; ++i)
         if (!state.excluded[i]) kept.push_back(measurements[i]);
       const IdentificationOptions before = current_;
-      const ModelErrorEstimate estimate_before = model_error_;
-      Calibration next = Fit(kept, false, &state.current);
+      const ModelErrorComponents estimate_before = model_error_;
+      SolutionLinearisation next_at_solution;
+      Calibration next = Fit(kept, false, &state.current, &next_at_solution);
       robust_estimate = false;
       if (next.summary.cancelled) return next;
       if (next.summary.termination == Termination::kFailure) {
@@ -637,6 +659,7 @@ class RobustFit {
       }
       previous = state.excluded;
       state.current = std::move(next);
+      state.at_solution = std::move(next_at_solution);
     }
     Summarise(measurements, all, &state);
     return std::move(state.current);
@@ -653,6 +676,7 @@ class RobustFit {
     int rounds = 1;
     bool settled = false;
     std::string stopped;  // why the rounds stopped early, if they did
+    SolutionLinearisation at_solution;  // current's fit's
   };
 
   static Eigen::VectorXd StartOf(const Calibration& c) {
@@ -663,7 +687,7 @@ class RobustFit {
   // longer change the fit.
   bool Settled() const {
     const MeasurementNoise& noise = current_.noise;
-    const ModelErrorEstimate& e = model_error_;
+    const ModelErrorComponents& e = model_error_;
     const double dp = e.position_mm * e.position_mm - noise.model_error_mm * noise.model_error_mm;
     const double dor = e.orientation_rad * e.orientation_rad - noise.model_error_rad * noise.model_error_rad;
     return std::abs(dp) <= kModelErrorSettled * (e.tracker_variance_mm2 / 3.0 + e.position_mm * e.position_mm) &&
@@ -676,7 +700,8 @@ class RobustFit {
   std::vector<char> Flag(const std::vector<Measurement>& measurements, Rejection* state) const {
     const size_t n = measurements.size();
     const int rows = MeasurementRows(options_.measurement_type);
-    state->z = StudentizedResiduals(state->current, measurements, state->excluded, current_, selection_.parameters);
+    state->z = StudentizedResiduals(state->current, measurements, state->excluded, current_, selection_.parameters,
+                                    state->at_solution);
     std::vector<double> squares(n);
     for (size_t i = 0; i < n; ++i) squares[i] = state->z[i] * state->z[i];
     // A median-based scale, robust to up to half the data being gross errors (Rousseeuw & Leroy 1987); floored:
@@ -763,7 +788,7 @@ class RobustFit {
   const IdentificationOptions& options_;
   const ParameterSelection& selection_;
   IdentificationOptions current_;  // the options of the fits: the model error's components are the estimate so far
-  ModelErrorEstimate model_error_;
+  ModelErrorComponents model_error_;
   double progress_so_far_ = 0.0;
 };
 
@@ -787,13 +812,14 @@ Calibration IdentifyWithoutStale(const RobotModel& nominal, const std::vector<Me
   // RobustFit keeps a reference to its options (and its progress lambda captures them): a local, not a temporary.
   const IdentificationOptions fit_options = WithInheritedPriors(nominal, options, selection);
   RobustFit robust(nominal, fit_options, selection);
-  Calibration all = robust.Fit(measurements, options.reject_outliers, nullptr);
+  SolutionLinearisation all_at_solution;
+  Calibration all = robust.Fit(measurements, options.reject_outliers, nullptr, &all_at_solution);
   // A cancelled fit (progress returned false) is not refitted.
   if (!options.reject_outliers || all.summary.termination == Termination::kFailure || all.summary.cancelled) {
     robust.ReportModelError(&all.summary);
     return all;
   }
-  Calibration out = robust.RejectOutliers(measurements, all);
+  Calibration out = robust.RejectOutliers(measurements, all, std::move(all_at_solution));
   if (!out.summary.cancelled) out.summary.seconds = Seconds(start);
   return out;
 }

@@ -138,6 +138,12 @@ TEST(ProtocolTest, EveryFieldOfACampaignIsRequired) {
     EXPECT_NE(message.find("campaign response: " + field + ": required"), std::string::npos)
         << field << ": " << message;
   }
+  // The request's measurement type is optional; a campaign's is not, not even as null.
+  json no_type = full;
+  no_type["measurement_type"] = nullptr;
+  server.Answer(no_type);
+  const std::string message = ProtocolErrorOf([&] { c.GetCampaign("c1"); });
+  EXPECT_NE(message.find("campaign response: measurement_type: expected a string"), std::string::npos) << message;
 }
 
 // The defect of the first client: list items without calibrated and counts read as "not calibrated". Now an

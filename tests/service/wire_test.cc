@@ -589,6 +589,50 @@ TEST_F(WireTest, RobotsHoldJointTermsInWireUnits) {
   EXPECT_EQ(refused_field(joints[0], j1), "joints[1].type");
 }
 
+// The rows' core links (Field::Core) convert as the hand-written conversions they replaced did, bit for bit: a
+// joint's angles by * kRadPerDeg and back by * kDegPerRad, a stored fit's model error back by / kDegPerRad (which
+// differs from * kRadPerDeg in the last bit for 0.0123 deg); members without a link are left alone.
+TEST(WireLinkTest, LinkedRowsConvertAsTheConversionsTheyReplaced) {
+  JointWire joint;
+  joint.alpha_deg = 0.0123;
+  joint.rpy_deg = {0.0123, -90.0, 33.3};
+  joint.compliance_deg_per_nm = 0.0123;
+  joint.min = -170.0;
+  JointSpec spec;
+  spec.min = 7.0;
+  WireToCore(joint, &spec);
+  EXPECT_EQ(spec.alpha_rad, 0.0123 * kRadPerDeg);
+  EXPECT_EQ(spec.rpy_rad.x(), 0.0123 * kRadPerDeg);
+  EXPECT_EQ(spec.rpy_rad.y(), -90.0 * kRadPerDeg);
+  EXPECT_EQ(spec.compliance_rad_per_nm, 0.0123 * kRadPerDeg);
+  EXPECT_EQ(spec.min, 7.0) << "a joint's limits are in its unit: no row links them";
+  JointWire back;
+  CoreToWire(spec, &back);
+  EXPECT_EQ(back.alpha_deg, spec.alpha_rad * kDegPerRad);
+  EXPECT_EQ(back.rpy_deg[2], spec.rpy_rad.z() * kDegPerRad);
+  EXPECT_EQ(back.min, 0.0);
+
+  ModelErrorWire stored{.estimated = true,
+                        .model_error_mm = 0.4,
+                        .model_error_deg = 0.0123,
+                        .tracker_rms_mm = 0.03,
+                        .tracker_rms_deg = 0.0123};
+  ModelErrorEstimate core;
+  WireToCore(stored, &core);
+  ASSERT_NE(0.0123 / kDegPerRad, 0.0123 * kRadPerDeg) << "the case must tell the two apart";
+  EXPECT_EQ(core.model_error_rad, 0.0123 / kDegPerRad);
+  EXPECT_EQ(core.tracker_rms_rad, 0.0123 / kDegPerRad);
+  EXPECT_TRUE(core.estimated);
+  EXPECT_EQ(core.model_error_mm, 0.4);
+  CalibrationResult result;
+  IdentificationSummary summary;
+  summary.model_error = core;
+  summary.condition_number = 12.5;
+  CoreToWire(summary, &result);
+  EXPECT_EQ(result.model_error.model_error_deg, core.model_error_rad * kDegPerRad);
+  EXPECT_EQ(result.condition_number, 12.5);
+}
+
 TEST(WireRequestTest, RequestsRoundTrip) {
   const RobotModel model = Preset("ur5e");
   PlanRequest plan;

@@ -396,12 +396,14 @@ template <>
 struct WireFields<ModelErrorWire> {
   using S = ModelErrorWire;
   using C = ModelErrorEstimate;
+  // Read back from a stored fit by dividing, as before the rows carried the link (bit for bit).
+  static constexpr CoreUnit kDeg = CoreUnit::kDegForRadDividing;
   static constexpr auto fields =
       std::make_tuple(Field{"estimated", &S::estimated}.Core(&C::estimated),
                       Field{"model_error_mm", &S::model_error_mm}.Core(&C::model_error_mm),
-                      Field{"model_error_deg", &S::model_error_deg}.Core(&C::model_error_rad, CoreUnit::kDegForRad),
+                      Field{"model_error_deg", &S::model_error_deg}.Core(&C::model_error_rad, kDeg),
                       Field{"tracker_rms_mm", &S::tracker_rms_mm}.Core(&C::tracker_rms_mm),
-                      Field{"tracker_rms_deg", &S::tracker_rms_deg}.Core(&C::tracker_rms_rad, CoreUnit::kDegForRad));
+                      Field{"tracker_rms_deg", &S::tracker_rms_deg}.Core(&C::tracker_rms_rad, kDeg));
 };
 ROBOCAL_WIRE_DECLARE(ModelErrorWire);
 

@@ -106,6 +106,9 @@ ROBOCAL_WIRE_DECLARE(MeasurementCounts);
 /// measurement type; a plan, tracker and payload null on the wire when none), and when it was created. The
 /// members the campaign resource and its stored form (stored.h) share.
 struct CampaignDefinition : CreateCampaignRequest {
+  /// A campaign always has a measurement type: pose until it is set.
+  CampaignDefinition() { measurement_type = MeasurementType::kPose; }
+
   std::int64_t created_unix_ms = 0;
 
   /// The measurement type, which a campaign always has (the server sets it on creation).
@@ -116,6 +119,8 @@ struct WireFields<CampaignDefinition> {
   static constexpr auto fields =
       std::tuple_cat(ResourceRows(WireFields<CreateCampaignRequest>::fields),
                      std::make_tuple(Field{"created_unix_ms", &CampaignDefinition::created_unix_ms}));
+  /// A campaign has a measurement type: null is no campaign's (the request's optional member is the resource's).
+  static void Check(const CampaignDefinition& campaign);
 };
 ROBOCAL_WIRE_DECLARE(CampaignDefinition);
 
@@ -130,6 +135,7 @@ struct WireFields<Campaign> {
   static constexpr auto fields =
       std::tuple_cat(WireFields<CampaignDefinition>::fields,
                      std::make_tuple(Field{"counts", &Campaign::counts}, Field{"calibrated", &Campaign::calibrated}));
+  static void Check(const Campaign& campaign) { WireFields<CampaignDefinition>::Check(campaign); }
 };
 ROBOCAL_WIRE_DECLARE(Campaign);
 

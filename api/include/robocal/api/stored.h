@@ -56,6 +56,7 @@ struct WireFields<StoredCampaign> {
   static constexpr auto fields = std::tuple_cat(
       WireFields<CampaignDefinition>::fields,
       std::make_tuple(Field{"robot_definition", &StoredCampaign::robot_definition}));
+  static void Check(const StoredCampaign& campaign) { WireFields<CampaignDefinition>::Check(campaign); }
 };
 /// Written by the table with schema_version; read after filling in what older versions left out.
 void to_json(nlohmann::json& j, const StoredCampaign& campaign);

@@ -376,8 +376,10 @@ struct MemberClass<M C::*> {
 };
 
 /// How a row's wire value relates to its core member's (Field::Core): the same value, or degrees for the core's
-/// radians (wire = core * kDegPerRad, core = wire * kRadPerDeg, each element of an array).
-enum class CoreUnit { kSame, kDegForRad };
+/// radians (wire = core * kDegPerRad, core = wire * kRadPerDeg, each element of an array). kDegForRadDividing
+/// converts back by dividing (core = wire / kDegPerRad), as stored fits' model errors have always been read: the
+/// two differ in the last bit for some values.
+enum class CoreUnit { kSame, kDegForRad, kDegForRadDividing };
 
 template <typename S, typename M, typename C, typename CM>
 struct LinkedField;
@@ -632,13 +634,12 @@ constexpr bool IsDoubleArray() {
 
 template <typename CM, typename M>
 void LinkToWire(const CM& core, CoreUnit unit, M* wire) {
-  const double factor = unit == CoreUnit::kDegForRad ? kDegPerRad : 1.0;
+  const bool degrees = unit != CoreUnit::kSame;
   if constexpr (std::is_same_v<M, double>) {
-    *wire = unit == CoreUnit::kDegForRad ? core * factor : core;
+    *wire = degrees ? core * kDegPerRad : core;
   } else if constexpr (IsDoubleArray<M>()) {
     for (std::size_t k = 0; k < wire->size(); ++k) {
-      (*wire)[k] = unit == CoreUnit::kDegForRad ? core[static_cast<Eigen::Index>(k)] * factor
-                                                : core[static_cast<Eigen::Index>(k)];
+      (*wire)[k] = degrees ? core[static_cast<Eigen::Index>(k)] * kDegPerRad : core[static_cast<Eigen::Index>(k)];
     }
   } else if constexpr (kHasWireFields<M> && !std::is_same_v<M, CM>) {
     CoreToWire(core, wire);
@@ -649,12 +650,15 @@ void LinkToWire(const CM& core, CoreUnit unit, M* wire) {
 
 template <typename CM, typename M>
 void LinkToCore(const M& wire, CoreUnit unit, CM* core) {
+  const auto back = [unit](double value) {
+    return unit == CoreUnit::kDegForRad           ? value * kRadPerDeg
+           : unit == CoreUnit::kDegForRadDividing ? value / kDegPerRad
+                                                  : value;
+  };
   if constexpr (std::is_same_v<M, double>) {
-    *core = unit == CoreUnit::kDegForRad ? wire * kRadPerDeg : wire;
+    *core = back(wire);
   } else if constexpr (IsDoubleArray<M>()) {
-    for (std::size_t k = 0; k < wire.size(); ++k) {
-      (*core)[static_cast<Eigen::Index>(k)] = unit == CoreUnit::kDegForRad ? wire[k] * kRadPerDeg : wire[k];
-    }
+    for (std::size_t k = 0; k < wire.size(); ++k) (*core)[static_cast<Eigen::Index>(k)] = back(wire[k]);
   } else if constexpr (kHasWireFields<M> && !std::is_same_v<M, CM>) {
     WireToCore(wire, core);
   } else {
