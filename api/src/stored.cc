@@ -152,12 +152,9 @@ IdentificationSummary SummaryOf(const StoredCalibration& stored, const RobotMode
   s.after = ToCore(r.residuals_after);
   s.singular_values = Eigen::Map<const Eigen::VectorXd>(stored.singular_values.data(),
                                                         static_cast<Eigen::Index>(stored.singular_values.size()));
-  s.T_world_base = PoseToTransform(stored.T_world_base);
-  s.T_flange_tool = PoseToTransform(stored.T_flange_tool);
   for (const DroppedParameterWire& d : r.dropped) {
     s.dropped.push_back({.index = ParameterIndex(model, reflectors, d.name), .name = d.name, .reason = d.reason});
   }
-  s.parameters = ToCore(r.parameters, model, reflectors, "result.parameters");
   // Version 5 records each outlier's index (the covariance marks a version-5 state); older fits do not: -1.
   const bool indexed = stored.covariance.has_value();
   if (indexed && stored.outlier_measurements.size() != r.outliers.size()) {
@@ -208,7 +205,8 @@ Calibration Restore(const RobotModel& geometric, const StoredCalibration& stored
   spec.T_world_base = PoseToTransform(stored.registered_base);
   std::vector<Reflector> reflectors = ToCore(stored.result.reflectors);
   IdentificationSummary summary = SummaryOf(stored, nominal, reflectors);
-  std::vector<IdentifiedParameter> parameters = summary.parameters;
+  std::vector<IdentifiedParameter> parameters =
+      ToCore(stored.result.parameters, nominal, reflectors, "result.parameters");
   return Calibration{
       .model = RobotModel::Build(spec),
       .errors = Eigen::Map<const Eigen::VectorXd>(stored.errors.data(), static_cast<Eigen::Index>(stored.errors.size())),

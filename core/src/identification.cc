@@ -461,7 +461,6 @@ std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& mea
   for (int k = 0; k < s.num_parameters; ++k) {
     cal->parameters.push_back({parameters[k], name(parameters[k]), lm->x[k], std::sqrt(cal->covariance(k, k))});
   }
-  s.parameters = cal->parameters;
   const Eigen::VectorXd reflector_errors = problem->ReflectorErrors(lm->x);
   s.after = ComputeResidualStatistics(*model, errors, measurements, options.measurement_type, options.noise,
                                       ReflectorsInTool(nominal, options.reflectors, reflector_errors));
@@ -470,8 +469,6 @@ std::string Solve(const RobotModel& nominal, const std::vector<Measurement>& mea
   }
   cal->T_world_base = model->T_world_base() * ErrorTransform(errors.data());
   cal->T_flange_tool = model->T_flange_tool() * ErrorTransform(errors.data() + 6 * (model->num_error_sites() - 1));
-  s.T_world_base = cal->T_world_base;
-  s.T_flange_tool = cal->T_flange_tool;
   cal->errors = errors;
   cal->model = std::move(*model);  // the problem, which refers to it, is done
   return "";
@@ -559,8 +556,6 @@ Calibration IdentifyOnce(const RobotModel& nominal, const std::vector<Measuremen
   s.num_measurements = static_cast<int>(measurements.size());
   s.num_residuals = MeasurementRows(type) * s.num_measurements;
   s.scaling = DescribeScaling(options.noise);
-  s.T_world_base = cal.T_world_base;
-  s.T_flange_tool = cal.T_flange_tool;
   const auto ended = [&](const std::string& failure) {
     if (!failure.empty()) {
       s.termination = Termination::kFailure;
@@ -648,7 +643,7 @@ std::string IdentificationSummary::BriefReport() const {
   return out.str();
 }
 
-std::string IdentificationSummary::FullReport() const {
+std::string IdentificationSummary::FullReport(const Calibration* estimates) const {
   std::ostringstream out;
   out << BriefReport() << "\n";
   out << "  measurements: " << num_measurements << " (" << num_poses << " distinct poses), residual rows "
@@ -673,8 +668,12 @@ std::string IdentificationSummary::FullReport() const {
     out << "  " << label << ": xyz " << std::setprecision(10) << p.x() << " " << p.y() << " " << p.z() << " mm, rpy "
         << std::setprecision(8) << rpy.x() << " " << rpy.y() << " " << rpy.z() << " rad\n";
   };
-  frame("T_world_base ", T_world_base);
-  frame("T_flange_tool", T_flange_tool);
+  if (estimates != nullptr) {
+    frame("T_world_base ", estimates->T_world_base);
+    frame("T_flange_tool", estimates->T_flange_tool);
+  }
+  const std::vector<IdentifiedParameter> none;
+  const std::vector<IdentifiedParameter>& parameters = estimates != nullptr ? estimates->parameters : none;
   if (!parameters.empty()) {
     out << "  " << std::left << std::setw(12) << "parameter" << std::right << std::setw(14) << "value" << std::setw(14)
         << "std"

@@ -118,11 +118,11 @@ TEST(RobustFitTest, APlantedOutlierIsFoundByIndexAndTheParametersWithItAreReport
   EXPECT_NEAR(s.robust_scale, 1.0, 0.3);
   EXPECT_EQ(s.num_measurements, 29);
   EXPECT_GE(s.rejection_rounds, 2);
-  ASSERT_EQ(s.parameters_with_outliers.size(), s.parameters.size());
+  ASSERT_EQ(s.parameters_with_outliers.size(), cal.parameters.size());
   double largest_shift = 0.0;
-  for (size_t k = 0; k < s.parameters.size(); ++k) {
-    largest_shift = std::max(largest_shift, std::abs(s.parameters_with_outliers[k].value - s.parameters[k].value) /
-                                                s.parameters[k].std);
+  for (size_t k = 0; k < cal.parameters.size(); ++k) {
+    largest_shift = std::max(
+        largest_shift, std::abs(s.parameters_with_outliers[k].value - cal.parameters[k].value) / cal.parameters[k].std);
   }
   EXPECT_GT(largest_shift, 3.0) << "the outlier moves some parameter by several of its std";
   EXPECT_NE(s.FullReport().find("#7"), std::string::npos) << s.FullReport();

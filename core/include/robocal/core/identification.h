@@ -174,6 +174,8 @@ struct PriorScaleCandidate {
   std::string note;
 };
 
+struct Calibration;
+
 /// The model error a fit estimated (IdentificationOptions::estimate_model_error): whether it was estimated, and
 /// its RMS as a 3-D position error (mm, sqrt(3) times the 1-sigma per axis) and as an angle (rad: sqrt(3), or
 /// sqrt(2) for axis rows, times the 1-sigma per row; 0 for position measurements). Beside them the tracker's own
@@ -212,15 +214,8 @@ struct IdentificationSummary {
   /// That Jacobian's singular values, descending (condition_number is the first over the last); empty on FAILURE.
   Eigen::VectorXd singular_values;
   std::string scaling;
-  /// The estimated tracker -> base and flange -> tool transforms (as Calibration::T_world_base and
-  /// T_flange_tool), so that FullReport shows them; the nominal ones on FAILURE.
-  Transform T_world_base = Transform::Identity();
-  Transform T_flange_tool = Transform::Identity();
   /// Parameters not estimated (unidentifiable) and why.
   std::vector<DroppedParameter> dropped;
-  /// The estimated parameters with standard deviations (as Calibration::parameters), so that FullReport can
-  /// print the parameter table from the summary alone.
-  std::vector<IdentifiedParameter> parameters;
   /// The robust fit (IdentificationOptions::reject_outliers): the excluded measurements in index order, the
   /// threshold on the normalised residual (sqrt of the chi-square quantile), the robust scale (median-based,
   /// 1 when the noise model's sigmas are right), the number of fits, and the parameters of the plain
@@ -258,7 +253,9 @@ struct IdentificationSummary {
   double seconds = 0.0;
 
   std::string BriefReport() const;
-  std::string FullReport() const;
+  /// The figures of the fit; with `estimates` (its calibration: Calibration::FullReport) also the estimated base
+  /// and tool frames and the parameter table, which the calibration holds and the summary does not repeat.
+  std::string FullReport(const Calibration* estimates = nullptr) const;
 };
 
 /// A calibrated robot: the nominal geometry with the registered tracker -> base frame, plus the identified
@@ -280,6 +277,9 @@ struct Calibration {
   /// reflectors, {})[k]); empty without reflectors.
   std::vector<Reflector> reflectors;
   IdentificationSummary summary;
+
+  /// The summary's full report with the estimated frames and the parameter table.
+  std::string FullReport() const { return summary.FullReport(this); }
 };
 
 /// Identifies `nominal`'s error parameters from `measurements` (tracker frame).
