@@ -131,11 +131,7 @@ void ReadMeasurements(const nlohmann::json& list, const std::string& at, const R
                       "unknown reflector \"" + w.reflector + "\" (the campaign has " + known + ")");
       }
     }
-    PayloadWire payload;
-    if (const nlohmann::json* v = m.Get("payload");
-        v && ReadRequestObject(*v, JoinPath(path, "payload"), problems, &payload)) {
-      w.payload = payload;
-    }
+    ReadRequest(m, &w);  // the table's rows: the payload
     ReadTestTags(m, path, role, problems, &w);
     m.RejectUnknown(WireFieldNames<MeasurementWire>());
     // A batch with thousands of bad rows would produce an enormous error; the first 100 say enough.
@@ -149,16 +145,8 @@ MeasurementBatchRequest ParseMeasurementBatchRequest(const nlohmann::json& body,
   Problems problems;
   MeasurementBatchRequest req;
   ObjectReader r(body, "", &problems);
-  // The idempotency key: an empty one would make every retry a new batch.
-  if (r.String("request_id", true, &req.request_id, 128)) {
-    if (req.request_id.empty()) {
-      problems.Add("request_id", "must not be empty (it makes retries of this batch safe)");
-    } else if (std::any_of(req.request_id.begin(), req.request_id.end(),
-                           [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7F; })) {
-      problems.Add("request_id", "must not contain control characters");
-    }
-  }
-  if (r.Enum("role", false, &req.role) && req.role == MeasurementRole::kTest && !reflectors.empty()) {
+  ReadRequest(r, &req);  // the table's rows: the idempotency key (an empty one would make every retry a new batch)
+  if (req.role == MeasurementRole::kTest && !reflectors.empty()) {
     problems.Add("role", "ISO 9283 measures the tool point: a campaign with reflectors takes no test shots");
   }
   if (const nlohmann::json* a = r.Array("measurements", true, 1, limits.max_array_length)) {

@@ -687,13 +687,6 @@ void ReadOrientationColumns(ObjectReader& r, OrientationColumns* oc) {
   orr.RejectUnknown(WireFieldNamesOf(*oc));
 }
 
-// An optional member of the request: set when `key` is present and one of E's names.
-template <typename E>
-void ReadOptionalEnum(ObjectReader& r, const std::string& key, std::optional<E>* out) {
-  E value{};
-  if (r.Enum(key, false, &value)) *out = value;
-}
-
 // `rows` (the request's r): ascending 1-based line numbers of the text, each once.
 void ReadRowNumbers(ObjectReader& r, std::vector<int>* rows) {
   const nlohmann::json* a = r.Array("rows", false, 1, kMaxTrackerFileBytes);
@@ -714,32 +707,19 @@ void ReadRowNumbers(ObjectReader& r, std::vector<int>* rows) {
 
 }  // namespace
 
+bool HasText(const std::string& text) { return !Trim(text).empty(); }
+
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body) {
   Problems problems;
   ImportMeasurementsRequest req;
   ObjectReader r(body, "", &problems);
-  if (r.String("request_id", true, &req.request_id, 128) && req.request_id.empty()) {
-    problems.Add("request_id", "must not be empty (it makes retries of this import safe)");
-  }
-  if (r.Enum("role", false, &req.role) && req.role == MeasurementRole::kTest) {
-    problems.Add("role",
-                 "test shots carry their ISO 9283 pose and cycle, which a tracker export does not: upload them "
-                 "as measurements (POST /v1/campaigns/{c}/measurements)");
-  }
-  r.Enum("format", true, &req.format);
-  if (r.String("text", true, &req.text, kMaxTrackerFileBytes) && Trim(req.text).empty()) {
-    problems.Add("text", "the file is empty");
-  }
-  ReadOptionalEnum(r, "unit", &req.unit);
-  r.String("plan", false, &req.plan, 64);
-  r.Enum("match", false, &req.match);
-  r.Int("shots_per_configuration", false, &req.shots_per_configuration, 1, 1000);
+  // The table's rows (request_id, role, format, text, unit, plan, match, shots_per_configuration, the csv's
+  // delimiter and decimal, payload); then what depends on the format or on other members.
+  ReadRequest(r, &req);
   if (r.Has("shots_per_configuration") && req.match != TrackerFileMatch::kOrder) {
     problems.Add("shots_per_configuration", "only with match \"order\"");
   }
   ReadCsvColumnNames(r, req.format, &req.columns);
-  ReadOptionalEnum(r, "delimiter", &req.delimiter);
-  r.Enum("decimal", false, &req.decimal);
   if (req.decimal == TrackerFileDecimal::kComma && req.delimiter == TrackerFileDelimiter::kComma) {
     problems.Add("decimal", "a decimal comma needs another delimiter (\";\" or a tab)");
   }
@@ -748,10 +728,6 @@ ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& b
   }
   ReadJointColumns(r, req.format, &req.joints);
   ReadOrientationColumns(r, &req.orientation);
-  PayloadWire payload;
-  if (const nlohmann::json* v = r.Get("payload"); v && ReadRequestObject(*v, "payload", &problems, &payload)) {
-    req.payload = payload;
-  }
   ReadRowNumbers(r, &req.rows);
   r.RejectUnknown(WireFieldNames<ImportMeasurementsRequest>());
   problems.ThrowIfAny("invalid measurement import");

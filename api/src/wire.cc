@@ -107,6 +107,11 @@ nlohmann::json Nums(const std::vector<double>& values) {
 
 // ------------------------------------------------------------------------------------------------ common
 
+bool IsValidRequestId(const std::string& request_id) {
+  return !request_id.empty() && std::none_of(request_id.begin(), request_id.end(),
+                                             [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7F; });
+}
+
 bool IsValidId(const std::string& id) {
   if (id.empty() || id.size() > 64) return false;
   for (std::size_t i = 0; i < id.size(); ++i) {

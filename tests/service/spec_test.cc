@@ -105,8 +105,9 @@ class SpecChecker {
       Fail(at, "missing: the table has this key");
       return;
     }
-    // A member its parser reads apart (joint vectors, a list or an object): its form is the parser's to state.
-    if (role == Role::kRequest && row.request.apart) return;
+    // A member its parser reads apart is checked as any other (its type and the table's rule), unless the spec
+    // gives a choice of forms for it (a list, or an object): that reading is the parser's to state.
+    if (role == Role::kRequest && row.request.apart && Resolve(Target(at))->contains("oneOf")) return;
     Member<M>(Target(at), role, row.request);
   }
   template <typename T, typename Row_>

@@ -288,6 +288,11 @@ TEST(TrackerFilesTest, RequestFieldsAreChecked) {
   const auto fields = RefusedFields;
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "A G P1 1 2 3"}}), std::vector<std::string>{});
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "dxf"}, {"text", "x"}}), std::vector<std::string>{"format"});
+  // The table's rules: the format is required, and the idempotency key is a batch's (no control characters).
+  EXPECT_EQ(fields({{"request_id", "a"}, {"text", "x"}}), std::vector<std::string>{"format"});
+  EXPECT_EQ(fields({{"request_id", "a\x01"}, {"format", "sa"}, {"text", "x"}}), std::vector<std::string>{"request_id"});
+  EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "x"}, {"plan", std::string(65, 'p')}}),
+            std::vector<std::string>{"plan"});
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", " \n "}}), std::vector<std::string>{"text"});
   EXPECT_EQ(fields({{"request_id", "a"}, {"format", "sa"}, {"text", "x"}, {"unit", "ft"}}),
             std::vector<std::string>{"unit"});

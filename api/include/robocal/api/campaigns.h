@@ -176,13 +176,14 @@ struct WireFields<MeasurementWire> {
   using S = MeasurementWire;
   static constexpr auto fields =
       // Joints and pose need the robot and the campaign's measurement type: the batch's parser reads them.
+      // The reflector must be one of the campaign's: the batch's parser reads it.
       std::make_tuple(Field{"joints", &S::joints}.Mandatory().Apart(), Field{"pose", &S::pose}.Mandatory().Apart(),
-                      Field{"reflector", &S::reflector, Presence::kOmitEmpty},
+                      Field{"reflector", &S::reflector, Presence::kOmitEmpty}.Apart().Size(0, 64),
                       Field{"payload", &S::payload, Presence::kOmitEmpty},
                       Field{"stale", &S::stale, Presence::kServerOnly},
                       // Required with role "test" and refused otherwise: the batch's parser reads them.
                       Field{"test_pose", &S::test_pose, Presence::kOmitEmpty}.Apart(),
-                      Field{"cycle", &S::cycle, Presence::kOmitEmpty}.Apart());
+                      Field{"cycle", &S::cycle, Presence::kOmitEmpty}.Apart().Range(1, kMaxTestCycles));
 };
 ROBOCAL_WIRE_DECLARE(MeasurementWire);
 
@@ -195,9 +196,9 @@ struct MeasurementBatchRequest {
 template <>
 struct WireFields<MeasurementBatchRequest> {
   using S = MeasurementBatchRequest;
-  static constexpr auto fields =
-      std::make_tuple(Field{"request_id", &S::request_id}.Mandatory().Size(0, 128), Field{"role", &S::role},
-                      Field{"measurements", &S::measurements}.Mandatory().Size(1, 0).Apart());
+  static constexpr auto fields = std::make_tuple(
+      Field{"request_id", &S::request_id}.Mandatory().Size(0, 128).Rule(&IsValidRequestId, kRequestIdRule),
+      Field{"role", &S::role}, Field{"measurements", &S::measurements}.Mandatory().Size(1, 0).Apart());
 };
 ROBOCAL_WIRE_DECLARE(MeasurementBatchRequest);
 /// Reads the measurements of the list at `at` (each problem named by its path): joints within `model`'s limits,

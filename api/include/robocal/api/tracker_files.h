@@ -198,24 +198,34 @@ struct ImportMeasurementsRequest {
 };
 /// Checks the request's own fields (the file is read by ReadTrackerPoints); every problem with its field.
 ImportMeasurementsRequest ParseImportMeasurementsRequest(const nlohmann::json& body);
+/// A file's text holds more than white space.
+bool HasText(const std::string& text);
+/// An import's role: test shots carry an ISO 9283 pose and cycle, which a tracker export does not.
+inline bool IsImportRole(const MeasurementRole& role) { return role != MeasurementRole::kTest; }
 template <>
 struct WireFields<ImportMeasurementsRequest> {
   using S = ImportMeasurementsRequest;
   static constexpr bool (*kCsv)(const S&) = +[](const S& r) { return r.format == TrackerFileFormat::kCsv; };
   static constexpr auto fields = std::make_tuple(
-      // The parser reads these with the ranges given here (ParseImportMeasurementsRequest).
-      Field{"request_id", &S::request_id}.Mandatory().Size(0, 128), Field{"role", &S::role},
-      Field{"format", &S::format}, Field{"text", &S::text}.Mandatory().Size(0, kMaxTrackerFileBytes),
-      Field{"unit", &S::unit, Presence::kOmitEmpty}, Field{"plan", &S::plan, Presence::kOmitEmpty},
-      Field{"joints", &S::joints, Presence::kOmitEmpty},
+      // ReadRequest reads the rows; the parser reads the Apart ones, whose reading depends on the format or on
+      // other members (ParseImportMeasurementsRequest).
+      Field{"request_id", &S::request_id}.Mandatory().Size(0, 128).Rule(&IsValidRequestId, kRequestIdRule),
+      Field{"role", &S::role}.Rule(&IsImportRole,
+                                   "test shots carry their ISO 9283 pose and cycle, which a tracker export does "
+                                   "not: upload them as measurements (POST /v1/campaigns/{c}/measurements)"),
+      Field{"format", &S::format}.Mandatory(),
+      Field{"text", &S::text}.Mandatory().Size(0, kMaxTrackerFileBytes).Rule(&HasText, "the file is empty"),
+      Field{"unit", &S::unit, Presence::kOmitEmpty}, Field{"plan", &S::plan, Presence::kOmitEmpty}.Size(0, 64),
+      Field{"joints", &S::joints, Presence::kOmitEmpty}.Apart(),
       // A file with joints is not matched to a plan.
       Field{"match", &S::match, Presence::kOptionalOnRead}.When(+[](const S& r) { return r.joints.empty(); }),
       Field{"shots_per_configuration", &S::shots_per_configuration, Presence::kOmitEmpty}.Range(1, 1000),
-      Field{"columns", &S::columns, Presence::kOptionalOnRead}.When(kCsv),
+      Field{"columns", &S::columns, Presence::kOptionalOnRead}.When(kCsv).Apart(),
       Field{"delimiter", &S::delimiter, Presence::kOmitEmpty}.When(kCsv),
       Field{"decimal", &S::decimal, Presence::kOptionalOnRead}.When(kCsv),
-      Field{"orientation", &S::orientation, Presence::kOmitEmpty}, Field{"payload", &S::payload, Presence::kOmitEmpty},
-      Field{"rows", &S::rows, Presence::kOmitEmpty}.Size(1, 0).Range(1, RequestRule::kNoBound));
+      Field{"orientation", &S::orientation, Presence::kOmitEmpty}.Apart(),
+      Field{"payload", &S::payload, Presence::kOmitEmpty},
+      Field{"rows", &S::rows, Presence::kOmitEmpty}.Apart().Size(1, 0).Range(1, RequestRule::kNoBound));
 };
 ROBOCAL_WIRE_DECLARE(ImportMeasurementsRequest);
 

@@ -863,6 +863,10 @@ std::string OverLimit(std::int64_t value, const std::string& what, const std::st
 bool IsValidId(const std::string& id);
 /// The reason given for an identifier IsValidId refuses.
 inline constexpr const char* kIdRule = "must match [a-z0-9][a-z0-9_.-]{0,63}";
+/// An upload's idempotency key (a batch's or an import's request_id): not empty, no control characters.
+bool IsValidRequestId(const std::string& request_id);
+inline constexpr const char* kRequestIdRule =
+    "must not be empty nor hold control characters (it makes retries of this upload safe)";
 
 /// The content hash that makes measurement uploads idempotent: 16 hex digits of the 64-bit FNV-1a hash of
 /// `text`. Client (a request_id derived from a batch) and server (a batch's content) share it so that both
