@@ -199,7 +199,7 @@ int main(int argc, char** argv) {
         const robocal::Calibration plain = robocal::Identify(nominal, calibration, o);
         const robocal::Calibration automatic = robocal::IdentifyWithPriorChoice(nominal, calibration, o, choice);
         const double e_plain = HeldOutMean(plain, held_out), e_auto = HeldOutMean(automatic, held_out);
-        if (std::getenv("ROBOCAL_PRIOR_STUDY_REPORT") != nullptr) std::cout << plain.summary.FullReport();
+        if (std::getenv("ROBOCAL_PRIOR_STUDY_REPORT") != nullptr) std::cout << plain.FullReport();
         sum_plain += e_plain;
         sum_auto += e_auto;
         const robocal::IdentificationSummary& s = automatic.summary;
