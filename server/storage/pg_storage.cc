@@ -161,8 +161,9 @@ class PgStorage final : public Storage {
       }
       const auto count = static_cast<std::int64_t>(measurements_json.size());
       CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
-      const std::string batch_id = NewRandomId("b");
-      const std::int64_t first_sequence = total + 1;
+      const StoredBatch batch = NewBatch(content_hash, role, total, count);
+      const std::string& batch_id = batch.batch_id;
+      const std::int64_t first_sequence = batch.first_sequence;
       // NULL, not "", so that batches without a request id never collide on the unique key.
       const Param request = request_id.empty() ? Param() : Param(request_id);
       c.Run(std::string("INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, "
@@ -178,13 +179,7 @@ class PgStorage final : public Storage {
             {campaign_id, Int(first_sequence), batch_id, role, pg::TextArray(measurements_json)});
       }
       tx.Commit();
-      return AppendedBatch(campaign_id, request_id,
-                           {.batch_id = batch_id,
-                            .content_hash = content_hash,
-                            .role = role,
-                            .first_sequence = first_sequence,
-                            .count = count},
-                           total);
+      return AppendedBatch(campaign_id, request_id, batch, total);
     });
   }
 

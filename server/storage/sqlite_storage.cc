@@ -240,8 +240,9 @@ class SqliteStorage final : public Storage {
     const auto count = static_cast<std::int64_t>(measurements_json.size());
     CheckCampaignTotal(campaign_id, total, count, max_campaign_total);
 
-    const std::string batch_id = NewRandomId("b");
-    const std::int64_t first_sequence = total + 1;
+    const StoredBatch batch = NewBatch(content_hash, role, total, count);
+    const std::string& batch_id = batch.batch_id;
+    const std::int64_t first_sequence = batch.first_sequence;
     {
       Statement stmt = Prepare(
           "INSERT INTO batches (batch_id, campaign_id, request_id, content_hash, role, first_sequence, count, "
@@ -265,13 +266,7 @@ class SqliteStorage final : public Storage {
           .Run();
     }
     tx.Commit();
-    return AppendedBatch(campaign_id, request_id,
-                         {.batch_id = batch_id,
-                          .content_hash = content_hash,
-                          .role = role,
-                          .first_sequence = first_sequence,
-                          .count = count},
-                         total);
+    return AppendedBatch(campaign_id, request_id, batch, total);
   }
 
   std::vector<StoredMeasurement> ListMeasurements(const std::string& campaign_id, const std::string& role,

@@ -110,6 +110,14 @@ BatchResult ReplayBatch(const std::string& campaign_id, const std::string& reque
                      .stale = {}};
 }
 
+StoredBatch NewBatch(const std::string& content_hash, const std::string& role, std::int64_t total, std::int64_t count) {
+  return {.batch_id = NewRandomId("b"),
+          .content_hash = content_hash,
+          .role = role,
+          .first_sequence = total + 1,
+          .count = count};
+}
+
 BatchResult AppendedBatch(const std::string& campaign_id, const std::string& request_id, const StoredBatch& batch,
                           std::int64_t total_before) {
   return BatchResult{.campaign = campaign_id,

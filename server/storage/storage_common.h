@@ -26,6 +26,9 @@ struct StoredBatch {
 /// kAlreadyExists, naming the request id.
 BatchResult ReplayBatch(const std::string& campaign_id, const std::string& request_id, const std::string& content_hash,
                         const std::string& role, const StoredBatch& earlier, std::int64_t total);
+/// A new batch of `count` measurements with `content_hash` and `role`, for a campaign holding `total`: a fresh id
+/// ("b-..."), its first sequence total + 1 (sequences are dense from 1).
+StoredBatch NewBatch(const std::string& content_hash, const std::string& role, std::int64_t total, std::int64_t count);
 /// The result of `batch` appended under `request_id` to a campaign that held `total_before` measurements.
 BatchResult AppendedBatch(const std::string& campaign_id, const std::string& request_id, const StoredBatch& batch,
                           std::int64_t total_before);
